@@ -1,0 +1,61 @@
+#include "fs_current_ctrl.h"
+#include "fs_math.h"
+
+static fs_status design_axis(fs_pi *pi, float Ts, float L, float R, float alpha)
+{
+    fs_pi_config c;
+    c.Ts = Ts;
+    c.k_t = alpha * L;
+    c.k_p = fmaxf(2.0f * alpha * L - R, 0.0f);
+    c.k_i = alpha * alpha * L;
+    c.u_max = 0.0f;  /* limited as a vector by the modulator, see update */
+    return fs_pi_init(pi, &c);
+}
+
+fs_status fs_current_ctrl_init(fs_current_ctrl *cc, const fs_current_ctrl_config *cfg)
+{
+    if (!cc || !cfg) return FS_ERR_NULL;
+    if (!(cfg->Ts > 0.0f)) return FS_ERR_TS;
+    if (!(cfg->R_s >= 0.0f)) return FS_ERR_RS;
+    if (!(cfg->L_d > 0.0f)) return FS_ERR_LD;
+    if (!(cfg->L_q > 0.0f)) return FS_ERR_LQ;
+    if (!(cfg->psi_f >= 0.0f)) return FS_ERR_PSI_F;
+    if (!(cfg->bandwidth > 0.0f) || cfg->bandwidth * cfg->Ts > 1.0f) return FS_ERR_BANDWIDTH;
+    cc->cfg = *cfg;
+    fs_status st = design_axis(&cc->pi_d, cfg->Ts, cfg->L_d, cfg->R_s, cfg->bandwidth);
+    if (st != FS_OK) return st;
+    st = design_axis(&cc->pi_q, cfg->Ts, cfg->L_q, cfg->R_s, cfg->bandwidth);
+    if (st != FS_OK) return st;
+    fs_current_ctrl_reset(cc);
+    return FS_OK;
+}
+
+void fs_current_ctrl_reset(fs_current_ctrl *cc)
+{
+    fs_pi_reset(&cc->pi_d);
+    fs_pi_reset(&cc->pi_q);
+    cc->ref.d = cc->ref.q = 0.0f;
+    cc->meas = cc->ref;
+    cc->u = cc->ref;
+    cc->u_ff = cc->ref;
+}
+
+fs_dq fs_current_ctrl_step(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, float w_e)
+{
+    const fs_current_ctrl_config *c = &cc->cfg;
+    /* Decoupling and back-EMF feed-forward: u_d = ... - w L_q i_q,
+     * u_q = ... + w (L_d i_d + psi_f). */
+    cc->u_ff.d = -w_e * c->L_q * i.q;
+    cc->u_ff.q = w_e * (c->L_d * i.d + c->psi_f);
+    cc->u.d = fs_pi_output(&cc->pi_d, i_ref.d, i.d) + cc->u_ff.d;
+    cc->u.q = fs_pi_output(&cc->pi_q, i_ref.q, i.q) + cc->u_ff.q;
+    cc->ref = i_ref;
+    cc->meas = i;
+    return cc->u;
+}
+
+void fs_current_ctrl_update(fs_current_ctrl *cc, fs_dq u_real)
+{
+    fs_pi_update(&cc->pi_d, cc->ref.d, cc->meas.d, cc->u.d, u_real.d);
+    fs_pi_update(&cc->pi_q, cc->ref.q, cc->meas.q, cc->u.q, u_real.q);
+}

@@ -1,0 +1,37 @@
+/* Synchronous-frame current controller with decoupling.
+ *
+ * Per axis a 2DOF PI designed from the machine model and the closed-loop
+ * bandwidth alpha (Harnefors' design): with the cross-coupling and back-EMF
+ * fed forward, L di/dt = u' - R i, and
+ *   k_t = alpha L,  k_p = 2 alpha L - R,  k_i = alpha^2 L
+ * give i/i_ref = alpha / (s + alpha) and a double disturbance pole at -alpha.
+ */
+#ifndef FS_CURRENT_CTRL_H
+#define FS_CURRENT_CTRL_H
+
+#include "fs_pi.h"
+#include "fs_transforms.h"
+
+typedef struct {
+    float Ts;          /* control period, s */
+    float R_s;         /* ohm */
+    float L_d, L_q;    /* H */
+    float psi_f;       /* Wb */
+    float bandwidth;   /* closed-loop bandwidth alpha, rad/s */
+} fs_current_ctrl_config;
+
+typedef struct {
+    fs_current_ctrl_config cfg;
+    fs_pi pi_d, pi_q;
+    fs_dq ref, meas, u, u_ff;  /* kept from step for update */
+} fs_current_ctrl;
+
+fs_status fs_current_ctrl_init(fs_current_ctrl *cc, const fs_current_ctrl_config *cfg);
+void fs_current_ctrl_reset(fs_current_ctrl *cc);
+/* Voltage reference (not yet limited) for current reference and measurement
+ * at electrical speed w_e. */
+fs_dq fs_current_ctrl_step(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, float w_e);
+/* Anti-windup: the voltage actually realised (after the modulator's limit). */
+void fs_current_ctrl_update(fs_current_ctrl *cc, fs_dq u_real);
+
+#endif /* FS_CURRENT_CTRL_H */

@@ -1,0 +1,140 @@
+#include "fs_drive.h"
+#include "fs_math.h"
+
+fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
+{
+    if (!drv || !cfg) return FS_ERR_NULL;
+    if (cfg->mode < FS_MODE_OFF || cfg->mode > FS_MODE_SPEED) return FS_ERR_MODE;
+    if (cfg->angle_source < FS_ANGLE_ENCODER || cfg->angle_source > FS_ANGLE_EXTERNAL) return FS_ERR_MODE;
+    if (!(cfg->Ts > 0.0f) || !(cfg->T_pwm >= cfg->Ts)) return FS_ERR_TS;
+    if (!(cfg->delay >= 0.0f && cfg->delay <= 2.0f)) return FS_ERR_PARAM;
+    if (cfg->pole_pairs < 1) return FS_ERR_POLE_PAIRS;
+    if (!(cfg->i_max > 0.0f)) return FS_ERR_I_MAX;
+    if (!(cfg->t_dead_comp >= 0.0f) || !(cfg->i_dead_band >= 0.0f)) return FS_ERR_PARAM;
+    drv->cfg = *cfg;
+
+    fs_current_ctrl_config ccc = {cfg->Ts, cfg->R_s, cfg->L_d, cfg->L_q, cfg->psi_f, cfg->bw_current};
+    fs_status st = fs_current_ctrl_init(&drv->cc, &ccc);
+    if (st != FS_OK) return st;
+
+    fs_pll_config pc = {cfg->Ts, cfg->bw_pll, 0.0f};
+    st = fs_pll_init(&drv->pll, &pc);
+    if (st != FS_OK) return st;
+
+    if (cfg->mode == FS_MODE_SPEED) {
+        fs_speed_ctrl_config scc = {cfg->Ts, cfg->J, cfg->B, cfg->bw_speed, cfg->T_max};
+        st = fs_speed_ctrl_init(&drv->sc, &scc);
+        if (st != FS_OK) return st;
+        fs_mtpa_config mc = {cfg->L_d, cfg->L_q, cfg->psi_f, cfg->pole_pairs, cfg->i_max};
+        st = fs_mtpa_init(&drv->mtpa, &mc);
+        if (st != FS_OK) return st;
+    }
+    fs_drive_reset(drv);
+    return FS_OK;
+}
+
+void fs_drive_reset(fs_drive *drv)
+{
+    fs_current_ctrl_reset(&drv->cc);
+    fs_pll_reset(&drv->pll, 0.0f, 0.0f);
+    if (drv->cfg.mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
+    drv->theta_ol = 0.0f;
+    drv->pll_started = false;
+}
+
+/* Angle and speed from the configured source. */
+static void drive_angle(fs_drive *drv, const fs_drive_in *in, float *theta, float *w)
+{
+    if (drv->cfg.angle_source == FS_ANGLE_EXTERNAL) {
+        *theta = in->theta_e_ext;
+        *w = in->w_e_ext;
+        return;
+    }
+    float theta_enc = fs_wrap_pi((float)drv->cfg.pole_pairs * in->theta_m_enc);
+    if (!drv->pll_started) {
+        fs_pll_reset(&drv->pll, theta_enc, 0.0f);
+        drv->pll_started = true;
+    }
+    /* The PLL's angle is its prediction for this sample. */
+    fs_pll_step(&drv->pll, fs_wrap_pi(theta_enc - drv->pll.theta));
+    *theta = theta_enc;
+    *w = drv->pll.w;
+}
+
+/* Dead-time compensation: the average pole-voltage loss is
+ * sign(i) t_dead / T_pwm u_dc, added back on the duty. */
+static void dead_time_comp(const fs_drive_config *c, const float i_abc[3], float duty[3])
+{
+    if (c->t_dead_comp <= 0.0f) return;
+    float dd = c->t_dead_comp / c->T_pwm;
+    for (int k = 0; k < 3; ++k) {
+        float s = (c->i_dead_band > 0.0f) ? fs_clampf(i_abc[k] / c->i_dead_band, -1.0f, 1.0f)
+                                          : fs_signf(i_abc[k]);
+        duty[k] = fs_clampf(duty[k] + s * dd, 0.0f, 1.0f);
+    }
+}
+
+void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
+{
+    const fs_drive_config *c = &drv->cfg;
+    fs_ab i_ab = fs_clarke(in->i_abc[0], in->i_abc[1], in->i_abc[2]);
+    float theta, w_e;
+    drive_angle(drv, in, &theta, &w_e);
+
+    fs_dq u_ref = {0.0f, 0.0f};
+    fs_dq i_ref = {0.0f, 0.0f};
+    float T_ref = 0.0f;
+    bool closed_loop = (c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED);
+
+    if (c->mode == FS_MODE_VOLTAGE_DQ || c->mode == FS_MODE_VF) {
+        theta = drv->theta_ol;
+        w_e = in->w_e_ref;
+        drv->theta_ol = fs_wrap_pi(drv->theta_ol + c->Ts * in->w_e_ref);
+        if (c->mode == FS_MODE_VOLTAGE_DQ) {
+            u_ref.d = in->u_d_ref;
+            u_ref.q = in->u_q_ref;
+        } else {
+            u_ref.q = fs_signf(in->w_e_ref) * (c->vf_boost + c->vf_gain * fabsf(in->w_e_ref));
+        }
+    }
+    float cos_t = cosf(theta), sin_t = sinf(theta);
+    fs_dq i_dq = fs_park(i_ab, cos_t, sin_t);
+
+    if (closed_loop) {
+        if (c->mode == FS_MODE_SPEED) {
+            T_ref = fs_speed_ctrl_step(&drv->sc, in->w_m_ref, w_e / (float)c->pole_pairs);
+            i_ref = fs_mtpa_step(&drv->mtpa, T_ref);
+        } else {
+            i_ref.d = in->i_d_ref;
+            i_ref.q = in->i_q_ref;
+        }
+        u_ref = fs_current_ctrl_step(&drv->cc, i_ref, i_dq, w_e);
+    }
+
+    /* The voltage acts from the next update instant for one period: rotate it
+     * by the angle the rotor turns until the middle of that period. */
+    float theta_u = theta + w_e * c->Ts * (c->delay + 0.5f);
+    float cos_u = cosf(theta_u), sin_u = sinf(theta_u);
+    fs_ab u_ab_ref = fs_inv_park(u_ref, cos_u, sin_u);
+    fs_ab u_ab;
+    if (c->mode == FS_MODE_OFF) {
+        out->duty[0] = out->duty[1] = out->duty[2] = 0.5f;
+        out->over_modulation = false;
+        u_ab.alpha = u_ab.beta = 0.0f;
+    } else {
+        out->over_modulation = fs_svpwm(u_ab_ref, in->u_dc, out->duty, &u_ab);
+        dead_time_comp(c, in->i_abc, out->duty);
+    }
+    fs_dq u_real = fs_park(u_ab, cos_u, sin_u);
+    if (closed_loop) fs_current_ctrl_update(&drv->cc, u_real);
+
+    out->theta_e = theta;
+    out->w_e = w_e;
+    out->i_d = i_dq.d;
+    out->i_q = i_dq.q;
+    out->i_d_ref = i_ref.d;
+    out->i_q_ref = i_ref.q;
+    out->T_ref = T_ref;
+    out->u_d = u_real.d;
+    out->u_q = u_real.q;
+}

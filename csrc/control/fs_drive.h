@@ -1,0 +1,92 @@
+/* The drive step: the one function a PWM interrupt calls.
+ *
+ * It takes the sampled phase currents, dc-link voltage and encoder angle,
+ * runs the mode's loops and returns the duties for the next update instant.
+ * Modes: open-loop voltage in a frame turning at a given speed (u_d, u_q or
+ * V/f), current control, speed control (speed PI -> MTPA -> current control).
+ * The angle comes from the angle source: the encoder (with a PLL for speed),
+ * or an external angle (tests, and the slot where estimators plug in).
+ */
+#ifndef FS_DRIVE_H
+#define FS_DRIVE_H
+
+#include "fs_current_ctrl.h"
+#include "fs_mtpa.h"
+#include "fs_pll.h"
+#include "fs_speed_ctrl.h"
+#include "fs_svpwm.h"
+#include "fs_types.h"
+
+typedef enum {
+    FS_MODE_OFF = 0,         /* duties 0.5, zero voltage */
+    FS_MODE_VOLTAGE_DQ = 1,  /* u_d_ref, u_q_ref in a frame at w_e_ref */
+    FS_MODE_VF = 2,          /* |u| = vf_boost + vf_gain |w_e_ref| on the q axis of that frame */
+    FS_MODE_CURRENT = 3,     /* i_d_ref, i_q_ref */
+    FS_MODE_SPEED = 4        /* w_m_ref -> torque -> MTPA -> currents */
+} fs_drive_mode;
+
+typedef enum {
+    FS_ANGLE_ENCODER = 0,    /* encoder angle, speed from a PLL on it */
+    FS_ANGLE_EXTERNAL = 1    /* theta_e_ext and w_e_ext from the input */
+} fs_angle_source;
+
+typedef struct {
+    int mode;                /* fs_drive_mode */
+    int angle_source;        /* fs_angle_source */
+    float Ts;                /* control (sampling) period, s */
+    float T_pwm;             /* carrier period, s (Ts or 2 Ts) */
+    float delay;             /* computation delay in control periods: 1 or 0 */
+    /* the machine as the controller knows it */
+    float R_s, L_d, L_q, psi_f;
+    int pole_pairs;
+    float J, B;
+    /* limits */
+    float i_max;             /* A peak */
+    float T_max;             /* N m */
+    /* design bandwidths, rad/s */
+    float bw_current, bw_speed, bw_pll;
+    /* dead-time compensation: the dead time to compensate (0: off) and the
+     * current below which the compensation ramps linearly to zero */
+    float t_dead_comp, i_dead_band;
+    /* V/f: volts per electrical rad/s and boost volts */
+    float vf_gain, vf_boost;
+} fs_drive_config;
+
+typedef struct {
+    float i_abc[3];          /* sampled phase currents, A */
+    float u_dc;              /* sampled dc-link voltage, V */
+    float theta_m_enc;       /* encoder mechanical angle, rad */
+    float theta_e_ext, w_e_ext;  /* external angle source, rad, rad/s */
+    /* references */
+    float w_m_ref;           /* rad/s mechanical, speed mode */
+    float i_d_ref, i_q_ref;  /* A, current mode */
+    float u_d_ref, u_q_ref;  /* V, voltage mode */
+    float w_e_ref;           /* rad/s electrical, frame speed of the open-loop modes */
+} fs_drive_in;
+
+typedef struct {
+    float duty[3];           /* for the next update instant */
+    /* telemetry */
+    float theta_e, w_e;      /* angle and speed used by the loops */
+    float i_d, i_q;          /* measured, in the controller frame */
+    float i_d_ref, i_q_ref;
+    float T_ref;
+    float u_d, u_q;          /* realised voltage reference in the controller frame */
+    bool over_modulation;
+} fs_drive_out;
+
+typedef struct {
+    fs_drive_config cfg;
+    fs_current_ctrl cc;
+    fs_speed_ctrl sc;
+    fs_mtpa mtpa;
+    fs_pll pll;              /* speed from the encoder */
+    float theta_ol;          /* open-loop frame angle */
+    bool pll_started;
+} fs_drive;
+
+fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg);
+void fs_drive_reset(fs_drive *drv);
+void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out);
+
+#endif /* FS_DRIVE_H */

@@ -1,0 +1,34 @@
+/* Inline helpers shared by the control modules (not part of the cdef). */
+#ifndef FS_MATH_H
+#define FS_MATH_H
+
+#include <math.h>
+
+#define FS_PI 3.14159265358979323846f
+#define FS_TWO_PI 6.28318530717958647692f
+#define FS_SQRT3 1.73205080756887729353f
+#define FS_INV_SQRT3 0.57735026918962576451f
+
+/* Wrap an angle to (-pi, pi]. Valid for any finite input. */
+static inline float fs_wrap_pi(float x)
+{
+    if (x > FS_PI || x <= -FS_PI) {
+        x = x - FS_TWO_PI * floorf((x + FS_PI) / FS_TWO_PI);
+        if (x <= -FS_PI) {
+            x += FS_TWO_PI;
+        }
+    }
+    return x;
+}
+
+static inline float fs_clampf(float x, float lo, float hi)
+{
+    return x < lo ? lo : (x > hi ? hi : x);
+}
+
+static inline float fs_signf(float x)
+{
+    return (x > 0.0f) ? 1.0f : ((x < 0.0f) ? -1.0f : 0.0f);
+}
+
+#endif /* FS_MATH_H */

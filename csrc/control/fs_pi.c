@@ -1,0 +1,35 @@
+#include "fs_pi.h"
+#include "fs_math.h"
+
+fs_status fs_pi_init(fs_pi *pi, const fs_pi_config *cfg)
+{
+    if (!pi || !cfg) return FS_ERR_NULL;
+    if (!(cfg->Ts > 0.0f)) return FS_ERR_TS;
+    if (!(cfg->k_p >= 0.0f) || !(cfg->k_i >= 0.0f) || !(cfg->k_t >= 0.0f)) return FS_ERR_PARAM;
+    pi->cfg = *cfg;
+    fs_pi_reset(pi);
+    return FS_OK;
+}
+
+void fs_pi_reset(fs_pi *pi) { pi->integ = 0.0f; }
+
+float fs_pi_output(const fs_pi *pi, float ref, float meas)
+{
+    return pi->cfg.k_t * ref - pi->cfg.k_p * meas + pi->integ;
+}
+
+void fs_pi_update(fs_pi *pi, float ref, float meas, float u, float u_real)
+{
+    pi->integ += pi->cfg.Ts * pi->cfg.k_i * (ref - meas) + (u_real - u);
+}
+
+float fs_pi_step(fs_pi *pi, float ref, float meas)
+{
+    float u = fs_pi_output(pi, ref, meas);
+    float u_real = u;
+    if (pi->cfg.u_max > 0.0f) {
+        u_real = fs_clampf(u, -pi->cfg.u_max, pi->cfg.u_max);
+    }
+    fs_pi_update(pi, ref, meas, u, u_real);
+    return u_real;
+}

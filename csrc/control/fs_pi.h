@@ -1,0 +1,36 @@
+/* Two-degree-of-freedom PI controller with anti-windup.
+ *
+ *   u = k_t r - k_p y + I,    I[k+1] = I[k] + Ts k_i (r - y) + (u_real - u)
+ *
+ * The last term is back-calculation with unit gain: when the actuator realises
+ * u_real instead of u, the integral is moved so that the next output starts
+ * from what was realised (no windup). With k_t = k_p it is the ordinary PI.
+ */
+#ifndef FS_PI_H
+#define FS_PI_H
+
+#include "fs_types.h"
+
+typedef struct {
+    float Ts;     /* sampling period, s */
+    float k_t;    /* reference gain */
+    float k_p;    /* proportional gain on the measurement */
+    float k_i;    /* integral gain */
+    float u_max;  /* output limit, symmetric; <= 0 means none */
+} fs_pi_config;
+
+typedef struct {
+    fs_pi_config cfg;
+    float integ;  /* integral state I */
+} fs_pi;
+
+fs_status fs_pi_init(fs_pi *pi, const fs_pi_config *cfg);
+void fs_pi_reset(fs_pi *pi);
+/* Unlimited output for (r, y); does not change the state. */
+float fs_pi_output(const fs_pi *pi, float ref, float meas);
+/* Advance the integral given the unlimited output u and the realised u_real. */
+void fs_pi_update(fs_pi *pi, float ref, float meas, float u, float u_real);
+/* Output limited to +-u_max, and the update with that limited value. */
+float fs_pi_step(fs_pi *pi, float ref, float meas);
+
+#endif /* FS_PI_H */

@@ -1,0 +1,32 @@
+#include "fs_pll.h"
+#include "fs_math.h"
+
+fs_status fs_pll_init(fs_pll *pll, const fs_pll_config *cfg)
+{
+    if (!pll || !cfg) return FS_ERR_NULL;
+    if (!(cfg->Ts > 0.0f)) return FS_ERR_TS;
+    if (!(cfg->bandwidth > 0.0f) || cfg->bandwidth * cfg->Ts > 0.5f) return FS_ERR_BANDWIDTH;
+    pll->cfg = *cfg;
+    pll->k_p = 2.0f * cfg->bandwidth;               /* eq. (13), poles at -w_b */
+    pll->k_i = cfg->bandwidth * cfg->bandwidth;
+    fs_pll_reset(pll, 0.0f, 0.0f);
+    return FS_OK;
+}
+
+void fs_pll_reset(fs_pll *pll, float theta, float w)
+{
+    pll->theta = fs_wrap_pi(theta);
+    pll->w = w;
+    pll->integ = w;
+}
+
+float fs_pll_step(fs_pll *pll, float err)
+{
+    pll->integ += pll->cfg.Ts * pll->k_i * err;
+    if (pll->cfg.w_max > 0.0f) {
+        pll->integ = fs_clampf(pll->integ, -pll->cfg.w_max, pll->cfg.w_max);
+    }
+    pll->w = pll->k_p * err + pll->integ;
+    pll->theta = fs_wrap_pi(pll->theta + pll->cfg.Ts * pll->w);
+    return pll->theta;
+}

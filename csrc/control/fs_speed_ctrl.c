@@ -1,0 +1,27 @@
+#include "fs_speed_ctrl.h"
+#include "fs_math.h"
+
+fs_status fs_speed_ctrl_init(fs_speed_ctrl *sc, const fs_speed_ctrl_config *cfg)
+{
+    if (!sc || !cfg) return FS_ERR_NULL;
+    if (!(cfg->Ts > 0.0f)) return FS_ERR_TS;
+    if (!(cfg->J > 0.0f)) return FS_ERR_J;
+    if (!(cfg->B >= 0.0f)) return FS_ERR_PARAM;
+    if (!(cfg->bandwidth > 0.0f) || cfg->bandwidth * cfg->Ts > 0.5f) return FS_ERR_BANDWIDTH;
+    if (!(cfg->T_max > 0.0f)) return FS_ERR_LIMIT;
+    sc->cfg = *cfg;
+    fs_pi_config c;
+    c.Ts = cfg->Ts;
+    c.k_t = cfg->bandwidth * cfg->J;
+    c.k_p = fmaxf(2.0f * cfg->bandwidth * cfg->J - cfg->B, 0.0f);
+    c.k_i = cfg->bandwidth * cfg->bandwidth * cfg->J;
+    c.u_max = cfg->T_max;
+    return fs_pi_init(&sc->pi, &c);
+}
+
+void fs_speed_ctrl_reset(fs_speed_ctrl *sc) { fs_pi_reset(&sc->pi); }
+
+float fs_speed_ctrl_step(fs_speed_ctrl *sc, float w_m_ref, float w_m)
+{
+    return fs_pi_step(&sc->pi, w_m_ref, w_m);
+}

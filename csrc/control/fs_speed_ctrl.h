@@ -1,0 +1,29 @@
+/* Speed controller: 2DOF PI on the mechanical speed giving a torque
+ * reference, designed from the inertia and the closed-loop bandwidth:
+ *   J dw/dt = T - B w  ->  k_t = alpha J,  k_p = 2 alpha J - B,  k_i = alpha^2 J,
+ * so that w/w_ref = alpha / (s + alpha); torque limited with anti-windup.
+ */
+#ifndef FS_SPEED_CTRL_H
+#define FS_SPEED_CTRL_H
+
+#include "fs_pi.h"
+
+typedef struct {
+    float Ts;         /* control period, s */
+    float J;          /* inertia, kg m^2 */
+    float B;          /* viscous friction, N m s */
+    float bandwidth;  /* rad/s */
+    float T_max;      /* torque limit, N m */
+} fs_speed_ctrl_config;
+
+typedef struct {
+    fs_speed_ctrl_config cfg;
+    fs_pi pi;
+} fs_speed_ctrl;
+
+fs_status fs_speed_ctrl_init(fs_speed_ctrl *sc, const fs_speed_ctrl_config *cfg);
+void fs_speed_ctrl_reset(fs_speed_ctrl *sc);
+/* Torque reference for mechanical speed reference and estimate, rad/s. */
+float fs_speed_ctrl_step(fs_speed_ctrl *sc, float w_m_ref, float w_m);
+
+#endif /* FS_SPEED_CTRL_H */

@@ -1,0 +1,152 @@
+#include "fs_magnetic.h"
+
+#include <math.h>
+
+static double powabs(double x, double e)
+{
+    double a = fabs(x);
+    if (e == 0.0) return 1.0;
+    return a > 0.0 ? pow(a, e) : 0.0;
+}
+
+static void algebraic_current(const fs_mag *m, double psi_d, double psi_q, double *i_d, double *i_q)
+{
+    const fs_mag_config *c = &m->cfg;
+    double cross = c->a_dq * powabs(psi_d, c->U) * powabs(psi_q, c->V);
+    double gd = 1.0 / c->L_d + c->a_dd * powabs(psi_d, c->S) + cross * psi_q * psi_q / (c->V + 2.0);
+    double gq = 1.0 / c->L_q + c->a_qq * powabs(psi_q, c->T) + cross * psi_d * psi_d / (c->U + 2.0);
+    *i_d = gd * psi_d - m->i_f;
+    *i_q = gq * psi_q;
+}
+
+/* Bilinear interpolation of the map and its Jacobian d(psi)/d(i). */
+static void map_eval(const fs_mag_config *c, double i_d, double i_q, double psi[2], double jac[4])
+{
+    double x = (i_d - c->map_i_d0) / c->map_di_d;
+    double y = (i_q - c->map_i_q0) / c->map_di_q;
+    int k = (int)floor(x), l = (int)floor(y);
+    if (k < 0) k = 0;
+    if (k > c->map_n_d - 2) k = c->map_n_d - 2;
+    if (l < 0) l = 0;
+    if (l > c->map_n_q - 2) l = c->map_n_q - 2;
+    double s = x - k, t = y - l;  /* extrapolates linearly outside the grid */
+    const double *tabs[2] = {c->map_psi_d, c->map_psi_q};
+    for (int n = 0; n < 2; ++n) {
+        const double *p = tabs[n];
+        double p00 = p[k * c->map_n_q + l], p01 = p[k * c->map_n_q + l + 1];
+        double p10 = p[(k + 1) * c->map_n_q + l], p11 = p[(k + 1) * c->map_n_q + l + 1];
+        psi[n] = (1 - s) * (1 - t) * p00 + (1 - s) * t * p01 + s * (1 - t) * p10 + s * t * p11;
+        jac[2 * n + 0] = ((1 - t) * (p10 - p00) + t * (p11 - p01)) / c->map_di_d;
+        jac[2 * n + 1] = ((1 - s) * (p01 - p00) + s * (p11 - p10)) / c->map_di_q;
+    }
+}
+
+static void map_current(fs_mag *m, double psi_d, double psi_q, double *i_d, double *i_q)
+{
+    double id = m->hint_d, iq = m->hint_q;
+    for (int it = 0; it < 20; ++it) {
+        double psi[2], J[4];
+        map_eval(&m->cfg, id, iq, psi, J);
+        double rd = psi_d - psi[0], rq = psi_q - psi[1];
+        double det = J[0] * J[3] - J[1] * J[2];
+        if (det == 0.0 || !isfinite(det)) break;
+        double dd = (J[3] * rd - J[1] * rq) / det;
+        double dq = (-J[2] * rd + J[0] * rq) / det;
+        id += dd;
+        iq += dq;
+        if (fabs(dd) + fabs(dq) < 1e-12 * (1.0 + fabs(id) + fabs(iq))) break;
+    }
+    m->hint_d = id;
+    m->hint_q = iq;
+    *i_d = id;
+    *i_q = iq;
+}
+
+int fs_mag_init(fs_mag *m, const fs_mag_config *cfg)
+{
+    m->cfg = *cfg;
+    m->i_f = 0.0;
+    m->hint_d = m->hint_q = 0.0;
+    switch (cfg->kind) {
+    case FS_MAG_LINEAR:
+        return (cfg->L_d > 0.0 && cfg->L_q > 0.0 && cfg->psi_f >= 0.0) ? 0 : -1;
+    case FS_MAG_ALGEBRAIC: {
+        if (!(cfg->L_d > 0.0 && cfg->L_q > 0.0 && cfg->psi_f >= 0.0)) return -1;
+        if (!(cfg->a_dd >= 0.0 && cfg->a_qq >= 0.0 && cfg->a_dq >= 0.0)) return -1;
+        if (!(cfg->S >= 0.0 && cfg->T >= 0.0 && cfg->U >= 0.0 && cfg->V >= 0.0)) return -1;
+        double id, iq;
+        algebraic_current(m, cfg->psi_f, 0.0, &id, &iq);
+        m->i_f = id;  /* i_d(psi_f, 0) with i_f = 0: makes psi_d = psi_f at zero current */
+        return 0;
+    }
+    case FS_MAG_FLUXMAP:
+        if (cfg->map_n_d < 2 || cfg->map_n_q < 2 || !(cfg->map_di_d > 0.0) || !(cfg->map_di_q > 0.0)) return -1;
+        if (!cfg->map_psi_d || !cfg->map_psi_q) return -1;
+        return 0;
+    default:
+        return -1;
+    }
+}
+
+void fs_mag_current(fs_mag *m, double psi_d, double psi_q, double *i_d, double *i_q)
+{
+    switch (m->cfg.kind) {
+    case FS_MAG_ALGEBRAIC:
+        algebraic_current(m, psi_d, psi_q, i_d, i_q);
+        return;
+    case FS_MAG_FLUXMAP:
+        map_current(m, psi_d, psi_q, i_d, i_q);
+        return;
+    default:
+        *i_d = (psi_d - m->cfg.psi_f) / m->cfg.L_d;
+        *i_q = psi_q / m->cfg.L_q;
+    }
+}
+
+void fs_mag_flux(fs_mag *m, double i_d, double i_q, double *psi_d, double *psi_q)
+{
+    if (m->cfg.kind == FS_MAG_FLUXMAP) {
+        double psi[2], J[4];
+        map_eval(&m->cfg, i_d, i_q, psi, J);
+        *psi_d = psi[0];
+        *psi_q = psi[1];
+        m->hint_d = i_d;
+        m->hint_q = i_q;
+        return;
+    }
+    /* Newton on i(psi) from the unsaturated guess (exact for LINEAR). */
+    double pd = m->cfg.psi_f + m->cfg.L_d * i_d, pq = m->cfg.L_q * i_q;
+    for (int it = 0; it < 50; ++it) {
+        double id, iq, id1, iq1, id2, iq2, h = 1e-7;
+        fs_mag_current(m, pd, pq, &id, &iq);
+        double rd = i_d - id, rq = i_q - iq;
+        if (fabs(rd) + fabs(rq) < 1e-12 * (1.0 + fabs(i_d) + fabs(i_q))) break;
+        fs_mag_current(m, pd + h, pq, &id1, &iq1);
+        fs_mag_current(m, pd, pq + h, &id2, &iq2);
+        double a = (id1 - id) / h, b = (id2 - id) / h, c = (iq1 - iq) / h, d = (iq2 - iq) / h;
+        double det = a * d - b * c;
+        if (det == 0.0 || !isfinite(det)) break;
+        pd += (d * rd - b * rq) / det;
+        pq += (-c * rd + a * rq) / det;
+    }
+    *psi_d = pd;
+    *psi_q = pq;
+}
+
+double fs_mag_energy(const fs_mag *m, double psi_d, double psi_q)
+{
+    const fs_mag_config *c = &m->cfg;
+    switch (c->kind) {
+    case FS_MAG_LINEAR: {
+        double dpd = psi_d - c->psi_f;
+        return 0.5 * dpd * dpd / c->L_d + 0.5 * psi_q * psi_q / c->L_q;
+    }
+    case FS_MAG_ALGEBRAIC:
+        return 0.5 * psi_d * psi_d / c->L_d + c->a_dd / (c->S + 2.0) * powabs(psi_d, c->S + 2.0)
+             + 0.5 * psi_q * psi_q / c->L_q + c->a_qq / (c->T + 2.0) * powabs(psi_q, c->T + 2.0)
+             + c->a_dq / ((c->U + 2.0) * (c->V + 2.0)) * powabs(psi_d, c->U + 2.0) * powabs(psi_q, c->V + 2.0)
+             - m->i_f * psi_d;
+    default:
+        return NAN;
+    }
+}

@@ -1,0 +1,45 @@
+#include "fs_profile.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+int fs_pwl_copy(fs_pwl *p, const fs_profile *src)
+{
+    memset(p, 0, sizeof(*p));
+    if (src->n <= 0) return 0;  /* empty: zero */
+    if (!src->t || !src->y) return -1;
+    for (int k = 1; k < src->n; ++k) {
+        if (!(src->t[k] >= src->t[k - 1])) return -1;
+    }
+    p->t = malloc(sizeof(double) * (size_t)src->n);
+    p->y = malloc(sizeof(double) * (size_t)src->n);
+    if (!p->t || !p->y) { fs_pwl_free(p); return -1; }
+    memcpy(p->t, src->t, sizeof(double) * (size_t)src->n);
+    memcpy(p->y, src->y, sizeof(double) * (size_t)src->n);
+    p->n = src->n;
+    return 0;
+}
+
+void fs_pwl_free(fs_pwl *p)
+{
+    free(p->t);
+    free(p->y);
+    p->t = p->y = NULL;
+    p->n = 0;
+}
+
+double fs_pwl_eval(fs_pwl *p, double t, double *slope)
+{
+    if (slope) *slope = 0.0;
+    if (p->n == 0) return 0.0;
+    if (t <= p->t[0]) return p->y[0];
+    if (t >= p->t[p->n - 1]) return p->y[p->n - 1];
+    if (p->k >= p->n - 1 || p->t[p->k] > t) p->k = 0;
+    while (p->k < p->n - 2 && p->t[p->k + 1] <= t) ++p->k;
+    double t0 = p->t[p->k], t1 = p->t[p->k + 1];
+    double y0 = p->y[p->k], y1 = p->y[p->k + 1];
+    if (t1 <= t0) return y1;  /* a step */
+    double s = (y1 - y0) / (t1 - t0);
+    if (slope) *slope = s;
+    return y0 + s * (t - t0);
+}

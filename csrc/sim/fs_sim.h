@@ -1,0 +1,96 @@
+/* The closed-loop runner: plant, inverter, sampling, delay and the drive.
+ *
+ * Timing: the control period Ts is the carrier period (single sampling and
+ * update, at the carrier peak) or half of it (double sampling and update, at
+ * peak and valley). At each sampling instant the currents and the encoder are
+ * sampled (with quantization and optional Gaussian noise), the drive step
+ * computes new duties, and they take effect at the next update instant (one
+ * control period of computation delay) or, with the delay switched off, at
+ * once. Python advances the simulation in chunks; every `decimation`-th
+ * sample is written as a row of FS_CH_N channels into a caller's buffer.
+ */
+#ifndef FS_SIM_H
+#define FS_SIM_H
+
+#include <stdint.h>
+#include "../control/fs_drive.h"
+#include "../plant/fs_inverter.h"
+#include "../plant/fs_pmsm.h"
+
+/* A piecewise-linear profile y(t), held constant outside [t[0], t[n-1]]. */
+typedef struct {
+    int n;
+    const double *t;
+    const double *y;
+} fs_profile;
+
+typedef enum { FS_SAMPLING_SINGLE = 0, FS_SAMPLING_DOUBLE = 1 } fs_sampling;
+
+typedef struct {
+    fs_pmsm_config plant;
+    fs_inverter_config inverter;
+    /* timing */
+    int sampling;             /* fs_sampling */
+    int delay;                /* 1: duties act one control period later; 0: at once */
+    double h_max;             /* longest integration step, s */
+    /* sensors */
+    int adc_bits;             /* 0: no quantization */
+    double adc_range;         /* A, full scale +-adc_range */
+    double noise_i;           /* A, standard deviation of current noise */
+    int encoder_bits;         /* 0: exact encoder; else counts per mechanical turn = 2^bits */
+    uint64_t seed;
+    /* protection */
+    double i_trip;            /* A, phase-current trip level (<= 0: none) */
+    /* initial state */
+    double theta_m0, w_m0;    /* rad, rad/s */
+    /* the controller */
+    fs_drive_config drive;
+    /* profiles (copied by fs_sim_create) */
+    fs_profile w_m_ref, i_d_ref, i_q_ref, u_d_ref, u_q_ref, w_e_ref;
+    fs_profile T_load, w_load;
+    int decimation;           /* record every n-th sample */
+} fs_sim_config;
+
+/* Trace channels, one row per recorded sample (SI units, electrical angles). */
+enum {
+    FS_CH_T = 0,
+    FS_CH_THETA_E,            /* true electrical angle, wrapped */
+    FS_CH_W_M,                /* true mechanical speed */
+    FS_CH_PSI_D, FS_CH_PSI_Q,
+    FS_CH_I_D, FS_CH_I_Q,     /* true, rotor frame */
+    FS_CH_I_A, FS_CH_I_B, FS_CH_I_C,
+    FS_CH_T_E, FS_CH_T_L,     /* electromagnetic torque, shaft load torque */
+    FS_CH_U_D, FS_CH_U_Q,     /* mean terminal voltage over the last period, rotor frame */
+    FS_CH_DUTY_A, FS_CH_DUTY_B, FS_CH_DUTY_C,   /* duties computed at this sample */
+    FS_CH_W_M_REF, FS_CH_I_D_REF, FS_CH_I_Q_REF, FS_CH_T_REF,
+    FS_CH_I_D_HAT, FS_CH_I_Q_HAT,               /* currents in the controller's frame */
+    FS_CH_U_D_REF, FS_CH_U_Q_REF,               /* realised reference, controller frame */
+    FS_CH_THETA_HAT, FS_CH_W_M_HAT,             /* angle and speed used by the controller */
+    FS_CH_THETA_ERR,                            /* true minus used angle, wrapped */
+    FS_CH_OVERMOD,
+    FS_CH_E_IN, FS_CH_E_CU, FS_CH_E_AIRGAP, FS_CH_W_MAG,  /* J; W_MAG is 3/2 W(psi) */
+    FS_CH_N
+};
+
+typedef enum {
+    FS_RUN_DONE = 0,          /* reached t_end */
+    FS_RUN_BUFFER_FULL = 1,   /* trace buffer full before t_end: call again */
+    FS_STOP_NAN = 2,          /* a state became NaN or infinite */
+    FS_STOP_OVERCURRENT = 3,  /* a phase current exceeded i_trip */
+    FS_STOP_LOSS_OF_LOCK = 4  /* an estimator lost track of the rotor */
+} fs_run_status;
+
+typedef struct fs_sim fs_sim;
+
+/* Creates a simulation; on error returns NULL and writes a message naming
+ * the field into err. */
+fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len);
+void fs_sim_destroy(fs_sim *sim);
+/* Advances to t_end, writing at most max_rows rows of FS_CH_N doubles into
+ * trace; *rows receives the count. Returns an fs_run_status. */
+int fs_sim_run(fs_sim *sim, double t_end, double *trace, int max_rows, int *rows);
+double fs_sim_time(const fs_sim *sim);
+/* Time of the stop, for a run that stopped (NaN otherwise). */
+double fs_sim_stop_time(const fs_sim *sim);
+
+#endif /* FS_SIM_H */

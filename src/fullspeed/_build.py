@@ -1,0 +1,66 @@
+"""cffi builder for the C core (fullspeed._core).
+
+The cdef is read from the public headers themselves, with preprocessor lines
+removed, so the C structs and their Python view cannot drift apart.
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from cffi import FFI
+
+ROOT = Path(__file__).resolve().parents[2]
+CSRC = ROOT / "csrc"
+
+# Public headers in dependency order: these form the cdef.
+HEADERS = [
+    "control/fs_types.h",
+    "control/fs_transforms.h",
+    "control/fs_pi.h",
+    "control/fs_svpwm.h",
+    "control/fs_pll.h",
+    "control/fs_current_ctrl.h",
+    "control/fs_speed_ctrl.h",
+    "control/fs_mtpa.h",
+    "control/fs_drive.h",
+    "plant/fs_magnetic.h",
+    "plant/fs_pmsm.h",
+    "plant/fs_inverter.h",
+    "sim/fs_sim.h",
+]
+SOURCE_DIRS = ["control", "plant", "sim"]
+
+
+def cdef_text() -> str:
+    out = []
+    for h in HEADERS:
+        text = (CSRC / h).read_text()
+        text = re.sub(r"/\*.*?\*/", "", text, flags=re.S)
+        lines = [ln for ln in text.splitlines() if not ln.lstrip().startswith("#")]
+        out.append("\n".join(lines))
+    text = "\n".join(out)
+    # cffi wants array sizes it can evaluate: the enum constant becomes `...`
+    return re.sub(r"\[FS_[A-Z_]+\]", "[...]", text)
+
+
+def sources() -> list[str]:
+    files = []
+    for d in SOURCE_DIRS:
+        files += sorted(str((CSRC / d / f.name).relative_to(ROOT)) for f in (CSRC / d).glob("*.c"))
+    return files
+
+
+ffibuilder = FFI()
+ffibuilder.cdef(cdef_text())
+ffibuilder.set_source(
+    "fullspeed._core",
+    '#include "sim/fs_sim.h"\n#include "control/fs_drive.h"\n',
+    sources=sources(),
+    include_dirs=[str(CSRC)],
+    extra_compile_args=["-O2", "-std=c99", "-Wall", "-Wextra", "-fno-math-errno"],
+    libraries=["m"],
+)
+
+if __name__ == "__main__":
+    ffibuilder.compile(verbose=True)
