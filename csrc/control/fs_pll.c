@@ -26,7 +26,9 @@ float fs_pll_step(fs_pll *pll, float err)
     if (pll->cfg.w_max > 0.0f) {
         pll->integ = fs_clampf(pll->integ, -pll->cfg.w_max, pll->cfg.w_max);
     }
-    pll->w = pll->k_p * err + pll->integ;
-    pll->theta = fs_wrap_pi(pll->theta + pll->cfg.Ts * pll->w);
+    /* The angle moves with k_p err + integral; the speed estimate is the
+     * integral alone, which the loop filters (no proportional noise). */
+    pll->w = pll->integ;
+    pll->theta = fs_wrap_pi(pll->theta + pll->cfg.Ts * (pll->k_p * err + pll->integ));
     return pll->theta;
 }

@@ -3,6 +3,8 @@
  * small-angle value, the closed loop is eq. (13) of yang2022:
  *   G(s) = (K_p s + K_i) / (s^2 + K_p s + K_i),
  * with both poles placed at -bandwidth: K_p = 2 w_b, K_i = w_b^2.
+ * The speed estimate is the integral path (speed tracks without steady
+ * error and without the proportional path's noise).
  */
 #ifndef FS_PLL_H
 #define FS_PLL_H

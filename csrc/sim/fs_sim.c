@@ -114,7 +114,7 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
     if (cfg->decimation < 1) FAIL("trace.decimation = %d: must be >= 1", cfg->decimation);
     if (fs_pmsm_init(&s->pmsm, &cfg->plant) != 0) FAIL("machine: invalid plant parameters");
     s->Tc = cfg->sampling == FS_SAMPLING_DOUBLE ? 0.5 * cfg->inverter.T_pwm : cfg->inverter.T_pwm;
-    if (fabs(cfg->drive.Ts - s->Tc) > 1e-9 * s->Tc)
+    if (fabs(cfg->drive.Ts - s->Tc) > 1e-6 * s->Tc)
         FAIL("controller.Ts = %g: must equal the control period %g", cfg->drive.Ts, s->Tc);
     fs_status st = fs_drive_init(&s->drive, &cfg->drive);
     if (st != FS_OK) FAIL("controller: %s", fs_status_str(st));

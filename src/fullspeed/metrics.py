@@ -1,0 +1,76 @@
+"""Metrics of a run, all measured from its traces."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .units import rad_s_to_rpm
+
+
+def steady_window(res) -> tuple[float, float]:
+    """The scenario's [metrics] steady window, else the last 20 % of the run."""
+    w = res.scenario.data["metrics"]["steady"]
+    if w is not None:
+        return float(w[0]), float(w[1])
+    T = res.scenario.duration
+    return 0.8 * T, T
+
+
+def window_mask(t: np.ndarray, t0: float, t1: float) -> np.ndarray:
+    return (t >= t0 - 1e-12) & (t <= t1 + 1e-12)
+
+
+def angle_error_stats(err_rad: np.ndarray) -> dict:
+    """mean, pp (max - min) and max |.| of an angle error, in el.deg."""
+    if err_rad.size == 0:
+        return {"mean": None, "pp": None, "max": None}
+    e = np.degrees(err_rad)
+    return {"mean": float(np.mean(e)), "pp": float(np.ptp(e)), "max": float(np.max(np.abs(e)))}
+
+
+def compute_metrics(res) -> dict:
+    tr = res.traces
+    t = tr["t"]
+    out: dict = {
+        "stop_reason": res.stop_reason,
+        "stop_time": res.stop_time,
+        "sim_time": res.sim_time,
+        "wall_time": res.wall_time,
+        "speed_ratio": res.speed_ratio,
+    }
+    if t.size == 0:
+        return out
+    t0, t1 = steady_window(res)
+    m = window_mask(t, t0, t1)
+    out["steady_window"] = [t0, t1]
+    out["i_phase_max"] = float(np.max(np.abs(np.stack([tr["i_a"], tr["i_b"], tr["i_c"]]))))
+    if not m.any():
+        return out
+    mode = res.scenario.data["controller"]["mode"]
+    if mode == "speed":
+        w_ref = float(np.mean(tr["w_m_ref"][m]))
+        w = float(np.mean(tr["w_m"][m]))
+        out["speed_ref_rpm"] = rad_s_to_rpm(w_ref)
+        out["speed_rpm"] = rad_s_to_rpm(w)
+        out["speed_error_pct"] = 100.0 * (w - w_ref) / abs(w_ref) if w_ref != 0 else None
+    if mode in ("speed", "current"):
+        out["i_d_error_rms"] = float(np.sqrt(np.mean((tr["i_d_ref"][m] - tr["i_d"][m]) ** 2)))
+        out["i_q_error_rms"] = float(np.sqrt(np.mean((tr["i_q_ref"][m] - tr["i_q"][m]) ** 2)))
+    out["T_e_mean"] = float(np.mean(tr["T_e"][m]))
+    out["T_e_pp"] = float(np.ptp(tr["T_e"][m]))
+    out["theta_err_deg"] = angle_error_stats(tr["theta_err"][m])
+    return out
+
+
+def json_safe(x):
+    """Metrics as JSON: NaN and infinities become null."""
+    if isinstance(x, dict):
+        return {k: json_safe(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [json_safe(v) for v in x]
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    if isinstance(x, (np.floating, np.integer)):
+        return json_safe(x.item())
+    return x

@@ -1,0 +1,155 @@
+"""Scenarios: a machine, its converter, timing, sensors, controller, load and
+reference profiles, read from TOML and validated field by field."""
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+from .errors import ConfigError
+from .machines import Machine, catalog_data, machine_from_dict
+from .schema import ANY, B, C, F, I, NONNEG, POS, P, S, Spec, T, deep_merge, validate
+
+SCENARIO = {
+    "name": S(), "description": S(""), "paper": S(""),
+    "duration": POS(hi=1e4, doc="simulated time, s"),
+    "machine": ANY,
+    "converter": T({
+        "inverter": C("averaged", "switching", default="switching"),
+        "u_dc": POS(None), "f_pwm": POS(None), "t_dead": NONNEG(None), "u_on": NONNEG(0.0),
+    }, default={}),
+    "timing": T({
+        "sampling": C("single", "double", default=None),
+        "delay": B(True, doc="one control period of computation delay"),
+        "h_max": POS(20e-6, hi=1e-3, doc="longest integration step, s"),
+    }, default={}),
+    "sensors": T({
+        "adc_bits": I(None, 0, 24), "adc_range": POS(None), "noise_i": NONNEG(0.0),
+        "encoder_bits": I(None, 0, 32), "seed": I(1, 0, 2**63 - 1),
+    }, default={}),
+    "controller": T({
+        "mode": C("off", "voltage", "vf", "current", "speed"),
+        "angle": C("encoder", "true", default="encoder"),
+        "bw_current": POS(None), "bw_speed": POS(None), "bw_pll": POS(None),
+        "i_max": POS(None), "T_max": POS(None),
+        "dead_time_comp": B(True), "i_dead_band": NONNEG(None),
+        "vf_gain": NONNEG(0.0, doc="V per electrical rad/s"), "vf_boost": NONNEG(0.0),
+        # the controller's parameters relative to the true machine's
+        "R_s_scale": POS(1.0), "L_d_scale": POS(1.0), "L_q_scale": POS(1.0), "psi_f_scale": POS(1.0),
+        "J_scale": POS(1.0),
+    }),
+    "load": T({
+        "kind": C("torque", "speed", "speed_pi", default="torque"),
+        "torque": P(0.0, doc="N m"), "speed_rpm": P(0.0),
+        "bandwidth": POS(100.0, doc="load machine speed loop, rad/s"), "J_load": NONNEG(0.0),
+    }, default={}),
+    "references": T({
+        "speed_rpm": P(0.0), "i_d": P(0.0), "i_q": P(0.0),
+        "u_d": P(0.0), "u_q": P(0.0), "frame_rpm": P(0.0),
+    }, default={}),
+    "initial": T({"theta_e_deg": F(0.0, -360.0, 360.0), "speed_rpm": F(0.0)}, default={}),
+    "trace": T({"decimation": I(1, 1, 10**6)}, default={}),
+    "metrics": T({"steady": Spec("any", None)}, default={}),
+}
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    machine: Machine
+    data: dict          # validated, with the bench's values filled in
+    source: str | None = None
+
+    @property
+    def duration(self) -> float:
+        return self.data["duration"]
+
+    def section(self, key: str) -> dict:
+        return self.data[key]
+
+
+def scenario_names() -> list[str]:
+    root = resources.files("fullspeed") / "scenarios"
+    return sorted(p.name[:-5] for p in root.iterdir() if p.name.endswith(".toml"))
+
+
+def _machine_of(raw, source) -> Machine:
+    if isinstance(raw, str):
+        raw = {"catalog": raw}
+    if not isinstance(raw, dict):
+        raise ConfigError("machine", raw, "must be a catalog name or a table", source)
+    raw = dict(raw)
+    name = raw.pop("catalog", None)
+    if name is not None:
+        if not isinstance(name, str):
+            raise ConfigError("machine.catalog", name, "must be a catalog name (string)", source)
+        base = catalog_data(name, source)
+        return machine_from_dict(deep_merge(base, raw), source)
+    return machine_from_dict(raw, source)
+
+
+def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
+    if not isinstance(data, dict):
+        raise ConfigError("scenario", data, "must be a table", source)
+    if "machine" not in data:
+        raise ConfigError("machine", "missing", "is required (a catalog name or a table)", source)
+    d = validate(data, SCENARIO, "", source)
+    m = _machine_of(d["machine"], source)
+    b = m.bench
+    conv, tim, sen, ctl = d["converter"], d["timing"], d["sensors"], d["controller"]
+    for key in ("u_dc", "f_pwm", "t_dead"):
+        if conv[key] is None:
+            conv[key] = b[key]
+    if tim["sampling"] is None:
+        tim["sampling"] = b["sampling"]
+    for key in ("adc_bits", "adc_range", "encoder_bits"):
+        if sen[key] is None:
+            sen[key] = b[key]
+    for key in ("bw_current", "bw_speed", "bw_pll", "i_max"):
+        if ctl[key] is None:
+            ctl[key] = b[key]
+    if ctl["T_max"] is None:
+        ctl["T_max"] = m.mtpa_torque(ctl["i_max"])
+    if ctl["i_dead_band"] is None:
+        ctl["i_dead_band"] = 0.01 * ctl["i_max"]
+    # consistency between fields
+    T_pwm = 1.0 / conv["f_pwm"]
+    Ts = T_pwm / 2 if tim["sampling"] == "double" else T_pwm
+    if conv["t_dead"] >= 0.5 * T_pwm:
+        raise ConfigError("converter.t_dead", conv["t_dead"], f"must be shorter than half the PWM period ({0.5 * T_pwm:g} s)", source)
+    for key, limit in (("bw_current", 1.0), ("bw_speed", 0.5), ("bw_pll", 0.5)):
+        if ctl[key] * Ts > limit:
+            raise ConfigError(f"controller.{key}", ctl[key], f"must be <= {limit / Ts:g} rad/s for the control period {Ts:g} s", source)
+    steady = d["metrics"]["steady"]
+    if steady is not None:
+        ok = (isinstance(steady, list) and len(steady) == 2
+              and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in steady)
+              and 0 <= steady[0] < steady[1] <= d["duration"])
+        if not ok:
+            raise ConfigError("metrics.steady", steady, f"must be [t_start, t_end] with 0 <= t_start < t_end <= duration ({d['duration']:g})", source)
+    return Scenario(name=d["name"], machine=m, data=d, source=source)
+
+
+def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Scenario:
+    """A catalog scenario by name, or a TOML file by path; overrides are merged
+    into the raw data before validation."""
+    p = Path(name_or_path)
+    if p.suffix == ".toml" or p.exists():
+        if not p.exists():
+            raise ConfigError("scenario", str(p), "file not found", None)
+        source = str(p)
+        text = p.read_text()
+    else:
+        names = scenario_names()
+        if str(name_or_path) not in names:
+            raise ConfigError("scenario", str(name_or_path), "unknown scenario; `fullspeed list` shows the catalog", None)
+        source = f"scenarios/{name_or_path}.toml"
+        text = (resources.files("fullspeed") / "scenarios" / f"{name_or_path}.toml").read_text()
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError("toml", "unparsable", str(exc), source) from None
+    if overrides:
+        data = deep_merge(data, overrides)
+    return scenario_from_dict(data, source)

@@ -1,0 +1,196 @@
+"""A small declarative validator for the TOML inputs.
+
+Each table is described by a dict of key -> Spec. Validation walks the data,
+refuses unknown keys and bad values with a ConfigError naming the dotted
+field, the value and what is allowed, and fills in defaults.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Callable
+
+from .errors import ConfigError
+
+MISSING = object()
+
+
+@dataclass(frozen=True)
+class Spec:
+    kind: str                      # "float", "int", "bool", "str", "choice", "profile", "list", "table", "any"
+    default: Any = MISSING         # MISSING: required
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False          # lo excluded
+    hi_open: bool = False
+    choices: tuple = ()
+    table: dict | None = None      # for kind == "table"
+    doc: str = ""
+
+    def allowed(self) -> str:
+        if self.kind == "choice":
+            return "must be one of " + ", ".join(repr(c) for c in self.choices)
+        if self.kind in ("float", "int"):
+            word = "a number" if self.kind == "float" else "an integer"
+            parts = []
+            if self.lo is not None:
+                parts.append(f"{'>' if self.lo_open else '>='} {self.lo:g}")
+            if self.hi is not None:
+                parts.append(f"{'<' if self.hi_open else '<='} {self.hi:g}")
+            return f"must be {word}" + (" " + " and ".join(parts) if parts else "")
+        if self.kind == "bool":
+            return "must be true or false"
+        if self.kind == "str":
+            return "must be a string"
+        if self.kind == "profile":
+            return "must be a number or a list of [time_s, value] pairs with non-decreasing times"
+        if self.kind == "table":
+            return "must be a table"
+        return "invalid"
+
+
+def F(default=MISSING, lo=None, hi=None, lo_open=False, hi_open=False, doc=""):
+    return Spec("float", default, lo, hi, lo_open, hi_open, doc=doc)
+
+
+def POS(default=MISSING, hi=None, doc=""):
+    return Spec("float", default, 0.0, hi, True, False, doc=doc)
+
+
+def NONNEG(default=MISSING, hi=None, doc=""):
+    return Spec("float", default, 0.0, hi, False, False, doc=doc)
+
+
+def I(default=MISSING, lo=None, hi=None, doc=""):
+    return Spec("int", default, lo, hi, doc=doc)
+
+
+def B(default=MISSING, doc=""):
+    return Spec("bool", default, doc=doc)
+
+
+def S(default=MISSING, doc=""):
+    return Spec("str", default, doc=doc)
+
+
+def C(*choices, default=MISSING, doc=""):
+    return Spec("choice", default, choices=tuple(choices), doc=doc)
+
+
+def P(default=MISSING, doc=""):
+    return Spec("profile", default, doc=doc)
+
+
+def T(table: dict, default=MISSING, doc=""):
+    return Spec("table", default, table=table, doc=doc)
+
+
+ANY = Spec("any", None)
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def check_value(spec: Spec, value, field: str, source: str | None):
+    def fail():
+        raise ConfigError(field, value, spec.allowed(), source)
+
+    k = spec.kind
+    if k == "any":
+        return value
+    if k == "float":
+        if not _is_number(value) or not math.isfinite(value):
+            fail()
+        v = float(value)
+        if spec.lo is not None and (v < spec.lo or (spec.lo_open and v == spec.lo)):
+            fail()
+        if spec.hi is not None and (v > spec.hi or (spec.hi_open and v == spec.hi)):
+            fail()
+        return v
+    if k == "int":
+        if isinstance(value, bool) or not isinstance(value, int):
+            fail()
+        if spec.lo is not None and value < spec.lo:
+            fail()
+        if spec.hi is not None and value > spec.hi:
+            fail()
+        return value
+    if k == "bool":
+        if not isinstance(value, bool):
+            fail()
+        return value
+    if k == "str":
+        if not isinstance(value, str):
+            fail()
+        return value
+    if k == "choice":
+        if value not in spec.choices:
+            fail()
+        return value
+    if k == "profile":
+        return check_profile(value, field, source, spec)
+    if k == "table":
+        if not isinstance(value, dict):
+            fail()
+        return validate(value, spec.table, field, source)
+    raise AssertionError(k)
+
+
+def check_profile(value, field, source, spec=None):
+    """A number, or [[t, y], ...] with non-decreasing t. Returns (t, y) lists."""
+    allowed = (spec or P()).allowed()
+    if _is_number(value) and math.isfinite(value):
+        return ([0.0], [float(value)])
+    if not isinstance(value, list) or not value:
+        raise ConfigError(field, value, allowed, source)
+    ts, ys = [], []
+    for n, pair in enumerate(value):
+        if (not isinstance(pair, list) or len(pair) != 2
+                or not all(_is_number(x) and math.isfinite(x) for x in pair)):
+            raise ConfigError(f"{field}[{n}]", pair, "must be a pair [time_s, value] of finite numbers", source)
+        if ts and pair[0] < ts[-1]:
+            raise ConfigError(f"{field}[{n}]", pair, f"time must not be before the previous one ({ts[-1]:g} s)", source)
+        if pair[0] < 0:
+            raise ConfigError(f"{field}[{n}]", pair, "time must be >= 0", source)
+        ts.append(float(pair[0]))
+        ys.append(float(pair[1]))
+    return (ts, ys)
+
+
+def validate(data: dict, table: dict[str, Spec], prefix: str, source: str | None) -> dict:
+    """Validate one table: unknown keys refused, defaults filled in."""
+    out = {}
+    for key, value in data.items():
+        field = f"{prefix}.{key}" if prefix else key
+        if key not in table:
+            allowed = ", ".join(sorted(table)) or "none"
+            raise ConfigError(field, value, f"unknown key; allowed here: {allowed}", source)
+        out[key] = check_value(table[key], value, field, source)
+    for key, spec in table.items():
+        if key in out:
+            continue
+        field = f"{prefix}.{key}" if prefix else key
+        if spec.default is MISSING:
+            raise ConfigError(field, "missing", "is required", source)
+        if spec.kind == "table" and isinstance(spec.default, dict):
+            out[key] = validate(spec.default, spec.table, field, source)
+        elif spec.kind == "profile":
+            out[key] = check_profile(spec.default, field, source, spec)
+        else:
+            out[key] = spec.default
+    return out
+
+
+def deep_merge(base: dict, override: dict) -> dict:
+    """Override's keys replace base's; tables merge recursively."""
+    out = dict(base)
+    for k, v in override.items():
+        if isinstance(v, dict) and isinstance(out.get(k), dict):
+            out[k] = deep_merge(out[k], v)
+        else:
+            out[k] = v
+    return out
+
+
+Check = Callable[[dict], None]

@@ -1,0 +1,241 @@
+"""Running a scenario on the C core: the configuration it is given, the
+chunked advance with a progress bar, and the Result."""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import _core
+from .errors import ConfigError, SimulationError
+from .scenario import Scenario, load_scenario
+from .schema import check_profile
+from .units import rpm_to_rad_s
+
+ffi, lib = _core.ffi, _core.lib
+
+CHANNELS = [
+    "t", "theta_e", "w_m", "psi_d", "psi_q", "i_d", "i_q", "i_a", "i_b", "i_c",
+    "T_e", "T_L", "u_d", "u_q", "duty_a", "duty_b", "duty_c",
+    "w_m_ref", "i_d_ref", "i_q_ref", "T_ref", "i_d_hat", "i_q_hat", "u_d_ref", "u_q_ref",
+    "theta_hat", "w_m_hat", "theta_err", "overmod", "E_in", "E_cu", "E_airgap", "W_mag",
+]
+assert len(CHANNELS) == lib.FS_CH_N, "channel names out of step with fs_sim.h"
+
+STOP_REASONS = {
+    lib.FS_RUN_DONE: "done",
+    lib.FS_STOP_NAN: "nan",
+    lib.FS_STOP_OVERCURRENT: "overcurrent",
+    lib.FS_STOP_LOSS_OF_LOCK: "loss_of_lock",
+}
+
+MODES = {"off": lib.FS_MODE_OFF, "voltage": lib.FS_MODE_VOLTAGE_DQ, "vf": lib.FS_MODE_VF,
+         "current": lib.FS_MODE_CURRENT, "speed": lib.FS_MODE_SPEED}
+ANGLES = {"encoder": lib.FS_ANGLE_ENCODER, "true": lib.FS_ANGLE_EXTERNAL}
+MAGNETIC = {"linear": lib.FS_MAG_LINEAR, "algebraic": lib.FS_MAG_ALGEBRAIC, "fluxmap": lib.FS_MAG_FLUXMAP}
+
+
+@dataclass
+class Result:
+    """Traces (NumPy arrays by channel name, SI units) and metrics of a run."""
+    scenario: Scenario
+    traces: dict[str, np.ndarray]
+    stop_reason: str                 # "done", "nan", "overcurrent", "loss_of_lock", "interrupted"
+    stop_time: float | None
+    wall_time: float                 # s
+    sim_time: float                  # s simulated
+    metrics: dict = field(default_factory=dict)
+
+    @property
+    def speed_ratio(self) -> float:
+        """Simulated seconds per wall-clock second."""
+        return self.sim_time / self.wall_time if self.wall_time > 0 else math.inf
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.traces[name]
+
+    def to_dataframe(self):
+        try:
+            import pandas as pd
+        except ImportError as exc:  # pragma: no cover - optional
+            raise ImportError("to_dataframe needs pandas: pip install pandas") from exc
+        return pd.DataFrame(self.traces)
+
+
+class _Keep:
+    """Keeps the cffi buffers alive as long as the config that points at them."""
+
+    def __init__(self):
+        self.items = []
+
+    def __call__(self, x):
+        self.items.append(x)
+        return x
+
+
+def _set_profile(prof, t, y, keep):
+    prof.n = len(t)
+    prof.t = keep(ffi.new("double[]", list(t)))
+    prof.y = keep(ffi.new("double[]", list(y)))
+
+
+def _fluxmap(cfg_mag, mag: dict, keep, source):
+    i_d, i_q, psi_d, psi_q = (np.asarray(mag.get(k), dtype=float) for k in ("i_d", "i_q", "psi_d", "psi_q"))
+    for name, grid in (("i_d", i_d), ("i_q", i_q)):
+        if grid.ndim != 1 or grid.size < 2 or not np.allclose(np.diff(grid), grid[1] - grid[0], rtol=1e-6) or grid[1] <= grid[0]:
+            raise ConfigError(f"machine.magnetic.{name}", mag.get(name), "must be a rising, evenly spaced list of >= 2 currents", source)
+    for name, tab in (("psi_d", psi_d), ("psi_q", psi_q)):
+        if tab.shape != (i_d.size, i_q.size) or not np.all(np.isfinite(tab)):
+            raise ConfigError(f"machine.magnetic.{name}", "table", f"must be a {i_d.size} x {i_q.size} table of finite fluxes", source)
+    if not (np.all(np.diff(psi_d, axis=0) > 0) and np.all(np.diff(psi_q, axis=1) > 0)):
+        raise ConfigError("machine.magnetic.psi_d", "table", "psi_d must rise with i_d and psi_q with i_q (monotonic map)", source)
+    cfg_mag.map_n_d, cfg_mag.map_n_q = i_d.size, i_q.size
+    cfg_mag.map_i_d0, cfg_mag.map_di_d = i_d[0], i_d[1] - i_d[0]
+    cfg_mag.map_i_q0, cfg_mag.map_di_q = i_q[0], i_q[1] - i_q[0]
+    cfg_mag.map_psi_d = keep(ffi.new("double[]", psi_d.ravel().tolist()))
+    cfg_mag.map_psi_q = keep(ffi.new("double[]", psi_q.ravel().tolist()))
+
+
+def build_config(sc: Scenario):
+    """The C configuration of a scenario, and the buffers it points into."""
+    keep = _Keep()
+    m, d = sc.machine, sc.data
+    conv, tim, sen, ctl, load, ref = (d[k] for k in ("converter", "timing", "sensors", "controller", "load", "references"))
+    cfg = keep(ffi.new("fs_sim_config *"))
+    pl = cfg.plant
+    pl.pole_pairs = m.pole_pairs
+    pl.R_s = m.R_s
+    mag = m.magnetic
+    pl.mag.kind = MAGNETIC[mag["model"]]
+    pl.mag.L_d, pl.mag.L_q, pl.mag.psi_f = m.L_d, m.L_q, m.psi_f
+    for k in ("a_dd", "a_qq", "a_dq", "S", "T", "U", "V"):
+        setattr(pl.mag, k, mag[k])
+    if mag["model"] == "fluxmap":
+        _fluxmap(pl.mag, mag, keep, sc.source)
+    pl.J, pl.B, pl.T_coulomb = m.J, m.B, m.T_coulomb
+    pl.w_coulomb = 1e-2
+    pl.load_kind = {"torque": lib.FS_LOAD_TORQUE, "speed": lib.FS_LOAD_SPEED_IDEAL, "speed_pi": lib.FS_LOAD_SPEED_PI}[load["kind"]]
+    pl.J_load = load["J_load"]
+    pl.load_bandwidth = load["bandwidth"]
+
+    inv = cfg.inverter
+    inv.kind = lib.FS_INV_SWITCHING if conv["inverter"] == "switching" else lib.FS_INV_AVERAGED
+    inv.u_dc, inv.T_pwm, inv.t_dead, inv.u_on = conv["u_dc"], 1.0 / conv["f_pwm"], conv["t_dead"], conv["u_on"]
+    double = tim["sampling"] == "double"
+    cfg.sampling = lib.FS_SAMPLING_DOUBLE if double else lib.FS_SAMPLING_SINGLE
+    cfg.delay = 1 if tim["delay"] else 0
+    cfg.h_max = tim["h_max"]
+    Ts = inv.T_pwm / 2 if double else inv.T_pwm
+
+    cfg.adc_bits, cfg.adc_range, cfg.noise_i = sen["adc_bits"], sen["adc_range"], sen["noise_i"]
+    cfg.encoder_bits, cfg.seed = sen["encoder_bits"], sen["seed"]
+    cfg.i_trip = m.bench["i_trip"]
+    cfg.theta_m0 = math.radians(d["initial"]["theta_e_deg"]) / m.pole_pairs
+    cfg.w_m0 = rpm_to_rad_s(d["initial"]["speed_rpm"])
+
+    dc = cfg.drive
+    dc.mode, dc.angle_source = MODES[ctl["mode"]], ANGLES[ctl["angle"]]
+    dc.Ts, dc.T_pwm, dc.delay = Ts, inv.T_pwm, float(cfg.delay)
+    dc.R_s, dc.L_d, dc.L_q = m.R_s * ctl["R_s_scale"], m.L_d * ctl["L_d_scale"], m.L_q * ctl["L_q_scale"]
+    dc.psi_f, dc.pole_pairs = m.psi_f * ctl["psi_f_scale"], m.pole_pairs
+    dc.J, dc.B = (m.J + (load["J_load"] if load["kind"] == "speed_pi" else 0.0)) * ctl["J_scale"], m.B
+    dc.i_max, dc.T_max = ctl["i_max"], ctl["T_max"]
+    dc.bw_current, dc.bw_speed, dc.bw_pll = ctl["bw_current"], ctl["bw_speed"], ctl["bw_pll"]
+    dc.t_dead_comp = conv["t_dead"] if ctl["dead_time_comp"] else 0.0
+    dc.i_dead_band = ctl["i_dead_band"]
+    dc.vf_gain, dc.vf_boost = ctl["vf_gain"], ctl["vf_boost"]
+
+    p = m.pole_pairs
+    profiles = {
+        "w_m_ref": (ref["speed_rpm"], rpm_to_rad_s(1.0)),
+        "i_d_ref": (ref["i_d"], 1.0), "i_q_ref": (ref["i_q"], 1.0),
+        "u_d_ref": (ref["u_d"], 1.0), "u_q_ref": (ref["u_q"], 1.0),
+        "w_e_ref": (ref["frame_rpm"], p * rpm_to_rad_s(1.0)),
+        "T_load": (load["torque"], 1.0), "w_load": (load["speed_rpm"], rpm_to_rad_s(1.0)),
+    }
+    for name, ((t, y), scale) in profiles.items():
+        _set_profile(getattr(cfg, name), t, [v * scale for v in y], keep)
+    cfg.decimation = d["trace"]["decimation"]
+    return cfg, keep
+
+
+class Simulation:
+    """A simulation object that is advanced in chunks and keeps what it computed."""
+
+    def __init__(self, scenario: Scenario):
+        self.scenario = scenario
+        self._cfg, self._keep = build_config(scenario)
+        err = ffi.new("char[]", 512)
+        ptr = lib.fs_sim_create(self._cfg, err, 512)
+        if ptr == ffi.NULL:
+            raise SimulationError(f"{scenario.source or scenario.name}: {ffi.string(err).decode()}")
+        self._sim = ffi.gc(ptr, lib.fs_sim_destroy)
+        self._chunks: list[np.ndarray] = []
+        self.status = "running"
+        self.stop_time: float | None = None
+
+    @property
+    def time(self) -> float:
+        return lib.fs_sim_time(self._sim)
+
+    def advance(self, t_end: float) -> str:
+        """Run to t_end (or a stop). Returns the status: running, done or a stop reason."""
+        rows = ffi.new("int *")
+        Tc = self._cfg.drive.Ts
+        dec = self._cfg.decimation
+        while True:
+            n_rows = max(16, int((t_end - self.time) / (Tc * dec)) + 2)
+            buf = np.empty((n_rows, lib.FS_CH_N))
+            rc = lib.fs_sim_run(self._sim, t_end, ffi.cast("double *", buf.ctypes.data), n_rows, rows)
+            if rows[0]:
+                self._chunks.append(buf[: rows[0]])
+            if rc == lib.FS_RUN_BUFFER_FULL:
+                continue
+            if rc != lib.FS_RUN_DONE:
+                self.status = STOP_REASONS.get(rc, f"stop {rc}")
+                self.stop_time = lib.fs_sim_stop_time(self._sim)
+            return self.status
+
+    def traces(self) -> dict[str, np.ndarray]:
+        data = np.concatenate(self._chunks) if self._chunks else np.empty((0, lib.FS_CH_N))
+        return {name: data[:, k].copy() for k, name in enumerate(CHANNELS)}
+
+
+def simulate(scenario: Scenario | str, progress: bool = False, chunk: float | None = None,
+             overrides: dict | None = None) -> Result:
+    """Run a scenario (object, catalog name or TOML path) to its end or to a stop.
+
+    An interrupt (Ctrl-C) ends the run early and keeps what was computed.
+    """
+    from .metrics import compute_metrics
+
+    sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario, overrides)
+    sim = Simulation(sc)
+    T = sc.duration
+    chunk = chunk or max(T / 100.0, 1e-3)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=round(T, 6), unit="s sim", desc=sc.name, leave=False,
+                   bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.3f}/{total:.3f} s [{elapsed}<{remaining}]")
+    t0 = time.perf_counter()
+    status = "running"
+    try:
+        while sim.time < T - 1e-12 and status == "running":
+            before = sim.time
+            status = sim.advance(min(sim.time + chunk, T))
+            if bar is not None:
+                bar.update(sim.time - before)
+    except KeyboardInterrupt:
+        status = "interrupted"
+    finally:
+        if bar is not None:
+            bar.close()
+    wall = time.perf_counter() - t0
+    if status == "running":
+        status = "done"
+    res = Result(sc, sim.traces(), status, sim.stop_time, wall, sim.time)
+    res.metrics = compute_metrics(res)
+    return res
