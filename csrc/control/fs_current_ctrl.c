@@ -4,12 +4,9 @@
 static fs_status design_axis(fs_pi *pi, float Ts, float L, float R, float alpha)
 {
     fs_pi_config c;
-    c.Ts = Ts;
-    c.k_t = alpha * L;
-    c.k_p = fmaxf(2.0f * alpha * L - R, 0.0f);
-    c.k_i = alpha * alpha * L;
-    c.u_max = 0.0f;  /* limited as a vector by the modulator, see update */
-    return fs_pi_init(pi, &c);
+    /* limited as a vector by the modulator, see fs_current_ctrl_update */
+    fs_status st = fs_pi_design(&c, Ts, L, R, alpha, 0.0f);
+    return st != FS_OK ? st : fs_pi_init(pi, &c);
 }
 
 fs_status fs_current_ctrl_init(fs_current_ctrl *cc, const fs_current_ctrl_config *cfg)
@@ -38,11 +35,20 @@ void fs_current_ctrl_reset(fs_current_ctrl *cc)
     cc->meas = cc->ref;
     cc->u = cc->ref;
     cc->u_ff = cc->ref;
+    cc->u_prev = cc->ref;
 }
 
 fs_dq fs_current_ctrl_step(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, float w_e)
 {
     const fs_current_ctrl_config *c = &cc->cfg;
+    if (c->predict) {
+        /* current at the next sample, from the voltage acting until then */
+        float psi_d = c->L_d * i.d + c->psi_f;
+        float di_d = (cc->u_prev.d - c->R_s * i.d + w_e * c->L_q * i.q) / c->L_d;
+        float di_q = (cc->u_prev.q - c->R_s * i.q - w_e * psi_d) / c->L_q;
+        i.d += c->Ts * di_d;
+        i.q += c->Ts * di_q;
+    }
     /* Decoupling and back-EMF feed-forward: u_d = ... - w L_q i_q,
      * u_q = ... + w (L_d i_d + psi_f). */
     cc->u_ff.d = -w_e * c->L_q * i.q;
@@ -58,4 +64,5 @@ void fs_current_ctrl_update(fs_current_ctrl *cc, fs_dq u_real)
 {
     fs_pi_update(&cc->pi_d, cc->ref.d, cc->meas.d, cc->u.d, u_real.d);
     fs_pi_update(&cc->pi_q, cc->ref.q, cc->meas.q, cc->u.q, u_real.q);
+    cc->u_prev = u_real;
 }

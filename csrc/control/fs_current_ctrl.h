@@ -1,10 +1,16 @@
 /* Synchronous-frame current controller with decoupling.
  *
  * Per axis a 2DOF PI designed from the machine model and the closed-loop
- * bandwidth alpha (Harnefors' design): with the cross-coupling and back-EMF
- * fed forward, L di/dt = u' - R i, and
- *   k_t = alpha L,  k_p = 2 alpha L - R,  k_i = alpha^2 L
- * give i/i_ref = alpha / (s + alpha) and a double disturbance pole at -alpha.
+ * bandwidth alpha: with the cross-coupling and back-EMF fed forward,
+ * L di/dt = u' - R i, and fs_pi_design places the sampled loop's poles at
+ * exp(-alpha Ts) (k_t ~ alpha L, k_p ~ 2 alpha L - R, k_i ~ alpha^2 L), so
+ * i/i_ref is first order with bandwidth alpha.
+ *
+ * With a computation delay the voltage computed now acts only from the next
+ * sample on; the controller then works on the current predicted for that
+ * instant from the model and the voltage acting meanwhile (a one-step
+ * predictor), so that the loop keeps its designed bandwidth and the delay
+ * appears as a pure delay of the response.
  */
 #ifndef FS_CURRENT_CTRL_H
 #define FS_CURRENT_CTRL_H
@@ -18,12 +24,14 @@ typedef struct {
     float L_d, L_q;    /* H */
     float psi_f;       /* Wb */
     float bandwidth;   /* closed-loop bandwidth alpha, rad/s */
+    int predict;       /* 1: compensate one period of computation delay */
 } fs_current_ctrl_config;
 
 typedef struct {
     fs_current_ctrl_config cfg;
     fs_pi pi_d, pi_q;
     fs_dq ref, meas, u, u_ff;  /* kept from step for update */
+    fs_dq u_prev;              /* realised voltage acting until the next sample */
 } fs_current_ctrl;
 
 fs_status fs_current_ctrl_init(fs_current_ctrl *cc, const fs_current_ctrl_config *cfg);

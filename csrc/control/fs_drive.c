@@ -13,7 +13,8 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     if (!(cfg->t_dead_comp >= 0.0f) || !(cfg->i_dead_band >= 0.0f)) return FS_ERR_PARAM;
     drv->cfg = *cfg;
 
-    fs_current_ctrl_config ccc = {cfg->Ts, cfg->R_s, cfg->L_d, cfg->L_q, cfg->psi_f, cfg->bw_current};
+    fs_current_ctrl_config ccc = {cfg->Ts, cfg->R_s, cfg->L_d, cfg->L_q, cfg->psi_f, cfg->bw_current,
+                                  cfg->delay > 0.5f};
     fs_status st = fs_current_ctrl_init(&drv->cc, &ccc);
     if (st != FS_OK) return st;
 

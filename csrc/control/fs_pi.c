@@ -11,6 +11,23 @@ fs_status fs_pi_init(fs_pi *pi, const fs_pi_config *cfg)
     return FS_OK;
 }
 
+fs_status fs_pi_design(fs_pi_config *cfg, float Ts, float L, float R, float alpha, float u_max)
+{
+    if (!cfg) return FS_ERR_NULL;
+    if (!(Ts > 0.0f)) return FS_ERR_TS;
+    if (!(L > 0.0f) || !(R >= 0.0f)) return FS_ERR_PARAM;
+    if (!(alpha > 0.0f) || alpha * Ts > 2.0f) return FS_ERR_BANDWIDTH;
+    float a = expf(-R * Ts / L);
+    float b = (R * Ts / L > 1e-6f) ? (1.0f - a) / R : Ts / L;
+    float p = expf(-alpha * Ts);
+    cfg->Ts = Ts;
+    cfg->k_t = (1.0f - p) / b;
+    cfg->k_p = fmaxf((1.0f + a - 2.0f * p) / b, 0.0f);
+    cfg->k_i = (1.0f - p) * (1.0f - p) / (b * Ts);
+    cfg->u_max = u_max;
+    return FS_OK;
+}
+
 void fs_pi_reset(fs_pi *pi) { pi->integ = 0.0f; }
 
 float fs_pi_output(const fs_pi *pi, float ref, float meas)

@@ -25,6 +25,14 @@ typedef struct {
 } fs_pi;
 
 fs_status fs_pi_init(fs_pi *pi, const fs_pi_config *cfg);
+/* Gains for the plant L dx/dt = u - R x sampled with period Ts, placed so
+ * that the sampled closed loop is exactly first order, x/r = (1-p)/(z-p)
+ * with p = exp(-alpha Ts), and the disturbance poles are both at p:
+ *   a = exp(-R Ts/L), b = (1-a)/R (Ts/L if R = 0),
+ *   k_t = (1-p)/b,  k_p = (1+a-2p)/b,  k_i = (1-p)^2/(b Ts).
+ * For small alpha Ts these are k_t = alpha L, k_p = 2 alpha L - R,
+ * k_i = alpha^2 L (Harnefors' continuous-time 2DOF design). */
+fs_status fs_pi_design(fs_pi_config *cfg, float Ts, float L, float R, float alpha, float u_max);
 void fs_pi_reset(fs_pi *pi);
 /* Unlimited output for (r, y); does not change the state. */
 float fs_pi_output(const fs_pi *pi, float ref, float meas);

@@ -11,11 +11,8 @@ fs_status fs_speed_ctrl_init(fs_speed_ctrl *sc, const fs_speed_ctrl_config *cfg)
     if (!(cfg->T_max > 0.0f)) return FS_ERR_LIMIT;
     sc->cfg = *cfg;
     fs_pi_config c;
-    c.Ts = cfg->Ts;
-    c.k_t = cfg->bandwidth * cfg->J;
-    c.k_p = fmaxf(2.0f * cfg->bandwidth * cfg->J - cfg->B, 0.0f);
-    c.k_i = cfg->bandwidth * cfg->bandwidth * cfg->J;
-    c.u_max = cfg->T_max;
+    fs_status st = fs_pi_design(&c, cfg->Ts, cfg->J, cfg->B, cfg->bandwidth, cfg->T_max);
+    if (st != FS_OK) return st;
     return fs_pi_init(&sc->pi, &c);
 }
 

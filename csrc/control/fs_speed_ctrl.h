@@ -1,7 +1,7 @@
 /* Speed controller: 2DOF PI on the mechanical speed giving a torque
- * reference, designed from the inertia and the closed-loop bandwidth:
- *   J dw/dt = T - B w  ->  k_t = alpha J,  k_p = 2 alpha J - B,  k_i = alpha^2 J,
- * so that w/w_ref = alpha / (s + alpha); torque limited with anti-windup.
+ * reference, designed by fs_pi_design for J dw/dt = T - B w and the
+ * closed-loop bandwidth (k_t ~ alpha J, k_p ~ 2 alpha J - B, k_i ~ alpha^2 J),
+ * so that w/w_ref is first order; torque limited with anti-windup.
  */
 #ifndef FS_SPEED_CTRL_H
 #define FS_SPEED_CTRL_H
