@@ -15,7 +15,10 @@ class ConfigError(ValueError):
         self.allowed = allowed
         self.source = source
         where = f"{source}: " if source else ""
-        super().__init__(f"{where}{field} = {value!r}: {allowed}")
+        shown = repr(value)
+        if len(shown) > 60:
+            shown = shown[:57] + "..."
+        super().__init__(f"{where}{field} = {shown}: {allowed}")
 
 
 class SimulationError(RuntimeError):

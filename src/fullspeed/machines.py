@@ -28,7 +28,10 @@ BENCH = {
     "adc_bits": I(12, 0, 24), "adc_range": POS(),
     "encoder_bits": I(0, 0, 32),
     "bw_current": POS(), "bw_speed": POS(), "bw_pll": POS(),
-    "reasons": T({}, default={}) ,
+    # the indirect matrix converter's grid and input filter (zou2021)
+    "u_dc_min": POS(None), "u_grid_ll_rms": POS(None), "f_grid": POS(None),
+    "l_filter": POS(None), "r_filter": POS(None), "c_filter": POS(None),
+    "reasons": Spec("any", {}),
 }
 
 MACHINE = {
@@ -44,7 +47,7 @@ MACHINE = {
     "bench": T(BENCH),
     # tables owned by the estimator issues, validated where they are used
     "injection": ANY, "blending": ANY, "paper_gains": ANY,
-    "third_harmonic": ANY, "bench_experiment": ANY,
+    "third_harmonic": ANY, "bench_experiment": ANY, "derivations": ANY,
 }
 
 

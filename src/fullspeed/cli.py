@@ -1,0 +1,100 @@
+"""Command line: fullspeed run | list | reproduce."""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .errors import ConfigError, SimulationError
+
+
+def _cmd_run(args) -> int:
+    from .metrics import json_safe
+    from .plots import plot_run
+    from .sim import simulate
+
+    overrides = {}
+    if args.inverter:
+        overrides["converter"] = {"inverter": args.inverter}
+    res = simulate(args.scenario, progress=not args.quiet, overrides=overrides or None)
+    out = Path(args.out or Path("out") / res.scenario.name)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "metrics.json").write_text(json.dumps(json_safe(res.metrics), indent=2))
+    np.savez_compressed(out / "traces.npz", **res.traces)
+    plot_run(res, out / "run.png")
+    print(f"{res.scenario.name}: {res.sim_time:.3f} s simulated in {res.wall_time:.3f} s wall "
+          f"= {res.speed_ratio:.1f} simulated s per wall s ({res.scenario.data['converter']['inverter']} inverter)")
+    if "speed_error_pct" in res.metrics and res.metrics["speed_error_pct"] is not None:
+        print(f"steady speed error: {res.metrics['speed_error_pct']:+.4f} %")
+    print(f"wrote {out}/metrics.json, traces.npz, run.png")
+    if res.stop_reason != "done":
+        print(f"fullspeed: run stopped: {res.stop_reason} at t = {res.stop_time if res.stop_time is not None else res.sim_time:.6f} s "
+              "(traces up to the stop were written)", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _cmd_list(args) -> int:
+    import tomllib
+    from importlib import resources
+
+    from .machines import catalog_names
+    from .scenario import scenario_names
+
+    print("machines:")
+    for name in catalog_names():
+        d = tomllib.loads((resources.files("fullspeed") / "machines" / f"{name}.toml").read_text())
+        print(f"  {name:28s} {d.get('description', '')}")
+    print("scenarios:")
+    for name in scenario_names():
+        d = tomllib.loads((resources.files("fullspeed") / "scenarios" / f"{name}.toml").read_text())
+        print(f"  {name:28s} {d.get('description', '')}")
+    return 0
+
+
+def _cmd_reproduce(args) -> int:
+    from .reproduce import reproduce
+
+    out = Path(args.out)
+    rows = reproduce(args.paper, out, progress=not args.quiet)
+    n_pass = sum(r["pass"] for r in rows)
+    n_meas = sum(r["value"] is not None for r in rows)
+    print(f"{len(rows)} claims, {n_meas} measured, {n_pass} passing; wrote {out}/claims.json and {out}/report.md")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="fullspeed", description="Wide-speed-range sensorless PMSM drives")
+    ap.add_argument("--debug", action="store_true", help="show tracebacks")
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("run", help="run a scenario (catalog name or TOML file)")
+    r.add_argument("scenario")
+    r.add_argument("--out", help="output folder (default out/<name>)")
+    r.add_argument("--inverter", choices=["averaged", "switching"], help="override the inverter model")
+    r.add_argument("--quiet", action="store_true", help="no progress bar")
+    r.set_defaults(func=_cmd_run)
+    ls = sub.add_parser("list", help="list catalog machines and scenarios")
+    ls.set_defaults(func=_cmd_list)
+    rp = sub.add_parser("reproduce", help="measure the claims of CLAIMS.md")
+    rp.add_argument("--paper", choices=["yang2022", "zou2021", "yu2022", "beyond"])
+    rp.add_argument("--out", default="out/reproduce")
+    rp.add_argument("--quiet", action="store_true")
+    rp.set_defaults(func=_cmd_reproduce)
+    args = ap.parse_args(argv)
+    try:
+        return args.func(args)
+    except (ConfigError, SimulationError) as exc:
+        if args.debug:
+            raise
+        print(f"fullspeed: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("fullspeed: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,84 @@
+"""The command line: the main scenario, and bad input as one clean line."""
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from conftest import MACHINE
+
+
+def fullspeed(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "fullspeed", *args], capture_output=True, text=True,
+                          cwd=cwd, timeout=300, env={**os.environ, "PYTHONWARNINGS": "ignore"})
+
+
+def test_encoder_speedstep_runs_and_holds_speed(tmp_path):
+    out = tmp_path / "run"
+    p = fullspeed("run", "yang2022-encoder-speedstep", "--out", str(out), "--quiet")
+    assert p.returncode == 0, p.stderr
+    m = json.loads((out / "metrics.json").read_text())
+    assert m["stop_reason"] == "done"
+    assert abs(m["speed_ref_rpm"] - 1000.0) < 1e-3
+    assert abs(m["speed_error_pct"]) < 0.5
+    assert m["T_e_mean"] > 2.0  # carries the rated load
+    assert (out / "run.png").stat().st_size > 10_000
+    assert "simulated s per wall s" in p.stdout
+
+
+def write_scenario(tmp_path, text):
+    f = tmp_path / "bad.toml"
+    f.write_text(text)
+    return f
+
+
+def bad(machine='machine = "yang2022"\n', extra=""):
+    return f'name = "bad"\nduration = 0.01\n{machine}[controller]\nmode = "current"\n{extra}'
+
+
+@pytest.mark.parametrize("text, field", [
+    (bad("", '[machine]\ncatalog = "yang2022"\n[machine.electrical]\nL_d = -1e-5\n'), "machine.electrical.L_d"),
+    (bad(extra='[converter]\nfrequency = 5\n'), "converter.frequency"),
+    (bad('machine = "no-such-motor"\n'), "machine.catalog"),
+    (bad(extra='[references]\nspeed_rpm = [[0.1, 0], [0.05, 10]]\n'), "references.speed_rpm[1]"),
+    (bad(extra='[controller]\n'), "toml"),
+    (bad(extra='[timing]\nh_max = "fast"\n'), "timing.h_max"),
+])
+def test_bad_input_is_one_line_exit_2(tmp_path, text, field):
+    f = write_scenario(tmp_path, text)
+    p = fullspeed("run", str(f), "--out", str(tmp_path / "o"), "--quiet")
+    assert p.returncode == 2
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1, p.stderr
+    assert field in lines[0]
+    assert "Traceback" not in p.stderr
+    assert not (tmp_path / "o").exists()
+
+
+def test_negative_inductance_message_names_value_and_rule(tmp_path):
+    f = write_scenario(tmp_path, bad("", '[machine]\ncatalog = "yang2022"\n[machine.electrical]\nL_d = -1e-5\n'))
+    p = fullspeed("run", str(f), "--quiet")
+    assert "-1e-05" in p.stderr and "> 0" in p.stderr
+
+
+def test_unknown_scenario_name():
+    p = fullspeed("run", "no-such-scenario", "--quiet")
+    assert p.returncode == 2 and "unknown scenario" in p.stderr
+
+
+def test_reproduce_lists_every_claim(tmp_path):
+    from fullspeed.claims import CLAIMS
+
+    p = fullspeed("reproduce", "--out", str(tmp_path), "--quiet")
+    assert p.returncode == 0, p.stderr
+    rows = json.loads((tmp_path / "claims.json").read_text())
+    assert [r["id"] for r in rows] == [c.id for c in CLAIMS]
+    keys = {"id", "paper", "text", "target", "value", "unit", "pass", "scenario"}
+    for r in rows:
+        assert keys <= set(r)
+        if r["value"] is None:
+            assert r["pass"] is False
+    report = (tmp_path / "report.md").read_text()
+    assert all(c.id in report for c in CLAIMS)

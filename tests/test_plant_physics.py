@@ -1,0 +1,125 @@
+"""The plant against physics: phasor steady state, power balance, the
+designed current-loop bandwidth, averaged vs switching inverter."""
+import math
+
+import numpy as np
+import pytest
+
+from fullspeed.scenario import scenario_from_dict
+from fullspeed.sim import simulate
+from fullspeed.units import rpm_to_rad_s
+
+from conftest import MACHINE
+
+
+def run(d):
+    return simulate(scenario_from_dict(d))
+
+
+def window(res, t0, t1, name):
+    t = res["t"]
+    m = (t >= t0) & (t <= t1)
+    return res[name][m]
+
+
+def ideal_converter(inverter):
+    return {"inverter": inverter, "t_dead": 0.0, "u_on": 0.0}
+
+
+@pytest.mark.parametrize("inverter", ["averaged", "switching"])
+def test_steady_state_equals_phasor_solution(make_scenario, inverter):
+    """Open-loop dq voltage at a held speed: the mean currents equal the
+    solution of u_d = R i_d - w L_q i_q, u_q = R i_q + w (L_d i_d + psi_f)."""
+    n = 600.0
+    u_d, u_q = -1.2, 3.0
+    d = make_scenario(
+        duration=0.3, converter=ideal_converter(inverter),
+        sensors={"adc_bits": 0, "encoder_bits": 0},
+        controller={"mode": "voltage", "dead_time_comp": False},
+        references={"u_d": u_d, "u_q": u_q, "frame_rpm": n},
+        load={"kind": "speed", "speed_rpm": n},
+    )
+    res = run(d)
+    e = MACHINE["electrical"]
+    w = MACHINE["pole_pairs"] * rpm_to_rad_s(n)
+    A = np.array([[e["R_s"], -w * e["L_q"]], [w * e["L_d"], e["R_s"]]])
+    i_d, i_q = np.linalg.solve(A, [u_d, u_q - w * e["psi_f"]])
+    # the open-loop frame and the rotor both start at 0 and turn at w
+    m_d = window(res, 0.2, 0.3, "i_d").mean()
+    m_q = window(res, 0.2, 0.3, "i_q").mean()
+    mag = math.hypot(i_d, i_q)
+    assert mag > 5.0  # a meaningful operating point
+    assert abs(m_d - i_d) < 0.005 * mag, (m_d, i_d)
+    assert abs(m_q - i_q) < 0.005 * mag, (m_q, i_q)
+
+
+@pytest.mark.parametrize("model", ["linear", "algebraic"])
+def test_power_balance(make_scenario, model):
+    """Terminal energy = copper loss + air-gap work + change of magnetic
+    energy, and air-gap work = kinetic energy on a free, frictionless shaft,
+    through a switching-inverter acceleration."""
+    mag = {"model": model}
+    if model == "algebraic":  # strong self- and cross-saturation
+        mag.update(a_dd=2e8, S=4.0, a_qq=5e8, T=4.0, a_dq=1e9, U=1.0, V=1.0)
+    d = make_scenario(duration=0.15, controller={"mode": "speed"},
+                      references={"speed_rpm": [[0, 0], [0.01, 0], [0.01, 800]]})
+    d["machine"]["magnetic"] = mag
+    res = run(d)
+    E_in = res["E_in"][-1] - res["E_in"][0]
+    E_cu = res["E_cu"][-1] - res["E_cu"][0]
+    E_ag = res["E_airgap"][-1] - res["E_airgap"][0]
+    dW = res["W_mag"][-1] - res["W_mag"][0]
+    assert E_in > 1.0
+    assert abs(E_in - (E_cu + E_ag + dW)) < 0.01 * E_in
+    J = MACHINE["mechanical"]["J"]
+    KE = 0.5 * J * (res["w_m"][-1] ** 2 - res["w_m"][0] ** 2)
+    assert abs(E_ag - KE) < 0.01 * E_ag
+
+
+def fit_bandwidth(t, y, delay):
+    """Least-squares bandwidth of y = 1 - exp(-a (t - delay)), t > delay."""
+    grid = np.linspace(100.0, 20000.0, 19901)
+    tt = np.clip(t - delay, 0.0, None)
+    err = [np.sum((y - (1 - np.exp(-a * tt))) ** 2) for a in grid]
+    return grid[int(np.argmin(err))]
+
+
+@pytest.mark.parametrize("alpha", [1000.0, 3000.0])
+def test_current_step_matches_designed_bandwidth(make_scenario, alpha):
+    """An i_q step: first-order response with the designed bandwidth, after
+    the one period of computation delay (switching inverter, dead time and
+    its compensation on, as on the bench)."""
+    Ts, step, t_step = 1e-4, 10.0, 0.02
+    d = make_scenario(
+        duration=0.03, converter={"inverter": "switching"},
+        sensors={"adc_bits": 0, "encoder_bits": 0},
+        controller={"mode": "current", "angle": "true", "bw_current": alpha},
+        references={"i_d": -5.0, "i_q": [[0, 0], [t_step, 0], [t_step, step]]},
+        load={"kind": "speed", "speed_rpm": 0.0},
+    )
+    res = run(d)
+    t = res["t"] - t_step
+    m = t >= 0
+    y = res["i_q"][m] / step
+    a_fit = fit_bandwidth(t[m], y, Ts)
+    assert abs(a_fit - alpha) < 0.1 * alpha, a_fit
+    assert abs(y[t[m] > 0.008].mean() - 1.0) < 0.01
+
+
+def test_averaged_and_switching_give_same_mean_currents(make_scenario):
+    """With dead time: open-loop voltage at a held speed, both inverter
+    models give the same mean currents within 2 %."""
+    n = 800.0
+    out = {}
+    for inv in ("averaged", "switching"):
+        d = make_scenario(
+            duration=0.25, converter={"inverter": inv, "t_dead": 1e-6},
+            controller={"mode": "voltage", "dead_time_comp": False},
+            references={"u_d": -1.0, "u_q": 3.5, "frame_rpm": n},
+            load={"kind": "speed", "speed_rpm": n},
+        )
+        res = run(d)
+        out[inv] = np.array([window(res, 0.15, 0.25, k).mean() for k in ("i_d", "i_q")])
+    mag = np.hypot(*out["switching"])
+    assert mag > 5.0
+    assert np.all(np.abs(out["averaged"] - out["switching"]) < 0.02 * mag), out
