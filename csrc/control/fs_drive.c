@@ -5,7 +5,7 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
 {
     if (!drv || !cfg) return FS_ERR_NULL;
     if (cfg->mode < FS_MODE_OFF || cfg->mode > FS_MODE_SPEED) return FS_ERR_MODE;
-    if (cfg->angle_source < FS_ANGLE_ENCODER || cfg->angle_source > FS_ANGLE_EXTERNAL) return FS_ERR_MODE;
+    if (cfg->angle_source < FS_ANGLE_ENCODER || cfg->angle_source > FS_ANGLE_SMO) return FS_ERR_MODE;
     if (!(cfg->Ts > 0.0f) || !(cfg->T_pwm >= cfg->Ts)) return FS_ERR_TS;
     if (!(cfg->delay >= 0.0f && cfg->delay <= 2.0f)) return FS_ERR_PARAM;
     if (cfg->pole_pairs < 1) return FS_ERR_POLE_PAIRS;
@@ -22,6 +22,16 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     st = fs_pll_init(&drv->pll, &pc);
     if (st != FS_OK) return st;
 
+    if (cfg->angle_source == FS_ANGLE_SMO) {
+        fs_smo_config oc = cfg->smo;
+        oc.Ts = cfg->Ts;
+        oc.R_s = cfg->R_s;
+        oc.L_d = cfg->L_d;
+        oc.L_q = cfg->L_q;
+        oc.psi_f = cfg->psi_f;
+        st = fs_smo_init(&drv->smo, &oc);
+        if (st != FS_OK) return st;
+    }
     if (cfg->mode == FS_MODE_SPEED) {
         fs_speed_ctrl_config scc = {cfg->Ts, cfg->J, cfg->B, cfg->bw_speed, cfg->T_max};
         st = fs_speed_ctrl_init(&drv->sc, &scc);
@@ -39,13 +49,26 @@ void fs_drive_reset(fs_drive *drv)
     fs_current_ctrl_reset(&drv->cc);
     fs_pll_reset(&drv->pll, 0.0f, 0.0f);
     if (drv->cfg.mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
+    if (drv->cfg.angle_source == FS_ANGLE_SMO) fs_smo_reset(&drv->smo, 0.0f, 0.0f);
     drv->theta_ol = 0.0f;
     drv->pll_started = false;
+    drv->u_hist[0].alpha = drv->u_hist[0].beta = 0.0f;
+    drv->u_hist[1] = drv->u_hist[0];
 }
 
 /* Angle and speed from the configured source. */
-static void drive_angle(fs_drive *drv, const fs_drive_in *in, float *theta, float *w)
+static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, float *theta, float *w)
 {
+    if (drv->cfg.angle_source == FS_ANGLE_SMO) {
+        /* the voltage that acted during the period that ended now */
+        fs_ab u = drv->cfg.delay > 0.5f ? drv->u_hist[1] : drv->u_hist[0];
+        fs_smo_step(&drv->smo, i_ab, u);
+        if (in->sensorless) {
+            *theta = drv->smo.theta;
+            *w = drv->smo.w;
+            return;
+        }
+    }
     if (drv->cfg.angle_source == FS_ANGLE_EXTERNAL) {
         *theta = in->theta_e_ext;
         *w = in->w_e_ext;
@@ -80,7 +103,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     const fs_drive_config *c = &drv->cfg;
     fs_ab i_ab = fs_clarke(in->i_abc[0], in->i_abc[1], in->i_abc[2]);
     float theta, w_e;
-    drive_angle(drv, in, &theta, &w_e);
+    drive_angle(drv, in, i_ab, &theta, &w_e);
 
     fs_dq u_ref = {0.0f, 0.0f};
     fs_dq i_ref = {0.0f, 0.0f};
@@ -126,6 +149,8 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
         out->over_modulation = fs_svpwm(u_ab_ref, in->u_dc, out->duty, &u_ab);
         dead_time_comp(c, in->i_abc, out->duty);
     }
+    drv->u_hist[1] = drv->u_hist[0];
+    drv->u_hist[0] = u_ab;
     fs_dq u_real = fs_park(u_ab, cos_u, sin_u);
     if (closed_loop) fs_current_ctrl_update(&drv->cc, u_real);
 
@@ -138,4 +163,8 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     out->T_ref = T_ref;
     out->u_d = u_real.d;
     out->u_q = u_real.q;
+    bool smo = c->angle_source == FS_ANGLE_SMO;
+    out->theta_est = smo ? drv->smo.theta : theta;
+    out->w_est = smo ? drv->smo.w : w_e;
+    out->est_valid = smo ? drv->smo.valid : true;
 }

@@ -13,6 +13,7 @@
 #include "fs_current_ctrl.h"
 #include "fs_mtpa.h"
 #include "fs_pll.h"
+#include "fs_smo.h"
 #include "fs_speed_ctrl.h"
 #include "fs_svpwm.h"
 #include "fs_types.h"
@@ -27,7 +28,8 @@ typedef enum {
 
 typedef enum {
     FS_ANGLE_ENCODER = 0,    /* encoder angle, speed from a PLL on it */
-    FS_ANGLE_EXTERNAL = 1    /* theta_e_ext and w_e_ext from the input */
+    FS_ANGLE_EXTERNAL = 1,   /* theta_e_ext and w_e_ext from the input */
+    FS_ANGLE_SMO = 2         /* extended-EMF sliding-mode observer (encoder until handed over) */
 } fs_angle_source;
 
 typedef struct {
@@ -50,6 +52,8 @@ typedef struct {
     float t_dead_comp, i_dead_band;
     /* V/f: volts per electrical rad/s and boost volts */
     float vf_gain, vf_boost;
+    /* the estimator, for FS_ANGLE_SMO (Ts and machine fields are taken from above) */
+    fs_smo_config smo;
 } fs_drive_config;
 
 typedef struct {
@@ -62,6 +66,7 @@ typedef struct {
     float i_d_ref, i_q_ref;  /* A, current mode */
     float u_d_ref, u_q_ref;  /* V, voltage mode */
     float w_e_ref;           /* rad/s electrical, frame speed of the open-loop modes */
+    int sensorless;          /* 1: the loops use the estimator; 0: the encoder (estimator runs alongside) */
 } fs_drive_in;
 
 typedef struct {
@@ -73,6 +78,8 @@ typedef struct {
     float T_ref;
     float u_d, u_q;          /* realised voltage reference in the controller frame */
     bool over_modulation;
+    float theta_est, w_est;  /* the estimator's angle and electrical speed, used or not */
+    bool est_valid;
 } fs_drive_out;
 
 typedef struct {
@@ -81,8 +88,10 @@ typedef struct {
     fs_speed_ctrl sc;
     fs_mtpa mtpa;
     fs_pll pll;              /* speed from the encoder */
+    fs_smo smo;
     float theta_ol;          /* open-loop frame angle */
     bool pll_started;
+    fs_ab u_hist[2];         /* realised voltage computed 1 and 2 steps ago */
 } fs_drive;
 
 fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg);

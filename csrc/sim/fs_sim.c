@@ -7,7 +7,7 @@
 
 #include "fs_profile.h"
 
-enum { P_W_M_REF, P_I_D_REF, P_I_Q_REF, P_U_D_REF, P_U_Q_REF, P_W_E_REF, P_T_LOAD, P_W_LOAD, P_N };
+enum { P_W_M_REF, P_I_D_REF, P_I_Q_REF, P_U_D_REF, P_U_Q_REF, P_W_E_REF, P_T_LOAD, P_W_LOAD, P_SENSORLESS, P_N };
 
 struct fs_sim {
     fs_sim_config cfg;
@@ -97,9 +97,10 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
     if (!s) { snprintf(err, (size_t)err_len, "out of memory"); return NULL; }
     s->cfg = *cfg;
     const fs_profile *src[P_N] = {&cfg->w_m_ref, &cfg->i_d_ref, &cfg->i_q_ref, &cfg->u_d_ref,
-                                  &cfg->u_q_ref, &cfg->w_e_ref, &cfg->T_load, &cfg->w_load};
+                                  &cfg->u_q_ref, &cfg->w_e_ref, &cfg->T_load, &cfg->w_load,
+                                  &cfg->sensorless};
     static const char *names[P_N] = {"w_m_ref", "i_d_ref", "i_q_ref", "u_d_ref",
-                                     "u_q_ref", "w_e_ref", "T_load", "w_load"};
+                                     "u_q_ref", "w_e_ref", "T_load", "w_load", "sensorless"};
     for (int p = 0; p < P_N; ++p) {
         if (fs_pwl_copy(&s->prof[p], src[p]) != 0)
             FAIL("profile %s: times must be non-decreasing", names[p]);
@@ -206,6 +207,7 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
         din.u_d_ref = (float)fs_pwl_eval(&s->prof[P_U_D_REF], t, NULL);
         din.u_q_ref = (float)fs_pwl_eval(&s->prof[P_U_Q_REF], t, NULL);
         din.w_e_ref = (float)fs_pwl_eval(&s->prof[P_W_E_REF], t, NULL);
+        din.sensorless = fs_pwl_eval(&s->prof[P_SENSORLESS], t, NULL) > 0.5;
 
         /* control */
         fs_drive_out dout;
@@ -253,6 +255,10 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
             r[FS_CH_E_CU] = s->x[FS_X_E_CU];
             r[FS_CH_E_AIRGAP] = s->x[FS_X_E_AIRGAP];
             r[FS_CH_W_MAG] = 1.5 * fs_mag_energy(&s->pmsm.mag, s->x[FS_X_PSI_D], s->x[FS_X_PSI_Q]);
+            r[FS_CH_THETA_EST] = dout.theta_est;
+            r[FS_CH_W_M_EST] = dout.w_est / p;
+            r[FS_CH_EST_VALID] = dout.est_valid;
+            r[FS_CH_EST_ERR] = wrap_pi(theta_e - dout.theta_est);
             ++*rows;
         }
 

@@ -48,6 +48,7 @@ typedef struct {
     /* profiles (copied by fs_sim_create) */
     fs_profile w_m_ref, i_d_ref, i_q_ref, u_d_ref, u_q_ref, w_e_ref;
     fs_profile T_load, w_load;
+    fs_profile sensorless;    /* > 0.5: the loops use the estimator */
     int decimation;           /* record every n-th sample */
 } fs_sim_config;
 
@@ -69,6 +70,8 @@ enum {
     FS_CH_THETA_ERR,                            /* true minus used angle, wrapped */
     FS_CH_OVERMOD,
     FS_CH_E_IN, FS_CH_E_CU, FS_CH_E_AIRGAP, FS_CH_W_MAG,  /* J; W_MAG is 3/2 W(psi) */
+    FS_CH_THETA_EST, FS_CH_W_M_EST, FS_CH_EST_VALID,      /* the estimator's output, used or not */
+    FS_CH_EST_ERR,                                        /* true minus estimated angle, wrapped */
     FS_CH_N
 };
 

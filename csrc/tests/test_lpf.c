@@ -25,7 +25,7 @@ static void response(float Ts, float w, float w_c, double *lag, double *gain)
         y = fs_lpf_step(&f, x, w_c);
     }
     double ang = atan2(y.beta, y.alpha);
-    double d = fmod(th - ang + 3 * FS_TEST_PI, 2 * FS_TEST_PI) - FS_TEST_PI;
+    double d = remainder(th - ang, 2 * FS_TEST_PI);
     *lag = d;
     *gain = hypot(y.alpha, y.beta);
 }

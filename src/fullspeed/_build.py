@@ -20,6 +20,8 @@ HEADERS = [
     "control/fs_pi.h",
     "control/fs_svpwm.h",
     "control/fs_pll.h",
+    "control/fs_lpf.h",
+    "control/fs_smo.h",
     "control/fs_current_ctrl.h",
     "control/fs_speed_ctrl.h",
     "control/fs_mtpa.h",

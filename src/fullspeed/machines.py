@@ -25,9 +25,9 @@ BENCH = {
     "u_dc": POS(), "f_pwm": POS(), "t_dead": NONNEG(0.0),
     "sampling": C("single", "double", default="single"),
     "i_max": POS(), "i_trip": POS(), "i_lim": POS(None),
-    "adc_bits": I(12, 0, 24), "adc_range": POS(),
+    "adc_bits": I(12, 0, 24), "adc_range": POS(), "noise_i": NONNEG(0.0),
     "encoder_bits": I(0, 0, 32),
-    "bw_current": POS(), "bw_speed": POS(), "bw_pll": POS(),
+    "bw_current": POS(), "bw_speed": POS(), "bw_pll": POS(), "bw_pll_smo": POS(None),
     # the indirect matrix converter's grid and input filter (zou2021)
     "u_dc_min": POS(None), "u_grid_ll_rms": POS(None), "f_grid": POS(None),
     "l_filter": POS(None), "r_filter": POS(None), "c_filter": POS(None),

@@ -30,7 +30,7 @@ class Measurement:
 MEASURES: dict[str, Callable[[Path], Measurement]] = {}
 
 NOT_YET = {
-    "yang2022": "needs the estimators of yang2022 (sliding-mode observer, rotating injection, blending): issues 3 and 5",
+    "yang2022": "needs rotating injection, polarity detection and blending: issue 5",
     "zou2021": "needs the indirect matrix converter plant and modulation: issue 7",
     "yu2022": "needs the five-phase plant and square-wave injection: issue 6",
     "beyond": "needs the full-range drive and the Monte Carlo: issues 5, 6, 8 and 9",
@@ -97,6 +97,8 @@ def write_report(rows: list[dict], out: Path, paper: str | None) -> Path:
 
 
 def reproduce(paper: str | None, out: Path, progress: bool = True) -> list[dict]:
+    from . import papers  # noqa: F401  (registers the measurements)
+
     claims = claims_for(paper)
     out.mkdir(parents=True, exist_ok=True)
     rows = []

@@ -2,6 +2,7 @@
 reference profiles, read from TOML and validated field by field."""
 from __future__ import annotations
 
+import math
 import tomllib
 from dataclasses import dataclass
 from importlib import resources
@@ -25,12 +26,12 @@ SCENARIO = {
         "h_max": POS(20e-6, hi=1e-3, doc="longest integration step, s"),
     }, default={}),
     "sensors": T({
-        "adc_bits": I(None, 0, 24), "adc_range": POS(None), "noise_i": NONNEG(0.0),
+        "adc_bits": I(None, 0, 24), "adc_range": POS(None), "noise_i": NONNEG(None),
         "encoder_bits": I(None, 0, 32), "seed": I(1, 0, 2**63 - 1),
     }, default={}),
     "controller": T({
         "mode": C("off", "voltage", "vf", "current", "speed"),
-        "angle": C("encoder", "true", default="encoder"),
+        "angle": C("encoder", "true", "smo", default="encoder"),
         "bw_current": POS(None), "bw_speed": POS(None), "bw_pll": POS(None),
         "i_max": POS(None), "T_max": POS(None),
         "dead_time_comp": B(True), "i_dead_band": NONNEG(None),
@@ -39,6 +40,18 @@ SCENARIO = {
         "R_s_scale": POS(1.0), "L_d_scale": POS(1.0), "L_q_scale": POS(1.0), "psi_f_scale": POS(1.0),
         "J_scale": POS(1.0),
     }),
+    # the estimator (yang2022 sec. 2); used from `handover` on, running from t = 0
+    "observer": T({
+        "handover": NONNEG(0.0, doc="s: the loops switch from the encoder to the observer"),
+        "k": NONNEG(0.0, doc="V; 0: margin x the bound of eq. (18)"),
+        "margin": F(1.5, lo=1.0, lo_open=True),
+        "delta": NONNEG(0.0, doc="A; floored at k Ts / L_d"),
+        "cutoff_min_rpm": POS(20.0, doc="floor of the adaptive filter's cutoff, as a mechanical speed"),
+        "bw_pll": POS(None, doc="rad/s; default from the machine's bench"),
+        "valid_rpm": NONNEG(100.0),
+        "top_speed_rpm": POS(None, doc="for the gain bound; default 1.5 x rated"),
+        "lag": C("exact", "paper", default="exact"),
+    }, default={}),
     "load": T({
         "kind": C("torque", "speed", "speed_pi", default="torque"),
         "torque": P(0.0, doc="N m"), "speed_rpm": P(0.0),
@@ -103,12 +116,23 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
             conv[key] = b[key]
     if tim["sampling"] is None:
         tim["sampling"] = b["sampling"]
-    for key in ("adc_bits", "adc_range", "encoder_bits"):
+    for key in ("adc_bits", "adc_range", "encoder_bits", "noise_i"):
         if sen[key] is None:
             sen[key] = b[key]
     for key in ("bw_current", "bw_speed", "bw_pll", "i_max"):
         if ctl[key] is None:
             ctl[key] = b[key]
+    obs = d["observer"]
+    if obs["bw_pll"] is None:
+        obs["bw_pll"] = b.get("bw_pll_smo") or 2 * math.pi * 40.0
+    if ctl["angle"] == "smo" and "bw_speed" not in data.get("controller", {}):
+        # the speed comes from the observer's PLL: keep its lag (a double pole)
+        # small at the speed loop's crossover, as the bench's encoder PLL does
+        ctl["bw_speed"] = min(ctl["bw_speed"], obs["bw_pll"] / 6.0)
+    if obs["top_speed_rpm"] is None:
+        obs["top_speed_rpm"] = 1.5 * m.w_m_rated * 60 / (2 * math.pi)
+    if obs["handover"] > d["duration"]:
+        raise ConfigError("observer.handover", obs["handover"], f"must be <= duration ({d['duration']:g} s)", source)
     if ctl["T_max"] is None:
         ctl["T_max"] = m.mtpa_torque(ctl["i_max"])
     if ctl["i_dead_band"] is None:
@@ -118,9 +142,10 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
     Ts = T_pwm / 2 if tim["sampling"] == "double" else T_pwm
     if conv["t_dead"] >= 0.5 * T_pwm:
         raise ConfigError("converter.t_dead", conv["t_dead"], f"must be shorter than half the PWM period ({0.5 * T_pwm:g} s)", source)
-    for key, limit in (("bw_current", 1.0), ("bw_speed", 0.5), ("bw_pll", 0.5)):
-        if ctl[key] * Ts > limit:
-            raise ConfigError(f"controller.{key}", ctl[key], f"must be <= {limit / Ts:g} rad/s for the control period {Ts:g} s", source)
+    for sec, key, limit in (("controller", "bw_current", 1.0), ("controller", "bw_speed", 0.5),
+                            ("controller", "bw_pll", 0.5), ("observer", "bw_pll", 0.5)):
+        if d[sec][key] * Ts > limit:
+            raise ConfigError(f"{sec}.{key}", d[sec][key], f"must be <= {limit / Ts:g} rad/s for the control period {Ts:g} s", source)
     steady = d["metrics"]["steady"]
     if steady is not None:
         ok = (isinstance(steady, list) and len(steady) == 2

@@ -21,6 +21,7 @@ CHANNELS = [
     "T_e", "T_L", "u_d", "u_q", "duty_a", "duty_b", "duty_c",
     "w_m_ref", "i_d_ref", "i_q_ref", "T_ref", "i_d_hat", "i_q_hat", "u_d_ref", "u_q_ref",
     "theta_hat", "w_m_hat", "theta_err", "overmod", "E_in", "E_cu", "E_airgap", "W_mag",
+    "theta_est", "w_m_est", "est_valid", "est_err",
 ]
 assert len(CHANNELS) == lib.FS_CH_N, "channel names out of step with fs_sim.h"
 
@@ -33,7 +34,8 @@ STOP_REASONS = {
 
 MODES = {"off": lib.FS_MODE_OFF, "voltage": lib.FS_MODE_VOLTAGE_DQ, "vf": lib.FS_MODE_VF,
          "current": lib.FS_MODE_CURRENT, "speed": lib.FS_MODE_SPEED}
-ANGLES = {"encoder": lib.FS_ANGLE_ENCODER, "true": lib.FS_ANGLE_EXTERNAL}
+ANGLES = {"encoder": lib.FS_ANGLE_ENCODER, "true": lib.FS_ANGLE_EXTERNAL, "smo": lib.FS_ANGLE_SMO}
+LAGS = {"exact": lib.FS_SMO_LAG_EXACT, "paper": lib.FS_SMO_LAG_PAPER}
 MAGNETIC = {"linear": lib.FS_MAG_LINEAR, "algebraic": lib.FS_MAG_ALGEBRAIC, "fluxmap": lib.FS_MAG_FLUXMAP}
 
 
@@ -148,17 +150,41 @@ def build_config(sc: Scenario):
     dc.vf_gain, dc.vf_boost = ctl["vf_gain"], ctl["vf_boost"]
 
     p = m.pole_pairs
+    obs = d["observer"]
+    oc = dc.smo
+    oc.w_e_max = p * rpm_to_rad_s(obs["top_speed_rpm"])
+    oc.i_max = ctl["i_max"]
+    oc.k, oc.margin, oc.delta = obs["k"], obs["margin"], obs["delta"]
+    oc.w_c_min = p * rpm_to_rad_s(obs["cutoff_min_rpm"])
+    oc.bw_pll = obs["bw_pll"]
+    oc.w_valid = p * rpm_to_rad_s(obs["valid_rpm"])
+    oc.lag = LAGS[obs["lag"]]
+    sensorless = ([0.0, obs["handover"], obs["handover"]], [0.0, 0.0, 1.0]) if ctl["angle"] == "smo" else ([0.0], [0.0])
     profiles = {
         "w_m_ref": (ref["speed_rpm"], rpm_to_rad_s(1.0)),
         "i_d_ref": (ref["i_d"], 1.0), "i_q_ref": (ref["i_q"], 1.0),
         "u_d_ref": (ref["u_d"], 1.0), "u_q_ref": (ref["u_q"], 1.0),
         "w_e_ref": (ref["frame_rpm"], p * rpm_to_rad_s(1.0)),
         "T_load": (load["torque"], 1.0), "w_load": (load["speed_rpm"], rpm_to_rad_s(1.0)),
+        "sensorless": (sensorless, 1.0),
     }
     for name, ((t, y), scale) in profiles.items():
         _set_profile(getattr(cfg, name), t, [v * scale for v in y], keep)
     cfg.decimation = d["trace"]["decimation"]
     return cfg, keep
+
+
+def _check_smo_gain(cfg, sc: Scenario) -> None:
+    """A configured SMO gain below eq. (18)'s bound, as a field error."""
+    dc = cfg.drive
+    oc = ffi.new("fs_smo_config *", dc.smo)
+    oc.Ts, oc.R_s, oc.L_d, oc.L_q, oc.psi_f = dc.Ts, dc.R_s, dc.L_d, dc.L_q, dc.psi_f
+    smo = ffi.new("fs_smo *")
+    if lib.fs_smo_init(smo, oc) == lib.FS_ERR_SMO_GAIN:
+        raise ConfigError("observer.k", sc.data["observer"]["k"],
+                          f"must be above the Lyapunov bound of eq. (18), {smo.k_bound:.4g} V "
+                          f"for the top speed {sc.data['observer']['top_speed_rpm']:g} rpm and i_max "
+                          f"{sc.data['controller']['i_max']:g} A", sc.source)
 
 
 class Simulation:
@@ -167,6 +193,8 @@ class Simulation:
     def __init__(self, scenario: Scenario):
         self.scenario = scenario
         self._cfg, self._keep = build_config(scenario)
+        if scenario.data["controller"]["angle"] == "smo":
+            _check_smo_gain(self._cfg, scenario)
         err = ffi.new("char[]", 512)
         ptr = lib.fs_sim_create(self._cfg, err, 512)
         if ptr == ffi.NULL:

@@ -1,0 +1,23 @@
+#include "fs_lpf.h"
+#include "fs_math.h"
+
+fs_status fs_lpf_init(fs_lpf *f, const fs_lpf_config *cfg)
+{
+    if (!f || !cfg) return FS_ERR_NULL;
+    if (!(cfg->Ts > 0.0f)) return FS_ERR_TS;
+    if (!(cfg->w_c_min > 0.0f)) return FS_ERR_BANDWIDTH;
+    f->cfg = *cfg;
+    fs_lpf_reset(f);
+    return FS_OK;
+}
+
+void fs_lpf_reset(fs_lpf *f) { f->y.alpha = f->y.beta = 0.0f; }
+
+fs_ab fs_lpf_step(fs_lpf *f, fs_ab x, float w_c)
+{
+    float wc = fmaxf(fabsf(w_c), f->cfg.w_c_min);
+    float g = wc * f->cfg.Ts / (1.0f + wc * f->cfg.Ts);
+    f->y.alpha += g * (x.alpha - f->y.alpha);
+    f->y.beta += g * (x.beta - f->y.beta);
+    return f->y;
+}

@@ -1,0 +1,83 @@
+#include "fs_smo.h"
+#include "fs_math.h"
+
+fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
+{
+    if (!o || !cfg) return FS_ERR_NULL;
+    if (!(cfg->Ts > 0.0f)) return FS_ERR_TS;
+    if (!(cfg->R_s >= 0.0f)) return FS_ERR_RS;
+    if (!(cfg->L_d > 0.0f)) return FS_ERR_LD;
+    if (!(cfg->L_q > 0.0f)) return FS_ERR_LQ;
+    if (!(cfg->psi_f >= 0.0f)) return FS_ERR_PSI_F;
+    if (!(cfg->w_e_max > 0.0f) || !(cfg->i_max > 0.0f) || !(cfg->margin >= 1.0f)) return FS_ERR_LIMIT;
+    if (!(cfg->k >= 0.0f) || !(cfg->delta >= 0.0f) || !(cfg->w_valid >= 0.0f)) return FS_ERR_PARAM;
+    if (cfg->lag != FS_SMO_LAG_EXACT && cfg->lag != FS_SMO_LAG_PAPER) return FS_ERR_MODE;
+    o->cfg = *cfg;
+    /* eq. (18): k > max(|e_alpha|, |e_beta|) / 2, with the extended EMF
+     * E_ex = w psi_f + (L_d - L_q) w i_d at most w_max (psi_f + |L_d - L_q| i_max) */
+    float E_max = cfg->w_e_max * (cfg->psi_f + fabsf(cfg->L_d - cfg->L_q) * cfg->i_max);
+    o->k_bound = 0.5f * E_max;
+    if (cfg->k > 0.0f && cfg->k <= o->k_bound) return FS_ERR_SMO_GAIN;
+    o->k = cfg->k > 0.0f ? cfg->k : cfg->margin * o->k_bound;
+    o->delta = fmaxf(cfg->delta, o->k * cfg->Ts / cfg->L_d);
+    fs_lpf_config lc = {cfg->Ts, cfg->w_c_min};
+    fs_status st = fs_lpf_init(&o->lpf, &lc);
+    if (st != FS_OK) return st;
+    fs_pll_config pc = {cfg->Ts, cfg->bw_pll, 1.5f * cfg->w_e_max};
+    st = fs_pll_init(&o->pll, &pc);
+    if (st != FS_OK) return st;
+    fs_smo_reset(o, 0.0f, 0.0f);
+    return FS_OK;
+}
+
+void fs_smo_reset(fs_smo *o, float theta, float w)
+{
+    o->i_hat.alpha = o->i_hat.beta = 0.0f;
+    o->z = o->i_hat;
+    fs_lpf_reset(&o->lpf);
+    fs_pll_reset(&o->pll, theta, w);
+    o->theta = theta;
+    o->w = w;
+    o->valid = false;
+}
+
+static float sat(float x, float delta)  /* eq. (6) */
+{
+    return fs_clampf(x / delta, -1.0f, 1.0f);
+}
+
+float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
+{
+    const fs_smo_config *c = &o->cfg;
+    const fs_ab e_hat = o->lpf.y;
+    const float w = o->pll.w;
+    const float wdL = w * (c->L_d - c->L_q);
+    /* eq. (4) over the period that just ended, with the voltage that acted in it */
+    float di_a = (-c->R_s * o->i_hat.alpha - wdL * o->i_hat.beta + u.alpha - e_hat.alpha - o->z.alpha) / c->L_d;
+    float di_b = (wdL * o->i_hat.alpha - c->R_s * o->i_hat.beta + u.beta - e_hat.beta - o->z.beta) / c->L_d;
+    o->i_hat.alpha += c->Ts * di_a;
+    o->i_hat.beta += c->Ts * di_b;
+    /* eqs. (5)-(7): switching function on the current error */
+    o->z.alpha = o->k * sat(o->i_hat.alpha - i.alpha, o->delta);
+    o->z.beta = o->k * sat(o->i_hat.beta - i.beta, o->delta);
+    /* Fig. 1: adaptive low-pass filter, cutoff at the estimated speed */
+    fs_ab e = fs_lpf_step(&o->lpf, o->z, w);
+    /* eq. (12): normalized PLL error, sin(theta - theta_pll) */
+    float mag = sqrtf(e.alpha * e.alpha + e.beta * e.beta);
+    float eps = 0.0f;
+    if (mag > 1e-6f) {
+        float th = o->pll.theta;
+        eps = (-e.alpha * cosf(th) - e.beta * sinf(th)) / mag;
+    }
+    fs_pll_step(&o->pll, eps);
+    o->w = o->pll.w;
+    float w_c = fmaxf(fabsf(o->w), c->w_c_min);
+    float lag = (c->lag == FS_SMO_LAG_PAPER) ? fs_signf(o->w) * 0.25f * FS_PI
+                                             : atanf(o->w / (2.0f * w_c));
+    /* the PLL now predicts the next mid-period; back half a period to the sample */
+    o->theta = fs_wrap_pi(o->pll.theta - 0.5f * c->Ts * o->w + lag);
+    float aw = fabsf(o->w);
+    if (aw >= c->w_valid) o->valid = true;
+    else if (aw < 0.8f * c->w_valid) o->valid = false;  /* hysteresis */
+    return o->theta;
+}
