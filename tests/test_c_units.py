@@ -35,25 +35,7 @@ CFLAGS = [
 
 # Known bugs in the code under test: the C test stays, marked as an expected
 # failure (strict: it must fail until the bug is fixed, then this entry goes).
-KNOWN_BUGS = {
-    "test_math_wrap_range.c": (
-        "fs_wrap_pi (csrc/control/fs_math.h) returns values outside (-pi, pi] "
-        "for finite inputs: x - 2pi*floorf((x+pi)/2pi) in float rounds across "
-        "+pi for |x| ~ 1e3..1e5 (e.g. 1021.01764 -> 3.14160156) and is garbage "
-        "for |x| >~ 1e8 (1e9 -> -57.7, -1e30 -> -7.6e22); only the -pi side is "
-        "corrected. Fix: x = fmodf(x, FS_TWO_PI) (exact), then one "
-        "+-FS_TWO_PI correction on either side."
-    ),
-    "test_pi_design_precision.c": (
-        "fs_pi_design (csrc/control/fs_pi.c) computes 1 - a and 1 - p as "
-        "1.0f - expf(-x): in float that keeps ~6e-8/x relative precision, so "
-        "for small R Ts/L (just above the 1e-6 switch to Ts/L) and small alpha Ts "
-        "the gains are off the documented formulas by up to 2.4 % (R Ts/L = "
-        "1.2e-6, alpha Ts = 2.3e-3), and k_p = (1+a-2p)/b cancels. Fix: "
-        "r = -expm1f(-R Ts/L), q = -expm1f(-alpha Ts), b = r/R (Ts/L if R = 0), "
-        "k_t = q/b, k_p = (2q - r)/b, k_i = q^2/(b Ts)."
-    ),
-}
+KNOWN_BUGS: dict[str, str] = {}
 
 SOURCES_RE = re.compile(r"fs-test-sources:([^\n]*)")
 

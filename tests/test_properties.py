@@ -201,23 +201,12 @@ def test_svpwm_overmodulation_keeps_phase_and_does_not_grow(k, theta, u_dc):
     assert real_mag == pytest.approx(hexagon_radius(math.atan2(beta, alpha), u_dc), rel=1e-4)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "fs_svpwm (csrc/control/fs_svpwm.c) returns NaN duties for finite "
-        "references near FLT_MAX (fs_inv_clarke overflows to inf, scale = "
-        "u_dc/inf = 0, inf*0 = NaN, fs_clampf passes NaN through) and for "
-        "the smallest subnormal u_dc (inv_dc = 1/u_dc = inf, 0*inf = NaN); a "
-        "reference like (3e38, 0) overflows the span (v_max - v_min = inf) and "
-        "realises 0 V instead of the hexagon vertex. Fix: pre-scale the reference by u_dc/max(|alpha|,|beta|) "
-        "when that is < 1 and divide by u_dc instead of multiplying by 1/u_dc."
-    ),
-)
 @pytest.mark.parametrize(
     "alpha, beta, u_dc",
     [(-3e38, 3e38, 600.0), (3e38, 3e38, 1.0), (3e38, 0.0, 600.0), (0.0, 0.0, 1e-45)],
 )
 def test_svpwm_extreme_finite_inputs(alpha, beta, u_dc):
+    """No overflow to NaN for any finite reference or positive u_dc."""
     over, duty, u_real, realised = svpwm(alpha, beta, u_dc)
     assert all(0.0 <= d <= 1.0 for d in duty), duty
     if alpha or beta:

@@ -1,6 +1,14 @@
 #include "fs_current_ctrl.h"
 #include "fs_math.h"
 
+/* L di/dt = u - R i sampled with a zero-order hold: i+ = a i + b u */
+static void sampled_plant(float Ts, float L, float R, float *a, float *b)
+{
+    float r = -expm1f(-R * Ts / L);  /* 1 - a, exact when small */
+    *a = 1.0f - r;
+    *b = (R > 0.0f && r > 0.0f) ? r / R : Ts / L;
+}
+
 static fs_status design_axis(fs_pi *pi, float Ts, float L, float R, float alpha)
 {
     fs_pi_config c;
@@ -19,6 +27,8 @@ fs_status fs_current_ctrl_init(fs_current_ctrl *cc, const fs_current_ctrl_config
     if (!(cfg->psi_f >= 0.0f)) return FS_ERR_PSI_F;
     if (!(cfg->bandwidth > 0.0f) || cfg->bandwidth * cfg->Ts > 1.0f) return FS_ERR_BANDWIDTH;
     cc->cfg = *cfg;
+    sampled_plant(cfg->Ts, cfg->L_d, cfg->R_s, &cc->a_d, &cc->b_d);
+    sampled_plant(cfg->Ts, cfg->L_q, cfg->R_s, &cc->a_q, &cc->b_q);
     fs_status st = design_axis(&cc->pi_d, cfg->Ts, cfg->L_d, cfg->R_s, cfg->bandwidth);
     if (st != FS_OK) return st;
     st = design_axis(&cc->pi_q, cfg->Ts, cfg->L_q, cfg->R_s, cfg->bandwidth);
@@ -42,12 +52,13 @@ fs_dq fs_current_ctrl_step(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, float w_e)
 {
     const fs_current_ctrl_config *c = &cc->cfg;
     if (c->predict) {
-        /* current at the next sample, from the voltage acting until then */
-        float psi_d = c->L_d * i.d + c->psi_f;
-        float di_d = (cc->u_prev.d - c->R_s * i.d + w_e * c->L_q * i.q) / c->L_d;
-        float di_q = (cc->u_prev.q - c->R_s * i.q - w_e * psi_d) / c->L_q;
-        i.d += c->Ts * di_d;
-        i.q += c->Ts * di_q;
+        /* current at the next sample, from the voltage acting until then:
+         * the sampled plant i+ = a i + b (u - cross-coupling), per axis */
+        float v_d = cc->u_prev.d + w_e * c->L_q * i.q;
+        float v_q = cc->u_prev.q - w_e * (c->L_d * i.d + c->psi_f);
+        float i_d = cc->a_d * i.d + cc->b_d * v_d;
+        i.q = cc->a_q * i.q + cc->b_q * v_q;
+        i.d = i_d;
     }
     /* Decoupling and back-EMF feed-forward: u_d = ... - w L_q i_q,
      * u_q = ... + w (L_d i_d + psi_f). */

@@ -32,6 +32,7 @@ typedef struct {
     fs_pi pi_d, pi_q;
     fs_dq ref, meas, u, u_ff;  /* kept from step for update */
     fs_dq u_prev;              /* realised voltage acting until the next sample */
+    float a_d, b_d, a_q, b_q;  /* sampled plant per axis, for the predictor */
 } fs_current_ctrl;
 
 fs_status fs_current_ctrl_init(fs_current_ctrl *cc, const fs_current_ctrl_config *cfg);

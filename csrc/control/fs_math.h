@@ -9,12 +9,15 @@
 #define FS_SQRT3 1.73205080756887729353f
 #define FS_INV_SQRT3 0.57735026918962576451f
 
-/* Wrap an angle to (-pi, pi]. Valid for any finite input. */
+/* Wrap an angle to (-pi, pi]. Valid for any finite input: fmodf is exact,
+ * and one correction on either side lands in the interval. */
 static inline float fs_wrap_pi(float x)
 {
     if (x > FS_PI || x <= -FS_PI) {
-        x = x - FS_TWO_PI * floorf((x + FS_PI) / FS_TWO_PI);
-        if (x <= -FS_PI) {
+        x = fmodf(x, FS_TWO_PI);
+        if (x > FS_PI) {
+            x -= FS_TWO_PI;
+        } else if (x <= -FS_PI) {
             x += FS_TWO_PI;
         }
     }

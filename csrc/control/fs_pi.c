@@ -17,13 +17,14 @@ fs_status fs_pi_design(fs_pi_config *cfg, float Ts, float L, float R, float alph
     if (!(Ts > 0.0f)) return FS_ERR_TS;
     if (!(L > 0.0f) || !(R >= 0.0f)) return FS_ERR_PARAM;
     if (!(alpha > 0.0f) || alpha * Ts > 2.0f) return FS_ERR_BANDWIDTH;
-    float a = expf(-R * Ts / L);
-    float b = (R * Ts / L > 1e-6f) ? (1.0f - a) / R : Ts / L;
-    float p = expf(-alpha * Ts);
+    /* r = 1 - a and q = 1 - p by expm1f, which keeps them exact when small */
+    float r = -expm1f(-R * Ts / L);
+    float q = -expm1f(-alpha * Ts);
+    float b = (R > 0.0f && r > 0.0f) ? r / R : Ts / L;
     cfg->Ts = Ts;
-    cfg->k_t = (1.0f - p) / b;
-    cfg->k_p = fmaxf((1.0f + a - 2.0f * p) / b, 0.0f);
-    cfg->k_i = (1.0f - p) * (1.0f - p) / (b * Ts);
+    cfg->k_t = q / b;
+    cfg->k_p = fmaxf((2.0f * q - r) / b, 0.0f);  /* (1 + a - 2p) / b */
+    cfg->k_i = q * q / (b * Ts);
     cfg->u_max = u_max;
     return FS_OK;
 }

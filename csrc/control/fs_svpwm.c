@@ -3,32 +3,38 @@
 
 bool fs_svpwm(fs_ab u_ref, float u_dc, float duty[3], fs_ab *u_real)
 {
+    if (!(u_dc > 0.0f) || !isfinite(u_dc) || !isfinite(u_ref.alpha) || !isfinite(u_ref.beta)) {
+        duty[0] = duty[1] = duty[2] = 0.5f;
+        if (u_real) { u_real->alpha = 0.0f; u_real->beta = 0.0f; }
+        return u_ref.alpha != 0.0f || u_ref.beta != 0.0f;
+    }
+    /* Work in units of u_dc, with a reference first brought inside the circle
+     * of radius 2/3 u_dc (beyond it, everything is over-modulation anyway):
+     * nothing below can overflow, whatever the finite inputs. */
+    float pre = 1.0f;
+    float mag = fmaxf(fabsf(u_ref.alpha), fabsf(u_ref.beta));
+    if (mag > u_dc) pre = u_dc / mag;
+    fs_ab x = {u_ref.alpha * pre / u_dc, u_ref.beta * pre / u_dc};
     float v[3];
-    fs_inv_clarke(u_ref, v);
+    fs_inv_clarke(x, v);
     float v_max = fmaxf(v[0], fmaxf(v[1], v[2]));
     float v_min = fminf(v[0], fminf(v[1], v[2]));
     float span = v_max - v_min;
     float scale = 1.0f;
-    bool over = false;
-    if (u_dc <= 0.0f) {
-        duty[0] = duty[1] = duty[2] = 0.5f;
-        if (u_real) { u_real->alpha = 0.0f; u_real->beta = 0.0f; }
-        return span > 0.0f;
-    }
+    bool over = pre < 1.0f;
     /* The pole voltages can span at most u_dc: scaling the whole vector keeps
      * its phase and puts it on the hexagon (minimum phase error). */
-    if (span > u_dc) {
-        scale = u_dc / span;
+    if (span > 1.0f) {
+        scale = 1.0f / span;
         over = true;
     }
     float offset = -0.5f * (v_max + v_min) * scale;  /* min-max injection */
-    float inv_dc = 1.0f / u_dc;
     for (int k = 0; k < 3; ++k) {
-        duty[k] = fs_clampf(0.5f + (v[k] * scale + offset) * inv_dc, 0.0f, 1.0f);
+        duty[k] = fs_clampf(0.5f + v[k] * scale + offset, 0.0f, 1.0f);
     }
     if (u_real) {
-        u_real->alpha = u_ref.alpha * scale;
-        u_real->beta = u_ref.beta * scale;
+        u_real->alpha = x.alpha * scale * u_dc;
+        u_real->beta = x.beta * scale * u_dc;
     }
     return over;
 }
