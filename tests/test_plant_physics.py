@@ -123,3 +123,36 @@ def test_averaged_and_switching_give_same_mean_currents(make_scenario):
     mag = np.hypot(*out["switching"])
     assert mag > 5.0
     assert np.all(np.abs(out["averaged"] - out["switching"]) < 0.02 * mag), out
+
+
+def test_double_sampling_halves_the_delay(make_scenario):
+    """DSDU: sampling and update at peak and valley; the step response starts
+    one half carrier period after the reference step, with the same bandwidth."""
+    alpha, step, t_step = 3000.0, 10.0, 0.02
+    d = make_scenario(
+        duration=0.03, timing={"sampling": "double"}, converter={"inverter": "switching"},
+        sensors={"adc_bits": 0, "encoder_bits": 0},
+        controller={"mode": "current", "angle": "true", "bw_current": alpha},
+        references={"i_q": [[0, 0], [t_step, 0], [t_step, step]]},
+        load={"kind": "speed", "speed_rpm": 0.0},
+    )
+    res = run(d)
+    t = res["t"] - t_step
+    assert np.allclose(np.diff(res["t"]), 0.5e-4)  # samples every half period
+    m = t >= 0
+    y = res["i_q"][m] / step
+    assert y[1] == pytest.approx(0.0, abs=0.01)  # one control period of delay
+    assert y[2] > 0.05
+    assert abs(fit_bandwidth(t[m], y, 0.5e-4) - alpha) < 0.1 * alpha
+
+
+def test_overcurrent_stops_with_reason_and_time_and_keeps_traces(make_scenario):
+    d = make_scenario(duration=0.2, controller={"mode": "voltage"},
+                      references={"u_q": [[0, 0], [0.05, 0], [0.05, 6.0]], "frame_rpm": 0.0},
+                      load={"kind": "speed", "speed_rpm": 0.0})
+    res = run(d)
+    assert res.stop_reason == "overcurrent"
+    assert 0.05 < res.stop_time < 0.2
+    assert res["t"][-1] <= res.stop_time
+    assert res["t"].size > 400  # what was computed before the stop is kept
+    assert np.max(np.abs(res["i_a"])) < 90.0 * 1.5  # tripped near the 90 A level

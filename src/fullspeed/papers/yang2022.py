@@ -30,9 +30,14 @@ def smo_steady(out: Path) -> Measurement:
     fig = figure_angle([(f"400 rpm, {iq:g} A", r) for iq, r in res.items()], (0.95, 0.98), (0.5, 1.0),
                        out / "Y-SMO-SS.png", "SMO steady state (cf. yang2022 Fig. 8)")
     note = ("Mean and pp over 0.5-1.0 s, current sensors with 0.1 A noise and 12-bit quantization. "
-            "The simulated machine has a sinusoidal back-EMF and no slotting: the ripple the paper "
-            "sees grow with current (spatial harmonics, inverter nonlinearity at large current) "
-            "has only the model's sources here, sensor noise, dead time and PWM.")
+            "The mean errors are well inside the paper's 5 el.deg. ")
+    if not value["pp_25A"] > value["pp_5A"]:
+        note += ("The paper's growth of the ripple with current is not reproduced: the simulated "
+                 "machine has a sinusoidal back-EMF, no slotting and no spatial harmonics, so the "
+                 "ripple comes from sensor noise, whose effect on the angle does not grow with the "
+                 "current (the EMF the observer tracks, w psi_f at i_d = 0, does not either). The "
+                 "model is left as it is; the ripple sources the paper's bench has are a candidate "
+                 "for the plant (back-EMF harmonics, a flux map with slot effects).")
     return Measurement(value, ok, note, [fig])
 
 
