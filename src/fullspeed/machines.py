@@ -8,7 +8,7 @@ from importlib import resources
 from pathlib import Path
 
 from .errors import ConfigError
-from .schema import ANY, B, C, I, NONNEG, POS, S, T, Spec, validate
+from .schema import ANY, C, I, NONNEG, POS, S, T, Spec, validate
 from .units import rpm_to_rad_s
 
 MAGNETIC = {

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
 from .errors import ConfigError
 
@@ -192,5 +192,3 @@ def deep_merge(base: dict, override: dict) -> dict:
             out[k] = v
     return out
 
-
-Check = Callable[[dict], None]

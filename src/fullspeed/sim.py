@@ -11,7 +11,6 @@ import numpy as np
 from . import _core
 from .errors import ConfigError, SimulationError
 from .scenario import Scenario, load_scenario
-from .schema import check_profile
 from .units import rpm_to_rad_s
 
 ffi, lib = _core.ffi, _core.lib
