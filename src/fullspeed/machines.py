@@ -75,14 +75,16 @@ class Machine:
     description: str = ""
 
     def mtpa_torque(self, i: float) -> float:
-        """Torque on the MTPA locus at current magnitude i (linear model)."""
-        dL = self.L_q - self.L_d
-        if dL > 0:
-            i_d = (self.psi_f - math.sqrt(self.psi_f**2 + 8 * dL**2 * i**2)) / (4 * dL)
-        else:
-            i_d = 0.0
-        i_q = math.sqrt(max(i**2 - i_d**2, 0.0))
-        return 1.5 * self.pole_pairs * (self.psi_f + (self.L_d - self.L_q) * i_d) * i_q
+        """Torque on the MTPA locus at current magnitude i (linear model), from
+        the controller's own MTPA table (csrc/control/fs_mtpa.c)."""
+        from ._core import ffi, lib
+
+        m = ffi.new("fs_mtpa *")
+        cfg = ffi.new("fs_mtpa_config *", {"L_d": self.L_d, "L_q": self.L_q, "psi_f": self.psi_f,
+                                           "pole_pairs": self.pole_pairs, "i_max": i})
+        if lib.fs_mtpa_init(m, cfg) != lib.FS_OK:
+            raise ValueError(f"no MTPA torque for {self.name} at {i:g} A")
+        return float(m.T[lib.FS_MTPA_N - 1])
 
 
 def catalog_names() -> list[str]:
