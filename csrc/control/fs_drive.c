@@ -1,6 +1,11 @@
 #include "fs_drive.h"
 #include "fs_math.h"
 
+static bool drive_starts(const fs_drive_config *c)
+{
+    return c->angle_source == FS_ANGLE_SMO && c->i_start > 0.0f;
+}
+
 fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
 {
     if (!drv || !cfg) return FS_ERR_NULL;
@@ -39,7 +44,16 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         fs_mtpa_config mc = {cfg->L_d, cfg->L_q, cfg->psi_f, cfg->pole_pairs, cfg->i_max};
         st = fs_mtpa_init(&drv->mtpa, &mc);
         if (st != FS_OK) return st;
+        if (!(cfg->fw_w_e_max >= 0.0f)) return FS_ERR_LIMIT;
+        if (cfg->fw_w_e_max > 0.0f) {
+            float w_c = cfg->fw_cutoff > 0.0f ? cfg->fw_cutoff : cfg->bw_current;
+            fs_fw_config fc = {cfg->Ts, cfg->L_d, cfg->fw_w_e_max, cfg->fw_gain, w_c, cfg->i_max};
+            st = fs_fw_init(&drv->fw, &fc);
+            if (st != FS_OK) return st;
+        }
     }
+    if (!(cfg->i_start >= 0.0f) || cfg->i_start > cfg->i_max) return FS_ERR_I_MAX;
+    if (cfg->i_start > 0.0f && (!(cfg->a_start > 0.0f) || !(cfg->w_handover > 0.0f))) return FS_ERR_PARAM;
     fs_drive_reset(drv);
     return FS_OK;
 }
@@ -50,6 +64,9 @@ void fs_drive_reset(fs_drive *drv)
     fs_pll_reset(&drv->pll, 0.0f, 0.0f);
     if (drv->cfg.mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
     if (drv->cfg.angle_source == FS_ANGLE_SMO) fs_smo_reset(&drv->smo, 0.0f, 0.0f);
+    if (drv->cfg.fw_w_e_max > 0.0f) fs_fw_reset(&drv->fw);
+    drv->phase = drive_starts(&drv->cfg) ? FS_PHASE_START : FS_PHASE_RUN;
+    drv->theta_if = drv->w_if = 0.0f;
     drv->theta_ol = 0.0f;
     drv->pll_started = false;
     drv->u_hist[0].alpha = drv->u_hist[0].beta = 0.0f;
@@ -63,6 +80,11 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, float 
         /* the voltage that acted during the period that ended now */
         fs_ab u = drv->cfg.delay > 0.5f ? drv->u_hist[1] : drv->u_hist[0];
         fs_smo_step(&drv->smo, i_ab, u);
+        if (in->sensorless && drv->phase == FS_PHASE_START) {
+            *theta = drv->theta_if;
+            *w = drv->w_if;
+            return;
+        }
         if (in->sensorless) {
             *theta = drv->smo.theta;
             *w = drv->smo.w;
@@ -83,6 +105,33 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, float 
     fs_pll_step(&drv->pll, fs_wrap_pi(theta_enc - drv->pll.theta));
     *theta = theta_enc;
     *w = drv->pll.w;
+}
+
+/* I/f start: the frame accelerates towards the reference, or up to the
+ * hand-over speed, with i_start on its d axis; the rotor's d axis lags the
+ * current by the load angle at which the torque carries the load and the
+ * acceleration (self-synchronising, and at standstill the current aligns the
+ * rotor without torque). Once past the hand-over speed with the observer valid and turning
+ * the same way, the loops take the observer, and the speed controller's
+ * integral is preset to the torque the current makes in the observer's
+ * frame, so that the hand-over does not bump the torque. */
+static fs_dq drive_start_step(fs_drive *drv, const fs_drive_in *in, fs_dq i_dq)
+{
+    const fs_drive_config *c = &drv->cfg;
+    float w_target = fs_clampf((float)c->pole_pairs * in->w_m_ref, -c->w_handover, c->w_handover);
+    float dw = c->a_start * c->Ts;
+    drv->w_if += fs_clampf(w_target - drv->w_if, -dw, dw);
+    drv->theta_if = fs_wrap_pi(drv->theta_if + c->Ts * drv->w_if);
+    fs_dq i_ref = {c->i_start, 0.0f};
+    bool fast = fabsf(drv->w_if) >= c->w_handover * 0.999f;
+    if (fast && drv->smo.valid && drv->smo.w * drv->w_if > 0.0f) {
+        float c_e = cosf(drv->smo.theta), s_e = sinf(drv->smo.theta);
+        fs_dq i_o = fs_park(fs_inv_park(i_dq, cosf(drv->theta_if), sinf(drv->theta_if)), c_e, s_e);
+        float T = 1.5f * (float)c->pole_pairs * (c->psi_f + (c->L_d - c->L_q) * i_o.d) * i_o.q;
+        fs_speed_ctrl_preset(&drv->sc, drv->smo.w / (float)c->pole_pairs, T);
+        drv->phase = FS_PHASE_RUN;
+    }
+    return i_ref;
 }
 
 /* Dead-time compensation: the average pole-voltage loss is
@@ -123,11 +172,21 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     }
     float cos_t = cosf(theta), sin_t = sinf(theta);
     fs_dq i_dq = fs_park(i_ab, cos_t, sin_t);
+    bool starting = in->sensorless && drv->phase == FS_PHASE_START;
 
     if (closed_loop) {
-        if (c->mode == FS_MODE_SPEED) {
+        if (c->mode == FS_MODE_SPEED && starting) {
+            i_ref = drive_start_step(drv, in, i_dq);
+        } else if (c->mode == FS_MODE_SPEED) {
             T_ref = fs_speed_ctrl_step(&drv->sc, in->w_m_ref, w_e / (float)c->pole_pairs);
             i_ref = fs_mtpa_step(&drv->mtpa, T_ref);
+            if (c->fw_w_e_max > 0.0f) {
+                /* zou2021 eq. (30): i_d* = i_d0* + the filtered correction,
+                 * i_q* kept, then held inside the current limit circle */
+                i_ref.d = fs_clampf(i_ref.d + drv->fw.i_d, -c->i_max, c->i_max);
+                float iq_max = sqrtf(c->i_max * c->i_max - i_ref.d * i_ref.d);
+                i_ref.q = fs_clampf(i_ref.q, -iq_max, iq_max);
+            }
         } else {
             i_ref.d = in->i_d_ref;
             i_ref.q = in->i_q_ref;
@@ -153,6 +212,8 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     drv->u_hist[0] = u_ab;
     fs_dq u_real = fs_park(u_ab, cos_u, sin_u);
     if (closed_loop) fs_current_ctrl_update(&drv->cc, u_real);
+    if (c->mode == FS_MODE_SPEED && c->fw_w_e_max > 0.0f && !starting)
+        fs_fw_step(&drv->fw, u_ref.q - u_real.q, w_e);   /* eq. (26): dv_q */
 
     out->theta_e = theta;
     out->w_e = w_e;
@@ -167,4 +228,6 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     out->theta_est = smo ? drv->smo.theta : theta;
     out->w_est = smo ? drv->smo.w : w_e;
     out->est_valid = smo ? drv->smo.valid : true;
+    out->phase = drv->phase;
+    out->i_d_fw = c->fw_w_e_max > 0.0f ? drv->fw.i_d : 0.0f;
 }

@@ -5,12 +5,15 @@
  * Modes: open-loop voltage in a frame turning at a given speed (u_d, u_q or
  * V/f), current control, speed control (speed PI -> MTPA -> current control).
  * The angle comes from the angle source: the encoder (with a PLL for speed),
- * or an external angle (tests, and the slot where estimators plug in).
+ * or an external angle (tests, and the slot where estimators plug in), or
+ * the sliding-mode observer, optionally after an I/f start from standstill.
+ * In speed mode, flux weakening adds negative d-current above base speed.
  */
 #ifndef FS_DRIVE_H
 #define FS_DRIVE_H
 
 #include "fs_current_ctrl.h"
+#include "fs_fw.h"
 #include "fs_mtpa.h"
 #include "fs_pll.h"
 #include "fs_smo.h"
@@ -31,6 +34,11 @@ typedef enum {
     FS_ANGLE_EXTERNAL = 1,   /* theta_e_ext and w_e_ext from the input */
     FS_ANGLE_SMO = 2         /* extended-EMF sliding-mode observer (encoder until handed over) */
 } fs_angle_source;
+
+typedef enum {
+    FS_PHASE_RUN = 0,        /* the loops on the configured angle source */
+    FS_PHASE_START = 1       /* I/f start: open-loop frame, waiting for the observer */
+} fs_drive_phase;
 
 typedef struct {
     int mode;                /* fs_drive_mode */
@@ -54,6 +62,15 @@ typedef struct {
     float vf_gain, vf_boost;
     /* the estimator, for FS_ANGLE_SMO (Ts and machine fields are taken from above) */
     fs_smo_config smo;
+    /* flux weakening in speed mode (zou2021 PART_1, fs_fw.h): the top
+     * electrical speed of eq. (31), rad/s (0: off), the gain on its beta, and
+     * the low-pass cutoff of eq. (30), rad/s (0: bw_current, the paper's choice) */
+    float fw_w_e_max, fw_gain, fw_cutoff;
+    /* sensorless start (FS_ANGLE_SMO, sensorless from standstill): I/f, a
+     * current of i_start on the q axis of a frame accelerated at a_start
+     * (el. rad/s^2) up to w_handover (el. rad/s), where the loops take the
+     * observer's angle and speed. i_start = 0: off (the encoder starts). */
+    float i_start, a_start, w_handover;
 } fs_drive_config;
 
 typedef struct {
@@ -80,6 +97,8 @@ typedef struct {
     bool over_modulation;
     float theta_est, w_est;  /* the estimator's angle and electrical speed, used or not */
     bool est_valid;
+    int phase;               /* fs_drive_phase */
+    float i_d_fw;            /* d-current added by flux weakening, A */
 } fs_drive_out;
 
 typedef struct {
@@ -89,6 +108,9 @@ typedef struct {
     fs_mtpa mtpa;
     fs_pll pll;              /* speed from the encoder */
     fs_smo smo;
+    fs_fw fw;
+    int phase;               /* fs_drive_phase */
+    float theta_if, w_if;    /* I/f frame */
     float theta_ol;          /* open-loop frame angle */
     bool pll_started;
     fs_ab u_hist[2];         /* realised voltage computed 1 and 2 steps ago */

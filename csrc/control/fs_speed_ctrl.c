@@ -22,3 +22,9 @@ float fs_speed_ctrl_step(fs_speed_ctrl *sc, float w_m_ref, float w_m)
 {
     return fs_pi_step(&sc->pi, w_m_ref, w_m);
 }
+
+void fs_speed_ctrl_preset(fs_speed_ctrl *sc, float w_m, float T)
+{
+    /* u = k_t r - k_p y + I with r = y = w_m */
+    sc->pi.integ = T - (sc->pi.cfg.k_t - sc->pi.cfg.k_p) * w_m;
+}

@@ -24,6 +24,9 @@ typedef struct {
 fs_status fs_speed_ctrl_init(fs_speed_ctrl *sc, const fs_speed_ctrl_config *cfg);
 void fs_speed_ctrl_reset(fs_speed_ctrl *sc);
 /* Torque reference for mechanical speed reference and estimate, rad/s. */
+/* Bumpless start: set the integral so that at speed w_m with no speed error
+ * the output is T (the torque the drive makes now). */
+void fs_speed_ctrl_preset(fs_speed_ctrl *sc, float w_m, float T);
 float fs_speed_ctrl_step(fs_speed_ctrl *sc, float w_m_ref, float w_m);
 
 #endif /* FS_SPEED_CTRL_H */

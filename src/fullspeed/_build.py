@@ -25,6 +25,7 @@ HEADERS = [
     "control/fs_current_ctrl.h",
     "control/fs_speed_ctrl.h",
     "control/fs_mtpa.h",
+    "control/fs_fw.h",
     "control/fs_drive.h",
     "plant/fs_magnetic.h",
     "plant/fs_pmsm.h",

@@ -39,6 +39,11 @@ SCENARIO = {
         # the controller's parameters relative to the true machine's
         "R_s_scale": POS(1.0), "L_d_scale": POS(1.0), "L_q_scale": POS(1.0), "psi_f_scale": POS(1.0),
         "J_scale": POS(1.0),
+        # zou2021 PART_1 voltage-error-feedback flux weakening on top of MTPA
+        "flux_weakening": B(False),
+        "fw_top_speed_rpm": POS(None, doc="w_r,max of eq. (31); default the observer's top speed"),
+        "fw_gain": POS(50.0, doc="multiplies beta of eq. (31): the loop's dc gain at the top speed (the paper: 1)"),
+        "fw_cutoff": POS(None, doc="rad/s, the low-pass of eq. (30); default bw_current / (4 fw_gain) (the paper: bw_current)"),
     }),
     # the estimator (yang2022 sec. 2); used from `handover` on, running from t = 0
     "observer": T({
@@ -51,6 +56,12 @@ SCENARIO = {
         "valid_rpm": NONNEG(100.0),
         "top_speed_rpm": POS(None, doc="for the gain bound; default 1.5 x rated"),
         "lag": C("exact", "paper", default="exact"),
+        # how the sensorless drive starts: on the encoder until `handover`, or
+        # sensorless from standstill with an I/f start
+        "start": C("encoder", "if", default="encoder"),
+        "i_start": POS(None, doc="A; default half of i_max"),
+        "start_accel_rpm_s": POS(None, doc="frame acceleration; default from a quarter of the start current's torque"),
+        "start_handover_rpm": POS(None, doc="the loops take the observer here; default twice valid_rpm"),
     }, default={}),
     "load": T({
         "kind": C("torque", "speed", "speed_pi", default="torque"),
@@ -131,6 +142,29 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         ctl["bw_speed"] = min(ctl["bw_speed"], obs["bw_pll"] / 6.0)
     if obs["top_speed_rpm"] is None:
         obs["top_speed_rpm"] = 1.5 * m.w_m_rated * 60 / (2 * math.pi)
+    if ctl["fw_cutoff"] is None:
+        # the loop crosses over at fw_gain x fw_cutoff: a quarter of the current
+        # loop's bandwidth; with the paper's gain of 1 and cutoff at bw_current
+        # a fraction 1/2 of the voltage excess is left, and the drive falls
+        # short of the speed the voltage allows (see bench/README.md)
+        ctl["fw_cutoff"] = ctl["bw_current"] / (4.0 * ctl["fw_gain"])
+    if ctl["fw_top_speed_rpm"] is None:
+        ctl["fw_top_speed_rpm"] = obs["top_speed_rpm"]
+    if obs["start"] == "if":
+        if ctl["angle"] != "smo" or ctl["mode"] != "speed":
+            raise ConfigError("observer.start", "if", "needs controller.mode = \"speed\" and controller.angle = \"smo\"", source)
+        if obs["handover"] != 0.0:
+            raise ConfigError("observer.handover", obs["handover"], "must be 0 with start = \"if\" (sensorless from t = 0)", source)
+        if obs["i_start"] is None:
+            obs["i_start"] = 0.5 * ctl["i_max"]
+        if obs["i_start"] > ctl["i_max"]:
+            raise ConfigError("observer.i_start", obs["i_start"], f"must be <= controller.i_max ({ctl['i_max']:g} A)", source)
+        if obs["start_handover_rpm"] is None:
+            obs["start_handover_rpm"] = 2.0 * obs["valid_rpm"]
+        if obs["start_accel_rpm_s"] is None:
+            # a quarter of the torque the start current makes at a 90 deg load angle
+            T = 0.25 * 1.5 * m.pole_pairs * m.psi_f * obs["i_start"]
+            obs["start_accel_rpm_s"] = T / m.J * 60 / (2 * math.pi)
     if obs["handover"] > d["duration"]:
         raise ConfigError("observer.handover", obs["handover"], f"must be <= duration ({d['duration']:g} s)", source)
     if ctl["T_max"] is None:

@@ -20,7 +20,7 @@ CHANNELS = [
     "T_e", "T_L", "u_d", "u_q", "duty_a", "duty_b", "duty_c",
     "w_m_ref", "i_d_ref", "i_q_ref", "T_ref", "i_d_hat", "i_q_hat", "u_d_ref", "u_q_ref",
     "theta_hat", "w_m_hat", "theta_err", "overmod", "E_in", "E_cu", "E_airgap", "W_mag",
-    "theta_est", "w_m_est", "est_valid", "est_err",
+    "theta_est", "w_m_est", "est_valid", "est_err", "phase", "i_d_fw",
 ]
 assert len(CHANNELS) == lib.FS_CH_N, "channel names out of step with fs_sim.h"
 
@@ -147,6 +147,10 @@ def build_config(sc: Scenario):
     dc.t_dead_comp = conv["t_dead"] if ctl["dead_time_comp"] else 0.0
     dc.i_dead_band = ctl["i_dead_band"]
     dc.vf_gain, dc.vf_boost = ctl["vf_gain"], ctl["vf_boost"]
+    if ctl["flux_weakening"]:
+        dc.fw_w_e_max = m.pole_pairs * rpm_to_rad_s(ctl["fw_top_speed_rpm"])
+        dc.fw_gain = ctl["fw_gain"]
+        dc.fw_cutoff = ctl["fw_cutoff"]
 
     p = m.pole_pairs
     obs = d["observer"]
@@ -158,6 +162,10 @@ def build_config(sc: Scenario):
     oc.bw_pll = obs["bw_pll"]
     oc.w_valid = p * rpm_to_rad_s(obs["valid_rpm"])
     oc.lag = LAGS[obs["lag"]]
+    if obs["start"] == "if":
+        dc.i_start = obs["i_start"]
+        dc.a_start = p * rpm_to_rad_s(obs["start_accel_rpm_s"])
+        dc.w_handover = p * rpm_to_rad_s(obs["start_handover_rpm"])
     sensorless = ([0.0, obs["handover"], obs["handover"]], [0.0, 0.0, 1.0]) if ctl["angle"] == "smo" else ([0.0], [0.0])
     profiles = {
         "w_m_ref": (ref["speed_rpm"], rpm_to_rad_s(1.0)),

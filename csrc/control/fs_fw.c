@@ -1,0 +1,30 @@
+#include "fs_fw.h"
+#include "fs_math.h"
+
+fs_status fs_fw_init(fs_fw *fw, const fs_fw_config *cfg)
+{
+    if (!fw || !cfg) return FS_ERR_NULL;
+    if (!(cfg->Ts > 0.0f)) return FS_ERR_TS;
+    if (!(cfg->L > 0.0f)) return FS_ERR_LD;
+    if (!(cfg->w_e_max > 0.0f)) return FS_ERR_LIMIT;
+    if (!(cfg->gain > 0.0f)) return FS_ERR_PARAM;
+    if (!(cfg->bandwidth > 0.0f) || cfg->bandwidth * cfg->Ts > 1.0f) return FS_ERR_BANDWIDTH;
+    if (!(cfg->i_max > 0.0f)) return FS_ERR_I_MAX;
+    fw->cfg = *cfg;
+    float wl = cfg->w_e_max * cfg->L;
+    fw->beta = cfg->gain / (wl * wl);            /* eq. (31) */
+    fw->a = expf(-cfg->bandwidth * cfg->Ts);
+    fs_fw_reset(fw);
+    return FS_OK;
+}
+
+void fs_fw_reset(fs_fw *fw) { fw->i_d = 0.0f; }
+
+float fs_fw_step(fs_fw *fw, float dv_q, float w_e)
+{
+    const fs_fw_config *c = &fw->cfg;
+    float x = -fw->beta * w_e * c->L * dv_q;     /* eq. (28): -beta grad F */
+    fw->i_d = fw->a * fw->i_d + (1.0f - fw->a) * x;   /* eq. (30), exact ZOH low-pass */
+    fw->i_d = fs_clampf(fw->i_d, -c->i_max, 0.0f);
+    return fw->i_d;
+}
