@@ -29,6 +29,7 @@ static double pi_const(void) { return 3.14159265358979323846; }
 static double wrap_pi(double x)
 {
     const double PI = pi_const();
+    if (x > -PI && x <= PI) return x;
     x = fmod(x + PI, 2.0 * PI);
     if (x <= 0.0) x += 2.0 * PI;
     return x - PI;
@@ -169,8 +170,11 @@ static void integrate_period(fs_sim *s, double t0)
             double Th = 0.5 * inv->T_pwm;
             int steps = (int)ceil(Th / s->cfg.h_max - 1e-9);
             double hstep = Th / steps;
+            /* the mean voltage depends on the currents only through dead time and drops */
+            int ideal = inv->t_dead == 0.0 && inv->u_on == 0.0;
+            if (ideal) i_abc[0] = i_abc[1] = i_abc[2] = 0.0;
             for (int m = 0; m < steps; ++m) {
-                phase_currents(s, s->x, i_abc, NULL, NULL);
+                if (!ideal) phase_currents(s, s->x, i_abc, NULL, NULL);
                 fs_inverter_mean_voltage(inv, s->duty_now, i_abc, &in.u_alpha, &in.u_beta);
                 fs_pmsm_rk4(&s->pmsm, s->x, &in, hstep);
             }

@@ -11,6 +11,7 @@ from pathlib import Path
 from .errors import ConfigError
 from .machines import Machine, catalog_data, machine_from_dict
 from .schema import ANY, B, C, F, I, NONNEG, POS, P, S, Spec, T, deep_merge, validate
+from .units import rpm_to_rad_s
 
 SCENARIO = {
     "name": S(), "description": S(""), "paper": S(""),
@@ -23,7 +24,7 @@ SCENARIO = {
     "timing": T({
         "sampling": C("single", "double", default=None),
         "delay": B(True, doc="one control period of computation delay"),
-        "h_max": POS(20e-6, hi=1e-3, doc="longest integration step, s"),
+        "h_max": POS(None, hi=1e-3, doc="longest integration step, s; default from the machine's time constants"),
     }, default={}),
     "sensors": T({
         "adc_bits": I(None, 0, 24), "adc_range": POS(None), "noise_i": NONNEG(None),
@@ -142,6 +143,13 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         ctl["bw_speed"] = min(ctl["bw_speed"], obs["bw_pll"] / 6.0)
     if obs["top_speed_rpm"] is None:
         obs["top_speed_rpm"] = 1.5 * m.w_m_rated * 60 / (2 * math.pi)
+    if tim["h_max"] is None:
+        # RK4 within a PWM segment: a tenth of the shortest electrical time
+        # constant and of the time the rotor turns a radian (el.) at the top
+        # speed keeps the local error near (h / tau)^5 / 120 < 1e-7
+        tau = min(m.L_d, m.L_q) / m.R_s if m.R_s > 0 else math.inf
+        w_top = m.pole_pairs * rpm_to_rad_s(obs["top_speed_rpm"])
+        tim["h_max"] = min(0.1 * tau, 0.1 / w_top, 1e-3)
     if ctl["fw_cutoff"] is None:
         # the loop crosses over at fw_gain x fw_cutoff: a quarter of the current
         # loop's bandwidth; with the paper's gain of 1 and cutoff at bw_current

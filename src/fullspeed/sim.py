@@ -207,7 +207,10 @@ class Simulation:
         if ptr == ffi.NULL:
             raise SimulationError(f"{scenario.source or scenario.name}: {ffi.string(err).decode()}")
         self._sim = ffi.gc(ptr, lib.fs_sim_destroy)
-        self._chunks: list[np.ndarray] = []
+        # one row-major buffer the C runner writes into, grown by doubling
+        rows = int(scenario.duration / (self._cfg.drive.Ts * self._cfg.decimation)) + 2
+        self._buf = np.empty((rows, lib.FS_CH_N))
+        self._n = 0
         self.status = "running"
         self.stop_time: float | None = None
 
@@ -221,11 +224,15 @@ class Simulation:
         Tc = self._cfg.drive.Ts
         dec = self._cfg.decimation
         while True:
-            n_rows = max(16, int((t_end - self.time) / (Tc * dec)) + 2)
-            buf = np.empty((n_rows, lib.FS_CH_N))
-            rc = lib.fs_sim_run(self._sim, t_end, ffi.cast("double *", buf.ctypes.data), n_rows, rows)
-            if rows[0]:
-                self._chunks.append(buf[: rows[0]])
+            need = self._n + int((t_end - self.time) / (Tc * dec)) + 2
+            if need > len(self._buf):
+                grown = np.empty((max(need, 2 * len(self._buf)), lib.FS_CH_N))
+                grown[: self._n] = self._buf[: self._n]
+                self._buf = grown
+            free = len(self._buf) - self._n
+            ptr = ffi.cast("double *", self._buf.ctypes.data) + self._n * lib.FS_CH_N
+            rc = lib.fs_sim_run(self._sim, t_end, ptr, free, rows)
+            self._n += rows[0]
             if rc == lib.FS_RUN_BUFFER_FULL:
                 continue
             if rc != lib.FS_RUN_DONE:
@@ -234,8 +241,8 @@ class Simulation:
             return self.status
 
     def traces(self) -> dict[str, np.ndarray]:
-        data = np.concatenate(self._chunks) if self._chunks else np.empty((0, lib.FS_CH_N))
-        return {name: data[:, k].copy() for k, name in enumerate(CHANNELS)}
+        """Each channel as a view into the buffer (strided, no copy)."""
+        return dict(zip(CHANNELS, self._buf[: self._n].T))
 
 
 def simulate(scenario: Scenario | str, progress: bool = False, chunk: float | None = None,
