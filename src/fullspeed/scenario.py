@@ -144,12 +144,12 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
     if obs["top_speed_rpm"] is None:
         obs["top_speed_rpm"] = 1.5 * m.w_m_rated * 60 / (2 * math.pi)
     if tim["h_max"] is None:
-        # RK4 within a PWM segment: a tenth of the shortest electrical time
+        # RK4 within a PWM segment: a fifth of the shortest electrical time
         # constant and of the time the rotor turns a radian (el.) at the top
-        # speed keeps the local error near (h / tau)^5 / 120 < 1e-7
+        # speed keeps the local error near (h / tau)^5 / 120 < 3e-6
         tau = min(m.L_d, m.L_q) / m.R_s if m.R_s > 0 else math.inf
         w_top = m.pole_pairs * rpm_to_rad_s(obs["top_speed_rpm"])
-        tim["h_max"] = min(0.1 * tau, 0.1 / w_top, 1e-3)
+        tim["h_max"] = min(0.2 * tau, 0.2 / w_top, 1e-3)
     if ctl["fw_cutoff"] is None:
         # the loop crosses over at fw_gain x fw_cutoff: a quarter of the current
         # loop's bandwidth; with the paper's gain of 1 and cutoff at bw_current

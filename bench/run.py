@@ -1,0 +1,63 @@
+"""fullspeed's benchmarks in one command: wall time against motulator, the
+drive step's instructions per control step, and the Cortex-M4F build.
+
+Each part runs on its own and skips, saying why, where this machine lacks
+what it needs (a Python >= 3.12 for motulator, valgrind, the ARM
+toolchain). The report is printed and written as JSON to --out.
+
+Usage: python bench/run.py [--repeat N] [--steps N] [--out DIR] [--only wall,instructions,firmware]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+import firmware  # noqa: E402
+import instructions  # noqa: E402
+import wall  # noqa: E402
+
+PARTS = ("wall", "instructions", "firmware")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=3, help="wall: runs per side and pair (default 3)")
+    ap.add_argument("--steps", type=int, default=20000, help="instructions: measured steps (default 20000)")
+    ap.add_argument("--out", type=Path, default=Path("out/bench"), help="where bench.json goes (default out/bench)")
+    ap.add_argument("--only", default=",".join(PARTS), help="comma-separated parts to run (default all)")
+    a = ap.parse_args(argv)
+    parts = [p.strip() for p in a.only.split(",") if p.strip()]
+    bad = [p for p in parts if p not in PARTS]
+    if bad or a.repeat < 1 or a.steps < 1:
+        what = f"--only = {','.join(bad)}: must be among {', '.join(PARTS)}" if bad else \
+            f"--repeat = {a.repeat}, --steps = {a.steps}: must be >= 1"
+        print(what, file=sys.stderr)
+        return 2
+    report, status = {}, 0
+    a.out.mkdir(parents=True, exist_ok=True)
+    for part in parts:
+        if part == "wall":
+            rep = wall.wall_report(a.repeat)
+            text = wall.format_report(rep)
+        elif part == "instructions":
+            rep = instructions.instructions_report(steps=a.steps)
+            text = instructions.format_report(rep)
+        else:
+            rep = firmware.firmware_report()
+            text = firmware.format_report(rep)
+        print(text + "\n", flush=True)
+        report[part] = rep
+        if rep.get("status") == "fail":
+            status = 1
+        (a.out / "bench.json").write_text(json.dumps(report, indent=2, default=str))
+    print(f"written: {a.out / 'bench.json'}")
+    return status
+
+
+if __name__ == "__main__":
+    sys.exit(main())
