@@ -126,7 +126,11 @@ def wall_report(repeat: int = 3) -> dict:
             "ratio": ratio, "goal": GOALS[inverter], "met": ratio >= GOALS[inverter],
             "sim_s_per_wall_s": {"motulator": 1.6 / m_peer, "fullspeed": 1.6 / m_ours},
         }
-    return {"status": "ok", "repeat": repeat, "peer": MOTULATOR, "python": py, "pairs": pairs}
+    # every fullspeed model against every motulator model (the pairs above are the diagonal)
+    peer_s = {p["motulator"]["pwm"]: p["motulator"]["median_s"] for p in pairs.values()}
+    cross = {f"{inv} vs pwm={pwm}": peer_s[pwm] / pairs[inv]["fullspeed"]["median_s"]
+             for inv in pairs for pwm in (False, True)}
+    return {"status": "ok", "repeat": repeat, "peer": MOTULATOR, "python": py, "pairs": pairs, "ratios": cross}
 
 
 def format_report(rep: dict) -> str:
@@ -138,6 +142,8 @@ def format_report(rep: dict) -> str:
         label = f"{inv} / pwm={p['motulator']['pwm']}"
         lines.append(f"  {label:<28}{p['motulator']['median_s']:>10.3f}s{p['fullspeed']['median_s']:>10.4f}s"
                      f"{p['ratio']:>8.0f}x   >= {p['goal']:.0f}x: {'met' if p['met'] else 'NOT met'}")
+    lines.append("  all four ratios (motulator median / fullspeed median): "
+                 + ", ".join(f"{k} {v:.0f}x" for k, v in rep["ratios"].items()))
     for inv, p in rep["pairs"].items():
         ms, fs_ = p["motulator"]["speed_rpm"] or {}, p["fullspeed"]["speed_rpm"]
         row = "  ".join(f"{t} s: {ms.get(t, float('nan')):.0f}/{fs_[t]:.0f}" for t in fs_)
