@@ -65,4 +65,14 @@ static inline int fs_test_summary(const char *name)
 
 #define FS_TEST_PI 3.14159265358979323846
 
+/* An angle wrapped to (-pi, pi], in double: the tests' reference. */
+static inline double fs_test_wrap(double x)
+{
+    const double two_pi = 2.0 * FS_TEST_PI;
+    x = fmod(x, two_pi);
+    if (x > FS_TEST_PI) x -= two_pi;
+    if (x <= -FS_TEST_PI) x += two_pi;
+    return x;
+}
+
 #endif /* FS_TEST_H */

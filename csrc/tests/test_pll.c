@@ -11,15 +11,6 @@
 #include "control/fs_pll.h"
 #include "tests/fs_test.h"
 
-static double wrap_d(double x)
-{
-    const double two_pi = 2.0 * FS_TEST_PI;
-    x = fmod(x, two_pi);
-    if (x > FS_TEST_PI) x -= two_pi;
-    if (x <= -FS_TEST_PI) x += two_pi;
-    return x;
-}
-
 static void ramp(float w0, float bw, float Ts)
 {
     fs_pll pll;
@@ -30,8 +21,8 @@ static void ramp(float w0, float bw, float Ts)
     int wraps = 0;
     float prev = pll.theta;
     for (int k = 0; k < n; ++k) {
-        double theta_true = wrap_d((double)w0 * Ts * k + 0.3);
-        float err = (float)wrap_d(theta_true - pll.theta);
+        double theta_true = fs_test_wrap((double)w0 * Ts * k + 0.3);
+        float err = (float)fs_test_wrap(theta_true - pll.theta);
         float th = fs_pll_step(&pll, err);
         FS_CHECK(th > -FS_PI && th <= FS_PI, "estimate %.9g outside (-pi, pi]", th);
         if (fabsf(th - prev) > FS_PI) ++wraps;

@@ -26,6 +26,10 @@ HEADERS = [
     "control/fs_speed_ctrl.h",
     "control/fs_mtpa.h",
     "control/fs_fw.h",
+    "control/fs_srff.h",
+    "control/fs_hfi_filter.h",
+    "control/fs_motion_obs.h",
+    "control/fs_blend.h",
     "control/fs_drive.h",
     "plant/fs_magnetic.h",
     "plant/fs_pmsm.h",
@@ -58,7 +62,7 @@ ffibuilder = FFI()
 ffibuilder.cdef(cdef_text())
 ffibuilder.set_source(
     "fullspeed._core",
-    '#include "sim/fs_sim.h"\n#include "control/fs_drive.h"\n',
+    "".join(f'#include "{h}"\n' for h in HEADERS),
     sources=sources(),
     include_dirs=[str(CSRC)],
     extra_compile_args=["-O2", "-std=c99", "-Wall", "-Wextra", "-fno-math-errno"],

@@ -1,0 +1,51 @@
+#include "fs_blend.h"
+#include "fs_math.h"
+
+float fs_blend_weight(float w, float w_lower, float w_upper)
+{
+    const float aw = fabsf(w);  /* eq. (28) */
+    if (aw <= w_lower) return 0.0f;
+    if (aw >= w_upper) return 1.0f;
+    return fs_clampf((aw - w_lower) / (w_upper - w_lower), 0.0f, 1.0f);
+}
+
+float fs_blend_angle(float theta_smo, float theta_hfi, float g)
+{
+    if (g <= 0.0f) return fs_wrap_pi(theta_hfi);
+    if (g >= 1.0f) return fs_wrap_pi(theta_smo);
+    /* eq. (27) along the shorter arc, so that it does not break at +-pi */
+    return fs_wrap_pi(theta_hfi + g * fs_wrap_pi(theta_smo - theta_hfi));
+}
+
+fs_status fs_blend_init(fs_blend *b, const fs_blend_config *cfg)
+{
+    if (!b || !cfg) return FS_ERR_NULL;
+    if (!(cfg->w_lower >= 0.0f) || !(cfg->w_upper > cfg->w_lower) || !isfinite(cfg->w_upper)) {
+        return FS_ERR_LIMIT;
+    }
+    fs_status st = fs_motion_obs_init(&b->obs, &cfg->obs);
+    if (st != FS_OK) return st;
+    b->cfg = *cfg;
+    fs_blend_reset(b, 0.0f, 0.0f);
+    return FS_OK;
+}
+
+void fs_blend_reset(fs_blend *b, float theta, float w)
+{
+    fs_motion_obs_reset(&b->obs, theta, w);
+    b->theta_hat = b->obs.theta_hat;
+    b->w_hat = b->obs.w_hat;
+    b->theta_blnd = b->theta_hat;
+    b->g_w = fs_blend_weight(w, b->cfg.w_lower, b->cfg.w_upper);
+}
+
+float fs_blend_step(fs_blend *b, float theta_smo, float theta_hfi, float T_ff)
+{
+    /* Fig. 6: the weight from the observer's speed, eq. (28) */
+    b->g_w = fs_blend_weight(b->obs.w_hat, b->cfg.w_lower, b->cfg.w_upper);
+    b->theta_blnd = fs_blend_angle(theta_smo, theta_hfi, b->g_w);  /* eq. (27) */
+    fs_motion_obs_step(&b->obs, fs_wrap_pi(b->theta_blnd - b->obs.theta_hat), T_ff);
+    b->theta_hat = b->obs.theta_hat;
+    b->w_hat = b->obs.w_hat;
+    return b->theta_hat;
+}

@@ -1,0 +1,36 @@
+#include "fs_hfi_filter.h"
+#include "fs_math.h"
+
+fs_status fs_hfi_filter_init(fs_hfi_filter *f, const fs_hfi_filter_config *cfg)
+{
+    if (!f || !cfg) return FS_ERR_NULL;
+    fs_srff_config c = {cfg->Ts, cfg->w_b_p};
+    fs_status st = fs_srff_init(&f->srff_p, &c);
+    if (st != FS_OK) return st;
+    c.w_b = cfg->w_b_n;
+    st = fs_srff_init(&f->srff_n, &c);
+    if (st != FS_OK) return st;
+    f->cfg = *cfg;
+    return FS_OK;
+}
+
+void fs_hfi_filter_reset(fs_hfi_filter *f)
+{
+    fs_srff_reset(&f->srff_p);
+    fs_srff_reset(&f->srff_n);
+}
+
+void fs_hfi_filter_step(fs_hfi_filter *f, fs_ab i, float theta_h, float theta_r_hat,
+                        fs_ab *i_f, fs_ab *i_hn)
+{
+    /* Fig. 4b: remove the positive carrier at w_h ... */
+    fs_ab y = fs_srff_step(&f->srff_p, i, theta_h);
+    /* ... then the negative carrier at -w_h + 2 w_r_hat, eq. (24). */
+    float theta_n = fs_wrap_pi(2.0f * theta_r_hat - theta_h);
+    fs_ab fund = fs_srff_step(&f->srff_n, y, theta_n);
+    if (i_f) *i_f = fund;
+    if (i_hn) {
+        i_hn->alpha = y.alpha - fund.alpha;
+        i_hn->beta = y.beta - fund.beta;
+    }
+}

@@ -1,0 +1,77 @@
+#include "fs_motion_obs.h"
+#include "fs_math.h"
+
+fs_status fs_motion_obs_init(fs_motion_obs *obs, const fs_motion_obs_config *cfg)
+{
+    if (!obs || !cfg) return FS_ERR_NULL;
+    if (!(cfg->Ts > 0.0f) || !isfinite(cfg->Ts)) return FS_ERR_TS;
+    if (!(cfg->J > 0.0f) || !isfinite(cfg->J)) return FS_ERR_J;
+    if (!(cfg->B >= 0.0f) || !isfinite(cfg->B)) return FS_ERR_PARAM;
+    if (cfg->pole_pairs < 1) return FS_ERR_POLE_PAIRS;
+    if (!(cfg->bandwidth > 0.0f) || !(cfg->bandwidth * cfg->Ts <= 0.5f)) return FS_ERR_BANDWIDTH;
+    obs->cfg = *cfg;
+    const float Ts = cfg->Ts, J = cfg->J, B = cfg->B, w_o = cfg->bandwidth;
+    const float p = (float)cfg->pole_pairs;
+    obs->k_u = p / J;
+
+    /* Sampled model of J dw/dt = T - B w (zero-order hold), x = B Ts / J:
+     * g = 1 - E = 1 - exp(-x), f1 = Ts g / x, f2 = Ts^2 (x - g) / x^2,
+     * by series where x - g cancels. */
+    const float x = B * Ts / J;
+    const float g = -expm1f(-x);
+    float phi1, phi2;
+    if (x < 0.1f) {
+        phi1 = 1.0f - x * (0.5f - x * (1.0f / 6.0f - x * (1.0f / 24.0f - x * (1.0f / 120.0f))));
+        phi2 = 0.5f - x * (1.0f / 6.0f - x * (1.0f / 24.0f - x * (1.0f / 120.0f - x * (1.0f / 720.0f))));
+    } else {
+        phi1 = g / x;
+        phi2 = (1.0f - phi1) / x;
+    }
+    obs->E = 1.0f - g;
+    obs->f1 = Ts * phi1;
+    obs->f2 = Ts * Ts * phi2;
+
+    /* Fig. 5 observer: triple pole of the error at z_o = exp(-w_o Ts)
+     * (header: predictor gain m, then the filter gain l = Phi^-1 m). */
+    const float c = -expm1f(-w_o * Ts);
+    obs->z_o = 1.0f - c;
+    const float f1 = obs->f1, f2 = obs->f2;
+    const float m1 = 3.0f * c - g;
+    const float m3 = c * c * c / (f1 * Ts);
+    const float m2 = (3.0f * c * c - g * m1 - f2 * m3) / f1;
+    obs->l_a = m3;
+    obs->l_w = (m2 - f1 * m3) / obs->E;
+    obs->l_theta = m1 - f1 * obs->l_w - f2 * obs->l_a;
+    obs->l_T = obs->l_a / obs->k_u;
+
+    /* continuous-time equivalents, on the electrical error (divided by p) */
+    const float K_d_m = 3.0f * J * w_o - B;
+    obs->K_d = K_d_m / p;
+    obs->K_p = (3.0f * J * w_o * w_o - B * K_d_m / J) / p;
+    obs->K_i = J * w_o * w_o * w_o / p;
+
+    fs_motion_obs_reset(obs, 0.0f, 0.0f);
+    return FS_OK;
+}
+
+void fs_motion_obs_reset(fs_motion_obs *obs, float theta, float w)
+{
+    obs->theta_hat = fs_wrap_pi(theta);
+    obs->w_hat = w;
+    obs->T_d_hat = 0.0f;
+}
+
+float fs_motion_obs_step(fs_motion_obs *obs, float eps, float T_ff)
+{
+    /* predict over the period that ended now, with the torque that acted in it */
+    const float acc = obs->k_u * (T_ff + obs->T_d_hat);
+    const float d_theta = obs->f1 * obs->w_hat + obs->f2 * acc;
+    const float w_pred = obs->E * obs->w_hat + obs->f1 * acc;
+    /* innovation: eps is against the previous theta_hat, the prediction moved on */
+    const float innov = fs_wrap_pi(eps - d_theta);
+    /* correct: the PID of Fig. 5 in sampled form */
+    obs->theta_hat = fs_wrap_pi(obs->theta_hat + d_theta + obs->l_theta * innov);
+    obs->w_hat = w_pred + obs->l_w * innov;
+    obs->T_d_hat += obs->l_T * innov;
+    return obs->theta_hat;
+}

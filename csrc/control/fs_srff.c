@@ -1,0 +1,38 @@
+#include "fs_srff.h"
+#include "fs_math.h"
+
+fs_status fs_srff_init(fs_srff *f, const fs_srff_config *cfg)
+{
+    if (!f || !cfg) return FS_ERR_NULL;
+    if (!(cfg->Ts > 0.0f) || !isfinite(cfg->Ts)) return FS_ERR_TS;
+    if (!(cfg->w_b > 0.0f) || !(cfg->w_b * cfg->Ts <= 0.5f)) return FS_ERR_BANDWIDTH;
+    f->cfg = *cfg;
+    f->a = expf(-cfg->w_b * cfg->Ts);  /* pole of w_b / (s + w_b), held input */
+    f->b = 1.0f - f->a;
+    f->g = 0.5f * (1.0f + f->a);       /* low-pass read mid-period */
+    fs_srff_reset(f);
+    return FS_OK;
+}
+
+void fs_srff_reset(fs_srff *f) { f->lp.d = f->lp.q = 0.0f; }
+
+fs_ab fs_srff_step(fs_srff *f, fs_ab x, float theta_x)
+{
+    const float c = cosf(theta_x), s = sinf(theta_x);
+    /* Fig. 4a: in the frame at theta_x, x_r - lp (lp at the start of the
+     * period); rotated back, d = x - e^{j theta_x} lp. */
+    fs_ab lp = fs_inv_park(f->lp, c, s);
+    fs_ab d;
+    d.alpha = x.alpha - lp.alpha;
+    d.beta = x.beta - lp.beta;
+    /* Low-pass in the frame, exact for a held input: lp += (1 - a)(x_r - lp). */
+    fs_dq dr = fs_park(d, c, s);
+    f->lp.d += f->b * dr.d;
+    f->lp.q += f->b * dr.q;
+    /* x minus the average of lp at the start and end of the period:
+     * (1 + a)/2 d, eq. (25) (bilinear image, see fs_srff.h). */
+    fs_ab y;
+    y.alpha = f->g * d.alpha;
+    y.beta = f->g * d.beta;
+    return y;
+}
