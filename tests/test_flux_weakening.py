@@ -46,3 +46,10 @@ def test_without_flux_weakening_top_speed_is_not_reached():
                                      "controller": {"flux_weakening": False}})
     late = r["t"] > 1.3
     assert np.mean(rad_s_to_rpm(r["w_m"][late])) < 2500.0
+
+
+def test_a_flux_weakening_cutoff_above_the_sampling_limit_is_a_field_error():
+    from fullspeed.errors import ConfigError
+    from fullspeed.scenario import load_scenario
+    with pytest.raises(ConfigError, match="controller.fw_cutoff"):
+        load_scenario(NAME, {"controller": {"fw_cutoff": 1e5}})

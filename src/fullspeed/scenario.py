@@ -154,7 +154,7 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         # the loop crosses over at fw_gain x fw_cutoff: a quarter of the current
         # loop's bandwidth; with the paper's gain of 1 and cutoff at bw_current
         # a fraction 1/2 of the voltage excess is left, and the drive falls
-        # short of the speed the voltage allows (see bench/README.md)
+        # short of the speed the voltage allows (measured on the bench scenario: 1867 rpm instead of 3000)
         ctl["fw_cutoff"] = ctl["bw_current"] / (4.0 * ctl["fw_gain"])
     if ctl["fw_top_speed_rpm"] is None:
         ctl["fw_top_speed_rpm"] = obs["top_speed_rpm"]
@@ -184,7 +184,7 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
     Ts = T_pwm / 2 if tim["sampling"] == "double" else T_pwm
     if conv["t_dead"] >= 0.5 * T_pwm:
         raise ConfigError("converter.t_dead", conv["t_dead"], f"must be shorter than half the PWM period ({0.5 * T_pwm:g} s)", source)
-    for sec, key, limit in (("controller", "bw_current", 1.0), ("controller", "bw_speed", 0.5),
+    for sec, key, limit in (("controller", "bw_current", 1.0), ("controller", "fw_cutoff", 1.0), ("controller", "bw_speed", 0.5),
                             ("controller", "bw_pll", 0.5), ("observer", "bw_pll", 0.5)):
         if d[sec][key] * Ts > limit:
             raise ConfigError(f"{sec}.{key}", d[sec][key], f"must be <= {limit / Ts:g} rad/s for the control period {Ts:g} s", source)
