@@ -82,12 +82,11 @@ static void setup_common(fs_drive_config *c, const params *p)
     c->bw_pll = (float)p->bw_pll;
     c->t_dead_comp = (float)p->t_dead;
     c->i_dead_band = (float)(0.01 * p->i_max);
-    /* flux weakening on, as in a full-range drive (the scenarios' defaults:
-     * dc loop gain 50, crossover a quarter of the current loop's bandwidth);
-     * it runs every step, idle below base speed */
+    /* flux weakening on, as in a full-range drive (the scenarios' default
+     * gain, the cutoff designed by fs_drive_init); it runs every step, idle
+     * below base speed */
     c->fw_w_e_max = (float)p->smo_w_e_max;
     c->fw_gain = 50.0f;
-    c->fw_cutoff = (float)(p->bw_current / (4.0 * 50.0));
 }
 
 static void setup_encoder(fs_drive_config *c, const params *p)

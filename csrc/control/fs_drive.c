@@ -3,7 +3,12 @@
 
 static bool drive_starts(const fs_drive_config *c)
 {
-    return c->angle_source == FS_ANGLE_SMO && c->i_start > 0.0f;
+    return c->mode == FS_MODE_SPEED && c->angle_source == FS_ANGLE_SMO && c->i_start > 0.0f;
+}
+
+static bool drive_weakens(const fs_drive_config *c)
+{
+    return c->mode == FS_MODE_SPEED && c->fw_w_e_max > 0.0f;
 }
 
 fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
@@ -45,8 +50,8 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         st = fs_mtpa_init(&drv->mtpa, &mc);
         if (st != FS_OK) return st;
         if (!(cfg->fw_w_e_max >= 0.0f)) return FS_ERR_LIMIT;
-        if (cfg->fw_w_e_max > 0.0f) {
-            float w_c = cfg->fw_cutoff > 0.0f ? cfg->fw_cutoff : cfg->bw_current;
+        if (drive_weakens(cfg)) {
+            float w_c = cfg->fw_cutoff > 0.0f ? cfg->fw_cutoff : 0.25f * cfg->bw_current / cfg->fw_gain;
             fs_fw_config fc = {cfg->Ts, cfg->L_d, cfg->fw_w_e_max, cfg->fw_gain, w_c, cfg->i_max};
             st = fs_fw_init(&drv->fw, &fc);
             if (st != FS_OK) return st;
@@ -64,7 +69,7 @@ void fs_drive_reset(fs_drive *drv)
     fs_pll_reset(&drv->pll, 0.0f, 0.0f);
     if (drv->cfg.mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
     if (drv->cfg.angle_source == FS_ANGLE_SMO) fs_smo_reset(&drv->smo, 0.0f, 0.0f);
-    if (drv->cfg.fw_w_e_max > 0.0f) fs_fw_reset(&drv->fw);
+    if (drive_weakens(&drv->cfg)) fs_fw_reset(&drv->fw);
     drv->phase = drive_starts(&drv->cfg) ? FS_PHASE_START : FS_PHASE_RUN;
     drv->theta_if = drv->w_if = 0.0f;
     drv->theta_ol = 0.0f;
@@ -80,14 +85,10 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, float 
         /* the voltage that acted during the period that ended now */
         fs_ab u = drv->cfg.delay > 0.5f ? drv->u_hist[1] : drv->u_hist[0];
         fs_smo_step(&drv->smo, i_ab, u);
-        if (in->sensorless && drv->phase == FS_PHASE_START) {
-            *theta = drv->theta_if;
-            *w = drv->w_if;
-            return;
-        }
         if (in->sensorless) {
-            *theta = drv->smo.theta;
-            *w = drv->smo.w;
+            bool start = drv->phase == FS_PHASE_START;
+            *theta = start ? drv->theta_if : drv->smo.theta;
+            *w = start ? drv->w_if : drv->smo.w;
             return;
         }
     }
@@ -115,7 +116,7 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, float 
  * the same way, the loops take the observer, and the speed controller's
  * integral is preset to the torque the current makes in the observer's
  * frame, so that the hand-over does not bump the torque. */
-static fs_dq drive_start_step(fs_drive *drv, const fs_drive_in *in, fs_dq i_dq)
+static fs_dq drive_start_step(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab)
 {
     const fs_drive_config *c = &drv->cfg;
     float w_target = fs_clampf((float)c->pole_pairs * in->w_m_ref, -c->w_handover, c->w_handover);
@@ -125,8 +126,7 @@ static fs_dq drive_start_step(fs_drive *drv, const fs_drive_in *in, fs_dq i_dq)
     fs_dq i_ref = {c->i_start, 0.0f};
     bool fast = fabsf(drv->w_if) >= c->w_handover * 0.999f;
     if (fast && drv->smo.valid && drv->smo.w * drv->w_if > 0.0f) {
-        float c_e = cosf(drv->smo.theta), s_e = sinf(drv->smo.theta);
-        fs_dq i_o = fs_park(fs_inv_park(i_dq, cosf(drv->theta_if), sinf(drv->theta_if)), c_e, s_e);
+        fs_dq i_o = fs_park(i_ab, cosf(drv->smo.theta), sinf(drv->smo.theta));
         float T = 1.5f * (float)c->pole_pairs * (c->psi_f + (c->L_d - c->L_q) * i_o.d) * i_o.q;
         fs_speed_ctrl_preset(&drv->sc, drv->smo.w / (float)c->pole_pairs, T);
         drv->phase = FS_PHASE_RUN;
@@ -176,11 +176,11 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
 
     if (closed_loop) {
         if (c->mode == FS_MODE_SPEED && starting) {
-            i_ref = drive_start_step(drv, in, i_dq);
+            i_ref = drive_start_step(drv, in, i_ab);
         } else if (c->mode == FS_MODE_SPEED) {
             T_ref = fs_speed_ctrl_step(&drv->sc, in->w_m_ref, w_e / (float)c->pole_pairs);
             i_ref = fs_mtpa_step(&drv->mtpa, T_ref);
-            if (c->fw_w_e_max > 0.0f) {
+            if (drive_weakens(c)) {
                 /* zou2021 eq. (30): i_d* = i_d0* + the filtered correction,
                  * i_q* kept, then held inside the current limit circle */
                 i_ref.d = fs_clampf(i_ref.d + drv->fw.i_d, -c->i_max, c->i_max);
@@ -212,7 +212,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     drv->u_hist[0] = u_ab;
     fs_dq u_real = fs_park(u_ab, cos_u, sin_u);
     if (closed_loop) fs_current_ctrl_update(&drv->cc, u_real);
-    if (c->mode == FS_MODE_SPEED && c->fw_w_e_max > 0.0f && !starting)
+    if (drive_weakens(c) && !starting)
         fs_fw_step(&drv->fw, u_ref.q - u_real.q, w_e);   /* eq. (26): dv_q */
 
     out->theta_e = theta;
@@ -229,5 +229,5 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     out->w_est = smo ? drv->smo.w : w_e;
     out->est_valid = smo ? drv->smo.valid : true;
     out->phase = drv->phase;
-    out->i_d_fw = c->fw_w_e_max > 0.0f ? drv->fw.i_d : 0.0f;
+    out->i_d_fw = drive_weakens(c) ? drv->fw.i_d : 0.0f;
 }

@@ -63,11 +63,15 @@ typedef struct {
     /* the estimator, for FS_ANGLE_SMO (Ts and machine fields are taken from above) */
     fs_smo_config smo;
     /* flux weakening in speed mode (zou2021 PART_1, fs_fw.h): the top
-     * electrical speed of eq. (31), rad/s (0: off), the gain on its beta, and
-     * the low-pass cutoff of eq. (30), rad/s (0: bw_current, the paper's choice) */
+     * electrical speed of eq. (31), rad/s (0: off), the gain on its beta (the
+     * loop's dc gain at the top speed; the paper: 1), and the low-pass cutoff
+     * of eq. (30), rad/s. Cutoff 0: designed so that the loop crosses over at
+     * gain x cutoff = bw_current / 4 (the paper instead sets the cutoff to
+     * bw_current; with its gain of 1 half the voltage excess is left and the
+     * drive falls short of the speed the voltage allows). */
     float fw_w_e_max, fw_gain, fw_cutoff;
-    /* sensorless start (FS_ANGLE_SMO, sensorless from standstill): I/f, a
-     * current of i_start on the q axis of a frame accelerated at a_start
+    /* sensorless start (speed mode, FS_ANGLE_SMO, sensorless from standstill):
+     * I/f, a current of i_start on the d axis of a frame accelerated at a_start
      * (el. rad/s^2) up to w_handover (el. rad/s), where the loops take the
      * observer's angle and speed. i_start = 0: off (the encoder starts). */
     float i_start, a_start, w_handover;

@@ -170,12 +170,18 @@ static void integrate_period(fs_sim *s, double t0)
             double Th = 0.5 * inv->T_pwm;
             int steps = (int)ceil(Th / s->cfg.h_max - 1e-9);
             double hstep = Th / steps;
-            /* the mean voltage depends on the currents only through dead time and drops */
+            /* the mean voltage depends on the currents only through dead time
+             * and drops: without them it is one value for the half period */
             int ideal = inv->t_dead == 0.0 && inv->u_on == 0.0;
-            if (ideal) i_abc[0] = i_abc[1] = i_abc[2] = 0.0;
-            for (int m = 0; m < steps; ++m) {
-                if (!ideal) phase_currents(s, s->x, i_abc, NULL, NULL);
+            if (ideal) {
+                i_abc[0] = i_abc[1] = i_abc[2] = 0.0;
                 fs_inverter_mean_voltage(inv, s->duty_now, i_abc, &in.u_alpha, &in.u_beta);
+            }
+            for (int m = 0; m < steps; ++m) {
+                if (!ideal) {
+                    phase_currents(s, s->x, i_abc, NULL, NULL);
+                    fs_inverter_mean_voltage(inv, s->duty_now, i_abc, &in.u_alpha, &in.u_beta);
+                }
                 fs_pmsm_rk4(&s->pmsm, s->x, &in, hstep);
             }
         }

@@ -44,7 +44,7 @@ SCENARIO = {
         "flux_weakening": B(False),
         "fw_top_speed_rpm": POS(None, doc="w_r,max of eq. (31); default the observer's top speed"),
         "fw_gain": POS(50.0, doc="multiplies beta of eq. (31): the loop's dc gain at the top speed (the paper: 1)"),
-        "fw_cutoff": POS(None, doc="rad/s, the low-pass of eq. (30); default bw_current / (4 fw_gain) (the paper: bw_current)"),
+        "fw_cutoff": POS(None, doc="rad/s, the low-pass of eq. (30); default designed in the drive's init (fs_drive.h; the paper: bw_current)"),
     }),
     # the estimator (yang2022 sec. 2); used from `handover` on, running from t = 0
     "observer": T({
@@ -150,12 +150,6 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         tau = min(m.L_d, m.L_q) / m.R_s if m.R_s > 0 else math.inf
         w_top = m.pole_pairs * rpm_to_rad_s(obs["top_speed_rpm"])
         tim["h_max"] = min(0.2 * tau, 0.2 / w_top, 1e-3)
-    if ctl["fw_cutoff"] is None:
-        # the loop crosses over at fw_gain x fw_cutoff: a quarter of the current
-        # loop's bandwidth; with the paper's gain of 1 and cutoff at bw_current
-        # a fraction 1/2 of the voltage excess is left, and the drive falls
-        # short of the speed the voltage allows (measured on the bench scenario: 1867 rpm instead of 3000)
-        ctl["fw_cutoff"] = ctl["bw_current"] / (4.0 * ctl["fw_gain"])
     if ctl["fw_top_speed_rpm"] is None:
         ctl["fw_top_speed_rpm"] = obs["top_speed_rpm"]
     if obs["start"] == "if":
@@ -186,7 +180,7 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         raise ConfigError("converter.t_dead", conv["t_dead"], f"must be shorter than half the PWM period ({0.5 * T_pwm:g} s)", source)
     for sec, key, limit in (("controller", "bw_current", 1.0), ("controller", "fw_cutoff", 1.0), ("controller", "bw_speed", 0.5),
                             ("controller", "bw_pll", 0.5), ("observer", "bw_pll", 0.5)):
-        if d[sec][key] * Ts > limit:
+        if d[sec][key] is not None and d[sec][key] * Ts > limit:   # None: designed in C
             raise ConfigError(f"{sec}.{key}", d[sec][key], f"must be <= {limit / Ts:g} rad/s for the control period {Ts:g} s", source)
     steady = d["metrics"]["steady"]
     if steady is not None:

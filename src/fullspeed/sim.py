@@ -150,7 +150,7 @@ def build_config(sc: Scenario):
     if ctl["flux_weakening"]:
         dc.fw_w_e_max = m.pole_pairs * rpm_to_rad_s(ctl["fw_top_speed_rpm"])
         dc.fw_gain = ctl["fw_gain"]
-        dc.fw_cutoff = ctl["fw_cutoff"]
+        dc.fw_cutoff = ctl["fw_cutoff"] or 0.0   # 0: designed in fs_drive_init
 
     p = m.pole_pairs
     obs = d["observer"]
