@@ -11,11 +11,61 @@ static bool drive_weakens(const fs_drive_config *c)
     return c->mode == FS_MODE_SPEED && c->fw_w_e_max > 0.0f;
 }
 
+static bool drive_injects(const fs_drive_config *c)
+{
+    return c->angle_source == FS_ANGLE_HFI || c->angle_source == FS_ANGLE_BLEND;
+}
+
+/* The SMO runs for its own source and inside the blend. */
+static bool drive_has_smo(const fs_drive_config *c)
+{
+    return c->angle_source == FS_ANGLE_SMO || c->angle_source == FS_ANGLE_BLEND;
+}
+
+/* The controller's torque at a current (the motion observers' feed-forward). */
+static float drive_torque(const fs_drive_config *c, fs_dq i)
+{
+    return 1.5f * (float)c->pole_pairs * (c->psi_f + (c->L_d - c->L_q) * i.d) * i.q;
+}
+
+/* The injection estimators: HFI (and blend), the polarity detector. */
+static fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
+{
+    fs_motion_obs_config mo = {cfg->Ts, cfg->J, cfg->B, cfg->pole_pairs, 0.0f};
+    fs_hfi_config hc = cfg->hfi;
+    hc.Ts = cfg->Ts;
+    hc.delay = cfg->delay;
+    hc.R_s = cfg->R_s;
+    hc.L_d = cfg->L_d;
+    hc.L_q = cfg->L_q;
+    mo.bandwidth = hc.obs.bandwidth;
+    hc.obs = mo;
+    fs_status st = fs_hfi_init(&drv->hfi, &hc);
+    if (st != FS_OK) return st;
+    if (cfg->angle_source == FS_ANGLE_BLEND) {
+        fs_blend_config bc = cfg->blend;
+        mo.bandwidth = bc.obs.bandwidth > 0.0f ? bc.obs.bandwidth : drv->hfi.cfg.obs.bandwidth;
+        bc.obs = mo;
+        st = fs_blend_init(&drv->blend, &bc);
+        if (st != FS_OK) return st;
+        if (!(cfg->w_inject_max >= 0.0f)) return FS_ERR_LIMIT;
+        if (cfg->w_inject_max > 0.0f && !(0.9f * cfg->w_inject_max >= bc.w_upper)) return FS_ERR_LIMIT;
+    }
+    if (cfg->polarity.i_pulse > 0.0f) {
+        fs_polarity_config pc = cfg->polarity;
+        pc.Ts = cfg->Ts;
+        if (pc.i_pulse > cfg->i_max) return FS_ERR_I_MAX;
+        st = fs_polarity_init(&drv->pol, &pc);
+        if (st != FS_OK) return st;
+    }
+    return FS_OK;
+}
+
 fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
 {
     if (!drv || !cfg) return FS_ERR_NULL;
     if (cfg->mode < FS_MODE_OFF || cfg->mode > FS_MODE_SPEED) return FS_ERR_MODE;
-    if (cfg->angle_source < FS_ANGLE_ENCODER || cfg->angle_source > FS_ANGLE_SMO) return FS_ERR_MODE;
+    if (cfg->angle_source < FS_ANGLE_ENCODER || cfg->angle_source > FS_ANGLE_BLEND) return FS_ERR_MODE;
     if (!(cfg->Ts > 0.0f) || !(cfg->T_pwm >= cfg->Ts)) return FS_ERR_TS;
     if (!(cfg->delay >= 0.0f && cfg->delay <= 2.0f)) return FS_ERR_PARAM;
     if (cfg->pole_pairs < 1) return FS_ERR_POLE_PAIRS;
@@ -32,7 +82,7 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     st = fs_pll_init(&drv->pll, &pc);
     if (st != FS_OK) return st;
 
-    if (cfg->angle_source == FS_ANGLE_SMO) {
+    if (drive_has_smo(cfg)) {
         fs_smo_config oc = cfg->smo;
         oc.Ts = cfg->Ts;
         oc.R_s = cfg->R_s;
@@ -57,6 +107,10 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
             if (st != FS_OK) return st;
         }
     }
+    if (drive_injects(cfg)) {
+        st = drive_init_injection(drv, cfg);
+        if (st != FS_OK) return st;
+    }
     if (!(cfg->i_start >= 0.0f) || cfg->i_start > cfg->i_max) return FS_ERR_I_MAX;
     if (cfg->i_start > 0.0f && (!(cfg->a_start > 0.0f) || !(cfg->w_handover > 0.0f))) return FS_ERR_PARAM;
     fs_drive_reset(drv);
@@ -68,8 +122,17 @@ void fs_drive_reset(fs_drive *drv)
     fs_current_ctrl_reset(&drv->cc);
     fs_pll_reset(&drv->pll, 0.0f, 0.0f);
     if (drv->cfg.mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
-    if (drv->cfg.angle_source == FS_ANGLE_SMO) fs_smo_reset(&drv->smo, 0.0f, 0.0f);
+    if (drive_has_smo(&drv->cfg)) fs_smo_reset(&drv->smo, 0.0f, 0.0f);
     if (drive_weakens(&drv->cfg)) fs_fw_reset(&drv->fw);
+    if (drive_injects(&drv->cfg)) {
+        fs_hfi_reset(&drv->hfi, 0.0f, 0.0f);
+        drv->hfi.gain = 0.0f;   /* fades in */
+        if (drv->cfg.angle_source == FS_ANGLE_BLEND) fs_blend_reset(&drv->blend, 0.0f, 0.0f);
+        if (drv->cfg.polarity.i_pulse > 0.0f) fs_polarity_reset(&drv->pol);
+    }
+    drv->est_started = false;
+    drv->injecting = drv->inject_on = drive_injects(&drv->cfg);
+    drv->i_ref_prev.d = drv->i_ref_prev.q = 0.0f;
     drv->phase = drive_starts(&drv->cfg) ? FS_PHASE_START : FS_PHASE_RUN;
     drv->theta_if = drv->w_if = 0.0f;
     drv->theta_ol = 0.0f;
@@ -78,13 +141,86 @@ void fs_drive_reset(fs_drive *drv)
     drv->u_hist[1] = drv->u_hist[0];
 }
 
-/* Angle and speed from the configured source. */
-static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, float *theta, float *w)
+/* The realised fundamental voltage that acted over the period that ended now. */
+static fs_ab drive_u_past(const fs_drive *drv)
 {
-    if (drv->cfg.angle_source == FS_ANGLE_SMO) {
-        /* the voltage that acted during the period that ended now */
-        fs_ab u = drv->cfg.delay > 0.5f ? drv->u_hist[1] : drv->u_hist[0];
-        fs_smo_step(&drv->smo, i_ab, u);
+    return drv->cfg.delay > 0.5f ? drv->u_hist[1] : drv->u_hist[0];
+}
+
+/* The injection estimators' first step: sensorless from the start, the
+ * polarity is detected first; with the encoder in the loop they start from
+ * its angle (commissioning, calibration). */
+static void drive_start_estimators(fs_drive *drv, const fs_drive_in *in)
+{
+    const fs_drive_config *c = &drv->cfg;
+    drv->est_started = true;
+    if (in->sensorless) {
+        bool closed_loop = c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED;
+        if (closed_loop && c->polarity.i_pulse > 0.0f) drv->phase = FS_PHASE_POLARITY;
+        return;
+    }
+    float theta = fs_wrap_pi((float)c->pole_pairs * in->theta_m_enc);
+    fs_hfi_set_angle(&drv->hfi, theta, 0.0f);
+    if (c->angle_source == FS_ANGLE_BLEND) fs_blend_reset(&drv->blend, theta, 0.0f);
+}
+
+/* HFI (while injecting), the SMO on the fundamental, the blend; the
+ * fundamental current is returned for the loops. */
+static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
+{
+    const fs_drive_config *c = &drv->cfg;
+    const float T_ff = drive_torque(c, drv->i_ref_prev);
+    fs_ab i_f = i_ab;
+    if (drv->injecting) {
+        fs_hfi_step(&drv->hfi, i_ab, T_ff);
+        i_f = drv->hfi.i_f;
+    }
+    if (c->angle_source == FS_ANGLE_BLEND) {
+        fs_smo_step(&drv->smo, i_f, drive_u_past(drv));
+        fs_blend_step(&drv->blend, drv->smo.theta, drv->hfi.theta, T_ff);   /* Fig. 6 */
+        /* Above w_inject_max the injection stops (g_w = 1 there: the HFI
+         * angle is not read); below 0.9 w_inject_max it resumes from the
+         * blended estimate, its filters settling before the weight comes
+         * down. */
+        const float aw = fabsf(drv->blend.w_hat);
+        if (c->w_inject_max > 0.0f && drv->inject_on && aw > c->w_inject_max) {
+            drv->inject_on = false;
+        } else if (c->w_inject_max > 0.0f && !drv->inject_on && aw < 0.9f * c->w_inject_max) {
+            drv->inject_on = true;
+            if (!drv->injecting) {
+                fs_hfi_reset(&drv->hfi, drv->blend.theta_hat, drv->blend.w_hat);
+                drv->hfi.gain = 0.0f;
+            }
+        }
+    }
+    /* The amplitude fades in and out over the filters' settling time, so
+     * that the carrier current leaves no offset and the loops see no step
+     * when the fundamental's source changes; the HFI runs until it is 0. */
+    const float dg = 1.0f / (float)drv->hfi.n_settle;
+    drv->hfi.gain = fs_clampf(drv->hfi.gain + (drv->inject_on ? dg : -dg), 0.0f, 1.0f);
+    drv->injecting = drv->inject_on || drv->hfi.gain > 0.0f;
+    return i_f;
+}
+
+/* Polarity found: turn the estimates by pi if they point at the south pole. */
+static void drive_polarity_done(fs_drive *drv)
+{
+    if (drv->pol.flip) {
+        float theta = fs_wrap_pi(drv->hfi.theta + FS_PI);
+        fs_hfi_set_angle(&drv->hfi, theta, drv->hfi.w);
+        if (drv->cfg.angle_source == FS_ANGLE_BLEND) fs_blend_reset(&drv->blend, theta, drv->hfi.w);
+    }
+    if (drv->cfg.mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
+    drv->phase = FS_PHASE_RUN;
+}
+
+/* Angle and speed from the configured source; *i_ab becomes the current the
+ * loops use (the fundamental when injecting). */
+static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float *theta, float *w)
+{
+    const fs_drive_config *c = &drv->cfg;
+    if (c->angle_source == FS_ANGLE_SMO) {
+        fs_smo_step(&drv->smo, *i_ab, drive_u_past(drv));
         if (in->sensorless) {
             bool start = drv->phase == FS_PHASE_START;
             *theta = start ? drv->theta_if : drv->smo.theta;
@@ -92,12 +228,22 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, float 
             return;
         }
     }
-    if (drv->cfg.angle_source == FS_ANGLE_EXTERNAL) {
+    if (drive_injects(c)) {
+        if (!drv->est_started) drive_start_estimators(drv, in);
+        *i_ab = drive_injection_step(drv, *i_ab);
+        if (in->sensorless) {
+            bool blend = c->angle_source == FS_ANGLE_BLEND;
+            *theta = blend ? drv->blend.theta_hat : drv->hfi.theta;
+            *w = blend ? drv->blend.w_hat : drv->hfi.w;
+            return;
+        }
+    }
+    if (c->angle_source == FS_ANGLE_EXTERNAL) {
         *theta = in->theta_e_ext;
         *w = in->w_e_ext;
         return;
     }
-    float theta_enc = fs_wrap_pi((float)drv->cfg.pole_pairs * in->theta_m_enc);
+    float theta_enc = fs_wrap_pi((float)c->pole_pairs * in->theta_m_enc);
     if (!drv->pll_started) {
         fs_pll_reset(&drv->pll, theta_enc, 0.0f);
         drv->pll_started = true;
@@ -127,8 +273,7 @@ static fs_dq drive_start_step(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab)
     bool fast = fabsf(drv->w_if) >= c->w_handover * 0.999f;
     if (fast && drv->smo.valid && drv->smo.w * drv->w_if > 0.0f) {
         fs_dq i_o = fs_park(i_ab, cosf(drv->smo.theta), sinf(drv->smo.theta));
-        float T = 1.5f * (float)c->pole_pairs * (c->psi_f + (c->L_d - c->L_q) * i_o.d) * i_o.q;
-        fs_speed_ctrl_preset(&drv->sc, drv->smo.w / (float)c->pole_pairs, T);
+        fs_speed_ctrl_preset(&drv->sc, drv->smo.w / (float)c->pole_pairs, drive_torque(c, i_o));
         drv->phase = FS_PHASE_RUN;
     }
     return i_ref;
@@ -152,7 +297,8 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     const fs_drive_config *c = &drv->cfg;
     fs_ab i_ab = fs_clarke(in->i_abc[0], in->i_abc[1], in->i_abc[2]);
     float theta, w_e;
-    drive_angle(drv, in, i_ab, &theta, &w_e);
+    fs_ab i_loop = i_ab;
+    drive_angle(drv, in, &i_loop, &theta, &w_e);
 
     fs_dq u_ref = {0.0f, 0.0f};
     fs_dq i_ref = {0.0f, 0.0f};
@@ -171,11 +317,15 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
         }
     }
     float cos_t = cosf(theta), sin_t = sinf(theta);
-    fs_dq i_dq = fs_park(i_ab, cos_t, sin_t);
+    fs_dq i_dq = fs_park(i_loop, cos_t, sin_t);
     bool starting = in->sensorless && drv->phase == FS_PHASE_START;
+    bool polarity = drv->phase == FS_PHASE_POLARITY;
 
     if (closed_loop) {
-        if (c->mode == FS_MODE_SPEED && starting) {
+        if (polarity) {
+            i_ref.d = fs_polarity_step(&drv->pol, drv->hfi.i_p);
+            if (drv->pol.stage == FS_POLARITY_DONE) drive_polarity_done(drv);
+        } else if (c->mode == FS_MODE_SPEED && starting) {
             i_ref = drive_start_step(drv, in, i_ab);
         } else if (c->mode == FS_MODE_SPEED) {
             T_ref = fs_speed_ctrl_step(&drv->sc, in->w_m_ref, w_e / (float)c->pole_pairs);
@@ -199,6 +349,10 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     float theta_u = theta + w_e * c->Ts * (c->delay + 0.5f);
     float cos_u = cosf(theta_u), sin_u = sinf(theta_u);
     fs_ab u_ab_ref = fs_inv_park(u_ref, cos_u, sin_u);
+    fs_ab u_inj = {0.0f, 0.0f};
+    if (drv->injecting && c->mode != FS_MODE_OFF) u_inj = drv->hfi.u;   /* eq. (22) */
+    u_ab_ref.alpha += u_inj.alpha;
+    u_ab_ref.beta += u_inj.beta;
     fs_ab u_ab;
     if (c->mode == FS_MODE_OFF) {
         out->duty[0] = out->duty[1] = out->duty[2] = 0.5f;
@@ -207,12 +361,14 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     } else {
         out->over_modulation = fs_svpwm(u_ab_ref, in->u_dc, out->duty, &u_ab);
         dead_time_comp(c, in->i_abc, out->duty);
+        u_ab.alpha -= u_inj.alpha;   /* the fundamental part */
+        u_ab.beta -= u_inj.beta;
     }
     drv->u_hist[1] = drv->u_hist[0];
     drv->u_hist[0] = u_ab;
     fs_dq u_real = fs_park(u_ab, cos_u, sin_u);
     if (closed_loop) fs_current_ctrl_update(&drv->cc, u_real);
-    if (drive_weakens(c) && !starting)
+    if (drive_weakens(c) && !starting && !polarity)
         fs_fw_step(&drv->fw, u_ref.q - u_real.q, w_e);   /* eq. (26): dv_q */
 
     out->theta_e = theta;
@@ -224,10 +380,27 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     out->T_ref = T_ref;
     out->u_d = u_real.d;
     out->u_q = u_real.q;
-    bool smo = c->angle_source == FS_ANGLE_SMO;
-    out->theta_est = smo ? drv->smo.theta : theta;
-    out->w_est = smo ? drv->smo.w : w_e;
-    out->est_valid = smo ? drv->smo.valid : true;
+    drv->i_ref_prev = i_ref;
+    out->theta_est = theta;
+    out->w_est = w_e;
+    out->est_valid = true;
+    out->g_w = 1.0f;
+    if (c->angle_source == FS_ANGLE_SMO) {
+        out->theta_est = drv->smo.theta;
+        out->w_est = drv->smo.w;
+        out->est_valid = drv->smo.valid;
+    } else if (c->angle_source == FS_ANGLE_HFI) {
+        out->theta_est = drv->hfi.theta;
+        out->w_est = drv->hfi.w;
+        out->est_valid = drv->phase == FS_PHASE_RUN;
+        out->g_w = 0.0f;
+    } else if (c->angle_source == FS_ANGLE_BLEND) {
+        out->theta_est = drv->blend.theta_hat;
+        out->w_est = drv->blend.w_hat;
+        out->est_valid = drv->phase == FS_PHASE_RUN;
+        out->g_w = drv->blend.g_w;
+    }
+    out->injecting = drv->injecting;
     out->phase = drv->phase;
     out->i_d_fw = drive_weakens(c) ? drv->fw.i_d : 0.0f;
 }

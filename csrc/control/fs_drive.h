@@ -6,16 +6,21 @@
  * V/f), current control, speed control (speed PI -> MTPA -> current control).
  * The angle comes from the angle source: the encoder (with a PLL for speed),
  * or an external angle (tests, and the slot where estimators plug in), or
- * the sliding-mode observer, optionally after an I/f start from standstill.
+ * the sliding-mode observer, optionally after an I/f start from standstill,
+ * the rotating HF injection estimator, or the blend of the two (yang2022);
+ * the injection-based sources start with a magnet polarity detection.
  * In speed mode, flux weakening adds negative d-current above base speed.
  */
 #ifndef FS_DRIVE_H
 #define FS_DRIVE_H
 
 #include "fs_current_ctrl.h"
+#include "fs_blend.h"
 #include "fs_fw.h"
+#include "fs_hfi.h"
 #include "fs_mtpa.h"
 #include "fs_pll.h"
+#include "fs_polarity.h"
 #include "fs_smo.h"
 #include "fs_speed_ctrl.h"
 #include "fs_svpwm.h"
@@ -32,12 +37,15 @@ typedef enum {
 typedef enum {
     FS_ANGLE_ENCODER = 0,    /* encoder angle, speed from a PLL on it */
     FS_ANGLE_EXTERNAL = 1,   /* theta_e_ext and w_e_ext from the input */
-    FS_ANGLE_SMO = 2         /* extended-EMF sliding-mode observer (encoder until handed over) */
+    FS_ANGLE_SMO = 2,        /* extended-EMF sliding-mode observer (encoder until handed over) */
+    FS_ANGLE_HFI = 3,        /* rotating HF voltage injection (yang2022 sec. 3) */
+    FS_ANGLE_BLEND = 4       /* SMO and HFI blended by speed (yang2022 sec. 4) */
 } fs_angle_source;
 
 typedef enum {
     FS_PHASE_RUN = 0,        /* the loops on the configured angle source */
-    FS_PHASE_START = 1       /* I/f start: open-loop frame, waiting for the observer */
+    FS_PHASE_START = 1,      /* I/f start: open-loop frame, waiting for the observer */
+    FS_PHASE_POLARITY = 2    /* magnet polarity detection: d-current pulses, i_q = 0 */
 } fs_drive_phase;
 
 typedef struct {
@@ -75,6 +83,18 @@ typedef struct {
      * (el. rad/s^2) up to w_handover (el. rad/s), where the loops take the
      * observer's angle and speed. i_start = 0: off (the encoder starts). */
     float i_start, a_start, w_handover;
+    /* injection (FS_ANGLE_HFI, FS_ANGLE_BLEND): Ts, delay, L_d, L_q and the
+     * observer's Ts, J, B, pole_pairs are taken from above */
+    fs_hfi_config hfi;
+    /* FS_ANGLE_BLEND: the band (w_lower, w_upper) and the filtering observer's
+     * bandwidth (the rest as for hfi.obs); above w_inject_max (el. rad/s; 0:
+     * never) the injection stops, and resumes below 0.9 w_inject_max, which
+     * must be >= w_upper */
+    fs_blend_config blend;
+    float w_inject_max;
+    /* polarity detection when sensorless from the first step (i_pulse 0: none;
+     * Ts taken from above) */
+    fs_polarity_config polarity;
 } fs_drive_config;
 
 typedef struct {
@@ -103,6 +123,8 @@ typedef struct {
     bool est_valid;
     int phase;               /* fs_drive_phase */
     float i_d_fw;            /* d-current added by flux weakening, A */
+    float g_w;               /* blending weight, eq. (28): 1 = SMO, 0 = HFI */
+    bool injecting;          /* the HF voltage is on */
 } fs_drive_out;
 
 typedef struct {
@@ -113,11 +135,18 @@ typedef struct {
     fs_pll pll;              /* speed from the encoder */
     fs_smo smo;
     fs_fw fw;
+    fs_hfi hfi;
+    fs_blend blend;
+    fs_polarity pol;
     int phase;               /* fs_drive_phase */
     float theta_if, w_if;    /* I/f frame */
     float theta_ol;          /* open-loop frame angle */
     bool pll_started;
-    fs_ab u_hist[2];         /* realised voltage computed 1 and 2 steps ago */
+    bool est_started;        /* the injection estimators have seen their first step */
+    bool injecting;          /* the HF voltage is on (fading in or out included) */
+    bool inject_on;          /* the injection is wanted (the amplitude's target) */
+    fs_dq i_ref_prev;        /* current reference of the last step (torque feed-forward) */
+    fs_ab u_hist[2];         /* realised fundamental voltage computed 1 and 2 steps ago */
 } fs_drive;
 
 fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg);

@@ -18,6 +18,7 @@ const char *fs_status_str(fs_status status)
     case FS_ERR_MODE: return "unknown mode or angle source";
     case FS_ERR_SMO_GAIN: return "SMO gain k is below the Lyapunov bound of eq. (18)";
     case FS_ERR_PARAM: return "parameter out of range";
+    case FS_ERR_SALIENCY: return "injection needs a salient machine (L_d != L_q)";
     default: return "unknown status";
     }
 }

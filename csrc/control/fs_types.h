@@ -31,7 +31,8 @@ typedef enum {
     FS_ERR_MODE = 12,           /* unknown mode or angle source */
     FS_ERR_SMO_GAIN = 13,       /* SMO gain below the Lyapunov bound, eq. (18) */
     FS_ERR_PARAM = 14,          /* another parameter is out of range */
-    FS_ERR__COUNT = 15
+    FS_ERR_SALIENCY = 15,       /* injection needs a salient machine, L_d != L_q */
+    FS_ERR__COUNT = 16
 } fs_status;
 
 const char *fs_status_str(fs_status status);

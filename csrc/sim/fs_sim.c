@@ -271,6 +271,8 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
             r[FS_CH_EST_ERR] = wrap_pi(theta_e - dout.theta_est);
             r[FS_CH_PHASE] = dout.phase;
             r[FS_CH_I_D_FW] = dout.i_d_fw;
+            r[FS_CH_G_W] = dout.g_w;
+            r[FS_CH_INJECT] = dout.injecting;
             ++*rows;
         }
 

@@ -72,8 +72,10 @@ enum {
     FS_CH_E_IN, FS_CH_E_CU, FS_CH_E_AIRGAP, FS_CH_W_MAG,  /* J; W_MAG is 3/2 W(psi) */
     FS_CH_THETA_EST, FS_CH_W_M_EST, FS_CH_EST_VALID,      /* the estimator's output, used or not */
     FS_CH_EST_ERR,                                        /* true minus estimated angle, wrapped */
-    FS_CH_PHASE,              /* fs_drive_phase: 1 while the I/f start runs */
+    FS_CH_PHASE,              /* fs_drive_phase: 1 while the I/f start runs, 2 polarity detection */
     FS_CH_I_D_FW,             /* d-current added by flux weakening */
+    FS_CH_G_W,                /* blending weight: 1 SMO, 0 HFI */
+    FS_CH_INJECT,             /* 1 while the HF voltage is injected */
     FS_CH_N
 };
 

@@ -30,6 +30,8 @@ HEADERS = [
     "control/fs_hfi_filter.h",
     "control/fs_motion_obs.h",
     "control/fs_blend.h",
+    "control/fs_hfi.h",
+    "control/fs_polarity.h",
     "control/fs_drive.h",
     "plant/fs_magnetic.h",
     "plant/fs_pmsm.h",

@@ -32,7 +32,7 @@ SCENARIO = {
     }, default={}),
     "controller": T({
         "mode": C("off", "voltage", "vf", "current", "speed"),
-        "angle": C("encoder", "true", "smo", default="encoder"),
+        "angle": C("encoder", "true", "smo", "hfi", "blend", default="encoder"),
         "bw_current": POS(None), "bw_speed": POS(None), "bw_pll": POS(None),
         "i_max": POS(None), "T_max": POS(None),
         "dead_time_comp": B(True), "i_dead_band": NONNEG(None),
@@ -63,6 +63,27 @@ SCENARIO = {
         "i_start": POS(None, doc="A; default half of i_max"),
         "start_accel_rpm_s": POS(None, doc="frame acceleration; default from a quarter of the start current's torque"),
         "start_handover_rpm": POS(None, doc="the loops take the observer here; default twice valid_rpm"),
+    }, default={}),
+    # rotating HF voltage injection (yang2022 sec. 3), for angle = "hfi" or "blend"
+    "injection": T({
+        "u_h": POS(None, doc="V; default the machine's [injection]"),
+        "f_h": POS(None, doc="Hz; default the machine's [injection]; at most a quarter of the sampling rate"),
+        "bw_filter_p": POS(None, doc="rad/s, SRFF at +w_h; default w_h / 10 (fs_hfi.h)"),
+        "bw_filter_n": POS(None, doc="rad/s, SRFF at -w_h + 2 w_r; default w_h / 20"),
+        "bw_observer": POS(None, doc="rad/s, motion observer; default bw_filter_n / 5"),
+        "xcomp": Spec("any", None, doc="cross-saturation table {i_q = [A...], delta_deg = [...]} on an even grid, or a TOML file holding it"),
+        "stop_rpm": POS(None, doc="blend: the injection stops above this speed (resumes below 0.9 of it); default 1.2 x the upper blending speed"),
+    }, default={}),
+    "polarity": T({
+        "enabled": B(True, doc="detect the magnet polarity before starting sensorless on injection"),
+        "i_pulse": POS(None, doc="A, d-current pulses; default half of controller.i_max"),
+        "t_lock": NONNEG(0.05, doc="s, the estimator settles first"),
+        "t_pulse": POS(0.02, doc="s, each pulse"),
+    }, default={}),
+    "blending": T({
+        "lower_rpm": NONNEG(None, doc="eq. (28); default the machine's [blending]"),
+        "upper_rpm": POS(None),
+        "bw_observer": POS(None, doc="rad/s, the motion observer after the blend (Fig. 6); default that of the injection's"),
     }, default={}),
     "load": T({
         "kind": C("torque", "speed", "speed_pi", default="torque"),
@@ -167,6 +188,8 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
             # a quarter of the torque the start current makes at a 90 deg load angle
             T = 0.25 * 1.5 * m.pole_pairs * m.psi_f * obs["i_start"]
             obs["start_accel_rpm_s"] = T / m.J * 60 / (2 * math.pi)
+    if ctl["angle"] in ("hfi", "blend"):
+        _injection_fields(d, m, source)
     if obs["handover"] > d["duration"]:
         raise ConfigError("observer.handover", obs["handover"], f"must be <= duration ({d['duration']:g} s)", source)
     if ctl["T_max"] is None:
@@ -190,6 +213,74 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         if not ok:
             raise ConfigError("metrics.steady", steady, f"must be [t_start, t_end] with 0 <= t_start < t_end <= duration ({d['duration']:g})", source)
     return Scenario(name=d["name"], machine=m, data=d, source=source)
+
+
+def _injection_fields(d: dict, m: Machine, source) -> None:
+    """Fill in and check the injection, polarity and blending tables."""
+    ctl, inj, pol, bl = d["controller"], d["injection"], d["polarity"], d["blending"]
+    if not abs(m.L_q - m.L_d) > 0.01 * 0.5 * (m.L_d + m.L_q):
+        raise ConfigError("controller.angle", ctl["angle"],
+                          f"injection needs a salient machine; {m.name} has L_d = {m.L_d:g} H = L_q (a non-salient machine shows no position in its inductance)", source)
+    mi = m.extra.get("injection", {})
+    for key in ("u_h", "f_h"):
+        if inj[key] is None:
+            if key not in mi:
+                raise ConfigError(f"injection.{key}", "missing", f"is required: {m.name} has no [injection].{key}", source)
+            inj[key] = float(mi[key])
+    T_pwm = 1.0 / d["converter"]["f_pwm"]
+    Ts = T_pwm / 2 if d["timing"]["sampling"] == "double" else T_pwm
+    if inj["f_h"] > 0.25 / Ts:
+        raise ConfigError("injection.f_h", inj["f_h"], f"must be <= {0.25 / Ts:g} Hz: at least 4 samples per carrier period at Ts = {Ts:g} s", source)
+    if inj["u_h"] >= d["converter"]["u_dc"] / math.sqrt(3):
+        raise ConfigError("injection.u_h", inj["u_h"], f"must be below the linear modulation limit u_dc/sqrt3 = {d['converter']['u_dc'] / math.sqrt(3):.3g} V", source)
+    if inj["xcomp"] is not None:
+        inj["xcomp"] = _xcomp_table(inj["xcomp"], source)
+    if pol["i_pulse"] is None:
+        pol["i_pulse"] = 0.5 * ctl["i_max"]
+    if pol["i_pulse"] > ctl["i_max"]:
+        raise ConfigError("polarity.i_pulse", pol["i_pulse"], f"must be <= controller.i_max ({ctl['i_max']:g} A)", source)
+    if ctl["angle"] == "blend":
+        mb = m.extra.get("blending", {})
+        for key, mkey in (("lower_rpm", "omega_lower_rpm"), ("upper_rpm", "omega_upper_rpm")):
+            if bl[key] is None:
+                if mkey not in mb:
+                    raise ConfigError(f"blending.{key}", "missing", f"is required: {m.name} has no [blending].{mkey}", source)
+                bl[key] = float(mb[mkey])
+        if not bl["upper_rpm"] > bl["lower_rpm"]:
+            raise ConfigError("blending.upper_rpm", bl["upper_rpm"], f"must be > blending.lower_rpm ({bl['lower_rpm']:g})", source)
+        if inj["stop_rpm"] is None:
+            inj["stop_rpm"] = 1.2 * bl["upper_rpm"]
+        if not 0.9 * inj["stop_rpm"] >= bl["upper_rpm"]:
+            raise ConfigError("injection.stop_rpm", inj["stop_rpm"], f"must be >= upper_rpm / 0.9 = {bl['upper_rpm'] / 0.9:g} (the injection resumes at 0.9 x stop_rpm)", source)
+
+
+def _xcomp_table(raw, source) -> dict:
+    """The cross-saturation table: inline, or the path of a TOML file holding it."""
+    where = "injection.xcomp"
+    if isinstance(raw, str):
+        p = Path(raw)
+        if not p.exists() and source and not p.is_absolute():
+            p = Path(source).parent / raw
+        if not p.exists():
+            raise ConfigError(where, raw, "file not found", source)
+        try:
+            raw = tomllib.loads(p.read_text())
+        except tomllib.TOMLDecodeError as exc:
+            raise ConfigError(where, str(p), f"unparsable TOML: {exc}", source) from None
+        raw = raw.get("xcomp", raw)
+    if not isinstance(raw, dict) or set(raw) - {"i_q", "delta_deg", "source"} or not {"i_q", "delta_deg"} <= set(raw):
+        raise ConfigError(where, raw if not isinstance(raw, dict) else sorted(raw), "must be a table with i_q = [A...] and delta_deg = [el.deg...]", source)
+    i_q, delta = raw["i_q"], raw["delta_deg"]
+    ok = (isinstance(i_q, list) and isinstance(delta, list) and 2 <= len(i_q) == len(delta) <= 33
+          and all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in i_q + delta))
+    if not ok:
+        raise ConfigError(where, "table", "i_q and delta_deg must be lists of 2..33 finite numbers of the same length", source)
+    steps = [b - a for a, b in zip(i_q, i_q[1:])]
+    if not (steps[0] > 0 and all(math.isclose(x, steps[0], rel_tol=1e-6, abs_tol=1e-9) for x in steps)):
+        raise ConfigError(f"{where}.i_q", i_q, "must rise in even steps", source)
+    if not all(abs(x) < 90.0 for x in delta):
+        raise ConfigError(f"{where}.delta_deg", delta, "must lie within +-90 el.deg", source)
+    return {"i_q": [float(x) for x in i_q], "delta_deg": [float(x) for x in delta]}
 
 
 def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Scenario:

@@ -11,7 +11,7 @@ import numpy as np
 from . import _core
 from .errors import ConfigError, SimulationError
 from .scenario import Scenario, load_scenario
-from .units import rpm_to_rad_s
+from .units import hz_to_rad_s, rpm_to_rad_s
 
 ffi, lib = _core.ffi, _core.lib
 
@@ -21,6 +21,7 @@ CHANNELS = [
     "w_m_ref", "i_d_ref", "i_q_ref", "T_ref", "i_d_hat", "i_q_hat", "u_d_ref", "u_q_ref",
     "theta_hat", "w_m_hat", "theta_err", "overmod", "E_in", "E_cu", "E_airgap", "W_mag",
     "theta_est", "w_m_est", "est_valid", "est_err", "phase", "i_d_fw",
+    "g_w", "inject",
 ]
 assert len(CHANNELS) == lib.FS_CH_N, "channel names out of step with fs_sim.h"
 
@@ -33,7 +34,8 @@ STOP_REASONS = {
 
 MODES = {"off": lib.FS_MODE_OFF, "voltage": lib.FS_MODE_VOLTAGE_DQ, "vf": lib.FS_MODE_VF,
          "current": lib.FS_MODE_CURRENT, "speed": lib.FS_MODE_SPEED}
-ANGLES = {"encoder": lib.FS_ANGLE_ENCODER, "true": lib.FS_ANGLE_EXTERNAL, "smo": lib.FS_ANGLE_SMO}
+ANGLES = {"encoder": lib.FS_ANGLE_ENCODER, "true": lib.FS_ANGLE_EXTERNAL, "smo": lib.FS_ANGLE_SMO,
+          "hfi": lib.FS_ANGLE_HFI, "blend": lib.FS_ANGLE_BLEND}
 LAGS = {"exact": lib.FS_SMO_LAG_EXACT, "paper": lib.FS_SMO_LAG_PAPER}
 MAGNETIC = {"linear": lib.FS_MAG_LINEAR, "algebraic": lib.FS_MAG_ALGEBRAIC, "fluxmap": lib.FS_MAG_FLUXMAP}
 
@@ -166,7 +168,14 @@ def build_config(sc: Scenario):
         dc.i_start = obs["i_start"]
         dc.a_start = p * rpm_to_rad_s(obs["start_accel_rpm_s"])
         dc.w_handover = p * rpm_to_rad_s(obs["start_handover_rpm"])
-    sensorless = ([0.0, obs["handover"], obs["handover"]], [0.0, 0.0, 1.0]) if ctl["angle"] == "smo" else ([0.0], [0.0])
+    if ctl["angle"] in ("hfi", "blend"):
+        _set_injection(dc, d, p)
+    if ctl["angle"] not in ("smo", "hfi", "blend"):
+        sensorless = ([0.0], [0.0])
+    elif obs["handover"] > 0.0:
+        sensorless = ([0.0, obs["handover"], obs["handover"]], [0.0, 0.0, 1.0])
+    else:
+        sensorless = ([0.0], [1.0])
     profiles = {
         "w_m_ref": (ref["speed_rpm"], rpm_to_rad_s(1.0)),
         "i_d_ref": (ref["i_d"], 1.0), "i_q_ref": (ref["i_q"], 1.0),
@@ -179,6 +188,31 @@ def build_config(sc: Scenario):
         _set_profile(getattr(cfg, name), t, [v * scale for v in y], keep)
     cfg.decimation = d["trace"]["decimation"]
     return cfg, keep
+
+
+def _set_injection(dc, d: dict, p: int) -> None:
+    """The injection estimator, the blend and the polarity detection (C
+    defaults where a field is left out: 0)."""
+    inj, pol, bl = d["injection"], d["polarity"], d["blending"]
+    hc = dc.hfi
+    hc.u_h, hc.w_h = inj["u_h"], hz_to_rad_s(inj["f_h"])
+    hc.w_b_p = inj["bw_filter_p"] or 0.0
+    hc.w_b_n = inj["bw_filter_n"] or 0.0
+    hc.obs.bandwidth = inj["bw_observer"] or 0.0
+    xc = inj["xcomp"]
+    if xc is not None:
+        hc.xcomp_n = len(xc["i_q"])
+        hc.xcomp_i_q0 = xc["i_q"][0]
+        hc.xcomp_di_q = (xc["i_q"][-1] - xc["i_q"][0]) / (len(xc["i_q"]) - 1)
+        for k, v in enumerate(xc["delta_deg"]):
+            hc.xcomp_delta[k] = math.radians(v)
+    if d["controller"]["angle"] == "blend":
+        dc.blend.w_lower = p * rpm_to_rad_s(bl["lower_rpm"])
+        dc.blend.w_upper = p * rpm_to_rad_s(bl["upper_rpm"])
+        dc.blend.obs.bandwidth = bl["bw_observer"] or 0.0
+        dc.w_inject_max = p * rpm_to_rad_s(inj["stop_rpm"])
+    if pol["enabled"]:
+        dc.polarity.i_pulse, dc.polarity.t_lock, dc.polarity.t_pulse = pol["i_pulse"], pol["t_lock"], pol["t_pulse"]
 
 
 def _check_smo_gain(cfg, sc: Scenario) -> None:
@@ -200,7 +234,7 @@ class Simulation:
     def __init__(self, scenario: Scenario):
         self.scenario = scenario
         self._cfg, self._keep = build_config(scenario)
-        if scenario.data["controller"]["angle"] == "smo":
+        if scenario.data["controller"]["angle"] in ("smo", "blend"):
             _check_smo_gain(self._cfg, scenario)
         err = ffi.new("char[]", 512)
         ptr = lib.fs_sim_create(self._cfg, err, 512)

@@ -1,0 +1,124 @@
+#include "fs_hfi.h"
+#include "fs_math.h"
+
+fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
+{
+    if (!h || !cfg) return FS_ERR_NULL;
+    fs_hfi_config c = *cfg;
+    if (!(c.Ts > 0.0f) || !isfinite(c.Ts)) return FS_ERR_TS;
+    if (!(c.delay >= 0.0f && c.delay <= 2.0f)) return FS_ERR_PARAM;
+    if (!(c.u_h > 0.0f) || !isfinite(c.u_h)) return FS_ERR_PARAM;
+    if (!(c.w_h > 0.0f) || !(c.w_h * c.Ts <= 0.5f * FS_PI)) return FS_ERR_BANDWIDTH;
+    if (!(c.R_s >= 0.0f) || !isfinite(c.R_s)) return FS_ERR_RS;
+    if (!(c.L_d > 0.0f)) return FS_ERR_LD;
+    if (!(c.L_q > 0.0f)) return FS_ERR_LQ;
+    if (!(fabsf(c.L_q - c.L_d) > 0.01f * 0.5f * (c.L_d + c.L_q))) return FS_ERR_SALIENCY;
+    if (c.w_b_p == 0.0f) c.w_b_p = 0.1f * c.w_h;
+    if (c.w_b_n == 0.0f) c.w_b_n = 0.05f * c.w_h;
+    if (c.obs.bandwidth == 0.0f) c.obs.bandwidth = 0.2f * c.w_b_n;
+    c.obs.Ts = c.Ts;
+    if (c.xcomp_n != 0) {
+        if (c.xcomp_n < 2 || c.xcomp_n > FS_HFI_XCOMP_MAX || !(c.xcomp_di_q > 0.0f) || !isfinite(c.xcomp_i_q0))
+            return FS_ERR_PARAM;
+        for (int k = 0; k < c.xcomp_n; ++k)
+            if (!(fabsf(c.xcomp_delta[k]) < 0.5f * FS_PI)) return FS_ERR_PARAM;
+    }
+    fs_hfi_filter_config fc = {c.Ts, c.w_b_p, c.w_b_n};
+    fs_status st = fs_hfi_filter_init(&h->filt, &fc);
+    if (st != FS_OK) return st;
+    st = fs_motion_obs_init(&h->obs, &c.obs);
+    if (st != FS_OK) return st;
+    h->cfg = c;
+
+    const float x = 0.5f * c.w_h * c.Ts;
+    h->dtheta_h = c.w_h * c.Ts;
+    h->theta_u = c.w_h * c.Ts * (c.delay + 0.5f);
+    h->u_amp = c.u_h * x / sinf(x);                 /* eq. (22) on average over the period */
+    /* the first SRFF's phase on the negative carrier, 2 w_h below its stop
+     * band (the bilinear images of fs_srff.h) */
+    const float w_b = (2.0f / c.Ts) * tanhf(0.5f * c.w_b_p * c.Ts);
+    const float v = (2.0f / c.Ts) * tanf(c.w_h * c.Ts);
+    const float phi_p = atanf(w_b / v);
+    /* the resistance's phase on the negative carrier (header) */
+    const float sl = 0.5f * (c.L_d + c.L_q), dl = 0.5f * (c.L_d - c.L_q);
+    const float phi_r = atan2f(2.0f * c.R_s * c.w_h * sl, c.w_h * c.w_h * (sl * sl - dl * dl) - c.R_s * c.R_s);
+    h->phi_ref = 0.5f * FS_PI - phi_p - phi_r;
+    h->n_settle = (int)ceilf(3.0f / (c.w_b_n * c.Ts));
+    fs_hfi_reset(h, 0.0f, 0.0f);
+    return FS_OK;
+}
+
+void fs_hfi_reset(fs_hfi *h, float theta, float w)
+{
+    fs_hfi_filter_reset(&h->filt);
+    fs_motion_obs_reset(&h->obs, theta, w);
+    h->theta_h = 0.0f;
+    h->k_settle = h->n_settle;
+    h->gain = 1.0f;
+    h->i_f.alpha = h->i_f.beta = 0.0f;
+    h->i_hn = h->i_f;
+    h->i_p = h->i_n = 0.0f;
+    h->eps = h->delta = 0.0f;
+    h->theta = h->obs.theta_hat;
+    h->w = h->obs.w_hat;
+    h->u.alpha = h->u.beta = 0.0f;
+}
+
+void fs_hfi_set_angle(fs_hfi *h, float theta, float w)
+{
+    fs_motion_obs_reset(&h->obs, theta, w);
+    h->theta = h->obs.theta_hat;
+    h->w = h->obs.w_hat;
+}
+
+float fs_hfi_xcomp(const fs_hfi_config *cfg, float i_q)
+{
+    if (cfg->xcomp_n < 2) return 0.0f;
+    float x = fs_clampf((i_q - cfg->xcomp_i_q0) / cfg->xcomp_di_q, 0.0f, (float)(cfg->xcomp_n - 1));
+    int k = (int)x;
+    if (k > cfg->xcomp_n - 2) k = cfg->xcomp_n - 2;
+    float s = x - (float)k;
+    return cfg->xcomp_delta[k] + s * (cfg->xcomp_delta[k + 1] - cfg->xcomp_delta[k]);
+}
+
+float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
+{
+    const float theta_h = h->theta_h;
+    const float theta_hat = h->obs.theta_hat;
+    /* Fig. 4b: fundamental and negative-sequence carrier */
+    fs_hfi_filter_step(&h->filt, i, theta_h, theta_hat, &h->i_f, &h->i_hn);
+    const fs_dq lp_p = h->filt.srff_p.lp, lp_n = h->filt.srff_n.lp;
+    h->i_p = sqrtf(lp_p.d * lp_p.d + lp_p.q * lp_p.q);
+    h->i_n = sqrtf(lp_n.d * lp_n.d + lp_n.q * lp_n.q);
+
+    /* cross-saturation compensation on the fundamental's q current */
+    h->delta = 0.0f;
+    if (h->cfg.xcomp_n >= 2) {
+        float i_q = -h->i_f.alpha * sinf(theta_hat) + h->i_f.beta * cosf(theta_hat);
+        h->delta = fs_hfi_xcomp(&h->cfg, i_q);
+    }
+
+    /* eq. (26): the cross product of the expected carrier direction
+     * e^{j(-theta_h + 2 theta_hat + pi/2)} (less the SRFF's phase) with i_hn */
+    const float ref = 2.0f * (theta_hat + h->delta) - theta_h + h->phi_ref;
+    const float c = cosf(ref), s = sinf(ref);
+    float eps_n = 0.0f;
+    if (h->k_settle > 0) {
+        --h->k_settle;
+    } else if (h->i_n > 0.0f) {
+        eps_n = fs_clampf((c * h->i_hn.beta - s * h->i_hn.alpha) / h->i_n, -1.0f, 1.0f);
+    }
+    h->eps = 0.5f * eps_n;   /* sin(2 dtheta) / 2 ~ dtheta */
+
+    /* Fig. 5 */
+    fs_motion_obs_step(&h->obs, h->eps, T_ff);
+    h->theta = h->obs.theta_hat;
+    h->w = h->obs.w_hat;
+
+    /* eq. (22), for the interval the voltage computed now acts over */
+    const float theta_v = theta_h + h->theta_u;
+    h->u.alpha = h->gain * h->u_amp * cosf(theta_v);
+    h->u.beta = h->gain * h->u_amp * sinf(theta_v);
+    h->theta_h = fs_wrap_pi(theta_h + h->dtheta_h);
+    return h->theta;
+}

@@ -1,0 +1,117 @@
+/* Rotating-voltage HF injection estimator, yang2022 sec. 3 (Figs. 3-5).
+ *
+ * Each step it
+ *  1. separates the sampled current into the fundamental i_f (for the current
+ *     loop) and the negative-sequence carrier i_hn (fs_hfi_filter, Fig. 4b);
+ *  2. heterodynes i_hn against the carrier expected at the estimated angle,
+ *     eq. (26): eps_n = sin(2 (theta_r - theta_hat));
+ *  3. runs the Luenberger motion observer (fs_motion_obs, Fig. 5) on
+ *     eps_n / 2 with the torque feed-forward;
+ *  4. gives the injection voltage u_h for the next update, eq. (22).
+ *
+ * Timing (what makes the angle unbiased, not only consistent):
+ *  - theta_h is the carrier angle w_h t at the sampling instant of this step;
+ *    the filter and the heterodyne use it as it is. The voltage computed now
+ *    acts over [t + delay Ts, t + (delay + 1) Ts]; it is given the angle at
+ *    the middle of that interval and the amplitude u_h / sinc(w_h Ts / 2), so
+ *    that its average over the interval is exactly the sample of eq. (22).
+ *    The flux, the integral of that staircase, then equals at every sampling
+ *    instant the flux of the continuous injection, (u_h / j w_h) e^{j theta_h}:
+ *    the carriers of eq. (24) sit at their textbook phases at the samples.
+ *  - The first SRFF (at +w_h) shifts the negative carrier, 2 w_h away from its
+ *    stop band, by the angle phi_p = atan(w_b' / v') (fs_srff.h: w_b', v' the
+ *    bilinear images of w_b and 2 w_h): a bias of phi_p / 2 on the angle
+ *    (1.2 el.deg at the default bandwidth), taken out in the heterodyne's
+ *    reference: e^{j(-theta_h + 2 theta_hat + pi/2 - phi_p - phi_r)}.
+ *  - eq. (23) neglects the resistance. With it, the carrier responses of
+ *    u = R i + d psi/dt, psi = SigmaL i + DeltaL e^{j 2 theta} conj(i), are
+ *    exactly I_n e^{j(-w_h t + 2 theta + pi/2 - phi_r)},
+ *      phi_r = atan2(2 R w_h SigmaL, w_h^2 (SigmaL^2 - DeltaL^2) - R^2),
+ *    a bias of phi_r / 2 (4.3 el.deg on the yang2022 machine at 1 kHz, where
+ *    R / (w_h SigmaL) = 0.074), also taken out in the reference.
+ *
+ * Normalisation of eq. (26): by the negative carrier's amplitude I_hn taken
+ * from the second SRFF's state (the carrier in its own frame, low-pass
+ * filtered), not by the instantaneous |i_hn|: i_hn also carries about
+ * w_b_n / w_h of the fundamental current (fs_hfi_filter.h), at 25 A as much
+ * as the 1.7 A carrier of the yang2022 machine, and dividing by a magnitude
+ * that swings with it would rectify that ripple into an angle bias. Divided
+ * by the steady amplitude the ripple stays a zero-mean tone near w_h for the
+ * observer to filter.
+ *
+ * Cross-saturation compensation (beyond the paper): a cross-saturated machine
+ * has its HF saliency axis at theta_r + delta(i_q), and the estimator locks
+ * there. Given a table of delta against i_q (measured offline, e.g. with
+ * the encoder in the loop), the reference angle becomes 2 (theta_hat +
+ * delta(i_q)) and theta_hat converges to theta_r. i_q is the fundamental
+ * current's q component in the estimated frame. The table is on an even grid
+ * i_q0 + k di_q, k < xcomp_n, interpolated linearly and held at its ends.
+ *
+ * Design rules (see fs_hfi_filter.h and fs_motion_obs.h): w_b_p = w_h / 10,
+ * w_b_n = w_h / 20 (the fundamental's leak into i_hn halves), observer
+ * bandwidth <= w_b_n / 5; 0 in the config selects these.
+ */
+#ifndef FS_HFI_H
+#define FS_HFI_H
+
+#include "fs_hfi_filter.h"
+#include "fs_motion_obs.h"
+#include "fs_transforms.h"
+#include "fs_types.h"
+
+enum { FS_HFI_XCOMP_MAX = 33 };
+
+typedef struct {
+    float Ts;                  /* sampling period, s */
+    float delay;               /* computation delay, control periods (0..2) */
+    float u_h;                 /* injected amplitude, V (> 0), eq. (22) */
+    float w_h;                 /* injected frequency, rad/s; 4 <= samples per period: w_h Ts <= pi/2 */
+    float R_s;                 /* the controller's resistance, ohm (>= 0) */
+    float L_d, L_q;            /* the controller's inductances: saliency needed, |L_q - L_d| > 1 % */
+    float w_b_p, w_b_n;        /* filter bandwidths, rad/s (0: w_h / 10, w_h / 20) */
+    fs_motion_obs_config obs;  /* Ts is taken from above; bandwidth 0: w_b_n / 5 */
+    int xcomp_n;               /* cross-saturation table points (0: off, else 2..FS_HFI_XCOMP_MAX) */
+    float xcomp_i_q0, xcomp_di_q;               /* grid: A, A (> 0) */
+    float xcomp_delta[FS_HFI_XCOMP_MAX];        /* saliency-axis lead theta_hat - theta_r, rad */
+} fs_hfi_config;
+
+typedef struct {
+    fs_hfi_config cfg;         /* with the defaults filled in */
+    fs_hfi_filter filt;
+    fs_motion_obs obs;
+    float dtheta_h;            /* w_h Ts */
+    float theta_u;             /* w_h Ts (delay + 1/2): voltage angle ahead of the sample */
+    float u_amp;               /* u_h / sinc(w_h Ts / 2) */
+    float phi_ref;             /* pi/2 - phi_p - phi_r: the heterodyne reference's fixed rotation */
+    int n_settle;              /* steps the filters take to settle, 3 / (w_b_n Ts) */
+    /* state */
+    int k_settle;              /* steps left before the error is used (after reset) */
+    float gain;                /* the caller's scale on the injected amplitude, 0..1 (reset: 1) */
+    float theta_h;             /* carrier angle at the next sampling instant, (-pi, pi] */
+    /* outputs of the last step */
+    fs_ab i_f;                 /* fundamental current, A */
+    fs_ab i_hn;                /* negative-sequence carrier current, A */
+    float i_p, i_n;            /* positive and negative carrier amplitudes (the SRFFs' states), A */
+    float eps;                 /* eps_n / 2, rad: the angle error seen */
+    float delta;               /* the compensation used, rad */
+    float theta, w;            /* the observer's angle (rad) and electrical speed (rad/s) */
+    fs_ab u;                   /* injection voltage for the next update, V */
+} fs_hfi;
+
+/* FS_ERR_NULL, FS_ERR_TS, FS_ERR_PARAM (u_h, delay, table), FS_ERR_BANDWIDTH
+ * (w_h above the limit, filter or observer bandwidths), FS_ERR_SALIENCY
+ * (L_d = L_q: nothing to track), and the motion observer's. Resets. */
+fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg);
+/* Observer at angle theta (rad) and speed w (el. rad/s), filters cleared,
+ * carrier at angle 0. For the filters' settling time, 3 / w_b_n, the
+ * observer runs on its model alone (the error is taken as 0). */
+void fs_hfi_reset(fs_hfi *h, float theta, float w);
+/* Move the observer only (polarity flip, re-sync), keeping filters and carrier. */
+void fs_hfi_set_angle(fs_hfi *h, float theta, float w);
+/* One step on the sampled current with the torque that acted over the
+ * period that just ended (N m). Returns the estimated angle. */
+float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff);
+/* The compensation delta(i_q) of the table, rad (0 without a table). */
+float fs_hfi_xcomp(const fs_hfi_config *cfg, float i_q);
+
+#endif /* FS_HFI_H */
