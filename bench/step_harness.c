@@ -47,6 +47,7 @@ typedef struct {
     double i_max, bw_current, bw_speed, bw_pll;
     double smo_bw_pll, smo_w_e_max, smo_margin, smo_w_c_min, smo_w_valid;
     double speed_rpm, T_load, noise_i, encoder_bits;
+    double inj_u_h, inj_f_h, blend_lower_rpm, blend_upper_rpm;
 } params;
 
 #define P(name) {#name, offsetof(params, name)}
@@ -56,6 +57,7 @@ static const struct { const char *name; size_t off; } PARAMS[] = {
     P(i_max), P(bw_current), P(bw_speed), P(bw_pll),
     P(smo_bw_pll), P(smo_w_e_max), P(smo_margin), P(smo_w_c_min), P(smo_w_valid),
     P(speed_rpm), P(T_load), P(noise_i), P(encoder_bits),
+    P(inj_u_h), P(inj_f_h), P(blend_lower_rpm), P(blend_upper_rpm),
 };
 #undef P
 enum { N_PARAMS = sizeof PARAMS / sizeof PARAMS[0] };
@@ -111,6 +113,34 @@ static void setup_smo(fs_drive_config *c, const params *p)
     c->smo.lag = FS_SMO_LAG_EXACT;
 }
 
+/* Rotating HF injection (yang2022 sec. 3) with the machine's carrier and the
+ * estimator's default filter and observer bandwidths (fs_hfi.h). */
+static void setup_hfi(fs_drive_config *c, const params *p)
+{
+    setup_common(c, p);
+    c->angle_source = FS_ANGLE_HFI;
+    c->hfi.u_h = (float)p->inj_u_h;
+    c->hfi.w_h = (float)(2.0 * PI * p->inj_f_h);
+}
+
+/* The blend of both (yang2022 sec. 4): the SMO, the injection and the
+ * filtering observer all run in the band, the injection stopping at 1.2 x
+ * the upper speed (the scenarios' default). */
+static void setup_blend(fs_drive_config *c, const params *p)
+{
+    setup_smo(c, p);
+    fs_smo_config smo = c->smo;
+    float bw_speed = c->bw_speed;
+    setup_hfi(c, p);
+    c->angle_source = FS_ANGLE_BLEND;
+    c->smo = smo;
+    c->bw_speed = bw_speed;
+    const double rpm_e = 2.0 * PI / 60.0 * p->pole_pairs;
+    c->blend.w_lower = (float)(rpm_e * p->blend_lower_rpm);
+    c->blend.w_upper = (float)(rpm_e * p->blend_upper_rpm);
+    c->w_inject_max = (float)(1.2 * rpm_e * p->blend_upper_rpm);
+}
+
 /* The modes this harness can run; bench/instructions.py lists the ones it
  * wants and reports any not here as "not built yet". A new mode is one entry
  * (and its setup function). sensorless: the loops switch to the estimator
@@ -119,9 +149,13 @@ static const struct {
     const char *name;
     void (*setup)(fs_drive_config *, const params *);
     int sensorless;
+    double speed_rpm;   /* the operating point's speed (0: speed_rpm of the params) */
 } MODES[] = {
-    {"encoder", setup_encoder, 0},
-    {"smo", setup_smo, 1},
+    {"encoder", setup_encoder, 0, 0.0},
+    {"smo", setup_smo, 1, 0.0},
+    /* injection at low speed; blended inside its band, where every part runs */
+    {"hfi-rotating", setup_hfi, 1, 100.0},
+    {"blended", setup_blend, 1, 200.0},
 };
 enum { N_MODES = sizeof MODES / sizeof MODES[0] };
 
@@ -212,7 +246,8 @@ static int run(int mode, long warmup, long steps, int trace, const params *p)
         fprintf(stderr, "step_harness: fs_drive_init: %s\n", fs_status_str(st));
         return 2;
     }
-    const double w_ref = p->speed_rpm * 2.0 * PI / 60.0;
+    const double speed_rpm = MODES[mode].speed_rpm > 0.0 ? MODES[mode].speed_rpm : p->speed_rpm;
+    const double w_ref = speed_rpm * 2.0 * PI / 60.0;
     const double counts = ldexp(1.0, (int)p->encoder_bits);
     plant pl = {0.0, 0.0, 0.3, w_ref, 0x2545F491u};  /* turning at the reference speed */
     float duty_held[3] = {0.5f, 0.5f, 0.5f};
@@ -249,9 +284,9 @@ static int run(int mode, long warmup, long steps, int trace, const params *p)
         s.valid_all &= out.est_valid;
     }
     CALLGRIND_STOP_INSTRUMENTATION;
-    printf("mode=%s warmup=%ld steps=%ld callgrind=%d finite=%d duty_min=%.6g duty_max=%.6g "
+    printf("mode=%s speed_rpm=%.6g warmup=%ld steps=%ld callgrind=%d finite=%d duty_min=%.6g duty_max=%.6g "
            "speed_err_max_rpm=%.6g angle_err_max_deg=%.6g i_q_mean=%.6g est_valid=%d\n",
-           MODES[mode].name, warmup, steps, HAVE_CALLGRIND, s.finite, s.duty_min, s.duty_max,
+           MODES[mode].name, speed_rpm, warmup, steps, HAVE_CALLGRIND, s.finite, s.duty_min, s.duty_max,
            s.speed_err_max, s.angle_err_max, steps > 0 ? s.i_q_sum / (double)steps : 0.0, s.valid_all);
     return 0;
 }

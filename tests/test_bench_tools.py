@@ -198,6 +198,11 @@ def test_report_marks_unbuilt_modes_and_the_goal(tmp_path):
     g = rep["goal"]
     if modes["blended"]["status"] == "not built yet":
         assert g["met"] is None and g["status"] == "not built yet"
+    else:
+        assert modes["blended"]["status"] == "ok", modes["blended"].get("reason")
+        assert g["met"] == (modes["blended"]["ir_per_step"] <= g["max_ir_per_step"])
+        # the blend runs the SMO and the injection estimator on top of the loops
+        assert modes["blended"]["ir_per_step"] > modes["SMO"]["ir_per_step"]
     assert g["reference"]["ir_per_step"] == modes["SMO"]["ir_per_step"]
     assert "not built yet" in ins.format_report(rep)
 
