@@ -9,12 +9,41 @@ static double powabs(double x, double e)
     return a > 0.0 ? pow(a, e) : 0.0;
 }
 
+/* |x|^n for an integer n >= 0 by binary powering (0^0 = 1, as powabs). */
+static inline double powi(double a, int n)
+{
+    double r = 1.0;
+    for (;;) {
+        if (n & 1) r *= a;
+        n >>= 1;
+        if (!n) return r;
+        a *= a;
+    }
+}
+
+/* |x|^e: by multiplication when fs_mag_init found e a small integer n. */
+static inline double powabs_n(double x, int n, double e)
+{
+    return n >= 0 ? powi(fabs(x), n) : powabs(x, e);
+}
+
+/* e as an integer 0..FS_MAG_POW_NMAX, or -1. */
+static int small_int(double e)
+{
+    return (e >= 0.0 && e <= FS_MAG_POW_NMAX && e == floor(e)) ? (int)e : -1;
+}
+
 static void algebraic_current(const fs_mag *m, double psi_d, double psi_q, double *i_d, double *i_q)
 {
     const fs_mag_config *c = &m->cfg;
-    double cross = c->a_dq * powabs(psi_d, c->U) * powabs(psi_q, c->V);
-    double gd = 1.0 / c->L_d + c->a_dd * powabs(psi_d, c->S) + cross * psi_q * psi_q / (c->V + 2.0);
-    double gq = 1.0 / c->L_q + c->a_qq * powabs(psi_q, c->T) + cross * psi_d * psi_d / (c->U + 2.0);
+    double gd = m->a_d0, gq = m->a_q0;
+    if (c->a_dd != 0.0) gd += c->a_dd * powabs_n(psi_d, m->n_S, c->S);
+    if (c->a_qq != 0.0) gq += c->a_qq * powabs_n(psi_q, m->n_T, c->T);
+    if (c->a_dq != 0.0) {
+        double cross = powabs_n(psi_d, m->n_U, c->U) * powabs_n(psi_q, m->n_V, c->V);
+        gd += m->c_d * cross * psi_q * psi_q;
+        gq += m->c_q * cross * psi_d * psi_d;
+    }
     *i_d = gd * psi_d - m->i_f;
     *i_q = gq * psi_q;
 }
@@ -67,6 +96,8 @@ int fs_mag_init(fs_mag *m, const fs_mag_config *cfg)
     m->cfg = *cfg;
     m->i_f = 0.0;
     m->hint_d = m->hint_q = 0.0;
+    m->a_d0 = m->a_q0 = m->c_d = m->c_q = 0.0;
+    m->n_S = m->n_T = m->n_U = m->n_V = -1;
     switch (cfg->kind) {
     case FS_MAG_LINEAR:
         return (cfg->L_d > 0.0 && cfg->L_q > 0.0 && cfg->psi_f >= 0.0) ? 0 : -1;
@@ -74,6 +105,14 @@ int fs_mag_init(fs_mag *m, const fs_mag_config *cfg)
         if (!(cfg->L_d > 0.0 && cfg->L_q > 0.0 && cfg->psi_f >= 0.0)) return -1;
         if (!(cfg->a_dd >= 0.0 && cfg->a_qq >= 0.0 && cfg->a_dq >= 0.0)) return -1;
         if (!(cfg->S >= 0.0 && cfg->T >= 0.0 && cfg->U >= 0.0 && cfg->V >= 0.0)) return -1;
+        m->a_d0 = 1.0 / cfg->L_d;
+        m->a_q0 = 1.0 / cfg->L_q;
+        m->c_d = cfg->a_dq / (cfg->V + 2.0);
+        m->c_q = cfg->a_dq / (cfg->U + 2.0);
+        m->n_S = small_int(cfg->S);
+        m->n_T = small_int(cfg->T);
+        m->n_U = small_int(cfg->U);
+        m->n_V = small_int(cfg->V);
         double id, iq;
         algebraic_current(m, cfg->psi_f, 0.0, &id, &iq);
         m->i_f = id;  /* i_d(psi_f, 0) with i_f = 0: makes psi_d = psi_f at zero current */
@@ -141,11 +180,18 @@ double fs_mag_energy(const fs_mag *m, double psi_d, double psi_q)
         double dpd = psi_d - c->psi_f;
         return 0.5 * dpd * dpd / c->L_d + 0.5 * psi_q * psi_q / c->L_q;
     }
-    case FS_MAG_ALGEBRAIC:
-        return 0.5 * psi_d * psi_d / c->L_d + c->a_dd / (c->S + 2.0) * powabs(psi_d, c->S + 2.0)
-             + 0.5 * psi_q * psi_q / c->L_q + c->a_qq / (c->T + 2.0) * powabs(psi_q, c->T + 2.0)
-             + c->a_dq / ((c->U + 2.0) * (c->V + 2.0)) * powabs(psi_d, c->U + 2.0) * powabs(psi_q, c->V + 2.0)
+    case FS_MAG_ALGEBRAIC: {
+        /* |x|^(n+2) = |x|^n x^2 on the integer path */
+        double pd2 = psi_d * psi_d, pq2 = psi_q * psi_q;
+        double wS = m->n_S >= 0 ? powi(fabs(psi_d), m->n_S) * pd2 : powabs(psi_d, c->S + 2.0);
+        double wT = m->n_T >= 0 ? powi(fabs(psi_q), m->n_T) * pq2 : powabs(psi_q, c->T + 2.0);
+        double wU = m->n_U >= 0 ? powi(fabs(psi_d), m->n_U) * pd2 : powabs(psi_d, c->U + 2.0);
+        double wV = m->n_V >= 0 ? powi(fabs(psi_q), m->n_V) * pq2 : powabs(psi_q, c->V + 2.0);
+        return 0.5 * pd2 / c->L_d + c->a_dd / (c->S + 2.0) * wS
+             + 0.5 * pq2 / c->L_q + c->a_qq / (c->T + 2.0) * wT
+             + c->a_dq / ((c->U + 2.0) * (c->V + 2.0)) * wU * wV
              - m->i_f * psi_d;
+    }
     default:
         return NAN;
     }

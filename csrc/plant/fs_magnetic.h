@@ -25,6 +25,9 @@
 
 typedef enum { FS_MAG_LINEAR = 0, FS_MAG_ALGEBRAIC = 1, FS_MAG_FLUXMAP = 2 } fs_mag_kind;
 
+/* Largest integer exponent of ALGEBRAIC taken by repeated multiplication. */
+#define FS_MAG_POW_NMAX 64
+
 typedef struct {
     int kind;                 /* fs_mag_kind */
     double L_d, L_q, psi_f;   /* LINEAR, and the unsaturated values of ALGEBRAIC */
@@ -40,6 +43,11 @@ typedef struct {
 typedef struct {
     fs_mag_config cfg;
     double i_f;               /* ALGEBRAIC: magnet equivalent current */
+    /* ALGEBRAIC, set by fs_mag_init: a_d0 = 1/L_d, a_q0 = 1/L_q,
+     * c_d = a_dq/(V+2), c_q = a_dq/(U+2), and each exponent as an integer
+     * 0..FS_MAG_POW_NMAX evaluated by multiplication, or -1 (then pow()). */
+    double a_d0, a_q0, c_d, c_q;
+    int n_S, n_T, n_U, n_V;
     double hint_d, hint_q;    /* FLUXMAP: last solution, Newton's start */
 } fs_mag;
 
