@@ -1,4 +1,4 @@
-"""Command line: fullspeed run | list | reproduce."""
+"""Command line: fullspeed run | list | reproduce | calibrate."""
 from __future__ import annotations
 
 import argparse
@@ -66,6 +66,17 @@ def _cmd_reproduce(args) -> int:
     return 0
 
 
+def _cmd_calibrate(args) -> int:
+    from .calibrate import write_table, xsat_table
+
+    table, sc = xsat_table(args.scenario, i_q_max=args.i_q_max, points=args.points)
+    path = write_table(table, Path(args.out or Path("out") / f"{sc.machine.name}-xsat.toml"))
+    for i, dlt in zip(table["i_q"], table["delta_deg"]):
+        print(f"  i_q = {i:7.2f} A   delta = {dlt:+8.3f} el.deg")
+    print(f"wrote {path}; use it with [injection] xcomp = \"{path}\"")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="fullspeed", description="Wide-speed-range sensorless PMSM drives")
     ap.add_argument("--debug", action="store_true", help="show tracebacks")
@@ -83,6 +94,12 @@ def main(argv: list[str] | None = None) -> int:
     rp.add_argument("--out", default="out/reproduce")
     rp.add_argument("--quiet", action="store_true")
     rp.set_defaults(func=_cmd_reproduce)
+    cal = sub.add_parser("calibrate", help="measure the injection estimator's cross-saturation table (encoder in the loop)")
+    cal.add_argument("scenario", help="a scenario with angle = \"hfi\" or \"blend\" (its machine, speed and injection)")
+    cal.add_argument("--i-q-max", type=float, default=40.0, help="A: the table spans -i_q_max..i_q_max")
+    cal.add_argument("--points", type=int, default=17)
+    cal.add_argument("--out", help="TOML file (default out/<machine>-xsat.toml)")
+    cal.set_defaults(func=_cmd_calibrate)
     args = ap.parse_args(argv)
     try:
         return args.func(args)

@@ -261,8 +261,11 @@ def _xcomp_table(raw, source) -> dict:
         p = Path(raw)
         if not p.exists() and source and not p.is_absolute():
             p = Path(source).parent / raw
+        if not p.exists():   # a table shipped with the package, by name
+            shipped = resources.files("fullspeed") / "calibration" / f"{raw}.toml"
+            p = Path(str(shipped))
         if not p.exists():
-            raise ConfigError(where, raw, "file not found", source)
+            raise ConfigError(where, raw, "file not found (nor a table in fullspeed/calibration)", source)
         try:
             raw = tomllib.loads(p.read_text())
         except tomllib.TOMLDecodeError as exc:

@@ -15,6 +15,16 @@ from ..scenario import load_scenario  # noqa: E402
 from ..sim import Result, simulate  # noqa: E402
 
 
+def register(claim_id: str):
+    """Registers a measurement function for a claim in reproduce.MEASURES."""
+    from ..reproduce import MEASURES
+
+    def deco(fn):
+        MEASURES[claim_id] = fn
+        return fn
+    return deco
+
+
 def run(name: str, overrides: dict | None = None) -> Result:
     return simulate(load_scenario(name, overrides))
 
@@ -27,6 +37,14 @@ def error_stats(res: Result, t0: float, t1: float, channel: str = "est_err") -> 
 
 def lock_kept(res: Result) -> bool:
     return res.stop_reason == "done"
+
+
+def lock_held(res: Result, t0: float, limit_deg: float = 45.0) -> bool:
+    """The run ended normally and the estimate stayed within limit_deg of the
+    rotor from t0 on (an injection estimator that loses lock jumps by pi or
+    runs away; one that keeps it stays near the cross-saturation offset)."""
+    m = res["t"] >= t0
+    return lock_kept(res) and bool(np.all(np.abs(np.degrees(res["est_err"][m])) < limit_deg))
 
 
 def figure_angle(results: list[tuple[str, Result]], t_show: tuple[float, float],
@@ -55,13 +73,20 @@ def figure_angle(results: list[tuple[str, Result]], t_show: tuple[float, float],
     return path.name
 
 
-def figure_dynamic(res: Result, path: Path, title: str, t_win: tuple[float, float]) -> str:
-    """Like Figs. 10-11: q current, speed, angle and position error."""
+def figure_dynamic(res: Result, path: Path, title: str, t_win: tuple[float, float],
+                   weight: bool = False) -> str:
+    """Like Figs. 10-11 (14-15): q current, speed, angle and position error;
+    with weight, the blending weight too (Figs. 16-17)."""
     from ..units import rad_s_to_rpm
 
     t = res["t"]
     m = window_mask(t, *t_win)
-    fig, ax = plt.subplots(4, 1, figsize=(7, 8), sharex=True)
+    fig, ax = plt.subplots(5 if weight else 4, 1, figsize=(7, 10 if weight else 8), sharex=True)
+    if weight:
+        ax[4].plot(t[m], res["g_w"][m], label="$g_w$ (1: SMO)")
+        ax[4].plot(t[m], res["inject"][m], ":", label="injecting")
+        ax[4].set_ylabel("weight")
+        ax[4].set_xlabel("time (s)")
     ax[0].plot(t[m], res["i_q"][m], label="$i_q$")
     ax[0].plot(t[m], res["i_q_ref"][m], "--", label="$i_q^*$")
     ax[0].set_ylabel("current (A)")
@@ -78,6 +103,52 @@ def figure_dynamic(res: Result, path: Path, title: str, t_win: tuple[float, floa
         a.grid(True, alpha=0.3)
         if a.get_legend_handles_labels()[0]:
             a.legend(loc="upper right", fontsize=8)
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path.name
+
+
+def error_map(scenario: str, currents: list[float], speeds: list[float], overrides, t0: float = 0.5,
+              t1: float = 1.0, locked=lock_kept, t_lock: float = 0.0):
+    """Mean and pp error (el.deg) over [t0, t1] at each (current, speed) of
+    a map (Figs. 9, 13), overrides(i_q, rpm) giving each run's changes; and
+    whether every run kept lock."""
+    mean = np.zeros((len(currents), len(speeds)))
+    pp = np.zeros_like(mean)
+    ok = True
+    for a, iq in enumerate(currents):
+        for b, n in enumerate(speeds):
+            r = run(scenario, overrides(iq, float(n)))
+            ok &= locked(r, t_lock) if t_lock else locked(r)
+            s = error_stats(r, t0, t1)
+            mean[a, b], pp[a, b] = s["mean"], s["pp"]
+    return mean, pp, bool(ok)
+
+
+def pp_falls_with_speed(pp: np.ndarray, speeds: list[float]) -> tuple[list[float], list[bool]]:
+    """'pp falls as speed rises', at each current (row): the Spearman rank
+    correlation of pp with speed, and whether it is <= -0.8 with pp at the
+    top speed below pp at the lowest."""
+    ranks = np.argsort(np.argsort(pp, axis=1), axis=1)
+    rs = np.argsort(np.argsort(np.array(speeds)))
+    rho = [float(np.corrcoef(ranks[a], rs)[0, 1]) for a in range(pp.shape[0])]
+    return rho, [bool(pp[a, -1] < pp[a, 0] and rho[a] <= -0.8) for a in range(pp.shape[0])]
+
+
+def figure_map(speeds, currents, mean, pp, path: Path, title: str) -> str:
+    """Mean and pp error over speed, one line per current (Figs. 9, 13)."""
+    fig, ax = plt.subplots(1, 2, figsize=(11, 4))
+    for a, iq in enumerate(currents):
+        ax[0].plot(speeds, mean[a], "o-", label=f"{iq:g} A")
+        ax[1].plot(speeds, pp[a], "o-", label=f"{iq:g} A")
+    ax[0].set_ylabel("mean error (el.deg)")
+    ax[1].set_ylabel("peak-peak error (el.deg)")
+    for x in ax:
+        x.set_xlabel("speed (rpm)")
+        x.grid(True, alpha=0.3)
+        x.legend(fontsize=8)
     fig.suptitle(title)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
