@@ -47,9 +47,13 @@
  * current's q component in the estimated frame. The table is on an even grid
  * i_q0 + k di_q, k < xcomp_n, interpolated linearly and held at its ends.
  *
- * Design rules (see fs_hfi_filter.h and fs_motion_obs.h): w_b_p = w_h / 10,
- * w_b_n = w_h / 20 (the fundamental's leak into i_hn halves), observer
- * bandwidth <= w_b_n / 5; 0 in the config selects these.
+ * Design rules (see fs_hfi_filter.h and fs_motion_obs.h): w_b_p = w_b_n =
+ * w_h / 20. Equal, so that their phase shifts on the fundamental cancel
+ * (with w_h / 10 and w_h / 20 the current loop would see the fundamental
+ * 2.9 el.deg ahead); w_h / 20 rather than the filter's w_h / 10, so that the
+ * fundamental's leak into i_hn halves (the carriers settle in 3.2 ms, still
+ * far faster than the observer). Observer bandwidth w_b_n / 5. 0 in the
+ * config selects these.
  */
 #ifndef FS_HFI_H
 #define FS_HFI_H
@@ -68,7 +72,7 @@ typedef struct {
     float w_h;                 /* injected frequency, rad/s; 4 <= samples per period: w_h Ts <= pi/2 */
     float R_s;                 /* the controller's resistance, ohm (>= 0) */
     float L_d, L_q;            /* the controller's inductances: saliency needed, |L_q - L_d| > 1 % */
-    float w_b_p, w_b_n;        /* filter bandwidths, rad/s (0: w_h / 10, w_h / 20) */
+    float w_b_p, w_b_n;        /* filter bandwidths, rad/s (0: w_h / 20 each) */
     fs_motion_obs_config obs;  /* Ts is taken from above; bandwidth 0: w_b_n / 5 */
     int xcomp_n;               /* cross-saturation table points (0: off, else 2..FS_HFI_XCOMP_MAX) */
     float xcomp_i_q0, xcomp_di_q;               /* grid: A, A (> 0) */

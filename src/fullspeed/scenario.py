@@ -68,7 +68,7 @@ SCENARIO = {
     "injection": T({
         "u_h": POS(None, doc="V; default the machine's [injection]"),
         "f_h": POS(None, doc="Hz; default the machine's [injection]; at most a quarter of the sampling rate"),
-        "bw_filter_p": POS(None, doc="rad/s, SRFF at +w_h; default w_h / 10 (fs_hfi.h)"),
+        "bw_filter_p": POS(None, doc="rad/s, SRFF at +w_h; default w_h / 20 (fs_hfi.h)"),
         "bw_filter_n": POS(None, doc="rad/s, SRFF at -w_h + 2 w_r; default w_h / 20"),
         "bw_observer": POS(None, doc="rad/s, motion observer; default bw_filter_n / 5"),
         "xcomp": Spec("any", None, doc="cross-saturation table {i_q = [A...], delta_deg = [...]} on an even grid, or a TOML file holding it"),
