@@ -29,6 +29,26 @@ fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
     return FS_OK;
 }
 
+/* The MTPA locus as i_d(i_q): psi_f i_d + (L_d - L_q)(i_d^2 - i_q^2) = 0,
+ * written without the cancellation of psi_f - sqrt(...) at small currents
+ * (i_d = -i_q without a magnet); the torque there and its slope d T / d i_q. */
+static float mtpa_on_locus(const fs_mtpa_config *c, float iq, float *T, float *dT)
+{
+    const float dL = c->L_q - c->L_d, k = 1.5f * (float)c->pole_pairs;
+    float id = 0.0f, did = 0.0f;
+    if (c->psi_f <= 0.0f) {
+        id = -iq;
+        did = -1.0f;
+    } else if (dL > 1e-9f * c->L_q) {
+        id = -2.0f * dL * iq * iq / (c->psi_f + sqrtf(c->psi_f * c->psi_f + 4.0f * dL * dL * iq * iq));
+        did = 2.0f * dL * iq / (2.0f * dL * id - c->psi_f);
+    }
+    const float flux = c->psi_f - dL * id;
+    *T = k * flux * iq;
+    *dT = k * (flux - dL * did * iq);
+    return id;
+}
+
 fs_dq fs_mtpa_step(const fs_mtpa *m, float T_ref)
 {
     float T = fabsf(T_ref);
@@ -42,9 +62,20 @@ fs_dq fs_mtpa_step(const fs_mtpa *m, float T_ref)
             int mid = (lo + hi) / 2;
             if (m->T[mid] <= T) lo = mid; else hi = mid;
         }
+        /* i_q from the table, refined by a Newton step on the locus'
+         * torque (the chord is a few % short in the first segment, where
+         * T ~ a i_q + b i_q^3; exact without a magnet), i_d on the locus
+         * from it */
         float s = (T - m->T[lo]) / (m->T[hi] - m->T[lo]);
-        out.d = m->i_d[lo] + s * (m->i_d[hi] - m->i_d[lo]);
-        out.q = m->i_q[lo] + s * (m->i_q[hi] - m->i_q[lo]);
+        float iq = m->i_q[lo] + s * (m->i_q[hi] - m->i_q[lo]), T0, dT;
+        if (m->cfg.psi_f <= 0.0f) {   /* reluctance only: T = 1.5 p (L_q - L_d) i_q^2 exactly */
+            iq = sqrtf(T / (1.5f * (float)m->cfg.pole_pairs * (m->cfg.L_q - m->cfg.L_d)));
+        } else {
+            mtpa_on_locus(&m->cfg, iq, &T0, &dT);
+            if (dT > 0.0f) iq = fs_clampf(iq + (T - T0) / dT, m->i_q[lo], m->i_q[hi]);
+        }
+        out.q = iq;
+        out.d = mtpa_on_locus(&m->cfg, iq, &T0, &dT);
     }
     if (T_ref < 0.0f) out.q = -out.q;
     return out;

@@ -41,9 +41,9 @@ static int fs_test_checks = 0;
 /* |a - b| <= rel * max(|a|, |b|) + abs_tol. */
 #define FS_CHECK_REL(a, b, rel, abs_tol, what)                                \
     do {                                                                      \
-        double fs_a_ = (double)(a), fs_b_ = (double)(b);                      \
-        double fs_m_ = fabs(fs_a_) > fabs(fs_b_) ? fabs(fs_a_) : fabs(fs_b_); \
-        FS_CHECK_NEAR(fs_a_, fs_b_, (rel) * fs_m_ + (abs_tol), what);         \
+        double fs_ra_ = (double)(a), fs_rb_ = (double)(b);                    \
+        double fs_m_ = fabs(fs_ra_) > fabs(fs_rb_) ? fabs(fs_ra_) : fabs(fs_rb_); \
+        FS_CHECK_NEAR(fs_ra_, fs_rb_, (rel) * fs_m_ + (abs_tol), what);       \
     } while (0)
 
 #define FS_CHECK_EQ_INT(a, b, what)                                           \
