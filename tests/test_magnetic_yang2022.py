@@ -78,11 +78,12 @@ def test_catalog_machine_saturates(machine):
 
 
 def test_cross_saturation_angle_is_of_the_paper_hfi_error_size(mag):
-    """The saliency axis at i_d = 0: about 1 el.deg at 5 A, and at 25 A a
-    little above the 15 el.deg the closed loop settles at (next test)."""
+    """The saliency axis at i_d = 0: about 1 el.deg at 5 A, and at 25 A
+    above the 15 el.deg the sensorless loop settles at (next test: there the
+    current has a negative d component, which turns the axis back)."""
     d5, d25 = delta_deg(mag, 5.0), delta_deg(mag, 25.0)
     assert 0.3 <= abs(d5) <= 2.0, d5
-    assert 15.0 < abs(d25) <= 20.0, d25
+    assert 15.0 < abs(d25) <= 25.0, d25
     assert d5 * d25 > 0  # one direction: the error grows, it does not flip
 
 
@@ -105,7 +106,7 @@ def test_calibration_target_sensorless_error_at_25A():
 def test_cross_saturation_angle_rises_and_stays_below_45_deg(machine, mag):
     """Over the calibrated range (the estimator's table spans +-40 A) the
     principal axis turns steadily away from d; up to i_max it levels off
-    (32 el.deg near 57 A) and never reaches 45 el.deg, where the saliency
+    (34 el.deg near 52 A) and never reaches 45 el.deg, where the saliency
     would vanish and the injection would see nothing."""
     i_max = machine.bench["i_max"]
     d = [abs(delta_deg(mag, 0.5 * k)) for k in range(1, 81)]           # 0.5 .. 40 A

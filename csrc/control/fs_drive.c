@@ -126,7 +126,7 @@ void fs_drive_reset(fs_drive *drv)
     if (drive_weakens(&drv->cfg)) fs_fw_reset(&drv->fw);
     if (drive_injects(&drv->cfg)) {
         fs_hfi_reset(&drv->hfi, 0.0f, 0.0f);
-        drv->hfi.gain = 0.0f;   /* fades in */
+        drv->hfi.gain = drv->hfi.gain_prev = 0.0f;   /* fades in */
         if (drv->cfg.angle_source == FS_ANGLE_BLEND) fs_blend_reset(&drv->blend, 0.0f, 0.0f);
         if (drv->cfg.polarity.i_pulse > 0.0f) fs_polarity_reset(&drv->pol);
     }
@@ -180,17 +180,14 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
         fs_blend_step(&drv->blend, drv->smo.theta, drv->hfi.theta, T_ff);   /* Fig. 6 */
         /* Above w_inject_max the injection stops (g_w = 1 there: the HFI
          * angle is not read); below 0.9 w_inject_max it resumes from the
-         * blended estimate, its filters settling before the weight comes
-         * down. */
+         * blended estimate. */
         const float aw = fabsf(drv->blend.w_hat);
         if (c->w_inject_max > 0.0f && drv->inject_on && aw > c->w_inject_max) {
             drv->inject_on = false;
         } else if (c->w_inject_max > 0.0f && !drv->inject_on && aw < 0.9f * c->w_inject_max) {
             drv->inject_on = true;
-            if (!drv->injecting) {
-                fs_hfi_reset(&drv->hfi, drv->blend.theta_hat, drv->blend.w_hat);
-                drv->hfi.gain = 0.0f;
-            }
+            /* the filters kept the carriers as they faded out (fs_hfi.h) */
+            if (!drv->injecting) fs_hfi_set_angle(&drv->hfi, drv->blend.theta_hat, drv->blend.w_hat);
         }
     }
     /* The amplitude fades in and out over the filters' settling time, so

@@ -39,10 +39,17 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
     const float w_b = (2.0f / c.Ts) * tanhf(0.5f * c.w_b_p * c.Ts);
     const float v = (2.0f / c.Ts) * tanf(c.w_h * c.Ts);
     const float phi_p = atanf(w_b / v);
-    /* the resistance's phase on the negative carrier (header) */
+    /* the resistance's phase on the negative carrier, with the held
+     * voltage's R x cot x (header) */
     const float sl = 0.5f * (c.L_d + c.L_q), dl = 0.5f * (c.L_d - c.L_q);
-    const float phi_r = atan2f(2.0f * c.R_s * c.w_h * sl, c.w_h * c.w_h * (sl * sl - dl * dl) - c.R_s * c.R_s);
+    const float R = c.R_s * x / tanf(x), w = c.w_h;
+    const float D_re = w * w * (sl * sl - dl * dl) - R * R, D_im = 2.0f * R * w * sl;
+    const float phi_r = atan2f(D_im, D_re);
     h->phi_ref = 0.5f * FS_PI - phi_p - phi_r;
+    /* the negative carrier's amplitude, |B| of the header, at the samples */
+    const float sinc = sinf(x) / x;
+    h->i_n_design = c.u_h * w * fabsf(dl) / sqrtf(D_re * D_re + D_im * D_im) / (sinc * sinc);
+    h->k_avg = -expm1f(-0.25f * c.w_b_n * c.Ts);
     h->n_settle = (int)ceilf(3.0f / (c.w_b_n * c.Ts));
     fs_hfi_reset(h, 0.0f, 0.0f);
     return FS_OK;
@@ -54,10 +61,13 @@ void fs_hfi_reset(fs_hfi *h, float theta, float w)
     fs_motion_obs_reset(&h->obs, theta, w);
     h->theta_h = 0.0f;
     h->k_settle = h->n_settle;
-    h->gain = 1.0f;
+    h->gain = h->gain_prev = 1.0f;
+    h->unit_p.d = h->unit_p.q = 0.0f;
+    h->unit_n = h->unit_p;
     h->i_f.alpha = h->i_f.beta = 0.0f;
     h->i_hn = h->i_f;
     h->i_p = h->i_n = 0.0f;
+    h->i_n_avg = h->i_n_design;
     h->eps = h->delta = 0.0f;
     h->theta = h->obs.theta_hat;
     h->w = h->obs.w_hat;
@@ -83,13 +93,31 @@ float fs_hfi_xcomp(const fs_hfi_config *cfg, float i_q)
 
 float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
 {
+    /* Both carriers are proportional to the injected amplitude: a change of
+     * the gain adds the change of the carriers to the filters' states (a fade
+     * would otherwise leave a residue of lag x slope in the fundamental). The
+     * carriers per unit gain are those the states held at full gain. */
+    if (h->gain != h->gain_prev) {
+        const float dg = h->gain - h->gain_prev;
+        h->filt.srff_p.lp.d += dg * h->unit_p.d;
+        h->filt.srff_p.lp.q += dg * h->unit_p.q;
+        h->filt.srff_n.lp.d += dg * h->unit_n.d;
+        h->filt.srff_n.lp.q += dg * h->unit_n.q;
+        h->i_n_avg = h->gain_prev > 0.0f ? h->i_n_avg * (h->gain / h->gain_prev) : h->gain * h->i_n_design;
+        h->gain_prev = h->gain;
+    }
     const float theta_h = h->theta_h;
     const float theta_hat = h->obs.theta_hat;
     /* Fig. 4b: fundamental and negative-sequence carrier */
     fs_hfi_filter_step(&h->filt, i, theta_h, theta_hat, &h->i_f, &h->i_hn);
     const fs_dq lp_p = h->filt.srff_p.lp, lp_n = h->filt.srff_n.lp;
+    if (h->gain == 1.0f) {
+        h->unit_p = lp_p;
+        h->unit_n = lp_n;
+    }
     h->i_p = sqrtf(lp_p.d * lp_p.d + lp_p.q * lp_p.q);
     h->i_n = sqrtf(lp_n.d * lp_n.d + lp_n.q * lp_n.q);
+    h->i_n_avg += h->k_avg * (h->i_n - h->i_n_avg);
 
     /* cross-saturation compensation on the fundamental's q current */
     h->delta = 0.0f;
@@ -105,8 +133,8 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
     float eps_n = 0.0f;
     if (h->k_settle > 0) {
         --h->k_settle;
-    } else if (h->i_n > 0.0f) {
-        eps_n = fs_clampf((c * h->i_hn.beta - s * h->i_hn.alpha) / h->i_n, -1.0f, 1.0f);
+    } else if (h->i_n_avg > 0.0f) {
+        eps_n = fs_clampf((c * h->i_hn.beta - s * h->i_hn.alpha) / h->i_n_avg, -1.0f, 1.0f);
     }
     h->eps = 0.5f * eps_n;   /* sin(2 dtheta) / 2 ~ dtheta */
 

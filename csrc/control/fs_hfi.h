@@ -13,31 +13,37 @@
  *  - theta_h is the carrier angle w_h t at the sampling instant of this step;
  *    the filter and the heterodyne use it as it is. The voltage computed now
  *    acts over [t + delay Ts, t + (delay + 1) Ts]; it is given the angle at
- *    the middle of that interval and the amplitude u_h / sinc(w_h Ts / 2), so
- *    that its average over the interval is exactly the sample of eq. (22).
- *    The flux, the integral of that staircase, then equals at every sampling
- *    instant the flux of the continuous injection, (u_h / j w_h) e^{j theta_h}:
- *    the carriers of eq. (24) sit at their textbook phases at the samples.
+ *    the middle of that interval and the amplitude u_h / sinc(x),
+ *    x = w_h Ts / 2: the held staircase's component at w_h is then exactly
+ *    eq. (22), u_h e^{j w_h t}, in amplitude and phase. At the samples the
+ *    carrier currents keep eq. (24)'s phases; their amplitudes are
+ *    1 / sinc^2(x) larger (3.4 % at 10 samples per period: the staircase's
+ *    other harmonics alias onto the carrier).
  *  - The first SRFF (at +w_h) shifts the negative carrier, 2 w_h away from its
  *    stop band, by the angle phi_p = atan(w_b' / v') (fs_srff.h: w_b', v' the
- *    bilinear images of w_b and 2 w_h): a bias of phi_p / 2 on the angle
- *    (1.2 el.deg at the default bandwidth), taken out in the heterodyne's
+ *    bilinear images of w_b and 2 w_h): a bias of phi_p / 2 (0.6 el.deg at
+ *    the default bandwidth w_h / 20), taken out in the heterodyne's
  *    reference: e^{j(-theta_h + 2 theta_hat + pi/2 - phi_p - phi_r)}.
  *  - eq. (23) neglects the resistance. With it, the carrier responses of
  *    u = R i + d psi/dt, psi = SigmaL i + DeltaL e^{j 2 theta} conj(i), are
- *    exactly I_n e^{j(-w_h t + 2 theta + pi/2 - phi_r)},
+ *    I_n e^{j(-w_h t + 2 theta + pi/2 - phi_r)},
  *      phi_r = atan2(2 R w_h SigmaL, w_h^2 (SigmaL^2 - DeltaL^2) - R^2),
  *    a bias of phi_r / 2 (4.3 el.deg on the yang2022 machine at 1 kHz, where
- *    R / (w_h SigmaL) = 0.074), also taken out in the reference.
+ *    R / (w_h SigmaL) = 0.074), also taken out in the reference. With the
+ *    held voltage the resistive drops of the aliased harmonics add up, to
+ *    first order, to R x cot(x) at the samples: R is replaced by that
+ *    (0.14 el.deg of the 4.3 at 10 samples per period).
  *
- * Normalisation of eq. (26): by the negative carrier's amplitude I_hn taken
+ * Normalisation of eq. (26): by the negative carrier's amplitude I_hn, taken
  * from the second SRFF's state (the carrier in its own frame, low-pass
- * filtered), not by the instantaneous |i_hn|: i_hn also carries about
- * w_b_n / w_h of the fundamental current (fs_hfi_filter.h), at 25 A as much
- * as the 1.7 A carrier of the yang2022 machine, and dividing by a magnitude
- * that swings with it would rectify that ripple into an angle bias. Divided
- * by the steady amplitude the ripple stays a zero-mean tone near w_h for the
- * observer to filter.
+ * filtered) and averaged further with the cutoff w_b_n / 4, starting from the
+ * amplitude the machine parameters give. Not by the instantaneous |i_hn|,
+ * nor by the SRFF's state alone: both carry about w_b_n / w_h of the
+ * fundamental current as a ripple near w_h (at 25 A as much as the 1.7 A
+ * carrier of the yang2022 machine), and dividing by a magnitude that swings
+ * with it rectifies that ripple into an angle bias (2 el.deg at 25 A).
+ * Divided by the steady amplitude the ripple stays a zero-mean tone near w_h
+ * for the observer to filter.
  *
  * Cross-saturation compensation (beyond the paper): a cross-saturated machine
  * has its HF saliency axis at theta_r + delta(i_q), and the estimator locks
@@ -87,15 +93,24 @@ typedef struct {
     float theta_u;             /* w_h Ts (delay + 1/2): voltage angle ahead of the sample */
     float u_amp;               /* u_h / sinc(w_h Ts / 2) */
     float phi_ref;             /* pi/2 - phi_p - phi_r: the heterodyne reference's fixed rotation */
+    float i_n_design;          /* the negative carrier's amplitude from the parameters, A */
+    float k_avg;               /* 1 - exp(-w_b_n Ts / 4): the amplitude's averaging */
     int n_settle;              /* steps the filters take to settle, 3 / (w_b_n Ts) */
     /* state */
     int k_settle;              /* steps left before the error is used (after reset) */
-    float gain;                /* the caller's scale on the injected amplitude, 0..1 (reset: 1) */
+    float gain;                /* the caller's scale on the injected amplitude, 0..1 (reset: 1);
+                                  a change adds the carriers' change to the filters' states, so
+                                  that a fading carrier is followed, not left behind by their lag */
+    float gain_prev;           /* the gain of the last step: a caller that pauses the estimator at
+                                  gain 0 (no steps) and resumes at the same gain finds the filters
+                                  as it left them, carrier angle included */
+    fs_dq unit_p, unit_n;      /* the carriers' states at gain 1 (0 until it has run at gain 1) */
     float theta_h;             /* carrier angle at the next sampling instant, (-pi, pi] */
     /* outputs of the last step */
     fs_ab i_f;                 /* fundamental current, A */
     fs_ab i_hn;                /* negative-sequence carrier current, A */
     float i_p, i_n;            /* positive and negative carrier amplitudes (the SRFFs' states), A */
+    float i_n_avg;             /* the averaged negative amplitude eq. (26) divides by, A */
     float eps;                 /* eps_n / 2, rad: the angle error seen */
     float delta;               /* the compensation used, rad */
     float theta, w;            /* the observer's angle (rad) and electrical speed (rad/s) */
