@@ -15,10 +15,13 @@
  *   NEG    t_pulse with i_d = -i_pulse; the same;
  *   DONE   flip = (I_p at +i_pulse < I_p at -i_pulse): the estimate points
  *          at the south pole; the caller adds pi to it.
- * The pulses make no torque on an aligned rotor (i_q = 0) and, with the
- * current loop's bandwidth well above 1 / t_pulse, settle in the first
- * half of each pulse. i_pulse must reach saturation: about half the rated
- * current on common machines.
+ * The pulses make no torque on an aligned rotor (i_q = 0). What is
+ * averaged must have settled in the first half of each pulse: the current
+ * loop (1 / bw_current) and the carrier amplitude I_p, which the injection
+ * filter follows with its time constant 1 / w_b_p (3.2 ms at the yang2022
+ * defaults): t_pulse / 2 several times that (20 ms pulses: 3 time
+ * constants). i_pulse must reach saturation: about half the rated current
+ * on common machines.
  */
 #ifndef FS_POLARITY_H
 #define FS_POLARITY_H
