@@ -87,7 +87,10 @@ def figure_dynamic(res: Result, path: Path, title: str, t_win: tuple[float, floa
         ax[4].plot(t[m], res["inject"][m], ":", label="injecting")
         ax[4].set_ylabel("weight")
         ax[4].set_xlabel("time (s)")
-    ax[0].plot(t[m], res["i_q"][m], label="$i_q$")
+    if np.any(res["inject"][m] > 0):   # the fundamental the loop sees, not the HF carrier
+        ax[0].plot(t[m], res["i_q_hat"][m], label="$i_q$ (fundamental, controller frame)")
+    else:
+        ax[0].plot(t[m], res["i_q"][m], label="$i_q$")
     ax[0].plot(t[m], res["i_q_ref"][m], "--", label="$i_q^*$")
     ax[0].set_ylabel("current (A)")
     ax[1].plot(t[m], rad_s_to_rpm(res["w_m"][m]), label="actual")
