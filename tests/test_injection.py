@@ -102,3 +102,18 @@ def test_blend_hands_over_to_the_smo_and_back_without_a_current_step():
         w = slice(k - 50, k + 50)   # +-5 ms
         assert np.ptp(res["i_q_hat"][w]) < 4.0
     assert np.max(np.abs(np.degrees(res["est_err"][t > 0.2]))) < 10.0
+
+
+def test_blend_reverses_through_zero_speed():
+    """+400 -> -400 rpm: through the band, the injection at standstill and
+    back out the other way; the SMO must follow the negative direction (its
+    PLL error changes sign with the speed) and the blend keeps lock."""
+    res = simulate(load_scenario("yang2022-blend-accdec", {
+        "references": {"speed_rpm": [[0.0, 0.0], [0.2, 0.0], [0.6, 100.0], [1.1, 100.0], [1.4, 400.0],
+                                     [2.4, 400.0], [3.2, -400.0]]},
+        "load": {"torque": 0.0}}))
+    t = res["t"]
+    assert res.stop_reason == "done"
+    assert np.max(np.abs(np.degrees(res["est_err"][t > 0.2]))) < 10.0
+    assert res["w_m"][-1] * 60 / (2 * np.pi) == pytest.approx(-400.0, abs=5.0)
+    assert res["g_w"][-1] == 1.0 and res["inject"][-1] == 0.0     # the SMO alone at -400 rpm

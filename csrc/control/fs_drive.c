@@ -187,7 +187,10 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
         } else if (c->w_inject_max > 0.0f && !drv->inject_on && aw < 0.9f * c->w_inject_max) {
             drv->inject_on = true;
             /* the filters kept the carriers as they faded out (fs_hfi.h) */
-            if (!drv->injecting) fs_hfi_set_angle(&drv->hfi, drv->blend.theta_hat, drv->blend.w_hat);
+            if (!drv->injecting) {
+                fs_hfi_set_angle(&drv->hfi, drv->blend.theta_hat, drv->blend.w_hat);
+                drv->hfi.obs.T_d_hat = drv->blend.obs.T_d_hat;   /* the load it carries */
+            }
         }
     }
     /* The amplitude fades in and out over the filters' settling time, so
@@ -203,9 +206,13 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
 static void drive_polarity_done(fs_drive *drv)
 {
     if (drv->pol.flip) {
-        float theta = fs_wrap_pi(drv->hfi.theta + FS_PI);
+        const float theta = fs_wrap_pi(drv->hfi.theta + FS_PI), T_d = drv->hfi.obs.T_d_hat;
         fs_hfi_set_angle(&drv->hfi, theta, drv->hfi.w);
-        if (drv->cfg.angle_source == FS_ANGLE_BLEND) fs_blend_reset(&drv->blend, theta, drv->hfi.w);
+        drv->hfi.obs.T_d_hat = T_d;   /* the load does not turn with the estimate */
+        if (drv->cfg.angle_source == FS_ANGLE_BLEND) {
+            fs_blend_reset(&drv->blend, theta, drv->hfi.w);
+            drv->blend.obs.T_d_hat = T_d;
+        }
     }
     if (drv->cfg.mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
     drv->phase = FS_PHASE_RUN;
@@ -225,7 +232,7 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float
             return;
         }
     }
-    if (drive_injects(c)) {
+    if (drive_injects(c) && c->mode != FS_MODE_OFF) {   /* OFF injects nothing to estimate from */
         if (!drv->est_started) drive_start_estimators(drv, in);
         *i_ab = drive_injection_step(drv, *i_ab);
         if (in->sensorless) {
@@ -389,15 +396,15 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     } else if (c->angle_source == FS_ANGLE_HFI) {
         out->theta_est = drv->hfi.theta;
         out->w_est = drv->hfi.w;
-        out->est_valid = drv->phase == FS_PHASE_RUN;
+        out->est_valid = drv->phase == FS_PHASE_RUN && drv->injecting && drv->hfi.k_settle == 0;
         out->g_w = 0.0f;
     } else if (c->angle_source == FS_ANGLE_BLEND) {
         out->theta_est = drv->blend.theta_hat;
         out->w_est = drv->blend.w_hat;
-        out->est_valid = drv->phase == FS_PHASE_RUN;
+        out->est_valid = drv->phase == FS_PHASE_RUN && drv->est_started && drv->hfi.k_settle == 0;
         out->g_w = drv->blend.g_w;
     }
-    out->injecting = drv->injecting;
+    out->injecting = drv->injecting && c->mode != FS_MODE_OFF;
     out->phase = drv->phase;
     out->i_d_fw = drive_weakens(c) ? drv->fw.i_d : 0.0f;
 }

@@ -9,6 +9,7 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
     if (!(c.delay >= 0.0f && c.delay <= 2.0f)) return FS_ERR_PARAM;
     if (!(c.u_h > 0.0f) || !isfinite(c.u_h)) return FS_ERR_PARAM;
     if (!(c.w_h > 0.0f) || !(c.w_h * c.Ts <= 0.5f * FS_PI)) return FS_ERR_BANDWIDTH;
+    if (c.w_b_p < 0.0f || c.w_b_n < 0.0f || (c.w_b_n > 0.0f && c.w_b_n * c.Ts < 1e-4f)) return FS_ERR_BANDWIDTH;
     if (!(c.R_s >= 0.0f) || !isfinite(c.R_s)) return FS_ERR_RS;
     if (!(c.L_d > 0.0f)) return FS_ERR_LD;
     if (!(c.L_q > 0.0f)) return FS_ERR_LQ;
@@ -46,6 +47,7 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
     const float D_re = w * w * (sl * sl - dl * dl) - R * R, D_im = 2.0f * R * w * sl;
     const float phi_r = atan2f(D_im, D_re);
     h->phi_ref = 0.5f * FS_PI - phi_p - phi_r;
+    if (dl > 0.0f) h->phi_ref -= FS_PI;   /* L_d > L_q: the carrier of eq. (24) changes sign */
     /* the negative carrier's amplitude, |B| of the header, at the samples */
     const float sinc = sinf(x) / x;
     h->i_n_design = c.u_h * w * fabsf(dl) / sqrtf(D_re * D_re + D_im * D_im) / (sinc * sinc);
@@ -83,7 +85,7 @@ void fs_hfi_set_angle(fs_hfi *h, float theta, float w)
 
 float fs_hfi_xcomp(const fs_hfi_config *cfg, float i_q)
 {
-    if (cfg->xcomp_n < 2) return 0.0f;
+    if (cfg->xcomp_n < 2 || !isfinite(i_q)) return 0.0f;
     float x = fs_clampf((i_q - cfg->xcomp_i_q0) / cfg->xcomp_di_q, 0.0f, (float)(cfg->xcomp_n - 1));
     int k = (int)x;
     if (k > cfg->xcomp_n - 2) k = cfg->xcomp_n - 2;

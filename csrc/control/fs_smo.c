@@ -38,6 +38,7 @@ void fs_smo_reset(fs_smo *o, float theta, float w)
     fs_pll_reset(&o->pll, theta, w);
     o->theta = theta;
     o->w = w;
+    o->dir = w < 0.0f ? -1.0f : 1.0f;
     o->valid = false;
 }
 
@@ -62,15 +63,23 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
     o->z.beta = o->k * sat(o->i_hat.beta - i.beta, o->delta);
     /* Fig. 1: adaptive low-pass filter, cutoff at the estimated speed */
     fs_ab e = fs_lpf_step(&o->lpf, o->z, w);
-    /* eq. (12): normalized PLL error, sin(theta - theta_pll) */
+    /* eq. (12): normalized PLL error, sin(theta - theta_pll). The EMF turns
+     * with the speed's sign: without the direction the error would be
+     * -sin(theta - theta_pll) below zero speed and the PLL would lock pi off
+     * (the paper runs one way only). The direction changes only when the
+     * PLL's speed passes w_valid the other way: locked pi off, the PLL turns
+     * the wrong way, passes it, and the flipped error brings it back. */
     float mag = sqrtf(e.alpha * e.alpha + e.beta * e.beta);
     float eps = 0.0f;
     if (mag > 1e-6f) {
         float th = o->pll.theta;
         eps = (-e.alpha * cosf(th) - e.beta * sinf(th)) / mag;
+        eps *= o->dir;
     }
     fs_pll_step(&o->pll, eps);
     o->w = o->pll.w;
+    if (o->w > c->w_valid) o->dir = 1.0f;
+    else if (o->w < -c->w_valid) o->dir = -1.0f;
     float w_c = fmaxf(fabsf(o->w), c->w_c_min);
     float lag = (c->lag == FS_SMO_LAG_PAPER) ? fs_signf(o->w) * 0.25f * FS_PI
                                              : atanf(o->w / (2.0f * w_c));

@@ -58,6 +58,7 @@ typedef struct {
     float theta;         /* estimated angle at the sampling instant, rad */
     float w;             /* estimated electrical speed, rad/s */
     bool valid;
+    float dir;           /* direction of rotation the PLL error assumes: +1, -1 (hysteresis at w_valid) */
 } fs_smo;
 
 fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg);

@@ -9,6 +9,7 @@ the estimator then takes out online (fs_hfi.h, claim B-XCOMP-3PH).
 """
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -49,8 +50,8 @@ def xsat_table(scenario: str | Path, i_q_max: float = 40.0, points: int = 17,
         "references": {"i_q": profile, "i_d": 0.0},
         "metrics": {"steady": None},
     })
-    if sc.machine.bench["i_max"] < i_q_max:
-        raise ConfigError("i_q_max", i_q_max, f"must be <= the bench's i_max ({sc.machine.bench['i_max']:g} A)", sc.source)
+    if sc.data["controller"]["i_max"] < i_q_max:
+        raise ConfigError("i_q_max", i_q_max, f"must be <= controller.i_max ({sc.data['controller']['i_max']:g} A)", sc.source)
     res = simulate(sc)
     if res.stop_reason != "done":
         raise ConfigError("scenario", sc.name, f"calibration run stopped: {res.stop_reason} at {res.stop_time}", sc.source)
@@ -71,7 +72,7 @@ def write_table(table: dict, path: Path) -> Path:
         return "[" + ", ".join(f"{x:g}" for x in xs) + "]"
     text = ("# Cross-saturation table of the HF injection estimator (fullspeed calibrate)\n"
             "[xcomp]\n"
-            f"source = {table['source']!r}\n".replace("'", '"')
+            f"source = {json.dumps(table['source'])}\n"
             + f"i_q = {arr(table['i_q'])}              # A\n"
             f"delta_deg = {arr(table['delta_deg'])}    # el.deg, theta_hat - theta_r uncompensated\n")
     path.parent.mkdir(parents=True, exist_ok=True)

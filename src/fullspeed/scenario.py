@@ -77,8 +77,8 @@ SCENARIO = {
     "polarity": T({
         "enabled": B(True, doc="detect the magnet polarity before starting sensorless on injection"),
         "i_pulse": POS(None, doc="A, d-current pulses; default half of controller.i_max"),
-        "t_lock": NONNEG(0.05, doc="s, the estimator settles first"),
-        "t_pulse": POS(0.02, doc="s, each pulse"),
+        "t_lock": NONNEG(0.06, doc="s, the estimator settles first: >= 6 / w_b_n + 2 / w_o (fade-in, filters, observer)"),
+        "t_pulse": POS(0.02, doc="s, each pulse: >= 6 / w_b_p (the carrier amplitude settles in the first half)"),
     }, default={}),
     "blending": T({
         "lower_rpm": NONNEG(None, doc="eq. (28); default the machine's [blending]"),
@@ -218,9 +218,10 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
 def _injection_fields(d: dict, m: Machine, source) -> None:
     """Fill in and check the injection, polarity and blending tables."""
     ctl, inj, pol, bl = d["controller"], d["injection"], d["polarity"], d["blending"]
-    if not abs(m.L_q - m.L_d) > 0.01 * 0.5 * (m.L_d + m.L_q):
+    L_d, L_q = m.L_d * ctl["L_d_scale"], m.L_q * ctl["L_q_scale"]   # as the controller knows them
+    if not abs(L_q - L_d) > 0.01 * 0.5 * (L_d + L_q):
         raise ConfigError("controller.angle", ctl["angle"],
-                          f"injection needs a salient machine; {m.name} has L_d = {m.L_d:g} H = L_q (a non-salient machine shows no position in its inductance)", source)
+                          f"injection needs a salient machine; {m.name} has L_d = {L_d:g} H = L_q (a non-salient machine shows no position in its inductance)", source)
     mi = m.extra.get("injection", {})
     for key in ("u_h", "f_h"):
         if inj[key] is None:
@@ -231,8 +232,24 @@ def _injection_fields(d: dict, m: Machine, source) -> None:
     Ts = T_pwm / 2 if d["timing"]["sampling"] == "double" else T_pwm
     if inj["f_h"] > 0.25 / Ts:
         raise ConfigError("injection.f_h", inj["f_h"], f"must be <= {0.25 / Ts:g} Hz: at least 4 samples per carrier period at Ts = {Ts:g} s", source)
-    if inj["u_h"] >= d["converter"]["u_dc"] / math.sqrt(3):
-        raise ConfigError("injection.u_h", inj["u_h"], f"must be below the linear modulation limit u_dc/sqrt3 = {d['converter']['u_dc'] / math.sqrt(3):.3g} V", source)
+    x = math.pi * inj["f_h"] * Ts                      # the held voltage is u_h / sinc(x) (fs_hfi.h)
+    u_lin = d["converter"]["u_dc"] / math.sqrt(3) * math.sin(x) / x
+    if inj["u_h"] >= u_lin:
+        raise ConfigError("injection.u_h", inj["u_h"], f"must be below {u_lin:.3g} V: the held carrier, u_h / sinc(pi f_h Ts), inside the linear modulation limit u_dc/sqrt3", source)
+    w_h = 2 * math.pi * inj["f_h"]
+    w_b_p, w_b_n = inj["bw_filter_p"] or w_h / 20, inj["bw_filter_n"] or w_h / 20
+    w_o = inj["bw_observer"] or w_b_n / 5
+    for key, w in (("bw_filter_p", w_b_p), ("bw_filter_n", w_b_n), ("bw_observer", w_o)):
+        if w * Ts > 0.5:
+            raise ConfigError(f"injection.{key}", w, f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s", source)
+    if bl["bw_observer"] is not None and bl["bw_observer"] * Ts > 0.5:
+        raise ConfigError("blending.bw_observer", bl["bw_observer"], f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s", source)
+    if pol["enabled"]:
+        t_lock_min, t_pulse_min = 6.0 / w_b_n + 2.0 / w_o, 6.0 / w_b_p
+        if pol["t_lock"] < t_lock_min:
+            raise ConfigError("polarity.t_lock", pol["t_lock"], f"must be >= {t_lock_min:.3g} s: 6 / w_b_n + 2 / w_o, the fade-in, the filters and the observer settle first", source)
+        if pol["t_pulse"] < t_pulse_min:
+            raise ConfigError("polarity.t_pulse", pol["t_pulse"], f"must be >= {t_pulse_min:.3g} s: 6 / w_b_p, the carrier amplitude settles in each pulse's first half", source)
     if inj["xcomp"] is not None:
         inj["xcomp"] = _xcomp_table(inj["xcomp"], source)
     if pol["i_pulse"] is None:

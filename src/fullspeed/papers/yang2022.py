@@ -74,7 +74,7 @@ def smo_ramp(out: Path) -> Measurement:
 # --- rotating HF injection (sec. 5.3) and blending (sec. 5.4) -------------
 
 HFI_SS = "yang2022-hfi-steady-100rpm"
-T_LOCK = 0.2   # s: after the polarity detection (0.09 s) and the first settling
+T_LOCK = 0.2   # s: after the polarity detection (0.1 s) and the first settling
 
 
 def _iq_ramp(iq: float) -> dict:
@@ -215,9 +215,9 @@ def polarity(out: Path) -> Measurement:
     fig.savefig(out / "Y-POLARITY.png", dpi=100)
     plt.close(fig)
     note = ("The paper requires a polarity detection and leaves the method open. Ours (fs_polarity.h): "
-            "the injection locks on the axis for 50 ms, then d-current pulses of +-30 A (half of i_max), "
+            "the injection locks on the axis for 60 ms, then d-current pulses of +-30 A (half of i_max), "
             "20 ms each, along the estimated d axis; the positive-sequence carrier amplitude grows when the "
             "pulse adds to the magnet flux and saturates the iron (the machine's asymmetric d saturation, "
             "machines/yang2022.toml); if it grows less on the positive pulse, the estimate is turned by pi. "
-            "Right: |error| < 45 el.deg at the end of the run (0.12 s).")
+            "Right: |error| < 45 el.deg at the end of the run (0.12 s; the detection ends at 0.1 s).")
     return Measurement(value, all(right), note, ["Y-POLARITY.png"])
