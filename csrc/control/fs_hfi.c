@@ -31,10 +31,10 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
     if (st != FS_OK) return st;
     h->cfg = c;
 
-    const float x = 0.5f * c.w_h * c.Ts;
+    const float x = 0.5f * c.w_h * c.Ts, sinc = sinf(x) / x;
     h->dtheta_h = c.w_h * c.Ts;
     h->theta_u = c.w_h * c.Ts * (c.delay + 0.5f);
-    h->u_amp = c.u_h * x / sinf(x);                 /* eq. (22) on average over the period */
+    h->u_amp = c.u_h / sinc;                        /* the held staircase's component at w_h is eq. (22) */
     /* the first SRFF's phase on the negative carrier, 2 w_h below its stop
      * band (the bilinear images of fs_srff.h) */
     const float w_b = (2.0f / c.Ts) * tanhf(0.5f * c.w_b_p * c.Ts);
@@ -49,10 +49,13 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
     h->phi_ref = 0.5f * FS_PI - phi_p - phi_r;
     if (dl > 0.0f) h->phi_ref -= FS_PI;   /* L_d > L_q: the carrier of eq. (24) changes sign */
     /* the negative carrier's amplitude, |B| of the header, at the samples */
-    const float sinc = sinf(x) / x;
     h->i_n_design = c.u_h * w * fabsf(dl) / sqrtf(D_re * D_re + D_im * D_im) / (sinc * sinc);
     h->k_avg = -expm1f(-0.25f * c.w_b_n * c.Ts);
     h->n_settle = (int)ceilf(3.0f / (c.w_b_n * c.Ts));
+    h->rot_u.alpha = cosf(h->theta_u);
+    h->rot_u.beta = sinf(h->theta_u);
+    h->rot_ref.alpha = cosf(h->phi_ref);
+    h->rot_ref.beta = sinf(h->phi_ref);
     fs_hfi_reset(h, 0.0f, 0.0f);
     return FS_OK;
 }
@@ -110,8 +113,11 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
     }
     const float theta_h = h->theta_h;
     const float theta_hat = h->obs.theta_hat;
+    /* the carrier's frame and the negative carrier's, once per step */
+    const float theta_n = fs_wrap_pi(2.0f * theta_hat - theta_h);
+    const fs_ab e_h = {cosf(theta_h), sinf(theta_h)}, e_n = {cosf(theta_n), sinf(theta_n)};
     /* Fig. 4b: fundamental and negative-sequence carrier */
-    fs_hfi_filter_step(&h->filt, i, theta_h, theta_hat, &h->i_f, &h->i_hn);
+    fs_hfi_filter_step_cs(&h->filt, i, e_h, e_n, &h->i_f, &h->i_hn);
     const fs_dq lp_p = h->filt.srff_p.lp, lp_n = h->filt.srff_n.lp;
     if (h->gain == 1.0f) {
         h->unit_p = lp_p;
@@ -129,9 +135,11 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
     }
 
     /* eq. (26): the cross product of the expected carrier direction
-     * e^{j(-theta_h + 2 theta_hat + pi/2)} (less the SRFF's phase) with i_hn */
-    const float ref = 2.0f * (theta_hat + h->delta) - theta_h + h->phi_ref;
-    const float c = cosf(ref), s = sinf(ref);
+     * e^{j(-theta_h + 2 (theta_hat + delta) + phi_ref)} with i_hn: e_n turned
+     * by phi_ref (and by 2 delta with a table) */
+    fs_ab ref = fs_inv_park((fs_dq){e_n.alpha, e_n.beta}, h->rot_ref.alpha, h->rot_ref.beta);
+    if (h->delta != 0.0f) ref = fs_inv_park((fs_dq){ref.alpha, ref.beta}, cosf(2.0f * h->delta), sinf(2.0f * h->delta));
+    const float c = ref.alpha, s = ref.beta;
     float eps_n = 0.0f;
     if (h->k_settle > 0) {
         --h->k_settle;
@@ -146,9 +154,9 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
     h->w = h->obs.w_hat;
 
     /* eq. (22), for the interval the voltage computed now acts over */
-    const float theta_v = theta_h + h->theta_u;
-    h->u.alpha = h->gain * h->u_amp * cosf(theta_v);
-    h->u.beta = h->gain * h->u_amp * sinf(theta_v);
+    const fs_ab e_v = fs_inv_park((fs_dq){e_h.alpha, e_h.beta}, h->rot_u.alpha, h->rot_u.beta);
+    h->u.alpha = h->gain * h->u_amp * e_v.alpha;
+    h->u.beta = h->gain * h->u_amp * e_v.beta;
     h->theta_h = fs_wrap_pi(theta_h + h->dtheta_h);
     return h->theta;
 }

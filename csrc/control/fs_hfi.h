@@ -93,6 +93,7 @@ typedef struct {
     float theta_u;             /* w_h Ts (delay + 1/2): voltage angle ahead of the sample */
     float u_amp;               /* u_h / sinc(w_h Ts / 2) */
     float phi_ref;             /* pi/2 - phi_p - phi_r: the heterodyne reference's fixed rotation */
+    fs_ab rot_u, rot_ref;      /* e^{j theta_u}, e^{j phi_ref}: the carrier phasor turned by them */
     float i_n_design;          /* the negative carrier's amplitude from the parameters, A */
     float k_avg;               /* 1 - exp(-w_b_n Ts / 4): the amplitude's averaging */
     int n_settle;              /* steps the filters take to settle, 3 / (w_b_n Ts) */

@@ -23,11 +23,17 @@ void fs_hfi_filter_reset(fs_hfi_filter *f)
 void fs_hfi_filter_step(fs_hfi_filter *f, fs_ab i, float theta_h, float theta_r_hat,
                         fs_ab *i_f, fs_ab *i_hn)
 {
+    const float theta_n = fs_wrap_pi(2.0f * theta_r_hat - theta_h);
+    const fs_ab e_h = {cosf(theta_h), sinf(theta_h)}, e_n = {cosf(theta_n), sinf(theta_n)};
+    fs_hfi_filter_step_cs(f, i, e_h, e_n, i_f, i_hn);
+}
+
+void fs_hfi_filter_step_cs(fs_hfi_filter *f, fs_ab i, fs_ab e_h, fs_ab e_n, fs_ab *i_f, fs_ab *i_hn)
+{
     /* Fig. 4b: remove the positive carrier at w_h ... */
-    fs_ab y = fs_srff_step(&f->srff_p, i, theta_h);
+    fs_ab y = fs_srff_step_cs(&f->srff_p, i, e_h.alpha, e_h.beta);
     /* ... then the negative carrier at -w_h + 2 w_r_hat, eq. (24). */
-    float theta_n = fs_wrap_pi(2.0f * theta_r_hat - theta_h);
-    fs_ab fund = fs_srff_step(&f->srff_n, y, theta_n);
+    fs_ab fund = fs_srff_step_cs(&f->srff_n, y, e_n.alpha, e_n.beta);
     if (i_f) *i_f = fund;
     if (i_hn) {
         i_hn->alpha = y.alpha - fund.alpha;

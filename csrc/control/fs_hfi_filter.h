@@ -76,5 +76,8 @@ void fs_hfi_filter_reset(fs_hfi_filter *f);
  * i_f and the negative-sequence carrier current i_hn (either may be NULL). */
 void fs_hfi_filter_step(fs_hfi_filter *f, fs_ab i, float theta_h, float theta_r_hat,
                         fs_ab *i_f, fs_ab *i_hn);
+/* The same with the two frames as unit phasors: e_h = e^{j theta_h} and
+ * e_n = e^{j(-theta_h + 2 theta_r_hat)} (alpha = cos, beta = sin). */
+void fs_hfi_filter_step_cs(fs_hfi_filter *f, fs_ab i, fs_ab e_h, fs_ab e_n, fs_ab *i_f, fs_ab *i_hn);
 
 #endif /* FS_HFI_FILTER_H */

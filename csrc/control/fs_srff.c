@@ -18,7 +18,11 @@ void fs_srff_reset(fs_srff *f) { f->lp.d = f->lp.q = 0.0f; }
 
 fs_ab fs_srff_step(fs_srff *f, fs_ab x, float theta_x)
 {
-    const float c = cosf(theta_x), s = sinf(theta_x);
+    return fs_srff_step_cs(f, x, cosf(theta_x), sinf(theta_x));
+}
+
+fs_ab fs_srff_step_cs(fs_srff *f, fs_ab x, float c, float s)
+{
     /* Fig. 4a: in the frame at theta_x, x_r - lp (lp at the start of the
      * period); rotated back, d = x - e^{j theta_x} lp. */
     fs_ab lp = fs_inv_park(f->lp, c, s);

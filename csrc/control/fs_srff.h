@@ -65,5 +65,8 @@ void fs_srff_reset(fs_srff *f);
 /* One step: input x, frame angle theta_x (rad) at this sample; returns the
  * input with its component at e^{j theta_x} removed. */
 fs_ab fs_srff_step(fs_srff *f, fs_ab x, float theta_x);
+/* The same with the frame given as cos(theta_x), sin(theta_x), for a caller
+ * that has them already. */
+fs_ab fs_srff_step_cs(fs_srff *f, fs_ab x, float cos_x, float sin_x);
 
 #endif /* FS_SRFF_H */

@@ -232,16 +232,17 @@ def _injection_fields(d: dict, m: Machine, source) -> None:
     Ts = T_pwm / 2 if d["timing"]["sampling"] == "double" else T_pwm
     if inj["f_h"] > 0.25 / Ts:
         raise ConfigError("injection.f_h", inj["f_h"], f"must be <= {0.25 / Ts:g} Hz: at least 4 samples per carrier period at Ts = {Ts:g} s", source)
-    x = math.pi * inj["f_h"] * Ts                      # the held voltage is u_h / sinc(x) (fs_hfi.h)
-    u_lin = d["converter"]["u_dc"] / math.sqrt(3) * math.sin(x) / x
-    if inj["u_h"] >= u_lin:
-        raise ConfigError("injection.u_h", inj["u_h"], f"must be below {u_lin:.3g} V: the held carrier, u_h / sinc(pi f_h Ts), inside the linear modulation limit u_dc/sqrt3", source)
-    w_h = 2 * math.pi * inj["f_h"]
-    w_b_p, w_b_n = inj["bw_filter_p"] or w_h / 20, inj["bw_filter_n"] or w_h / 20
-    w_o = inj["bw_observer"] or w_b_n / 5
+    for key in ("bw_filter_p", "bw_filter_n", "bw_observer"):
+        if inj[key] is not None and inj[key] * Ts > 0.5:
+            raise ConfigError(f"injection.{key}", inj[key], f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s", source)
+    h = _hfi_design(inj, Ts, L_d, L_q, source)   # the bandwidths and the held amplitude as the estimator designs them
+    w_b_p, w_b_n, w_o = h.cfg.w_b_p, h.cfg.w_b_n, h.cfg.obs.bandwidth
     for key, w in (("bw_filter_p", w_b_p), ("bw_filter_n", w_b_n), ("bw_observer", w_o)):
-        if w * Ts > 0.5:
-            raise ConfigError(f"injection.{key}", w, f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s", source)
+        if w * Ts > 0.5:   # a default derived from the carrier
+            raise ConfigError(f"injection.{key}", w, f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s (default from f_h; set it)", source)
+    u_lin = d["converter"]["u_dc"] / math.sqrt(3)
+    if h.u_amp >= u_lin:
+        raise ConfigError("injection.u_h", inj["u_h"], f"must be below {u_lin * inj['u_h'] / h.u_amp:.3g} V: the held carrier, u_h / sinc(pi f_h Ts) = {h.u_amp:.3g} V, inside the linear modulation limit u_dc/sqrt3", source)
     if bl["bw_observer"] is not None and bl["bw_observer"] * Ts > 0.5:
         raise ConfigError("blending.bw_observer", bl["bw_observer"], f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s", source)
     if pol["enabled"]:
@@ -269,6 +270,22 @@ def _injection_fields(d: dict, m: Machine, source) -> None:
             inj["stop_rpm"] = 1.2 * bl["upper_rpm"]
         if not 0.9 * inj["stop_rpm"] >= bl["upper_rpm"]:
             raise ConfigError("injection.stop_rpm", inj["stop_rpm"], f"must be >= upper_rpm / 0.9 = {bl['upper_rpm'] / 0.9:g} (the injection resumes at 0.9 x stop_rpm)", source)
+
+
+def _hfi_design(inj: dict, Ts: float, L_d: float, L_q: float, source=None):
+    """The injection estimator as fs_hfi_init designs it (its defaults and
+    the held carrier amplitude): one place for those rules, the C one."""
+    from ._core import ffi, lib
+
+    cfg = ffi.new("fs_hfi_config *", {"Ts": Ts, "delay": 1.0, "u_h": inj["u_h"], "w_h": 2 * math.pi * inj["f_h"],
+                                      "L_d": L_d, "L_q": L_q,
+                                      "w_b_p": inj["bw_filter_p"] or 0.0, "w_b_n": inj["bw_filter_n"] or 0.0})
+    cfg.obs.J, cfg.obs.pole_pairs, cfg.obs.bandwidth = 1.0, 1, inj["bw_observer"] or 0.0
+    h = ffi.new("fs_hfi *")
+    st = lib.fs_hfi_init(h, cfg)
+    if st != lib.FS_OK:
+        raise ConfigError("injection", f"f_h = {inj['f_h']:g} Hz", ffi.string(lib.fs_status_str(st)).decode(), source)
+    return h
 
 
 def _xcomp_table(raw, source) -> dict:
