@@ -65,6 +65,7 @@ enum { N_PARAMS = sizeof PARAMS / sizeof PARAMS[0] };
 /* Settings every mode shares: speed control, the bench's timing and limits. */
 static void setup_common(fs_drive_config *c, const params *p)
 {
+    c->phases = 3;
     c->mode = FS_MODE_SPEED;
     c->Ts = (float)p->Ts;
     c->T_pwm = (float)p->T_pwm;
@@ -259,7 +260,7 @@ static int run(int mode, long warmup, long steps, int trace, const params *p)
         fs_drive_in in = {0};
         double th = p->pole_pairs * pl.theta_m, i_abc[3];
         phase_currents(&pl, cos(th), sin(th), i_abc);
-        for (int k = 0; k < 3; ++k) in.i_abc[k] = (float)(i_abc[k] + noise(&pl, p->noise_i));
+        for (int k = 0; k < 3; ++k) in.i_ph[k] = (float)(i_abc[k] + noise(&pl, p->noise_i));
         in.u_dc = (float)p->u_dc;
         double rev = pl.theta_m / (2.0 * PI);
         in.theta_m_enc = (float)(2.0 * PI * (floor((rev - floor(rev)) * counts) / counts));

@@ -26,7 +26,7 @@ void PWM_IRQHandler(void)
 {
     fs_drive_in in = {0};
     fs_drive_out out;
-    for (int k = 0; k < 3; ++k) in.i_abc[k] = adc_i_abc[k];
+    for (int k = 0; k < 3; ++k) in.i_ph[k] = adc_i_abc[k];
     in.u_dc = adc_u_dc;
     in.theta_m_enc = enc_theta_m;
     in.w_m_ref = 62.8f;
@@ -40,6 +40,7 @@ int main(void)
     /* yang2022 machine and bench (src/fullspeed/machines/yang2022.toml);
      * fields not set here are 0, which means "off" for any added later. */
     fs_drive_config cfg = {0};
+    cfg.phases = 3;
     cfg.mode = FS_MODE_SPEED;
     cfg.angle_source = FS_ANGLE_SMO;
     cfg.Ts = 1.0e-4f;

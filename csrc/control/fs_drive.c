@@ -64,6 +64,7 @@ static fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
 fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
 {
     if (!drv || !cfg) return FS_ERR_NULL;
+    if (cfg->phases != 3 && cfg->phases != 5) return FS_ERR_PARAM;
     if (cfg->mode < FS_MODE_OFF || cfg->mode > FS_MODE_SPEED) return FS_ERR_MODE;
     if (cfg->angle_source < FS_ANGLE_ENCODER || cfg->angle_source > FS_ANGLE_BLEND) return FS_ERR_MODE;
     if (!(cfg->Ts > 0.0f) || !(cfg->T_pwm >= cfg->Ts)) return FS_ERR_TS;
@@ -285,13 +286,13 @@ static fs_dq drive_start_step(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab)
 
 /* Dead-time compensation: the average pole-voltage loss is
  * sign(i) t_dead / T_pwm u_dc, added back on the duty. */
-static void dead_time_comp(const fs_drive_config *c, const float i_abc[3], float duty[3])
+static void dead_time_comp(const fs_drive_config *c, const float i_ph[], float duty[])
 {
     if (c->t_dead_comp <= 0.0f) return;
     float dd = c->t_dead_comp / c->T_pwm;
-    for (int k = 0; k < 3; ++k) {
-        float s = (c->i_dead_band > 0.0f) ? fs_clampf(i_abc[k] / c->i_dead_band, -1.0f, 1.0f)
-                                          : fs_signf(i_abc[k]);
+    for (int k = 0; k < c->phases; ++k) {
+        float s = (c->i_dead_band > 0.0f) ? fs_clampf(i_ph[k] / c->i_dead_band, -1.0f, 1.0f)
+                                          : fs_signf(i_ph[k]);
         duty[k] = fs_clampf(duty[k] + s * dd, 0.0f, 1.0f);
     }
 }
@@ -299,7 +300,7 @@ static void dead_time_comp(const fs_drive_config *c, const float i_abc[3], float
 void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
 {
     const fs_drive_config *c = &drv->cfg;
-    fs_ab i_ab = fs_clarke(in->i_abc[0], in->i_abc[1], in->i_abc[2]);
+    fs_ab i_ab = fs_clarke(in->i_ph[0], in->i_ph[1], in->i_ph[2]);
     float theta, w_e;
     fs_ab i_loop = i_ab;
     drive_angle(drv, in, &i_loop, &theta, &w_e);
@@ -359,12 +360,12 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     u_ab_ref.beta += u_inj.beta;
     fs_ab u_ab;
     if (c->mode == FS_MODE_OFF) {
-        out->duty[0] = out->duty[1] = out->duty[2] = 0.5f;
+        for (int k = 0; k < c->phases; ++k) out->duty[k] = 0.5f;
         out->over_modulation = false;
         u_ab.alpha = u_ab.beta = 0.0f;
     } else {
         out->over_modulation = fs_svpwm(u_ab_ref, in->u_dc, out->duty, &u_ab);
-        dead_time_comp(c, in->i_abc, out->duty);
+        dead_time_comp(c, in->i_ph, out->duty);
         u_ab.alpha -= u_inj.alpha;   /* the fundamental part */
         u_ab.beta -= u_inj.beta;
     }

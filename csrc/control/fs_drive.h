@@ -49,6 +49,7 @@ typedef enum {
 } fs_drive_phase;
 
 typedef struct {
+    int phases;              /* 3, or 5: the fundamental plane of the VSD, nearest-four-vector PWM */
     int mode;                /* fs_drive_mode */
     int angle_source;        /* fs_angle_source */
     float Ts;                /* control (sampling) period, s */
@@ -98,7 +99,7 @@ typedef struct {
 } fs_drive_config;
 
 typedef struct {
-    float i_abc[3];          /* sampled phase currents, A */
+    float i_ph[FS_PHASES_MAX];   /* sampled phase currents, A (the first `phases`) */
     float u_dc;              /* sampled dc-link voltage, V */
     float theta_m_enc;       /* encoder mechanical angle, rad */
     float theta_e_ext, w_e_ext;  /* external angle source, rad, rad/s */
@@ -111,7 +112,7 @@ typedef struct {
 } fs_drive_in;
 
 typedef struct {
-    float duty[3];           /* for the next update instant */
+    float duty[FS_PHASES_MAX];   /* for the next update instant (the first `phases`) */
     /* telemetry */
     float theta_e, w_e;      /* angle and speed used by the loops */
     float i_d, i_q;          /* measured, in the controller frame */

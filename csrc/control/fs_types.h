@@ -37,4 +37,7 @@ typedef enum {
 
 const char *fs_status_str(fs_status status);
 
+/* The most phases a drive has: three, or five (yu2022). */
+enum { FS_PHASES_MAX = 5 };
+
 #endif /* FS_TYPES_H */

@@ -206,7 +206,7 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
         double i_abc[3], i_d, i_q;
         phase_currents(s, s->x, i_abc, &i_d, &i_q);
         fs_drive_in din;
-        for (int k = 0; k < 3; ++k) din.i_abc[k] = (float)adc(s, i_abc[k]);
+        for (int k = 0; k < 3; ++k) din.i_ph[k] = (float)adc(s, i_abc[k]);
         din.u_dc = (float)c->inverter.u_dc;
         din.theta_m_enc = (float)encoder(s, s->x[FS_X_THETA_M]);
         din.theta_e_ext = (float)wrap_pi(p * s->x[FS_X_THETA_M]);

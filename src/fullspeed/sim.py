@@ -139,6 +139,7 @@ def build_config(sc: Scenario):
     cfg.w_m0 = rpm_to_rad_s(d["initial"]["speed_rpm"])
 
     dc = cfg.drive
+    dc.phases = m.phases
     dc.mode, dc.angle_source = MODES[ctl["mode"]], ANGLES[ctl["angle"]]
     dc.Ts, dc.T_pwm, dc.delay = Ts, inv.T_pwm, float(cfg.delay)
     dc.R_s, dc.L_d, dc.L_q = m.R_s * ctl["R_s_scale"], m.L_d * ctl["L_d_scale"], m.L_q * ctl["L_q_scale"]
