@@ -9,11 +9,12 @@ static void sampled_plant(float Ts, float L, float R, float *a, float *b)
     *b = (R > 0.0f && r > 0.0f) ? r / R : Ts / L;
 }
 
-static fs_status design_axis(fs_pi *pi, float Ts, float L, float R, float alpha)
+/* Explicit gains (k_p > 0) or the design from the bandwidth. */
+static fs_status design_axis(fs_pi *pi, float Ts, float L, float R, float alpha, float k_p, float k_i)
 {
-    fs_pi_config c;
+    fs_pi_config c = {Ts, k_p, k_p, k_i, 0.0f};
     /* limited as a vector by the modulator, see fs_current_ctrl_update */
-    fs_status st = fs_pi_design(&c, Ts, L, R, alpha, 0.0f);
+    fs_status st = k_p > 0.0f ? FS_OK : fs_pi_design(&c, Ts, L, R, alpha, 0.0f);
     return st != FS_OK ? st : fs_pi_init(pi, &c);
 }
 
@@ -26,12 +27,17 @@ fs_status fs_current_ctrl_init(fs_current_ctrl *cc, const fs_current_ctrl_config
     if (!(cfg->L_q > 0.0f)) return FS_ERR_LQ;
     if (!(cfg->psi_f >= 0.0f)) return FS_ERR_PSI_F;
     if (!(cfg->bandwidth > 0.0f) || cfg->bandwidth * cfg->Ts > 1.0f) return FS_ERR_BANDWIDTH;
+    const bool explicit_d = cfg->k_p_d != 0.0f || cfg->k_i_d != 0.0f;
+    const bool explicit_q = cfg->k_p_q != 0.0f || cfg->k_i_q != 0.0f;
+    if (explicit_d != explicit_q) return FS_ERR_PARAM;
+    if (explicit_d && !(cfg->k_p_d > 0.0f && cfg->k_i_d >= 0.0f && cfg->k_p_q > 0.0f && cfg->k_i_q >= 0.0f))
+        return FS_ERR_PARAM;
     cc->cfg = *cfg;
     sampled_plant(cfg->Ts, cfg->L_d, cfg->R_s, &cc->a_d, &cc->b_d);
     sampled_plant(cfg->Ts, cfg->L_q, cfg->R_s, &cc->a_q, &cc->b_q);
-    fs_status st = design_axis(&cc->pi_d, cfg->Ts, cfg->L_d, cfg->R_s, cfg->bandwidth);
+    fs_status st = design_axis(&cc->pi_d, cfg->Ts, cfg->L_d, cfg->R_s, cfg->bandwidth, cfg->k_p_d, cfg->k_i_d);
     if (st != FS_OK) return st;
-    st = design_axis(&cc->pi_q, cfg->Ts, cfg->L_q, cfg->R_s, cfg->bandwidth);
+    st = design_axis(&cc->pi_q, cfg->Ts, cfg->L_q, cfg->R_s, cfg->bandwidth, cfg->k_p_q, cfg->k_i_q);
     if (st != FS_OK) return st;
     fs_current_ctrl_reset(cc);
     return FS_OK;

@@ -25,6 +25,9 @@ typedef struct {
     float psi_f;       /* Wb */
     float bandwidth;   /* closed-loop bandwidth alpha, rad/s */
     int predict;       /* 1: compensate one period of computation delay */
+    /* explicit gains of ordinary PIs (k_t = k_p) per axis, V/A and V/(A s),
+     * e.g. a paper's; all 0: the 2DOF design from the bandwidth */
+    float k_p_d, k_i_d, k_p_q, k_i_q;
 } fs_current_ctrl_config;
 
 typedef struct {

@@ -18,12 +18,7 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
     if (c.w_b_n == 0.0f) c.w_b_n = 0.05f * c.w_h;
     if (c.obs.bandwidth == 0.0f) c.obs.bandwidth = 0.2f * c.w_b_n;
     c.obs.Ts = c.Ts;
-    if (c.xcomp_n != 0) {
-        if (c.xcomp_n < 2 || c.xcomp_n > FS_HFI_XCOMP_MAX || !(c.xcomp_di_q > 0.0f) || !isfinite(c.xcomp_i_q0))
-            return FS_ERR_PARAM;
-        for (int k = 0; k < c.xcomp_n; ++k)
-            if (!(fabsf(c.xcomp_delta[k]) < 0.5f * FS_PI)) return FS_ERR_PARAM;
-    }
+    if (fs_xcomp_check(&c.xcomp) != FS_OK) return FS_ERR_PARAM;
     fs_hfi_filter_config fc = {c.Ts, c.w_b_p, c.w_b_n};
     fs_status st = fs_hfi_filter_init(&h->filt, &fc);
     if (st != FS_OK) return st;
@@ -86,16 +81,6 @@ void fs_hfi_set_angle(fs_hfi *h, float theta, float w)
     h->w = h->obs.w_hat;
 }
 
-float fs_hfi_xcomp(const fs_hfi_config *cfg, float i_q)
-{
-    if (cfg->xcomp_n < 2 || !isfinite(i_q)) return 0.0f;
-    float x = fs_clampf((i_q - cfg->xcomp_i_q0) / cfg->xcomp_di_q, 0.0f, (float)(cfg->xcomp_n - 1));
-    int k = (int)x;
-    if (k > cfg->xcomp_n - 2) k = cfg->xcomp_n - 2;
-    float s = x - (float)k;
-    return cfg->xcomp_delta[k] + s * (cfg->xcomp_delta[k + 1] - cfg->xcomp_delta[k]);
-}
-
 float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
 {
     /* Both carriers are proportional to the injected amplitude: a change of
@@ -129,9 +114,9 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
 
     /* cross-saturation compensation on the fundamental's q current */
     h->delta = 0.0f;
-    if (h->cfg.xcomp_n >= 2) {
+    if (fs_xcomp_active(&h->cfg.xcomp)) {
         float i_q = -h->i_f.alpha * sinf(theta_hat) + h->i_f.beta * cosf(theta_hat);
-        h->delta = fs_hfi_xcomp(&h->cfg, i_q);
+        h->delta = fs_xcomp_eval(&h->cfg.xcomp, i_q);
     }
 
     /* eq. (26): the cross product of the expected carrier direction

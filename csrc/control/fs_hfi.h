@@ -47,11 +47,10 @@
  *
  * Cross-saturation compensation (beyond the paper): a cross-saturated machine
  * has its HF saliency axis at theta_r + delta(i_q), and the estimator locks
- * there. Given a table of delta against i_q (measured offline, e.g. with
- * the encoder in the loop), the reference angle becomes 2 (theta_hat +
- * delta(i_q)) and theta_hat converges to theta_r. i_q is the fundamental
- * current's q component in the estimated frame. The table is on an even grid
- * i_q0 + k di_q, k < xcomp_n, interpolated linearly and held at its ends.
+ * there. Given delta against i_q (fs_xcomp.h: a table measured offline, e.g.
+ * with the encoder in the loop, or a fitted cubic), the reference angle
+ * becomes 2 (theta_hat + delta(i_q)) and theta_hat converges to theta_r. i_q
+ * is the fundamental current's q component in the estimated frame.
  *
  * Design rules (see fs_hfi_filter.h and fs_motion_obs.h): w_b_p = w_b_n =
  * w_h / 20. Equal, so that their phase shifts on the fundamental cancel
@@ -68,8 +67,7 @@
 #include "fs_motion_obs.h"
 #include "fs_transforms.h"
 #include "fs_types.h"
-
-enum { FS_HFI_XCOMP_MAX = 33 };
+#include "fs_xcomp.h"
 
 typedef struct {
     float Ts;                  /* sampling period, s */
@@ -80,9 +78,7 @@ typedef struct {
     float L_d, L_q;            /* the controller's inductances: saliency needed, |L_q - L_d| > 1 % */
     float w_b_p, w_b_n;        /* filter bandwidths, rad/s (0: w_h / 20 each) */
     fs_motion_obs_config obs;  /* Ts is taken from above; bandwidth 0: w_b_n / 5 */
-    int xcomp_n;               /* cross-saturation table points (0: off, else 2..FS_HFI_XCOMP_MAX) */
-    float xcomp_i_q0, xcomp_di_q;               /* grid: A, A (> 0) */
-    float xcomp_delta[FS_HFI_XCOMP_MAX];        /* saliency-axis lead theta_hat - theta_r, rad */
+    fs_xcomp_config xcomp;     /* cross-saturation compensation (all zero: off) */
 } fs_hfi_config;
 
 typedef struct {
@@ -131,7 +127,5 @@ void fs_hfi_set_angle(fs_hfi *h, float theta, float w);
 /* One step on the sampled current with the torque that acted over the
  * period that just ended (N m). Returns the estimated angle. */
 float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff);
-/* The compensation delta(i_q) of the table, rad (0 without a table). */
-float fs_hfi_xcomp(const fs_hfi_config *cfg, float i_q);
 
 #endif /* FS_HFI_H */

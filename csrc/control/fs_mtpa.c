@@ -8,6 +8,9 @@ static float mtpa_id(const fs_mtpa_config *c, float I)
     return (c->psi_f - sqrtf(c->psi_f * c->psi_f + 8.0f * dL * dL * I * I)) / (4.0f * dL);
 }
 
+/* Torque per (flux x current): (phases / 2) p. */
+static float mtpa_k(const fs_mtpa_config *c) { return 0.5f * (float)c->phases * (float)c->pole_pairs; }
+
 fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
 {
     if (!m || !cfg) return FS_ERR_NULL;
@@ -15,6 +18,7 @@ fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
     if (!(cfg->L_q >= cfg->L_d)) return FS_ERR_LQ;  /* MTPA here assumes L_q >= L_d */
     if (!(cfg->psi_f >= 0.0f)) return FS_ERR_PSI_F;
     if (cfg->pole_pairs < 1) return FS_ERR_POLE_PAIRS;
+    if (cfg->phases != 3 && cfg->phases != 5) return FS_ERR_PARAM;
     if (!(cfg->i_max > 0.0f)) return FS_ERR_I_MAX;
     if (cfg->psi_f == 0.0f && cfg->L_q == cfg->L_d) return FS_ERR_PARAM;  /* no torque */
     m->cfg = *cfg;
@@ -24,7 +28,7 @@ fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
         float iq = sqrtf(fmaxf(I * I - id * id, 0.0f));
         m->i_d[k] = id;
         m->i_q[k] = iq;
-        m->T[k] = 1.5f * (float)cfg->pole_pairs * (cfg->psi_f + (cfg->L_d - cfg->L_q) * id) * iq;
+        m->T[k] = mtpa_k(cfg) * (cfg->psi_f + (cfg->L_d - cfg->L_q) * id) * iq;
     }
     return FS_OK;
 }
@@ -34,7 +38,7 @@ fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
  * (i_d = -i_q without a magnet); the torque there and its slope d T / d i_q. */
 static float mtpa_on_locus(const fs_mtpa_config *c, float iq, float *T, float *dT)
 {
-    const float dL = c->L_q - c->L_d, k = 1.5f * (float)c->pole_pairs;
+    const float dL = c->L_q - c->L_d, k = mtpa_k(c);
     float id = 0.0f, did = 0.0f;
     if (c->psi_f <= 0.0f) {
         id = -iq;
@@ -69,7 +73,7 @@ fs_dq fs_mtpa_step(const fs_mtpa *m, float T_ref)
         float s = (T - m->T[lo]) / (m->T[hi] - m->T[lo]);
         float iq = m->i_q[lo] + s * (m->i_q[hi] - m->i_q[lo]), T0, dT;
         if (m->cfg.psi_f <= 0.0f) {   /* reluctance only: T = 1.5 p (L_q - L_d) i_q^2 exactly */
-            iq = sqrtf(T / (1.5f * (float)m->cfg.pole_pairs * (m->cfg.L_q - m->cfg.L_d)));
+            iq = sqrtf(T / (mtpa_k(&m->cfg) * (m->cfg.L_q - m->cfg.L_d)));
         } else {
             mtpa_on_locus(&m->cfg, iq, &T0, &dT);
             if (dT > 0.0f) iq = fs_clampf(iq + (T - T0) / dT, m->i_q[lo], m->i_q[hi]);

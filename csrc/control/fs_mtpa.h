@@ -3,7 +3,8 @@
  * On the MTPA locus the d-current for a current magnitude I is
  *   i_d = (psi_f - sqrt(psi_f^2 + 8 (L_q - L_d)^2 I^2)) / (4 (L_q - L_d)),
  * and i_d = 0 for a non-salient machine. init tabulates torque against I up
- * to i_max; step inverts the table for a torque reference.
+ * to i_max; step inverts the table for a torque reference. The locus does
+ * not depend on the number of phases; the torque scales with it.
  */
 #ifndef FS_MTPA_H
 #define FS_MTPA_H
@@ -18,6 +19,7 @@ typedef struct {
     float psi_f;      /* Wb */
     int pole_pairs;
     float i_max;      /* A, peak */
+    int phases;       /* 3 or 5: T = (phases / 2) p (psi_f + (L_d - L_q) i_d) i_q */
 } fs_mtpa_config;
 
 typedef struct {

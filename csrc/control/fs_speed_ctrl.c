@@ -10,8 +10,10 @@ fs_status fs_speed_ctrl_init(fs_speed_ctrl *sc, const fs_speed_ctrl_config *cfg)
     if (!(cfg->bandwidth > 0.0f) || cfg->bandwidth * cfg->Ts > 0.5f) return FS_ERR_BANDWIDTH;
     if (!(cfg->T_max > 0.0f)) return FS_ERR_LIMIT;
     sc->cfg = *cfg;
-    fs_pi_config c;
-    fs_status st = fs_pi_design(&c, cfg->Ts, cfg->J, cfg->B, cfg->bandwidth, cfg->T_max);
+    const bool explicit = cfg->k_p != 0.0f || cfg->k_i != 0.0f;
+    if (explicit && !(cfg->k_p > 0.0f && cfg->k_i >= 0.0f)) return FS_ERR_PARAM;
+    fs_pi_config c = {cfg->Ts, cfg->k_p, cfg->k_p, cfg->k_i, cfg->T_max};
+    fs_status st = explicit ? FS_OK : fs_pi_design(&c, cfg->Ts, cfg->J, cfg->B, cfg->bandwidth, cfg->T_max);
     if (st != FS_OK) return st;
     return fs_pi_init(&sc->pi, &c);
 }

@@ -14,6 +14,9 @@ typedef struct {
     float B;          /* viscous friction, N m s */
     float bandwidth;  /* rad/s */
     float T_max;      /* torque limit, N m */
+    /* explicit gains of an ordinary PI (k_t = k_p), N m s/rad and N m/rad,
+     * e.g. a paper's; both 0: the 2DOF design from the bandwidth */
+    float k_p, k_i;
 } fs_speed_ctrl_config;
 
 typedef struct {

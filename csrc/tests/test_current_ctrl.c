@@ -57,6 +57,23 @@ static void check_gains(const fs_pi *pi, double Ts, double L, double R, double a
     FS_CHECK(pi->cfg.u_max <= 0.0f, "%s: the PI must not limit on its own (the modulator does)", axis);
 }
 
+/* Explicit gains (a paper's): ordinary PIs with exactly those gains; half
+ * given or a bad value is refused. */
+static void explicit_gains(void)
+{
+    fs_current_ctrl cc;
+    fs_current_ctrl_config c = base();
+    c.k_p_d = 16.2f; c.k_i_d = 77.0f; c.k_p_q = 18.8f; c.k_i_q = 66.0f;
+    FS_CHECK_EQ_INT(fs_current_ctrl_init(&cc, &c), FS_OK, "explicit gains");
+    FS_CHECK(cc.pi_d.cfg.k_p == 16.2f && cc.pi_d.cfg.k_t == 16.2f && cc.pi_d.cfg.k_i == 77.0f, "d gains as given");
+    FS_CHECK(cc.pi_q.cfg.k_p == 18.8f && cc.pi_q.cfg.k_t == 18.8f && cc.pi_q.cfg.k_i == 66.0f, "q gains as given");
+    fs_current_ctrl_config b = c; b.k_p_q = 0.0f; b.k_i_q = 0.0f;
+    expect(b, FS_ERR_PARAM, "d gains without q gains");
+    b = c; b.k_p_d = 0.0f;  expect(b, FS_ERR_PARAM, "k_p_d = 0 with k_i_d given");
+    b = c; b.k_i_q = -1.0f; expect(b, FS_ERR_PARAM, "k_i_q < 0");
+    b = c; b.k_p_d = NAN;   expect(b, FS_ERR_PARAM, "k_p_d NaN");
+}
+
 int main(void)
 {
     fs_current_ctrl cc;
@@ -228,5 +245,6 @@ int main(void)
         FS_CHECK_NEAR(x[0], 0.0, 1e-3, "i_d settles at 0");
         FS_CHECK_NEAR(x[1], 10.0, 1e-3, "i_q settles at 10");
     }
+    explicit_gains();
     return fs_test_summary("test_current_ctrl");
 }

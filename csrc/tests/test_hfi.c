@@ -1,4 +1,4 @@
-/* fs-test-sources: control/fs_hfi.c control/fs_hfi_filter.c control/fs_srff.c control/fs_motion_obs.c control/fs_transforms.c control/fs_status.c
+/* fs-test-sources: control/fs_hfi.c control/fs_xcomp.c control/fs_hfi_filter.c control/fs_srff.c control/fs_motion_obs.c control/fs_transforms.c control/fs_status.c
  *
  * fs_hfi, the rotating-voltage injection estimator of yang2022, in closed
  * loop with a salient machine integrated in double inside the test:
@@ -216,18 +216,18 @@ int main(void)
 
     /* ---- 4. cross-saturation table ---- */
     c = c0;
-    FS_CHECK(fs_hfi_xcomp(&c, 3.0f) == 0.0f, "no table: 0");
-    c.xcomp_n = 4; c.xcomp_i_q0 = -2.0f; c.xcomp_di_q = 1.5f;
+    FS_CHECK(fs_xcomp_eval(&c.xcomp, 3.0f) == 0.0f, "no table: 0");
+    c.xcomp.n = 4; c.xcomp.i_q0 = -2.0f; c.xcomp.di_q = 1.5f;
     const float tab[4] = {0.1f, -0.2f, 0.3f, 0.05f};
-    memcpy(c.xcomp_delta, tab, sizeof tab);
+    memcpy(c.xcomp.delta, tab, sizeof tab);
     /* by hand: held, first node, midway 0.1..-0.2, node, 3/4 of 0.3..0.05, last node, held */
     const float iq[7] = {-5.0f, -2.0f, -1.25f, -0.5f, 2.125f, 2.5f, 100.0f};
     const double dx[7] = {0.1, 0.1, -0.05, -0.2, 0.1125, 0.05, 0.05};
-    for (int k = 0; k < 7; ++k) FS_CHECK_NEAR(fs_hfi_xcomp(&c, iq[k]), dx[k], 1e-6, "xcomp interpolation");
+    for (int k = 0; k < 7; ++k) FS_CHECK_NEAR(fs_xcomp_eval(&c.xcomp, iq[k]), dx[k], 1e-6, "xcomp interpolation");
     /* delta constant 0.2: the reference is 2 (theta_hat + delta), so on a machine
      * without cross-saturation theta_hat = theta - 0.2; with its HF axis at
      * theta + 0.2 (what the table describes) theta_hat = theta. */
-    c.xcomp_n = 2; c.xcomp_delta[0] = c.xcomp_delta[1] = 0.2f;
+    c.xcomp.n = 2; c.xcomp.delta[0] = c.xcomp.delta[1] = 0.2f;
     s = s0; s.expect = -0.2;
     run("table 0.2", &s, &c, &r);
     CHECK_LOCK(r, 0.2 * DEG, "constant table 0.2: theta - 0.2");
@@ -241,8 +241,8 @@ int main(void)
      * (H_p at -w_h, H_n at +w_h: gain 0.998, phases cancel with w_b_p = w_b_n)
      * in the frame theta_hat = theta - delta, solved by iteration. The leak of
      * the 2 A into i_hn rectifies to < 0.01 deg (measured scaling: quadratic). */
-    c.xcomp_n = 5; c.xcomp_i_q0 = -4.0f; c.xcomp_di_q = 2.0f;
-    for (int k = 0; k < 5; ++k) c.xcomp_delta[k] = 0.05f * (-4.0f + 2.0f * k);
+    c.xcomp.n = 5; c.xcomp.i_q0 = -4.0f; c.xcomp.di_q = 2.0f;
+    for (int k = 0; k < 5; ++k) c.xcomp.delta[k] = 0.05f * (-4.0f + 2.0f * k);
     const double complex G = srff(-W_H, w_b_p) * srff(W_H, w_b_n);
     for (int sg = -1; sg <= 1; sg += 2) {
         s = s0; s.i_dc = sg * 2.0 * I * cexp(I * th);
@@ -284,13 +284,13 @@ int main(void)
     REFUSE(c0, delay, -0.1f, FS_ERR_PARAM); REFUSE(c0, delay, 2.1f, FS_ERR_PARAM); REFUSE(c0, delay, NAN, FS_ERR_PARAM);
     REFUSE(c0, delay, 0.0f, FS_OK); REFUSE(c0, delay, 2.0f, FS_OK);
     fs_hfi_config ct = c0;   /* a valid table, then one field wrong */
-    ct.xcomp_n = 3; ct.xcomp_di_q = 1.0f;
-    REFUSE(ct, xcomp_n, 1, FS_ERR_PARAM); REFUSE(ct, xcomp_n, -1, FS_ERR_PARAM);
-    REFUSE(ct, xcomp_n, FS_HFI_XCOMP_MAX + 1, FS_ERR_PARAM); REFUSE(ct, xcomp_n, FS_HFI_XCOMP_MAX, FS_OK);
-    REFUSE(ct, xcomp_di_q, 0.0f, FS_ERR_PARAM); REFUSE(ct, xcomp_di_q, -1.0f, FS_ERR_PARAM);
-    REFUSE(ct, xcomp_di_q, NAN, FS_ERR_PARAM); REFUSE(ct, xcomp_i_q0, NAN, FS_ERR_PARAM);
-    REFUSE(ct, xcomp_delta[2], 1.5708f, FS_ERR_PARAM); REFUSE(ct, xcomp_delta[2], -1.5708f, FS_ERR_PARAM);
-    REFUSE(ct, xcomp_delta[2], NAN, FS_ERR_PARAM); REFUSE(ct, xcomp_delta[2], 1.57f, FS_OK);
+    ct.xcomp.n = 3; ct.xcomp.di_q = 1.0f;
+    REFUSE(ct, xcomp.n, 1, FS_ERR_PARAM); REFUSE(ct, xcomp.n, -1, FS_ERR_PARAM);
+    REFUSE(ct, xcomp.n, FS_XCOMP_MAX + 1, FS_ERR_PARAM); REFUSE(ct, xcomp.n, FS_XCOMP_MAX, FS_OK);
+    REFUSE(ct, xcomp.di_q, 0.0f, FS_ERR_PARAM); REFUSE(ct, xcomp.di_q, -1.0f, FS_ERR_PARAM);
+    REFUSE(ct, xcomp.di_q, NAN, FS_ERR_PARAM); REFUSE(ct, xcomp.i_q0, NAN, FS_ERR_PARAM);
+    REFUSE(ct, xcomp.delta[2], 1.5708f, FS_ERR_PARAM); REFUSE(ct, xcomp.delta[2], -1.5708f, FS_ERR_PARAM);
+    REFUSE(ct, xcomp.delta[2], NAN, FS_ERR_PARAM); REFUSE(ct, xcomp.delta[2], 1.57f, FS_OK);
 
     /* ---- 6. the injected voltage over one carrier period (10 steps) ----
      * h.u = u_h / sinc(x) e^{j(theta_h + w_h Ts (d + 1/2))}; held over its

@@ -11,7 +11,7 @@
 
 static double torque(const fs_mtpa_config *c, double id, double iq)
 {
-    return 1.5 * c->pole_pairs * (c->psi_f + (c->L_d - c->L_q) * id) * iq;
+    return 0.5 * c->phases * c->pole_pairs * (c->psi_f + (c->L_d - c->L_q) * id) * iq;
 }
 
 static void salient(fs_mtpa_config c, const char *name)
@@ -82,7 +82,7 @@ static void salient(fs_mtpa_config c, const char *name)
 int main(void)
 {
     fs_mtpa m;
-    fs_mtpa_config c = {2e-3f, 6e-3f, 0.1f, 4, 20.0f};
+    fs_mtpa_config c = {2e-3f, 6e-3f, 0.1f, 4, 20.0f, 3};
     FS_CHECK_EQ_INT(fs_mtpa_init(&m, &c), FS_OK, "init");
     FS_CHECK_EQ_INT(fs_mtpa_init(NULL, &c), FS_ERR_NULL, "null");
     FS_CHECK_EQ_INT(fs_mtpa_init(&m, NULL), FS_ERR_NULL, "null cfg");
@@ -92,9 +92,11 @@ int main(void)
     b = c; b.pole_pairs = 0;             FS_CHECK_EQ_INT(fs_mtpa_init(&m, &b), FS_ERR_POLE_PAIRS, "p = 0");
     b = c; b.i_max = 0.0f;               FS_CHECK_EQ_INT(fs_mtpa_init(&m, &b), FS_ERR_I_MAX, "i_max = 0");
     b = c; b.psi_f = 0.0f; b.L_q = b.L_d; FS_CHECK_EQ_INT(fs_mtpa_init(&m, &b), FS_ERR_PARAM, "no torque");
+    b = c; b.phases = 4;                 FS_CHECK_EQ_INT(fs_mtpa_init(&m, &b), FS_ERR_PARAM, "4 phases");
+    b = c; b.phases = 0;                 FS_CHECK_EQ_INT(fs_mtpa_init(&m, &b), FS_ERR_PARAM, "0 phases");
 
     /* Non-salient: i_d = 0, T = 1.5 p psi_f i_q. */
-    fs_mtpa_config ns = {4e-3f, 4e-3f, 0.08f, 3, 15.0f};
+    fs_mtpa_config ns = {4e-3f, 4e-3f, 0.08f, 3, 15.0f, 3};
     FS_CHECK_EQ_INT(fs_mtpa_init(&m, &ns), FS_OK, "non-salient init");
     const double T_ns = 1.5 * 3 * 0.08 * 15.0;
     for (int k = -25; k <= 25; ++k) {
@@ -107,12 +109,25 @@ int main(void)
 
     /* Salient PM machines and a synchronous reluctance machine (psi_f = 0). */
     salient(c, "IPM 2/6 mH");
-    fs_mtpa_config strong = {1e-3f, 8e-3f, 0.05f, 5, 100.0f};
+    fs_mtpa_config strong = {1e-3f, 8e-3f, 0.05f, 5, 100.0f, 3};
     salient(strong, "IPM strongly salient");
-    fs_mtpa_config weak = {4e-3f, 4.4e-3f, 0.2f, 2, 30.0f};
+    fs_mtpa_config weak = {4e-3f, 4.4e-3f, 0.2f, 2, 30.0f, 3};
     salient(weak, "IPM weakly salient");
-    fs_mtpa_config synrm = {5e-3f, 40e-3f, 0.0f, 2, 10.0f};
+    fs_mtpa_config synrm = {5e-3f, 40e-3f, 0.0f, 2, 10.0f, 3};
     salient(synrm, "SynRM");
+    fs_mtpa_config five = c; five.phases = 5;
+    salient(five, "IPM 2/6 mH, five phases");
+    /* the locus does not depend on the phases: a torque 5/3 larger on five
+     * phases asks for the same currents */
+    fs_mtpa m5;
+    fs_mtpa_init(&m, &c);
+    fs_mtpa_init(&m5, &five);
+    for (int k = 1; k <= 10; ++k) {
+        float T3 = 0.1f * (float)k * m.T[FS_MTPA_N - 1];
+        fs_dq i3 = fs_mtpa_step(&m, T3), i5 = fs_mtpa_step(&m5, T3 * 5.0f / 3.0f);
+        FS_CHECK_REL(i5.d, i3.d, 1e-4, 1e-5, "five phases: same i_d");
+        FS_CHECK_REL(i5.q, i3.q, 1e-4, 1e-5, "five phases: same i_q");
+    }
     /* SynRM MTPA is at 45 degrees: i_d = -i_q. */
     fs_mtpa_init(&m, &synrm);
     fs_dq s = fs_mtpa_step(&m, 1.0f);

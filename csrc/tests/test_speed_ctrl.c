@@ -11,7 +11,7 @@
 int main(void)
 {
     fs_speed_ctrl sc;
-    fs_speed_ctrl_config c = {1e-3f, 0.01f, 0.002f, 50.0f, 5.0f};
+    fs_speed_ctrl_config c = {1e-3f, 0.01f, 0.002f, 50.0f, 5.0f, 0.0f, 0.0f};
     FS_CHECK_EQ_INT(fs_speed_ctrl_init(&sc, &c), FS_OK, "init");
     {
         const double Ts = 1e-3, J = 0.01, B = 0.002, al = 50.0;
@@ -59,5 +59,12 @@ int main(void)
     }
     FS_CHECK(w_max < 100.0 * 1.02, "windup overshoot: peak %g for a reference of 100", w_max);
     FS_CHECK_NEAR(w, 100.0, 0.1, "settles");
+    /* Explicit gains (a paper's): an ordinary PI with exactly those, limited. */
+    fs_speed_ctrl_config e = c; e.k_p = 0.154f; e.k_i = 2.64f;
+    FS_CHECK_EQ_INT(fs_speed_ctrl_init(&sc, &e), FS_OK, "explicit gains");
+    FS_CHECK(sc.pi.cfg.k_p == 0.154f && sc.pi.cfg.k_t == 0.154f && sc.pi.cfg.k_i == 2.64f, "gains as given");
+    FS_CHECK(sc.pi.cfg.u_max == 5.0f, "limited to T_max");
+    e.k_p = 0.0f; FS_CHECK_EQ_INT(fs_speed_ctrl_init(&sc, &e), FS_ERR_PARAM, "k_i without k_p");
+    e.k_p = 0.1f; e.k_i = -1.0f; FS_CHECK_EQ_INT(fs_speed_ctrl_init(&sc, &e), FS_ERR_PARAM, "k_i < 0");
     return fs_test_summary("test_speed_ctrl");
 }

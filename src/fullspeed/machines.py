@@ -81,7 +81,8 @@ class Machine:
 
         m = ffi.new("fs_mtpa *")
         cfg = ffi.new("fs_mtpa_config *", {"L_d": self.L_d, "L_q": self.L_q, "psi_f": self.psi_f,
-                                           "pole_pairs": self.pole_pairs, "i_max": i})
+                                           "pole_pairs": self.pole_pairs, "i_max": i,
+                                           "phases": self.phases})
         if lib.fs_mtpa_init(m, cfg) != lib.FS_OK:
             raise ValueError(f"no MTPA torque for {self.name} at {i:g} A")
         return float(m.T[lib.FS_MTPA_N - 1])

@@ -202,11 +202,7 @@ def _set_injection(dc, d: dict, p: int) -> None:
     hc.obs.bandwidth = inj["bw_observer"] or 0.0
     xc = inj["xcomp"]
     if xc is not None:
-        hc.xcomp_n = len(xc["i_q"])
-        hc.xcomp_i_q0 = xc["i_q"][0]
-        hc.xcomp_di_q = (xc["i_q"][-1] - xc["i_q"][0]) / (len(xc["i_q"]) - 1)
-        for k, v in enumerate(xc["delta_deg"]):
-            hc.xcomp_delta[k] = math.radians(v)
+        _set_xcomp(hc.xcomp, xc)
     if d["controller"]["angle"] == "blend":
         dc.blend.w_lower = p * rpm_to_rad_s(bl["lower_rpm"])
         dc.blend.w_upper = p * rpm_to_rad_s(bl["upper_rpm"])
@@ -214,6 +210,15 @@ def _set_injection(dc, d: dict, p: int) -> None:
         dc.w_inject_max = p * rpm_to_rad_s(inj["stop_rpm"])
     if pol["enabled"]:
         dc.polarity.i_pulse, dc.polarity.t_lock, dc.polarity.t_pulse = pol["i_pulse"], pol["t_lock"], pol["t_pulse"]
+
+
+def _set_xcomp(xcfg, xc: dict) -> None:
+    """A cross-saturation table {i_q, delta_deg} (even grid) into an fs_xcomp_config."""
+    xcfg.n = len(xc["i_q"])
+    xcfg.i_q0 = xc["i_q"][0]
+    xcfg.di_q = (xc["i_q"][-1] - xc["i_q"][0]) / (len(xc["i_q"]) - 1)
+    for k, v in enumerate(xc["delta_deg"]):
+        xcfg.delta[k] = math.radians(v)
 
 
 def _check_smo_gain(cfg, sc: Scenario) -> None:
