@@ -16,6 +16,11 @@ static bool drive_injects(const fs_drive_config *c)
     return c->angle_source == FS_ANGLE_HFI || c->angle_source == FS_ANGLE_BLEND;
 }
 
+static bool drive_square(const fs_drive_config *c) { return c->angle_source == FS_ANGLE_SWVI; }
+
+/* The loops' period: every other sample with the square wave (sec. 2.2). */
+static float drive_loop_Ts(const fs_drive_config *c) { return drive_square(c) ? 2.0f * c->Ts : c->Ts; }
+
 /* The SMO runs for its own source and inside the blend. */
 static bool drive_has_smo(const fs_drive_config *c)
 {
@@ -25,7 +30,7 @@ static bool drive_has_smo(const fs_drive_config *c)
 /* The controller's torque at a current (the motion observers' feed-forward). */
 static float drive_torque(const fs_drive_config *c, fs_dq i)
 {
-    return 1.5f * (float)c->pole_pairs * (c->psi_f + (c->L_d - c->L_q) * i.d) * i.q;
+    return 0.5f * (float)c->phases * (float)c->pole_pairs * (c->psi_f + (c->L_d - c->L_q) * i.d) * i.q;
 }
 
 /* The injection estimators: HFI (and blend), the polarity detector. */
@@ -66,16 +71,17 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     if (!drv || !cfg) return FS_ERR_NULL;
     if (cfg->phases != 3 && cfg->phases != 5) return FS_ERR_PARAM;
     if (cfg->mode < FS_MODE_OFF || cfg->mode > FS_MODE_SPEED) return FS_ERR_MODE;
-    if (cfg->angle_source < FS_ANGLE_ENCODER || cfg->angle_source > FS_ANGLE_BLEND) return FS_ERR_MODE;
+    if (cfg->angle_source < FS_ANGLE_ENCODER || cfg->angle_source > FS_ANGLE_SWVI) return FS_ERR_MODE;
     if (!(cfg->Ts > 0.0f) || !(cfg->T_pwm >= cfg->Ts)) return FS_ERR_TS;
     if (!(cfg->delay >= 0.0f && cfg->delay <= 2.0f)) return FS_ERR_PARAM;
     if (cfg->pole_pairs < 1) return FS_ERR_POLE_PAIRS;
     if (!(cfg->i_max > 0.0f)) return FS_ERR_I_MAX;
     if (!(cfg->t_dead_comp >= 0.0f) || !(cfg->i_dead_band >= 0.0f)) return FS_ERR_PARAM;
     drv->cfg = *cfg;
+    const float Tl = drive_loop_Ts(cfg);
 
-    fs_current_ctrl_config ccc = {cfg->Ts, cfg->R_s, cfg->L_d, cfg->L_q, cfg->psi_f, cfg->bw_current,
-                                  cfg->delay > 0.5f};
+    fs_current_ctrl_config ccc = {Tl, cfg->R_s, cfg->L_d, cfg->L_q, cfg->psi_f, cfg->bw_current,
+                                  cfg->delay > 0.5f, cfg->k_p_d, cfg->k_i_d, cfg->k_p_q, cfg->k_i_q};
     fs_status st = fs_current_ctrl_init(&drv->cc, &ccc);
     if (st != FS_OK) return st;
 
@@ -94,10 +100,10 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         if (st != FS_OK) return st;
     }
     if (cfg->mode == FS_MODE_SPEED) {
-        fs_speed_ctrl_config scc = {cfg->Ts, cfg->J, cfg->B, cfg->bw_speed, cfg->T_max};
+        fs_speed_ctrl_config scc = {Tl, cfg->J, cfg->B, cfg->bw_speed, cfg->T_max, cfg->k_p_w, cfg->k_i_w};
         st = fs_speed_ctrl_init(&drv->sc, &scc);
         if (st != FS_OK) return st;
-        fs_mtpa_config mc = {cfg->L_d, cfg->L_q, cfg->psi_f, cfg->pole_pairs, cfg->i_max};
+        fs_mtpa_config mc = {cfg->L_d, cfg->L_q, cfg->psi_f, cfg->pole_pairs, cfg->i_max, cfg->phases};
         st = fs_mtpa_init(&drv->mtpa, &mc);
         if (st != FS_OK) return st;
         if (!(cfg->fw_w_e_max >= 0.0f)) return FS_ERR_LIMIT;
@@ -110,6 +116,17 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     }
     if (drive_injects(cfg)) {
         st = drive_init_injection(drv, cfg);
+        if (st != FS_OK) return st;
+    }
+    if (drive_square(cfg)) {
+        if (cfg->mode != FS_MODE_OFF && cfg->mode != FS_MODE_CURRENT && cfg->mode != FS_MODE_SPEED) return FS_ERR_MODE;
+        if (cfg->delay != 0.0f && cfg->delay != 1.0f) return FS_ERR_PARAM;
+        fs_swvi_config wc = cfg->swvi;
+        wc.Ts = cfg->Ts;
+        wc.delay = (int)cfg->delay;
+        wc.L_d = cfg->L_d;
+        wc.L_q = cfg->L_q;
+        st = fs_swvi_init(&drv->sw, &wc);
         if (st != FS_OK) return st;
     }
     if (!(cfg->i_start >= 0.0f) || cfg->i_start > cfg->i_max) return FS_ERR_I_MAX;
@@ -131,6 +148,10 @@ void fs_drive_reset(fs_drive *drv)
         if (drv->cfg.angle_source == FS_ANGLE_BLEND) fs_blend_reset(&drv->blend, 0.0f, 0.0f);
         if (drv->cfg.polarity.i_pulse > 0.0f) fs_polarity_reset(&drv->pol);
     }
+    if (drive_square(&drv->cfg)) fs_swvi_reset(&drv->sw, 0.0f, 0.0f);
+    drv->u_ff_hold.alpha = drv->u_ff_hold.beta = 0.0f;
+    drv->u_ff_next = drv->u_ff_hold;
+    drv->held = (fs_drive_out){0};
     drv->est_started = false;
     drv->injecting = drv->inject_on = drive_injects(&drv->cfg);
     drv->i_ref_prev.d = drv->i_ref_prev.q = 0.0f;
@@ -219,6 +240,26 @@ static void drive_polarity_done(fs_drive *drv)
     drv->phase = FS_PHASE_RUN;
 }
 
+/* Angle and speed from the external input or the encoder (the PLL gives the speed). */
+static void drive_sensor_angle(fs_drive *drv, const fs_drive_in *in, float *theta, float *w)
+{
+    const fs_drive_config *c = &drv->cfg;
+    if (c->angle_source == FS_ANGLE_EXTERNAL) {
+        *theta = in->theta_e_ext;
+        *w = in->w_e_ext;
+        return;
+    }
+    float theta_enc = fs_wrap_pi((float)c->pole_pairs * in->theta_m_enc);
+    if (!drv->pll_started) {
+        fs_pll_reset(&drv->pll, theta_enc, 0.0f);
+        drv->pll_started = true;
+    }
+    /* The PLL's angle is its prediction for this sample. */
+    fs_pll_step(&drv->pll, fs_wrap_pi(theta_enc - drv->pll.theta));
+    *theta = theta_enc;
+    *w = drv->pll.w;
+}
+
 /* Angle and speed from the configured source; *i_ab becomes the current the
  * loops use (the fundamental when injecting). */
 static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float *theta, float *w)
@@ -243,20 +284,7 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float
             return;
         }
     }
-    if (c->angle_source == FS_ANGLE_EXTERNAL) {
-        *theta = in->theta_e_ext;
-        *w = in->w_e_ext;
-        return;
-    }
-    float theta_enc = fs_wrap_pi((float)c->pole_pairs * in->theta_m_enc);
-    if (!drv->pll_started) {
-        fs_pll_reset(&drv->pll, theta_enc, 0.0f);
-        drv->pll_started = true;
-    }
-    /* The PLL's angle is its prediction for this sample. */
-    fs_pll_step(&drv->pll, fs_wrap_pi(theta_enc - drv->pll.theta));
-    *theta = theta_enc;
-    *w = drv->pll.w;
+    drive_sensor_angle(drv, in, theta, w);
 }
 
 /* I/f start: the frame accelerates towards the reference, or up to the
@@ -297,10 +325,155 @@ static void dead_time_comp(const fs_drive_config *c, const float i_ph[], float d
     }
 }
 
+/* The current reference of the closed-loop modes: polarity pulses, the I/f
+ * start, speed control (MTPA and flux weakening) or the reference input. */
+static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, float w_e, float *T_ref)
+{
+    const fs_drive_config *c = &drv->cfg;
+    fs_dq i_ref = {in->i_d_ref, in->i_q_ref};
+    *T_ref = 0.0f;
+    if (drv->phase == FS_PHASE_POLARITY) {
+        i_ref.d = fs_polarity_step(&drv->pol, drv->hfi.i_p);
+        i_ref.q = 0.0f;
+        if (drv->pol.stage == FS_POLARITY_DONE) drive_polarity_done(drv);
+    } else if (c->mode == FS_MODE_SPEED && in->sensorless && drv->phase == FS_PHASE_START) {
+        i_ref = drive_start_step(drv, in, i_ab);
+    } else if (c->mode == FS_MODE_SPEED) {
+        *T_ref = fs_speed_ctrl_step(&drv->sc, in->w_m_ref, w_e / (float)c->pole_pairs);
+        i_ref = fs_mtpa_step(&drv->mtpa, *T_ref);
+        if (drive_weakens(c)) {
+            /* zou2021 eq. (30): i_d* = i_d0* + the filtered correction,
+             * i_q* kept, then held inside the current limit circle */
+            i_ref.d = fs_clampf(i_ref.d + drv->fw.i_d, -c->i_max, c->i_max);
+            float iq_max = sqrtf(c->i_max * c->i_max - i_ref.d * i_ref.d);
+            i_ref.q = fs_clampf(i_ref.q, -iq_max, iq_max);
+        }
+    }
+    return i_ref;
+}
+
+/* The phase currents in the stationary frame (the fundamental plane with
+ * five phases). */
+static fs_ab drive_clarke(const fs_drive_config *c, const float i_ph[])
+{
+    if (c->phases == 5) return fs_vsd5_forward(i_ph).ab;
+    return fs_clarke(i_ph[0], i_ph[1], i_ph[2]);
+}
+
+/* The largest voltage the modulator realises without distortion. */
+static float drive_u_lin(const fs_drive_config *c, float u_dc)
+{
+    return c->phases == 5 ? u_dc * 0.5257311f : u_dc * 0.5773503f;   /* 1/(2 cos(pi/10)), 1/sqrt(3) */
+}
+
+/* Duties for the reference (fundamental plus carrier u_inj), dead-time
+ * compensated; *u_f receives the realised fundamental voltage. OFF: 0.5. */
+static bool drive_modulate(const fs_drive *drv, const fs_drive_in *in, fs_ab u_ref, fs_ab u_inj,
+                           float duty[], fs_ab *u_f)
+{
+    const fs_drive_config *c = &drv->cfg;
+    if (c->mode == FS_MODE_OFF) {
+        for (int k = 0; k < c->phases; ++k) duty[k] = 0.5f;
+        u_f->alpha = u_f->beta = 0.0f;
+        return false;
+    }
+    u_ref.alpha += u_inj.alpha;
+    u_ref.beta += u_inj.beta;
+    bool over = c->phases == 5 ? fs_pwm5(u_ref, in->u_dc, duty, u_f) : fs_svpwm(u_ref, in->u_dc, duty, u_f);
+    dead_time_comp(c, in->i_ph, duty);
+    u_f->alpha -= u_inj.alpha;   /* the fundamental part */
+    u_f->beta -= u_inj.beta;
+    return over;
+}
+
+/* yu2022: the square-wave injection drive. The estimator runs at every
+ * sample; the loops run at the carrier's zero crossings (every other
+ * sample) on the fundamental current there, eq. (8), and their voltage
+ * acts over the next whole window (k, k + 2) between zero crossings, so
+ * that within each window the fundamental current rises linearly as eq. (8)
+ * needs: computed at sample k, it acts from k + 2 with one period of delay
+ * (from k without), i.e. one loop period (2 Ts) of delay. */
+static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, fs_drive_out *out)
+{
+    const fs_drive_config *c = &drv->cfg;
+    fs_swvi *sw = &drv->sw;
+    const int d = c->delay > 0.5f ? 1 : 0;
+    float theta, w_e;
+    if (c->mode != FS_MODE_OFF) {   /* OFF injects nothing to estimate from */
+        if (!drv->est_started && !in->sensorless)
+            fs_swvi_reset(sw, fs_wrap_pi((float)c->pole_pairs * in->theta_m_enc), 0.0f);
+        drv->est_started = true;
+        fs_swvi_step(sw, i_ab);
+    }
+    if (in->sensorless) {
+        theta = sw->theta;
+        w_e = sw->w;
+    } else {
+        drive_sensor_angle(drv, in, &theta, &w_e);
+    }
+    fs_drive_out *h = &drv->held;
+    if (sw->ff_fresh && c->mode != FS_MODE_OFF) {
+        fs_dq i_dq = fs_park(sw->i_f, cosf(theta), sinf(theta));
+        fs_dq i_ref = drive_current_ref(drv, in, sw->i_f, w_e, &h->T_ref);
+        fs_dq u_ref = fs_current_ctrl_step(&drv->cc, i_ref, i_dq, w_e);
+        /* turned to the middle of the window it acts over */
+        const float theta_u = theta + w_e * c->Ts * (float)(2 * d + 1);
+        const float cu = cosf(theta_u), su = sinf(theta_u);
+        fs_ab u = fs_inv_park(u_ref, cu, su);
+        /* what the modulator realises beside the carrier (anti-windup) */
+        const float u_max = drive_u_lin(c, in->u_dc) - c->swvi.u_h, m = sqrtf(u.alpha * u.alpha + u.beta * u.beta);
+        h->over_modulation = m > u_max;
+        if (h->over_modulation) {
+            const float s = u_max > 0.0f ? u_max / m : 0.0f;
+            u.alpha *= s;
+            u.beta *= s;
+        }
+        fs_dq u_real = fs_park(u, cu, su);
+        fs_current_ctrl_update(&drv->cc, u_real);
+        if (d == 0) drv->u_ff_hold = u; else drv->u_ff_next = u;
+        h->i_d = i_dq.d;
+        h->i_q = i_dq.q;
+        h->i_d_ref = i_ref.d;
+        h->i_q_ref = i_ref.q;
+        h->u_d = u_real.d;
+        h->u_q = u_real.q;
+        drv->i_ref_prev = i_ref;
+    } else if (d == 1 && !sw->ff_fresh) {
+        drv->u_ff_hold = drv->u_ff_next;   /* the window (k + 1, k + 3) starts at the next update */
+    }
+    fs_ab u_f;
+    fs_ab u_inj = c->mode == FS_MODE_OFF ? (fs_ab){0.0f, 0.0f} : sw->u;
+    drive_modulate(drv, in, drv->u_ff_hold, u_inj, out->duty, &u_f);
+
+    out->theta_e = theta;
+    out->w_e = w_e;
+    out->i_d = h->i_d;
+    out->i_q = h->i_q;
+    out->i_d_ref = h->i_d_ref;
+    out->i_q_ref = h->i_q_ref;
+    out->T_ref = h->T_ref;
+    out->u_d = h->u_d;
+    out->u_q = h->u_q;
+    out->over_modulation = h->over_modulation;
+    out->theta_est = sw->theta;
+    out->w_est = sw->w;
+    out->est_valid = sw->k > 4;
+    out->phase = FS_PHASE_RUN;
+    out->i_d_fw = 0.0f;
+    out->g_w = 0.0f;
+    out->injecting = c->mode != FS_MODE_OFF;
+    out->i_hf_d = sw->i_h.d;
+    out->i_hf_q = sw->i_h.q;
+}
+
 void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
 {
     const fs_drive_config *c = &drv->cfg;
-    fs_ab i_ab = fs_clarke(in->i_ph[0], in->i_ph[1], in->i_ph[2]);
+    fs_ab i_ab = drive_clarke(c, in->i_ph);
+    if (drive_square(c)) {
+        drive_step_square(drv, in, i_ab, out);
+        return;
+    }
     float theta, w_e;
     fs_ab i_loop = i_ab;
     drive_angle(drv, in, &i_loop, &theta, &w_e);
@@ -327,25 +500,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     bool polarity = drv->phase == FS_PHASE_POLARITY;
 
     if (closed_loop) {
-        if (polarity) {
-            i_ref.d = fs_polarity_step(&drv->pol, drv->hfi.i_p);
-            if (drv->pol.stage == FS_POLARITY_DONE) drive_polarity_done(drv);
-        } else if (c->mode == FS_MODE_SPEED && starting) {
-            i_ref = drive_start_step(drv, in, i_ab);
-        } else if (c->mode == FS_MODE_SPEED) {
-            T_ref = fs_speed_ctrl_step(&drv->sc, in->w_m_ref, w_e / (float)c->pole_pairs);
-            i_ref = fs_mtpa_step(&drv->mtpa, T_ref);
-            if (drive_weakens(c)) {
-                /* zou2021 eq. (30): i_d* = i_d0* + the filtered correction,
-                 * i_q* kept, then held inside the current limit circle */
-                i_ref.d = fs_clampf(i_ref.d + drv->fw.i_d, -c->i_max, c->i_max);
-                float iq_max = sqrtf(c->i_max * c->i_max - i_ref.d * i_ref.d);
-                i_ref.q = fs_clampf(i_ref.q, -iq_max, iq_max);
-            }
-        } else {
-            i_ref.d = in->i_d_ref;
-            i_ref.q = in->i_q_ref;
-        }
+        i_ref = drive_current_ref(drv, in, i_ab, w_e, &T_ref);
         u_ref = fs_current_ctrl_step(&drv->cc, i_ref, i_dq, w_e);
     }
 
@@ -356,19 +511,8 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     fs_ab u_ab_ref = fs_inv_park(u_ref, cos_u, sin_u);
     fs_ab u_inj = {0.0f, 0.0f};
     if (drv->injecting && c->mode != FS_MODE_OFF) u_inj = drv->hfi.u;   /* eq. (22) */
-    u_ab_ref.alpha += u_inj.alpha;
-    u_ab_ref.beta += u_inj.beta;
     fs_ab u_ab;
-    if (c->mode == FS_MODE_OFF) {
-        for (int k = 0; k < c->phases; ++k) out->duty[k] = 0.5f;
-        out->over_modulation = false;
-        u_ab.alpha = u_ab.beta = 0.0f;
-    } else {
-        out->over_modulation = fs_svpwm(u_ab_ref, in->u_dc, out->duty, &u_ab);
-        dead_time_comp(c, in->i_ph, out->duty);
-        u_ab.alpha -= u_inj.alpha;   /* the fundamental part */
-        u_ab.beta -= u_inj.beta;
-    }
+    out->over_modulation = drive_modulate(drv, in, u_ab_ref, u_inj, out->duty, &u_ab);
     drv->u_hist[1] = drv->u_hist[0];
     drv->u_hist[0] = u_ab;
     fs_dq u_real = fs_park(u_ab, cos_u, sin_u);
@@ -408,4 +552,5 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     out->injecting = drv->injecting && c->mode != FS_MODE_OFF;
     out->phase = drv->phase;
     out->i_d_fw = drive_weakens(c) ? drv->fw.i_d : 0.0f;
+    out->i_hf_d = out->i_hf_q = 0.0f;
 }

@@ -8,7 +8,12 @@
  * or an external angle (tests, and the slot where estimators plug in), or
  * the sliding-mode observer, optionally after an I/f start from standstill,
  * the rotating HF injection estimator, or the blend of the two (yang2022);
- * the injection-based sources start with a magnet polarity detection.
+ * the rotating-injection sources start with a magnet polarity detection;
+ * or the square-wave injection estimator (yu2022), with which the loops run
+ * at the carrier's zero crossings, every other sample.
+ * Three or five phases: five-phase currents are taken in the fundamental
+ * plane of the VSD (fs_vsd.h) and modulated by nearest-four-vector PWM
+ * (fs_pwm5.h), which keeps the third-harmonic plane's voltage at zero.
  * In speed mode, flux weakening adds negative d-current above base speed.
  */
 #ifndef FS_DRIVE_H
@@ -21,9 +26,12 @@
 #include "fs_mtpa.h"
 #include "fs_pll.h"
 #include "fs_polarity.h"
+#include "fs_pwm5.h"
 #include "fs_smo.h"
 #include "fs_speed_ctrl.h"
 #include "fs_svpwm.h"
+#include "fs_swvi.h"
+#include "fs_vsd.h"
 #include "fs_types.h"
 
 typedef enum {
@@ -39,7 +47,8 @@ typedef enum {
     FS_ANGLE_EXTERNAL = 1,   /* theta_e_ext and w_e_ext from the input */
     FS_ANGLE_SMO = 2,        /* extended-EMF sliding-mode observer (encoder until handed over) */
     FS_ANGLE_HFI = 3,        /* rotating HF voltage injection (yang2022 sec. 3) */
-    FS_ANGLE_BLEND = 4       /* SMO and HFI blended by speed (yang2022 sec. 4) */
+    FS_ANGLE_BLEND = 4,      /* SMO and HFI blended by speed (yang2022 sec. 4) */
+    FS_ANGLE_SWVI = 5        /* square-wave HF injection, filterless (yu2022); current and speed modes */
 } fs_angle_source;
 
 typedef enum {
@@ -96,6 +105,13 @@ typedef struct {
     /* polarity detection when sensorless from the first step (i_pulse 0: none;
      * Ts taken from above) */
     fs_polarity_config polarity;
+    /* square-wave injection (FS_ANGLE_SWVI): Ts, delay, L_d, L_q are taken
+     * from above; delay must be 0 or 1 */
+    fs_swvi_config swvi;
+    /* explicit PI gains, e.g. a paper's (all 0: designed from bw_current and
+     * bw_speed): current loop per axis, V/A and V/(A s); speed loop,
+     * N m s/rad and N m/rad */
+    float k_p_d, k_i_d, k_p_q, k_i_q, k_p_w, k_i_w;
 } fs_drive_config;
 
 typedef struct {
@@ -126,6 +142,7 @@ typedef struct {
     float i_d_fw;            /* d-current added by flux weakening, A */
     float g_w;               /* blending weight, eq. (28): 1 = SMO, 0 = HFI */
     bool injecting;          /* the HF voltage is on */
+    float i_hf_d, i_hf_q;    /* square-wave injection: the HF current at the last peak, signed, eq. (8), A */
 } fs_drive_out;
 
 typedef struct {
@@ -139,6 +156,7 @@ typedef struct {
     fs_hfi hfi;
     fs_blend blend;
     fs_polarity pol;
+    fs_swvi sw;
     int phase;               /* fs_drive_phase */
     float theta_if, w_if;    /* I/f frame */
     float theta_ol;          /* open-loop frame angle */
@@ -148,6 +166,10 @@ typedef struct {
     bool inject_on;          /* the injection is wanted (the amplitude's target) */
     fs_dq i_ref_prev;        /* current reference of the last step (torque feed-forward) */
     fs_ab u_hist[2];         /* realised fundamental voltage computed 1 and 2 steps ago */
+    /* square-wave injection: the fundamental voltage acting over the present
+     * window and the one computed for the next; the loops' last outputs */
+    fs_ab u_ff_hold, u_ff_next;
+    fs_drive_out held;
 } fs_drive;
 
 fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg);
