@@ -2,7 +2,21 @@
 
 #include <math.h>
 
+/* cos and sin of 2 pi/5 and 4 pi/5 */
+#define C1 0.30901699437494742410
+#define C2 (-0.80901699437494742410)
+#define S1 0.95105651629515357212
+#define S2 0.58778525229247312917
+
+/* cos(k g), sin(k g), cos(3 k g), sin(3 k g), g = 2 pi/5 (3 k g = (3k mod 5) g) */
+static const double COS1[5] = {1.0, C1, C2, C2, C1};
+static const double SIN1[5] = {0.0, S1, S2, -S2, -S1};
+static const double COS3[5] = {1.0, C2, C1, C1, C2};
+static const double SIN3[5] = {0.0, -S2, S1, -S1, S2};
+
 static double sgn(double x) { return (x > 0.0) - (x < 0.0); }
+
+static int legs(const fs_inverter_config *c) { return c->phases == 5 ? 5 : 3; }
 
 static void clarke(const double v[3], double *a, double *b)
 {
@@ -10,17 +24,46 @@ static void clarke(const double v[3], double *a, double *b)
     *b = (v[1] - v[2]) / sqrt(3.0);
 }
 
-void fs_inverter_segments(const fs_inverter_config *c, const double duty[3], int half,
+void fs_inverter_vsd5(const double v[5], double *alpha, double *beta, double *x, double *y)
+{
+    double a = 0.0, b = 0.0, p = 0.0, q = 0.0;
+    for (int k = 0; k < 5; ++k) {
+        a += v[k] * COS1[k];
+        b += v[k] * SIN1[k];
+        p += v[k] * COS3[k];
+        q += v[k] * SIN3[k];
+    }
+    *alpha = 0.4 * a;
+    *beta = 0.4 * b;
+    *x = 0.4 * p;
+    *y = 0.4 * q;
+}
+
+void fs_inverter_vsd5_inverse(double alpha, double beta, double x, double y, double zero, double v[5])
+{
+    for (int k = 0; k < 5; ++k)
+        v[k] = alpha * COS1[k] + beta * SIN1[k] + x * COS3[k] + y * SIN3[k] + zero;
+}
+
+/* Star point without neutral: phase voltages are the poles less their mean. */
+static void star5(double v[5])
+{
+    double mean = 0.2 * (v[0] + v[1] + v[2] + v[3] + v[4]);
+    for (int k = 0; k < 5; ++k) v[k] -= mean;
+}
+
+void fs_inverter_segments(const fs_inverter_config *c, const double *duty, int half,
                           fs_inv_segments *seg)
 {
+    const int nl = legs(c);
     const double Th = 0.5 * c->T_pwm;
-    double edge[3], dead_end[3];
-    int before[3], after[3];
-    double cut[2 * 3 + 2];
+    double edge[FS_INV_MAX_LEGS], dead_end[FS_INV_MAX_LEGS];
+    int before[FS_INV_MAX_LEGS], after[FS_INV_MAX_LEGS];
+    double cut[2 * FS_INV_MAX_LEGS + 2];
     int nc = 0;
     cut[nc++] = 0.0;
     cut[nc++] = Th;
-    for (int k = 0; k < 3; ++k) {
+    for (int k = 0; k < nl; ++k) {
         double d = duty[k];
         if (half == 0) { before[k] = 0; after[k] = 1; edge[k] = (1.0 - d) * Th; }
         else           { before[k] = 1; after[k] = 0; edge[k] = d * Th; }
@@ -49,7 +92,7 @@ void fs_inverter_segments(const fs_inverter_config *c, const double duty[3], int
         double tm = 0.5 * (t0 + t1);
         int s = seg->n++;
         seg->dt[s] = t1 - t0;
-        for (int k = 0; k < 3; ++k) {
+        for (int k = 0; k < nl; ++k) {
             if (tm < edge[k]) seg->state[s][k] = before[k];
             else if (tm < dead_end[k]) seg->state[s][k] = -1;
             else seg->state[s][k] = after[k];
@@ -57,31 +100,70 @@ void fs_inverter_segments(const fs_inverter_config *c, const double duty[3], int
     }
 }
 
-void fs_inverter_voltage(const fs_inverter_config *c, const int state[3], const double i_abc[3],
-                         double *u_alpha, double *u_beta)
+/* Pole voltages (against the dc-link midpoint) of a switch state. */
+static void pole_voltages(const fs_inverter_config *c, int nl, const int *state, const double *i_ph,
+                          double *v)
 {
-    double v[3];
-    for (int k = 0; k < 3; ++k) {
+    for (int k = 0; k < nl; ++k) {
         int s = state[k];
-        if (s < 0) s = i_abc[k] < 0.0;  /* diode: i > 0 flows through the lower one */
-        v[k] = (s ? 0.5 : -0.5) * c->u_dc - sgn(i_abc[k]) * c->u_on;
+        if (s < 0) s = i_ph[k] < 0.0;  /* diode: i > 0 flows through the lower one */
+        v[k] = (s ? 0.5 : -0.5) * c->u_dc - sgn(i_ph[k]) * c->u_on;
     }
-    clarke(v, u_alpha, u_beta);
 }
 
-void fs_inverter_mean_voltage(const fs_inverter_config *c, const double duty[3],
-                              const double i_abc[3], double *u_alpha, double *u_beta)
+/* Mean pole voltages over a period (averaged model). */
+static void mean_pole_voltages(const fs_inverter_config *c, int nl, const double *duty,
+                               const double *i_ph, double *v)
 {
-    double v[3];
     const double Th = 0.5 * c->T_pwm;
-    for (int k = 0; k < 3; ++k) {
+    for (int k = 0; k < nl; ++k) {
         double d = duty[k] < 0.0 ? 0.0 : (duty[k] > 1.0 ? 1.0 : duty[k]);
         double err = 0.0;  /* dead-time volt-seconds per period, as the switching model cuts them */
         if (d > 0.0 && d < 1.0) {
-            if (i_abc[k] > 0.0) err = -fmin(c->t_dead, d * Th);
-            else if (i_abc[k] < 0.0) err = fmin(c->t_dead, (1.0 - d) * Th);
+            if (i_ph[k] > 0.0) err = -fmin(c->t_dead, d * Th);
+            else if (i_ph[k] < 0.0) err = fmin(c->t_dead, (1.0 - d) * Th);
         }
-        v[k] = (d - 0.5 + err / c->T_pwm) * c->u_dc - sgn(i_abc[k]) * c->u_on;
+        v[k] = (d - 0.5 + err / c->T_pwm) * c->u_dc - sgn(i_ph[k]) * c->u_on;
     }
-    clarke(v, u_alpha, u_beta);
+}
+
+void fs_inverter_phase_voltages(const fs_inverter_config *c, const int *state, const double *i_ph,
+                                double *u_ph)
+{
+    const int nl = legs(c);
+    pole_voltages(c, nl, state, i_ph, u_ph);
+    double mean = 0.0;
+    for (int k = 0; k < nl; ++k) mean += u_ph[k];
+    mean /= nl;
+    for (int k = 0; k < nl; ++k) u_ph[k] -= mean;
+}
+
+void fs_inverter_voltage(const fs_inverter_config *c, const int *state, const double *i_ph,
+                         double *u_alpha, double *u_beta, double *u_x, double *u_y)
+{
+    double v[FS_INV_MAX_LEGS];
+    if (c->phases == 5) {
+        pole_voltages(c, 5, state, i_ph, v);
+        star5(v);
+        fs_inverter_vsd5(v, u_alpha, u_beta, u_x, u_y);
+    } else {
+        pole_voltages(c, 3, state, i_ph, v);
+        clarke(v, u_alpha, u_beta);   /* drops the zero sequence itself */
+        *u_x = *u_y = 0.0;
+    }
+}
+
+void fs_inverter_mean_voltage(const fs_inverter_config *c, const double *duty, const double *i_ph,
+                              double *u_alpha, double *u_beta, double *u_x, double *u_y)
+{
+    double v[FS_INV_MAX_LEGS];
+    if (c->phases == 5) {
+        mean_pole_voltages(c, 5, duty, i_ph, v);
+        star5(v);
+        fs_inverter_vsd5(v, u_alpha, u_beta, u_x, u_y);
+    } else {
+        mean_pole_voltages(c, 3, duty, i_ph, v);
+        clarke(v, u_alpha, u_beta);
+        *u_x = *u_y = 0.0;
+    }
 }

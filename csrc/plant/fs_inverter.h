@@ -1,4 +1,5 @@
-/* Two-level three-phase voltage-source inverter (double), for simulation.
+/* Two-level three- or five-phase voltage-source inverter (double), for
+ * simulation.
  *
  * The carrier is center-aligned: it falls from its peak (1) to its valley (0)
  * in the first half of a period and rises back in the second. A pole is
@@ -12,6 +13,21 @@
  *           the dead times; in a dead time both devices are off and a diode
  *           carries the current, so the pole sits on the rail opposite to the
  *           current's sign. Each constant segment is integrated on its own.
+ *
+ * The load is star-connected without a neutral wire: a phase voltage is its
+ * pole voltage less the mean of the pole voltages (no zero sequence). The
+ * output is the stationary voltage of the fundamental plane (alpha, beta)
+ * and, for five phases, of the third-harmonic plane (x, y) of the
+ * amplitude-invariant vector space decomposition below; x = y = 0 for three
+ * phases.
+ *
+ * Five-phase VSD, phase k = 0..4 at k g, g = 2 pi/5:
+ *   alpha = 2/5 sum v_k cos(k g),   beta = 2/5 sum v_k sin(k g),
+ *   x     = 2/5 sum v_k cos(3 k g), y    = 2/5 sum v_k sin(3 k g),
+ *   zero  = 1/5 sum v_k,
+ *   v_k   = alpha cos(k g) + beta sin(k g) + x cos(3 k g) + y sin(3 k g) + zero.
+ * A third-harmonic phase quantity cos(3 (theta - k g)) maps to
+ * (x, y) = (cos 3 theta, sin 3 theta).
  */
 #ifndef FS_INVERTER_H
 #define FS_INVERTER_H
@@ -24,26 +40,42 @@ typedef struct {
     double T_pwm;      /* carrier period, s */
     double t_dead;     /* dead time, s */
     double u_on;       /* device on-state drop, V */
+    int phases;        /* legs: 3 or 5 (5: five-phase; anything else is taken as 3) */
 } fs_inverter_config;
 
-enum { FS_INV_MAX_SEG = 7 };
+/* Most legs, and most constant segments of a half period (two cuts per leg
+ * plus its ends: 2 FS_INV_MAX_LEGS + 1). */
+enum { FS_INV_MAX_LEGS = 5 };
+enum { FS_INV_MAX_SEG = 11 };
 
 /* A half period as constant-voltage segments. */
 typedef struct {
     int n;
-    double dt[FS_INV_MAX_SEG];       /* segment lengths, s */
-    int state[FS_INV_MAX_SEG][3];    /* per phase: 1 high, 0 low, -1 both off */
+    double dt[FS_INV_MAX_SEG];                    /* segment lengths, s */
+    int state[FS_INV_MAX_SEG][FS_INV_MAX_LEGS];   /* per leg: 1 high, 0 low, -1 both off */
 } fs_inv_segments;
 
-/* Segments of half period `half` (0: carrier falling, 1: rising). */
-void fs_inverter_segments(const fs_inverter_config *c, const double duty[3], int half,
+/* Segments of half period `half` (0: carrier falling, 1: rising); duty and
+ * the states have c->phases entries. */
+void fs_inverter_segments(const fs_inverter_config *c, const double *duty, int half,
                           fs_inv_segments *seg);
+/* Phase voltages (pole voltage less the mean of the poles) of a segment's
+ * switch states given the phase currents (for diodes and device drops);
+ * c->phases entries each. */
+void fs_inverter_phase_voltages(const fs_inverter_config *c, const int *state, const double *i_ph,
+                                double *u_ph);
 /* Stationary-frame terminal voltage of a segment's switch states given the
- * phase currents (for diodes and device drops). */
-void fs_inverter_voltage(const fs_inverter_config *c, const int state[3], const double i_abc[3],
-                         double *u_alpha, double *u_beta);
-/* Averaged model: mean stationary voltage over the period. */
-void fs_inverter_mean_voltage(const fs_inverter_config *c, const double duty[3],
-                              const double i_abc[3], double *u_alpha, double *u_beta);
+ * phase currents: fundamental plane (alpha, beta) and third-harmonic plane
+ * (x, y; 0 for three phases). */
+void fs_inverter_voltage(const fs_inverter_config *c, const int *state, const double *i_ph,
+                         double *u_alpha, double *u_beta, double *u_x, double *u_y);
+/* Averaged model: mean stationary voltage over the period, both planes. */
+void fs_inverter_mean_voltage(const fs_inverter_config *c, const double *duty, const double *i_ph,
+                              double *u_alpha, double *u_beta, double *u_x, double *u_y);
+
+/* Five-phase VSD of five phase quantities (the zero sequence is dropped),
+ * and its inverse with a given zero sequence. */
+void fs_inverter_vsd5(const double v[5], double *alpha, double *beta, double *x, double *y);
+void fs_inverter_vsd5_inverse(double alpha, double beta, double x, double y, double zero, double v[5]);
 
 #endif /* FS_INVERTER_H */

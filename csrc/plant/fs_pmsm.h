@@ -1,9 +1,20 @@
-/* Three-phase PMSM with its mechanics and load (double), for simulation.
+/* Three- or five-phase PMSM with its mechanics and load (double), for
+ * simulation.
  *
  * Electrical states are the stator flux linkages in rotor coordinates:
  *   dpsi_d/dt = u_d - R i_d + w_e psi_q,   dpsi_q/dt = u_q - R i_q - w_e psi_d,
- *   T_e = 3/2 p (psi_d i_q - psi_q i_d),
- * with i = i(psi) from the magnetic model. Mechanics:
+ *   T_e = m/2 p (psi_d i_q - psi_q i_d),   m = phases,
+ * with i = i(psi) from the magnetic model; (d, q) is the rotor frame of the
+ * fundamental (alpha, beta) plane. A five-phase machine (amplitude-invariant
+ * VSD, fs_inverter.h) also has the third-harmonic plane (x, y), in the frame
+ * d3-q3 turning at 3 w_e (Park of (x, y) by 3 theta_e), linear (Yu, Wang,
+ * Li, Energies 2022, eq. (1)):
+ *   psi_d3 = L_d3 i_d3 + psi_f3,   psi_q3 = L_q3 i_q3,
+ *   dpsi_d3/dt = u_d3 - R i_d3 + 3 w_e psi_q3,
+ *   dpsi_q3/dt = u_q3 - R i_q3 - 3 w_e psi_d3,
+ *   T_e = 5/2 p [psi_d i_q - psi_q i_d + 3 (psi_d3 i_q3 - psi_q3 i_d3)].
+ * A three-phase machine neither has nor integrates the two extra states.
+ * Mechanics:
  *   J dw_m/dt = T_e - T_L - B w_m - T_c sat(w_m / w_c),
  * or the speed imposed by a load machine (ideal, or a speed-controlled load
  * machine with a PI of finite bandwidth, as on the papers' test benches).
@@ -18,7 +29,9 @@
 typedef enum {
     FS_LOAD_TORQUE = 0,       /* load torque profile on the free shaft */
     FS_LOAD_SPEED_IDEAL = 1,  /* speed imposed exactly by the load machine */
-    FS_LOAD_SPEED_PI = 2      /* speed-controlled load machine, finite bandwidth */
+    FS_LOAD_SPEED_PI = 2,     /* speed-controlled load machine, finite bandwidth */
+    FS_LOAD_BRAKE = 3         /* a brake (powder, eddy current): the torque profile is its magnitude,
+                                 opposing the motion; Karnopp stiction below w_coulomb */
 } fs_load_kind;
 
 typedef struct {
@@ -28,38 +41,59 @@ typedef struct {
     double J;                 /* motor inertia, kg m^2 */
     double B;                 /* viscous friction, N m s/rad */
     double T_coulomb;         /* Coulomb friction, N m */
-    double w_coulomb;         /* speed of its linear region around zero, rad/s */
+    double w_coulomb;         /* speed of its linear region around zero, rad/s; BRAKE: its stick band */
     int load_kind;            /* fs_load_kind */
     double J_load;            /* load machine inertia (SPEED_PI), kg m^2 */
     double load_bandwidth;    /* load machine speed loop, rad/s (SPEED_PI) */
+    int phases;               /* 3 or 5 */
+    double L_d3, L_q3;        /* five phases: third-harmonic inductances, H (> 0) */
+    double psi_f3;            /* five phases: third-harmonic magnet flux, Wb (>= 0) */
 } fs_pmsm_config;
 
-/* State vector layout. */
+/* State vector layout: the first FS_X_N3 states are those of a
+ * three-phase machine; a five-phase one adds the d3-q3 fluxes. The energy
+ * meters E_IN = m/2 int (u_alpha i_alpha + u_beta i_beta + u_x i_x + u_y i_y),
+ * E_CU = m/2 R int (i_d^2 + i_q^2 + i_d3^2 + i_q3^2) and E_AIRGAP = int T_e w_m
+ * balance with the stored magnetic energy (fs_pmsm_energy). UD_INT and
+ * UQ_INT integrate the fundamental-plane voltage. */
 enum {
     FS_X_PSI_D = 0, FS_X_PSI_Q, FS_X_W_M, FS_X_THETA_M, FS_X_LOAD_I,
     FS_X_E_IN, FS_X_E_CU, FS_X_E_AIRGAP, FS_X_UD_INT, FS_X_UQ_INT,
+    FS_X_PSI_D3, FS_X_PSI_Q3,
     FS_X_N
 };
+enum { FS_X_N3 = FS_X_PSI_D3 };
 
 typedef struct {
     fs_pmsm_config cfg;
     fs_mag mag;
     double k_p_load, k_i_load;  /* load machine PI, designed in init */
+    double inv_L_d3, inv_L_q3;  /* five phases: 1/L_d3, 1/L_q3 */
 } fs_pmsm;
 
 /* Inputs of the right-hand side that are held over an integration step. */
 typedef struct {
-    double u_alpha, u_beta;   /* terminal voltage, stationary frame */
+    double u_alpha, u_beta;   /* terminal voltage, stationary frame, fundamental plane */
+    double u_x, u_y;          /* five phases: third-harmonic plane (ignored for three) */
     double T_load;            /* external load torque, N m */
     double w_load;            /* load machine speed (reference), rad/s */
     double dw_load;           /* its slope, rad/s^2 */
 } fs_pmsm_input;
 
+/* Returns 0, or -1 if the configuration is invalid. */
 int fs_pmsm_init(fs_pmsm *m, const fs_pmsm_config *cfg);
+/* The state at rest without current: fluxes at zero current (psi_d3 =
+ * psi_f3 for five phases), everything else zero. */
+void fs_pmsm_initial_state(fs_pmsm *m, double *x);
 void fs_pmsm_deriv(fs_pmsm *m, const double *x, const fs_pmsm_input *in, double *dx);
 /* Currents (rotor frame), torque and shaft load torque of a state. */
 void fs_pmsm_outputs(fs_pmsm *m, const double *x, const fs_pmsm_input *in,
                      double *i_d, double *i_q, double *T_e, double *T_shaft);
+/* Third-harmonic currents (d3-q3 frame) of a state; 0 for three phases. */
+void fs_pmsm_currents3(const fs_pmsm *m, const double *x, double *i_d3, double *i_q3);
+/* Stored magnetic energy m/2 (W(psi) + W3), W3 = (psi_d3 - psi_f3)^2/(2 L_d3)
+ * + psi_q3^2/(2 L_q3) (W as fs_mag_energy; 0 for three phases), J. */
+double fs_pmsm_energy(const fs_pmsm *m, const double *x);
 /* Classic RK4 step of length h with held input. */
 void fs_pmsm_rk4(fs_pmsm *m, double *x, const fs_pmsm_input *in, double h);
 
