@@ -142,6 +142,23 @@ static void setup_blend(fs_drive_config *c, const params *p)
     c->w_inject_max = (float)(1.2 * rpm_e * p->blend_upper_rpm);
 }
 
+/* Square-wave injection (yu2022) with the filterless processing and the
+ * optimized sequence: the carrier at a quarter of the sampling rate (four
+ * samples per period), the machine's injection amplitude, the PLL at a
+ * two-hundredth of the carrier frequency (yu2022's 57.5 rad/s at 2 kHz)
+ * and the speed loop at half of that (as the scenarios do). */
+static void setup_square(fs_drive_config *c, const params *p)
+{
+    setup_common(c, p);
+    c->angle_source = FS_ANGLE_SWVI;
+    c->swvi.u_h = (float)p->inj_u_h;
+    c->swvi.bandwidth = (float)(2.0 * PI / (4.0 * p->Ts) / 200.0);
+    c->swvi.sequence = FS_SWVI_OPTIMIZED;
+    /* the speed is the PLL's PI output, whose zero keeps its lag small up
+     * to about half its bandwidth (yu2022: 31 against 57.5 rad/s) */
+    c->bw_speed = (float)fmin(p->bw_speed, c->swvi.bandwidth / 2.0);
+}
+
 /* The modes this harness can run; bench/instructions.py lists the ones it
  * wants and reports any not here as "not built yet". A new mode is one entry
  * (and its setup function). sensorless: the loops switch to the estimator
@@ -157,6 +174,7 @@ static const struct {
     /* injection at low speed; blended inside its band, where every part runs */
     {"hfi-rotating", setup_hfi, 1, 100.0},
     {"blended", setup_blend, 1, 200.0},
+    {"hfi-square", setup_square, 1, 100.0},
 };
 enum { N_MODES = sizeof MODES / sizeof MODES[0] };
 

@@ -74,7 +74,7 @@ float fs_swvi_step(fs_swvi *s, fs_ab i)
             const float sign = n2 == 0 ? 1.0f : -1.0f;
             s->i_h.d = sign * h.d;
             s->i_h.q = sign * h.q;
-            s->eps = s->k_norm * s->i_h.q;                  /* eqs. (6)-(7) */
+            if (!c->carrier_off) s->eps = s->k_norm * s->i_h.q;   /* eqs. (6)-(7) */
         }
     }
     fs_pll_step(&s->pll, s->eps);                           /* Fig. 1 */
@@ -88,7 +88,7 @@ float fs_swvi_step(fs_swvi *s, fs_ab i)
         s->delta = fs_xcomp_eval(&c->xcomp, i_q);
     }
     s->theta = fs_wrap_pi(th - s->delta);
-    s->w = s->pll.w;
+    s->w = s->pll.k_p * s->eps + s->pll.integ;   /* Fig. 1: the PI's output, the angle's rate */
 
     /* eq. (4) for the interval starting at j = k + delay: + in phases 3 and
      * 0, - in 1 and 2 (edges at the odd samples); from j = 2 on, so that the
@@ -96,7 +96,7 @@ float fs_swvi_step(fs_swvi *s, fs_ab i)
     const long long j = s->k + c->delay;
     const int m = (int)(j & 3);
     s->theta_u[m] = th;
-    const float u = j < 2 ? 0.0f : ((m == 3 || m == 0) ? c->u_h : -c->u_h);
+    const float u = (j < 2 || c->carrier_off) ? 0.0f : ((m == 3 || m == 0) ? c->u_h : -c->u_h);
     s->u.alpha = u * cosf(th);
     s->u.beta = u * sinf(th);
     ++s->k;

@@ -73,6 +73,7 @@ typedef struct {
     float w_max;               /* PLL speed clamp, el. rad/s (0: none) */
     int sequence;              /* fs_swvi_sequence */
     fs_xcomp_config xcomp;     /* cross-saturation compensation (all zero: off) */
+    bool carrier_off;          /* comparison runs: the same timing without the carrier (no estimate) */
 } fs_swvi_config;
 
 typedef struct {
@@ -90,7 +91,9 @@ typedef struct {
     fs_dq i_h;                 /* HF current at the last peak, signed by its carrier half, eq. (8), A */
     float eps;                 /* the PLL's error K_norm I_qh, eq. (6), rad */
     float delta;               /* the compensation used, rad */
-    float theta, w;            /* rotor angle (compensated, rad) and electrical speed (rad/s) */
+    float theta, w;            /* rotor angle (compensated, rad) and electrical speed (rad/s): the
+                                  PLL's PI output of Fig. 1, k_p eps + integral, whose zero keeps
+                                  the lag small at a speed loop's crossover */
     fs_ab u;                   /* injection voltage for the interval starting at k + delay, V */
 } fs_swvi;
 

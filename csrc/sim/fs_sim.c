@@ -17,12 +17,17 @@ struct fs_sim {
     double x[FS_X_N];
     double Tc;               /* control period */
     long long k;             /* samples taken */
-    double duty_next[3];     /* computed, waiting for the update instant */
-    double duty_now[3];      /* acting in the current period */
+    int phases;              /* 3 or 5 */
+    int nx;                  /* states integrated: FS_X_N3 (three phases) or FS_X_N */
+    double duty_next[FS_INV_MAX_LEGS];   /* computed, waiting for the update instant */
+    double duty_now[FS_INV_MAX_LEGS];    /* acting in the current period */
     uint64_t rng;
     int stopped;             /* fs_run_status of a stop, or 0 */
     double stop_time;
 };
+
+/* The runner passes drive duties to the inverter and phase currents back. */
+typedef char fs_sim_legs_check[((int)FS_INV_MAX_LEGS >= (int)FS_PHASES_MAX) ? 1 : -1];
 
 static double pi_const(void) { return 3.14159265358979323846; }
 
@@ -76,16 +81,24 @@ static double encoder(const fs_sim *s, double theta_m)
     return th;
 }
 
-static void phase_currents(fs_sim *s, const double *x, double i_abc[3], double *i_d, double *i_q)
+/* Phase currents (s->phases of them) of a state, and the rotor-frame ones. */
+static void phase_currents(fs_sim *s, const double *x, double *i_ph, double *i_d, double *i_q)
 {
     double id, iq;
     fs_mag_current(&s->pmsm.mag, x[FS_X_PSI_D], x[FS_X_PSI_Q], &id, &iq);
     double th = s->pmsm.cfg.pole_pairs * x[FS_X_THETA_M];
     double cs = cos(th), sn = sin(th);
     double ia = cs * id - sn * iq, ib = sn * id + cs * iq;
-    i_abc[0] = ia;
-    i_abc[1] = -0.5 * ia + 0.5 * sqrt(3.0) * ib;
-    i_abc[2] = -0.5 * ia - 0.5 * sqrt(3.0) * ib;
+    if (s->phases == 5) {
+        double id3, iq3;
+        fs_pmsm_currents3(&s->pmsm, x, &id3, &iq3);
+        double c3 = cos(3.0 * th), s3 = sin(3.0 * th);
+        fs_inverter_vsd5_inverse(ia, ib, c3 * id3 - s3 * iq3, s3 * id3 + c3 * iq3, 0.0, i_ph);
+    } else {
+        i_ph[0] = ia;
+        i_ph[1] = -0.5 * ia + 0.5 * sqrt(3.0) * ib;
+        i_ph[2] = -0.5 * ia - 0.5 * sqrt(3.0) * ib;
+    }
     if (i_d) *i_d = id;
     if (i_q) *i_q = iq;
 }
@@ -114,6 +127,22 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
         FAIL("timing.sampling = %d: must be single (0) or double (1)", cfg->sampling);
     if (!(cfg->h_max > 0.0)) FAIL("timing.h_max = %g: must be > 0", cfg->h_max);
     if (cfg->decimation < 1) FAIL("trace.decimation = %d: must be >= 1", cfg->decimation);
+    const int ph = cfg->plant.phases;
+    if (ph != 3 && ph != 5) FAIL("plant.phases = %d: must be 3 or 5", ph);
+    if (cfg->inverter.phases != ph)
+        FAIL("inverter.phases = %d: must equal plant.phases (%d)", cfg->inverter.phases, ph);
+    if (cfg->drive.phases != ph)
+        FAIL("controller.phases = %d: must equal plant.phases (%d)", cfg->drive.phases, ph);
+    if (ph == 5) {
+        if (!(cfg->plant.L_d3 > 0.0 && isfinite(cfg->plant.L_d3)))
+            FAIL("plant.L_d3 = %g: must be > 0 for a five-phase machine", cfg->plant.L_d3);
+        if (!(cfg->plant.L_q3 > 0.0 && isfinite(cfg->plant.L_q3)))
+            FAIL("plant.L_q3 = %g: must be > 0 for a five-phase machine", cfg->plant.L_q3);
+        if (!(cfg->plant.psi_f3 >= 0.0 && isfinite(cfg->plant.psi_f3)))
+            FAIL("plant.psi_f3 = %g: must be >= 0 for a five-phase machine", cfg->plant.psi_f3);
+    }
+    s->phases = ph;
+    s->nx = ph == 5 ? FS_X_N : FS_X_N3;
     if (fs_pmsm_init(&s->pmsm, &cfg->plant) != 0) FAIL("machine: invalid plant parameters");
     s->Tc = cfg->sampling == FS_SAMPLING_DOUBLE ? 0.5 * cfg->inverter.T_pwm : cfg->inverter.T_pwm;
     if (fabs(cfg->drive.Ts - s->Tc) > 1e-6 * s->Tc)
@@ -121,12 +150,12 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
     fs_status st = fs_drive_init(&s->drive, &cfg->drive);
     if (st != FS_OK) FAIL("controller: %s", fs_status_str(st));
 
-    fs_mag_flux(&s->pmsm.mag, 0.0, 0.0, &s->x[FS_X_PSI_D], &s->x[FS_X_PSI_Q]);
+    fs_pmsm_initial_state(&s->pmsm, s->x);
     s->x[FS_X_THETA_M] = cfg->theta_m0;
     s->x[FS_X_W_M] = cfg->w_m0;
     if (cfg->plant.load_kind == FS_LOAD_SPEED_IDEAL)
         s->x[FS_X_W_M] = fs_pwl_eval(&s->prof[P_W_LOAD], 0.0, NULL);
-    for (int k = 0; k < 3; ++k) s->duty_now[k] = s->duty_next[k] = 0.5;
+    for (int k = 0; k < FS_INV_MAX_LEGS; ++k) s->duty_now[k] = s->duty_next[k] = 0.5;
     s->rng = cfg->seed ? cfg->seed : 0x9E3779B97F4A7C15ULL;
     s->stop_time = NAN;
     return s;
@@ -151,7 +180,7 @@ static void integrate_period(fs_sim *s, double t0)
     in.T_load = fs_pwl_eval(&s->prof[P_T_LOAD], t0, NULL);
     in.w_load = fs_pwl_eval(&s->prof[P_W_LOAD], t0, &slope);
     in.dw_load = slope;
-    double i_abc[3];
+    double i_ph[FS_INV_MAX_LEGS];
     int halves = s->cfg.sampling == FS_SAMPLING_DOUBLE ? 1 : 2;
     int half0 = s->cfg.sampling == FS_SAMPLING_DOUBLE ? (int)(s->k & 1) : 0;
     for (int h = 0; h < halves; ++h) {
@@ -160,8 +189,8 @@ static void integrate_period(fs_sim *s, double t0)
             fs_inv_segments seg;
             fs_inverter_segments(inv, s->duty_now, half, &seg);
             for (int n = 0; n < seg.n; ++n) {
-                phase_currents(s, s->x, i_abc, NULL, NULL);
-                fs_inverter_voltage(inv, seg.state[n], i_abc, &in.u_alpha, &in.u_beta);
+                phase_currents(s, s->x, i_ph, NULL, NULL);
+                fs_inverter_voltage(inv, seg.state[n], i_ph, &in.u_alpha, &in.u_beta, &in.u_x, &in.u_y);
                 int steps = (int)ceil(seg.dt[n] / s->cfg.h_max - 1e-9);
                 double hstep = seg.dt[n] / steps;
                 for (int m = 0; m < steps; ++m) fs_pmsm_rk4(&s->pmsm, s->x, &in, hstep);
@@ -174,13 +203,14 @@ static void integrate_period(fs_sim *s, double t0)
              * and drops: without them it is one value for the half period */
             int ideal = inv->t_dead == 0.0 && inv->u_on == 0.0;
             if (ideal) {
-                i_abc[0] = i_abc[1] = i_abc[2] = 0.0;
-                fs_inverter_mean_voltage(inv, s->duty_now, i_abc, &in.u_alpha, &in.u_beta);
+                for (int k = 0; k < FS_INV_MAX_LEGS; ++k) i_ph[k] = 0.0;
+                fs_inverter_mean_voltage(inv, s->duty_now, i_ph, &in.u_alpha, &in.u_beta, &in.u_x, &in.u_y);
             }
             for (int m = 0; m < steps; ++m) {
                 if (!ideal) {
-                    phase_currents(s, s->x, i_abc, NULL, NULL);
-                    fs_inverter_mean_voltage(inv, s->duty_now, i_abc, &in.u_alpha, &in.u_beta);
+                    phase_currents(s, s->x, i_ph, NULL, NULL);
+                    fs_inverter_mean_voltage(inv, s->duty_now, i_ph, &in.u_alpha, &in.u_beta, &in.u_x,
+                                             &in.u_y);
                 }
                 fs_pmsm_rk4(&s->pmsm, s->x, &in, hstep);
             }
@@ -203,10 +233,11 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
             s->x[FS_X_W_M] = fs_pwl_eval(&s->prof[P_W_LOAD], t, &slope);
 
         /* sample */
-        double i_abc[3], i_d, i_q;
-        phase_currents(s, s->x, i_abc, &i_d, &i_q);
+        double i_ph[FS_INV_MAX_LEGS], i_d, i_q;
+        phase_currents(s, s->x, i_ph, &i_d, &i_q);
         fs_drive_in din;
-        for (int k = 0; k < 3; ++k) din.i_ph[k] = (float)adc(s, i_abc[k]);
+        for (int k = 0; k < s->phases; ++k) din.i_ph[k] = (float)adc(s, i_ph[k]);
+        for (int k = s->phases; k < FS_PHASES_MAX; ++k) din.i_ph[k] = 0.0f;
         din.u_dc = (float)c->inverter.u_dc;
         din.theta_m_enc = (float)encoder(s, s->x[FS_X_THETA_M]);
         din.theta_e_ext = (float)wrap_pi(p * s->x[FS_X_THETA_M]);
@@ -222,13 +253,14 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
         /* control */
         fs_drive_out dout;
         fs_drive_step(&s->drive, &din, &dout);
-        for (int k = 0; k < 3; ++k) s->duty_next[k] = dout.duty[k];
-        if (!c->delay) for (int k = 0; k < 3; ++k) s->duty_now[k] = s->duty_next[k];
+        for (int k = 0; k < s->phases; ++k) s->duty_next[k] = dout.duty[k];
+        if (!c->delay) for (int k = 0; k < s->phases; ++k) s->duty_now[k] = s->duty_next[k];
 
         if (record) {
             double *r = trace + (size_t)(*rows) * FS_CH_N;
-            fs_pmsm_input pin = {0.0, 0.0, fs_pwl_eval(&s->prof[P_T_LOAD], t, NULL),
-                                 fs_pwl_eval(&s->prof[P_W_LOAD], t, NULL), 0.0};
+            fs_pmsm_input pin = {0};
+            pin.T_load = fs_pwl_eval(&s->prof[P_T_LOAD], t, NULL);
+            pin.w_load = fs_pwl_eval(&s->prof[P_W_LOAD], t, NULL);
             double Te, Tl, id2, iq2;
             fs_pmsm_outputs(&s->pmsm, s->x, &pin, &id2, &iq2, &Te, &Tl);
             double theta_e = wrap_pi(p * s->x[FS_X_THETA_M]);
@@ -239,9 +271,9 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
             r[FS_CH_PSI_Q] = s->x[FS_X_PSI_Q];
             r[FS_CH_I_D] = i_d;
             r[FS_CH_I_Q] = i_q;
-            r[FS_CH_I_A] = i_abc[0];
-            r[FS_CH_I_B] = i_abc[1];
-            r[FS_CH_I_C] = i_abc[2];
+            r[FS_CH_I_A] = i_ph[0];
+            r[FS_CH_I_B] = i_ph[1];
+            r[FS_CH_I_C] = i_ph[2];
             r[FS_CH_T_E] = Te;
             r[FS_CH_T_L] = Tl;
             r[FS_CH_U_D] = s->k > 0 ? s->x[FS_X_UD_INT] / s->Tc : 0.0;
@@ -264,7 +296,7 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
             r[FS_CH_E_IN] = s->x[FS_X_E_IN];
             r[FS_CH_E_CU] = s->x[FS_X_E_CU];
             r[FS_CH_E_AIRGAP] = s->x[FS_X_E_AIRGAP];
-            r[FS_CH_W_MAG] = 1.5 * fs_mag_energy(&s->pmsm.mag, s->x[FS_X_PSI_D], s->x[FS_X_PSI_Q]);
+            r[FS_CH_W_MAG] = fs_pmsm_energy(&s->pmsm, s->x);
             r[FS_CH_THETA_EST] = dout.theta_est;
             r[FS_CH_W_M_EST] = dout.w_est / p;
             r[FS_CH_EST_VALID] = dout.est_valid;
@@ -273,17 +305,20 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
             r[FS_CH_I_D_FW] = dout.i_d_fw;
             r[FS_CH_G_W] = dout.g_w;
             r[FS_CH_INJECT] = dout.injecting;
+            fs_pmsm_currents3(&s->pmsm, s->x, &r[FS_CH_I_D3], &r[FS_CH_I_Q3]);
+            r[FS_CH_I_HF_D] = dout.i_hf_d;
+            r[FS_CH_I_HF_Q] = dout.i_hf_q;
             ++*rows;
         }
 
         /* the plant over this period */
         s->x[FS_X_UD_INT] = s->x[FS_X_UQ_INT] = 0.0;
         integrate_period(s, t);
-        if (c->delay) for (int k = 0; k < 3; ++k) s->duty_now[k] = s->duty_next[k];
+        if (c->delay) for (int k = 0; k < s->phases; ++k) s->duty_now[k] = s->duty_next[k];
         ++s->k;
         s->x[FS_X_THETA_M] = fmod(s->x[FS_X_THETA_M], 2.0 * pi_const());
 
-        for (int n = 0; n < FS_X_N; ++n) {
+        for (int n = 0; n < s->nx; ++n) {
             if (!isfinite(s->x[n])) {
                 s->stopped = FS_STOP_NAN;
                 s->stop_time = fs_sim_time(s);
@@ -291,9 +326,9 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
             }
         }
         if (c->i_trip > 0.0) {
-            phase_currents(s, s->x, i_abc, NULL, NULL);
-            for (int k = 0; k < 3; ++k) {
-                if (fabs(i_abc[k]) > c->i_trip) {
+            phase_currents(s, s->x, i_ph, NULL, NULL);
+            for (int k = 0; k < s->phases; ++k) {
+                if (fabs(i_ph[k]) > c->i_trip) {
                     s->stopped = FS_STOP_OVERCURRENT;
                     s->stop_time = fs_sim_time(s);
                     return s->stopped;

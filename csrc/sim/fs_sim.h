@@ -26,6 +26,7 @@ typedef struct {
 
 typedef enum { FS_SAMPLING_SINGLE = 0, FS_SAMPLING_DOUBLE = 1 } fs_sampling;
 
+/* plant.phases, inverter.phases and drive.phases must agree (3 or 5). */
 typedef struct {
     fs_pmsm_config plant;
     fs_inverter_config inverter;
@@ -59,23 +60,25 @@ enum {
     FS_CH_W_M,                /* true mechanical speed */
     FS_CH_PSI_D, FS_CH_PSI_Q,
     FS_CH_I_D, FS_CH_I_Q,     /* true, rotor frame */
-    FS_CH_I_A, FS_CH_I_B, FS_CH_I_C,
+    FS_CH_I_A, FS_CH_I_B, FS_CH_I_C,          /* the first three phases */
     FS_CH_T_E, FS_CH_T_L,     /* electromagnetic torque, shaft load torque */
     FS_CH_U_D, FS_CH_U_Q,     /* mean terminal voltage over the last period, rotor frame */
-    FS_CH_DUTY_A, FS_CH_DUTY_B, FS_CH_DUTY_C,   /* duties computed at this sample */
+    FS_CH_DUTY_A, FS_CH_DUTY_B, FS_CH_DUTY_C,   /* duties computed at this sample (first three legs) */
     FS_CH_W_M_REF, FS_CH_I_D_REF, FS_CH_I_Q_REF, FS_CH_T_REF,
     FS_CH_I_D_HAT, FS_CH_I_Q_HAT,               /* currents in the controller's frame */
     FS_CH_U_D_REF, FS_CH_U_Q_REF,               /* realised reference, controller frame */
     FS_CH_THETA_HAT, FS_CH_W_M_HAT,             /* angle and speed used by the controller */
     FS_CH_THETA_ERR,                            /* true minus used angle, wrapped */
     FS_CH_OVERMOD,
-    FS_CH_E_IN, FS_CH_E_CU, FS_CH_E_AIRGAP, FS_CH_W_MAG,  /* J; W_MAG is 3/2 W(psi) */
+    FS_CH_E_IN, FS_CH_E_CU, FS_CH_E_AIRGAP, FS_CH_W_MAG,  /* J; W_MAG is m/2 (W(psi) + W3), fs_pmsm_energy */
     FS_CH_THETA_EST, FS_CH_W_M_EST, FS_CH_EST_VALID,      /* the estimator's output, used or not */
     FS_CH_EST_ERR,                                        /* true minus estimated angle, wrapped */
     FS_CH_PHASE,              /* fs_drive_phase: 1 while the I/f start runs, 2 polarity detection */
     FS_CH_I_D_FW,             /* d-current added by flux weakening */
     FS_CH_G_W,                /* blending weight: 1 SMO, 0 HFI */
     FS_CH_INJECT,             /* 1 while the HF voltage is injected */
+    FS_CH_I_D3, FS_CH_I_Q3,   /* true third-harmonic currents, d3-q3 frame (0 for three phases) */
+    FS_CH_I_HF_D, FS_CH_I_HF_Q,   /* square-wave injection: HF current at the last peak, eq. (8) */
     FS_CH_N
 };
 

@@ -194,6 +194,19 @@ int main(void)
         FS_CHECK(sw.ff_fresh == (k % 2 == 0), "zero crossings at the even samples");
     }
 
+    /* carrier off: no voltage, the PLL stays where it is */
+    c.carrier_off = true;
+    fs_swvi_init(&sw, &c);
+    fs_swvi_reset(&sw, 0.3f, 0.0f);
+    const fs_ab i_any = {1.0f, -2.0f};
+    for (int k = 0; k < 40; ++k) {
+        fs_swvi_step(&sw, i_any);
+        FS_CHECK(sw.u.alpha == 0.0f && sw.u.beta == 0.0f, "carrier off: no voltage");
+    }
+    FS_CHECK_NEAR(sw.theta, 0.3, 1e-6, "carrier off: the angle holds");
+    FS_CHECK(sw.i_f.alpha == 1.0f && sw.ff_fresh == (40 % 2 == 1), "carrier off: the loops' timing kept");
+    c.carrier_off = false;
+
     /* ---- 7. init refusals ---- */
     fs_swvi_config b;
 #define REFUSE(field, value, status) \

@@ -34,6 +34,10 @@ BENCH = {
     "reasons": Spec("any", {}),
 }
 
+# The third-harmonic (d3-q3) plane of a five-phase machine, linear:
+# psi_d3 = L_d3 i_d3 + psi_f3, psi_q3 = L_q3 i_q3 (yu2022 eq. (1)).
+THIRD_HARMONIC = {"L_d3": POS(), "L_q3": POS(), "psi_f3": NONNEG()}
+
 MACHINE = {
     "name": S(), "description": S(""), "source": S(""),
     "kind": C("ipmsm", "spmsm"),
@@ -73,6 +77,10 @@ class Machine:
     extra: dict = field(default_factory=dict)   # injection, blending, ... as given
     source: str = ""
     description: str = ""
+    # five phases: the third-harmonic plane from [third_harmonic] (0 for three phases)
+    L_d3: float = 0.0       # H
+    L_q3: float = 0.0       # H
+    psi_f3: float = 0.0     # Wb
 
     def mtpa_torque(self, i: float) -> float:
         """Torque on the MTPA locus at current magnitude i (linear model), from
@@ -116,6 +124,13 @@ def machine_from_dict(data: dict, source: str | None = None, prefix: str = "mach
         raise ConfigError(f"{prefix}.bench.adc_range", b["adc_range"], f"must be >= bench.i_trip ({b['i_trip']:g})", source)
     if b["t_dead"] >= 0.5 / b["f_pwm"]:
         raise ConfigError(f"{prefix}.bench.t_dead", b["t_dead"], f"must be shorter than half the PWM period ({0.5 / b['f_pwm']:g} s)", source)
+    th = {"L_d3": 0.0, "L_q3": 0.0, "psi_f3": 0.0}
+    if d["phases"] == 5:
+        if not isinstance(d.get("third_harmonic"), dict):
+            raise ConfigError(f"{prefix}.third_harmonic", d.get("third_harmonic", "missing"),
+                              "a five-phase machine needs a [third_harmonic] table with L_d3 > 0 (H), "
+                              "L_q3 > 0 (H) and psi_f3 >= 0 (Wb)", source)
+        th = validate(d["third_harmonic"], THIRD_HARMONIC, f"{prefix}.third_harmonic", source)
     extra = {k: d[k] for k in ("injection", "blending", "paper_gains", "third_harmonic", "bench_experiment") if d.get(k) is not None}
     return Machine(
         name=d["name"], kind=d["kind"], phases=d["phases"], pole_pairs=d["pole_pairs"],
@@ -123,6 +138,7 @@ def machine_from_dict(data: dict, source: str | None = None, prefix: str = "mach
         J=m["J"], B=m["B"], T_coulomb=m["T_coulomb"],
         T_rated=r["torque"], i_rated=r["current"], w_m_rated=rpm_to_rad_s(r["speed_rpm"]),
         magnetic=d["magnetic"], bench=b, extra=extra, source=d["source"], description=d["description"],
+        L_d3=th["L_d3"], L_q3=th["L_q3"], psi_f3=th["psi_f3"],
     )
 
 

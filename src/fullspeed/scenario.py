@@ -32,7 +32,9 @@ SCENARIO = {
     }, default={}),
     "controller": T({
         "mode": C("off", "voltage", "vf", "current", "speed"),
-        "angle": C("encoder", "true", "smo", "hfi", "blend", default="encoder"),
+        "angle": C("encoder", "true", "smo", "hfi", "blend", "swvi", default="encoder"),
+        "gains": C("designed", "paper", default="designed",
+                   doc="PI gains: designed from the bandwidths, or the machine's [paper_gains]"),
         "bw_current": POS(None), "bw_speed": POS(None), "bw_pll": POS(None),
         "i_max": POS(None), "T_max": POS(None),
         "dead_time_comp": B(True), "i_dead_band": NONNEG(None),
@@ -64,15 +66,19 @@ SCENARIO = {
         "start_accel_rpm_s": POS(None, doc="frame acceleration; default from a quarter of the start current's torque"),
         "start_handover_rpm": POS(None, doc="the loops take the observer here; default twice valid_rpm"),
     }, default={}),
-    # rotating HF voltage injection (yang2022 sec. 3), for angle = "hfi" or "blend"
+    # HF voltage injection: rotating (yang2022 sec. 3) for angle = "hfi" or
+    # "blend", square-wave (yu2022 sec. 2) for angle = "swvi"
     "injection": T({
         "u_h": POS(None, doc="V; default the machine's [injection]"),
         "f_h": POS(None, doc="Hz; default the machine's [injection]; at most a quarter of the sampling rate"),
         "bw_filter_p": POS(None, doc="rad/s, SRFF at +w_h; default w_h / 20 (fs_hfi.h)"),
         "bw_filter_n": POS(None, doc="rad/s, SRFF at -w_h + 2 w_r; default w_h / 20"),
         "bw_observer": POS(None, doc="rad/s, motion observer; default bw_filter_n / 5"),
-        "xcomp": Spec("any", None, doc="cross-saturation table {i_q = [A...], delta_deg = [...]} on an even grid, or a TOML file holding it"),
+        "xcomp": Spec("any", None, doc="cross-saturation table {i_q = [A...], delta_deg = [...]} on an even grid, or a TOML file holding it, or (swvi) \"paper\": the machine's fitted error polynomial"),
         "stop_rpm": POS(None, doc="blend: the injection stops above this speed (resumes below 0.9 of it); default 1.2 x the upper blending speed"),
+        "sequence": C("optimized", "conventional", default="optimized", doc="swvi: the time sequence of yu2022 sec. 3.2"),
+        "bw_pll": POS(None, doc="swvi: PLL bandwidth, rad/s (k_p = 2 w_b, k_i = w_b^2); default the machine's [injection]"),
+        "carrier": B(True, doc="swvi: false keeps the loops' timing without the carrier (comparison runs, on the encoder)"),
     }, default={}),
     "polarity": T({
         "enabled": B(True, doc="detect the magnet polarity before starting sensorless on injection"),
@@ -86,7 +92,8 @@ SCENARIO = {
         "bw_observer": POS(None, doc="rad/s, the motion observer after the blend (Fig. 6); default that of the injection's"),
     }, default={}),
     "load": T({
-        "kind": C("torque", "speed", "speed_pi", default="torque"),
+        "kind": C("torque", "speed", "speed_pi", "brake", default="torque",
+                  doc="brake: a passive brake (powder, eddy current), torque = its magnitude against the motion"),
         "torque": P(0.0, doc="N m"), "speed_rpm": P(0.0),
         "bandwidth": POS(100.0, doc="load machine speed loop, rad/s"), "J_load": NONNEG(0.0),
     }, default={}),
@@ -190,6 +197,10 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
             obs["start_accel_rpm_s"] = T / m.J * 60 / (2 * math.pi)
     if ctl["angle"] in ("hfi", "blend"):
         _injection_fields(d, m, source)
+    if ctl["angle"] == "swvi":
+        _swvi_fields(d, m, source, bw_speed_given="bw_speed" in data.get("controller", {}))
+    if ctl["gains"] == "paper":
+        _paper_gains(d, m, source)
     if obs["handover"] > d["duration"]:
         raise ConfigError("observer.handover", obs["handover"], f"must be <= duration ({d['duration']:g} s)", source)
     if ctl["T_max"] is None:
@@ -219,17 +230,9 @@ def _injection_fields(d: dict, m: Machine, source) -> None:
     """Fill in and check the injection, polarity and blending tables."""
     ctl, inj, pol, bl = d["controller"], d["injection"], d["polarity"], d["blending"]
     L_d, L_q = m.L_d * ctl["L_d_scale"], m.L_q * ctl["L_q_scale"]   # as the controller knows them
-    if not abs(L_q - L_d) > 0.01 * 0.5 * (L_d + L_q):
-        raise ConfigError("controller.angle", ctl["angle"],
-                          f"injection needs a salient machine; {m.name} has L_d = {L_d:g} H = L_q (a non-salient machine shows no position in its inductance)", source)
-    mi = m.extra.get("injection", {})
-    for key in ("u_h", "f_h"):
-        if inj[key] is None:
-            if key not in mi:
-                raise ConfigError(f"injection.{key}", "missing", f"is required: {m.name} has no [injection].{key}", source)
-            inj[key] = float(mi[key])
-    T_pwm = 1.0 / d["converter"]["f_pwm"]
-    Ts = T_pwm / 2 if d["timing"]["sampling"] == "double" else T_pwm
+    _check_saliency(ctl, m, source)
+    _machine_injection(inj, m, ("u_h", "f_h"), source)
+    Ts = _control_period(d)
     if inj["f_h"] > 0.25 / Ts:
         raise ConfigError("injection.f_h", inj["f_h"], f"must be <= {0.25 / Ts:g} Hz: at least 4 samples per carrier period at Ts = {Ts:g} s", source)
     for key in ("bw_filter_p", "bw_filter_n", "bw_observer"):
@@ -240,7 +243,7 @@ def _injection_fields(d: dict, m: Machine, source) -> None:
     for key, w in (("bw_filter_p", w_b_p), ("bw_filter_n", w_b_n), ("bw_observer", w_o)):
         if w * Ts > 0.5:   # a default derived from the carrier
             raise ConfigError(f"injection.{key}", w, f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s (default from f_h; set it)", source)
-    u_lin = d["converter"]["u_dc"] / math.sqrt(3)
+    u_lin = _u_linear(d, m)
     if h.u_amp >= u_lin:
         raise ConfigError("injection.u_h", inj["u_h"], f"must be below {u_lin * inj['u_h'] / h.u_amp:.3g} V: the held carrier, u_h / sinc(pi f_h Ts) = {h.u_amp:.3g} V, inside the linear modulation limit u_dc/sqrt3", source)
     if bl["bw_observer"] is not None and bl["bw_observer"] * Ts > 0.5:
@@ -270,6 +273,78 @@ def _injection_fields(d: dict, m: Machine, source) -> None:
             inj["stop_rpm"] = 1.2 * bl["upper_rpm"]
         if not 0.9 * inj["stop_rpm"] >= bl["upper_rpm"]:
             raise ConfigError("injection.stop_rpm", inj["stop_rpm"], f"must be >= upper_rpm / 0.9 = {bl['upper_rpm'] / 0.9:g} (the injection resumes at 0.9 x stop_rpm)", source)
+
+
+def _check_saliency(ctl: dict, m: Machine, source) -> None:
+    L_d, L_q = m.L_d * ctl["L_d_scale"], m.L_q * ctl["L_q_scale"]   # as the controller knows them
+    if not abs(L_q - L_d) > 0.01 * 0.5 * (L_d + L_q):
+        raise ConfigError("controller.angle", ctl["angle"],
+                          f"injection needs a salient machine; {m.name} has L_d = {L_d:g} H = L_q (a non-salient machine shows no position in its inductance)", source)
+
+
+def _machine_injection(inj: dict, m: Machine, keys, source) -> None:
+    """Fields left out of [injection] from the machine's [injection]."""
+    mi = m.extra.get("injection", {})
+    for key in keys:
+        if inj[key] is None:
+            if key not in mi:
+                raise ConfigError(f"injection.{key}", "missing", f"is required: {m.name} has no [injection].{key}", source)
+            inj[key] = float(mi[key])
+
+
+def _control_period(d: dict) -> float:
+    T_pwm = 1.0 / d["converter"]["f_pwm"]
+    return T_pwm / 2 if d["timing"]["sampling"] == "double" else T_pwm
+
+
+def _u_linear(d: dict, m: Machine) -> float:
+    """The modulator's linear limit: u_dc / sqrt 3, or u_dc / (2 cos(pi/10)) on five phases."""
+    u_dc = d["converter"]["u_dc"]
+    return u_dc / (2 * math.cos(math.pi / 10)) if m.phases == 5 else u_dc / math.sqrt(3)
+
+
+def _swvi_fields(d: dict, m: Machine, source, bw_speed_given: bool) -> None:
+    """The square-wave injection (yu2022): carrier at a quarter of the sampling
+    rate, the PLL, the sequence and the cross-saturation compensation."""
+    ctl, inj = d["controller"], d["injection"]
+    _check_saliency(ctl, m, source)
+    if ctl["mode"] not in ("current", "speed"):
+        raise ConfigError("controller.mode", ctl["mode"], "must be \"current\" or \"speed\" with angle = \"swvi\"", source)
+    _machine_injection(inj, m, ("u_h", "f_h", "bw_pll"), source)
+    Ts = _control_period(d)
+    if not math.isclose(inj["f_h"], 0.25 / Ts, rel_tol=1e-6):
+        raise ConfigError("injection.f_h", inj["f_h"], f"must be 1 / (4 Ts) = {0.25 / Ts:g} Hz: the filterless processing takes four samples per carrier period (yu2022 sec. 2.2)", source)
+    if inj["bw_pll"] * Ts > 0.5:
+        raise ConfigError("injection.bw_pll", inj["bw_pll"], f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s", source)
+    if not bw_speed_given and ctl["gains"] != "paper":
+        # the speed is the PLL's PI output (fs_swvi.h), whose zero keeps its lag
+        # small up to about half the PLL's bandwidth (yu2022: 31 against 57.5 rad/s)
+        ctl["bw_speed"] = min(ctl["bw_speed"], inj["bw_pll"] / 2.0)
+    if inj["u_h"] >= _u_linear(d, m):
+        raise ConfigError("injection.u_h", inj["u_h"], f"must be below the linear modulation limit {_u_linear(d, m):.4g} V", source)
+    xc = inj["xcomp"]
+    if xc == "paper":
+        poly = m.extra.get("injection", {}).get("xcomp_paper")
+        if poly is None:
+            raise ConfigError("injection.xcomp", xc, f"{m.name} has no [injection].xcomp_paper (a fitted error polynomial)", source)
+        inj["xcomp"] = {"poly_error": [float(x) for x in poly]}
+    elif xc is not None:
+        inj["xcomp"] = _xcomp_table(xc, source)
+
+
+def _paper_gains(d: dict, m: Machine, source) -> None:
+    """The machine's [paper_gains]: current PIs in V/A and V/(A s) per axis,
+    the speed PI in A per mechanical rad/s (and per rad), turned into torque
+    with the torque constant (phases / 2) p psi_f."""
+    g = m.extra.get("paper_gains")
+    keys = ("current_kp_d", "current_ki_d", "current_kp_q", "current_ki_q", "speed_kp", "speed_ki")
+    if not g or any(k not in g for k in keys):
+        raise ConfigError("controller.gains", "paper", f"{m.name} has no complete [paper_gains] ({', '.join(keys)})", source)
+    k_T = 0.5 * m.phases * m.pole_pairs * m.psi_f
+    d["controller"]["paper_gains"] = {
+        "k_p_d": g["current_kp_d"], "k_i_d": g["current_ki_d"], "k_p_q": g["current_kp_q"], "k_i_q": g["current_ki_q"],
+        "k_p_w": g["speed_kp"] * k_T, "k_i_w": g["speed_ki"] * k_T,
+    }
 
 
 def _hfi_design(inj: dict, Ts: float, L_d: float, L_q: float, source=None):

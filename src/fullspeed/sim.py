@@ -21,7 +21,7 @@ CHANNELS = [
     "w_m_ref", "i_d_ref", "i_q_ref", "T_ref", "i_d_hat", "i_q_hat", "u_d_ref", "u_q_ref",
     "theta_hat", "w_m_hat", "theta_err", "overmod", "E_in", "E_cu", "E_airgap", "W_mag",
     "theta_est", "w_m_est", "est_valid", "est_err", "phase", "i_d_fw",
-    "g_w", "inject",
+    "g_w", "inject", "i_d3", "i_q3", "i_hf_d", "i_hf_q",
 ]
 assert len(CHANNELS) == lib.FS_CH_N, "channel names out of step with fs_sim.h"
 
@@ -35,7 +35,8 @@ STOP_REASONS = {
 MODES = {"off": lib.FS_MODE_OFF, "voltage": lib.FS_MODE_VOLTAGE_DQ, "vf": lib.FS_MODE_VF,
          "current": lib.FS_MODE_CURRENT, "speed": lib.FS_MODE_SPEED}
 ANGLES = {"encoder": lib.FS_ANGLE_ENCODER, "true": lib.FS_ANGLE_EXTERNAL, "smo": lib.FS_ANGLE_SMO,
-          "hfi": lib.FS_ANGLE_HFI, "blend": lib.FS_ANGLE_BLEND}
+          "hfi": lib.FS_ANGLE_HFI, "blend": lib.FS_ANGLE_BLEND, "swvi": lib.FS_ANGLE_SWVI}
+SEQUENCES = {"conventional": lib.FS_SWVI_CONVENTIONAL, "optimized": lib.FS_SWVI_OPTIMIZED}
 LAGS = {"exact": lib.FS_SMO_LAG_EXACT, "paper": lib.FS_SMO_LAG_PAPER}
 MAGNETIC = {"linear": lib.FS_MAG_LINEAR, "algebraic": lib.FS_MAG_ALGEBRAIC, "fluxmap": lib.FS_MAG_FLUXMAP}
 
@@ -119,13 +120,18 @@ def build_config(sc: Scenario):
         _fluxmap(pl.mag, mag, keep, sc.source)
     pl.J, pl.B, pl.T_coulomb = m.J, m.B, m.T_coulomb
     pl.w_coulomb = 1e-2
-    pl.load_kind = {"torque": lib.FS_LOAD_TORQUE, "speed": lib.FS_LOAD_SPEED_IDEAL, "speed_pi": lib.FS_LOAD_SPEED_PI}[load["kind"]]
+    pl.load_kind = {"torque": lib.FS_LOAD_TORQUE, "speed": lib.FS_LOAD_SPEED_IDEAL, "speed_pi": lib.FS_LOAD_SPEED_PI,
+                    "brake": lib.FS_LOAD_BRAKE}[load["kind"]]
     pl.J_load = load["J_load"]
     pl.load_bandwidth = load["bandwidth"]
+    pl.phases = m.phases
+    if m.phases == 5:   # the third-harmonic plane (machines.py checked the [third_harmonic] table)
+        pl.L_d3, pl.L_q3, pl.psi_f3 = m.L_d3, m.L_q3, m.psi_f3
 
     inv = cfg.inverter
     inv.kind = lib.FS_INV_SWITCHING if conv["inverter"] == "switching" else lib.FS_INV_AVERAGED
     inv.u_dc, inv.T_pwm, inv.t_dead, inv.u_on = conv["u_dc"], 1.0 / conv["f_pwm"], conv["t_dead"], conv["u_on"]
+    inv.phases = m.phases
     double = tim["sampling"] == "double"
     cfg.sampling = lib.FS_SAMPLING_DOUBLE if double else lib.FS_SAMPLING_SINGLE
     cfg.delay = 1 if tim["delay"] else 0
@@ -171,7 +177,11 @@ def build_config(sc: Scenario):
         dc.w_handover = p * rpm_to_rad_s(obs["start_handover_rpm"])
     if ctl["angle"] in ("hfi", "blend"):
         _set_injection(dc, d, p)
-    if ctl["angle"] not in ("smo", "hfi", "blend"):
+    if ctl["angle"] == "swvi":
+        _set_swvi(dc.swvi, d["injection"])
+    for key, value in ctl.get("paper_gains", {}).items():
+        setattr(dc, key, value)
+    if ctl["angle"] not in ("smo", "hfi", "blend", "swvi"):
         sensorless = ([0.0], [0.0])
     elif obs["handover"] > 0.0:
         sensorless = ([0.0, obs["handover"], obs["handover"]], [0.0, 0.0, 1.0])
@@ -210,6 +220,19 @@ def _set_injection(dc, d: dict, p: int) -> None:
         dc.w_inject_max = p * rpm_to_rad_s(inj["stop_rpm"])
     if pol["enabled"]:
         dc.polarity.i_pulse, dc.polarity.t_lock, dc.polarity.t_pulse = pol["i_pulse"], pol["t_lock"], pol["t_pulse"]
+
+
+def _set_swvi(sc, inj: dict) -> None:
+    """The square-wave injection estimator (Ts, delay and inductances come from the drive)."""
+    sc.u_h, sc.bandwidth = inj["u_h"], inj["bw_pll"]
+    sc.sequence = SEQUENCES[inj["sequence"]]
+    sc.carrier_off = not inj["carrier"]
+    xc = inj["xcomp"]
+    if xc is not None and "poly_error" in xc:
+        for k, c in enumerate(xc["poly_error"]):   # the fit is of the error theta_r - theta_hat = -delta
+            sc.xcomp.poly[k] = -c
+    elif xc is not None:
+        _set_xcomp(sc.xcomp, xc)
 
 
 def _set_xcomp(xcfg, xc: dict) -> None:
