@@ -293,7 +293,12 @@ def test_injection_and_machine_specifics():
     assert yang["bench"]["f_pwm"] / yang["injection"]["f_h"] >= 5
     assert yang["blending"]["omega_lower_rpm"] < yang["blending"]["omega_upper_rpm"]
 
-    assert yu["injection"] == {"kind": "square", "u_h": 60.0, "f_h": 2000.0}
+    inj = yu["injection"]
+    assert (inj["kind"], inj["u_h"], inj["f_h"]) == ("square", 60.0, 2000.0)
+    # the paper's PLL gains are fs_pll's design k_p = 2 w_b, k_i = w_b^2
+    assert math.isclose(2 * inj["bw_pll"], yu["paper_gains"]["pll_kp"], rel_tol=1e-3)
+    assert math.isclose(inj["bw_pll"] ** 2, yu["paper_gains"]["pll_ki"], rel_tol=1e-3)
+    assert inj["xcomp_paper"] == [0.018, -0.025, 0.0, -0.0015]   # eq. (22)
     assert yu["bench"]["sampling"] == "double"
     assert yu["paper_gains"]["pll_kp"] == 115.0
     assert yu["paper_gains"]["pll_ki"] == 3306.0

@@ -1,11 +1,13 @@
 """Offline calibration of the injection estimator's cross-saturation error.
 
 A cross-saturated machine has its HF saliency axis away from the d axis by an
-angle that grows with the q current; a rotating-injection estimator locks
-onto that axis. The calibration runs the drive in current control with the
+angle that grows with the q current; an injection estimator, rotating
+(yang2022) or square-wave (yu2022), locks onto that axis. The calibration runs the drive in current control with the
 encoder in the loop and the estimator alongside, steps i_q through the range,
 and records the estimate's lead theta_hat - theta_r at each step: the table
-the estimator then takes out online (fs_hfi.h, claim B-XCOMP-3PH).
+the estimator then takes out online (fs_xcomp.h; claims B-XCOMP-3PH,
+U-XCOUPLE). Run it where the speed is held low (the square wave's estimate
+leads by 1.5 w_e Ts besides, which is not cross-saturation).
 """
 from __future__ import annotations
 
@@ -42,9 +44,10 @@ def xsat_table(scenario: str | Path, i_q_max: float = 40.0, points: int = 17,
     profile = [[0.0, 0.0], [T_START, 0.0]]
     for k, i in enumerate(grid):
         profile += [[edges[k], float(i)], [edges[k + 1], float(i)]]
+    angle = load_scenario(scenario).data["controller"]["angle"]
     sc = load_scenario(scenario, {
         "duration": duration,
-        "controller": {"mode": "current", "angle": "hfi"},
+        "controller": {"mode": "current", "angle": "swvi" if angle == "swvi" else "hfi"},
         "observer": {"handover": duration},          # the encoder all along
         "injection": {"xcomp": None},
         "references": {"i_q": profile, "i_d": 0.0},

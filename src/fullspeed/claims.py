@@ -267,7 +267,7 @@ CLAIMS: tuple[Claim, ...] = (
             "with and without injection differs by < 2 % of the step"
         ),
         unit="A, %",
-        scenario="yu2022-filterless",
+        scenario="yu2022-filterless-idstep",
     ),
     Claim(
         id="U-SEQ-DYN",
@@ -278,7 +278,7 @@ CLAIMS: tuple[Claim, ...] = (
             "rad)"
         ),
         unit="rad",
-        scenario="yu2022-sequence-dynamic",
+        scenario="yu2022-seq-dyn",
     ),
     Claim(
         id="U-SEQ-SS",
@@ -289,7 +289,7 @@ CLAIMS: tuple[Claim, ...] = (
             "within 30 % of -1.5 we Ts"
         ),
         unit="rad",
-        scenario="yu2022-sequence-steady",
+        scenario="yu2022-seq-ss-300rpm",
     ),
     Claim(
         id="U-XCOUPLE",
@@ -300,7 +300,7 @@ CLAIMS: tuple[Claim, ...] = (
             "load-release swing smaller with"
         ),
         unit="rad",
-        scenario="yu2022-cross-coupling",
+        scenario="yu2022-xcouple",
     ),
     Claim(
         id="U-STARTUP",
@@ -308,7 +308,7 @@ CLAIMS: tuple[Claim, ...] = (
         text="0 -> 50 rpm at 1.0 s with rated load (11 N m)",
         target="max error <= 0.26 rad",
         unit="rad",
-        scenario="yu2022-startup-rated-load",
+        scenario="yu2022-startup",
     ),
     Claim(
         id="U-ULTRALOW",
@@ -316,7 +316,7 @@ CLAIMS: tuple[Claim, ...] = (
         text="5 rpm, no load and rated load",
         target="stable; abs(error) <= 0.08 rad at rated load",
         unit="rad",
-        scenario="yu2022-ultralow-speed",
+        scenario="yu2022-ultralow",
     ),
     Claim(
         id="U-THIRD",
@@ -324,7 +324,7 @@ CLAIMS: tuple[Claim, ...] = (
         text="nearest-four-vector SVPWM",
         target="d3-q3 current RMS < 5 % of the fundamental",
         unit="%",
-        scenario="yu2022-third-harmonic",
+        scenario="yu2022-xcouple",
     ),
     # --- beyond ------------------------------------------------------
     Claim(

@@ -31,8 +31,7 @@ MEASURES: dict[str, Callable[[Path], Measurement]] = {}
 
 NOT_YET = {
     "zou2021": "needs the indirect matrix converter plant and modulation: issue 7",
-    "yu2022": "needs the five-phase plant and square-wave injection: issue 6",
-    "beyond": "needs the full-range drive, square-wave injection or the Monte Carlo: issues 6, 8 and 9",
+    "beyond": "needs the full-range drive or the Monte Carlo: issues 8 and 9",
 }
 
 

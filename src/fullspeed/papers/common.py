@@ -47,6 +47,15 @@ def lock_held(res: Result, t0: float, limit_deg: float = 45.0) -> bool:
     return lock_kept(res) and bool(np.all(np.abs(np.degrees(res["est_err"][m])) < limit_deg))
 
 
+def save_figure(fig, path: Path, title: str) -> str:
+    """Title, layout, write, close; the file's name for the report."""
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path.name
+
+
 def figure_angle(results: list[tuple[str, Result]], t_show: tuple[float, float],
                  t_err: tuple[float, float], path: Path, title: str) -> str:
     """Like the papers' steady-state figures: actual and estimated angle over a

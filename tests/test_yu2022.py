@@ -1,0 +1,104 @@
+"""yu2022 in the closed loop: the filterless extraction's amplitude, the
+optimized sequence's lead, the powder brake, the five-phase torque, and the
+square-wave scenario fields' errors."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fullspeed.errors import ConfigError
+from fullspeed.metrics import window_mask
+from fullspeed.scenario import load_scenario, scenario_from_dict
+from fullspeed.sim import simulate
+from fullspeed.units import rpm_to_rad_s
+
+TS = 125e-6
+
+
+def _held(rpm: float, sequence: str, **extra) -> dict:
+    """Current control at i_q = 0, the estimator closing the loops, the speed
+    ramped up by the load machine in 0.2 s and held (sec. 4.1's simulation:
+    no dead time)."""
+    return {"name": "t", "duration": 0.8, "machine": "yu2022",
+            "converter": {"t_dead": 0.0},
+            "controller": {"mode": "current", "angle": "swvi", "gains": "paper"},
+            "injection": {"sequence": sequence},
+            "load": {"kind": "speed", "speed_rpm": [[0.0, 0.0], [0.2, rpm]]}, **extra}
+
+
+def test_filterless_extraction_returns_the_amplitude_of_eq5():
+    res = simulate("yu2022-filterless-idstep")       # the encoder in the loop, estimator alongside
+    m = machine = res.scenario.machine
+    t = res["t"]
+    fresh = window_mask(t, 0.1, 0.2) & (np.arange(t.size) % 2 == 0)
+    amp = float(np.mean(res["i_hf_d"][fresh]))
+    want = machine.extra["injection"]["u_h"] * TS / m.L_d     # eq. (5) at theta_err = 0, T_h = 4 Ts
+    assert amp == pytest.approx(want, rel=0.02)
+    assert abs(float(np.mean(res["i_hf_q"][fresh]))) < 0.02 * want
+
+
+@pytest.mark.parametrize("rpm", [150.0, 300.0])
+def test_optimized_sequence_leads_by_one_and_a_half_periods(rpm):
+    res = simulate(scenario_from_dict(_held(rpm, "optimized")))
+    w_e = res.scenario.machine.pole_pairs * rpm_to_rad_s(rpm)
+    err = float(np.mean(res["est_err"][window_mask(res["t"], 0.5, 0.8)]))
+    assert err == pytest.approx(-1.5 * w_e * TS, rel=0.3)     # eq. (18)
+
+
+def test_conventional_sequence_lags_by_the_common_mode_leak():
+    """(L_Sigma / (4 L_dif) - 1.25) w_e Ts (fs_swvi.h), in speed control at 300 rpm."""
+    res = simulate(load_scenario("yu2022-seq-ss-300rpm", {"injection": {"sequence": "conventional"},
+                                                          "converter": {"t_dead": 0.0}}))
+    m = res.scenario.machine
+    w_e = m.pole_pairs * rpm_to_rad_s(300.0)
+    lag = ((m.L_d + m.L_q) / (4 * (m.L_q - m.L_d)) - 1.25) * w_e * TS
+    assert float(np.mean(res["est_err"][window_mask(res["t"], 1.0, 1.6)])) == pytest.approx(lag, rel=0.3)
+
+
+def test_five_phase_torque_is_five_halves_p_psi_iq():
+    sc = scenario_from_dict({"name": "t", "duration": 0.3, "machine": "yu2022",
+                             "controller": {"mode": "current", "angle": "encoder"},
+                             "references": {"i_q": 4.0}, "load": {"kind": "speed", "speed_rpm": 100.0},
+                             "initial": {"speed_rpm": 100.0}})
+    res = simulate(sc)
+    m = sc.machine
+    T = float(np.mean(res["T_e"][window_mask(res["t"], 0.2, 0.3)]))
+    assert T == pytest.approx(2.5 * m.pole_pairs * m.psi_f * 4.0, rel=0.02)
+
+
+def test_powder_brake_stops_the_rotor_and_holds_it():
+    """A 2 N m brake on a free-running rotor: the speed falls at (T_b + friction) / J
+    until it sticks, then stays at zero."""
+    sc = scenario_from_dict({"name": "t", "duration": 0.6, "machine": "yu2022",   # zero current: no torque
+                             "controller": {"mode": "current", "angle": "encoder"},
+                             "load": {"kind": "brake", "torque": 2.0}, "initial": {"speed_rpm": 100.0}})
+    res = simulate(sc)
+    m = sc.machine
+    w0 = rpm_to_rad_s(100.0)
+    t_stop = m.J * w0 / (2.0 + m.T_coulomb + m.B * w0 / 2)   # friction's viscous part at the mean speed
+    t, w = res["t"], res["w_m"]
+    stopped = t[np.argmax(w < 0.01)]
+    assert stopped == pytest.approx(t_stop, rel=0.05)
+    assert np.all(np.abs(w[t > stopped + 0.01]) < 0.011)
+    assert np.all(res["T_L"][t < stopped - 0.01] == pytest.approx(2.0))
+
+
+def test_square_wave_fields_are_checked():
+    with pytest.raises(ConfigError, match=r"injection\.f_h.*1 / \(4 Ts\) = 2000 Hz"):
+        load_scenario("yu2022-seq-dyn", {"injection": {"f_h": 1000.0}})
+    with pytest.raises(ConfigError, match=r"controller\.mode"):
+        load_scenario("yu2022-seq-dyn", {"controller": {"mode": "voltage"}})
+    with pytest.raises(ConfigError, match=r"injection\.xcomp.*xcomp_paper"):
+        scenario_from_dict({"name": "t", "duration": 1.0, "machine": "yang2022", "timing": {"sampling": "double"},
+                                "controller": {"mode": "speed", "angle": "swvi"},
+                            "injection": {"u_h": 2.0, "f_h": 5000.0, "bw_pll": 100.0, "xcomp": "paper"}})
+
+
+def test_paper_gains_are_the_papers():
+    sc = load_scenario("yu2022-seq-dyn")
+    g, m = sc.data["controller"]["paper_gains"], sc.machine
+    assert (g["k_p_d"], g["k_i_d"], g["k_p_q"], g["k_i_q"]) == (16.2, 77.0, 18.8, 66.0)
+    assert g["k_p_w"] == pytest.approx(0.07 * 2.5 * m.pole_pairs * m.psi_f)
+    assert math.isclose(sc.data["injection"]["bw_pll"] ** 2, 3306.0, rel_tol=1e-3)   # K_i = w_b^2
