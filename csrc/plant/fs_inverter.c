@@ -45,13 +45,6 @@ void fs_inverter_vsd5_inverse(double alpha, double beta, double x, double y, dou
         v[k] = alpha * COS1[k] + beta * SIN1[k] + x * COS3[k] + y * SIN3[k] + zero;
 }
 
-/* Star point without neutral: phase voltages are the poles less their mean. */
-static void star5(double v[5])
-{
-    double mean = 0.2 * (v[0] + v[1] + v[2] + v[3] + v[4]);
-    for (int k = 0; k < 5; ++k) v[k] -= mean;
-}
-
 void fs_inverter_segments(const fs_inverter_config *c, const double *duty, int half,
                           fs_inv_segments *seg)
 {
@@ -138,32 +131,31 @@ void fs_inverter_phase_voltages(const fs_inverter_config *c, const int *state, c
     for (int k = 0; k < nl; ++k) u_ph[k] -= mean;
 }
 
+/* Stationary voltages of pole voltages: Clarke or the VSD, both of which
+ * drop the zero sequence, so the star point needs no subtraction here. */
+static void stationary(const fs_inverter_config *c, const double *v, double *u_alpha, double *u_beta,
+                       double *u_x, double *u_y)
+{
+    if (c->phases == 5) {
+        fs_inverter_vsd5(v, u_alpha, u_beta, u_x, u_y);
+    } else {
+        clarke(v, u_alpha, u_beta);
+        *u_x = *u_y = 0.0;
+    }
+}
+
 void fs_inverter_voltage(const fs_inverter_config *c, const int *state, const double *i_ph,
                          double *u_alpha, double *u_beta, double *u_x, double *u_y)
 {
     double v[FS_INV_MAX_LEGS];
-    if (c->phases == 5) {
-        pole_voltages(c, 5, state, i_ph, v);
-        star5(v);
-        fs_inverter_vsd5(v, u_alpha, u_beta, u_x, u_y);
-    } else {
-        pole_voltages(c, 3, state, i_ph, v);
-        clarke(v, u_alpha, u_beta);   /* drops the zero sequence itself */
-        *u_x = *u_y = 0.0;
-    }
+    pole_voltages(c, legs(c), state, i_ph, v);
+    stationary(c, v, u_alpha, u_beta, u_x, u_y);
 }
 
 void fs_inverter_mean_voltage(const fs_inverter_config *c, const double *duty, const double *i_ph,
                               double *u_alpha, double *u_beta, double *u_x, double *u_y)
 {
     double v[FS_INV_MAX_LEGS];
-    if (c->phases == 5) {
-        mean_pole_voltages(c, 5, duty, i_ph, v);
-        star5(v);
-        fs_inverter_vsd5(v, u_alpha, u_beta, u_x, u_y);
-    } else {
-        mean_pole_voltages(c, 3, duty, i_ph, v);
-        clarke(v, u_alpha, u_beta);
-        *u_x = *u_y = 0.0;
-    }
+    mean_pole_voltages(c, legs(c), duty, i_ph, v);
+    stationary(c, v, u_alpha, u_beta, u_x, u_y);
 }

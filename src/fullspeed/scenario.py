@@ -208,8 +208,7 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
     if ctl["i_dead_band"] is None:
         ctl["i_dead_band"] = 0.01 * ctl["i_max"]
     # consistency between fields
-    T_pwm = 1.0 / conv["f_pwm"]
-    Ts = T_pwm / 2 if tim["sampling"] == "double" else T_pwm
+    T_pwm, Ts = 1.0 / conv["f_pwm"], _control_period(d)
     if conv["t_dead"] >= 0.5 * T_pwm:
         raise ConfigError("converter.t_dead", conv["t_dead"], f"must be shorter than half the PWM period ({0.5 * T_pwm:g} s)", source)
     for sec, key, limit in (("controller", "bw_current", 1.0), ("controller", "fw_cutoff", 1.0), ("controller", "bw_speed", 0.5),
