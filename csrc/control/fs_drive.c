@@ -18,6 +18,14 @@ static bool drive_injects(const fs_drive_config *c)
 
 static bool drive_square(const fs_drive_config *c) { return c->angle_source == FS_ANGLE_SWVI; }
 
+static bool drive_imc(const fs_drive_config *c) { return c->converter == FS_CONV_IMC; }
+
+/* zou2021 PART_2: the depth controller runs in speed mode with flux weakening. */
+static bool drive_imc_depth(const fs_drive_config *c)
+{
+    return drive_imc(c) && c->imc_depth && c->imc_region == FS_IMC_OM2 && drive_weakens(c);
+}
+
 /* The loops' period: every other sample with the square wave (sec. 2.2). */
 static float drive_loop_Ts(const fs_drive_config *c) { return drive_square(c) ? 2.0f * c->Ts : c->Ts; }
 
@@ -129,6 +137,21 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         st = fs_swvi_init(&drv->sw, &wc);
         if (st != FS_OK) return st;
     }
+    if (cfg->converter != FS_CONV_VSI && cfg->converter != FS_CONV_IMC) return FS_ERR_MODE;
+    if (drive_imc(cfg)) {
+        if (cfg->phases != 3 || drive_square(cfg)) return FS_ERR_MODE;
+        if (cfg->imc_region < FS_IMC_LINEAR || cfg->imc_region > FS_IMC_OM2) return FS_ERR_MODE;
+        if (!(cfg->imc_w_grid >= 0.0f) || !isfinite(cfg->imc_w_grid)) return FS_ERR_PARAM;
+        if (drive_imc_depth(cfg)) {
+            if (!(cfg->imc_i_lim > 0.0f) || cfg->imc_i_lim > cfg->i_max) return FS_ERR_I_MAX;
+            fs_imc_depth_config dc;
+            st = fs_imc_depth_design(&dc, cfg->Ts, cfg->imc_i_lim, cfg->imc_V_im, cfg->fw_w_e_max,
+                                     cfg->L_d, cfg->bw_speed);
+            if (st != FS_OK) return st;
+            st = fs_imc_depth_init(&drv->depth, &dc);
+            if (st != FS_OK) return st;
+        }
+    }
     if (!(cfg->i_start >= 0.0f) || cfg->i_start > cfg->i_max) return FS_ERR_I_MAX;
     if (cfg->i_start > 0.0f && (!(cfg->a_start > 0.0f) || !(cfg->w_handover > 0.0f))) return FS_ERR_PARAM;
     fs_drive_reset(drv);
@@ -149,6 +172,8 @@ void fs_drive_reset(fs_drive *drv)
         if (drv->cfg.polarity.i_pulse > 0.0f) fs_polarity_reset(&drv->pol);
     }
     if (drive_square(&drv->cfg)) fs_swvi_reset(&drv->sw, 0.0f, 0.0f);
+    if (drive_imc_depth(&drv->cfg)) fs_imc_depth_reset(&drv->depth);
+    drv->alpha = 0.0f;
     drv->u_ff_hold.alpha = drv->u_ff_hold.beta = 0.0f;
     drv->u_ff_next = drv->u_ff_hold;
     drv->held = (fs_drive_out){0};
@@ -348,6 +373,12 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
             float iq_max = sqrtf(c->i_max * c->i_max - i_ref.d * i_ref.d);
             i_ref.q = fs_clampf(i_ref.q, -iq_max, iq_max);
         }
+        if (drive_imc_depth(c)) {
+            /* eqs. (32)-(33), gated by the polarity of i_d_fw (sec. 4.4;
+             * the low-pass leaves a tail: 1 % of i_max counts as zero) */
+            float i_amp = sqrtf(i_ref.d * i_ref.d + i_ref.q * i_ref.q);
+            drv->alpha = fs_imc_depth_step(&drv->depth, i_amp, drv->fw.i_d < -0.01f * c->i_max);
+        }
     }
     return i_ref;
 }
@@ -368,7 +399,7 @@ static float drive_u_lin(const fs_drive_config *c, float u_dc)
 
 /* Duties for the reference (fundamental plus carrier u_inj), dead-time
  * compensated; *u_f receives the realised fundamental voltage. OFF: 0.5. */
-static bool drive_modulate(const fs_drive *drv, const fs_drive_in *in, fs_ab u_ref, fs_ab u_inj,
+static bool drive_modulate(const fs_drive *drv, const fs_drive_in *in, float u_dc, fs_ab u_ref, fs_ab u_inj,
                            float duty[], fs_ab *u_f)
 {
     const fs_drive_config *c = &drv->cfg;
@@ -379,11 +410,40 @@ static bool drive_modulate(const fs_drive *drv, const fs_drive_in *in, fs_ab u_r
     }
     u_ref.alpha += u_inj.alpha;
     u_ref.beta += u_inj.beta;
-    bool over = c->phases == 5 ? fs_pwm5(u_ref, in->u_dc, duty, u_f) : fs_svpwm(u_ref, in->u_dc, duty, u_f);
+    bool over = c->phases == 5 ? fs_pwm5(u_ref, u_dc, duty, u_f) : fs_svpwm(u_ref, u_dc, duty, u_f);
     dead_time_comp(c, in->i_ph, duty);
     u_f->alpha -= u_inj.alpha;   /* the fundamental part */
     u_f->beta -= u_inj.beta;
     return over;
+}
+
+/* zou2021: the rectifier stage for the period the duties act in, from the
+ * input voltage sampled now and turned to that period's middle; returns
+ * the period mean of the virtual dc link for the inverter stage. In the
+ * linear region the reference is held inside the circle of sqrt3/2 V_im. */
+static float drive_imc_rectify(fs_drive *drv, const fs_drive_in *in, fs_ab *u_ref, fs_drive_out *out)
+{
+    const fs_drive_config *c = &drv->cfg;
+    fs_ab v = fs_clarke(in->u_in[0], in->u_in[1], in->u_in[2]);
+    const float th = c->imc_w_grid * c->Ts * (c->delay + 0.5f);
+    v = fs_inv_park((fs_dq){v.alpha, v.beta}, cosf(th), sinf(th));
+    float u_pred[3];
+    fs_inv_clarke(v, u_pred);
+    const float V_im = sqrtf(v.alpha * v.alpha + v.beta * v.beta);
+    const float m = sqrtf(u_ref->alpha * u_ref->alpha + u_ref->beta * u_ref->beta);
+    float alpha = 0.0f;
+    if (c->imc_region == FS_IMC_LINEAR) {
+        const float lim = fs_imc_vtr_max(FS_IMC_LINEAR, 0.0f) * V_im;
+        if (m > lim) {
+            u_ref->alpha *= lim / m;
+            u_ref->beta *= lim / m;
+        }
+    } else if (c->imc_region == FS_IMC_OM2) {
+        alpha = drive_imc_depth(c) ? drv->alpha : fs_imc_alpha_for_vtr(V_im > 0.0f ? m / V_im : 0.0f);
+    }
+    fs_imc_rectifier(u_pred, alpha, &out->rect);
+    out->alpha = alpha;
+    return out->rect.v_pn;
 }
 
 /* yu2022: the square-wave injection drive. The estimator runs at every
@@ -443,7 +503,7 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     }
     fs_ab u_f;
     fs_ab u_inj = c->mode == FS_MODE_OFF ? (fs_ab){0.0f, 0.0f} : sw->u;
-    drive_modulate(drv, in, drv->u_ff_hold, u_inj, out->duty, &u_f);
+    drive_modulate(drv, in, in->u_dc, drv->u_ff_hold, u_inj, out->duty, &u_f);
 
     out->theta_e = theta;
     out->w_e = w_e;
@@ -470,6 +530,8 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
 {
     const fs_drive_config *c = &drv->cfg;
     fs_ab i_ab = drive_clarke(c, in->i_ph);
+    out->rect = (fs_imc_rect){{{0, 0, 0.0f}, {0, 0, 0.0f}}, 0.0f, 0, false};
+    out->alpha = 0.0f;
     if (drive_square(c)) {
         drive_step_square(drv, in, i_ab, out);
         return;
@@ -512,7 +574,9 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     fs_ab u_inj = {0.0f, 0.0f};
     if (drv->injecting && c->mode != FS_MODE_OFF) u_inj = drv->hfi.u;   /* eq. (22) */
     fs_ab u_ab;
-    out->over_modulation = drive_modulate(drv, in, u_ab_ref, u_inj, out->duty, &u_ab);
+    float u_dc = in->u_dc;
+    if (drive_imc(c)) u_dc = drive_imc_rectify(drv, in, &u_ab_ref, out);
+    out->over_modulation = drive_modulate(drv, in, u_dc, u_ab_ref, u_inj, out->duty, &u_ab);
     drv->u_hist[1] = drv->u_hist[0];
     drv->u_hist[0] = u_ab;
     fs_dq u_real = fs_park(u_ab, cos_u, sin_u);

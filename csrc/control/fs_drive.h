@@ -15,6 +15,10 @@
  * plane of the VSD (fs_vsd.h) and modulated by nearest-four-vector PWM
  * (fs_pwm5.h), which keeps the third-harmonic plane's voltage at zero.
  * In speed mode, flux weakening adds negative d-current above base speed.
+ * The converter is a two-level voltage-source inverter on the sampled dc
+ * link, or an indirect matrix converter (zou2021, fs_imc.h) on the sampled
+ * input voltages: the rectifier stage's intervals and, for the inverter
+ * stage, the period mean of the virtual dc link in place of u_dc.
  */
 #ifndef FS_DRIVE_H
 #define FS_DRIVE_H
@@ -23,6 +27,7 @@
 #include "fs_blend.h"
 #include "fs_fw.h"
 #include "fs_hfi.h"
+#include "fs_imc.h"
 #include "fs_mtpa.h"
 #include "fs_pll.h"
 #include "fs_polarity.h"
@@ -50,6 +55,11 @@ typedef enum {
     FS_ANGLE_BLEND = 4,      /* SMO and HFI blended by speed (yang2022 sec. 4) */
     FS_ANGLE_SWVI = 5        /* square-wave HF injection, filterless (yu2022); current and speed modes */
 } fs_angle_source;
+
+typedef enum {
+    FS_CONV_VSI = 0,         /* two-level voltage-source inverter on a dc link */
+    FS_CONV_IMC = 1          /* indirect matrix converter (zou2021), three phases */
+} fs_converter;
 
 typedef enum {
     FS_PHASE_RUN = 0,        /* the loops on the configured angle source */
@@ -112,11 +122,24 @@ typedef struct {
      * bw_speed): current loop per axis, V/A and V/(A s); speed loop,
      * N m s/rad and N m/rad */
     float k_p_d, k_i_d, k_p_q, k_i_q, k_p_w, k_i_w;
+    /* the converter (fs_converter). An indirect matrix converter takes the
+     * highest modulation region it may use (fs_imc_region), the input
+     * frequency (rad/s: the sampled input voltage is turned to the middle of
+     * the period it acts in) and, in the over-modulation II region, its
+     * depth angle either from PART_2 (imc_depth = 1: speed mode with flux
+     * weakening; I_lim, and the nominal input amplitude V_im for the gains'
+     * design) or from the demanded transfer ratio (imc_depth = 0) */
+    int converter;
+    int imc_region;
+    float imc_w_grid;
+    int imc_depth;
+    float imc_i_lim, imc_V_im;
 } fs_drive_config;
 
 typedef struct {
     float i_ph[FS_PHASES_MAX];   /* sampled phase currents, A (the first `phases`) */
     float u_dc;              /* sampled dc-link voltage, V */
+    float u_in[3];           /* matrix converter: sampled input phase voltages, V */
     float theta_m_enc;       /* encoder mechanical angle, rad */
     float theta_e_ext, w_e_ext;  /* external angle source, rad, rad/s */
     /* references */
@@ -143,6 +166,8 @@ typedef struct {
     float g_w;               /* blending weight, eq. (28): 1 = SMO, 0 = HFI */
     bool injecting;          /* the HF voltage is on */
     float i_hf_d, i_hf_q;    /* square-wave injection: the HF current at the last peak, signed, eq. (8), A */
+    fs_imc_rect rect;        /* matrix converter: the rectifier stage's intervals for the next update */
+    float alpha;             /* matrix converter: the depth angle they use, rad */
 } fs_drive_out;
 
 typedef struct {
@@ -157,6 +182,8 @@ typedef struct {
     fs_blend blend;
     fs_polarity pol;
     fs_swvi sw;
+    fs_imc_depth depth;      /* matrix converter, PART_2 */
+    float alpha;             /* its last output, rad */
     int phase;               /* fs_drive_phase */
     float theta_if, w_if;    /* I/f frame */
     float theta_ol;          /* open-loop frame angle */

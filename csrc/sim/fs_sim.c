@@ -19,6 +19,10 @@ struct fs_sim {
     long long k;             /* samples taken */
     int phases;              /* 3 or 5 */
     int nx;                  /* states integrated: FS_X_N3 (three phases) or FS_X_N */
+    int imc;                 /* the converter is a matrix converter */
+    double g[FS_GRID_X_N];   /* its input side */
+    double g_int[3];         /* over the period: int i_grid_a, int v_pn, int u_AB */
+    fs_imc_rect rect_next, rect_now;
     double duty_next[FS_INV_MAX_LEGS];   /* computed, waiting for the update instant */
     double duty_now[FS_INV_MAX_LEGS];    /* acting in the current period */
     uint64_t rng;
@@ -141,6 +145,27 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
         if (!(cfg->plant.psi_f3 >= 0.0 && isfinite(cfg->plant.psi_f3)))
             FAIL("plant.psi_f3 = %g: must be >= 0 for a five-phase machine", cfg->plant.psi_f3);
     }
+    if (cfg->converter != FS_CONV_VSI && cfg->converter != FS_CONV_IMC)
+        FAIL("converter.kind = %d: must be the inverter (0) or the matrix converter (1)", cfg->converter);
+    if (cfg->drive.converter != cfg->converter)
+        FAIL("controller.converter = %d: must equal converter.kind (%d)", cfg->drive.converter, cfg->converter);
+    s->imc = cfg->converter == FS_CONV_IMC;
+    if (s->imc) {
+        if (ph != 3) FAIL("plant.phases = %d: the matrix converter drives three phases", ph);
+        if (cfg->inverter.kind != FS_INV_AVERAGED)
+            FAIL("converter.inverter = switching: the matrix converter's inverter stage is averaged per rectifier interval");
+        if (cfg->inverter.t_dead != 0.0 || cfg->inverter.u_on != 0.0)
+            FAIL("converter.t_dead = %g, u_on = %g: the matrix converter model has no dead time or device drops; must be 0",
+                 cfg->inverter.t_dead, cfg->inverter.u_on);
+        if (cfg->sampling != FS_SAMPLING_SINGLE) FAIL("timing.sampling: the matrix converter samples once per period (single)");
+        if (fs_grid_check(&cfg->grid) != 0)
+            FAIL("converter.grid: V_im, f_grid, L_f, R_f, C_f must be > 0 (got %g V, %g Hz, %g H, %g ohm, %g F)",
+                 cfg->grid.V_im, cfg->grid.f_grid, cfg->grid.L_f, cfg->grid.R_f, cfg->grid.C_f);
+        fs_grid_initial_state(&cfg->grid, s->g);
+        /* until the drive's first rectifier command: phases a and b, whole period */
+        s->rect_now.iv[0] = (fs_imc_interval){0, 1, 1.0f};
+        s->rect_next = s->rect_now;
+    }
     s->phases = ph;
     s->nx = ph == 5 ? FS_X_N : FS_X_N3;
     if (fs_pmsm_init(&s->pmsm, &cfg->plant) != 0) FAIL("machine: invalid plant parameters");
@@ -218,6 +243,75 @@ static void integrate_period(fs_sim *s, double t0)
     }
 }
 
+/* Matrix converter: the right-hand side of the machine, the filter and the
+ * period meters, in a rectifier interval with the rails on input phases p
+ * and n and the inverter legs' duties f. */
+static void imc_deriv(fs_sim *s, double t, const double *x, const double *g, const double *f, int p, int n,
+                      const fs_pmsm_input *in, double *dx, double *dg, double *dm)
+{
+    const double r3 = sqrt(3.0);
+    const double v_c[3] = {g[FS_GRID_X_VC_A], -0.5 * g[FS_GRID_X_VC_A] + 0.5 * r3 * g[FS_GRID_X_VC_B],
+                           -0.5 * g[FS_GRID_X_VC_A] - 0.5 * r3 * g[FS_GRID_X_VC_B]};
+    const double v_pn = v_c[p] - v_c[n];
+    fs_pmsm_input pin = *in;
+    pin.u_alpha = (f[0] - 0.5 * (f[1] + f[2])) * (2.0 / 3.0) * v_pn;
+    pin.u_beta = (f[1] - f[2]) / r3 * v_pn;
+    pin.u_x = pin.u_y = 0.0;
+    fs_pmsm_deriv(&s->pmsm, x, &pin, dx);
+    double i_ph[FS_INV_MAX_LEGS];
+    phase_currents(s, x, i_ph, NULL, NULL);
+    const double i_dc = f[0] * i_ph[0] + f[1] * i_ph[1] + f[2] * i_ph[2];
+    double i_in[3] = {0.0, 0.0, 0.0};
+    i_in[p] += i_dc;
+    i_in[n] -= i_dc;
+    fs_grid_deriv(&s->cfg.grid, t, g, i_in[0], (i_in[1] - i_in[2]) / r3, dg);
+    double ig_a, ig_b;
+    fs_grid_current(&s->cfg.grid, t, g, &ig_a, &ig_b);
+    dm[0] = ig_a;
+    dm[1] = v_pn;
+    dm[2] = 1.5 * pin.u_alpha - 0.5 * r3 * pin.u_beta;
+}
+
+/* One RK4 step of the machine, the filter and the meters together. */
+static void imc_rk4(fs_sim *s, double t, const double *f, int p, int n, const fs_pmsm_input *in, double h)
+{
+    enum { NX = FS_X_N, NG = FS_GRID_X_N };
+    const int nx = s->nx;
+    double kx[4][NX], kg[4][NG], km[4][3], x[NX], g[NG];
+    const double c[4] = {0.0, 0.5, 0.5, 1.0};
+    for (int st = 0; st < 4; ++st) {
+        for (int k = 0; k < nx; ++k) x[k] = s->x[k] + (st ? c[st] * h * kx[st - 1][k] : 0.0);
+        for (int k = 0; k < NG; ++k) g[k] = s->g[k] + (st ? c[st] * h * kg[st - 1][k] : 0.0);
+        imc_deriv(s, t + c[st] * h, x, g, f, p, n, in, kx[st], kg[st], km[st]);
+    }
+    for (int k = 0; k < nx; ++k) s->x[k] += h / 6.0 * (kx[0][k] + 2.0 * kx[1][k] + 2.0 * kx[2][k] + kx[3][k]);
+    for (int k = 0; k < NG; ++k) s->g[k] += h / 6.0 * (kg[0][k] + 2.0 * kg[1][k] + 2.0 * kg[2][k] + kg[3][k]);
+    for (int k = 0; k < 3; ++k) s->g_int[k] += h / 6.0 * (km[0][k] + 2.0 * km[1][k] + 2.0 * km[2][k] + km[3][k]);
+}
+
+/* Matrix converter: the period's two rectifier intervals in turn. */
+static void integrate_period_imc(fs_sim *s, double t0)
+{
+    fs_pmsm_input in = {0};
+    double slope;
+    in.T_load = fs_pwl_eval(&s->prof[P_T_LOAD], t0, NULL);
+    in.w_load = fs_pwl_eval(&s->prof[P_W_LOAD], t0, &slope);
+    in.dw_load = slope;
+    s->g_int[0] = s->g_int[1] = s->g_int[2] = 0.0;
+    double t = t0;
+    for (int v = 0; v < 2; ++v) {
+        const fs_imc_interval *iv = &s->rect_now.iv[v];
+        const double T = fmin(fmax((double)iv->d, 0.0), 1.0) * s->Tc;
+        if (T <= 0.0) continue;
+        const int steps = (int)ceil(T / s->cfg.h_max - 1e-9);
+        const double h = T / steps;
+        for (int m = 0; m < steps; ++m) {
+            imc_rk4(s, t, s->duty_now, iv->p, iv->n, &in, h);
+            t += h;
+        }
+    }
+}
+
 int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
 {
     *rows = 0;
@@ -239,6 +333,15 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
         for (int k = 0; k < s->phases; ++k) din.i_ph[k] = (float)adc(s, i_ph[k]);
         for (int k = s->phases; k < FS_PHASES_MAX; ++k) din.i_ph[k] = 0.0f;
         din.u_dc = (float)c->inverter.u_dc;
+        if (s->imc) {
+            const double r3 = sqrt(3.0), va = s->g[FS_GRID_X_VC_A], vb = s->g[FS_GRID_X_VC_B];
+            din.u_in[0] = (float)va;
+            din.u_in[1] = (float)(-0.5 * va + 0.5 * r3 * vb);
+            din.u_in[2] = (float)(-0.5 * va - 0.5 * r3 * vb);
+            if (s->k > 0) din.u_dc = (float)(s->g_int[1] / s->Tc);
+        } else {
+            din.u_in[0] = din.u_in[1] = din.u_in[2] = 0.0f;
+        }
         din.theta_m_enc = (float)encoder(s, s->x[FS_X_THETA_M]);
         din.theta_e_ext = (float)wrap_pi(p * s->x[FS_X_THETA_M]);
         din.w_e_ext = (float)(p * s->x[FS_X_W_M]);
@@ -254,7 +357,11 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
         fs_drive_out dout;
         fs_drive_step(&s->drive, &din, &dout);
         for (int k = 0; k < s->phases; ++k) s->duty_next[k] = dout.duty[k];
-        if (!c->delay) for (int k = 0; k < s->phases; ++k) s->duty_now[k] = s->duty_next[k];
+        s->rect_next = dout.rect;
+        if (!c->delay) {
+            for (int k = 0; k < s->phases; ++k) s->duty_now[k] = s->duty_next[k];
+            s->rect_now = s->rect_next;
+        }
 
         if (record) {
             double *r = trace + (size_t)(*rows) * FS_CH_N;
@@ -308,18 +415,31 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
             fs_pmsm_currents3(&s->pmsm, s->x, &r[FS_CH_I_D3], &r[FS_CH_I_Q3]);
             r[FS_CH_I_HF_D] = dout.i_hf_d;
             r[FS_CH_I_HF_Q] = dout.i_hf_q;
+            const int imc_mean = s->imc && s->k > 0;
+            r[FS_CH_I_GRID_A] = imc_mean ? s->g_int[0] / s->Tc : 0.0;
+            r[FS_CH_V_PN] = imc_mean ? s->g_int[1] / s->Tc : 0.0;
+            r[FS_CH_U_AB] = imc_mean ? s->g_int[2] / s->Tc : 0.0;
+            r[FS_CH_ALPHA] = dout.alpha;
+            r[FS_CH_E_GRID] = s->imc ? s->g[FS_GRID_X_E_GRID] : 0.0;
+            r[FS_CH_E_RF] = s->imc ? s->g[FS_GRID_X_E_RF] : 0.0;
+            r[FS_CH_W_FILTER] = s->imc ? fs_grid_energy(&c->grid, s->g) : 0.0;
             ++*rows;
         }
 
         /* the plant over this period */
         s->x[FS_X_UD_INT] = s->x[FS_X_UQ_INT] = 0.0;
-        integrate_period(s, t);
-        if (c->delay) for (int k = 0; k < s->phases; ++k) s->duty_now[k] = s->duty_next[k];
+        if (s->imc) integrate_period_imc(s, t); else integrate_period(s, t);
+        if (c->delay) {
+            for (int k = 0; k < s->phases; ++k) s->duty_now[k] = s->duty_next[k];
+            s->rect_now = s->rect_next;
+        }
         ++s->k;
         s->x[FS_X_THETA_M] = fmod(s->x[FS_X_THETA_M], 2.0 * pi_const());
 
+        int finite = 1;
+        for (int n = 0; n < FS_GRID_X_N; ++n) finite = finite && isfinite(s->g[n]);
         for (int n = 0; n < s->nx; ++n) {
-            if (!isfinite(s->x[n])) {
+            if (!isfinite(s->x[n]) || !finite) {
                 s->stopped = FS_STOP_NAN;
                 s->stop_time = fs_sim_time(s);
                 return s->stopped;

@@ -8,12 +8,25 @@
  * control period of computation delay) or, with the delay switched off, at
  * once. Python advances the simulation in chunks; every `decimation`-th
  * sample is written as a row of FS_CH_N channels into a caller's buffer.
+ *
+ * Converter: the two-level inverter on a fixed dc link, or an indirect
+ * matrix converter (zou2021): the grid and LC filter of fs_grid.h, the
+ * rectifier stage's two intervals of each period in turn (fs_imc.h), and in
+ * each interval the inverter stage averaged over its vector sequence: the
+ * pole voltages are the duties times the interval's line voltage v_pn and
+ * the dc-link current is sum(duty i), drawn from the two input phases on
+ * the rails. The plant and the filter are integrated together, so the
+ * input current is built from the switching functions and its spectrum is
+ * the converter's. Neglected: the switching ripple inside an interval, the
+ * rectifier's commutation (it switches at zero dc-link current, in the
+ * inverter's zero vectors), device drops and dead time; single sampling.
  */
 #ifndef FS_SIM_H
 #define FS_SIM_H
 
 #include <stdint.h>
 #include "../control/fs_drive.h"
+#include "../plant/fs_grid.h"
 #include "../plant/fs_inverter.h"
 #include "../plant/fs_pmsm.h"
 
@@ -30,6 +43,8 @@ typedef enum { FS_SAMPLING_SINGLE = 0, FS_SAMPLING_DOUBLE = 1 } fs_sampling;
 typedef struct {
     fs_pmsm_config plant;
     fs_inverter_config inverter;
+    int converter;            /* fs_converter; must equal drive.converter */
+    fs_grid_config grid;      /* the matrix converter's input side */
     /* timing */
     int sampling;             /* fs_sampling */
     int delay;                /* 1: duties act one control period later; 0: at once */
@@ -79,6 +94,12 @@ enum {
     FS_CH_INJECT,             /* 1 while the HF voltage is injected */
     FS_CH_I_D3, FS_CH_I_Q3,   /* true third-harmonic currents, d3-q3 frame (0 for three phases) */
     FS_CH_I_HF_D, FS_CH_I_HF_Q,   /* square-wave injection: HF current at the last peak, eq. (8) */
+    /* matrix converter (0 for the inverter): means over the last period of
+     * the grid current of phase a, the dc link and the output line voltage
+     * u_A - u_B; the depth angle computed at this sample; the grid's energy
+     * meters (fs_grid.h) and the filter's stored energy, J */
+    FS_CH_I_GRID_A, FS_CH_V_PN, FS_CH_U_AB, FS_CH_ALPHA,
+    FS_CH_E_GRID, FS_CH_E_RF, FS_CH_W_FILTER,
     FS_CH_N
 };
 

@@ -36,10 +36,12 @@ HEADERS = [
     "control/fs_hfi.h",
     "control/fs_swvi.h",
     "control/fs_polarity.h",
+    "control/fs_imc.h",
     "control/fs_drive.h",
     "plant/fs_magnetic.h",
     "plant/fs_pmsm.h",
     "plant/fs_inverter.h",
+    "plant/fs_grid.h",
     "sim/fs_sim.h",
 ]
 SOURCE_DIRS = ["control", "plant", "sim"]

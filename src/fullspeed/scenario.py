@@ -18,8 +18,15 @@ SCENARIO = {
     "duration": POS(hi=1e4, doc="simulated time, s"),
     "machine": ANY,
     "converter": T({
-        "inverter": C("averaged", "switching", default="switching"),
+        "kind": C("inverter", "imc", default="inverter",
+                  doc="imc: the indirect matrix converter of zou2021 (grid, LC filter, rectifier and inverter stages)"),
+        "inverter": C("averaged", "switching", default=None, doc="default switching; the imc's is averaged per rectifier interval"),
         "u_dc": POS(None), "f_pwm": POS(None), "t_dead": NONNEG(None), "u_on": NONNEG(0.0),
+        # the matrix converter (defaults from the machine's bench)
+        "modulation": C("linear", "om1", "om2", default="om2",
+                        doc="imc: the highest region (zou2021 sec. 3.3): linear, over-modulation I (CASE 1) or II (CASE 1 and 2)"),
+        "grid_ll_rms": POS(None, doc="V, line-line rms"), "f_grid": POS(None, doc="Hz"),
+        "l_filter": POS(None, doc="H"), "r_filter": POS(None, doc="ohm, in parallel with l_filter"), "c_filter": POS(None, doc="F"),
     }, default={}),
     "timing": T({
         "sampling": C("single", "double", default=None),
@@ -47,6 +54,9 @@ SCENARIO = {
         "fw_top_speed_rpm": POS(None, doc="w_r,max of eq. (31); default the observer's top speed"),
         "fw_gain": POS(50.0, doc="multiplies beta of eq. (31): the loop's dc gain at the top speed (the paper: 1)"),
         "fw_cutoff": POS(None, doc="rad/s, the low-pass of eq. (30); default designed in the drive's init (fs_drive.h; the paper: bw_current)"),
+        # zou2021 PART_2: the matrix converter's rectifier modulation-depth controller
+        "depth_control": B(False, doc="imc, speed mode with flux weakening and modulation om2: alpha from eq. (33); else from the demanded VTR"),
+        "i_lim": POS(None, doc="A, I_lim of eq. (33); default the machine's bench i_lim"),
     }),
     # the estimator (yang2022 sec. 2); used from `handover` on, running from t = 0
     "observer": T({
@@ -151,6 +161,10 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
     m = _machine_of(d["machine"], source)
     b = m.bench
     conv, tim, sen, ctl = d["converter"], d["timing"], d["sensors"], d["controller"]
+    if conv["kind"] == "imc":
+        _imc_fields(d, m, source)
+    if conv["inverter"] is None:
+        conv["inverter"] = "switching"
     for key in ("u_dc", "f_pwm", "t_dead"):
         if conv[key] is None:
             conv[key] = b[key]
@@ -178,6 +192,8 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         tau = min(m.L_d, m.L_q) / m.R_s if m.R_s > 0 else math.inf
         w_top = m.pole_pairs * rpm_to_rad_s(obs["top_speed_rpm"])
         tim["h_max"] = min(0.2 * tau, 0.2 / w_top, 1e-3)
+        if conv["kind"] == "imc":   # and a fifth of a radian of the input filter's resonance
+            tim["h_max"] = min(tim["h_max"], 0.2 * math.sqrt(conv["l_filter"] * conv["c_filter"]))
     if ctl["fw_top_speed_rpm"] is None:
         ctl["fw_top_speed_rpm"] = obs["top_speed_rpm"]
     if obs["start"] == "if":
@@ -223,6 +239,37 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         if not ok:
             raise ConfigError("metrics.steady", steady, f"must be [t_start, t_end] with 0 <= t_start < t_end <= duration ({d['duration']:g})", source)
     return Scenario(name=d["name"], machine=m, data=d, source=source)
+
+
+def _imc_fields(d: dict, m: Machine, source) -> None:
+    """The indirect matrix converter (zou2021): the grid and filter from the
+    bench, and what the averaged model of fs_sim.h does not have."""
+    conv, ctl, tim, b = d["converter"], d["controller"], d["timing"], m.bench
+    for key, bkey in (("grid_ll_rms", "u_grid_ll_rms"), ("f_grid", "f_grid"), ("l_filter", "l_filter"),
+                      ("r_filter", "r_filter"), ("c_filter", "c_filter")):
+        if conv[key] is None:
+            if b.get(bkey) is None:
+                raise ConfigError(f"converter.{key}", "missing", f"is required: {m.name}'s bench has no {bkey}", source)
+            conv[key] = b[bkey]
+    if m.phases != 3:
+        raise ConfigError("converter.kind", "imc", f"drives three phases; {m.name} has {m.phases}", source)
+    if conv["inverter"] == "switching":
+        raise ConfigError("converter.inverter", "switching", "must be \"averaged\" with kind = \"imc\" (the inverter stage is averaged per rectifier interval)", source)
+    conv["inverter"] = "averaged"
+    for key in ("t_dead", "u_on"):
+        if conv[key]:
+            raise ConfigError(f"converter.{key}", conv[key], "must be 0 with kind = \"imc\" (the model has no dead time or device drops)", source)
+    conv["t_dead"] = 0.0
+    if tim["sampling"] == "double":
+        raise ConfigError("timing.sampling", "double", "must be \"single\" with kind = \"imc\"", source)
+    tim["sampling"] = "single"
+    if ctl["angle"] == "swvi":
+        raise ConfigError("controller.angle", "swvi", "square-wave injection is not available with kind = \"imc\"", source)
+    if ctl["i_lim"] is None:
+        ctl["i_lim"] = b.get("i_lim") or ctl["i_max"] or b["i_max"]
+    i_max = ctl["i_max"] or b["i_max"]
+    if ctl["depth_control"] and ctl["i_lim"] > i_max:
+        raise ConfigError("controller.i_lim", ctl["i_lim"], f"must be <= controller.i_max ({i_max:g} A)", source)
 
 
 def _injection_fields(d: dict, m: Machine, source) -> None:

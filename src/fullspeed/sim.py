@@ -22,6 +22,7 @@ CHANNELS = [
     "theta_hat", "w_m_hat", "theta_err", "overmod", "E_in", "E_cu", "E_airgap", "W_mag",
     "theta_est", "w_m_est", "est_valid", "est_err", "phase", "i_d_fw",
     "g_w", "inject", "i_d3", "i_q3", "i_hf_d", "i_hf_q",
+    "i_grid_a", "v_pn", "u_ab", "alpha", "E_grid", "E_rf", "W_filter",
 ]
 assert len(CHANNELS) == lib.FS_CH_N, "channel names out of step with fs_sim.h"
 
@@ -38,6 +39,7 @@ ANGLES = {"encoder": lib.FS_ANGLE_ENCODER, "true": lib.FS_ANGLE_EXTERNAL, "smo":
           "hfi": lib.FS_ANGLE_HFI, "blend": lib.FS_ANGLE_BLEND, "swvi": lib.FS_ANGLE_SWVI}
 SEQUENCES = {"conventional": lib.FS_SWVI_CONVENTIONAL, "optimized": lib.FS_SWVI_OPTIMIZED}
 LAGS = {"exact": lib.FS_SMO_LAG_EXACT, "paper": lib.FS_SMO_LAG_PAPER}
+REGIONS = {"linear": lib.FS_IMC_LINEAR, "om1": lib.FS_IMC_OM1, "om2": lib.FS_IMC_OM2}
 MAGNETIC = {"linear": lib.FS_MAG_LINEAR, "algebraic": lib.FS_MAG_ALGEBRAIC, "fluxmap": lib.FS_MAG_FLUXMAP}
 
 
@@ -132,6 +134,12 @@ def build_config(sc: Scenario):
     inv.kind = lib.FS_INV_SWITCHING if conv["inverter"] == "switching" else lib.FS_INV_AVERAGED
     inv.u_dc, inv.T_pwm, inv.t_dead, inv.u_on = conv["u_dc"], 1.0 / conv["f_pwm"], conv["t_dead"], conv["u_on"]
     inv.phases = m.phases
+    imc = conv["kind"] == "imc"
+    cfg.converter = lib.FS_CONV_IMC if imc else lib.FS_CONV_VSI
+    if imc:
+        g = cfg.grid
+        g.V_im = conv["grid_ll_rms"] * math.sqrt(2.0 / 3.0)
+        g.f_grid, g.L_f, g.R_f, g.C_f = conv["f_grid"], conv["l_filter"], conv["r_filter"], conv["c_filter"]
     double = tim["sampling"] == "double"
     cfg.sampling = lib.FS_SAMPLING_DOUBLE if double else lib.FS_SAMPLING_SINGLE
     cfg.delay = 1 if tim["delay"] else 0
@@ -179,6 +187,13 @@ def build_config(sc: Scenario):
         _set_injection(dc, d, p)
     if ctl["angle"] == "swvi":
         _set_swvi(dc.swvi, d["injection"])
+    dc.converter = cfg.converter
+    if imc:
+        dc.imc_region = REGIONS[conv["modulation"]]
+        dc.imc_w_grid = hz_to_rad_s(conv["f_grid"])
+        dc.imc_depth = 1 if ctl["depth_control"] else 0
+        dc.imc_i_lim = ctl["i_lim"]
+        dc.imc_V_im = cfg.grid.V_im
     for key, value in ctl.get("paper_gains", {}).items():
         setattr(dc, key, value)
     if ctl["angle"] not in ("smo", "hfi", "blend", "swvi"):

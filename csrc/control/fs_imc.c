@@ -1,0 +1,141 @@
+#include "fs_imc.h"
+#include "fs_math.h"
+#include "fs_transforms.h"
+
+static const float ALPHA_MAX = FS_PI / 6.0f;
+
+float fs_imc_vpn(float alpha)
+{
+    float a = fs_clampf(alpha, 0.0f, ALPHA_MAX);
+    /* eq. (12) */
+    return 9.0f / FS_PI * (logf(tanf(FS_PI / 3.0f - 0.5f * a)) + 2.0f * FS_INV_SQRT3 * sinf(a));
+}
+
+float fs_imc_vtr_max(int region, float alpha)
+{
+    if (region == FS_IMC_LINEAR) return 0.5f * FS_SQRT3;
+    /* eq. (20): line fundamental 3 ln3 / pi V_pn; eq. (21): phase over V_im */
+    return 3.0f * logf(3.0f) / FS_PI * fs_imc_vpn(region == FS_IMC_OM1 ? 0.0f : alpha) * FS_INV_SQRT3;
+}
+
+int fs_imc_region_of(float q)
+{
+    if (q <= fs_imc_vtr_max(FS_IMC_LINEAR, 0.0f)) return FS_IMC_LINEAR;
+    if (q <= fs_imc_vtr_max(FS_IMC_OM1, 0.0f)) return FS_IMC_OM1;
+    return FS_IMC_OM2;
+}
+
+float fs_imc_alpha_for_vtr(float q)
+{
+    if (!(q > fs_imc_vtr_max(FS_IMC_OM1, 0.0f))) return 0.0f;
+    if (q >= fs_imc_vtr_max(FS_IMC_OM2, ALPHA_MAX)) return ALPHA_MAX;
+    /* eq. (12) rises monotonically on [0, pi/6]: bisection */
+    float lo = 0.0f, hi = ALPHA_MAX;
+    for (int k = 0; k < 24; ++k) {
+        float mid = 0.5f * (lo + hi);
+        if (fs_imc_vtr_max(FS_IMC_OM2, mid) < q) lo = mid; else hi = mid;
+    }
+    return 0.5f * (lo + hi);
+}
+
+float fs_imc_amplitude(const float u_in[3])
+{
+    fs_ab u = fs_clarke(u_in[0], u_in[1], u_in[2]);
+    return sqrtf(u.alpha * u.alpha + u.beta * u.beta);
+}
+
+/* Fig. 3a: sector 1 starts where phase a peaks; each is pi/6. */
+static int rect_sector(const float u_in[3])
+{
+    fs_ab u = fs_clarke(u_in[0], u_in[1], u_in[2]);
+    float th = atan2f(u.beta, u.alpha);
+    if (th < 0.0f) th += FS_TWO_PI;
+    int k = (int)(th * (6.0f / FS_PI)) + 1;
+    return k > 12 ? 12 : (k < 1 ? 1 : k);
+}
+
+void fs_imc_rectifier(const float u_in[3], float alpha, fs_imc_rect *r)
+{
+    /* x: largest magnitude; hi, mid, lo by value */
+    int x = 0;
+    for (int k = 1; k < 3; ++k) if (fabsf(u_in[k]) > fabsf(u_in[x])) x = k;
+    int hi = 0, lo = 0;
+    for (int k = 1; k < 3; ++k) {
+        if (u_in[k] > u_in[hi]) hi = k;
+        if (u_in[k] < u_in[lo]) lo = k;
+    }
+    if (hi == lo) lo = (hi + 1) % 3;   /* all equal (zero input) */
+    int mid = 3 - hi - lo;
+    const float ux = u_in[x];
+    const float v_max = u_in[hi] - u_in[lo];
+    r->sector = rect_sector(u_in);
+
+    /* CASE 2 within alpha of the middle phase's zero crossing (eq. (11)) */
+    const float s = sinf(fs_clampf(alpha, 0.0f, ALPHA_MAX));
+    r->case2 = fabsf(u_in[mid]) < s * fs_imc_amplitude(u_in) || fabsf(ux) < 1e-6f;
+    r->iv[0].p = hi;
+    r->iv[0].n = lo;
+    if (r->case2) {                         /* eqs. (7)-(8) */
+        r->iv[0].d = 1.0f;
+        r->iv[1] = r->iv[0];
+        r->iv[1].d = 0.0f;
+        r->v_pn = v_max;
+        return;
+    }
+    /* eqs. (4)-(6): x on its rail, the other on the far phase, then on mid */
+    const float d_far = fs_clampf(-u_in[x == hi ? lo : hi] / ux, 0.0f, 1.0f);
+    r->iv[0].d = d_far;
+    r->iv[1].p = x == hi ? hi : mid;
+    r->iv[1].n = x == hi ? mid : lo;
+    r->iv[1].d = 1.0f - d_far;
+    const float v_mid = u_in[r->iv[1].p] - u_in[r->iv[1].n];
+    r->v_pn = d_far * v_max + r->iv[1].d * v_mid;
+}
+
+fs_status fs_imc_depth_design(fs_imc_depth_config *cfg, float Ts, float i_lim, float V_im,
+                              float w_e_max, float L, float bw)
+{
+    if (!cfg) return FS_ERR_NULL;
+    if (!(Ts > 0.0f)) return FS_ERR_TS;
+    if (!(V_im > 0.0f) || !(w_e_max > 0.0f)) return FS_ERR_LIMIT;
+    if (!(L > 0.0f)) return FS_ERR_LD;
+    if (!(bw > 0.0f) || bw * Ts > 1.0f) return FS_ERR_BANDWIDTH;
+    float dq = fs_imc_vtr_max(FS_IMC_OM2, ALPHA_MAX) - fs_imc_vtr_max(FS_IMC_OM2, 0.0f);
+    float G = dq / ALPHA_MAX * V_im / (w_e_max * L);   /* A/rad */
+    cfg->Ts = Ts;
+    cfg->i_lim = i_lim;
+    cfg->k_i = bw / G;
+    cfg->k_p = 0.5f / G;
+    return FS_OK;
+}
+
+fs_status fs_imc_depth_init(fs_imc_depth *dc, const fs_imc_depth_config *cfg)
+{
+    if (!dc || !cfg) return FS_ERR_NULL;
+    if (!(cfg->Ts > 0.0f)) return FS_ERR_TS;
+    if (!(cfg->i_lim > 0.0f)) return FS_ERR_I_MAX;
+    if (!(cfg->k_p >= 0.0f) || !(cfg->k_i >= 0.0f) || !isfinite(cfg->k_p) || !isfinite(cfg->k_i))
+        return FS_ERR_PARAM;
+    dc->cfg = *cfg;
+    fs_imc_depth_reset(dc);
+    return FS_OK;
+}
+
+void fs_imc_depth_reset(fs_imc_depth *dc)
+{
+    dc->integ = 0.0f;
+    dc->alpha = 0.0f;
+}
+
+float fs_imc_depth_step(fs_imc_depth *dc, float i_ref, bool weakening)
+{
+    const fs_imc_depth_config *c = &dc->cfg;
+    if (!weakening || !isfinite(i_ref)) {   /* sec. 4.4: the polarity gate */
+        fs_imc_depth_reset(dc);
+        return 0.0f;
+    }
+    float e = i_ref - c->i_lim;
+    dc->integ = fs_clampf(dc->integ + c->Ts * c->k_i * e, 0.0f, ALPHA_MAX);   /* eq. (33) */
+    dc->alpha = fs_clampf(c->k_p * e + dc->integ, 0.0f, ALPHA_MAX);
+    return dc->alpha;
+}
