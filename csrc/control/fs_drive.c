@@ -371,7 +371,10 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
              * i_q* kept, then held inside the current limit circle */
             i_ref.d = fs_clampf(i_ref.d + drv->fw.i_d, -c->i_max, c->i_max);
             float iq_max = sqrtf(c->i_max * c->i_max - i_ref.d * i_ref.d);
+            float i_q0 = i_ref.q;
             i_ref.q = fs_clampf(i_ref.q, -iq_max, iq_max);
+            /* the circle took torque away: the speed PI's integral must not wind up */
+            if (i_ref.q != i_q0) fs_speed_ctrl_realised(&drv->sc, *T_ref, *T_ref * i_ref.q / i_q0);
         }
         if (drive_imc_depth(c)) {
             /* eqs. (32)-(33), gated by the polarity of i_d_fw (sec. 4.4;

@@ -30,3 +30,8 @@ void fs_speed_ctrl_preset(fs_speed_ctrl *sc, float w_m, float T)
     /* u = k_t r - k_p y + I with r = y = w_m */
     sc->pi.integ = T - (sc->pi.cfg.k_t - sc->pi.cfg.k_p) * w_m;
 }
+
+void fs_speed_ctrl_realised(fs_speed_ctrl *sc, float T_ref, float T_real)
+{
+    sc->pi.integ += T_real - T_ref;
+}

@@ -31,5 +31,8 @@ void fs_speed_ctrl_reset(fs_speed_ctrl *sc);
  * the output is T (the torque the drive makes now). */
 void fs_speed_ctrl_preset(fs_speed_ctrl *sc, float w_m, float T);
 float fs_speed_ctrl_step(fs_speed_ctrl *sc, float w_m_ref, float w_m);
+/* Anti-windup for a limit downstream (the current circle): the last step's
+ * torque T_ref was realised as T_real; the integral moves by the difference. */
+void fs_speed_ctrl_realised(fs_speed_ctrl *sc, float T_ref, float T_real);
 
 #endif /* FS_SPEED_CTRL_H */
