@@ -30,7 +30,6 @@ class Measurement:
 MEASURES: dict[str, Callable[[Path], Measurement]] = {}
 
 NOT_YET = {
-    "zou2021": "needs the indirect matrix converter plant and modulation: issue 7",
     "beyond": "needs the full-range drive or the Monte Carlo: issues 8 and 9",
 }
 

@@ -220,7 +220,12 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
     if obs["handover"] > d["duration"]:
         raise ConfigError("observer.handover", obs["handover"], f"must be <= duration ({d['duration']:g} s)", source)
     if ctl["T_max"] is None:
-        ctl["T_max"] = m.mtpa_torque(ctl["i_max"])
+        try:
+            ctl["T_max"] = m.mtpa_torque(ctl["i_max"])
+        except ValueError:   # a machine that makes no torque (a passive load): only the speed mode needs it
+            if ctl["mode"] == "speed":
+                raise ConfigError("controller.T_max", "missing", f"is required: {m.name} makes no torque by MTPA at {ctl['i_max']:g} A", source) from None
+            ctl["T_max"] = 1.0
     if ctl["i_dead_band"] is None:
         ctl["i_dead_band"] = 0.01 * ctl["i_max"]
     # consistency between fields
@@ -245,14 +250,14 @@ def _imc_fields(d: dict, m: Machine, source) -> None:
     """The indirect matrix converter (zou2021): the grid and filter from the
     bench, and what the averaged model of fs_sim.h does not have."""
     conv, ctl, tim, b = d["converter"], d["controller"], d["timing"], m.bench
+    if m.phases != 3:
+        raise ConfigError("converter.kind", "imc", f"drives three phases; {m.name} has {m.phases}", source)
     for key, bkey in (("grid_ll_rms", "u_grid_ll_rms"), ("f_grid", "f_grid"), ("l_filter", "l_filter"),
                       ("r_filter", "r_filter"), ("c_filter", "c_filter")):
         if conv[key] is None:
             if b.get(bkey) is None:
                 raise ConfigError(f"converter.{key}", "missing", f"is required: {m.name}'s bench has no {bkey}", source)
             conv[key] = b[bkey]
-    if m.phases != 3:
-        raise ConfigError("converter.kind", "imc", f"drives three phases; {m.name} has {m.phases}", source)
     if conv["inverter"] == "switching":
         raise ConfigError("converter.inverter", "switching", "must be \"averaged\" with kind = \"imc\" (the inverter stage is averaged per rectifier interval)", source)
     conv["inverter"] = "averaged"
