@@ -394,5 +394,9 @@ def experiment(out: Path) -> Measurement:
              "rise_part1_s": t1, "rise_part12_s": t12}
     ok = abs(g1 - 30.0) <= 5.0 and abs(g12 - 35.0) <= 5.0 and t12 < t1
     note = ("The prototype's conditions (sec. 6.1): 150 V input, I_max 8.8 A, I_lim 6 A; the envelope search of "
-            "Z-SPEEDRANGE at 5 N m, and the rise time (10-90 %) of the 200 -> 550 rpm step (Fig. 16).")
+            "Z-SPEEDRANGE at 5 N m, and the rise time (10-90 %) of the 200 -> 550 rpm step (Fig. 16). At 150 V "
+            "the flux-weakening drive limit-cycles near the voltage limit (about +-3 % of speed at 20-30 Hz, "
+            "alpha and i_d swinging), on a two-level inverter at the same voltage and with the true angle as "
+            "well, so the 1 % steady criterion ends both PART_1 and PART_1 + PART_2 at the same speed. The cause "
+            "is not found yet; at 380 V the same controller design holds every speed of Z-SPEEDRANGE.")
     return Measurement(value, ok, note, [])
