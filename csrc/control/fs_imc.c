@@ -44,14 +44,17 @@ float fs_imc_amplitude(const float u_in[3])
     return sqrtf(u.alpha * u.alpha + u.beta * u.beta);
 }
 
-/* Fig. 3a: sector 1 starts where phase a peaks; each is pi/6. */
-static int rect_sector(const float u_in[3])
+/* Fig. 3a from the phases' order, without the input angle: the largest
+ * and the smallest phase fix a sixth of the cycle (sector 1 and 2: a max,
+ * c min; 3 and 4: b, c; ...), and whether the phase of largest magnitude x
+ * is the largest or the smallest picks its half (x = the largest in sector 1,
+ * then alternating from pair to pair). */
+static int rect_sector(int hi, int lo, int x)
 {
-    fs_ab u = fs_clarke(u_in[0], u_in[1], u_in[2]);
-    float th = atan2f(u.beta, u.alpha);
-    if (th < 0.0f) th += FS_TWO_PI;
-    int k = (int)(th * (6.0f / FS_PI)) + 1;
-    return k > 12 ? 12 : (k < 1 ? 1 : k);
+    static const signed char pair[3][3] = {{-1, 5, 0}, {2, -1, 1}, {3, 4, -1}};   /* [hi][lo] */
+    const int k = pair[hi][lo];
+    const int first = (k % 2 == 0) ? hi : lo;
+    return 2 * k + 1 + (x != first);
 }
 
 void fs_imc_rectifier(const float u_in[3], float alpha, fs_imc_rect *r)
@@ -68,11 +71,13 @@ void fs_imc_rectifier(const float u_in[3], float alpha, fs_imc_rect *r)
     int mid = 3 - hi - lo;
     const float ux = u_in[x];
     const float v_max = u_in[hi] - u_in[lo];
-    r->sector = rect_sector(u_in);
+    r->sector = rect_sector(hi, lo, x);
 
-    /* CASE 2 within alpha of the middle phase's zero crossing (eq. (11)) */
+    /* CASE 2 within alpha of the middle phase's zero crossing (eq. (11)):
+     * |u_mid| < V_im sin(alpha), squared, with V_im^2 = 2/3 sum(u^2) */
     const float s = sinf(fs_clampf(alpha, 0.0f, ALPHA_MAX));
-    r->case2 = fabsf(u_in[mid]) < s * fs_imc_amplitude(u_in) || fabsf(ux) < 1e-6f;
+    const float sum2 = u_in[0] * u_in[0] + u_in[1] * u_in[1] + u_in[2] * u_in[2];
+    r->case2 = u_in[mid] * u_in[mid] < s * s * (2.0f / 3.0f) * sum2 || fabsf(ux) < 1e-6f;
     r->iv[0].p = hi;
     r->iv[0].n = lo;
     if (r->case2) {                         /* eqs. (7)-(8) */

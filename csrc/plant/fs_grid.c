@@ -37,16 +37,8 @@ void fs_grid_initial_state(const fs_grid_config *c, double *x)
     x[FS_GRID_X_VC_B] = cimag(v_c);
 }
 
-void fs_grid_current(const fs_grid_config *c, double t, const double *x, double *i_a, double *i_b)
-{
-    double e_a, e_b;
-    fs_grid_voltage(c, t, &e_a, &e_b);
-    *i_a = x[FS_GRID_X_IL_A] + (e_a - x[FS_GRID_X_VC_A]) / c->R_f;
-    *i_b = x[FS_GRID_X_IL_B] + (e_b - x[FS_GRID_X_VC_B]) / c->R_f;
-}
-
 void fs_grid_deriv(const fs_grid_config *c, double t, const double *x, double i_in_a, double i_in_b,
-                   double *dx)
+                   double *dx, double *i_g_a)
 {
     double e_a, e_b;
     fs_grid_voltage(c, t, &e_a, &e_b);
@@ -58,6 +50,7 @@ void fs_grid_deriv(const fs_grid_config *c, double t, const double *x, double i_
     dx[FS_GRID_X_VC_B] = (ig_b - i_in_b) / c->C_f;
     dx[FS_GRID_X_E_GRID] = 1.5 * (e_a * ig_a + e_b * ig_b);
     dx[FS_GRID_X_E_RF] = 1.5 * (u_a * u_a + u_b * u_b) / c->R_f;
+    if (i_g_a) *i_g_a = ig_a;
 }
 
 double fs_grid_energy(const fs_grid_config *c, const double *x)

@@ -37,11 +37,10 @@ int fs_grid_check(const fs_grid_config *c);
 void fs_grid_initial_state(const fs_grid_config *c, double *x);
 /* Grid voltage at t, stationary frame. */
 void fs_grid_voltage(const fs_grid_config *c, double t, double *e_a, double *e_b);
-/* Right-hand side at t for the rectifier's input current (i_a, i_b). */
+/* Right-hand side at t for the rectifier's input current (i_a, i_b); if
+ * i_g_a is not NULL it receives the grid current of phase a. */
 void fs_grid_deriv(const fs_grid_config *c, double t, const double *x, double i_in_a, double i_in_b,
-                   double *dx);
-/* Grid current at t, stationary frame. */
-void fs_grid_current(const fs_grid_config *c, double t, const double *x, double *i_a, double *i_b);
+                   double *dx, double *i_g_a);
 /* Energy stored in the filter, 3/2 (L_f |i_L|^2 + C_f |v_c|^2)/2, J. */
 double fs_grid_energy(const fs_grid_config *c, const double *x);
 

@@ -85,26 +85,42 @@ static double encoder(const fs_sim *s, double theta_m)
     return th;
 }
 
-/* Phase currents (s->phases of them) of a state, and the rotor-frame ones. */
-static void phase_currents(fs_sim *s, const double *x, double *i_ph, double *i_d, double *i_q)
+/* Three phase quantities of a stationary-frame vector (amplitude-invariant). */
+static void inv_clarke3(double a, double b, double *v)
+{
+    v[0] = a;
+    v[1] = -0.5 * a + 0.5 * sqrt(3.0) * b;
+    v[2] = -0.5 * a - 0.5 * sqrt(3.0) * b;
+}
+
+/* The fundamental-plane current of a state: stationary (alpha, beta) and,
+ * if asked, rotor frame (d, q). */
+static void stator_current(fs_sim *s, const double *x, double *i_a, double *i_b, double *i_d, double *i_q)
 {
     double id, iq;
     fs_mag_current(&s->pmsm.mag, x[FS_X_PSI_D], x[FS_X_PSI_Q], &id, &iq);
-    double th = s->pmsm.cfg.pole_pairs * x[FS_X_THETA_M];
-    double cs = cos(th), sn = sin(th);
-    double ia = cs * id - sn * iq, ib = sn * id + cs * iq;
+    const double th = s->pmsm.cfg.pole_pairs * x[FS_X_THETA_M];
+    const double cs = cos(th), sn = sin(th);
+    *i_a = cs * id - sn * iq;
+    *i_b = sn * id + cs * iq;
+    if (i_d) *i_d = id;
+    if (i_q) *i_q = iq;
+}
+
+/* Phase currents (s->phases of them) of a state, and the rotor-frame ones. */
+static void phase_currents(fs_sim *s, const double *x, double *i_ph, double *i_d, double *i_q)
+{
+    double ia, ib;
+    stator_current(s, x, &ia, &ib, i_d, i_q);
     if (s->phases == 5) {
+        const double th = s->pmsm.cfg.pole_pairs * x[FS_X_THETA_M];
         double id3, iq3;
         fs_pmsm_currents3(&s->pmsm, x, &id3, &iq3);
         double c3 = cos(3.0 * th), s3 = sin(3.0 * th);
         fs_inverter_vsd5_inverse(ia, ib, c3 * id3 - s3 * iq3, s3 * id3 + c3 * iq3, 0.0, i_ph);
     } else {
-        i_ph[0] = ia;
-        i_ph[1] = -0.5 * ia + 0.5 * sqrt(3.0) * ib;
-        i_ph[2] = -0.5 * ia - 0.5 * sqrt(3.0) * ib;
+        inv_clarke3(ia, ib, i_ph);
     }
-    if (i_d) *i_d = id;
-    if (i_q) *i_q = iq;
 }
 
 #define FAIL(...) do { snprintf(err, (size_t)err_len, __VA_ARGS__); fs_sim_destroy(s); return NULL; } while (0)
@@ -243,37 +259,50 @@ static void integrate_period(fs_sim *s, double t0)
     }
 }
 
-/* Matrix converter: the right-hand side of the machine, the filter and the
- * period meters, in a rectifier interval with the rails on input phases p
- * and n and the inverter legs' duties f. */
-static void imc_deriv(fs_sim *s, double t, const double *x, const double *g, const double *f, int p, int n,
+/* Matrix converter, one rectifier interval: the rails on input phases p
+ * and n, the inverter legs' duties f. In the stationary frame, with c_k the
+ * unit vector of phase k and w = c_p - c_n: v_pn = w.v_c, the machine's
+ * voltage is f_ab v_pn (f_ab the Clarke of the duties), the dc-link current
+ * i_dc = sum f_k i_k = 3/2 f_ab.i_ab, and the rectifier draws i_in = 2/3 w
+ * i_dc from the filter. All but the states are constant over the interval. */
+typedef struct {
+    double f_a, f_b;          /* Clarke of the duties */
+    double w_a, w_b;          /* c_p - c_n */
+} imc_interval;
+
+static imc_interval imc_interval_of(const double *f, int p, int n)
+{
+    double c_a[3] = {1.0, -0.5, -0.5}, c_b[3] = {0.0, 0.5 * sqrt(3.0), -0.5 * sqrt(3.0)};
+    imc_interval iv;
+    iv.f_a = (2.0 * f[0] - f[1] - f[2]) / 3.0;
+    iv.f_b = (f[1] - f[2]) / sqrt(3.0);
+    iv.w_a = c_a[p] - c_a[n];
+    iv.w_b = c_b[p] - c_b[n];
+    return iv;
+}
+
+/* The right-hand side of the machine, the filter and the period meters. */
+static void imc_deriv(fs_sim *s, double t, const double *x, const double *g, const imc_interval *iv,
                       const fs_pmsm_input *in, double *dx, double *dg, double *dm)
 {
-    const double r3 = sqrt(3.0);
-    const double v_c[3] = {g[FS_GRID_X_VC_A], -0.5 * g[FS_GRID_X_VC_A] + 0.5 * r3 * g[FS_GRID_X_VC_B],
-                           -0.5 * g[FS_GRID_X_VC_A] - 0.5 * r3 * g[FS_GRID_X_VC_B]};
-    const double v_pn = v_c[p] - v_c[n];
+    const double v_pn = iv->w_a * g[FS_GRID_X_VC_A] + iv->w_b * g[FS_GRID_X_VC_B];
     fs_pmsm_input pin = *in;
-    pin.u_alpha = (f[0] - 0.5 * (f[1] + f[2])) * (2.0 / 3.0) * v_pn;
-    pin.u_beta = (f[1] - f[2]) / r3 * v_pn;
+    pin.u_alpha = iv->f_a * v_pn;
+    pin.u_beta = iv->f_b * v_pn;
     pin.u_x = pin.u_y = 0.0;
     fs_pmsm_deriv(&s->pmsm, x, &pin, dx);
-    double i_ph[FS_INV_MAX_LEGS];
-    phase_currents(s, x, i_ph, NULL, NULL);
-    const double i_dc = f[0] * i_ph[0] + f[1] * i_ph[1] + f[2] * i_ph[2];
-    double i_in[3] = {0.0, 0.0, 0.0};
-    i_in[p] += i_dc;
-    i_in[n] -= i_dc;
-    fs_grid_deriv(&s->cfg.grid, t, g, i_in[0], (i_in[1] - i_in[2]) / r3, dg);
-    double ig_a, ig_b;
-    fs_grid_current(&s->cfg.grid, t, g, &ig_a, &ig_b);
+    double i_a, i_b;
+    stator_current(s, x, &i_a, &i_b, NULL, NULL);
+    const double i_dc = 1.5 * (iv->f_a * i_a + iv->f_b * i_b);
+    double ig_a;
+    fs_grid_deriv(&s->cfg.grid, t, g, 2.0 / 3.0 * iv->w_a * i_dc, 2.0 / 3.0 * iv->w_b * i_dc, dg, &ig_a);
     dm[0] = ig_a;
     dm[1] = v_pn;
-    dm[2] = 1.5 * pin.u_alpha - 0.5 * r3 * pin.u_beta;
+    dm[2] = 1.5 * pin.u_alpha - 0.5 * sqrt(3.0) * pin.u_beta;   /* u_A - u_B */
 }
 
 /* One RK4 step of the machine, the filter and the meters together. */
-static void imc_rk4(fs_sim *s, double t, const double *f, int p, int n, const fs_pmsm_input *in, double h)
+static void imc_rk4(fs_sim *s, double t, const imc_interval *iv, const fs_pmsm_input *in, double h)
 {
     enum { NX = FS_X_N, NG = FS_GRID_X_N };
     const int nx = s->nx;
@@ -282,7 +311,7 @@ static void imc_rk4(fs_sim *s, double t, const double *f, int p, int n, const fs
     for (int st = 0; st < 4; ++st) {
         for (int k = 0; k < nx; ++k) x[k] = s->x[k] + (st ? c[st] * h * kx[st - 1][k] : 0.0);
         for (int k = 0; k < NG; ++k) g[k] = s->g[k] + (st ? c[st] * h * kg[st - 1][k] : 0.0);
-        imc_deriv(s, t + c[st] * h, x, g, f, p, n, in, kx[st], kg[st], km[st]);
+        imc_deriv(s, t + c[st] * h, x, g, iv, in, kx[st], kg[st], km[st]);
     }
     for (int k = 0; k < nx; ++k) s->x[k] += h / 6.0 * (kx[0][k] + 2.0 * kx[1][k] + 2.0 * kx[2][k] + kx[3][k]);
     for (int k = 0; k < NG; ++k) s->g[k] += h / 6.0 * (kg[0][k] + 2.0 * kg[1][k] + 2.0 * kg[2][k] + kg[3][k]);
@@ -300,13 +329,14 @@ static void integrate_period_imc(fs_sim *s, double t0)
     s->g_int[0] = s->g_int[1] = s->g_int[2] = 0.0;
     double t = t0;
     for (int v = 0; v < 2; ++v) {
-        const fs_imc_interval *iv = &s->rect_now.iv[v];
-        const double T = fmin(fmax((double)iv->d, 0.0), 1.0) * s->Tc;
+        const fs_imc_interval *r = &s->rect_now.iv[v];
+        const double T = fmin(fmax((double)r->d, 0.0), 1.0) * s->Tc;
         if (T <= 0.0) continue;
+        const imc_interval iv = imc_interval_of(s->duty_now, r->p, r->n);
         const int steps = (int)ceil(T / s->cfg.h_max - 1e-9);
         const double h = T / steps;
         for (int m = 0; m < steps; ++m) {
-            imc_rk4(s, t, s->duty_now, iv->p, iv->n, &in, h);
+            imc_rk4(s, t, &iv, &in, h);
             t += h;
         }
     }
@@ -334,10 +364,9 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
         for (int k = s->phases; k < FS_PHASES_MAX; ++k) din.i_ph[k] = 0.0f;
         din.u_dc = (float)c->inverter.u_dc;
         if (s->imc) {
-            const double r3 = sqrt(3.0), va = s->g[FS_GRID_X_VC_A], vb = s->g[FS_GRID_X_VC_B];
-            din.u_in[0] = (float)va;
-            din.u_in[1] = (float)(-0.5 * va + 0.5 * r3 * vb);
-            din.u_in[2] = (float)(-0.5 * va - 0.5 * r3 * vb);
+            double u_in[3];
+            inv_clarke3(s->g[FS_GRID_X_VC_A], s->g[FS_GRID_X_VC_B], u_in);
+            for (int k = 0; k < 3; ++k) din.u_in[k] = (float)u_in[k];
             if (s->k > 0) din.u_dc = (float)(s->g_int[1] / s->Tc);
         } else {
             din.u_in[0] = din.u_in[1] = din.u_in[2] = 0.0f;

@@ -20,6 +20,7 @@ F_GRID = 50.0
 H_MAX = 40          # THD: harmonics 2..40 (2 kHz), below the 2.5 kHz Nyquist limit of the period means
 PAPER_THD = {"A": 7.89, "B": 18.16, "C": 23.54}        # %, secs. 5.3.1-5.3.3
 PAPER_RIPPLE = {"A": 0.8, "B": 7.0, "C": 10.0}         # N m peak-to-peak
+REGION_FIGURE = {"A": 11, "B": 12, "C": 13}
 STRATEGIES = {     # Figs. 9 and 15: curves A, B, C
     "id0": {"controller": {"flux_weakening": False, "depth_control": False}, "converter": {"modulation": "linear"}},
     "part1": {"controller": {"depth_control": False}, "converter": {"modulation": "om1"}},
@@ -45,24 +46,23 @@ def _grid_v_im(res: Result) -> float:
     return res.scenario.data["converter"]["grid_ll_rms"] * math.sqrt(2.0 / 3.0)
 
 
-def thd(res: Result, t0: float, t1: float) -> float:
-    """THD of the grid current of phase a, %: FFT of its period means over the
-    whole grid cycles in [t0, t1], harmonics 2..H_MAX over the fundamental."""
-    t = res["t"]
-    n_cyc = math.floor((t1 - t0) * F_GRID + 1e-9)
-    m = window_mask(t, t0, t0 + n_cyc / F_GRID - 0.5 * (t[1] - t[0]))
-    spec = np.abs(np.fft.rfft(res["i_grid_a"][m]))
-    h = n_cyc * np.arange(1, H_MAX + 1)   # bins of the harmonics
-    return 100.0 * float(np.sqrt(np.sum(spec[h[1:]] ** 2)) / spec[h[0]])
-
-
-def spectrum(res: Result, t0: float, t1: float) -> tuple[np.ndarray, np.ndarray]:
-    """Amplitude spectrum of the grid current over whole grid cycles (Hz, A)."""
+def spectrum(res: Result, t0: float, t1: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """Amplitude spectrum of the grid current of phase a (its period means)
+    over the whole grid cycles in [t0, t1]: Hz, A, and the cycle count (the
+    bin of the fundamental)."""
     t = res["t"]
     n_cyc = math.floor((t1 - t0) * F_GRID + 1e-9)
     m = window_mask(t, t0, t0 + n_cyc / F_GRID - 0.5 * (t[1] - t[0]))
     x = res["i_grid_a"][m]
-    return np.fft.rfftfreq(x.size, t[1] - t[0]), 2.0 * np.abs(np.fft.rfft(x)) / x.size
+    return np.fft.rfftfreq(x.size, t[1] - t[0]), 2.0 * np.abs(np.fft.rfft(x)) / x.size, n_cyc
+
+
+def thd(res: Result, t0: float, t1: float) -> float:
+    """THD of the grid current of phase a, %: harmonics 2..H_MAX over the
+    fundamental, over the whole grid cycles in [t0, t1]."""
+    _, amp, n_cyc = spectrum(res, t0, t1)
+    h = n_cyc * np.arange(1, H_MAX + 1)   # bins of the harmonics
+    return 100.0 * float(np.sqrt(np.sum(amp[h[1:]] ** 2)) / amp[h[0]])
 
 
 def rise_time(res: Result, t_step: float, n0: float, n1: float) -> float:
@@ -167,7 +167,7 @@ def _figure_region(res: Result, path: Path, title: str) -> str:
     ax[2, 0].set_ylabel("current (A)")
     ax[2, 0].legend(fontsize=8)
     t0, t1 = res.scenario.data["metrics"]["steady"]
-    f, amp = spectrum(res, t0, t1)
+    f, amp, _ = spectrum(res, t0, t1)
     k = f <= H_MAX * F_GRID
     ax[2, 1].bar(f[k], amp[k], width=8.0)
     ax[2, 1].set_xlabel("frequency (Hz)")
@@ -179,24 +179,24 @@ def _figure_region(res: Result, path: Path, title: str) -> str:
     return save_figure(fig, path, title)
 
 
+def _v_pn(theta: float, alpha: float, u=ffi.new("float[3]"), r=ffi.new("fs_imc_rect *")) -> float:
+    """fs_imc_rectifier's period mean over V_im at input angle theta (the
+    buffers are allocated once)."""
+    for k in range(3):
+        u[k] = math.cos(theta - k * 2 * math.pi / 3)
+    lib.fs_imc_rectifier(u, alpha, r)
+    return r.v_pn
+
+
 @register("Z-VPN")
 def vpn(out: Path) -> Measurement:
     """The rectifier's sector means from fs_imc_rectifier on ideal input
     voltages, and in the plant from the passive-load runs."""
     alphas = np.linspace(0.0, math.pi / 6, 7)
     theta = (np.arange(3600) + 0.5) * (math.pi / 6) / 3600   # midpoints over sector 1
-    r = ffi.new("fs_imc_rect *")
-    u = ffi.new("float[3]")
     worst, per_alpha = 0.0, []
     for alpha in alphas:
-        means = []
-        for sector in range(12):
-            acc = 0.0
-            for th in theta + sector * math.pi / 6:
-                u[0], u[1], u[2] = (math.cos(th - k * 2 * math.pi / 3) for k in range(3))
-                lib.fs_imc_rectifier(u, float(alpha), r)
-                acc += r.v_pn
-            means.append(acc / theta.size)
+        means = [np.mean([_v_pn(th, float(alpha)) for th in theta + sector * math.pi / 6]) for sector in range(12)]
         dev = 100.0 * max(abs(x / eq12(alpha) - 1.0) for x in means)
         worst = max(worst, dev)
         per_alpha.append(dev)
@@ -213,11 +213,7 @@ def vpn(out: Path) -> Measurement:
     fig, ax = plt.subplots(figsize=(6, 3.5))
     th = np.linspace(0, 2 * math.pi, 1441)
     for alpha in (0.0, math.pi / 12, math.pi / 6):
-        v = []
-        for x in th:
-            u[0], u[1], u[2] = (math.cos(x - k * 2 * math.pi / 3) for k in range(3))
-            lib.fs_imc_rectifier(u, alpha, r)
-            v.append(r.v_pn)
+        v = [_v_pn(x, alpha) for x in th]
         ax.plot(np.degrees(th), v, label=f"alpha = {math.degrees(alpha):.0f} deg (eq. (12): {eq12(alpha):.4f})")
     ax.set_xlabel("input angle w_i t (deg)")
     ax.set_ylabel("v_pn / V_im")
@@ -306,7 +302,7 @@ def speed_range(out: Path) -> Measurement:
 def _region(claim: str, key: str, out: Path) -> tuple[Result, dict, str]:
     res = _run(f"zou2021-region-{key.lower()}")
     st = region_stats(res)
-    fig = _figure_region(res, out / f"{claim}.png", f"Region {key} (Fig. {10 + ord(key) - ord('A') + 1})")
+    fig = _figure_region(res, out / f"{claim}.png", f"Region {key} (Fig. {REGION_FIGURE[key]})")
     return res, st, fig
 
 
