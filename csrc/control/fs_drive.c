@@ -116,7 +116,8 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         if (st != FS_OK) return st;
         if (!(cfg->fw_w_e_max >= 0.0f)) return FS_ERR_LIMIT;
         if (drive_weakens(cfg)) {
-            float w_c = cfg->fw_cutoff > 0.0f ? cfg->fw_cutoff : 0.25f * cfg->bw_current / cfg->fw_gain;
+            float w_c = cfg->fw_cutoff > 0.0f ? cfg->fw_cutoff
+                      : fminf(0.25f * cfg->bw_current, 0.5f * cfg->fw_w_e_max) / cfg->fw_gain;   /* fs_drive.h */
             fs_fw_config fc = {cfg->Ts, cfg->L_d, cfg->fw_w_e_max, cfg->fw_gain, w_c, cfg->i_max};
             st = fs_fw_init(&drv->fw, &fc);
             if (st != FS_OK) return st;

@@ -93,10 +93,16 @@ typedef struct {
     /* flux weakening in speed mode (zou2021 PART_1, fs_fw.h): the top
      * electrical speed of eq. (31), rad/s (0: off), the gain on its beta (the
      * loop's dc gain at the top speed; the paper: 1), and the low-pass cutoff
-     * of eq. (30), rad/s. Cutoff 0: designed so that the loop crosses over at
-     * gain x cutoff = bw_current / 4 (the paper instead sets the cutoff to
-     * bw_current; with its gain of 1 half the voltage excess is left and the
-     * drive falls short of the speed the voltage allows). */
+     * of eq. (30), rad/s. Cutoff 0: designed as
+     *   gain x cutoff = min(bw_current / 4, w_e,max / 2).
+     * The first bound keeps the loop below the current loop. The second
+     * bounds a fast path eq. (26) leaves out: a step in i_d* kicks u_d* by
+     * about L bw_current, the voltage limit then cuts u_q (by |u_d|/u_max of
+     * the kick) and dv_q grows, which deepens i_d* again. That positive loop
+     * peaks at gain x cutoff x |u_d|/u_max / w_e,max and must stay below 1;
+     * on zou2021's 150 V bench (w_e,max 126 rad/s) a cutoff of 750 rad/s
+     * limit-cycled at 20-30 Hz. The paper sets the cutoff to bw_current;
+     * with its gain of 1 half the voltage excess is left. */
     float fw_w_e_max, fw_gain, fw_cutoff;
     /* sensorless start (speed mode, FS_ANGLE_SMO, sensorless from standstill):
      * I/f, a current of i_start on the d axis of a frame accelerated at a_start
