@@ -1,4 +1,4 @@
-"""Command line: fullspeed run | list | reproduce | calibrate."""
+"""Command line: fullspeed run | list | sweep | reproduce | calibrate."""
 from __future__ import annotations
 
 import argparse
@@ -43,6 +43,7 @@ def _cmd_list(args) -> int:
 
     from .machines import catalog_names
     from .scenario import scenario_names
+    from .sweep import sweep_names
 
     print("machines:")
     for name in catalog_names():
@@ -52,7 +53,35 @@ def _cmd_list(args) -> int:
     for name in scenario_names():
         d = tomllib.loads((resources.files("fullspeed") / "scenarios" / f"{name}.toml").read_text())
         print(f"  {name:28s} {d.get('description', '')}")
+    print("sweeps:")
+    for name in sweep_names():
+        d = tomllib.loads((resources.files("fullspeed") / "sweeps" / f"{name}.toml").read_text())
+        print(f"  {name:28s} {d.get('description', '')}")
     return 0
+
+
+def _cmd_sweep(args) -> int:
+    import time
+
+    from .journal import default_workers
+    from .sweep import load_sweep_file, run_sweep
+
+    sw = load_sweep_file(args.file)
+    if args.workers is not None and args.workers < 1:
+        raise ConfigError("--workers", args.workers, "must be at least 1")
+    out = Path(args.out or Path("out") / "sweeps" / sw.name)
+    n = len(sw.points())
+    where = f"on Dask at {args.dask}" if args.dask else f"in {args.workers or default_workers()} worker process(es)"
+    print(f"sweep {sw.name}: {n} points {where} -> {out}", file=sys.stderr)
+    t0 = time.perf_counter()
+    path, rows = run_sweep(sw, out, workers=args.workers, dask=args.dask, progress=not args.quiet)
+    wall = time.perf_counter() - t0
+    failed = [r for r in rows if r["stop_reason"] != "done"]
+    print(f"{len(rows)} of {n} points in {wall:.1f} s wall; {len(failed)} did not finish normally; wrote {path}")
+    for r in failed[:10]:
+        print(f"  point {r['point']}: {r['stop_reason']}" + (f" ({r['error']})" if r.get("error") else "")
+              + (f" at t = {r['stop_time']:.4f} s" if r.get("stop_time") is not None else ""))
+    return 0 if len(rows) == n else 1
 
 
 def _cmd_reproduce(args) -> int:
@@ -89,6 +118,13 @@ def main(argv: list[str] | None = None) -> int:
     r.set_defaults(func=_cmd_run)
     ls = sub.add_parser("list", help="list catalog machines and scenarios")
     ls.set_defaults(func=_cmd_list)
+    sw = sub.add_parser("sweep", help="run a sweep (catalog name or TOML file): maps and Monte Carlo, resumable")
+    sw.add_argument("file")
+    sw.add_argument("--workers", type=int, help="local worker processes (default: the cores)")
+    sw.add_argument("--dask", metavar="ADDRESS", help="run on the Dask scheduler at ADDRESS instead")
+    sw.add_argument("--out", help="output folder (default out/sweeps/<name>); run again to resume")
+    sw.add_argument("--quiet", action="store_true", help="no progress bar")
+    sw.set_defaults(func=_cmd_sweep)
     rp = sub.add_parser("reproduce", help="measure the claims of CLAIMS.md")
     rp.add_argument("--paper", choices=["yang2022", "zou2021", "yu2022", "beyond"])
     rp.add_argument("--out", default="out/reproduce")

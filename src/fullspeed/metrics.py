@@ -60,7 +60,30 @@ def compute_metrics(res) -> dict:
     out["T_e_mean"] = float(np.mean(tr["T_e"][m]))
     out["T_e_pp"] = float(np.ptp(tr["T_e"][m]))
     out["theta_err_deg"] = angle_error_stats(tr["theta_err"][m])
+    out["est_err_deg"] = angle_error_stats(tr["est_err"][m])
     return out
+
+
+# The scalars of compute_metrics, by flat name ("theta_err_deg.mean"): what a
+# sweep may keep. Those a run's mode does not give are empty for it.
+METRIC_NAMES = (
+    "stop_reason", "stop_time", "sim_time", "wall_time", "speed_ratio", "i_phase_max",
+    "speed_ref_rpm", "speed_rpm", "speed_error_pct", "i_d_error_rms", "i_q_error_rms",
+    "T_e_mean", "T_e_pp",
+    "theta_err_deg.mean", "theta_err_deg.pp", "theta_err_deg.max",
+    "est_err_deg.mean", "est_err_deg.pp", "est_err_deg.max",
+)
+
+
+def flat_metrics(metrics: dict) -> dict:
+    """compute_metrics' scalars under their flat names (METRIC_NAMES)."""
+    out = {}
+    for k, v in metrics.items():
+        if isinstance(v, dict):
+            out.update({f"{k}.{kk}": vv for kk, vv in v.items()})
+        elif not isinstance(v, (list, tuple)):
+            out[k] = v
+    return {k: out.get(k) for k in METRIC_NAMES}
 
 
 def json_safe(x):

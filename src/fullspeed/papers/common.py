@@ -122,21 +122,36 @@ def figure_dynamic(res: Result, path: Path, title: str, t_win: tuple[float, floa
     return path.name
 
 
-def error_map(scenario: str, currents: list[float], speeds: list[float], overrides, t0: float = 0.5,
-              t1: float = 1.0, locked=lock_kept, t_lock: float = 0.0):
+def map_point(task: dict) -> dict:
+    """One run of a map (a sweep task): the error's mean and pp over
+    [t0, t1], el.deg, and whether it kept lock (from t_lock on, if given)."""
+    r = run(task["scenario"], task["overrides"])
+    s = error_stats(r, task["t0"], task["t1"])
+    held = lock_held(r, task["t_lock"]) if task["t_lock"] is not None else lock_kept(r)
+    return {"mean": s["mean"], "pp": s["pp"], "locked": held, "stop_reason": r.stop_reason}
+
+
+def sweep_dir(out: Path, claim: str) -> Path:
+    """Where a claim's runs are journaled (fullspeed.journal), afresh each
+    reproduction: reused results from older code would not be measured."""
+    return out / "sweeps" / claim
+
+
+def error_map(scenario: str, currents: list[float], speeds: list[float], overrides, out: Path,
+              t0: float = 0.5, t1: float = 1.0, t_lock: float | None = None):
     """Mean and pp error (el.deg) over [t0, t1] at each (current, speed) of
     a map (Figs. 9, 13), overrides(i_q, rpm) giving each run's changes; and
-    whether every run kept lock."""
-    mean = np.zeros((len(currents), len(speeds)))
-    pp = np.zeros_like(mean)
-    ok = True
-    for a, iq in enumerate(currents):
-        for b, n in enumerate(speeds):
-            r = run(scenario, overrides(iq, float(n)))
-            ok &= locked(r, t_lock) if t_lock else locked(r)
-            s = error_stats(r, t0, t1)
-            mean[a, b], pp[a, b] = s["mean"], s["pp"]
-    return mean, pp, bool(ok)
+    whether every run kept lock (held within 45 deg from t_lock on, if
+    given). The runs go through the sweep engine, in parallel, into out."""
+    from ..journal import run_tasks
+
+    tasks = [{"scenario": scenario, "overrides": overrides(iq, float(n)), "t0": t0, "t1": t1, "t_lock": t_lock}
+             for iq in currents for n in speeds]
+    res = run_tasks(map_point, tasks, out, fresh=True)
+    shape = (len(currents), len(speeds))
+    mean = np.array([r["mean"] if r["mean"] is not None else np.nan for r in res]).reshape(shape)
+    pp = np.array([r["pp"] if r["pp"] is not None else np.nan for r in res]).reshape(shape)
+    return mean, pp, all(r.get("locked", False) for r in res)
 
 
 def pp_falls_with_speed(pp: np.ndarray, speeds: list[float]) -> tuple[list[float], list[bool]]:

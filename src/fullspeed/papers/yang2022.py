@@ -8,7 +8,7 @@ import numpy as np
 
 from ..reproduce import Measurement
 from .common import (error_map, error_stats, figure_angle, figure_dynamic, figure_map, lock_held, lock_kept,
-                     pp_falls_with_speed, register, run)
+                     pp_falls_with_speed, register, run, sweep_dir)
 
 SS = "yang2022-smo-steady-400rpm"
 
@@ -42,7 +42,8 @@ CURRENTS = [5.0, 10.0, 15.0, 20.0, 25.0]
 @register("Y-SMO-MAP")
 def smo_map(out: Path) -> Measurement:
     mean, pp, locked = error_map(SS, CURRENTS, SPEEDS,
-                                 lambda iq, n: {"references": {"i_q": iq}, "load": {"speed_rpm": n}})
+                                 lambda iq, n: {"references": {"i_q": iq}, "load": {"speed_rpm": n}},
+                                 sweep_dir(out, "Y-SMO-MAP"))
     spearman, falls = pp_falls_with_speed(pp, SPEEDS)
     value = {"max_abs_mean": float(np.max(np.abs(mean))), "min_spearman_pp_speed": max(spearman),
              "pp_at_200rpm_25A": float(pp[-1, 0]), "pp_at_1600rpm_25A": float(pp[-1, -1])}
@@ -115,7 +116,8 @@ def hfi_map(out: Path) -> Measurement:
     def overrides(iq, n):
         return {**_iq_ramp(iq), "load": {"speed_rpm": n}, "initial": {"speed_rpm": n}}
 
-    mean, pp, locked = error_map(HFI_SS, HFI_CURRENTS, HFI_SPEEDS, overrides, locked=lock_held, t_lock=T_LOCK)
+    mean, pp, locked = error_map(HFI_SS, HFI_CURRENTS, HFI_SPEEDS, overrides, sweep_dir(out, "Y-HFI-MAP"),
+                                 t_lock=T_LOCK)
     grows = bool(np.all(np.diff(np.abs(mean), axis=0) > 0))
     spread = np.ptp(mean, axis=1)
     spearman, falls = pp_falls_with_speed(pp, HFI_SPEEDS)

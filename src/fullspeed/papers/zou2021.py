@@ -10,11 +10,12 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from .._core import ffi, lib
+from ..journal import run_tasks
 from ..metrics import window_mask
 from ..reproduce import Measurement
 from ..sim import Result
 from ..units import rad_s_to_rpm
-from .common import register, run, save_figure
+from .common import register, run, save_figure, sweep_dir
 
 F_GRID = 50.0
 H_MAX = 40          # THD: harmonics 2..40 (2 kHz), below the 2.5 kHz Nyquist limit of the period means
@@ -127,13 +128,23 @@ def max_speed(name: str, overrides: dict, T: float, lo: float, hi: float, tol: f
     return lo
 
 
-def envelopes(name: str, torques: list[float], extra: dict, lo: float, hi: float) -> dict:
-    """Highest held speed per strategy and torque (Figs. 9 and 15)."""
-    out = {}
-    for key, ov in STRATEGIES.items():
+def envelope_point(task: dict) -> dict:
+    """One point of an envelope (a sweep task): the highest speed held."""
+    return {"rpm": max_speed(task["scenario"], task["overrides"], task["T"], task["lo"], task["hi"])}
+
+
+def envelopes(name: str, torques: list[float], extra: dict, lo: float, hi: float, out: Path,
+              strategies: dict = STRATEGIES) -> dict:
+    """Highest held speed per strategy and torque (Figs. 9 and 15); the
+    searches run through the sweep engine, in parallel, into out."""
+    tasks = []
+    for key, ov in strategies.items():
         merged = {sec: {**extra.get(sec, {}), **ov.get(sec, {})} for sec in set(extra) | set(ov)}
-        out[key] = [max_speed(name, merged, T, lo, hi) for T in torques]
-    return out
+        tasks += [{"scenario": name, "overrides": merged, "T": T, "lo": lo, "hi": hi} for T in torques]
+    res = run_tasks(envelope_point, tasks, out, fresh=True)
+    rpm = [r["rpm"] if r.get("rpm") is not None else math.nan for r in res]
+    n = len(torques)
+    return {key: rpm[k * n:(k + 1) * n] for k, key in enumerate(strategies)}
 
 
 def _figure_envelopes(torques, env, path: Path, title: str) -> str:
@@ -266,11 +277,10 @@ def vtr(out: Path) -> Measurement:
     return Measurement(value, ok, note, [fig_name])
 
 
-@lru_cache(maxsize=None)
-def _envelopes_sim() -> tuple[list[float], dict]:
+def _envelopes_sim(out: Path) -> tuple[list[float], dict]:
     torques = [2.5, 5.0, 7.5, 10.0, 12.5, 15.0]
-    env = envelopes("zou2021-speed-range", torques, {}, 500.0, 3000.0)
-    env["id0_om1"] = [max_speed("zou2021-speed-range", ID0_OM1, T, 500.0, 3000.0) for T in torques]
+    env = envelopes("zou2021-speed-range", torques, {}, 500.0, 3000.0, sweep_dir(out, "Z-SPEEDRANGE"),
+                    {**STRATEGIES, "id0_om1": ID0_OM1})
     return torques, env
 
 
@@ -282,7 +292,7 @@ def _gains(torques: list[float], env: dict, T: float) -> tuple[float, float]:
 
 @register("Z-SPEEDRANGE")
 def speed_range(out: Path) -> Measurement:
-    torques, env = _envelopes_sim()
+    torques, env = _envelopes_sim(out)
     g1, g12 = _gains(torques, env, 10.0)
     per_torque = {T: _gains(torques, env, T) for T in torques}
     k = torques.index(10.0)
@@ -388,7 +398,7 @@ def rise(out: Path) -> Measurement:
 def experiment(out: Path) -> Measurement:
     bench = {"converter": {"grid_ll_rms": 150.0}, "controller": {"i_max": 8.8, "i_lim": 6.0, "fw_top_speed_rpm": 600.0}}
     torques = [5.0]
-    env = envelopes("zou2021-speed-range", torques, bench, 100.0, 1200.0)
+    env = envelopes("zou2021-speed-range", torques, bench, 100.0, 1200.0, sweep_dir(out, "Z-EXP"))
     g1, g12 = _gains(torques, env, 5.0)
     both = run("zou2021-experiment")
     part1 = run("zou2021-experiment", PART1_ONLY)
