@@ -123,6 +123,14 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
             if (st != FS_OK) return st;
         }
     }
+    if (cfg->lock_time > 0.0f) {
+        fs_lock_config lc = {Tl, cfg->lock_time};
+        st = fs_lock_init(&drv->lock, &lc);
+        if (st != FS_OK) return st;
+        drv->lock_a = expf(-4.0f * Tl / cfg->lock_time);
+    } else if (!(cfg->lock_time == 0.0f)) {
+        return FS_ERR_LIMIT;
+    }
     if (drive_injects(cfg)) {
         st = drive_init_injection(drv, cfg);
         if (st != FS_OK) return st;
@@ -174,6 +182,8 @@ void fs_drive_reset(fs_drive *drv)
     }
     if (drive_square(&drv->cfg)) fs_swvi_reset(&drv->sw, 0.0f, 0.0f);
     if (drive_imc_depth(&drv->cfg)) fs_imc_depth_reset(&drv->depth);
+    if (drv->cfg.lock_time > 0.0f) fs_lock_reset(&drv->lock);
+    drv->lock_ri = drv->lock_es = drv->lock_eh = 0.0f;
     drv->alpha = 0.0f;
     drv->u_ff_hold.alpha = drv->u_ff_hold.beta = 0.0f;
     drv->u_ff_next = drv->u_ff_hold;
@@ -387,6 +397,29 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
     return i_ref;
 }
 
+/* The loss-of-lock residual of the estimator the loops use (fs_drive.h):
+ * <= 1 on track, 0 while not monitored. Its signals are low-passed over a
+ * quarter of lock_time first: single samples of a heterodyne or PLL error
+ * are noisy, a lost estimator's are large for long. */
+static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, float g_w)
+{
+    const fs_drive_config *c = &drv->cfg;
+    if (!in->sensorless || drv->phase != FS_PHASE_RUN) return 0.0f;
+    const bool blend = c->angle_source == FS_ANGLE_BLEND;
+    const float a = drv->lock_a;
+    float r = 0.0f;
+    if ((c->angle_source == FS_ANGLE_SMO || (blend && g_w > 0.0f)) && drv->smo.valid) {
+        drv->lock_ri = a * drv->lock_ri + (1.0f - a) * drv->smo.r_i;
+        drv->lock_es = a * drv->lock_es + (1.0f - a) * drv->smo.eps;
+        r = fmaxf(0.5f * drv->lock_ri, 2.0f * fabsf(drv->lock_es));           /* 2 delta, sin 30 deg */
+    }
+    if ((c->angle_source == FS_ANGLE_HFI || (blend && g_w < 1.0f)) && drv->injecting && drv->hfi.k_settle == 0) {
+        drv->lock_eh = a * drv->lock_eh + (1.0f - a) * drv->hfi.eps;
+        r = fmaxf(r, fabsf(drv->lock_eh) * 3.8197186f);                      /* 15 deg = 0.2618 rad */
+    }
+    return r;
+}
+
 /* The phase currents in the stationary frame (the fundamental plane with
  * five phases). */
 static fs_ab drive_clarke(const fs_drive_config *c, const float i_ph[])
@@ -528,6 +561,8 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     out->injecting = c->mode != FS_MODE_OFF;
     out->i_hf_d = sw->i_h.d;
     out->i_hf_q = sw->i_h.q;
+    out->lock_resid = 0.0f;   /* square-wave injection: not monitored yet */
+    out->lock_lost = false;
 }
 
 void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
@@ -621,4 +656,10 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     out->phase = drv->phase;
     out->i_d_fw = drive_weakens(c) ? drv->fw.i_d : 0.0f;
     out->i_hf_d = out->i_hf_q = 0.0f;
+    out->lock_resid = 0.0f;
+    out->lock_lost = false;
+    if (c->lock_time > 0.0f) {
+        out->lock_resid = drive_lock_residual(drv, in, out->g_w);
+        out->lock_lost = fs_lock_step(&drv->lock, out->lock_resid);
+    }
 }

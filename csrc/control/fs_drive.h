@@ -28,6 +28,7 @@
 #include "fs_fw.h"
 #include "fs_hfi.h"
 #include "fs_imc.h"
+#include "fs_lock.h"
 #include "fs_mtpa.h"
 #include "fs_pll.h"
 #include "fs_polarity.h"
@@ -104,6 +105,13 @@ typedef struct {
      * limit-cycled at 20-30 Hz. The paper sets the cutoff to bw_current;
      * with its gain of 1 half the voltage excess is left. */
     float fw_w_e_max, fw_gain, fw_cutoff;
+    /* loss-of-lock monitor (fs_lock.h) while the loops run sensorless: the
+     * time, s, the estimator in use may spend off track, net, before lock
+     * counts as lost (0: no monitor). The residual: the sliding-mode
+     * observer's current error over twice its boundary layer and its PLL
+     * error over sin 30 deg (once valid); the injection estimator's error
+     * over 15 deg (once settled); in the blend, those whose weight is not 0. */
+    float lock_time;
     /* sensorless start (speed mode, FS_ANGLE_SMO, sensorless from standstill):
      * I/f, a current of i_start on the d axis of a frame accelerated at a_start
      * (el. rad/s^2) up to w_handover (el. rad/s), where the loops take the
@@ -174,6 +182,8 @@ typedef struct {
     float i_hf_d, i_hf_q;    /* square-wave injection: the HF current at the last peak, signed, eq. (8), A */
     fs_imc_rect rect;        /* matrix converter: the rectifier stage's intervals for the next update */
     float alpha;             /* matrix converter: the depth angle they use, rad */
+    float lock_resid;        /* the loss-of-lock residual (<= 1: on track), 0 when not monitored */
+    bool lock_lost;          /* latched by the monitor (fs_lock.h) */
 } fs_drive_out;
 
 typedef struct {
@@ -189,6 +199,9 @@ typedef struct {
     fs_polarity pol;
     fs_swvi sw;
     fs_imc_depth depth;      /* matrix converter, PART_2 */
+    fs_lock lock;
+    float lock_a;            /* the residual's low-pass pole */
+    float lock_ri, lock_es, lock_eh;   /* low-passed: SMO current error / delta, SMO PLL error, HFI error */
     float alpha;             /* its last output, rad */
     int phase;               /* fs_drive_phase */
     float theta_if, w_if;    /* I/f frame */

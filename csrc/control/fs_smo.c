@@ -40,6 +40,7 @@ void fs_smo_reset(fs_smo *o, float theta, float w)
     o->w = w;
     o->dir = w < 0.0f ? -1.0f : 1.0f;
     o->valid = false;
+    o->r_i = o->eps = 0.0f;
 }
 
 static float sat(float x, float delta)  /* eq. (6) */
@@ -61,6 +62,7 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
     /* eqs. (5)-(7): switching function on the current error */
     o->z.alpha = o->k * sat(o->i_hat.alpha - i.alpha, o->delta);
     o->z.beta = o->k * sat(o->i_hat.beta - i.beta, o->delta);
+    o->r_i = fmaxf(fabsf(o->i_hat.alpha - i.alpha), fabsf(o->i_hat.beta - i.beta)) / o->delta;
     /* Fig. 1: adaptive low-pass filter, cutoff at the estimated speed */
     fs_ab e = fs_lpf_step(&o->lpf, o->z, w);
     /* eq. (12): normalized PLL error, sin(theta - theta_pll). The EMF turns
@@ -77,6 +79,7 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
         eps *= o->dir;
     }
     fs_pll_step(&o->pll, eps);
+    o->eps = eps;
     o->w = o->pll.w;
     if (o->w > c->w_valid) o->dir = 1.0f;
     else if (o->w < -c->w_valid) o->dir = -1.0f;

@@ -59,6 +59,8 @@ typedef struct {
     float w;             /* estimated electrical speed, rad/s */
     bool valid;
     float dir;           /* direction of rotation the PLL error assumes: +1, -1 (hysteresis at w_valid) */
+    float r_i;           /* max |current error| over delta at the last step: <= 1 while sliding */
+    float eps;           /* the last normalized PLL error, sin(theta - theta_pll) */
 } fs_smo;
 
 fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg);

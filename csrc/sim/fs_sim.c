@@ -452,7 +452,14 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
             r[FS_CH_E_GRID] = s->imc ? s->g[FS_GRID_X_E_GRID] : 0.0;
             r[FS_CH_E_RF] = s->imc ? s->g[FS_GRID_X_E_RF] : 0.0;
             r[FS_CH_W_FILTER] = s->imc ? fs_grid_energy(&c->grid, s->g) : 0.0;
+            r[FS_CH_LOCK_RESID] = dout.lock_resid;
+            r[FS_CH_LOCK_LOST] = dout.lock_lost;
             ++*rows;
+        }
+        if (c->lock_stop && dout.lock_lost) {
+            s->stopped = FS_STOP_LOSS_OF_LOCK;
+            s->stop_time = t;
+            return s->stopped;
         }
 
         /* the plant over this period */

@@ -57,6 +57,7 @@ typedef struct {
     uint64_t seed;
     /* protection */
     double i_trip;            /* A, phase-current trip level (<= 0: none) */
+    int lock_stop;            /* 1: stop with FS_STOP_LOSS_OF_LOCK when the drive reports lock lost */
     /* initial state */
     double theta_m0, w_m0;    /* rad, rad/s */
     /* the controller */
@@ -100,6 +101,7 @@ enum {
      * meters (fs_grid.h) and the filter's stored energy, J */
     FS_CH_I_GRID_A, FS_CH_V_PN, FS_CH_U_AB, FS_CH_ALPHA,
     FS_CH_E_GRID, FS_CH_E_RF, FS_CH_W_FILTER,
+    FS_CH_LOCK_RESID, FS_CH_LOCK_LOST,   /* the drive's loss-of-lock residual and flag (fs_lock.h) */
     FS_CH_N
 };
 

@@ -36,6 +36,7 @@ HEADERS = [
     "control/fs_hfi.h",
     "control/fs_swvi.h",
     "control/fs_polarity.h",
+    "control/fs_lock.h",
     "control/fs_imc.h",
     "control/fs_drive.h",
     "plant/fs_magnetic.h",

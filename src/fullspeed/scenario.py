@@ -57,6 +57,10 @@ SCENARIO = {
         # zou2021 PART_2: the matrix converter's rectifier modulation-depth controller
         "depth_control": B(False, doc="imc, speed mode with flux weakening and modulation om2: alpha from eq. (33); else from the demanded VTR"),
         "i_lim": POS(None, doc="A, I_lim of eq. (33); default the machine's bench i_lim"),
+        # loss of lock of the estimator the loops use (fs_lock.h)
+        "lock": C("off", "detect", "stop", default="detect",
+                  doc="detect: traced (lock_resid, lock_lost); stop: the run ends with stop reason loss_of_lock"),
+        "lock_time": POS(0.02, hi=10.0, doc="s off track, net, before lock counts as lost"),
     }),
     # the estimator (yang2022 sec. 2); used from `handover` on, running from t = 0
     "observer": T({

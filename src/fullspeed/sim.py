@@ -23,6 +23,7 @@ CHANNELS = [
     "theta_est", "w_m_est", "est_valid", "est_err", "phase", "i_d_fw",
     "g_w", "inject", "i_d3", "i_q3", "i_hf_d", "i_hf_q",
     "i_grid_a", "v_pn", "u_ab", "alpha", "E_grid", "E_rf", "W_filter",
+    "lock_resid", "lock_lost",
 ]
 assert len(CHANNELS) == lib.FS_CH_N, "channel names out of step with fs_sim.h"
 
@@ -168,6 +169,8 @@ def build_config(sc: Scenario):
         dc.fw_w_e_max = m.pole_pairs * rpm_to_rad_s(ctl["fw_top_speed_rpm"])
         dc.fw_gain = ctl["fw_gain"]
         dc.fw_cutoff = ctl["fw_cutoff"] or 0.0   # 0: designed in fs_drive_init
+    dc.lock_time = ctl["lock_time"] if ctl["lock"] != "off" else 0.0
+    cfg.lock_stop = ctl["lock"] == "stop"
 
     p = m.pole_pairs
     obs = d["observer"]

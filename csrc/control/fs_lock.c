@@ -1,0 +1,27 @@
+#include "fs_lock.h"
+#include "fs_math.h"
+
+fs_status fs_lock_init(fs_lock *lk, const fs_lock_config *cfg)
+{
+    if (!lk || !cfg) return FS_ERR_NULL;
+    if (!(cfg->Ts > 0.0f)) return FS_ERR_TS;
+    if (!(cfg->t_lost >= cfg->Ts)) return FS_ERR_LIMIT;
+    lk->cfg = *cfg;
+    fs_lock_reset(lk);
+    return FS_OK;
+}
+
+void fs_lock_reset(fs_lock *lk)
+{
+    lk->t_over = 0.0f;
+    lk->lost = false;
+}
+
+bool fs_lock_step(fs_lock *lk, float r)
+{
+    /* a NaN residual counts as above */
+    bool over = !(r <= 1.0f);
+    lk->t_over = over ? lk->t_over + lk->cfg.Ts : fmaxf(lk->t_over - lk->cfg.Ts, 0.0f);
+    if (lk->t_over >= lk->cfg.t_lost) lk->lost = true;
+    return lk->lost;
+}
