@@ -406,15 +406,15 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, float g_w
     const fs_drive_config *c = &drv->cfg;
     if (!in->sensorless || drv->phase != FS_PHASE_RUN) return 0.0f;
     const bool blend = c->angle_source == FS_ANGLE_BLEND;
-    const float a = drv->lock_a;
+    const float b = 1.0f - drv->lock_a;
     float r = 0.0f;
     if ((c->angle_source == FS_ANGLE_SMO || (blend && g_w > 0.0f)) && drv->smo.valid) {
-        drv->lock_ri = a * drv->lock_ri + (1.0f - a) * drv->smo.r_i;
-        drv->lock_es = a * drv->lock_es + (1.0f - a) * drv->smo.eps;
+        drv->lock_ri += b * (drv->smo.r_i - drv->lock_ri);
+        drv->lock_es += b * (drv->smo.eps - drv->lock_es);
         r = fmaxf(0.5f * drv->lock_ri, 2.0f * fabsf(drv->lock_es));           /* 2 delta, sin 30 deg */
     }
     if ((c->angle_source == FS_ANGLE_HFI || (blend && g_w < 1.0f)) && drv->injecting && drv->hfi.k_settle == 0) {
-        drv->lock_eh = a * drv->lock_eh + (1.0f - a) * drv->hfi.eps;
+        drv->lock_eh += b * (drv->hfi.eps - drv->lock_eh);
         r = fmaxf(r, fabsf(drv->lock_eh) * 3.8197186f);                      /* 15 deg = 0.2618 rad */
     }
     return r;

@@ -60,9 +60,10 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
     o->i_hat.alpha += c->Ts * di_a;
     o->i_hat.beta += c->Ts * di_b;
     /* eqs. (5)-(7): switching function on the current error */
-    o->z.alpha = o->k * sat(o->i_hat.alpha - i.alpha, o->delta);
-    o->z.beta = o->k * sat(o->i_hat.beta - i.beta, o->delta);
-    o->r_i = fmaxf(fabsf(o->i_hat.alpha - i.alpha), fabsf(o->i_hat.beta - i.beta)) / o->delta;
+    const float e_a = o->i_hat.alpha - i.alpha, e_b = o->i_hat.beta - i.beta;
+    o->z.alpha = o->k * sat(e_a, o->delta);
+    o->z.beta = o->k * sat(e_b, o->delta);
+    o->r_i = fmaxf(fabsf(e_a), fabsf(e_b)) / o->delta;
     /* Fig. 1: adaptive low-pass filter, cutoff at the estimated speed */
     fs_ab e = fs_lpf_step(&o->lpf, o->z, w);
     /* eq. (12): normalized PLL error, sin(theta - theta_pll). The EMF turns

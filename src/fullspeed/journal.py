@@ -50,7 +50,7 @@ def _identity(fn: Callable, tasks: list[dict]) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def _read_journal(path: Path, n: int) -> dict[int, dict]:
+def read_journal(path: Path, n: int) -> dict[int, dict]:
     """The finished tasks by index. A line cut short by a kill is dropped and
     the file truncated to its last whole line, so appends stay well formed."""
     if not path.exists():
@@ -144,7 +144,7 @@ def run_tasks(fn: Callable[[dict], dict], tasks: list[dict], out: Path, workers:
             raise ConfigError("--out", str(out), "holds the journal of a different sweep; "
                               "choose another folder or remove this one")
     stamp.write_text(json.dumps({"identity": ident, "tasks": len(tasks)}))
-    done = _read_journal(journal, len(tasks))
+    done = read_journal(journal, len(tasks))
     todo = {k: t for k, t in enumerate(tasks) if k not in done}
     workers = workers or default_workers()
     if workers < 1:

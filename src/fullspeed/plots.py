@@ -50,8 +50,7 @@ def plot_sweep(sw, rows: list[dict], path: str | Path) -> Path | None:
     (random axes only) each metric's distribution. Up to six metrics;
     failed points are left blank. None when there is nothing to draw."""
     grid = sw.grid
-    names = [m for m in sw.metrics if m not in ("stop_reason", "stop_time", "wall_time")
-             and any(isinstance(r.get(m), (int, float)) for r in rows)][:6]
+    names = [m for m in sw.metrics if any(isinstance(r.get(m), (int, float)) for r in rows)][:6]
     if not names or len(grid) > 2:
         return None
 
@@ -81,9 +80,8 @@ def plot_sweep(sw, rows: list[dict], path: str | Path) -> Path | None:
             ax.grid(True, alpha=0.3)
         else:
             a, b = grid
-            z = np.full((len(a.values), len(b.values)), np.nan)
-            acc = np.zeros_like(z)
-            cnt = np.zeros_like(z)
+            acc = np.zeros((len(a.values), len(b.values)))
+            cnt = np.zeros_like(acc)
             for r in rows:
                 v = value(r, m)
                 if np.isfinite(v):

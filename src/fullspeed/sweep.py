@@ -45,6 +45,7 @@ GRID_KINDS = ("values", "linspace", "range")
 RANDOM_KINDS = ("uniform", "normal", "integers")
 TOP_KEYS = {"name", "description", "base", "seed", "samples", "metrics", "overrides", "axes"}
 RESULT_COLUMNS = ("stop_reason", "stop_time", "error", "wall_s")
+RUN_METRICS = ("stop_reason", "stop_time", "wall_time")   # every row has them (wall_time as wall_s)
 
 
 @dataclass(frozen=True)
@@ -68,7 +69,7 @@ class Sweep:
     axes: list[Axis]
     seed: int = 0
     samples: int = 1
-    metrics: list[str] = field(default_factory=lambda: list(METRIC_NAMES))
+    metrics: list[str] = field(default_factory=list)   # beyond RUN_METRICS
     overrides: dict = field(default_factory=dict)
     description: str = ""
 
@@ -250,7 +251,7 @@ def sweep_from_dict(d: dict, source: str, here: Path | None = None) -> Sweep:
     if samples > 1 and not any(a.random for a in axes):
         raise ConfigError("samples", samples, "more than 1 needs a random axis (uniform, normal, integers)", source)
     return Sweep(name=d["name"], base=base, base_source=base_src, axes=axes, seed=seed, samples=samples,
-                 metrics=list(metrics), overrides=overrides, description=d.get("description", ""))
+                 metrics=[m for m in metrics if m not in RUN_METRICS], overrides=overrides, description=d.get("description", ""))
 
 
 def load_sweep_file(name_or_path: str | Path) -> Sweep:
@@ -280,15 +281,14 @@ def run_point(task: dict) -> dict:
 
     res = simulate(scenario_from_dict(task["scenario"], task["source"]))
     m = flat_metrics(res.metrics)
-    out = {k: m[k] for k in task["metrics"] if k not in RESULT_COLUMNS}
+    out = {k: m[k] for k in task["metrics"]}
     out.update(stop_reason=res.stop_reason, stop_time=res.stop_time, wall_s=res.wall_time)
     return out
 
 
 def columns(sw: Sweep) -> list[str]:
     axis_cols = [a.name for a in sw.grid] + (["sample"] if sw.samples > 1 else []) + [a.name for a in sw.axes if a.random]
-    metric_cols = [m for m in sw.metrics if m not in RESULT_COLUMNS and m != "wall_time"]
-    return ["point"] + axis_cols + metric_cols + list(RESULT_COLUMNS)
+    return ["point"] + axis_cols + sw.metrics + list(RESULT_COLUMNS)
 
 
 def rows_of(sw: Sweep, results: list[dict | None]) -> list[dict]:
@@ -378,9 +378,9 @@ def load_sweep(folder: str | Path):
     meta = folder / "sweep.json"
     if not meta.exists():
         raise ConfigError("folder", str(folder), "holds no sweep (no results table, no sweep.json)")
-    from .journal import JOURNAL, _read_journal
+    from .journal import JOURNAL, read_journal
 
     info = json.loads(meta.read_text())
-    done = _read_journal(folder / JOURNAL, len(info["points"]))
+    done = read_journal(folder / JOURNAL, len(info["points"]))
     rows = [{"point": k, **info["points"][k], **r} for k, r in sorted(done.items())]
     return pd.DataFrame(rows, columns=info["columns"])

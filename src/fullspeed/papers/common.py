@@ -10,6 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from ..journal import run_tasks  # noqa: E402
 from ..metrics import angle_error_stats, window_mask  # noqa: E402
 from ..scenario import load_scenario  # noqa: E402
 from ..sim import Result, simulate  # noqa: E402
@@ -143,8 +144,6 @@ def error_map(scenario: str, currents: list[float], speeds: list[float], overrid
     a map (Figs. 9, 13), overrides(i_q, rpm) giving each run's changes; and
     whether every run kept lock (held within 45 deg from t_lock on, if
     given). The runs go through the sweep engine, in parallel, into out."""
-    from ..journal import run_tasks
-
     tasks = [{"scenario": scenario, "overrides": overrides(iq, float(n)), "t0": t0, "t1": t1, "t_lock": t_lock}
              for iq in currents for n in speeds]
     res = run_tasks(map_point, tasks, out, fresh=True)
