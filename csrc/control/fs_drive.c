@@ -55,6 +55,9 @@ static fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
     hc.obs = mo;
     fs_status st = fs_hfi_init(&drv->hfi, &hc);
     if (st != FS_OK) return st;
+    /* the carrier current's peak, I_p + I_n = u_h / (w_h min(L_d, L_q)) */
+    drv->i_hf = hc.u_h / (drv->hfi.cfg.w_h * fminf(cfg->L_d, cfg->L_q));
+    if (!(drv->i_hf < 0.5f * cfg->i_max)) return FS_ERR_I_MAX;
     if (cfg->angle_source == FS_ANGLE_BLEND) {
         fs_blend_config bc = cfg->blend;
         mo.bandwidth = bc.obs.bandwidth > 0.0f ? bc.obs.bandwidth : drv->hfi.cfg.obs.bandwidth;
@@ -104,6 +107,7 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         oc.L_d = cfg->L_d;
         oc.L_q = cfg->L_q;
         oc.psi_f = cfg->psi_f;
+        oc.dir_external = cfg->angle_source == FS_ANGLE_BLEND;
         st = fs_smo_init(&drv->smo, &oc);
         if (st != FS_OK) return st;
     }
@@ -131,6 +135,9 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     } else if (!(cfg->lock_time == 0.0f)) {
         return FS_ERR_LIMIT;
     }
+    if (cfg->lock_recover != 0 && cfg->lock_recover != 1) return FS_ERR_PARAM;
+    if (cfg->lock_recover && (!(cfg->lock_time > 0.0f) || !(cfg->t_recover > 0.0f) || cfg->lock_retries < 0))
+        return FS_ERR_PARAM;
     if (drive_injects(cfg)) {
         st = drive_init_injection(drv, cfg);
         if (st != FS_OK) return st;
@@ -183,7 +190,10 @@ void fs_drive_reset(fs_drive *drv)
     if (drive_square(&drv->cfg)) fs_swvi_reset(&drv->sw, 0.0f, 0.0f);
     if (drive_imc_depth(&drv->cfg)) fs_imc_depth_reset(&drv->depth);
     if (drv->cfg.lock_time > 0.0f) fs_lock_reset(&drv->lock);
-    drv->lock_ri = drv->lock_es = drv->lock_eh = 0.0f;
+    drv->lock_ri = drv->lock_es = drv->lock_eh = drv->lock_ex = 0.0f;
+    drv->stage = FS_STAGE_OPEN;
+    drv->recoveries = 0;
+    drv->t_left = 0.0f;
     drv->alpha = 0.0f;
     drv->u_ff_hold.alpha = drv->u_ff_hold.beta = 0.0f;
     drv->u_ff_next = drv->u_ff_hold;
@@ -234,6 +244,13 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
         i_f = drv->hfi.i_f;
     }
     if (c->angle_source == FS_ANGLE_BLEND) {
+        /* the direction from the blended speed once it is clear of the
+         * injection estimate's wander at standstill; while recovering from
+         * a lost blend, from the observer's own speed past w_valid */
+        const bool own = drv->phase == FS_PHASE_RECOVER;
+        const float w_dir = own ? drv->smo.w : drv->blend.w_hat;
+        const float w_min = own ? drv->smo.cfg.w_valid : 0.5f * drv->blend.cfg.w_lower;
+        if (fabsf(w_dir) > w_min) fs_smo_set_dir(&drv->smo, w_dir);
         fs_smo_step(&drv->smo, i_f, drive_u_past(drv));
         fs_blend_step(&drv->blend, drv->smo.theta, drv->hfi.theta, T_ff);   /* Fig. 6 */
         /* Above w_inject_max the injection stops (g_w = 1 there: the HFI
@@ -361,6 +378,60 @@ static void dead_time_comp(const fs_drive_config *c, const float i_ph[], float d
     }
 }
 
+/* Lock lost, recovery on (fs_drive.h): zero current from now on; the loops'
+ * controllers start afresh; an observer that still tracks (the SMO, valid,
+ * in the blend above w_lower) hands its angle and speed to every estimate. */
+static bool drive_smo_catches(const fs_drive *drv)
+{
+    const fs_drive_config *c = &drv->cfg;
+    if (!drive_has_smo(c) || !drv->smo.valid) return false;
+    return c->angle_source != FS_ANGLE_BLEND || fabsf(drv->smo.w) >= drv->blend.cfg.w_lower;
+}
+
+static void drive_catch(fs_drive *drv)
+{
+    if (drv->cfg.angle_source != FS_ANGLE_BLEND) return;
+    fs_blend_reset(&drv->blend, drv->smo.theta, drv->smo.w);
+    fs_hfi_set_angle(&drv->hfi, drv->smo.theta, drv->smo.w);
+}
+
+static void drive_recover_begin(fs_drive *drv)
+{
+    const fs_drive_config *c = &drv->cfg;
+    drv->phase = FS_PHASE_RECOVER;
+    drv->t_left = c->t_recover;
+    drv->recoveries += 1;
+    fs_lock_reset(&drv->lock);
+    drv->lock_ri = drv->lock_es = drv->lock_eh = drv->lock_ex = 0.0f;
+    if (c->mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
+    if (drive_weakens(c)) fs_fw_reset(&drv->fw);
+    if (drive_smo_catches(drv)) drive_catch(drv);
+}
+
+/* The end of the zero-current wait: on the observer's estimate if it
+ * tracks, else the start sequence again (polarity detection on the
+ * injection estimator, which kept following the saliency, or the I/f start). */
+static void drive_recover_end(fs_drive *drv)
+{
+    const fs_drive_config *c = &drv->cfg;
+    drv->phase = FS_PHASE_RUN;
+    if (drive_smo_catches(drv)) {
+        drive_catch(drv);
+        if (c->mode == FS_MODE_SPEED) fs_speed_ctrl_preset(&drv->sc, drv->smo.w / (float)c->pole_pairs, 0.0f);
+    } else if (drive_injects(c)) {
+        drv->inject_on = true;
+        if (c->angle_source == FS_ANGLE_BLEND) fs_blend_reset(&drv->blend, drv->hfi.theta, drv->hfi.w);
+        if (c->polarity.i_pulse > 0.0f) {
+            fs_polarity_reset(&drv->pol);
+            drv->phase = FS_PHASE_POLARITY;
+        }
+    } else if (drive_starts(c)) {
+        drv->theta_if = drv->smo.theta;
+        drv->w_if = 0.0f;
+        drv->phase = FS_PHASE_START;
+    }
+}
+
 /* The current reference of the closed-loop modes: polarity pulses, the I/f
  * start, speed control (MTPA and flux weakening) or the reference input. */
 static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, float w_e, float *T_ref)
@@ -368,7 +439,11 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
     const fs_drive_config *c = &drv->cfg;
     fs_dq i_ref = {in->i_d_ref, in->i_q_ref};
     *T_ref = 0.0f;
-    if (drv->phase == FS_PHASE_POLARITY) {
+    if (drv->phase == FS_PHASE_RECOVER) {
+        i_ref.d = i_ref.q = 0.0f;
+        drv->t_left -= c->Ts;
+        if (drv->t_left <= 0.0f) drive_recover_end(drv);
+    } else if (drv->phase == FS_PHASE_POLARITY) {
         i_ref.d = fs_polarity_step(&drv->pol, drv->hfi.i_p);
         i_ref.q = 0.0f;
         if (drv->pol.stage == FS_POLARITY_DONE) drive_polarity_done(drv);
@@ -377,16 +452,17 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
     } else if (c->mode == FS_MODE_SPEED) {
         *T_ref = fs_speed_ctrl_step(&drv->sc, in->w_m_ref, w_e / (float)c->pole_pairs);
         i_ref = fs_mtpa_step(&drv->mtpa, *T_ref);
-        if (drive_weakens(c)) {
-            /* zou2021 eq. (30): i_d* = i_d0* + the filtered correction,
-             * i_q* kept, then held inside the current limit circle */
-            i_ref.d = fs_clampf(i_ref.d + drv->fw.i_d, -c->i_max, c->i_max);
-            float iq_max = sqrtf(c->i_max * c->i_max - i_ref.d * i_ref.d);
-            float i_q0 = i_ref.q;
-            i_ref.q = fs_clampf(i_ref.q, -iq_max, iq_max);
-            /* the circle took torque away: the speed PI's integral must not wind up */
-            if (i_ref.q != i_q0) fs_speed_ctrl_realised(&drv->sc, *T_ref, *T_ref * i_ref.q / i_q0);
-        }
+        /* zou2021 eq. (30): i_d* = i_d0* + the filtered correction, i_q*
+         * kept; then held inside the current limit circle, whose radius
+         * leaves room for the carrier's peak while injecting */
+        const float i_lim = c->i_max - (drv->injecting ? drv->hfi.gain * drv->i_hf : 0.0f);
+        if (drive_weakens(c)) i_ref.d += drv->fw.i_d;
+        i_ref.d = fs_clampf(i_ref.d, -i_lim, i_lim);
+        float iq_max = sqrtf(i_lim * i_lim - i_ref.d * i_ref.d);
+        float i_q0 = i_ref.q;
+        i_ref.q = fs_clampf(i_ref.q, -iq_max, iq_max);
+        /* the circle took torque away: the speed PI's integral must not wind up */
+        if (i_ref.q != i_q0) fs_speed_ctrl_realised(&drv->sc, *T_ref, *T_ref * i_ref.q / i_q0);
         if (drive_imc_depth(c)) {
             /* eqs. (32)-(33), gated by the polarity of i_d_fw (sec. 4.4;
              * the low-pass leaves a tail: 1 % of i_max counts as zero) */
@@ -404,20 +480,30 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
 static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, float g_w)
 {
     const fs_drive_config *c = &drv->cfg;
-    if (!in->sensorless || drv->phase != FS_PHASE_RUN) return 0.0f;
+    const bool run = in->sensorless && drv->phase == FS_PHASE_RUN;
     const bool blend = c->angle_source == FS_ANGLE_BLEND;
     const float b = 1.0f - drv->lock_a;
+    /* each low-pass runs while its signal means something and starts from
+     * 0 when it comes back, so that no stale value returns */
+    const bool smo_on = run && drive_has_smo(c) && drv->smo.valid;
+    const bool hfi_on = run && drive_injects(c) && drv->injecting && drv->hfi.k_settle == 0;
+    drv->lock_ri = smo_on ? drv->lock_ri + b * (drv->smo.r_i - drv->lock_ri) : 0.0f;
+    drv->lock_es = smo_on ? drv->lock_es + b * (drv->smo.eps - drv->lock_es) : 0.0f;
+    drv->lock_eh = hfi_on ? drv->lock_eh + b * (drv->hfi.eps - drv->lock_eh) : 0.0f;
+    const float r_smo = fmaxf(0.5f * drv->lock_ri, 2.0f * fabsf(drv->lock_es));   /* 2 delta, sin 30 deg */
+    const float r_hfi = fabsf(drv->lock_eh) * 3.8197186f;                         /* 15 deg = 0.2618 rad */
     float r = 0.0f;
-    if ((c->angle_source == FS_ANGLE_SMO || (blend && g_w > 0.0f)) && drv->smo.valid) {
-        drv->lock_ri += b * (drv->smo.r_i - drv->lock_ri);
-        drv->lock_es += b * (drv->smo.eps - drv->lock_es);
-        r = fmaxf(0.5f * drv->lock_ri, 2.0f * fabsf(drv->lock_es));           /* 2 delta, sin 30 deg */
-    }
-    if ((c->angle_source == FS_ANGLE_HFI || (blend && g_w < 1.0f)) && drv->injecting && drv->hfi.k_settle == 0) {
-        drv->lock_eh += b * (drv->hfi.eps - drv->lock_eh);
-        r = fmaxf(r, fabsf(drv->lock_eh) * 3.8197186f);                      /* 15 deg = 0.2618 rad */
-    }
-    return r;
+    if (c->angle_source == FS_ANGLE_SMO || (blend && g_w > 0.0f)) r = r_smo;
+    if (c->angle_source == FS_ANGLE_HFI || (blend && g_w < 1.0f)) r = fmaxf(r, r_hfi);
+    /* an observer on track above the band, whose EMF is as large as its
+     * speed says (not a PLL swinging at low speed: at least half of the
+     * |w| psi_f / sqrt 2 its filter passes), against the blended angle */
+    const float aw = fabsf(drv->smo.w);
+    const bool cross = smo_on && blend && r_smo < 1.0f && aw >= drv->blend.cfg.w_upper
+                       && drv->smo.e_mag >= 0.35f * aw * c->psi_f;
+    const float x = fabsf(fs_wrap_pi(drv->smo.theta - drv->blend.theta_hat));
+    drv->lock_ex = cross ? drv->lock_ex + b * (x - drv->lock_ex) : 0.0f;
+    return fmaxf(r, drv->lock_ex * 1.2732395f);                                   /* 45 deg = pi/4 rad */
 }
 
 /* The phase currents in the stationary frame (the fundamental plane with
@@ -481,6 +567,24 @@ static float drive_imc_rectify(fs_drive *drv, const fs_drive_in *in, fs_ab *u_re
     fs_imc_rectifier(u_pred, alpha, &out->rect);
     out->alpha = alpha;
     return out->rect.v_pn;
+}
+
+/* The operating stage (fs_drive.h) from the phase, the source and weight,
+ * and the flux-weakening current with hysteresis. */
+static int drive_stage(const fs_drive *drv, const fs_drive_in *in, float g_w)
+{
+    const fs_drive_config *c = &drv->cfg;
+    if (c->mode != FS_MODE_CURRENT && c->mode != FS_MODE_SPEED) return FS_STAGE_OPEN;
+    if (drv->phase == FS_PHASE_POLARITY) return FS_STAGE_POLARITY;
+    if (drv->phase == FS_PHASE_RECOVER) return FS_STAGE_RECOVERY;
+    if (in->sensorless && drv->phase == FS_PHASE_START) return FS_STAGE_START;
+    if (drive_weakens(c)) {
+        const float lim = (drv->stage == FS_STAGE_FLUX_WEAKENING ? -0.01f : -0.02f) * c->i_max;
+        if (drv->fw.i_d < lim) return FS_STAGE_FLUX_WEAKENING;
+    }
+    if (!in->sensorless) return FS_STAGE_SENSOR;
+    if (g_w <= 0.0f) return FS_STAGE_INJECTION;
+    return g_w >= 1.0f ? FS_STAGE_BACKEMF : FS_STAGE_BLEND;
 }
 
 /* yu2022: the square-wave injection drive. The estimator runs at every
@@ -563,6 +667,9 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     out->i_hf_q = sw->i_h.q;
     out->lock_resid = 0.0f;   /* square-wave injection: not monitored yet */
     out->lock_lost = false;
+    drv->stage = drive_stage(drv, in, 0.0f);
+    out->stage = drv->stage;
+    out->recoveries = 0;
 }
 
 void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
@@ -620,7 +727,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     drv->u_hist[0] = u_ab;
     fs_dq u_real = fs_park(u_ab, cos_u, sin_u);
     if (closed_loop) fs_current_ctrl_update(&drv->cc, u_real);
-    if (drive_weakens(c) && !starting && !polarity)
+    if (drive_weakens(c) && !starting && !polarity && drv->phase != FS_PHASE_RECOVER)
         fs_fw_step(&drv->fw, u_ref.q - u_real.q, w_e);   /* eq. (26): dv_q */
 
     out->theta_e = theta;
@@ -661,5 +768,12 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     if (c->lock_time > 0.0f) {
         out->lock_resid = drive_lock_residual(drv, in, out->g_w);
         out->lock_lost = fs_lock_step(&drv->lock, out->lock_resid);
+        if (out->lock_lost && c->lock_recover && drv->recoveries < c->lock_retries) {
+            drive_recover_begin(drv);
+            out->lock_lost = false;
+        }
     }
+    drv->stage = drive_stage(drv, in, out->g_w);
+    out->stage = drv->stage;
+    out->recoveries = drv->recoveries;
 }

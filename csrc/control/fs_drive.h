@@ -15,6 +15,9 @@
  * plane of the VSD (fs_vsd.h) and modulated by nearest-four-vector PWM
  * (fs_pwm5.h), which keeps the third-harmonic plane's voltage at zero.
  * In speed mode, flux weakening adds negative d-current above base speed.
+ * Sensorless, a loss-of-lock monitor watches the estimator in use and, with
+ * recovery on, a loss starts the recovery phase; the operating stage
+ * (fs_drive_stage) tells where the drive is in its start-up sequence.
  * The converter is a two-level voltage-source inverter on the sampled dc
  * link, or an indirect matrix converter (zou2021, fs_imc.h) on the sampled
  * input voltages: the rectifier stage's intervals and, for the inverter
@@ -65,8 +68,26 @@ typedef enum {
 typedef enum {
     FS_PHASE_RUN = 0,        /* the loops on the configured angle source */
     FS_PHASE_START = 1,      /* I/f start: open-loop frame, waiting for the observer */
-    FS_PHASE_POLARITY = 2    /* magnet polarity detection: d-current pulses, i_q = 0 */
+    FS_PHASE_POLARITY = 2,   /* magnet polarity detection: d-current pulses, i_q = 0 */
+    FS_PHASE_RECOVER = 3     /* lock lost: zero current while the estimators settle (fs_drive.c) */
 } fs_drive_phase;
+
+/* The operating stage, traced: where the drive is in its sequence
+ * polarity -> injection -> blend -> back-EMF observer -> flux weakening and
+ * back down (sensorless from standstill), each transition a change of this
+ * value. It follows the phase, the blending weight and the flux-weakening
+ * current (entered below -2 % of i_max, left above -1 %: hysteresis). */
+typedef enum {
+    FS_STAGE_OPEN = 0,           /* off, or an open-loop voltage mode */
+    FS_STAGE_SENSOR = 1,         /* the loops on the encoder or an external angle */
+    FS_STAGE_POLARITY = 2,
+    FS_STAGE_START = 3,          /* I/f start */
+    FS_STAGE_INJECTION = 4,      /* an injection estimator alone (g_w = 0) */
+    FS_STAGE_BLEND = 5,          /* 0 < g_w < 1 */
+    FS_STAGE_BACKEMF = 6,        /* the sliding-mode observer alone */
+    FS_STAGE_FLUX_WEAKENING = 7, /* running with the flux-weakening d current */
+    FS_STAGE_RECOVERY = 8        /* FS_PHASE_RECOVER */
+} fs_drive_stage;
 
 typedef struct {
     int phases;              /* 3, or 5: the fundamental plane of the VSD, nearest-four-vector PWM */
@@ -110,8 +131,22 @@ typedef struct {
      * counts as lost (0: no monitor). The residual: the sliding-mode
      * observer's current error over twice its boundary layer and its PLL
      * error over sin 30 deg (once valid); the injection estimator's error
-     * over 15 deg (once settled); in the blend, those whose weight is not 0. */
+     * over 15 deg (once settled); in the blend, those whose weight is not 0,
+     * and while the SMO is valid, its disagreement with the blended angle
+     * over 45 deg (an injection estimate that slipped while the rotor was
+     * thrown beyond the injection's speed range). */
     float lock_time;
+    /* recovery from a loss of lock (lock_recover = 1; else the monitor
+     * latches lock_lost). The currents are held at zero for t_recover, s,
+     * while the estimators settle without the loops' disturbance; then, if
+     * the sliding-mode observer is valid and (in the blend) above w_lower,
+     * every estimate is set to its angle and speed (a catch on the fly);
+     * otherwise the start sequence runs again: polarity detection and
+     * injection, or the I/f start. After lock_retries recoveries the next
+     * loss latches lock_lost. */
+    int lock_recover;
+    float t_recover;
+    int lock_retries;
     /* sensorless start (speed mode, FS_ANGLE_SMO, sensorless from standstill):
      * I/f, a current of i_start on the d axis of a frame accelerated at a_start
      * (el. rad/s^2) up to w_handover (el. rad/s), where the loops take the
@@ -183,7 +218,9 @@ typedef struct {
     fs_imc_rect rect;        /* matrix converter: the rectifier stage's intervals for the next update */
     float alpha;             /* matrix converter: the depth angle they use, rad */
     float lock_resid;        /* the loss-of-lock residual (<= 1: on track), 0 when not monitored */
-    bool lock_lost;          /* latched by the monitor (fs_lock.h) */
+    bool lock_lost;          /* latched by the monitor (fs_lock.h); with recovery, once the retries are spent */
+    int stage;               /* fs_drive_stage */
+    int recoveries;          /* recoveries begun so far */
 } fs_drive_out;
 
 typedef struct {
@@ -200,8 +237,13 @@ typedef struct {
     fs_swvi sw;
     fs_imc_depth depth;      /* matrix converter, PART_2 */
     fs_lock lock;
+    float i_hf;              /* the rotating carrier current's peak, A: i_max less it bounds the fundamental */
     float lock_a;            /* the residual's low-pass pole */
     float lock_ri, lock_es, lock_eh;   /* low-passed: SMO current error / delta, SMO PLL error, HFI error */
+    float lock_ex;           /* low-passed: |SMO angle - blended angle| while the SMO is valid, rad */
+    int stage;               /* fs_drive_stage */
+    int recoveries;
+    float t_left;            /* s left in FS_PHASE_RECOVER */
     float alpha;             /* its last output, rad */
     int phase;               /* fs_drive_phase */
     float theta_if, w_if;    /* I/f frame */

@@ -40,7 +40,13 @@ void fs_smo_reset(fs_smo *o, float theta, float w)
     o->w = w;
     o->dir = w < 0.0f ? -1.0f : 1.0f;
     o->valid = false;
-    o->r_i = o->eps = 0.0f;
+    o->r_i = o->eps = o->e_mag = 0.0f;
+}
+
+void fs_smo_set_dir(fs_smo *o, float w)
+{
+    if (w > 0.0f) o->dir = 1.0f;
+    else if (w < 0.0f) o->dir = -1.0f;
 }
 
 static float sat(float x, float delta)  /* eq. (6) */
@@ -81,9 +87,12 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
     }
     fs_pll_step(&o->pll, eps);
     o->eps = eps;
+    o->e_mag = mag;
     o->w = o->pll.w;
-    if (o->w > c->w_valid) o->dir = 1.0f;
-    else if (o->w < -c->w_valid) o->dir = -1.0f;
+    if (!c->dir_external) {
+        if (o->w > c->w_valid) o->dir = 1.0f;
+        else if (o->w < -c->w_valid) o->dir = -1.0f;
+    }
     float w_c = fmaxf(fabsf(o->w), c->w_c_min);
     float lag = (c->lag == FS_SMO_LAG_PAPER) ? fs_signf(o->w) * 0.25f * FS_PI
                                              : atanf(o->w / (2.0f * w_c));

@@ -45,6 +45,7 @@ typedef struct {
     float bw_pll;        /* PLL double pole, rad/s */
     float w_valid;       /* |w_hat| below this: not valid, rad/s (el.) */
     int lag;             /* fs_smo_lag */
+    int dir_external;    /* 1: the direction the PLL error assumes is the caller's (fs_smo_set_dir) */
 } fs_smo_config;
 
 typedef struct {
@@ -61,10 +62,16 @@ typedef struct {
     float dir;           /* direction of rotation the PLL error assumes: +1, -1 (hysteresis at w_valid) */
     float r_i;           /* max |current error| over delta at the last step: <= 1 while sliding */
     float eps;           /* the last normalized PLL error, sin(theta - theta_pll) */
+    float e_mag;         /* |filtered EMF|, V: about |w| psi_f / sqrt 2 behind the filter when it tracks */
 } fs_smo;
 
 fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg);
 void fs_smo_reset(fs_smo *o, float theta, float w);
+/* With dir_external: the direction of rotation from an estimate the caller
+ * trusts at low speed (the sign of w; w = 0 keeps it). In the blend the
+ * injection side knows the direction long before the back-EMF does, and an
+ * observer that took it from its own speed at standstill could lock pi off. */
+void fs_smo_set_dir(fs_smo *o, float w);
 /* One step: i is the current sampled now, u the stationary voltage that
  * acted during the period that ended now. Returns the angle. */
 float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u);

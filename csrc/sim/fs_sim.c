@@ -454,6 +454,8 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
             r[FS_CH_W_FILTER] = s->imc ? fs_grid_energy(&c->grid, s->g) : 0.0;
             r[FS_CH_LOCK_RESID] = dout.lock_resid;
             r[FS_CH_LOCK_LOST] = dout.lock_lost;
+            r[FS_CH_STAGE] = dout.stage;
+            r[FS_CH_RECOVERIES] = dout.recoveries;
             ++*rows;
         }
         if (c->lock_stop && dout.lock_lost) {

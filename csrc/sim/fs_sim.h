@@ -102,6 +102,7 @@ enum {
     FS_CH_I_GRID_A, FS_CH_V_PN, FS_CH_U_AB, FS_CH_ALPHA,
     FS_CH_E_GRID, FS_CH_E_RF, FS_CH_W_FILTER,
     FS_CH_LOCK_RESID, FS_CH_LOCK_LOST,   /* the drive's loss-of-lock residual and flag (fs_lock.h) */
+    FS_CH_STAGE, FS_CH_RECOVERIES,       /* its operating stage (fs_drive_stage) and recoveries begun */
     FS_CH_N
 };
 

@@ -45,6 +45,9 @@ def compute_metrics(res) -> dict:
     m = window_mask(t, t0, t1)
     out["steady_window"] = [t0, t1]
     out["i_phase_max"] = float(np.max(np.abs(np.stack([tr["i_a"], tr["i_b"], tr["i_c"]]))))
+    lost = np.flatnonzero(tr["lock_lost"] > 0)
+    out["lock_lost_at"] = float(t[lost[0]]) if lost.size else None
+    out["recoveries"] = int(tr["recoveries"][-1])
     if not m.any():
         return out
     mode = res.scenario.data["controller"]["mode"]
@@ -68,6 +71,7 @@ def compute_metrics(res) -> dict:
 # sweep may keep. Those a run's mode does not give are empty for it.
 METRIC_NAMES = (
     "stop_reason", "stop_time", "sim_time", "wall_time", "speed_ratio", "i_phase_max",
+    "lock_lost_at", "recoveries",
     "speed_ref_rpm", "speed_rpm", "speed_error_pct", "i_d_error_rms", "i_q_error_rms",
     "T_e_mean", "T_e_pp",
     "theta_err_deg.mean", "theta_err_deg.pp", "theta_err_deg.max",
@@ -97,3 +101,15 @@ def json_safe(x):
     if isinstance(x, (np.floating, np.integer)):
         return json_safe(x.item())
     return x
+
+
+# fs_drive_stage, by value (csrc/control/fs_drive.h)
+STAGES = ("open", "sensor", "polarity", "start", "injection", "blend", "backemf", "flux_weakening", "recovery")
+
+
+def stage_changes(tr) -> list[tuple[float, str]]:
+    """The drive's operating stages in the order it passed them: (time
+    entered, name), the first at the first sample."""
+    s = np.asarray(tr["stage"]).astype(int)
+    k = np.r_[0, np.flatnonzero(np.diff(s)) + 1] if s.size else np.array([], int)
+    return [(float(tr["t"][i]), STAGES[s[i]]) for i in k]

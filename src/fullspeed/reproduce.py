@@ -30,7 +30,7 @@ class Measurement:
 MEASURES: dict[str, Callable[[Path], Measurement]] = {}
 
 NOT_YET = {
-    "beyond": "needs the full-range drive or the Monte Carlo: issues 8 and 9",
+    "beyond": "square-wave injection on the three-phase machine is not built yet (issue 9)",
 }
 
 

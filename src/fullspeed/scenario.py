@@ -58,9 +58,13 @@ SCENARIO = {
         "depth_control": B(False, doc="imc, speed mode with flux weakening and modulation om2: alpha from eq. (33); else from the demanded VTR"),
         "i_lim": POS(None, doc="A, I_lim of eq. (33); default the machine's bench i_lim"),
         # loss of lock of the estimator the loops use (fs_lock.h)
-        "lock": C("off", "detect", "stop", default="detect",
-                  doc="detect: traced (lock_resid, lock_lost); stop: the run ends with stop reason loss_of_lock"),
+        "lock": C("off", "detect", "stop", "recover", default="detect",
+                  doc="detect: traced (lock_resid, lock_lost); stop: the run ends with stop reason loss_of_lock; "
+                      "recover: zero current, then the observer's estimate or the start sequence again (fs_drive.h), "
+                      "and the stop once lock_retries are spent"),
         "lock_time": POS(0.02, hi=10.0, doc="s off track, net, before lock counts as lost"),
+        "recover_time": POS(0.05, hi=10.0, doc="s of zero current before a recovery re-acquires"),
+        "lock_retries": I(3, 0, 1000, doc="recoveries before a loss of lock stops the run"),
     }),
     # the estimator (yang2022 sec. 2); used from `handover` on, running from t = 0
     "observer": T({
@@ -333,8 +337,12 @@ def _injection_fields(d: dict, m: Machine, source) -> None:
 def _check_saliency(ctl: dict, m: Machine, source) -> None:
     L_d, L_q = m.L_d * ctl["L_d_scale"], m.L_q * ctl["L_q_scale"]   # as the controller knows them
     if not abs(L_q - L_d) > 0.01 * 0.5 * (L_d + L_q):
+        scaled = ctl["L_d_scale"] != 1.0 or ctl["L_q_scale"] != 1.0
+        whose = (f"the controller's model of {m.name} (L_d x {ctl['L_d_scale']:g}, L_q x {ctl['L_q_scale']:g}) has"
+                 if scaled else f"{m.name} has")
         raise ConfigError("controller.angle", ctl["angle"],
-                          f"injection needs a salient machine; {m.name} has L_d = {L_d:g} H = L_q (a non-salient machine shows no position in its inductance)", source)
+                          f"injection needs a salient machine model; {whose} L_d = {L_d:g} H within 1 % of L_q = {L_q:g} H "
+                          "(no saliency to design the estimator for)", source)
 
 
 def _machine_injection(inj: dict, m: Machine, keys, source) -> None:

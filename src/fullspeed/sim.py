@@ -23,7 +23,7 @@ CHANNELS = [
     "theta_est", "w_m_est", "est_valid", "est_err", "phase", "i_d_fw",
     "g_w", "inject", "i_d3", "i_q3", "i_hf_d", "i_hf_q",
     "i_grid_a", "v_pn", "u_ab", "alpha", "E_grid", "E_rf", "W_filter",
-    "lock_resid", "lock_lost",
+    "lock_resid", "lock_lost", "stage", "recoveries",
 ]
 assert len(CHANNELS) == lib.FS_CH_N, "channel names out of step with fs_sim.h"
 
@@ -170,7 +170,9 @@ def build_config(sc: Scenario):
         dc.fw_gain = ctl["fw_gain"]
         dc.fw_cutoff = ctl["fw_cutoff"] or 0.0   # 0: designed in fs_drive_init
     dc.lock_time = ctl["lock_time"] if ctl["lock"] != "off" else 0.0
-    cfg.lock_stop = ctl["lock"] == "stop"
+    dc.lock_recover = int(ctl["lock"] == "recover")
+    dc.t_recover, dc.lock_retries = ctl["recover_time"], ctl["lock_retries"]
+    cfg.lock_stop = ctl["lock"] in ("stop", "recover")   # with recovery: once the retries are spent
 
     p = m.pole_pairs
     obs = d["observer"]

@@ -57,6 +57,14 @@ def save_figure(fig, path: Path, title: str) -> str:
     return path.name
 
 
+def grid_and_legends(axes) -> None:
+    """A light grid on each axis, and its legend where it has labels."""
+    for a in axes:
+        a.grid(True, alpha=0.3)
+        if a.get_legend_handles_labels()[0]:
+            a.legend(loc="upper right", fontsize=8)
+
+
 def figure_angle(results: list[tuple[str, Result]], t_show: tuple[float, float],
                  t_err: tuple[float, float], path: Path, title: str) -> str:
     """Like the papers' steady-state figures: actual and estimated angle over a
@@ -112,10 +120,7 @@ def figure_dynamic(res: Result, path: Path, title: str, t_win: tuple[float, floa
     ax[3].plot(t[m], np.degrees(res["est_err"][m]), "r", lw=0.8)
     ax[3].set_ylabel("error (el.deg)")
     ax[3].set_xlabel("time (s)")
-    for a in ax:
-        a.grid(True, alpha=0.3)
-        if a.get_legend_handles_labels()[0]:
-            a.legend(loc="upper right", fontsize=8)
+    grid_and_legends(ax)
     fig.suptitle(title)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
