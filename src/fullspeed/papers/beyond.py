@@ -118,18 +118,15 @@ def full_range(out: Path) -> Measurement:
     return Measurement(value, bool(ok), note, [fig])
 
 
-def _figure_robust(df, kept, path: Path, title: str) -> str:
+def _figure_robust(err_max, err_mean, kept, path: Path, title: str) -> str:
     fig, ax = plt.subplots(1, 2, figsize=(10, 4))
-    for a, col, label in ((ax[0], "est_err_deg.max", "max |error| (el.deg)"),
-                          (ax[1], "est_err_deg.mean", "mean error (el.deg)")):
-        v = df[col].to_numpy(dtype=float)
+    for a, v, label in ((ax[0], err_max, "max |error| (el.deg)"), (ax[1], err_mean, "mean error (el.deg)")):
         a.hist(v[kept & np.isfinite(v)], bins=25, label="kept lock")
         if np.any(~kept & np.isfinite(v)):
             a.hist(v[~kept & np.isfinite(v)], bins=25, label="lost")
         a.set_xlabel(label)
         a.set_ylabel("runs")
-        a.grid(True, alpha=0.3)
-        a.legend(fontsize=8)
+    grid_and_legends(ax)
     return save_figure(fig, path, title)
 
 
@@ -139,24 +136,25 @@ def robust(out: Path) -> Measurement:
     shutil.rmtree(folder, ignore_errors=True)   # measured afresh (common.sweep_dir)
     sw = load_sweep_file("beyond-robust")
     _, rows = run_sweep(sw, folder, plot=False)
-    import pandas as pd
 
-    df = pd.DataFrame(rows)
-    finished = (df["stop_reason"] == "done").to_numpy()
-    err = df["est_err_deg.max"].to_numpy(dtype=float)
+    def col(name: str) -> np.ndarray:   # the table's column, None as NaN
+        return np.array([np.nan if r[name] is None else r[name] for r in rows], dtype=float)
+
+    finished = np.array([r["stop_reason"] == "done" for r in rows])
+    err = col("est_err_deg.max")
     by_truth = finished & (np.nan_to_num(err, nan=180.0) < 45.0)
-    by_monitor = finished & df["lock_lost_at"].isna().to_numpy()
+    by_monitor = finished & np.isnan(col("lock_lost_at"))
     kept = by_truth & by_monitor
     pct = 100.0 * float(np.mean(kept))
-    refused = df[df["stop_reason"] == "error"]
-    value = {"kept_pct": pct, "runs": len(df), "kept_by_truth": int(by_truth.sum()),
+    refused = [r for r in rows if r["stop_reason"] == "error"]
+    value = {"kept_pct": pct, "runs": len(rows), "kept_by_truth": int(by_truth.sum()),
              "kept_by_monitor": int(by_monitor.sum()), "refused": len(refused),
              "max_error_deg_p50": float(np.nanpercentile(err[finished], 50)),
              "max_error_deg_p95": float(np.nanpercentile(err[finished], 95)),
              "max_error_deg_worst": float(np.nanmax(err[finished]))}
-    fig = _figure_robust(df, kept, out / "B-ROBUST.png",
-                         f"B-ROBUST: {len(df)} runs, R, L_d, L_q, psi_f each x U(0.8, 1.2); {pct:.1f} % kept lock")
-    why = "; ".join(sorted(set(str(r) for r in refused["error"])))[:400]
+    fig = _figure_robust(err, col("est_err_deg.mean"), kept, out / "B-ROBUST.png",
+                         f"B-ROBUST: {len(rows)} runs, R, L_d, L_q, psi_f each x U(0.8, 1.2); {pct:.1f} % kept lock")
+    why = "; ".join(sorted(set(str(r["error"]) for r in refused)))[:400]
     note = (f"Sweep beyond-robust (seed {sw.seed}) on scenario beyond-robust: standstill start with polarity "
             "detection, 1 N m load, up through the blend to 600 rpm and down to 100 rpm, current-sensor noise "
             "drawn afresh per run. Lock counts as kept when the run ends normally, the error stays inside 45 "
