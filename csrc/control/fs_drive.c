@@ -401,8 +401,7 @@ static void drive_recover_begin(fs_drive *drv)
     drv->phase = FS_PHASE_RECOVER;
     drv->t_left = c->t_recover;
     drv->recoveries += 1;
-    fs_lock_reset(&drv->lock);
-    drv->lock_ri = drv->lock_es = drv->lock_eh = drv->lock_ex = 0.0f;
+    fs_lock_reset(&drv->lock);   /* the residual's low-passes restart out of FS_PHASE_RUN */
     if (c->mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
     if (drive_weakens(c)) fs_fw_reset(&drv->fw);
     if (drive_smo_catches(drv)) drive_catch(drv);
@@ -501,8 +500,8 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, float g_w
     const float aw = fabsf(drv->smo.w);
     const bool cross = smo_on && blend && r_smo < 1.0f && aw >= drv->blend.cfg.w_upper
                        && drv->smo.e_mag >= 0.35f * aw * c->psi_f;
-    const float x = fabsf(fs_wrap_pi(drv->smo.theta - drv->blend.theta_hat));
-    drv->lock_ex = cross ? drv->lock_ex + b * (x - drv->lock_ex) : 0.0f;
+    drv->lock_ex = cross ? drv->lock_ex + b * (fabsf(fs_wrap_pi(drv->smo.theta - drv->blend.theta_hat)) - drv->lock_ex)
+                         : 0.0f;
     return fmaxf(r, drv->lock_ex * 1.2732395f);                                   /* 45 deg = pi/4 rad */
 }
 

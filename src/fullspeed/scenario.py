@@ -305,6 +305,9 @@ def _injection_fields(d: dict, m: Machine, source) -> None:
     u_lin = _u_linear(d, m)
     if h.u_amp >= u_lin:
         raise ConfigError("injection.u_h", inj["u_h"], f"must be below {u_lin * inj['u_h'] / h.u_amp:.3g} V: the held carrier, u_h / sinc(pi f_h Ts) = {h.u_amp:.3g} V, inside the linear modulation limit u_dc/sqrt3", source)
+    i_hf = inj["u_h"] / (2 * math.pi * inj["f_h"] * min(L_d, L_q))   # the carrier current's peak (fs_drive.c)
+    if not i_hf < 0.5 * ctl["i_max"]:
+        raise ConfigError("injection.u_h", inj["u_h"], f"must be below {inj['u_h'] * 0.5 * ctl['i_max'] / i_hf:.3g} V: the carrier current's peak, u_h / (2 pi f_h min(L_d, L_q)) = {i_hf:.3g} A, must stay below half of controller.i_max ({ctl['i_max']:g} A)", source)
     if bl["bw_observer"] is not None and bl["bw_observer"] * Ts > 0.5:
         raise ConfigError("blending.bw_observer", bl["bw_observer"], f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s", source)
     if pol["enabled"]:
