@@ -58,7 +58,7 @@ def test_bad_input_is_one_line_exit_2(tmp_path, text, field):
 def test_negative_inductance_message_names_value_and_rule(tmp_path):
     f = write_scenario(tmp_path, bad("", '[machine]\ncatalog = "yang2022"\n[machine.electrical]\nL_d = -1e-5\n'))
     p = fullspeed("run", str(f), "--quiet")
-    assert "-1e-05" in p.stderr and "> 0" in p.stderr
+    assert "-1e-05" in p.stderr and ">= 1e-08" in p.stderr and "(H)" in p.stderr
 
 
 def test_unknown_scenario_name():

@@ -120,6 +120,22 @@ double fs_pmsm_energy(const fs_pmsm *m, const double *x)
     return 2.5 * (W + 0.5 * dd * dd / m->cfg.L_d3 + 0.5 * qq * qq / m->cfg.L_q3);
 }
 
+/* G = d(i_d, i_q)/d(psi_d, psi_q), the incremental inverse inductance, by
+ * central differences of the magnetic model. */
+static void incremental_inverse(fs_pmsm *m, double psi_d, double psi_q, double G[2][2])
+{
+    const double h = 1e-6 * (fabs(psi_d) + fabs(psi_q) + 1e-3);
+    double ip_d, ip_q, im_d, im_q;
+    fs_mag_current(&m->mag, psi_d + h, psi_q, &ip_d, &ip_q);
+    fs_mag_current(&m->mag, psi_d - h, psi_q, &im_d, &im_q);
+    G[0][0] = (ip_d - im_d) / (2.0 * h);
+    G[1][0] = (ip_q - im_q) / (2.0 * h);
+    fs_mag_current(&m->mag, psi_d, psi_q + h, &ip_d, &ip_q);
+    fs_mag_current(&m->mag, psi_d, psi_q - h, &im_d, &im_q);
+    G[0][1] = (ip_d - im_d) / (2.0 * h);
+    G[1][1] = (ip_q - im_q) / (2.0 * h);
+}
+
 /* The right-hand side with the rotor angle's cosine and sine given. */
 FS_SPECIALISE void deriv_cs(fs_pmsm *m, const double *x, const fs_pmsm_input *in, double cs,
                             double sn, const int five, double *dx)
@@ -134,6 +150,26 @@ FS_SPECIALISE void deriv_cs(fs_pmsm *m, const double *x, const fs_pmsm_input *in
 
     dx[FS_X_PSI_D] = u_d - c->R_s * i_d + w_e * x[FS_X_PSI_Q];
     dx[FS_X_PSI_Q] = u_q - c->R_s * i_q - w_e * x[FS_X_PSI_D];
+    if (!five && in->open_phase) {
+        /* the open phase's terminal floats: a voltage lam along its axis n
+         * keeps n.i at zero, d(n.i)/dt = -n.i / tau_open (Baumgarte) */
+        const double n_a[3] = {1.0, -0.5, -0.5}, n_b[3] = {0.0, 0.8660254037844386, -0.8660254037844386};
+        const int k = in->open_phase - 1;
+        const double n_d = cs * n_a[k] + sn * n_b[k], n_q = -sn * n_a[k] + cs * n_b[k];
+        double G[2][2];
+        incremental_inverse(m, x[FS_X_PSI_D], x[FS_X_PSI_Q], G);
+        const double g = n_d * i_d + n_q * i_q;
+        const double Gn_d = G[0][0] * n_d + G[0][1] * n_q, Gn_q = G[1][0] * n_d + G[1][1] * n_q;
+        const double nGa = n_d * (G[0][0] * dx[FS_X_PSI_D] + G[0][1] * dx[FS_X_PSI_Q])
+                         + n_q * (G[1][0] * dx[FS_X_PSI_D] + G[1][1] * dx[FS_X_PSI_Q]);
+        const double nGn = n_d * Gn_d + n_q * Gn_q;
+        /* the frame turns: d(n_dq)/dt = w_e (n_q, -n_d) */
+        const double lam = (-g / in->tau_open - w_e * (n_q * i_d - n_d * i_q) - nGa) / nGn;
+        dx[FS_X_PSI_D] += lam * n_d;
+        dx[FS_X_PSI_Q] += lam * n_q;
+        u_d += lam * n_d;
+        u_q += lam * n_q;
+    }
     switch (c->load_kind) {
     case FS_LOAD_SPEED_IDEAL:
         dx[FS_X_W_M] = in->dw_load;

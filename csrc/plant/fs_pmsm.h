@@ -78,6 +78,11 @@ typedef struct {
     double T_load;            /* external load torque, N m */
     double w_load;            /* load machine speed (reference), rad/s */
     double dw_load;           /* its slope, rad/s^2 */
+    /* an open phase (three phases): 0 none, 1..3 phase a..c. Its current is
+     * held at zero by the terminal voltage along that phase's axis, which
+     * floats; a current flowing when it opens decays with tau_open, s. */
+    int open_phase;
+    double tau_open;
 } fs_pmsm_input;
 
 /* Returns 0, or -1 if the configuration is invalid. */

@@ -7,7 +7,8 @@
 
 #include "fs_profile.h"
 
-enum { P_W_M_REF, P_I_D_REF, P_I_Q_REF, P_U_D_REF, P_U_Q_REF, P_W_E_REF, P_T_LOAD, P_W_LOAD, P_SENSORLESS, P_N };
+enum { P_W_M_REF, P_I_D_REF, P_I_Q_REF, P_U_D_REF, P_U_Q_REF, P_W_E_REF, P_T_LOAD, P_W_LOAD, P_SENSORLESS,
+       P_U_DC_SCALE, P_N };
 
 struct fs_sim {
     fs_sim_config cfg;
@@ -28,6 +29,9 @@ struct fs_sim {
     uint64_t rng;
     int stopped;             /* fs_run_status of a stop, or 0 */
     double stop_time;
+    double u_dc0;            /* the dc link's nominal voltage (cfg.inverter.u_dc follows the fault profile) */
+    float theta_enc_held;    /* the encoder's reading once it has stopped */
+    double adc_sat_time;     /* first saturated current reading, or NaN */
 };
 
 /* The runner passes drive duties to the inverter and phase currents back. */
@@ -62,14 +66,18 @@ static double rng_gauss(uint64_t *s)
     return sqrt(-2.0 * log(u1)) * cos(2.0 * pi_const() * u2);
 }
 
-static double adc(fs_sim *s, double i)
+/* Phase k's current as its sensor and the ADC read it at time t. */
+static double adc(fs_sim *s, int k, double i, double t)
 {
     const fs_sim_config *c = &s->cfg;
+    if (t >= c->fault.t_sensor) i = (1.0 + c->fault.i_gain[k]) * i + c->fault.i_offset[k];
     if (c->noise_i > 0.0) i += c->noise_i * rng_gauss(&s->rng);
+    if (c->adc_range > 0.0 && fabs(i) > c->adc_range) {
+        i = copysign(c->adc_range, i);
+        if (isnan(s->adc_sat_time)) s->adc_sat_time = t;
+    }
     if (c->adc_bits > 0) {
         double lsb = 2.0 * c->adc_range / ldexp(1.0, c->adc_bits);
-        if (i > c->adc_range) i = c->adc_range;
-        if (i < -c->adc_range) i = -c->adc_range;
         i = lsb * nearbyint(i / lsb);
     }
     return i;
@@ -132,9 +140,9 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
     s->cfg = *cfg;
     const fs_profile *src[P_N] = {&cfg->w_m_ref, &cfg->i_d_ref, &cfg->i_q_ref, &cfg->u_d_ref,
                                   &cfg->u_q_ref, &cfg->w_e_ref, &cfg->T_load, &cfg->w_load,
-                                  &cfg->sensorless};
+                                  &cfg->sensorless, &cfg->u_dc_scale};
     static const char *names[P_N] = {"w_m_ref", "i_d_ref", "i_q_ref", "u_d_ref",
-                                     "u_q_ref", "w_e_ref", "T_load", "w_load", "sensorless"};
+                                     "u_q_ref", "w_e_ref", "T_load", "w_load", "sensorless", "u_dc_scale"};
     for (int p = 0; p < P_N; ++p) {
         if (fs_pwl_copy(&s->prof[p], src[p]) != 0)
             FAIL("profile %s: times must be non-decreasing", names[p]);
@@ -147,6 +155,16 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
         FAIL("timing.sampling = %d: must be single (0) or double (1)", cfg->sampling);
     if (!(cfg->h_max > 0.0)) FAIL("timing.h_max = %g: must be > 0", cfg->h_max);
     if (cfg->decimation < 1) FAIL("trace.decimation = %d: must be >= 1", cfg->decimation);
+    if (cfg->adc_bits > 0 && !(cfg->adc_range > 0.0)) FAIL("sensors.adc_range = %g: must be > 0 with adc_bits", cfg->adc_range);
+    const fs_fault_config *fc = &cfg->fault;
+    if (fc->open_phase < 0 || fc->open_phase > 3) FAIL("faults.open_phase = %d: must be 0 (none) or 1..3", fc->open_phase);
+    if (fc->open_phase && (cfg->plant.phases != 3 || cfg->converter != FS_CONV_VSI))
+        FAIL("faults.open_phase = %d: modelled on a three-phase machine fed by the inverter", fc->open_phase);
+    for (int k = 0; k < FS_INV_MAX_LEGS; ++k) {
+        if (!isfinite(fc->i_offset[k]) || !(fc->i_gain[k] > -1.0) || !isfinite(fc->i_gain[k]))
+            FAIL("faults: phase %d's sensor offset %g A or gain error %g: must be finite, the gain error > -1",
+                 k + 1, fc->i_offset[k], fc->i_gain[k]);
+    }
     const int ph = cfg->plant.phases;
     if (ph != 3 && ph != 5) FAIL("plant.phases = %d: must be 3 or 5", ph);
     if (cfg->inverter.phases != ph)
@@ -199,6 +217,8 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
     for (int k = 0; k < FS_INV_MAX_LEGS; ++k) s->duty_now[k] = s->duty_next[k] = 0.5;
     s->rng = cfg->seed ? cfg->seed : 0x9E3779B97F4A7C15ULL;
     s->stop_time = NAN;
+    s->adc_sat_time = NAN;
+    s->u_dc0 = cfg->inverter.u_dc;
     return s;
 }
 
@@ -211,13 +231,18 @@ void fs_sim_destroy(fs_sim *s)
 
 double fs_sim_time(const fs_sim *s) { return (double)s->k * s->Tc; }
 double fs_sim_stop_time(const fs_sim *s) { return s->stop_time; }
+double fs_sim_adc_saturated_at(const fs_sim *s) { return s->adc_sat_time; }
 
 /* Integrate the plant over one control period with the duties now acting. */
 static void integrate_period(fs_sim *s, double t0)
 {
     const fs_inverter_config *inv = &s->cfg.inverter;
-    fs_pmsm_input in;
+    fs_pmsm_input in = {0};
     double slope;
+    if (s->cfg.fault.open_phase && t0 >= s->cfg.fault.t_open) {
+        in.open_phase = s->cfg.fault.open_phase;
+        in.tau_open = 3.0 * s->cfg.h_max;   /* the interrupted current falls in a few steps */
+    }
     in.T_load = fs_pwl_eval(&s->prof[P_T_LOAD], t0, NULL);
     in.w_load = fs_pwl_eval(&s->prof[P_W_LOAD], t0, &slope);
     in.dw_load = slope;
@@ -356,11 +381,15 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
         if (c->plant.load_kind == FS_LOAD_SPEED_IDEAL)
             s->x[FS_X_W_M] = fs_pwl_eval(&s->prof[P_W_LOAD], t, &slope);
 
+        /* the dc link over this period (the inverter's; a sag or a step) */
+        if (!s->imc && s->prof[P_U_DC_SCALE].n > 0)
+            s->cfg.inverter.u_dc = s->u_dc0 * fs_pwl_eval(&s->prof[P_U_DC_SCALE], t, NULL);
+
         /* sample */
         double i_ph[FS_INV_MAX_LEGS], i_d, i_q;
         phase_currents(s, s->x, i_ph, &i_d, &i_q);
         fs_drive_in din;
-        for (int k = 0; k < s->phases; ++k) din.i_ph[k] = (float)adc(s, i_ph[k]);
+        for (int k = 0; k < s->phases; ++k) din.i_ph[k] = (float)adc(s, k, i_ph[k], t);
         for (int k = s->phases; k < FS_PHASES_MAX; ++k) din.i_ph[k] = 0.0f;
         din.u_dc = (float)c->inverter.u_dc;
         if (s->imc) {
@@ -371,7 +400,9 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
         } else {
             din.u_in[0] = din.u_in[1] = din.u_in[2] = 0.0f;
         }
-        din.theta_m_enc = (float)encoder(s, s->x[FS_X_THETA_M]);
+        if (!(c->fault.t_encoder_stop > 0.0 && t >= c->fault.t_encoder_stop))
+            s->theta_enc_held = (float)encoder(s, s->x[FS_X_THETA_M]);
+        din.theta_m_enc = s->theta_enc_held;
         din.theta_e_ext = (float)wrap_pi(p * s->x[FS_X_THETA_M]);
         din.w_e_ext = (float)(p * s->x[FS_X_W_M]);
         din.w_m_ref = (float)fs_pwl_eval(&s->prof[P_W_M_REF], t, NULL);
@@ -456,6 +487,7 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
             r[FS_CH_LOCK_LOST] = dout.lock_lost;
             r[FS_CH_STAGE] = dout.stage;
             r[FS_CH_RECOVERIES] = dout.recoveries;
+            r[FS_CH_U_DC] = din.u_dc;
             ++*rows;
         }
         if (c->lock_stop && dout.lock_lost) {

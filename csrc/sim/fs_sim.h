@@ -39,6 +39,18 @@ typedef struct {
 
 typedef enum { FS_SAMPLING_SINGLE = 0, FS_SAMPLING_DOUBLE = 1 } fs_sampling;
 
+/* Faults of the simulated drive's hardware (all zero: none). Each acts from
+ * its time on. The dc link's sag or step is the profile u_dc_scale; a load
+ * impact is a T_load profile; ADC saturation is a current beyond adc_range. */
+typedef struct {
+    double t_sensor;          /* s: the current-sensor errors below act from here */
+    double i_offset[FS_INV_MAX_LEGS];   /* A, added to each phase's sensed current */
+    double i_gain[FS_INV_MAX_LEGS];     /* relative gain error of each phase's sensor (0.1: reads 10 % high) */
+    int open_phase;           /* 0: none; 1, 2, 3: phase a, b or c opens (three phases, inverter) */
+    double t_open;            /* s */
+    double t_encoder_stop;    /* s, > 0: the encoder's reading freezes here; 0: never */
+} fs_fault_config;
+
 /* plant.phases, inverter.phases and drive.phases must agree (3 or 5). */
 typedef struct {
     fs_pmsm_config plant;
@@ -51,7 +63,7 @@ typedef struct {
     double h_max;             /* longest integration step, s */
     /* sensors */
     int adc_bits;             /* 0: no quantization */
-    double adc_range;         /* A, full scale +-adc_range */
+    double adc_range;         /* A, full scale +-adc_range: the reading saturates beyond (<= 0: no limit) */
     double noise_i;           /* A, standard deviation of current noise */
     int encoder_bits;         /* 0: exact encoder; else counts per mechanical turn = 2^bits */
     uint64_t seed;
@@ -60,12 +72,14 @@ typedef struct {
     int lock_stop;            /* 1: stop with FS_STOP_LOSS_OF_LOCK when the drive reports lock lost */
     /* initial state */
     double theta_m0, w_m0;    /* rad, rad/s */
+    fs_fault_config fault;
     /* the controller */
     fs_drive_config drive;
     /* profiles (copied by fs_sim_create) */
     fs_profile w_m_ref, i_d_ref, i_q_ref, u_d_ref, u_q_ref, w_e_ref;
     fs_profile T_load, w_load;
     fs_profile sensorless;    /* > 0.5: the loops use the estimator */
+    fs_profile u_dc_scale;    /* the dc link relative to inverter.u_dc (a sag, a step); n = 0: 1 */
     int decimation;           /* record every n-th sample */
 } fs_sim_config;
 
@@ -103,6 +117,7 @@ enum {
     FS_CH_E_GRID, FS_CH_E_RF, FS_CH_W_FILTER,
     FS_CH_LOCK_RESID, FS_CH_LOCK_LOST,   /* the drive's loss-of-lock residual and flag (fs_lock.h) */
     FS_CH_STAGE, FS_CH_RECOVERIES,       /* its operating stage (fs_drive_stage) and recoveries begun */
+    FS_CH_U_DC,               /* the dc link at this sample, V (the inverter's; the matrix converter's mean v_pn) */
     FS_CH_N
 };
 
@@ -126,5 +141,7 @@ int fs_sim_run(fs_sim *sim, double t_end, double *trace, int max_rows, int *rows
 double fs_sim_time(const fs_sim *sim);
 /* Time of the stop, for a run that stopped (NaN otherwise). */
 double fs_sim_stop_time(const fs_sim *sim);
+/* First sample whose current reading saturated at +-adc_range (NaN: none yet). */
+double fs_sim_adc_saturated_at(const fs_sim *sim);
 
 #endif /* FS_SIM_H */

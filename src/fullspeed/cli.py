@@ -147,6 +147,13 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("fullspeed: interrupted", file=sys.stderr)
         return 130
+    except Exception as exc:   # a bug, not bad input: still one line, the traceback on request
+        if args.debug:
+            raise
+        text = " ".join(str(exc).split())[:300]
+        print(f"fullspeed: internal error: {type(exc).__name__}: {text} (rerun with --debug for the traceback, "
+              "and please report it)", file=sys.stderr)
+        return 3
 
 
 if __name__ == "__main__":

@@ -15,10 +15,14 @@ class ConfigError(ValueError):
         self.allowed = allowed
         self.source = source
         where = f"{source}: " if source else ""
-        shown = repr(value)
-        if len(shown) > 60:
-            shown = shown[:57] + "..."
-        super().__init__(f"{where}{field} = {shown}: {allowed}")
+        shown = _clip(repr(value), 60)
+        # one line whatever the input holds (a quoted TOML key may contain a newline)
+        text = f"{where}{_clip(str(field), 200)} = {shown}: {allowed}"
+        super().__init__(text.replace("\r", "\\r").replace("\n", "\\n"))
+
+
+def _clip(text: str, n: int) -> str:
+    return text if len(text) <= n else text[: n - 3] + "..."
 
 
 class SimulationError(RuntimeError):

@@ -8,7 +8,7 @@ from importlib import resources
 from pathlib import Path
 
 from .errors import ConfigError
-from .schema import ANY, C, I, NONNEG, POS, S, T, Spec, validate
+from .schema import ANY, NOTES, C, F, I, N, NONNEG, POS, S, T, Spec, read_toml, validate
 from .units import rpm_to_rad_s
 
 MAGNETIC = {
@@ -21,37 +21,52 @@ MAGNETIC = {
     "source": S(""), "reason": S(""),
 }
 
+# Bounds are what a drive on a bench can be: generous, but they keep every
+# value finite in float32 and every run a finite number of steps.
 BENCH = {
-    "u_dc": POS(), "f_pwm": POS(), "t_dead": NONNEG(0.0),
+    "u_dc": POS(hi=1e5, doc="V"), "f_pwm": F(lo=100.0, hi=1e6, doc="Hz"), "t_dead": NONNEG(0.0, hi=1e-4, doc="s"),
     "sampling": C("single", "double", default="single"),
-    "i_max": POS(), "i_trip": POS(), "i_lim": POS(None),
-    "adc_bits": I(12, 0, 24), "adc_range": POS(), "noise_i": NONNEG(0.0),
+    "i_max": POS(hi=1e5, doc="A"), "i_trip": POS(hi=1e5), "i_lim": POS(None, hi=1e5),
+    "adc_bits": I(12, 0, 24), "adc_range": POS(hi=1e6), "noise_i": NONNEG(0.0, hi=1e4),
     "encoder_bits": I(0, 0, 32),
-    "bw_current": POS(), "bw_speed": POS(), "bw_pll": POS(), "bw_pll_smo": POS(None),
+    "bw_current": POS(hi=1e6, doc="rad/s"), "bw_speed": POS(hi=1e6), "bw_pll": POS(hi=1e6), "bw_pll_smo": POS(None, hi=1e6),
     # the indirect matrix converter's grid and input filter (zou2021)
-    "u_dc_min": POS(None), "u_grid_ll_rms": POS(None), "f_grid": POS(None),
-    "l_filter": POS(None), "r_filter": POS(None), "c_filter": POS(None),
-    "reasons": Spec("any", {}),
+    "u_dc_min": POS(None, hi=1e5), "u_grid_ll_rms": POS(None, hi=1e5), "f_grid": POS(None, hi=1e4),
+    "l_filter": POS(None, hi=10.0), "r_filter": POS(None, hi=1e6), "c_filter": POS(None, hi=10.0),
+    "reasons": NOTES(),
 }
 
 # The third-harmonic (d3-q3) plane of a five-phase machine, linear:
 # psi_d3 = L_d3 i_d3 + psi_f3, psi_q3 = L_q3 i_q3 (yu2022 eq. (1)).
-THIRD_HARMONIC = {"L_d3": POS(), "L_q3": POS(), "psi_f3": NONNEG()}
+THIRD_HARMONIC = {"L_d3": F(lo=1e-8, hi=10.0), "L_q3": F(lo=1e-8, hi=10.0), "psi_f3": NONNEG(hi=100.0)}
+
+# The estimators' defaults on this machine (scenario [injection] and
+# [blending] fields left out come from here), and the paper's printed gains.
+INJECTION = {
+    "kind": C("rotating", "square", default="rotating"),
+    "u_h": POS(None, hi=1e4, doc="V"), "f_h": POS(None, hi=1e5, doc="Hz"), "bw_pll": POS(None, hi=1e6, doc="rad/s"),
+    "xcomp_paper": N(None, doc="swvi: the fitted error polynomial, el.rad in i_q (A)"),
+}
+BLENDING = {"omega_lower_rpm": NONNEG(None, hi=1e6), "omega_upper_rpm": POS(None, hi=1e6)}
+PAPER_GAINS = {k: NONNEG(None, hi=1e9) for k in (
+    "current_kp_d", "current_ki_d", "current_kp_q", "current_ki_q", "speed_kp", "speed_ki", "pll_kp", "pll_ki")}
+BENCH_EXPERIMENT = {k: POS(None, hi=1e6) for k in ("u_grid_ll_rms", "f_grid", "u_dc", "u_dc_min", "i_max", "i_lim")}
 
 MACHINE = {
     "name": S(), "description": S(""), "source": S(""),
     "kind": C("ipmsm", "spmsm"),
     "phases": Spec("choice", 3, choices=(3, 5)),
     "pole_pairs": I(lo=1, hi=100),
-    "electrical": T({"R_s": NONNEG(), "L_d": POS(), "L_q": POS(), "psi_f": NONNEG()}),
-    "mechanical": T({"J": POS(), "B": NONNEG(0.0), "T_coulomb": NONNEG(0.0)}),
-    "rated": T({"torque": POS(), "current": POS(), "speed_rpm": POS(),
-                "voltage": POS(None), "power": POS(None)}),
+    "electrical": T({"R_s": NONNEG(hi=1e3, doc="ohm"), "L_d": F(lo=1e-8, hi=10.0, doc="H"),
+                     "L_q": F(lo=1e-8, hi=10.0, doc="H"), "psi_f": NONNEG(hi=100.0, doc="Wb")}),
+    "mechanical": T({"J": F(lo=1e-9, hi=1e5, doc="kg m^2"), "B": NONNEG(0.0, hi=1e4), "T_coulomb": NONNEG(0.0, hi=1e6)}),
+    "rated": T({"torque": POS(hi=1e6), "current": POS(hi=1e5), "speed_rpm": POS(hi=1e6),
+                "voltage": POS(None, hi=1e5), "power": POS(None, hi=1e9)}),
     "magnetic": T(MAGNETIC, default={}),
     "bench": T(BENCH),
-    # tables owned by the estimator issues, validated where they are used
-    "injection": ANY, "blending": ANY, "paper_gains": ANY,
-    "third_harmonic": ANY, "bench_experiment": ANY, "derivations": ANY,
+    "injection": T(INJECTION, default=None), "blending": T(BLENDING, default=None),
+    "paper_gains": T(PAPER_GAINS, default=None), "third_harmonic": ANY,
+    "bench_experiment": T(BENCH_EXPERIMENT, default=None), "derivations": NOTES(),
 }
 
 
@@ -131,7 +146,10 @@ def machine_from_dict(data: dict, source: str | None = None, prefix: str = "mach
                               "a five-phase machine needs a [third_harmonic] table with L_d3 > 0 (H), "
                               "L_q3 > 0 (H) and psi_f3 >= 0 (Wb)", source)
         th = validate(d["third_harmonic"], THIRD_HARMONIC, f"{prefix}.third_harmonic", source)
-    extra = {k: d[k] for k in ("injection", "blending", "paper_gains", "third_harmonic", "bench_experiment") if d.get(k) is not None}
+    if d["magnetic"]["model"] == "fluxmap":
+        _check_fluxmap(d["magnetic"], f"{prefix}.magnetic", source)
+    extra = {k: {kk: vv for kk, vv in d[k].items() if vv is not None}
+             for k in ("injection", "blending", "paper_gains", "third_harmonic", "bench_experiment") if d.get(k) is not None}
     return Machine(
         name=d["name"], kind=d["kind"], phases=d["phases"], pole_pairs=d["pole_pairs"],
         R_s=e["R_s"], L_d=e["L_d"], L_q=e["L_q"], psi_f=e["psi_f"],
@@ -142,8 +160,42 @@ def machine_from_dict(data: dict, source: str | None = None, prefix: str = "mach
     )
 
 
+def _check_fluxmap(mag: dict, prefix: str, source) -> None:
+    """A measured flux map: regular current grids and a monotonic, finite
+    table psi[k][l] at (i_d[k], i_q[l])."""
+    grids = {}
+    for name in ("i_d", "i_q"):
+        g = mag[name]
+        ok = (isinstance(g, list) and 2 <= len(g) <= 1000
+              and all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in g))
+        steps = [b - a for a, b in zip(g, g[1:])] if ok else []
+        if not (ok and steps[0] > 0 and all(math.isclose(x, steps[0], rel_tol=1e-6) for x in steps)):
+            raise ConfigError(f"{prefix}.{name}", g, "must be a rising, evenly spaced list of 2..1000 currents (A)", source)
+        grids[name] = g
+    n_d, n_q = len(grids["i_d"]), len(grids["i_q"])
+    for name in ("psi_d", "psi_q"):
+        tab = mag[name]
+        ok = (isinstance(tab, list) and len(tab) == n_d
+              and all(isinstance(row, list) and len(row) == n_q for row in tab)
+              and all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) and abs(x) <= 100.0
+                      for row in tab for x in row))
+        if not ok:
+            raise ConfigError(f"{prefix}.{name}", "table", f"must be a {n_d} x {n_q} table (rows i_d, columns i_q) of finite fluxes within +-100 Wb", source)
+    psi_d, psi_q = mag["psi_d"], mag["psi_q"]
+    for k in range(n_d - 1):
+        for n in range(n_q):
+            if not psi_d[k + 1][n] > psi_d[k][n]:
+                raise ConfigError(f"{prefix}.psi_d[{k + 1}][{n}]", psi_d[k + 1][n],
+                                  f"must be above psi_d[{k}][{n}] = {psi_d[k][n]:g}: the flux must rise with i_d (a monotonic map)", source)
+    for k in range(n_d):
+        for n in range(n_q - 1):
+            if not psi_q[k][n + 1] > psi_q[k][n]:
+                raise ConfigError(f"{prefix}.psi_q[{k}][{n + 1}]", psi_q[k][n + 1],
+                                  f"must be above psi_q[{k}][{n}] = {psi_q[k][n]:g}: the flux must rise with i_q (a monotonic map)", source)
+
+
 def load_machine(name_or_path: str | Path) -> Machine:
     p = Path(name_or_path)
-    if p.suffix == ".toml" and p.exists():
-        return machine_from_dict(tomllib.loads(p.read_text()), str(p))
+    if p.suffix == ".toml":
+        return machine_from_dict(read_toml(p, "machine"), str(p))
     return machine_from_dict(catalog_data(str(name_or_path)), f"machines/{name_or_path}.toml")

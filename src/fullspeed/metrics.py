@@ -48,6 +48,9 @@ def compute_metrics(res) -> dict:
     lost = np.flatnonzero(tr["lock_lost"] > 0)
     out["lock_lost_at"] = float(t[lost[0]]) if lost.size else None
     out["recoveries"] = int(tr["recoveries"][-1])
+    faults = fault_report(res)
+    if faults is not None:
+        out["faults"] = faults
     if not m.any():
         return out
     mode = res.scenario.data["controller"]["mode"]
@@ -64,6 +67,60 @@ def compute_metrics(res) -> dict:
     out["T_e_pp"] = float(np.ptp(tr["T_e"][m]))
     out["theta_err_deg"] = angle_error_stats(tr["theta_err"][m])
     out["est_err_deg"] = angle_error_stats(tr["est_err"][m])
+    return out
+
+
+def fault_events(res) -> list[tuple[str, float]]:
+    """The faults of the run's [faults] table that acted, with their times."""
+    f, tr = res.scenario.data["faults"], res.traces
+    ev = []
+    if any(f["i_offset"]) or any(f["i_gain"]):
+        ev.append(("current_sensor", f["t_sensor"]))
+    if res.adc_saturated_at is not None:
+        ev.append(("adc_saturation", res.adc_saturated_at))
+    u0 = res.scenario.data["converter"]["u_dc"]
+    moved = np.flatnonzero(np.abs(tr["u_dc"] - u0) > 1e-6 * u0) if res.scenario.data["converter"]["kind"] == "inverter" else []
+    if len(moved):
+        ev.append(("dc_link", float(tr["t"][moved[0]])))
+    if f["open_phase"] != "none":
+        ev.append((f"open_phase_{f['open_phase']}", f["t_open"]))
+    if f["t_encoder_stop"] is not None:
+        ev.append(("encoder_stop", f["t_encoder_stop"]))
+    return [(k, t) for k, t in ev if t <= res.sim_time]
+
+
+def fault_report(res) -> dict | None:
+    """How the drive came out of its faults: tripped (the stop and its time),
+    kept control, or lost it (the time its error first left the band and
+    stayed out until the end). The band: speed within 10 % of the reference
+    or 5 % of the rated speed; current within 10 % of i_max (true currents)."""
+    ev = fault_events(res)
+    if not ev:
+        return None
+    t0 = min(t for _, t in ev)
+    out = {"events": [[k, t] for k, t in sorted(ev, key=lambda e: e[1])]}
+    if res.stop_reason != "done":
+        out.update(outcome=f"tripped: {res.stop_reason}", t_outcome=res.stop_time)
+        return out
+    tr, sc = res.traces, res.scenario
+    mode = sc.data["controller"]["mode"]
+    after = tr["t"] >= t0
+    if mode == "speed":
+        err = np.abs(tr["w_m"] - tr["w_m_ref"])
+        band = np.maximum(0.1 * np.abs(tr["w_m_ref"]), 0.05 * sc.machine.w_m_rated)
+    elif mode == "current":
+        err = np.hypot(tr["i_d"] - tr["i_d_ref"], tr["i_q"] - tr["i_q_ref"])
+        band = np.full_like(err, 0.1 * sc.data["controller"]["i_max"])
+    else:
+        out.update(outcome="reported", t_outcome=None)
+        return out
+    bad = after & (err > band)
+    if not bad[-1]:
+        out.update(outcome="kept control", t_outcome=None)
+    else:
+        good = np.flatnonzero(after & ~bad)
+        k = good[-1] + 1 if good.size else np.flatnonzero(after)[0]
+        out.update(outcome="lost control", t_outcome=float(tr["t"][k]))
     return out
 
 

@@ -3,14 +3,13 @@ reference profiles, read from TOML and validated field by field."""
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
 from .errors import ConfigError
 from .machines import Machine, catalog_data, machine_from_dict
-from .schema import ANY, B, C, F, I, NONNEG, POS, P, S, Spec, T, deep_merge, validate
+from .schema import ANY, B, C, F, I, N, NONNEG, POS, P, S, Spec, T, deep_merge, parse_toml, read_toml, validate
 from .units import rpm_to_rad_s
 
 SCENARIO = {
@@ -21,20 +20,20 @@ SCENARIO = {
         "kind": C("inverter", "imc", default="inverter",
                   doc="imc: the indirect matrix converter of zou2021 (grid, LC filter, rectifier and inverter stages)"),
         "inverter": C("averaged", "switching", default=None, doc="default switching; the imc's is averaged per rectifier interval"),
-        "u_dc": POS(None), "f_pwm": POS(None), "t_dead": NONNEG(None), "u_on": NONNEG(0.0),
+        "u_dc": POS(None, hi=1e5), "f_pwm": F(None, lo=100.0, hi=1e6), "t_dead": NONNEG(None, hi=1e-4), "u_on": NONNEG(0.0, hi=1e3),
         # the matrix converter (defaults from the machine's bench)
         "modulation": C("linear", "om1", "om2", default="om2",
                         doc="imc: the highest region (zou2021 sec. 3.3): linear, over-modulation I (CASE 1) or II (CASE 1 and 2)"),
-        "grid_ll_rms": POS(None, doc="V, line-line rms"), "f_grid": POS(None, doc="Hz"),
-        "l_filter": POS(None, doc="H"), "r_filter": POS(None, doc="ohm, in parallel with l_filter"), "c_filter": POS(None, doc="F"),
+        "grid_ll_rms": POS(None, hi=1e5, doc="V, line-line rms"), "f_grid": POS(None, hi=1e4, doc="Hz"),
+        "l_filter": POS(None, hi=10.0, doc="H"), "r_filter": POS(None, hi=1e6, doc="ohm, in parallel with l_filter"), "c_filter": POS(None, hi=10.0, doc="F"),
     }, default={}),
     "timing": T({
         "sampling": C("single", "double", default=None),
         "delay": B(True, doc="one control period of computation delay"),
-        "h_max": POS(None, hi=1e-3, doc="longest integration step, s; default from the machine's time constants"),
+        "h_max": F(None, lo=1e-9, hi=1e-3, doc="longest integration step, s; default from the machine's time constants; at least 1/1000 of the control period"),
     }, default={}),
     "sensors": T({
-        "adc_bits": I(None, 0, 24), "adc_range": POS(None), "noise_i": NONNEG(None),
+        "adc_bits": I(None, 0, 24), "adc_range": POS(None, hi=1e6), "noise_i": NONNEG(None, hi=1e4),
         "encoder_bits": I(None, 0, 32), "seed": I(1, 0, 2**63 - 1),
     }, default={}),
     "controller": T({
@@ -42,21 +41,21 @@ SCENARIO = {
         "angle": C("encoder", "true", "smo", "hfi", "blend", "swvi", default="encoder"),
         "gains": C("designed", "paper", default="designed",
                    doc="PI gains: designed from the bandwidths, or the machine's [paper_gains]"),
-        "bw_current": POS(None), "bw_speed": POS(None), "bw_pll": POS(None),
-        "i_max": POS(None), "T_max": POS(None),
-        "dead_time_comp": B(True), "i_dead_band": NONNEG(None),
-        "vf_gain": NONNEG(0.0, doc="V per electrical rad/s"), "vf_boost": NONNEG(0.0),
+        "bw_current": POS(None, hi=1e6), "bw_speed": POS(None, hi=1e6), "bw_pll": POS(None, hi=1e6),
+        "i_max": POS(None, hi=1e5), "T_max": POS(None, hi=1e6),
+        "dead_time_comp": B(True), "i_dead_band": NONNEG(None, hi=1e5),
+        "vf_gain": NONNEG(0.0, hi=1e3, doc="V per electrical rad/s"), "vf_boost": NONNEG(0.0, hi=1e5),
         # the controller's parameters relative to the true machine's
-        "R_s_scale": POS(1.0), "L_d_scale": POS(1.0), "L_q_scale": POS(1.0), "psi_f_scale": POS(1.0),
-        "J_scale": POS(1.0),
+        "R_s_scale": F(1.0, lo=0.01, hi=100.0), "L_d_scale": F(1.0, lo=0.01, hi=100.0), "L_q_scale": F(1.0, lo=0.01, hi=100.0),
+        "psi_f_scale": F(1.0, lo=0.01, hi=100.0), "J_scale": F(1.0, lo=0.01, hi=100.0),
         # zou2021 PART_1 voltage-error-feedback flux weakening on top of MTPA
         "flux_weakening": B(False),
-        "fw_top_speed_rpm": POS(None, doc="w_r,max of eq. (31); default the observer's top speed"),
-        "fw_gain": POS(50.0, doc="multiplies beta of eq. (31): the loop's dc gain at the top speed (the paper: 1)"),
-        "fw_cutoff": POS(None, doc="rad/s, the low-pass of eq. (30); default designed in the drive's init (fs_drive.h; the paper: bw_current)"),
+        "fw_top_speed_rpm": POS(None, hi=1e6, doc="w_r,max of eq. (31); default the observer's top speed"),
+        "fw_gain": POS(50.0, hi=1e6, doc="multiplies beta of eq. (31): the loop's dc gain at the top speed (the paper: 1)"),
+        "fw_cutoff": POS(None, hi=1e6, doc="rad/s, the low-pass of eq. (30); default designed in the drive's init (fs_drive.h; the paper: bw_current)"),
         # zou2021 PART_2: the matrix converter's rectifier modulation-depth controller
         "depth_control": B(False, doc="imc, speed mode with flux weakening and modulation om2: alpha from eq. (33); else from the demanded VTR"),
-        "i_lim": POS(None, doc="A, I_lim of eq. (33); default the machine's bench i_lim"),
+        "i_lim": POS(None, hi=1e5, doc="A, I_lim of eq. (33); default the machine's bench i_lim"),
         # loss of lock of the estimator the loops use (fs_lock.h)
         "lock": C("off", "detect", "stop", "recover", default="detect",
                   doc="detect: traced (lock_resid, lock_lost); stop: the run ends with stop reason loss_of_lock; "
@@ -68,61 +67,78 @@ SCENARIO = {
     }),
     # the estimator (yang2022 sec. 2); used from `handover` on, running from t = 0
     "observer": T({
-        "handover": NONNEG(0.0, doc="s: the loops switch from the encoder to the observer"),
-        "k": NONNEG(0.0, doc="V; 0: margin x the bound of eq. (18)"),
-        "margin": F(1.5, lo=1.0, lo_open=True),
-        "delta": NONNEG(0.0, doc="A; floored at k Ts / L_d"),
-        "cutoff_min_rpm": POS(20.0, doc="floor of the adaptive filter's cutoff, as a mechanical speed"),
-        "bw_pll": POS(None, doc="rad/s; default from the machine's bench"),
-        "valid_rpm": NONNEG(100.0),
-        "top_speed_rpm": POS(None, doc="for the gain bound; default 1.5 x rated"),
+        "handover": NONNEG(0.0, hi=1e4, doc="s: the loops switch from the encoder to the observer"),
+        "k": NONNEG(0.0, hi=1e6, doc="V; 0: margin x the bound of eq. (18)"),
+        "margin": F(1.5, lo=1.0, hi=100.0, lo_open=True),
+        "delta": NONNEG(0.0, hi=1e5, doc="A; floored at k Ts / L_d"),
+        "cutoff_min_rpm": POS(20.0, hi=1e6, doc="floor of the adaptive filter's cutoff, as a mechanical speed"),
+        "bw_pll": POS(None, hi=1e6, doc="rad/s; default from the machine's bench"),
+        "valid_rpm": NONNEG(100.0, hi=1e6),
+        "top_speed_rpm": POS(None, hi=1e6, doc="for the gain bound; default 1.5 x rated"),
         "lag": C("exact", "paper", default="exact"),
         # how the sensorless drive starts: on the encoder until `handover`, or
         # sensorless from standstill with an I/f start
         "start": C("encoder", "if", default="encoder"),
-        "i_start": POS(None, doc="A; default half of i_max"),
-        "start_accel_rpm_s": POS(None, doc="frame acceleration; default from a quarter of the start current's torque"),
-        "start_handover_rpm": POS(None, doc="the loops take the observer here; default twice valid_rpm"),
+        "i_start": POS(None, hi=1e5, doc="A; default half of i_max"),
+        "start_accel_rpm_s": POS(None, hi=1e9, doc="frame acceleration; default from a quarter of the start current's torque"),
+        "start_handover_rpm": POS(None, hi=1e6, doc="the loops take the observer here; default twice valid_rpm"),
     }, default={}),
     # HF voltage injection: rotating (yang2022 sec. 3) for angle = "hfi" or
     # "blend", square-wave (yu2022 sec. 2) for angle = "swvi"
     "injection": T({
-        "u_h": POS(None, doc="V; default the machine's [injection]"),
-        "f_h": POS(None, doc="Hz; default the machine's [injection]; at most a quarter of the sampling rate"),
-        "bw_filter_p": POS(None, doc="rad/s, SRFF at +w_h; default w_h / 20 (fs_hfi.h)"),
-        "bw_filter_n": POS(None, doc="rad/s, SRFF at -w_h + 2 w_r; default w_h / 20"),
-        "bw_observer": POS(None, doc="rad/s, motion observer; default bw_filter_n / 5"),
+        "u_h": POS(None, hi=1e4, doc="V; default the machine's [injection]"),
+        "f_h": POS(None, hi=1e5, doc="Hz; default the machine's [injection]; at most a quarter of the sampling rate"),
+        "bw_filter_p": POS(None, hi=1e6, doc="rad/s, SRFF at +w_h; default w_h / 20 (fs_hfi.h)"),
+        "bw_filter_n": POS(None, hi=1e6, doc="rad/s, SRFF at -w_h + 2 w_r; default w_h / 20"),
+        "bw_observer": POS(None, hi=1e6, doc="rad/s, motion observer; default bw_filter_n / 5"),
         "xcomp": Spec("any", None, doc="cross-saturation table {i_q = [A...], delta_deg = [...]} on an even grid, or a TOML file holding it, or (swvi) \"paper\": the machine's fitted error polynomial"),
-        "stop_rpm": POS(None, doc="blend: the injection stops above this speed (resumes below 0.9 of it); default 1.2 x the upper blending speed"),
+        "stop_rpm": POS(None, hi=1e6, doc="blend: the injection stops above this speed (resumes below 0.9 of it); default 1.2 x the upper blending speed"),
         "sequence": C("optimized", "conventional", default="optimized", doc="swvi: the time sequence of yu2022 sec. 3.2"),
-        "bw_pll": POS(None, doc="swvi: PLL bandwidth, rad/s (k_p = 2 w_b, k_i = w_b^2); default the machine's [injection]"),
+        "bw_pll": POS(None, hi=1e6, doc="swvi: PLL bandwidth, rad/s (k_p = 2 w_b, k_i = w_b^2); default the machine's [injection]"),
         "carrier": B(True, doc="swvi: false keeps the loops' timing without the carrier (comparison runs, on the encoder)"),
     }, default={}),
     "polarity": T({
         "enabled": B(True, doc="detect the magnet polarity before starting sensorless on injection"),
-        "i_pulse": POS(None, doc="A, d-current pulses; default half of controller.i_max"),
-        "t_lock": NONNEG(0.06, doc="s, the estimator settles first: >= 6 / w_b_n + 2 / w_o (fade-in, filters, observer)"),
-        "t_pulse": POS(0.02, doc="s, each pulse: >= 6 / w_b_p (the carrier amplitude settles in the first half)"),
+        "i_pulse": POS(None, hi=1e5, doc="A, d-current pulses; default half of controller.i_max"),
+        "t_lock": NONNEG(0.06, hi=10.0, doc="s, the estimator settles first: >= 6 / w_b_n + 2 / w_o (fade-in, filters, observer)"),
+        "t_pulse": POS(0.02, hi=10.0, doc="s, each pulse: >= 6 / w_b_p (the carrier amplitude settles in the first half)"),
     }, default={}),
     "blending": T({
-        "lower_rpm": NONNEG(None, doc="eq. (28); default the machine's [blending]"),
-        "upper_rpm": POS(None),
-        "bw_observer": POS(None, doc="rad/s, the motion observer after the blend (Fig. 6); default that of the injection's"),
+        "lower_rpm": NONNEG(None, hi=1e6, doc="eq. (28); default the machine's [blending]"),
+        "upper_rpm": POS(None, hi=1e6),
+        "bw_observer": POS(None, hi=1e6, doc="rad/s, the motion observer after the blend (Fig. 6); default that of the injection's"),
     }, default={}),
     "load": T({
         "kind": C("torque", "speed", "speed_pi", "brake", default="torque",
                   doc="brake: a passive brake (powder, eddy current), torque = its magnitude against the motion"),
-        "torque": P(0.0, doc="N m"), "speed_rpm": P(0.0),
-        "bandwidth": POS(100.0, doc="load machine speed loop, rad/s"), "J_load": NONNEG(0.0),
+        "torque": P(0.0, hi=1e6, doc="N m"), "speed_rpm": P(0.0, hi=1e6),
+        "bandwidth": POS(100.0, hi=1e6, doc="load machine speed loop, rad/s"), "J_load": NONNEG(0.0, hi=1e5),
     }, default={}),
     "references": T({
-        "speed_rpm": P(0.0), "i_d": P(0.0), "i_q": P(0.0),
-        "u_d": P(0.0), "u_q": P(0.0), "frame_rpm": P(0.0),
+        "speed_rpm": P(0.0, hi=1e6), "i_d": P(0.0, hi=1e5), "i_q": P(0.0, hi=1e5),
+        "u_d": P(0.0, hi=1e5), "u_q": P(0.0, hi=1e5), "frame_rpm": P(0.0, hi=1e6),
     }, default={}),
-    "initial": T({"theta_e_deg": F(0.0, -360.0, 360.0), "speed_rpm": F(0.0)}, default={}),
+    "initial": T({"theta_e_deg": F(0.0, -360.0, 360.0), "speed_rpm": F(0.0, -1e6, 1e6)}, default={}),
+    # faults of the drive's hardware, each from its time on (fs_sim.h); a load
+    # impact is a [load] torque profile
+    "faults": T({
+        "t_sensor": NONNEG(0.0, hi=1e4, doc="s: the current-sensor errors act from here"),
+        "i_offset": N([], doc="A added to each phase's sensed current (a, b, c, ...)"),
+        "i_gain": N([], doc="each phase sensor's relative gain error (0.1 reads 10 % high)"),
+        "open_phase": C("none", "a", "b", "c", default="none", doc="three phases on the inverter"),
+        "t_open": NONNEG(0.0, hi=1e4, doc="s"),
+        "t_encoder_stop": POS(None, hi=1e4, doc="s: the encoder's reading freezes here"),
+        "u_dc_scale": P(1.0, hi=10.0, doc="the dc link relative to converter.u_dc: a sag or a step (inverter)"),
+    }, default={}),
     "trace": T({"decimation": I(1, 1, 10**6)}, default={}),
     "metrics": T({"steady": Spec("any", None)}, default={}),
 }
+
+
+# The trace is held in memory: one row of doubles per recorded sample.
+TRACE_CHANNELS = 57                          # FS_CH_N, checked against the core in sim.py
+TRACE_ROW_BYTES = 8 * TRACE_CHANNELS
+TRACE_MAX_BYTES = 2e9
 
 
 @dataclass(frozen=True)
@@ -239,11 +255,25 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
     # consistency between fields
     T_pwm, Ts = 1.0 / conv["f_pwm"], _control_period(d)
     if conv["t_dead"] >= 0.5 * T_pwm:
-        raise ConfigError("converter.t_dead", conv["t_dead"], f"must be shorter than half the PWM period ({0.5 * T_pwm:g} s)", source)
+        raise ConfigError("converter.t_dead", conv["t_dead"], f"must be shorter than half the PWM period ({0.5 * T_pwm:g} s)"
+                          + (", the control period with double sampling" if tim["sampling"] == "double" else ""), source)
+    if tim["h_max"] < 1e-3 * Ts:   # a run of finite steps: at most a thousand RK4 steps per control period
+        given = "h_max" in data.get("timing", {})
+        raise ConfigError("timing.h_max", tim["h_max"], f"must be >= {1e-3 * Ts:g} s, a thousandth of the control period"
+                          + ("" if given else f" (the default, a fifth of {m.name}'s shortest time constant L/R or "
+                             "of a radian at the top speed, is shorter: check R_s, L_d, L_q and observer.top_speed_rpm)"), source)
+    if ctl["i_max"] >= m.bench["i_trip"]:
+        raise ConfigError("controller.i_max", ctl["i_max"], f"must be below the trip level bench.i_trip ({m.bench['i_trip']:g} A)", source)
+    rows = d["duration"] / (Ts * d["trace"]["decimation"])
+    if rows * TRACE_ROW_BYTES > TRACE_MAX_BYTES:
+        need = math.ceil(d["duration"] / Ts * TRACE_ROW_BYTES / TRACE_MAX_BYTES)
+        raise ConfigError("trace.decimation", d["trace"]["decimation"], f"must be >= {need}: {d['duration']:g} s at Ts = {Ts:g} s "
+                          f"would trace {rows * TRACE_ROW_BYTES / 1e9:.3g} GB, above the {TRACE_MAX_BYTES / 1e9:g} GB limit", source)
     for sec, key, limit in (("controller", "bw_current", 1.0), ("controller", "fw_cutoff", 1.0), ("controller", "bw_speed", 0.5),
                             ("controller", "bw_pll", 0.5), ("observer", "bw_pll", 0.5)):
         if d[sec][key] is not None and d[sec][key] * Ts > limit:   # None: designed in C
             raise ConfigError(f"{sec}.{key}", d[sec][key], f"must be <= {limit / Ts:g} rad/s for the control period {Ts:g} s", source)
+    _fault_fields(d, m, source)
     steady = d["metrics"]["steady"]
     if steady is not None:
         ok = (isinstance(steady, list) and len(steady) == 2
@@ -252,6 +282,21 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         if not ok:
             raise ConfigError("metrics.steady", steady, f"must be [t_start, t_end] with 0 <= t_start < t_end <= duration ({d['duration']:g})", source)
     return Scenario(name=d["name"], machine=m, data=d, source=source)
+
+
+def _fault_fields(d: dict, m: Machine, source) -> None:
+    f = d["faults"]
+    for key, lo, hi in (("i_offset", -1e5, 1e5), ("i_gain", -0.99, 10.0)):
+        v = f[key]
+        if len(v) > m.phases or not all(lo <= x <= hi for x in v):
+            raise ConfigError(f"faults.{key}", v, f"must list at most {m.phases} values (phases a, b, ...), each in [{lo:g}, {hi:g}]", source)
+    if f["open_phase"] != "none" and (m.phases != 3 or d["converter"]["kind"] != "inverter"):
+        raise ConfigError("faults.open_phase", f["open_phase"], "is modelled on a three-phase machine fed by the inverter", source)
+    scale = f["u_dc_scale"][1]
+    if min(scale) < 0.01:
+        raise ConfigError("faults.u_dc_scale", min(scale), "must stay >= 0.01 (a dc link that collapses to zero is a stop, not a sag)", source)
+    if d["converter"]["kind"] != "inverter" and any(x != 1.0 for x in scale):
+        raise ConfigError("faults.u_dc_scale", scale, "applies to the inverter's dc link (the matrix converter's follows the grid)", source)
 
 
 def _imc_fields(d: dict, m: Machine, source) -> None:
@@ -441,10 +486,7 @@ def _xcomp_table(raw, source) -> dict:
             p = Path(str(shipped))
         if not p.exists():
             raise ConfigError(where, raw, "file not found (nor a table in fullspeed/calibration)", source)
-        try:
-            raw = tomllib.loads(p.read_text())
-        except tomllib.TOMLDecodeError as exc:
-            raise ConfigError(where, str(p), f"unparsable TOML: {exc}", source) from None
+        raw = read_toml(p, where, source)
         raw = raw.get("xcomp", raw)
     if not isinstance(raw, dict) or set(raw) - {"i_q", "delta_deg", "source"} or not {"i_q", "delta_deg"} <= set(raw):
         raise ConfigError(where, raw if not isinstance(raw, dict) else sorted(raw), "must be a table with i_q = [A...] and delta_deg = [el.deg...]", source)
@@ -466,20 +508,14 @@ def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Sc
     into the raw data before validation."""
     p = Path(name_or_path)
     if p.suffix == ".toml" or p.exists():
-        if not p.exists():
-            raise ConfigError("scenario", str(p), "file not found", None)
         source = str(p)
-        text = p.read_text()
+        data = read_toml(p, "scenario")
     else:
         names = scenario_names()
         if str(name_or_path) not in names:
             raise ConfigError("scenario", str(name_or_path), "unknown scenario; `fullspeed list` shows the catalog", None)
         source = f"scenarios/{name_or_path}.toml"
-        text = (resources.files("fullspeed") / "scenarios" / f"{name_or_path}.toml").read_text()
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError("toml", "unparsable", str(exc), source) from None
+        data = parse_toml((resources.files("fullspeed") / "scenarios" / f"{name_or_path}.toml").read_text(), "toml", source)
     if overrides:
         data = deep_merge(data, overrides)
     return scenario_from_dict(data, source)

@@ -7,7 +7,9 @@ field, the value and what is allowed, and fills in defaults.
 from __future__ import annotations
 
 import math
+import tomllib
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from .errors import ConfigError
@@ -17,7 +19,7 @@ MISSING = object()
 
 @dataclass(frozen=True)
 class Spec:
-    kind: str                      # "float", "int", "bool", "str", "choice", "profile", "list", "table", "any"
+    kind: str                      # "float", "int", "bool", "str", "choice", "profile", "numbers", "notes", "table", "any"
     default: Any = MISSING         # MISSING: required
     lo: float | None = None
     hi: float | None = None
@@ -37,13 +39,19 @@ class Spec:
                 parts.append(f"{'>' if self.lo_open else '>='} {self.lo:g}")
             if self.hi is not None:
                 parts.append(f"{'<' if self.hi_open else '<='} {self.hi:g}")
-            return f"must be {word}" + (" " + " and ".join(parts) if parts else "")
+            unit = f" ({self.doc})" if 0 < len(self.doc) <= 8 else ""   # a doc that is a unit
+            return f"must be {word}" + (" " + " and ".join(parts) if parts else "") + unit
         if self.kind == "bool":
             return "must be true or false"
         if self.kind == "str":
             return "must be a string"
         if self.kind == "profile":
-            return "must be a number or a list of [time_s, value] pairs with non-decreasing times"
+            bound = f" within +-{self.hi:g}" if self.hi is not None else ""
+            return f"must be a number{bound} or a list of [time_s, value] pairs with non-decreasing times"
+        if self.kind == "numbers":
+            return "must be a list of finite numbers"
+        if self.kind == "notes":
+            return "must be a table of strings"
         if self.kind == "table":
             return "must be a table"
         return "invalid"
@@ -77,8 +85,19 @@ def C(*choices, default=MISSING, doc=""):
     return Spec("choice", default, choices=tuple(choices), doc=doc)
 
 
-def P(default=MISSING, doc=""):
-    return Spec("profile", default, doc=doc)
+def P(default=MISSING, hi=None, doc=""):
+    """A profile; hi bounds its values' magnitude."""
+    return Spec("profile", default, hi=hi, doc=doc)
+
+
+def N(default=MISSING, doc=""):
+    """A list of finite numbers."""
+    return Spec("numbers", default, doc=doc)
+
+
+def NOTES(doc=""):
+    """A table of free text (reasons, derivations): strings only."""
+    return Spec("notes", {}, doc=doc)
 
 
 def T(table: dict, default=MISSING, doc=""):
@@ -130,6 +149,14 @@ def check_value(spec: Spec, value, field: str, source: str | None):
         return value
     if k == "profile":
         return check_profile(value, field, source, spec)
+    if k == "numbers":
+        if not isinstance(value, list) or not all(_is_number(x) and math.isfinite(x) for x in value):
+            fail()
+        return [float(x) for x in value]
+    if k == "notes":
+        if not isinstance(value, dict) or not all(isinstance(x, str) for x in value.values()):
+            fail()
+        return value
     if k == "table":
         if not isinstance(value, dict):
             fail()
@@ -139,8 +166,12 @@ def check_value(spec: Spec, value, field: str, source: str | None):
 
 def check_profile(value, field, source, spec=None):
     """A number, or [[t, y], ...] with non-decreasing t. Returns (t, y) lists."""
-    allowed = (spec or P()).allowed()
+    spec = spec or P()
+    allowed = spec.allowed()
+    hi = spec.hi if spec.hi is not None else math.inf
     if _is_number(value) and math.isfinite(value):
+        if abs(value) > hi:
+            raise ConfigError(field, value, allowed, source)
         return ([0.0], [float(value)])
     if not isinstance(value, list) or not value:
         raise ConfigError(field, value, allowed, source)
@@ -153,6 +184,8 @@ def check_profile(value, field, source, spec=None):
             raise ConfigError(f"{field}[{n}]", pair, f"time must not be before the previous one ({ts[-1]:g} s)", source)
         if pair[0] < 0:
             raise ConfigError(f"{field}[{n}]", pair, "time must be >= 0", source)
+        if abs(pair[1]) > hi:
+            raise ConfigError(f"{field}[{n}]", pair, f"the value must be within +-{hi:g}", source)
         ts.append(float(pair[0]))
         ys.append(float(pair[1]))
     return (ts, ys)
@@ -192,3 +225,30 @@ def deep_merge(base: dict, override: dict) -> dict:
             out[k] = v
     return out
 
+
+
+def parse_toml(text: str, field: str, source: str | None) -> dict:
+    """TOML text as a table; a syntax error becomes a ConfigError."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(field, "unparsable", f"not valid TOML: {exc}", source) from None
+    except RecursionError:
+        raise ConfigError(field, "nested too deeply", "not valid input: arrays or tables nested beyond the parser's depth", source) from None
+
+
+def read_toml(path: str | Path, field: str, source: str | None = None) -> dict:
+    """A TOML file as a table; a file that is missing, unreadable, not UTF-8
+    or not TOML becomes a ConfigError naming the file."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(field, str(p), "file not found", source) from None
+    except IsADirectoryError:
+        raise ConfigError(field, str(p), "is a directory, not a TOML file", source) from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(field, str(p), f"is not UTF-8 text (TOML is UTF-8): byte {exc.start}", source) from None
+    except OSError as exc:
+        raise ConfigError(field, str(p), f"cannot be read: {exc.strerror}", source) from None
+    return parse_toml(text, "toml", str(p))

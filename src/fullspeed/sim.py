@@ -10,7 +10,7 @@ import numpy as np
 
 from . import _core
 from .errors import ConfigError, SimulationError
-from .scenario import Scenario, load_scenario
+from .scenario import TRACE_CHANNELS, Scenario, load_scenario
 from .units import hz_to_rad_s, rpm_to_rad_s
 
 ffi, lib = _core.ffi, _core.lib
@@ -23,9 +23,9 @@ CHANNELS = [
     "theta_est", "w_m_est", "est_valid", "est_err", "phase", "i_d_fw",
     "g_w", "inject", "i_d3", "i_q3", "i_hf_d", "i_hf_q",
     "i_grid_a", "v_pn", "u_ab", "alpha", "E_grid", "E_rf", "W_filter",
-    "lock_resid", "lock_lost", "stage", "recoveries",
+    "lock_resid", "lock_lost", "stage", "recoveries", "u_dc",
 ]
-assert len(CHANNELS) == lib.FS_CH_N, "channel names out of step with fs_sim.h"
+assert len(CHANNELS) == lib.FS_CH_N == TRACE_CHANNELS, "channel names out of step with fs_sim.h"
 
 STOP_REASONS = {
     lib.FS_RUN_DONE: "done",
@@ -54,6 +54,7 @@ class Result:
     wall_time: float                 # s
     sim_time: float                  # s simulated
     metrics: dict = field(default_factory=dict)
+    adc_saturated_at: float | None = None   # s, the first current reading at +-adc_range
 
     @property
     def speed_ratio(self) -> float:
@@ -88,16 +89,9 @@ def _set_profile(prof, t, y, keep):
     prof.y = keep(ffi.new("double[]", list(y)))
 
 
-def _fluxmap(cfg_mag, mag: dict, keep, source):
-    i_d, i_q, psi_d, psi_q = (np.asarray(mag.get(k), dtype=float) for k in ("i_d", "i_q", "psi_d", "psi_q"))
-    for name, grid in (("i_d", i_d), ("i_q", i_q)):
-        if grid.ndim != 1 or grid.size < 2 or not np.allclose(np.diff(grid), grid[1] - grid[0], rtol=1e-6) or grid[1] <= grid[0]:
-            raise ConfigError(f"machine.magnetic.{name}", mag.get(name), "must be a rising, evenly spaced list of >= 2 currents", source)
-    for name, tab in (("psi_d", psi_d), ("psi_q", psi_q)):
-        if tab.shape != (i_d.size, i_q.size) or not np.all(np.isfinite(tab)):
-            raise ConfigError(f"machine.magnetic.{name}", "table", f"must be a {i_d.size} x {i_q.size} table of finite fluxes", source)
-    if not (np.all(np.diff(psi_d, axis=0) > 0) and np.all(np.diff(psi_q, axis=1) > 0)):
-        raise ConfigError("machine.magnetic.psi_d", "table", "psi_d must rise with i_d and psi_q with i_q (monotonic map)", source)
+def _fluxmap(cfg_mag, mag: dict, keep):
+    """The flux map (checked by machines._check_fluxmap) into the plant's config."""
+    i_d, i_q, psi_d, psi_q = (np.asarray(mag[k], dtype=float) for k in ("i_d", "i_q", "psi_d", "psi_q"))
     cfg_mag.map_n_d, cfg_mag.map_n_q = i_d.size, i_q.size
     cfg_mag.map_i_d0, cfg_mag.map_di_d = i_d[0], i_d[1] - i_d[0]
     cfg_mag.map_i_q0, cfg_mag.map_di_q = i_q[0], i_q[1] - i_q[0]
@@ -120,7 +114,7 @@ def build_config(sc: Scenario):
     for k in ("a_dd", "a_qq", "a_dq", "S", "T", "U", "V"):
         setattr(pl.mag, k, mag[k])
     if mag["model"] == "fluxmap":
-        _fluxmap(pl.mag, mag, keep, sc.source)
+        _fluxmap(pl.mag, mag, keep)
     pl.J, pl.B, pl.T_coulomb = m.J, m.B, m.T_coulomb
     pl.w_coulomb = 1e-2
     pl.load_kind = {"torque": lib.FS_LOAD_TORQUE, "speed": lib.FS_LOAD_SPEED_IDEAL, "speed_pi": lib.FS_LOAD_SPEED_PI,
@@ -150,6 +144,16 @@ def build_config(sc: Scenario):
     cfg.adc_bits, cfg.adc_range, cfg.noise_i = sen["adc_bits"], sen["adc_range"], sen["noise_i"]
     cfg.encoder_bits, cfg.seed = sen["encoder_bits"], sen["seed"]
     cfg.i_trip = m.bench["i_trip"]
+    flt = d["faults"]
+    fc = cfg.fault
+    fc.t_sensor = flt["t_sensor"]
+    for k, v in enumerate(flt["i_offset"]):
+        fc.i_offset[k] = v
+    for k, v in enumerate(flt["i_gain"]):
+        fc.i_gain[k] = v
+    fc.open_phase = {"none": 0, "a": 1, "b": 2, "c": 3}[flt["open_phase"]]
+    fc.t_open = flt["t_open"]
+    fc.t_encoder_stop = flt["t_encoder_stop"] or 0.0
     cfg.theta_m0 = math.radians(d["initial"]["theta_e_deg"]) / m.pole_pairs
     cfg.w_m0 = rpm_to_rad_s(d["initial"]["speed_rpm"])
 
@@ -214,6 +218,7 @@ def build_config(sc: Scenario):
         "w_e_ref": (ref["frame_rpm"], p * rpm_to_rad_s(1.0)),
         "T_load": (load["torque"], 1.0), "w_load": (load["speed_rpm"], rpm_to_rad_s(1.0)),
         "sensorless": (sensorless, 1.0),
+        "u_dc_scale": (flt["u_dc_scale"], 1.0),
     }
     for name, ((t, y), scale) in profiles.items():
         _set_profile(getattr(cfg, name), t, [v * scale for v in y], keep)
@@ -323,6 +328,11 @@ class Simulation:
                 self.stop_time = lib.fs_sim_stop_time(self._sim)
             return self.status
 
+    @property
+    def adc_saturated_at(self) -> float | None:
+        t = lib.fs_sim_adc_saturated_at(self._sim)
+        return None if math.isnan(t) else t
+
     def traces(self) -> dict[str, np.ndarray]:
         """Each channel as a view into the buffer (strided, no copy)."""
         return dict(zip(CHANNELS, self._buf[: self._n].T))
@@ -361,6 +371,6 @@ def simulate(scenario: Scenario | str, progress: bool = False, chunk: float | No
     wall = time.perf_counter() - t0
     if status == "running":
         status = "done"
-    res = Result(sc, sim.traces(), status, sim.stop_time, wall, sim.time)
+    res = Result(sc, sim.traces(), status, sim.stop_time, wall, sim.time, adc_saturated_at=sim.adc_saturated_at)
     res.metrics = compute_metrics(res)
     return res

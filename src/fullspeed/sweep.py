@@ -28,7 +28,6 @@ import csv
 import itertools
 import json
 import math
-import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -39,7 +38,7 @@ from .errors import ConfigError
 from .journal import run_tasks
 from .metrics import METRIC_NAMES, flat_metrics
 from .scenario import SCENARIO, scenario_names
-from .schema import deep_merge
+from .schema import deep_merge, parse_toml, read_toml
 
 GRID_KINDS = ("values", "linspace", "range")
 RANDOM_KINDS = ("uniform", "normal", "integers")
@@ -204,18 +203,11 @@ def _base_data(base, here: Path | None, source: str) -> tuple[dict, str]:
     p = Path(base)
     if p.suffix == ".toml":
         p = p if p.is_absolute() or here is None else here / p
-        if not p.exists():
-            raise ConfigError("base", base, f"file not found ({p})", source)
-        text, src = p.read_text(), str(p)
-    elif base in scenario_names():
-        text = (resources.files("fullspeed") / "scenarios" / f"{base}.toml").read_text()
+        return read_toml(p, "base", source), str(p)
+    if base in scenario_names():
         src = f"scenarios/{base}.toml"
-    else:
-        raise ConfigError("base", base, "unknown scenario; `fullspeed list` shows the catalog", source)
-    try:
-        return tomllib.loads(text), src
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError("base", base, f"not valid TOML: {exc}", source) from None
+        return parse_toml((resources.files("fullspeed") / "scenarios" / f"{base}.toml").read_text(), "toml", src), src
+    raise ConfigError("base", base, "unknown scenario; `fullspeed list` shows the catalog", source)
 
 
 def sweep_from_dict(d: dict, source: str, here: Path | None = None) -> Sweep:
@@ -258,20 +250,13 @@ def load_sweep_file(name_or_path: str | Path) -> Sweep:
     """A sweep by catalog name or TOML path."""
     p = Path(name_or_path)
     if p.suffix == ".toml" or p.exists():
-        if not p.exists():
-            raise ConfigError("sweep", str(p), "file not found")
-        text, source, here = p.read_text(), str(p), p.parent
-    elif str(name_or_path) in sweep_names():
-        text = (resources.files("fullspeed") / "sweeps" / f"{name_or_path}.toml").read_text()
-        source, here = f"sweeps/{name_or_path}.toml", None
-    else:
-        raise ConfigError("sweep", str(name_or_path), "neither a TOML file nor a catalog sweep ("
-                          + ", ".join(sweep_names()) + ")")
-    try:
-        d = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError("toml", "unparsable", str(exc), source) from None
-    return sweep_from_dict(d, source, here)
+        return sweep_from_dict(read_toml(p, "sweep"), str(p), p.parent)
+    if str(name_or_path) in sweep_names():
+        source = f"sweeps/{name_or_path}.toml"
+        return sweep_from_dict(parse_toml((resources.files("fullspeed") / "sweeps" / f"{name_or_path}.toml").read_text(),
+                                          "toml", source), source, None)
+    raise ConfigError("sweep", str(name_or_path), "neither a TOML file nor a catalog sweep ("
+                      + ", ".join(sweep_names()) + ")")
 
 
 def run_point(task: dict) -> dict:
