@@ -111,6 +111,33 @@ def test_bad_input_is_one_line_naming_file_field_value(tmp_path, capsys, what, t
     assert not (tmp_path / "o").exists()       # nothing half-written
 
 
+SWEEP = 'name = "s"\nbase = "yang2022-smo-steady-400rpm"\n'
+BAD_SWEEPS = [
+    ("axis on no field", SWEEP + '[axes]\n"controller.modee" = [1.0]\n', "axes.controller.modee"),
+    ("axis on a table", SWEEP + '[axes]\n"controller" = [1.0]\n', "axes.controller"),
+    ("samples zero", SWEEP + 'samples = 0\n[axes]\n"references.i_q" = [1.0]\n', "samples"),
+    ("range that never ends", SWEEP + '[axes]\n"references.i_q" = { range = [0.0, 10.0, 0.0] }\n', "axes.references.i_q.range"),
+    ("base missing", 'name = "s"\nbase = "nowhere.toml"\n[axes]\n"references.i_q" = [1.0]\n', "base"),
+    ("grid value of the wrong type", SWEEP + '[axes]\n"references.i_q" = [5.0, "ten"]\n', "references.i_q"),
+    ("grid value out of range", SWEEP + '[axes]\n"controller.R_s_scale" = [1.0, -1.0]\n', "controller.R_s_scale"),
+    ("override that breaks the base", SWEEP + '[overrides]\nduration = -1.0\n[axes]\n"references.i_q" = [1.0]\n', "duration"),
+    ("a billion points", SWEEP + '[axes]\n"references.i_q" = { linspace = [0.0, 10.0, 100000] }\n"load.speed_rpm" = { linspace = [100.0, 400.0, 100000] }\n', "axes"),
+    ("metric unknown", SWEEP + 'metrics = ["speed"]\n[axes]\n"references.i_q" = [1.0]\n', "metrics"),
+]
+
+
+@pytest.mark.parametrize("what, text, field", BAD_SWEEPS, ids=[b[0] for b in BAD_SWEEPS])
+def test_bad_sweep_is_one_line_naming_file_field_value(tmp_path, capsys, what, text, field):
+    f = tmp_path / "sweep.toml"
+    f.write_text(text)
+    rc, err = run_cli(capsys, "sweep", str(f), "--out", str(tmp_path / "o"), "--quiet")
+    assert rc == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("fullspeed: error: "), err
+    assert field in lines[0] and str(f) in lines[0], lines[0]
+    assert not (tmp_path / "o").exists()
+
+
 def test_bad_files_themselves(tmp_path, capsys):
     (tmp_path / "binary.toml").write_bytes(b"name = \xff\xfe\n")
     (tmp_path / "dir.toml").mkdir()

@@ -109,11 +109,18 @@ def test_cli_refuses_a_bad_sweep_with_one_line_and_status_2(tmp_path, capsys):
 # --- running ----------------------------------------------------------------
 
 def test_failing_points_are_recorded_and_the_sweep_goes_on(tmp_path):
-    sw = sweep_from_dict({"name": "f", **BASE, "axes": {"controller.bw_current": [-1.0, 2000.0]}}, "t")
+    """A random draw the scenario refuses is a row with its error (a Monte
+    Carlo counts it); a bad grid value is refused before anything runs."""
+    sw = sweep_from_dict({"name": "f", **BASE, "seed": 3, "samples": 4,
+                          "axes": {"controller.bw_current": {"uniform": [-3000.0, 3000.0]}}}, "t")
     _, rows = run_sweep(sw, tmp_path, workers=1, plot=False)
-    assert [r["stop_reason"] for r in rows] == ["error", "done"]
-    assert "controller.bw_current = -1.0" in rows[0]["error"]
-    assert rows[1]["est_err_deg.pp"] is not None and rows[1]["error"] is None
+    bad = [r for r in rows if r["controller.bw_current"] <= 0]
+    good = [r for r in rows if r["controller.bw_current"] > 0]
+    assert bad and good, rows
+    assert all(r["stop_reason"] == "error" and "controller.bw_current = -" in r["error"] for r in bad)
+    assert all(r["stop_reason"] == "done" and r["error"] is None and r["est_err_deg.pp"] is not None for r in good)
+    with pytest.raises(ConfigError, match=r"controller.bw_current = -1.0: .*axes.controller.bw_current = -1.0"):
+        sweep_from_dict({"name": "f", **BASE, "axes": {"controller.bw_current": [-1.0, 2000.0]}}, "t")
 
 
 def test_identical_seeds_give_identical_results(tmp_path):

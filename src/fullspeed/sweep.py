@@ -44,6 +44,7 @@ GRID_KINDS = ("values", "linspace", "range")
 RANDOM_KINDS = ("uniform", "normal", "integers")
 TOP_KEYS = {"name", "description", "base", "seed", "samples", "metrics", "overrides", "axes"}
 RESULT_COLUMNS = ("stop_reason", "stop_time", "error", "wall_s")
+MAX_POINTS = 10**6
 RUN_METRICS = ("stop_reason", "stop_time", "wall_time")   # every row has them (wall_time as wall_s)
 
 
@@ -100,8 +101,7 @@ class Sweep:
         for p in self.points():
             data = deep_merge(self.base, self.overrides)
             for a in self.axes:
-                for f in a.fields:
-                    data = deep_merge(data, _nested(f, p[a.name], data))
+                data = _set_axis(data, a, p[a.name])
             tasks.append({"scenario": data, "source": self.base_source, "metrics": self.metrics})
         return tasks
 
@@ -242,8 +242,35 @@ def sweep_from_dict(d: dict, source: str, here: Path | None = None) -> Sweep:
         raise ConfigError("axes", list(d["axes"]), "each field may be set by one axis only", source)
     if samples > 1 and not any(a.random for a in axes):
         raise ConfigError("samples", samples, "more than 1 needs a random axis (uniform, normal, integers)", source)
+    n_points = math.prod(len(a.values) for a in axes if not a.random) * samples
+    if n_points > MAX_POINTS:
+        raise ConfigError("axes", list(d["axes"]), f"give {n_points} points with samples = {samples}; at most {MAX_POINTS}", source)
+    _check_points(base, overrides, axes, source)
     return Sweep(name=d["name"], base=base, base_source=base_src, axes=axes, seed=seed, samples=samples,
                  metrics=[m for m in metrics if m not in RUN_METRICS], overrides=overrides, description=d.get("description", ""))
+
+
+def _check_points(base: dict, overrides: dict, axes: list[Axis], source: str) -> None:
+    """The base with the overrides, and with each grid value in turn, is a
+    valid scenario: a mistake is one line now, not one failed row per point.
+    (Random draws are checked as they are run: a draw the scenario refuses
+    is a row with its error, as a Monte Carlo counts it.)"""
+    from .scenario import scenario_from_dict
+
+    data = deep_merge(base, overrides)
+    checks = [(None, None, data)] + [(a, v, _set_axis(data, a, v)) for a in axes if not a.random for v in a.values]
+    for axis, value, d in checks:
+        try:
+            scenario_from_dict(d, source)
+        except ConfigError as exc:
+            where = f"axes.{axis.name} = {value!r}" if axis else "the base with its overrides"
+            raise ConfigError(exc.field, exc.value, f"{exc.allowed} ({where})", source) from None
+
+
+def _set_axis(data: dict, a: Axis, value) -> dict:
+    for f in a.fields:
+        data = deep_merge(data, _nested(f, value, data))
+    return data
 
 
 def load_sweep_file(name_or_path: str | Path) -> Sweep:
