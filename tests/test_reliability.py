@@ -70,6 +70,9 @@ BAD_INPUTS = [
     ("machine note not text", MACHINE + '[machine.derivations]\nx = 5\n', "machine.derivations"),
     ("paper gain a string", SWVI.replace('machine = "yu2022"\n', "") + '[machine]\ncatalog = "yu2022"\n[machine.paper_gains]\nspeed_kp = "x"\n',
      "machine.paper_gains.speed_kp"),
+    ("fitted cross-saturation beyond a cubic", SWVI.replace('machine = "yu2022"\n', "") + '[machine]\ncatalog = "yu2022"\n'
+     '[machine.injection]\nxcomp_paper = [0.0, 0.0, 0.0, 0.0, 1.0]\n', "machine.injection.xcomp_paper"),
+    ("saturation exponent absurd", MACHINE + '[machine.magnetic]\nS = 1e300\n', "machine.magnetic.S"),
     ("blending band inverted", BLEND + '[blending]\nlower_rpm = 300.0\nupper_rpm = 200.0\n', "blending.upper_rpm"),
     ("polarity pulse above i_max", BLEND + '[polarity]\ni_pulse = 70.0\n', "polarity.i_pulse"),
     ("carrier current beyond half i_max", BLEND + "i_max = 20.0\n[injection]\nu_h = 9.0\n", "injection.u_h"),

@@ -13,8 +13,9 @@ from .units import rpm_to_rad_s
 
 MAGNETIC = {
     "model": C("linear", "algebraic", "fluxmap", default="linear"),
-    "a_dd": NONNEG(0.0), "a_qq": NONNEG(0.0), "a_dq": NONNEG(0.0),
-    "S": NONNEG(0.0), "T": NONNEG(0.0), "U": NONNEG(0.0), "V": NONNEG(0.0),
+    # the algebraic model's coefficients and exponents (fs_magnetic.h)
+    "a_dd": NONNEG(0.0, hi=1e100), "a_qq": NONNEG(0.0, hi=1e100), "a_dq": NONNEG(0.0, hi=1e100),
+    "S": NONNEG(0.0, hi=20.0), "T": NONNEG(0.0, hi=20.0), "U": NONNEG(0.0, hi=20.0), "V": NONNEG(0.0, hi=20.0),
     # fluxmap: psi_d[k][l], psi_q[k][l] at currents i_d[k], i_q[l] (regular grids)
     "i_d": Spec("any", None), "i_q": Spec("any", None),
     "psi_d": Spec("any", None), "psi_q": Spec("any", None),
@@ -146,6 +147,9 @@ def machine_from_dict(data: dict, source: str | None = None, prefix: str = "mach
                               "a five-phase machine needs a [third_harmonic] table with L_d3 > 0 (H), "
                               "L_q3 > 0 (H) and psi_f3 >= 0 (Wb)", source)
         th = validate(d["third_harmonic"], THIRD_HARMONIC, f"{prefix}.third_harmonic", source)
+    poly = (d["injection"] or {}).get("xcomp_paper")
+    if poly is not None and not 1 <= len(poly) <= 4:
+        raise ConfigError(f"{prefix}.injection.xcomp_paper", poly, "must list 1 to 4 coefficients (a cubic in i_q at most)", source)
     if d["magnetic"]["model"] == "fluxmap":
         _check_fluxmap(d["magnetic"], f"{prefix}.magnetic", source)
     extra = {k: {kk: vv for kk, vv in d[k].items() if vv is not None}
