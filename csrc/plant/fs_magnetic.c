@@ -48,16 +48,22 @@ static void algebraic_current(const fs_mag *m, double psi_d, double psi_q, doubl
     *i_q = gq * psi_q;
 }
 
+/* The cell of grid coordinate x on n points: floor(x) held to [0, n - 2],
+ * compared as a double first, so that a coordinate far off the grid or NaN
+ * (Newton's iterate on a diverged state) is never cast out of int's range. */
+static int map_cell(double x, int n)
+{
+    if (!(x >= 1.0)) return 0;
+    if (x >= n - 2) return n - 2;
+    return (int)x;
+}
+
 /* Bilinear interpolation of the map and its Jacobian d(psi)/d(i). */
 static void map_eval(const fs_mag_config *c, double i_d, double i_q, double psi[2], double jac[4])
 {
     double x = (i_d - c->map_i_d0) / c->map_di_d;
     double y = (i_q - c->map_i_q0) / c->map_di_q;
-    int k = (int)floor(x), l = (int)floor(y);
-    if (k < 0) k = 0;
-    if (k > c->map_n_d - 2) k = c->map_n_d - 2;
-    if (l < 0) l = 0;
-    if (l > c->map_n_q - 2) l = c->map_n_q - 2;
+    int k = map_cell(x, c->map_n_d), l = map_cell(y, c->map_n_q);
     double s = x - k, t = y - l;  /* extrapolates linearly outside the grid */
     const double *tabs[2] = {c->map_psi_d, c->map_psi_q};
     for (int n = 0; n < 2; ++n) {
