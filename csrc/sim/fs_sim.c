@@ -153,7 +153,9 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
     if (!(cfg->inverter.u_dc > 0.0)) FAIL("inverter.u_dc = %g: must be > 0", cfg->inverter.u_dc);
     if (cfg->sampling != FS_SAMPLING_SINGLE && cfg->sampling != FS_SAMPLING_DOUBLE)
         FAIL("timing.sampling = %d: must be single (0) or double (1)", cfg->sampling);
-    if (!(cfg->h_max > 0.0)) FAIL("timing.h_max = %g: must be > 0", cfg->h_max);
+    /* an interval is at most T_pwm: its RK4 step count must fit an int */
+    if (!(cfg->h_max > 0.0) || !(cfg->inverter.T_pwm <= 1e6 * cfg->h_max))
+        FAIL("timing.h_max = %g: must be > 0 and at least T_pwm / 1e6 = %g", cfg->h_max, 1e-6 * cfg->inverter.T_pwm);
     if (cfg->decimation < 1) FAIL("trace.decimation = %d: must be >= 1", cfg->decimation);
     if (cfg->adc_bits > 0 && !(cfg->adc_range > 0.0)) FAIL("sensors.adc_range = %g: must be > 0 with adc_bits", cfg->adc_range);
     const fs_fault_config *fc = &cfg->fault;
