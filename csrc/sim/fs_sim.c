@@ -235,6 +235,16 @@ double fs_sim_time(const fs_sim *s) { return (double)s->k * s->Tc; }
 double fs_sim_stop_time(const fs_sim *s) { return s->stop_time; }
 double fs_sim_adc_saturated_at(const fs_sim *s) { return s->adc_sat_time; }
 
+/* RK4 steps of at most h_max over an interval T (<= T_pwm, so the count
+ * fits an int: fs_sim_create). T is NaN when the drive's duties are (the
+ * switching instants are NaN): one step then carries the NaN into the
+ * state, for the NaN stop, instead of a cast of NaN to int. */
+static int substeps(double T, double h_max)
+{
+    const double n = ceil(T / h_max - 1e-9);
+    return isnan(n) ? 1 : (int)n;
+}
+
 /* Integrate the plant over one control period with the duties now acting. */
 static void integrate_period(fs_sim *s, double t0)
 {
@@ -259,13 +269,13 @@ static void integrate_period(fs_sim *s, double t0)
             for (int n = 0; n < seg.n; ++n) {
                 phase_currents(s, s->x, i_ph, NULL, NULL);
                 fs_inverter_voltage(inv, seg.state[n], i_ph, &in.u_alpha, &in.u_beta, &in.u_x, &in.u_y);
-                int steps = (int)ceil(seg.dt[n] / s->cfg.h_max - 1e-9);
+                int steps = substeps(seg.dt[n], s->cfg.h_max);
                 double hstep = seg.dt[n] / steps;
                 for (int m = 0; m < steps; ++m) fs_pmsm_rk4(&s->pmsm, s->x, &in, hstep);
             }
         } else {
             double Th = 0.5 * inv->T_pwm;
-            int steps = (int)ceil(Th / s->cfg.h_max - 1e-9);
+            int steps = substeps(Th, s->cfg.h_max);
             double hstep = Th / steps;
             /* the mean voltage depends on the currents only through dead time
              * and drops: without them it is one value for the half period */
@@ -360,7 +370,7 @@ static void integrate_period_imc(fs_sim *s, double t0)
         const double T = fmin(fmax((double)r->d, 0.0), 1.0) * s->Tc;
         if (T <= 0.0) continue;
         const imc_interval iv = imc_interval_of(s->duty_now, r->p, r->n);
-        const int steps = (int)ceil(T / s->cfg.h_max - 1e-9);
+        const int steps = substeps(T, s->cfg.h_max);
         const double h = T / steps;
         for (int m = 0; m < steps; ++m) {
             imc_rk4(s, t, &iv, &in, h);
