@@ -16,6 +16,7 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
     if (!(fabsf(c.L_q - c.L_d) > 0.01f * 0.5f * (c.L_d + c.L_q))) return FS_ERR_SALIENCY;
     if (c.w_b_p == 0.0f) c.w_b_p = 0.05f * c.w_h;
     if (c.w_b_n == 0.0f) c.w_b_n = 0.05f * c.w_h;
+    if (!(c.w_b_n * c.Ts >= 1e-4f)) return FS_ERR_BANDWIDTH;   /* the default too: n_settle below */
     if (c.obs.bandwidth == 0.0f) c.obs.bandwidth = 0.2f * c.w_b_n;
     c.obs.Ts = c.Ts;
     if (fs_xcomp_check(&c.xcomp) != FS_OK) return FS_ERR_PARAM;
