@@ -240,17 +240,19 @@ def run_stops_on_nan_from_a_nan_initial_state():
 
 
 @check
-def run_stops_on_nan_from_nan_samples():
-    # adc_range = 0: the quantizer's step is 0 and the samples NaN; the drive's
-    # duties follow, and with them the switching instants (fs_inverter_segments)
+def run_refuses_configs_that_would_sample_nan():
+    # adc_range = 0 with quantisation made the quantizer's step 0 and every
+    # sample NaN (then the duties, then the switching instants); that and a
+    # NaN sensor fault are now refused by fs_sim_create
     out = {}
-    for name, kind in (("yang2022-blend-iqstep", lib.FS_INV_SWITCHING), ("yang2022-encoder-speedstep", lib.FS_INV_AVERAGED),
-                       ("yu2022-seq-dyn", lib.FS_INV_SWITCHING), ("yu2022-startup", lib.FS_INV_AVERAGED)):
-        cfg, keep = config(name)
-        cfg.i_trip = 0.0
-        cfg.inverter.kind = kind
-        cfg.adc_range = 0.0
-        out[f"{name} {'switching' if kind else 'averaged'}"] = _stop_then_again(cfg, 0.05, lib.FS_STOP_NAN)
+    for what, setup in (("adc_range 0", lambda c: setattr(c, "adc_range", 0.0)),
+                        ("i_offset nan", lambda c: c.fault.i_offset.__setitem__(0, NAN)),
+                        ("i_gain nan", lambda c: c.fault.i_gain.__setitem__(1, NAN))):
+        cfg, keep = config("yang2022-encoder-speedstep")
+        setup(cfg)
+        ptr, err = create(cfg)
+        assert ptr == ffi.NULL, what
+        out[what] = err
     return out
 
 
