@@ -146,6 +146,10 @@ def create_refuses_bad_inverter_configs():
          ("plant.mag.L_d", "machine", _set("plant.mag.L_d", 0.0)),
          ("drive.i_max", "controller:", _set("drive.i_max", 0.0)),
          ("drive.mode", "controller:", _set("drive.mode", 42)),
+         ("adc_range", "sensors.adc_range", _set("adc_range", 0.0)),
+         ("fault.open_phase", "faults.open_phase", _set("fault.open_phase", 4)),
+         ("fault.i_gain", "faults", lambda cfg: cfg.fault.i_gain.__setitem__(2, -2.0)),
+         ("fault.i_offset", "faults", lambda cfg: cfg.fault.i_offset.__setitem__(4, NAN)),
          ("profile decreasing", "profile w_m_ref", _profile("w_m_ref", [0.0, 1.0, 0.5], [0.0, 1.0, 2.0])),
          ("profile null", "profile T_load", _profile("T_load", None, None))]
     return _refusals("yang2022-encoder-speedstep", c)
@@ -156,7 +160,8 @@ def create_refuses_bad_five_phase_configs():
     c = [("plant.L_d3", "plant.L_d3", _set("plant.L_d3", 0.0)),
          ("plant.L_q3", "plant.L_q3", _set("plant.L_q3", NAN)),
          ("plant.psi_f3", "plant.psi_f3", _set("plant.psi_f3", -1.0)),
-         ("plant.L_d3 inf", "plant.L_d3", _set("plant.L_d3", INF))]
+         ("plant.L_d3 inf", "plant.L_d3", _set("plant.L_d3", INF)),
+         ("fault.open_phase", "faults.open_phase", _set("fault.open_phase", 1))]
     return _refusals("yu2022-seq-ss-300rpm", c)
 
 
@@ -168,7 +173,8 @@ def create_refuses_bad_matrix_converter_configs():
          ("sampling", "timing.sampling", lambda cfg: (setattr(cfg, "sampling", lib.FS_SAMPLING_DOUBLE),
                                                       setattr(cfg.drive, "Ts", cfg.drive.Ts / 2))),
          ("grid.C_f", "converter.grid", _set("grid.C_f", 0.0)),
-         ("grid.V_im", "converter.grid", _set("grid.V_im", NAN))]
+         ("grid.V_im", "converter.grid", _set("grid.V_im", NAN)),
+         ("fault.open_phase", "faults.open_phase", _set("fault.open_phase", 2))]
     return _refusals("zou2021-region-a", c)
 
 
@@ -240,19 +246,43 @@ def run_stops_on_nan_from_a_nan_initial_state():
 
 
 @check
-def run_refuses_configs_that_would_sample_nan():
-    # adc_range = 0 with quantisation made the quantizer's step 0 and every
-    # sample NaN (then the duties, then the switching instants); that and a
-    # NaN sensor fault are now refused by fs_sim_create
+def run_stops_on_nan_duties():
+    # with the computation delay off, a NaN initial angle makes the first
+    # samples, the drive's duties and so the switching instants
+    # (fs_inverter_segments) NaN in the period they act, before the runner
+    # sees a non-finite state; and a NaN dc link (the u_dc_scale profile)
     out = {}
-    for what, setup in (("adc_range 0", lambda c: setattr(c, "adc_range", 0.0)),
-                        ("i_offset nan", lambda c: c.fault.i_offset.__setitem__(0, NAN)),
-                        ("i_gain nan", lambda c: c.fault.i_gain.__setitem__(1, NAN))):
-        cfg, keep = config("yang2022-encoder-speedstep")
-        setup(cfg)
-        ptr, err = create(cfg)
-        assert ptr == ffi.NULL, what
-        out[what] = err
+    for name, kind in (("yang2022-blend-iqstep", lib.FS_INV_SWITCHING), ("yang2022-encoder-speedstep", lib.FS_INV_AVERAGED),
+                       ("yu2022-seq-dyn", lib.FS_INV_SWITCHING), ("yu2022-startup", lib.FS_INV_AVERAGED)):
+        inverter = "switching" if kind == lib.FS_INV_SWITCHING else "averaged"
+        cfg, keep = config(name)
+        cfg.i_trip, cfg.inverter.kind = 0.0, kind
+        cfg.delay, cfg.drive.delay = 0, 0.0
+        cfg.theta_m0 = NAN
+        out[f"{name} {inverter} nan angle"] = _stop_then_again(cfg, 0.05, lib.FS_STOP_NAN)
+        cfg, keep = config(name)
+        cfg.i_trip, cfg.inverter.kind = 0.0, kind
+        _profile("u_dc_scale", [0.0, 0.005, 0.005], [1.0, 1.0, NAN])(cfg)
+        out[f"{name} {inverter} nan dc link"] = _stop_then_again(cfg, 0.05, lib.FS_STOP_NAN)
+    return out
+
+
+@check
+def hardware_faults_run():
+    # tests/test_reliability.py's faults, on the encoder and on the blend
+    faults = {"sensor offset": {"faults": {"t_sensor": 0.3, "i_offset": [2.0, -1.0]}},
+              "sensor gain": {"faults": {"t_sensor": 0.3, "i_gain": [0.1, -0.05]}},
+              "adc saturation": {"sensors": {"adc_range": 20.0}},
+              "dc-link sag": {"faults": {"u_dc_scale": [[0.3, 1.0], [0.35, 0.5]]}},
+              "dc-link step": {"faults": {"u_dc_scale": [[0.3, 1.0], [0.3, 0.6]]}},
+              "open phase": {"faults": {"open_phase": "b", "t_open": 0.3}},
+              "encoder stop": {"faults": {"t_encoder_stop": 0.3}}}
+    out = {}
+    for name in ("yang2022-encoder-speedstep", "yang2022-blend-iqstep"):
+        for fault, ov in faults.items():
+            r = simulate(name, overrides=ov)
+            assert r.stop_reason in ("done", "overcurrent", "nan", "loss_of_lock"), r.stop_reason
+            out[f"{name} {fault}"] = r.stop_reason
     return out
 
 
