@@ -98,20 +98,25 @@ def run_cli(capsys, *argv):
     return rc, err
 
 
-@pytest.mark.parametrize("what, text, field", BAD_INPUTS, ids=[b[0] for b in BAD_INPUTS])
-def test_bad_input_is_one_line_naming_file_field_value(tmp_path, capsys, what, text, field):
-    f = tmp_path / "bad.toml"
+def refused_in_one_line(capsys, tmp_path, command: str, text: str, field: str) -> tuple[str, str]:
+    """`fullspeed <command>` on a file holding text: exit 2, one line naming
+    the file and the field, no output folder. Returns (stderr, the line)."""
+    f = tmp_path / f"{command}.toml"
     f.write_text(text)
-    rc, err = run_cli(capsys, "run", str(f), "--out", str(tmp_path / "o"), "--quiet")
+    rc, err = run_cli(capsys, command, str(f), "--out", str(tmp_path / "o"), "--quiet")
     assert rc == 2, err
     lines = err.strip().splitlines()
-    assert len(lines) == 1, err
-    assert lines[0].startswith("fullspeed: error: "), lines[0]
-    assert field in lines[0], lines[0]
-    assert str(f) in lines[0]                  # the file
-    assert " = " in lines[0]                   # the value shown
-    assert "Traceback" not in err
+    assert len(lines) == 1 and lines[0].startswith("fullspeed: error: "), err
+    assert field in lines[0] and str(f) in lines[0], lines[0]
     assert not (tmp_path / "o").exists()       # nothing half-written
+    return err, lines[0]
+
+
+@pytest.mark.parametrize("what, text, field", BAD_INPUTS, ids=[b[0] for b in BAD_INPUTS])
+def test_bad_input_is_one_line_naming_file_field_value(tmp_path, capsys, what, text, field):
+    err, line = refused_in_one_line(capsys, tmp_path, "run", text, field)
+    assert " = " in line                       # the value shown
+    assert "Traceback" not in err
 
 
 SWEEP = 'name = "s"\nbase = "yang2022-smo-steady-400rpm"\n'
@@ -131,14 +136,7 @@ BAD_SWEEPS = [
 
 @pytest.mark.parametrize("what, text, field", BAD_SWEEPS, ids=[b[0] for b in BAD_SWEEPS])
 def test_bad_sweep_is_one_line_naming_file_field_value(tmp_path, capsys, what, text, field):
-    f = tmp_path / "sweep.toml"
-    f.write_text(text)
-    rc, err = run_cli(capsys, "sweep", str(f), "--out", str(tmp_path / "o"), "--quiet")
-    assert rc == 2, err
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("fullspeed: error: "), err
-    assert field in lines[0] and str(f) in lines[0], lines[0]
-    assert not (tmp_path / "o").exists()
+    refused_in_one_line(capsys, tmp_path, "sweep", text, field)
 
 
 def test_bad_files_themselves(tmp_path, capsys):

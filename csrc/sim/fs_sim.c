@@ -31,6 +31,7 @@ struct fs_sim {
     double stop_time;
     double u_dc0;            /* the dc link's nominal voltage (cfg.inverter.u_dc follows the fault profile) */
     float theta_enc_held;    /* the encoder's reading once it has stopped */
+    int sensor_fault;        /* cfg.fault has a sensor offset or gain error */
     double adc_sat_time;     /* first saturated current reading, or NaN */
 };
 
@@ -70,7 +71,7 @@ static double rng_gauss(uint64_t *s)
 static double adc(fs_sim *s, int k, double i, double t)
 {
     const fs_sim_config *c = &s->cfg;
-    if (t >= c->fault.t_sensor) i = (1.0 + c->fault.i_gain[k]) * i + c->fault.i_offset[k];
+    if (s->sensor_fault && t >= c->fault.t_sensor) i = (1.0 + c->fault.i_gain[k]) * i + c->fault.i_offset[k];
     if (c->noise_i > 0.0) i += c->noise_i * rng_gauss(&s->rng);
     if (c->adc_range > 0.0 && fabs(i) > c->adc_range) {
         i = copysign(c->adc_range, i);
@@ -220,6 +221,8 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
     s->rng = cfg->seed ? cfg->seed : 0x9E3779B97F4A7C15ULL;
     s->stop_time = NAN;
     s->adc_sat_time = NAN;
+    for (int k = 0; k < FS_INV_MAX_LEGS; ++k)
+        s->sensor_fault |= cfg->fault.i_gain[k] != 0.0 || cfg->fault.i_offset[k] != 0.0;
     s->u_dc0 = cfg->inverter.u_dc;
     return s;
 }

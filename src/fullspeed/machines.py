@@ -8,7 +8,7 @@ from importlib import resources
 from pathlib import Path
 
 from .errors import ConfigError
-from .schema import ANY, NOTES, C, F, I, N, NONNEG, POS, S, T, Spec, read_toml, validate
+from .schema import ANY, NOTES, C, F, I, N, NONNEG, POS, S, T, Spec, even_grid, read_toml, validate
 from .units import rpm_to_rad_s
 
 MAGNETIC = {
@@ -172,8 +172,7 @@ def _check_fluxmap(mag: dict, prefix: str, source) -> None:
         g = mag[name]
         ok = (isinstance(g, list) and 2 <= len(g) <= 1000
               and all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in g))
-        steps = [b - a for a, b in zip(g, g[1:])] if ok else []
-        if not (ok and steps[0] > 0 and all(math.isclose(x, steps[0], rel_tol=1e-6) for x in steps)):
+        if not (ok and even_grid(g)):
             raise ConfigError(f"{prefix}.{name}", g, "must be a rising, evenly spaced list of 2..1000 currents (A)", source)
         grids[name] = g
     n_d, n_q = len(grids["i_d"]), len(grids["i_q"])

@@ -7,9 +7,10 @@ from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
+from . import _core
 from .errors import ConfigError
 from .machines import Machine, catalog_data, machine_from_dict
-from .schema import ANY, B, C, F, I, N, NONNEG, POS, P, S, Spec, T, deep_merge, parse_toml, read_toml, validate
+from .schema import ANY, B, C, F, I, N, NONNEG, POS, P, S, Spec, T, deep_merge, even_grid, parse_toml, read_toml, validate
 from .units import rpm_to_rad_s
 
 SCENARIO = {
@@ -136,8 +137,7 @@ SCENARIO = {
 
 
 # The trace is held in memory: one row of doubles per recorded sample.
-TRACE_CHANNELS = 57                          # FS_CH_N, checked against the core in sim.py
-TRACE_ROW_BYTES = 8 * TRACE_CHANNELS
+TRACE_ROW_BYTES = 8 * _core.lib.FS_CH_N
 TRACE_MAX_BYTES = 2e9
 
 
@@ -495,8 +495,7 @@ def _xcomp_table(raw, source) -> dict:
           and all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in i_q + delta))
     if not ok:
         raise ConfigError(where, "table", "i_q and delta_deg must be lists of 2..33 finite numbers of the same length", source)
-    steps = [b - a for a, b in zip(i_q, i_q[1:])]
-    if not (steps[0] > 0 and all(math.isclose(x, steps[0], rel_tol=1e-6, abs_tol=1e-9) for x in steps)):
+    if not even_grid(i_q):
         raise ConfigError(f"{where}.i_q", i_q, "must rise in even steps", source)
     if not all(abs(x) < 90.0 for x in delta):
         raise ConfigError(f"{where}.delta_deg", delta, "must lie within +-90 el.deg", source)

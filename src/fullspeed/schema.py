@@ -227,6 +227,12 @@ def deep_merge(base: dict, override: dict) -> dict:
 
 
 
+def even_grid(xs: list) -> bool:
+    """Numbers rising in equal steps (a table's axis the C core indexes)."""
+    steps = [b - a for a, b in zip(xs, xs[1:])]
+    return bool(steps) and steps[0] > 0 and all(math.isclose(x, steps[0], rel_tol=1e-6, abs_tol=1e-9) for x in steps)
+
+
 def parse_toml(text: str, field: str, source: str | None) -> dict:
     """TOML text as a table; a syntax error becomes a ConfigError."""
     try:

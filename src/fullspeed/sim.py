@@ -10,7 +10,7 @@ import numpy as np
 
 from . import _core
 from .errors import ConfigError, SimulationError
-from .scenario import TRACE_CHANNELS, Scenario, load_scenario
+from .scenario import Scenario, load_scenario
 from .units import hz_to_rad_s, rpm_to_rad_s
 
 ffi, lib = _core.ffi, _core.lib
@@ -25,7 +25,7 @@ CHANNELS = [
     "i_grid_a", "v_pn", "u_ab", "alpha", "E_grid", "E_rf", "W_filter",
     "lock_resid", "lock_lost", "stage", "recoveries", "u_dc",
 ]
-assert len(CHANNELS) == lib.FS_CH_N == TRACE_CHANNELS, "channel names out of step with fs_sim.h"
+assert len(CHANNELS) == lib.FS_CH_N, "channel names out of step with fs_sim.h"
 
 STOP_REASONS = {
     lib.FS_RUN_DONE: "done",
@@ -218,8 +218,9 @@ def build_config(sc: Scenario):
         "w_e_ref": (ref["frame_rpm"], p * rpm_to_rad_s(1.0)),
         "T_load": (load["torque"], 1.0), "w_load": (load["speed_rpm"], rpm_to_rad_s(1.0)),
         "sensorless": (sensorless, 1.0),
-        "u_dc_scale": (flt["u_dc_scale"], 1.0),
     }
+    if flt["u_dc_scale"] != ([0.0], [1.0]):   # left empty, the runner skips it per sample
+        profiles["u_dc_scale"] = (flt["u_dc_scale"], 1.0)
     for name, ((t, y), scale) in profiles.items():
         _set_profile(getattr(cfg, name), t, [v * scale for v in y], keep)
     cfg.decimation = d["trace"]["decimation"]
