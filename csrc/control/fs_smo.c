@@ -4,13 +4,14 @@
 fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
 {
     if (!o || !cfg) return FS_ERR_NULL;
-    if (!(cfg->Ts > 0.0f)) return FS_ERR_TS;
-    if (!(cfg->R_s >= 0.0f)) return FS_ERR_RS;
-    if (!(cfg->L_d > 0.0f)) return FS_ERR_LD;
-    if (!(cfg->L_q > 0.0f)) return FS_ERR_LQ;
-    if (!(cfg->psi_f >= 0.0f)) return FS_ERR_PSI_F;
-    if (!(cfg->w_e_max > 0.0f) || !(cfg->i_max > 0.0f) || !(cfg->margin >= 1.0f)) return FS_ERR_LIMIT;
-    if (!(cfg->k >= 0.0f) || !(cfg->delta >= 0.0f) || !(cfg->w_valid >= 0.0f)) return FS_ERR_PARAM;
+    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
+    if (!fs_nonneg(cfg->R_s)) return FS_ERR_RS;
+    if (!fs_pos(cfg->L_d)) return FS_ERR_LD;
+    if (!fs_pos(cfg->L_q)) return FS_ERR_LQ;
+    if (!fs_nonneg(cfg->psi_f)) return FS_ERR_PSI_F;
+    if (!fs_pos(cfg->w_e_max) || !fs_pos(cfg->i_max) || !(cfg->margin >= 1.0f) || !fs_fin(cfg->margin))
+        return FS_ERR_LIMIT;
+    if (!fs_nonneg(cfg->k) || !fs_nonneg(cfg->delta) || !fs_nonneg(cfg->w_valid)) return FS_ERR_PARAM;
     if (cfg->lag != FS_SMO_LAG_EXACT && cfg->lag != FS_SMO_LAG_PAPER) return FS_ERR_MODE;
     o->cfg = *cfg;
     /* eq. (18): k > max(|e_alpha|, |e_beta|) / 2, with the extended EMF
@@ -20,6 +21,8 @@ fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
     if (cfg->k > 0.0f && cfg->k <= o->k_bound) return FS_ERR_SMO_GAIN;
     o->k = cfg->k > 0.0f ? cfg->k : cfg->margin * o->k_bound;
     o->delta = fmaxf(cfg->delta, o->k * cfg->Ts / cfg->L_d);
+    /* a designed gain of 0 (no EMF: psi_f = 0, L_d = L_q) or beyond the float range */
+    if (!fs_pos(o->k) || !fs_pos(o->delta)) return FS_ERR_SMO_GAIN;
     fs_lpf_config lc = {cfg->Ts, cfg->w_c_min};
     fs_status st = fs_lpf_init(&o->lpf, &lc);
     if (st != FS_OK) return st;
