@@ -189,7 +189,7 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
     if (fabs(cfg->drive.Ts - s->Tc) > 1e-6 * s->Tc)
         FAIL("controller.Ts = %g: must equal the control period %g", cfg->drive.Ts, s->Tc);
     fs_status st = fs_drive_init(&s->drive, &cfg->drive);
-    if (st != FS_OK) FAIL("controller: %s", fs_status_str(st));
+    if (st != FS_OK) FAIL("controller.%s: %s", s->drive.fail ? s->drive.fail : "?", fs_status_str(st));
 
     fs_pmsm_initial_state(&s->pmsm, s->x);
     s->x[FS_X_THETA_M] = cfg->theta_m0;
