@@ -66,8 +66,13 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
     /* eq. (4) over the period that just ended, with the voltage that acted in it */
     float di_a = (-c->R_s * o->i_hat.alpha - wdL * o->i_hat.beta + u.alpha - e_hat.alpha - o->z.alpha) / c->L_d;
     float di_b = (wdL * o->i_hat.alpha - c->R_s * o->i_hat.beta + u.beta - e_hat.beta - o->z.beta) / c->L_d;
-    o->i_hat.alpha += c->Ts * di_a;
-    o->i_hat.beta += c->Ts * di_b;
+    /* Held within 16 i_max (it tracks currents of a few i_max): the forward
+     * Euler step grows without bound when R_s Ts / L_d or the rotation
+     * w Ts |L_d - L_q| / L_d comes near 1, faster than the bounded
+     * switching term pulls it back. */
+    const float lim = 16.0f * c->i_max;
+    o->i_hat.alpha = fs_clampf(o->i_hat.alpha + c->Ts * di_a, -lim, lim);
+    o->i_hat.beta = fs_clampf(o->i_hat.beta + c->Ts * di_b, -lim, lim);
     /* eqs. (5)-(7): switching function on the current error */
     const float e_a = o->i_hat.alpha - i.alpha, e_b = o->i_hat.beta - i.beta;
     o->z.alpha = o->k * sat(e_a, o->delta);
