@@ -96,7 +96,11 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
         h->filt.srff_p.lp.q += dg * h->unit_p.q;
         h->filt.srff_n.lp.d += dg * h->unit_n.d;
         h->filt.srff_n.lp.q += dg * h->unit_n.q;
-        h->i_n_avg = h->gain_prev > 0.0f ? h->i_n_avg * (h->gain / h->gain_prev) : h->gain * h->i_n_design;
+        /* the averaged amplitude follows the gain; from 0, or where the
+         * ratio would take it beyond the float range (a gain rising from
+         * 1e-38), it starts again from the design amplitude */
+        const float avg = h->i_n_avg * (h->gain / h->gain_prev);
+        h->i_n_avg = fs_fin(avg) ? avg : h->gain * h->i_n_design;
         h->gain_prev = h->gain;
     }
     const float theta_h = h->theta_h;
