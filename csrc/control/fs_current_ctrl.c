@@ -21,16 +21,16 @@ static fs_status design_axis(fs_pi *pi, float Ts, float L, float R, float alpha,
 fs_status fs_current_ctrl_init(fs_current_ctrl *cc, const fs_current_ctrl_config *cfg)
 {
     if (!cc || !cfg) return FS_ERR_NULL;
-    if (!(cfg->Ts > 0.0f)) return FS_ERR_TS;
-    if (!(cfg->R_s >= 0.0f)) return FS_ERR_RS;
-    if (!(cfg->L_d > 0.0f)) return FS_ERR_LD;
-    if (!(cfg->L_q > 0.0f)) return FS_ERR_LQ;
-    if (!(cfg->psi_f >= 0.0f)) return FS_ERR_PSI_F;
-    if (!(cfg->bandwidth > 0.0f) || cfg->bandwidth * cfg->Ts > 1.0f) return FS_ERR_BANDWIDTH;
+    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
+    if (!fs_nonneg(cfg->R_s)) return FS_ERR_RS;
+    if (!fs_pos(cfg->L_d)) return FS_ERR_LD;
+    if (!fs_pos(cfg->L_q)) return FS_ERR_LQ;
+    if (!fs_nonneg(cfg->psi_f)) return FS_ERR_PSI_F;
+    if (!(cfg->bandwidth > 0.0f) || !(cfg->bandwidth * cfg->Ts <= 1.0f)) return FS_ERR_BANDWIDTH;
     const bool explicit_d = cfg->k_p_d != 0.0f || cfg->k_i_d != 0.0f;
     const bool explicit_q = cfg->k_p_q != 0.0f || cfg->k_i_q != 0.0f;
     if (explicit_d != explicit_q) return FS_ERR_PARAM;
-    if (explicit_d && !(cfg->k_p_d > 0.0f && cfg->k_i_d >= 0.0f && cfg->k_p_q > 0.0f && cfg->k_i_q >= 0.0f))
+    if (explicit_d && !(fs_pos(cfg->k_p_d) && fs_nonneg(cfg->k_i_d) && fs_pos(cfg->k_p_q) && fs_nonneg(cfg->k_i_q)))
         return FS_ERR_PARAM;
     cc->cfg = *cfg;
     sampled_plant(cfg->Ts, cfg->L_d, cfg->R_s, &cc->a_d, &cc->b_d);

@@ -1,6 +1,8 @@
 #include "fs_drive.h"
 #include "fs_math.h"
 
+#include <stddef.h>
+
 static bool drive_starts(const fs_drive_config *c)
 {
     return c->mode == FS_MODE_SPEED && c->angle_source == FS_ANGLE_SMO && c->i_start > 0.0f;
@@ -41,6 +43,58 @@ static float drive_torque(const fs_drive_config *c, fs_dq i)
     return 0.5f * (float)c->phases * (float)c->pole_pairs * (c->psi_f + (c->L_d - c->L_q) * i.d) * i.q;
 }
 
+/* A refusal names the config field or sub-block at fault (fs_drive.fail). */
+#define REFUSE(where, status) do { drv->fail = (where); return (status); } while (0)
+#define SUB(where, call) do { fs_status st_ = (call); if (st_ != FS_OK) REFUSE((where), st_); } while (0)
+
+/* The float fields the drive reads, with the range each must be in whatever
+ * the mode (F finite, N >= 0 and finite, P > 0 and finite; the rest is
+ * checked where it is used) and the status that refuses it. */
+enum { F = 0, N = 1, P = 2 };
+#define DRIVE_FIELDS(X) \
+    X(Ts, P, FS_ERR_TS) X(T_pwm, P, FS_ERR_TS) X(delay, F, FS_ERR_PARAM) \
+    X(R_s, N, FS_ERR_RS) X(L_d, P, FS_ERR_LD) X(L_q, P, FS_ERR_LQ) X(psi_f, N, FS_ERR_PSI_F) \
+    X(J, F, FS_ERR_J) X(B, N, FS_ERR_PARAM) X(i_max, P, FS_ERR_I_MAX) X(T_max, F, FS_ERR_LIMIT) \
+    X(bw_current, F, FS_ERR_BANDWIDTH) X(bw_speed, F, FS_ERR_BANDWIDTH) X(bw_pll, F, FS_ERR_BANDWIDTH) \
+    X(t_dead_comp, N, FS_ERR_PARAM) X(i_dead_band, N, FS_ERR_PARAM) X(vf_gain, F, FS_ERR_PARAM) \
+    X(vf_boost, F, FS_ERR_PARAM) X(smo.w_e_max, F, FS_ERR_LIMIT) X(smo.i_max, F, FS_ERR_LIMIT) \
+    X(smo.k, F, FS_ERR_SMO_GAIN) X(smo.margin, F, FS_ERR_LIMIT) X(smo.delta, F, FS_ERR_PARAM) \
+    X(smo.w_c_min, F, FS_ERR_BANDWIDTH) X(smo.bw_pll, F, FS_ERR_BANDWIDTH) X(smo.w_valid, F, FS_ERR_PARAM) \
+    X(fw_w_e_max, N, FS_ERR_LIMIT) X(fw_gain, F, FS_ERR_PARAM) X(fw_cutoff, N, FS_ERR_BANDWIDTH) \
+    X(lock_time, N, FS_ERR_LIMIT) X(t_recover, F, FS_ERR_PARAM) X(i_start, N, FS_ERR_I_MAX) \
+    X(a_start, F, FS_ERR_PARAM) X(w_handover, F, FS_ERR_PARAM) X(hfi.u_h, F, FS_ERR_PARAM) \
+    X(hfi.w_h, F, FS_ERR_BANDWIDTH) X(hfi.w_b_p, F, FS_ERR_BANDWIDTH) X(hfi.w_b_n, F, FS_ERR_BANDWIDTH) \
+    X(hfi.obs.bandwidth, F, FS_ERR_BANDWIDTH) X(blend.w_lower, F, FS_ERR_LIMIT) X(blend.w_upper, F, FS_ERR_LIMIT) \
+    X(blend.obs.bandwidth, F, FS_ERR_BANDWIDTH) X(w_inject_max, N, FS_ERR_LIMIT) \
+    X(polarity.i_pulse, F, FS_ERR_I_MAX) X(polarity.t_lock, F, FS_ERR_PARAM) X(polarity.t_pulse, F, FS_ERR_PARAM) \
+    X(swvi.u_h, F, FS_ERR_PARAM) X(swvi.bandwidth, F, FS_ERR_BANDWIDTH) X(swvi.w_max, F, FS_ERR_LIMIT) \
+    X(k_p_d, N, FS_ERR_PARAM) X(k_i_d, N, FS_ERR_PARAM) X(k_p_q, N, FS_ERR_PARAM) X(k_i_q, N, FS_ERR_PARAM) \
+    X(k_p_w, N, FS_ERR_PARAM) X(k_i_w, N, FS_ERR_PARAM) X(imc_w_grid, N, FS_ERR_PARAM) \
+    X(imc_i_lim, F, FS_ERR_I_MAX) X(imc_V_im, F, FS_ERR_LIMIT)
+/* two bytes a field: its offset in floats, its kind and status; the names
+ * in one string, in the same order, each ended by a NUL */
+#define FIELD_ENTRY(f, kind, status) {(uint8_t)(offsetof(fs_drive_config, f) / sizeof(float)), (uint8_t)((kind) << 6 | (status))},
+#define FIELD_NAME(f, kind, status) #f "\0"
+static const uint8_t drive_fields[][2] = {DRIVE_FIELDS(FIELD_ENTRY)};
+static const char drive_field_names[] = DRIVE_FIELDS(FIELD_NAME);
+typedef char drive_fields_fit[(sizeof(fs_drive_config) <= 256 * sizeof(float) && FS_ERR__COUNT < 64) ? 1 : -1];
+
+/* The first field of the table out of its range, its status and its name. */
+static fs_status drive_check_fields(const fs_drive_config *cfg, const char **name)
+{
+    const char *s = drive_field_names;
+    for (size_t k = 0; k < sizeof drive_fields / sizeof drive_fields[0]; ++k) {
+        const float x = ((const float *)(const void *)cfg)[drive_fields[k][0]];
+        const int kind = drive_fields[k][1] >> 6;
+        if (!fs_fin(x) || (kind == N && !(x >= 0.0f)) || (kind == P && !(x > 0.0f))) {
+            *name = s;
+            return (fs_status)(drive_fields[k][1] & 63);
+        }
+        while (*s++) {}
+    }
+    return FS_OK;
+}
+
 /* The injection estimators: HFI (and blend), the polarity detector. */
 static fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
 {
@@ -53,52 +107,51 @@ static fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
     hc.L_q = cfg->L_q;
     mo.bandwidth = hc.obs.bandwidth;
     hc.obs = mo;
-    fs_status st = fs_hfi_init(&drv->hfi, &hc);
-    if (st != FS_OK) return st;
+    if (!fs_pos(cfg->J)) REFUSE("J", FS_ERR_J);
+    SUB("hfi", fs_hfi_init(&drv->hfi, &hc));
     /* the carrier current's peak, I_p + I_n = u_h / (w_h min(L_d, L_q)) */
     drv->i_hf = hc.u_h / (drv->hfi.cfg.w_h * fminf(cfg->L_d, cfg->L_q));
-    if (!(drv->i_hf < 0.5f * cfg->i_max)) return FS_ERR_I_MAX;
+    if (!(drv->i_hf < 0.5f * cfg->i_max)) REFUSE("hfi.u_h", FS_ERR_ABOVE_I_MAX);
     if (cfg->angle_source == FS_ANGLE_BLEND) {
         fs_blend_config bc = cfg->blend;
         mo.bandwidth = bc.obs.bandwidth > 0.0f ? bc.obs.bandwidth : drv->hfi.cfg.obs.bandwidth;
         bc.obs = mo;
-        st = fs_blend_init(&drv->blend, &bc);
-        if (st != FS_OK) return st;
-        if (!(cfg->w_inject_max >= 0.0f)) return FS_ERR_LIMIT;
-        if (cfg->w_inject_max > 0.0f && !(0.9f * cfg->w_inject_max >= bc.w_upper)) return FS_ERR_LIMIT;
+        SUB("blend", fs_blend_init(&drv->blend, &bc));
+        if (cfg->w_inject_max > 0.0f && !(0.9f * cfg->w_inject_max >= bc.w_upper)) REFUSE("w_inject_max", FS_ERR_LIMIT);
     }
     if (cfg->polarity.i_pulse > 0.0f) {
         fs_polarity_config pc = cfg->polarity;
         pc.Ts = cfg->Ts;
-        if (pc.i_pulse > cfg->i_max) return FS_ERR_I_MAX;
-        st = fs_polarity_init(&drv->pol, &pc);
-        if (st != FS_OK) return st;
+        if (pc.i_pulse > cfg->i_max) REFUSE("polarity.i_pulse", FS_ERR_ABOVE_I_MAX);
+        SUB("polarity", fs_polarity_init(&drv->pol, &pc));
     }
     return FS_OK;
 }
 
 fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
 {
-    if (!drv || !cfg) return FS_ERR_NULL;
-    if (cfg->phases != 3 && cfg->phases != 5) return FS_ERR_PARAM;
-    if (cfg->mode < FS_MODE_OFF || cfg->mode > FS_MODE_SPEED) return FS_ERR_MODE;
-    if (cfg->angle_source < FS_ANGLE_ENCODER || cfg->angle_source > FS_ANGLE_SWVI) return FS_ERR_MODE;
-    if (!(cfg->Ts > 0.0f) || !(cfg->T_pwm >= cfg->Ts)) return FS_ERR_TS;
-    if (!(cfg->delay >= 0.0f && cfg->delay <= 2.0f)) return FS_ERR_PARAM;
-    if (cfg->pole_pairs < 1) return FS_ERR_POLE_PAIRS;
-    if (!(cfg->i_max > 0.0f)) return FS_ERR_I_MAX;
-    if (!(cfg->t_dead_comp >= 0.0f) || !(cfg->i_dead_band >= 0.0f)) return FS_ERR_PARAM;
+    if (!drv) return FS_ERR_NULL;
+    drv->fail = NULL;
+    if (!cfg) REFUSE("config", FS_ERR_NULL);
+    fs_status st = drive_check_fields(cfg, &drv->fail);
+    if (st != FS_OK) return st;
+    if (cfg->phases != 3 && cfg->phases != 5) REFUSE("phases", FS_ERR_PARAM);
+    if (cfg->mode < FS_MODE_OFF || cfg->mode > FS_MODE_SPEED) REFUSE("mode", FS_ERR_MODE);
+    if (cfg->angle_source < FS_ANGLE_ENCODER || cfg->angle_source > FS_ANGLE_SWVI) REFUSE("angle_source", FS_ERR_MODE);
+    if (!(cfg->T_pwm >= cfg->Ts)) REFUSE("T_pwm", FS_ERR_TS);
+    if (!(cfg->delay >= 0.0f && cfg->delay <= 2.0f)) REFUSE("delay", FS_ERR_PARAM);
+    if (cfg->pole_pairs < 1) REFUSE("pole_pairs", FS_ERR_POLE_PAIRS);
+    if (!(cfg->t_dead_comp < 0.5f * cfg->T_pwm)) REFUSE("t_dead_comp", FS_ERR_PARAM);
     drv->cfg = *cfg;
     const float Tl = drive_loop_Ts(cfg);
 
     fs_current_ctrl_config ccc = {Tl, cfg->R_s, cfg->L_d, cfg->L_q, cfg->psi_f, cfg->bw_current,
                                   cfg->delay > 0.5f, cfg->k_p_d, cfg->k_i_d, cfg->k_p_q, cfg->k_i_q};
-    fs_status st = fs_current_ctrl_init(&drv->cc, &ccc);
-    if (st != FS_OK) return st;
+    st = fs_current_ctrl_init(&drv->cc, &ccc);
+    if (st != FS_OK) REFUSE(st == FS_ERR_BANDWIDTH ? "bw_current" : "k_p_d, k_i_d, k_p_q, k_i_q", st);
 
     fs_pll_config pc = {cfg->Ts, cfg->bw_pll, 0.0f};
-    st = fs_pll_init(&drv->pll, &pc);
-    if (st != FS_OK) return st;
+    SUB("bw_pll", fs_pll_init(&drv->pll, &pc));
 
     if (drive_has_smo(cfg)) {
         fs_smo_config oc = cfg->smo;
@@ -108,68 +161,69 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         oc.L_q = cfg->L_q;
         oc.psi_f = cfg->psi_f;
         oc.dir_external = cfg->angle_source == FS_ANGLE_BLEND;
-        st = fs_smo_init(&drv->smo, &oc);
-        if (st != FS_OK) return st;
+        SUB("smo", fs_smo_init(&drv->smo, &oc));
     }
     if (cfg->mode == FS_MODE_SPEED) {
         fs_speed_ctrl_config scc = {Tl, cfg->J, cfg->B, cfg->bw_speed, cfg->T_max, cfg->k_p_w, cfg->k_i_w};
         st = fs_speed_ctrl_init(&drv->sc, &scc);
-        if (st != FS_OK) return st;
+        if (st != FS_OK)
+            REFUSE(st == FS_ERR_J ? "J" : st == FS_ERR_BANDWIDTH ? "bw_speed" : st == FS_ERR_LIMIT ? "T_max" : "k_p_w, k_i_w", st);
         fs_mtpa_config mc = {cfg->L_d, cfg->L_q, cfg->psi_f, cfg->pole_pairs, cfg->i_max, cfg->phases};
         st = fs_mtpa_init(&drv->mtpa, &mc);
-        if (st != FS_OK) return st;
-        if (!(cfg->fw_w_e_max >= 0.0f)) return FS_ERR_LIMIT;
+        if (st != FS_OK) REFUSE(st == FS_ERR_LQ ? "L_q" : "mtpa (psi_f, L_d, L_q, i_max)", st);
         if (drive_weakens(cfg)) {
+            if (!fs_pos(cfg->fw_gain)) REFUSE("fw_gain", FS_ERR_PARAM);
             float w_c = cfg->fw_cutoff > 0.0f ? cfg->fw_cutoff
                       : fminf(0.25f * cfg->bw_current, 0.5f * cfg->fw_w_e_max) / cfg->fw_gain;   /* fs_drive.h */
             fs_fw_config fc = {cfg->Ts, cfg->L_d, cfg->fw_w_e_max, cfg->fw_gain, w_c, cfg->i_max};
             st = fs_fw_init(&drv->fw, &fc);
-            if (st != FS_OK) return st;
+            if (st != FS_OK) REFUSE(st == FS_ERR_BANDWIDTH ? "fw_cutoff" : "fw_w_e_max", st);
         }
     }
     if (cfg->lock_time > 0.0f) {
         fs_lock_config lc = {Tl, cfg->lock_time};
-        st = fs_lock_init(&drv->lock, &lc);
-        if (st != FS_OK) return st;
+        SUB("lock_time", fs_lock_init(&drv->lock, &lc));
         drv->lock_a = expf(-4.0f * Tl / cfg->lock_time);
-    } else if (!(cfg->lock_time == 0.0f)) {
-        return FS_ERR_LIMIT;
     }
-    if (cfg->lock_recover != 0 && cfg->lock_recover != 1) return FS_ERR_PARAM;
-    if (cfg->lock_recover && (!(cfg->lock_time > 0.0f) || !(cfg->t_recover > 0.0f) || cfg->lock_retries < 0))
-        return FS_ERR_PARAM;
+    if (cfg->lock_recover != 0 && cfg->lock_recover != 1) REFUSE("lock_recover", FS_ERR_PARAM);
+    if (cfg->lock_recover) {
+        if (!(cfg->lock_time > 0.0f)) REFUSE("lock_time", FS_ERR_PARAM);
+        if (!fs_pos(cfg->t_recover)) REFUSE("t_recover", FS_ERR_PARAM);
+        if (cfg->lock_retries < 0) REFUSE("lock_retries", FS_ERR_PARAM);
+    }
     if (drive_injects(cfg)) {
         st = drive_init_injection(drv, cfg);
         if (st != FS_OK) return st;
     }
     if (drive_square(cfg)) {
-        if (cfg->mode != FS_MODE_OFF && cfg->mode != FS_MODE_CURRENT && cfg->mode != FS_MODE_SPEED) return FS_ERR_MODE;
-        if (cfg->delay != 0.0f && cfg->delay != 1.0f) return FS_ERR_PARAM;
+        if (cfg->mode != FS_MODE_OFF && cfg->mode != FS_MODE_CURRENT && cfg->mode != FS_MODE_SPEED) REFUSE("mode", FS_ERR_MODE);
+        if (cfg->delay != 0.0f && cfg->delay != 1.0f) REFUSE("delay", FS_ERR_PARAM);
         fs_swvi_config wc = cfg->swvi;
         wc.Ts = cfg->Ts;
         wc.delay = (int)cfg->delay;
         wc.L_d = cfg->L_d;
         wc.L_q = cfg->L_q;
-        st = fs_swvi_init(&drv->sw, &wc);
-        if (st != FS_OK) return st;
+        SUB("swvi", fs_swvi_init(&drv->sw, &wc));
     }
-    if (cfg->converter != FS_CONV_VSI && cfg->converter != FS_CONV_IMC) return FS_ERR_MODE;
+    if (cfg->converter != FS_CONV_VSI && cfg->converter != FS_CONV_IMC) REFUSE("converter", FS_ERR_MODE);
     if (drive_imc(cfg)) {
-        if (cfg->phases != 3 || drive_square(cfg)) return FS_ERR_MODE;
-        if (cfg->imc_region < FS_IMC_LINEAR || cfg->imc_region > FS_IMC_OM2) return FS_ERR_MODE;
-        if (!(cfg->imc_w_grid >= 0.0f) || !isfinite(cfg->imc_w_grid)) return FS_ERR_PARAM;
+        if (cfg->phases != 3 || drive_square(cfg)) REFUSE("converter", FS_ERR_MODE);
+        if (cfg->imc_region < FS_IMC_LINEAR || cfg->imc_region > FS_IMC_OM2) REFUSE("imc_region", FS_ERR_MODE);
         if (drive_imc_depth(cfg)) {
-            if (!(cfg->imc_i_lim > 0.0f) || cfg->imc_i_lim > cfg->i_max) return FS_ERR_I_MAX;
+            if (!(cfg->imc_i_lim > 0.0f)) REFUSE("imc_i_lim", FS_ERR_I_MAX);
+            if (cfg->imc_i_lim > cfg->i_max) REFUSE("imc_i_lim", FS_ERR_ABOVE_I_MAX);
             fs_imc_depth_config dc;
             st = fs_imc_depth_design(&dc, cfg->Ts, cfg->imc_i_lim, cfg->imc_V_im, cfg->fw_w_e_max,
                                      cfg->L_d, cfg->bw_speed);
-            if (st != FS_OK) return st;
-            st = fs_imc_depth_init(&drv->depth, &dc);
-            if (st != FS_OK) return st;
+            if (st != FS_OK) REFUSE(st == FS_ERR_LIMIT ? "imc_V_im" : "imc_depth", st);
+            SUB("imc_depth", fs_imc_depth_init(&drv->depth, &dc));
         }
     }
-    if (!(cfg->i_start >= 0.0f) || cfg->i_start > cfg->i_max) return FS_ERR_I_MAX;
-    if (cfg->i_start > 0.0f && (!(cfg->a_start > 0.0f) || !(cfg->w_handover > 0.0f))) return FS_ERR_PARAM;
+    if (cfg->i_start > cfg->i_max) REFUSE("i_start", FS_ERR_ABOVE_I_MAX);
+    if (cfg->i_start > 0.0f) {
+        if (!fs_pos(cfg->a_start)) REFUSE("a_start", FS_ERR_PARAM);
+        if (!fs_pos(cfg->w_handover)) REFUSE("w_handover", FS_ERR_PARAM);
+    }
     fs_drive_reset(drv);
     return FS_OK;
 }

@@ -105,8 +105,9 @@ typedef struct {
     float T_max;             /* N m */
     /* design bandwidths, rad/s */
     float bw_current, bw_speed, bw_pll;
-    /* dead-time compensation: the dead time to compensate (0: off) and the
-     * current below which the compensation ramps linearly to zero */
+    /* dead-time compensation: the dead time to compensate (0: off; below
+     * T_pwm / 2) and the current below which the compensation ramps linearly
+     * to zero */
     float t_dead_comp, i_dead_band;
     /* V/f: volts per electrical rad/s and boost volts */
     float vf_gain, vf_boost;
@@ -258,8 +259,14 @@ typedef struct {
      * window and the one computed for the next; the loops' last outputs */
     fs_ab u_ff_hold, u_ff_next;
     fs_drive_out held;
+    /* after a refused init, the config field or sub-block at fault, as a
+     * string literal ("smo.bw_pll", "i_max", "hfi"; fs_status_str tells
+     * why); NULL after a successful one */
+    const char *fail;
 } fs_drive;
 
+/* Every float field is refused when not finite (naming it), each field out of
+ * its range, and a sub-block's config by the sub-block's own init. */
 fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg);
 void fs_drive_reset(fs_drive *drv);
 void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out);

@@ -4,15 +4,16 @@
 fs_status fs_fw_init(fs_fw *fw, const fs_fw_config *cfg)
 {
     if (!fw || !cfg) return FS_ERR_NULL;
-    if (!(cfg->Ts > 0.0f)) return FS_ERR_TS;
-    if (!(cfg->L > 0.0f)) return FS_ERR_LD;
-    if (!(cfg->w_e_max > 0.0f)) return FS_ERR_LIMIT;
-    if (!(cfg->gain > 0.0f)) return FS_ERR_PARAM;
-    if (!(cfg->bandwidth > 0.0f) || cfg->bandwidth * cfg->Ts > 1.0f) return FS_ERR_BANDWIDTH;
-    if (!(cfg->i_max > 0.0f)) return FS_ERR_I_MAX;
+    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
+    if (!fs_pos(cfg->L)) return FS_ERR_LD;
+    if (!fs_pos(cfg->w_e_max)) return FS_ERR_LIMIT;
+    if (!fs_pos(cfg->gain)) return FS_ERR_PARAM;
+    if (!(cfg->bandwidth > 0.0f) || !(cfg->bandwidth * cfg->Ts <= 1.0f)) return FS_ERR_BANDWIDTH;
+    if (!fs_pos(cfg->i_max)) return FS_ERR_I_MAX;
     fw->cfg = *cfg;
     float wl = cfg->w_e_max * cfg->L;
     fw->beta = cfg->gain / (wl * wl);            /* eq. (31) */
+    if (!fs_fin(fw->beta)) return FS_ERR_PARAM;   /* w_e,max L too small for a float */
     fw->a = expf(-cfg->bandwidth * cfg->Ts);
     fs_fw_reset(fw);
     return FS_OK;

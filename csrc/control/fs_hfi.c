@@ -5,18 +5,19 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
 {
     if (!h || !cfg) return FS_ERR_NULL;
     fs_hfi_config c = *cfg;
-    if (!(c.Ts > 0.0f) || !isfinite(c.Ts)) return FS_ERR_TS;
+    if (!fs_pos(c.Ts)) return FS_ERR_TS;
     if (!(c.delay >= 0.0f && c.delay <= 2.0f)) return FS_ERR_PARAM;
-    if (!(c.u_h > 0.0f) || !isfinite(c.u_h)) return FS_ERR_PARAM;
+    if (!fs_pos(c.u_h)) return FS_ERR_PARAM;
     if (!(c.w_h > 0.0f) || !(c.w_h * c.Ts <= 0.5f * FS_PI)) return FS_ERR_BANDWIDTH;
-    if (c.w_b_p < 0.0f || c.w_b_n < 0.0f || (c.w_b_n > 0.0f && c.w_b_n * c.Ts < 1e-4f)) return FS_ERR_BANDWIDTH;
-    if (!(c.R_s >= 0.0f) || !isfinite(c.R_s)) return FS_ERR_RS;
-    if (!(c.L_d > 0.0f)) return FS_ERR_LD;
-    if (!(c.L_q > 0.0f)) return FS_ERR_LQ;
+    if (!fs_nonneg(c.w_b_p) || !fs_nonneg(c.w_b_n)) return FS_ERR_BANDWIDTH;
+    if (!fs_nonneg(c.R_s)) return FS_ERR_RS;
+    if (!fs_pos(c.L_d)) return FS_ERR_LD;
+    if (!fs_pos(c.L_q)) return FS_ERR_LQ;
     if (!(fabsf(c.L_q - c.L_d) > 0.01f * 0.5f * (c.L_d + c.L_q))) return FS_ERR_SALIENCY;
     if (c.w_b_p == 0.0f) c.w_b_p = 0.05f * c.w_h;
     if (c.w_b_n == 0.0f) c.w_b_n = 0.05f * c.w_h;
-    if (!(c.w_b_n * c.Ts >= 1e-4f)) return FS_ERR_BANDWIDTH;   /* the default too: n_settle below */
+    /* the settling count 3 / (w_b_n Ts) must stay an int */
+    if (!(c.w_b_n * c.Ts >= 1e-4f)) return FS_ERR_BANDWIDTH;
     if (c.obs.bandwidth == 0.0f) c.obs.bandwidth = 0.2f * c.w_b_n;
     c.obs.Ts = c.Ts;
     if (fs_xcomp_check(&c.xcomp) != FS_OK) return FS_ERR_PARAM;
@@ -46,6 +47,7 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
     if (dl > 0.0f) h->phi_ref -= FS_PI;   /* L_d > L_q: the carrier of eq. (24) changes sign */
     /* the negative carrier's amplitude, |B| of the header, at the samples */
     h->i_n_design = c.u_h * w * fabsf(dl) / sqrtf(D_re * D_re + D_im * D_im) / (sinc * sinc);
+    if (!fs_pos(h->i_n_design) || !fs_fin(h->u_amp)) return FS_ERR_PARAM;   /* beyond the float range */
     h->k_avg = -expm1f(-0.25f * c.w_b_n * c.Ts);
     h->n_settle = (int)ceilf(3.0f / (c.w_b_n * c.Ts));
     h->rot_u.alpha = cosf(h->theta_u);
@@ -94,7 +96,11 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
         h->filt.srff_p.lp.q += dg * h->unit_p.q;
         h->filt.srff_n.lp.d += dg * h->unit_n.d;
         h->filt.srff_n.lp.q += dg * h->unit_n.q;
-        h->i_n_avg = h->gain_prev > 0.0f ? h->i_n_avg * (h->gain / h->gain_prev) : h->gain * h->i_n_design;
+        /* the averaged amplitude follows the gain; from 0, or where the
+         * ratio would take it beyond the float range (a gain rising from
+         * 1e-38), it starts again from the design amplitude */
+        const float avg = h->i_n_avg * (h->gain / h->gain_prev);
+        h->i_n_avg = fs_fin(avg) ? avg : h->gain * h->i_n_design;
         h->gain_prev = h->gain;
     }
     const float theta_h = h->theta_h;

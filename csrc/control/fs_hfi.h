@@ -76,7 +76,7 @@ typedef struct {
     float w_h;                 /* injected frequency, rad/s; 4 <= samples per period: w_h Ts <= pi/2 */
     float R_s;                 /* the controller's resistance, ohm (>= 0) */
     float L_d, L_q;            /* the controller's inductances: saliency needed, |L_q - L_d| > 1 % */
-    float w_b_p, w_b_n;        /* filter bandwidths, rad/s (0: w_h / 20 each) */
+    float w_b_p, w_b_n;        /* filter bandwidths, rad/s (0: w_h / 20 each); w_b Ts <= 0.5, w_b_n Ts >= 1e-4 */
     fs_motion_obs_config obs;  /* Ts is taken from above; bandwidth 0: w_b_n / 5 */
     fs_xcomp_config xcomp;     /* cross-saturation compensation (all zero: off) */
 } fs_hfi_config;

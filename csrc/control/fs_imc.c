@@ -101,26 +101,26 @@ fs_status fs_imc_depth_design(fs_imc_depth_config *cfg, float Ts, float i_lim, f
                               float w_e_max, float L, float bw)
 {
     if (!cfg) return FS_ERR_NULL;
-    if (!(Ts > 0.0f)) return FS_ERR_TS;
-    if (!(V_im > 0.0f) || !(w_e_max > 0.0f)) return FS_ERR_LIMIT;
-    if (!(L > 0.0f)) return FS_ERR_LD;
-    if (!(bw > 0.0f) || bw * Ts > 1.0f) return FS_ERR_BANDWIDTH;
+    if (!fs_pos(Ts)) return FS_ERR_TS;
+    if (!fs_pos(V_im) || !fs_pos(w_e_max)) return FS_ERR_LIMIT;
+    if (!fs_pos(L)) return FS_ERR_LD;
+    if (!(bw > 0.0f) || !(bw * Ts <= 1.0f)) return FS_ERR_BANDWIDTH;
+    if (!fs_pos(i_lim)) return FS_ERR_I_MAX;
     float dq = fs_imc_vtr_max(FS_IMC_OM2, ALPHA_MAX) - fs_imc_vtr_max(FS_IMC_OM2, 0.0f);
     float G = dq / ALPHA_MAX * V_im / (w_e_max * L);   /* A/rad */
     cfg->Ts = Ts;
     cfg->i_lim = i_lim;
     cfg->k_i = bw / G;
     cfg->k_p = 0.5f / G;
-    return FS_OK;
+    return fs_fin(cfg->k_i) ? FS_OK : FS_ERR_PARAM;   /* G = 0: V_im / (w_e,max L) below the float range */
 }
 
 fs_status fs_imc_depth_init(fs_imc_depth *dc, const fs_imc_depth_config *cfg)
 {
     if (!dc || !cfg) return FS_ERR_NULL;
-    if (!(cfg->Ts > 0.0f)) return FS_ERR_TS;
-    if (!(cfg->i_lim > 0.0f)) return FS_ERR_I_MAX;
-    if (!(cfg->k_p >= 0.0f) || !(cfg->k_i >= 0.0f) || !isfinite(cfg->k_p) || !isfinite(cfg->k_i))
-        return FS_ERR_PARAM;
+    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
+    if (!fs_pos(cfg->i_lim)) return FS_ERR_I_MAX;
+    if (!fs_nonneg(cfg->k_p) || !fs_nonneg(cfg->k_i)) return FS_ERR_PARAM;
     dc->cfg = *cfg;
     fs_imc_depth_reset(dc);
     return FS_OK;

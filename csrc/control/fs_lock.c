@@ -4,8 +4,8 @@
 fs_status fs_lock_init(fs_lock *lk, const fs_lock_config *cfg)
 {
     if (!lk || !cfg) return FS_ERR_NULL;
-    if (!(cfg->Ts > 0.0f)) return FS_ERR_TS;
-    if (!(cfg->t_lost >= cfg->Ts)) return FS_ERR_LIMIT;
+    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
+    if (!(cfg->t_lost >= cfg->Ts) || !fs_fin(cfg->t_lost)) return FS_ERR_LIMIT;
     lk->cfg = *cfg;
     fs_lock_reset(lk);
     return FS_OK;

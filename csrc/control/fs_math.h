@@ -3,6 +3,7 @@
 #define FS_MATH_H
 
 #include <math.h>
+#include <stdbool.h>
 
 #define FS_PI 3.14159265358979323846f
 #define FS_TWO_PI 6.28318530717958647692f
@@ -23,6 +24,12 @@ static inline float fs_wrap_pi(float x)
     }
     return x;
 }
+
+/* Configuration checks for the inits: each fails on NaN and on an infinity
+ * (a double beyond the float range arrives as one). */
+static inline bool fs_fin(float x) { return fabsf(x) < INFINITY; }
+static inline bool fs_pos(float x) { return x > 0.0f && x < INFINITY; }
+static inline bool fs_nonneg(float x) { return x >= 0.0f && x < INFINITY; }
 
 static inline float fs_clampf(float x, float lo, float hi)
 {

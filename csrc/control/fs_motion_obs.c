@@ -51,7 +51,8 @@ fs_status fs_motion_obs_init(fs_motion_obs *obs, const fs_motion_obs_config *cfg
     obs->K_i = J * w_o * w_o * w_o / p;
 
     fs_motion_obs_reset(obs, 0.0f, 0.0f);
-    return FS_OK;
+    /* gains beyond the float range: p / J, 1 / Ts^2 or 1 / E = exp(B Ts / J) too large */
+    return fs_fin(obs->k_u) && fs_fin(obs->l_theta + obs->l_w + obs->l_a + obs->l_T) ? FS_OK : FS_ERR_PARAM;
 }
 
 void fs_motion_obs_reset(fs_motion_obs *obs, float theta, float w)

@@ -14,13 +14,12 @@ static float mtpa_k(const fs_mtpa_config *c) { return 0.5f * (float)c->phases * 
 fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
 {
     if (!m || !cfg) return FS_ERR_NULL;
-    if (!(cfg->L_d > 0.0f)) return FS_ERR_LD;
-    if (!(cfg->L_q >= cfg->L_d)) return FS_ERR_LQ;  /* MTPA here assumes L_q >= L_d */
-    if (!(cfg->psi_f >= 0.0f)) return FS_ERR_PSI_F;
+    if (!fs_pos(cfg->L_d)) return FS_ERR_LD;
+    if (!(cfg->L_q >= cfg->L_d) || !fs_fin(cfg->L_q)) return FS_ERR_LQ;  /* MTPA here assumes L_q >= L_d */
+    if (!fs_nonneg(cfg->psi_f)) return FS_ERR_PSI_F;
     if (cfg->pole_pairs < 1) return FS_ERR_POLE_PAIRS;
     if (cfg->phases != 3 && cfg->phases != 5) return FS_ERR_PARAM;
-    if (!(cfg->i_max > 0.0f)) return FS_ERR_I_MAX;
-    if (cfg->psi_f == 0.0f && cfg->L_q == cfg->L_d) return FS_ERR_PARAM;  /* no torque */
+    if (!fs_pos(cfg->i_max)) return FS_ERR_I_MAX;
     m->cfg = *cfg;
     for (int k = 0; k < FS_MTPA_N; ++k) {
         float I = cfg->i_max * (float)k / (float)(FS_MTPA_N - 1);
@@ -29,6 +28,9 @@ fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
         m->i_d[k] = id;
         m->i_q[k] = iq;
         m->T[k] = mtpa_k(cfg) * (cfg->psi_f + (cfg->L_d - cfg->L_q) * id) * iq;
+        /* the torque must rise, finite: not without torque (psi_f = 0 and
+         * L_q = L_d), nor beyond the float range */
+        if (k > 0 && !(m->T[k] > m->T[k - 1] && m->T[k] < INFINITY)) return FS_ERR_PARAM;
     }
     return FS_OK;
 }

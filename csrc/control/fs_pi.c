@@ -4,8 +4,9 @@
 fs_status fs_pi_init(fs_pi *pi, const fs_pi_config *cfg)
 {
     if (!pi || !cfg) return FS_ERR_NULL;
-    if (!(cfg->Ts > 0.0f)) return FS_ERR_TS;
-    if (!(cfg->k_p >= 0.0f) || !(cfg->k_i >= 0.0f) || !(cfg->k_t >= 0.0f)) return FS_ERR_PARAM;
+    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
+    if (!fs_nonneg(cfg->k_p) || !fs_nonneg(cfg->k_i) || !fs_nonneg(cfg->k_t) || !fs_fin(cfg->u_max))
+        return FS_ERR_PARAM;
     pi->cfg = *cfg;
     fs_pi_reset(pi);
     return FS_OK;
@@ -14,9 +15,9 @@ fs_status fs_pi_init(fs_pi *pi, const fs_pi_config *cfg)
 fs_status fs_pi_design(fs_pi_config *cfg, float Ts, float L, float R, float alpha, float u_max)
 {
     if (!cfg) return FS_ERR_NULL;
-    if (!(Ts > 0.0f)) return FS_ERR_TS;
-    if (!(L > 0.0f) || !(R >= 0.0f)) return FS_ERR_PARAM;
-    if (!(alpha > 0.0f) || alpha * Ts > 2.0f) return FS_ERR_BANDWIDTH;
+    if (!fs_pos(Ts)) return FS_ERR_TS;
+    if (!fs_pos(L) || !fs_nonneg(R) || !fs_fin(u_max)) return FS_ERR_PARAM;
+    if (!(alpha > 0.0f) || !(alpha * Ts <= 2.0f)) return FS_ERR_BANDWIDTH;
     /* r = 1 - a and q = 1 - p by expm1f, which keeps them exact when small */
     float r = -expm1f(-R * Ts / L);
     float q = -expm1f(-alpha * Ts);
@@ -26,7 +27,8 @@ fs_status fs_pi_design(fs_pi_config *cfg, float Ts, float L, float R, float alph
     cfg->k_p = fmaxf((2.0f * q - r) / b, 0.0f);  /* (1 + a - 2p) / b */
     cfg->k_i = q * q / (b * Ts);
     cfg->u_max = u_max;
-    return FS_OK;
+    /* gains beyond the float range (L / Ts or R / (1 - a) too large) */
+    return fs_fin(cfg->k_t) && fs_fin(cfg->k_i) ? FS_OK : FS_ERR_PARAM;
 }
 
 void fs_pi_reset(fs_pi *pi) { pi->integ = 0.0f; }

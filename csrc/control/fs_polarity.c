@@ -4,10 +4,11 @@
 fs_status fs_polarity_init(fs_polarity *p, const fs_polarity_config *cfg)
 {
     if (!p || !cfg) return FS_ERR_NULL;
-    if (!(cfg->Ts > 0.0f) || !isfinite(cfg->Ts)) return FS_ERR_TS;
-    if (!(cfg->i_pulse > 0.0f) || !isfinite(cfg->i_pulse)) return FS_ERR_I_MAX;
+    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
+    if (!fs_pos(cfg->i_pulse)) return FS_ERR_I_MAX;
+    /* the step counts must stay ints: below 1e9 */
     if (!(cfg->t_lock >= 0.0f) || !(cfg->t_pulse >= 4.0f * cfg->Ts) || !(cfg->t_lock + cfg->t_pulse < 1e3f)
-        || !(cfg->t_lock + cfg->t_pulse < 1e9f * cfg->Ts))   /* the step counts below fit an int */
+        || !((cfg->t_lock + cfg->t_pulse) / cfg->Ts < 1e9f))
         return FS_ERR_PARAM;
     p->cfg = *cfg;
     p->n_lock = (int)(cfg->t_lock / cfg->Ts + 0.5f);

@@ -39,7 +39,7 @@ typedef struct {
     float Ts;        /* sampling period, s */
     float i_pulse;   /* d-current pulse amplitude, A (> 0) */
     float t_lock;    /* settling of the estimator before the pulses, s (>= 0) */
-    float t_pulse;   /* length of each pulse, s (>= 4 Ts) */
+    float t_pulse;   /* length of each pulse, s (>= 4 Ts; t_lock + t_pulse < 1e3 s and 1e9 Ts) */
 } fs_polarity_config;
 
 typedef struct {

@@ -4,13 +4,14 @@
 fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
 {
     if (!o || !cfg) return FS_ERR_NULL;
-    if (!(cfg->Ts > 0.0f)) return FS_ERR_TS;
-    if (!(cfg->R_s >= 0.0f)) return FS_ERR_RS;
-    if (!(cfg->L_d > 0.0f)) return FS_ERR_LD;
-    if (!(cfg->L_q > 0.0f)) return FS_ERR_LQ;
-    if (!(cfg->psi_f >= 0.0f)) return FS_ERR_PSI_F;
-    if (!(cfg->w_e_max > 0.0f) || !(cfg->i_max > 0.0f) || !(cfg->margin >= 1.0f)) return FS_ERR_LIMIT;
-    if (!(cfg->k >= 0.0f) || !(cfg->delta >= 0.0f) || !(cfg->w_valid >= 0.0f)) return FS_ERR_PARAM;
+    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
+    if (!fs_nonneg(cfg->R_s)) return FS_ERR_RS;
+    if (!fs_pos(cfg->L_d)) return FS_ERR_LD;
+    if (!fs_pos(cfg->L_q)) return FS_ERR_LQ;
+    if (!fs_nonneg(cfg->psi_f)) return FS_ERR_PSI_F;
+    if (!fs_pos(cfg->w_e_max) || !fs_pos(cfg->i_max) || !(cfg->margin >= 1.0f) || !fs_fin(cfg->margin))
+        return FS_ERR_LIMIT;
+    if (!fs_nonneg(cfg->k) || !fs_nonneg(cfg->delta) || !fs_nonneg(cfg->w_valid)) return FS_ERR_PARAM;
     if (cfg->lag != FS_SMO_LAG_EXACT && cfg->lag != FS_SMO_LAG_PAPER) return FS_ERR_MODE;
     o->cfg = *cfg;
     /* eq. (18): k > max(|e_alpha|, |e_beta|) / 2, with the extended EMF
@@ -20,6 +21,8 @@ fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
     if (cfg->k > 0.0f && cfg->k <= o->k_bound) return FS_ERR_SMO_GAIN;
     o->k = cfg->k > 0.0f ? cfg->k : cfg->margin * o->k_bound;
     o->delta = fmaxf(cfg->delta, o->k * cfg->Ts / cfg->L_d);
+    /* a designed gain of 0 (no EMF: psi_f = 0, L_d = L_q) or beyond the float range */
+    if (!fs_pos(o->k) || !fs_pos(o->delta)) return FS_ERR_SMO_GAIN;
     fs_lpf_config lc = {cfg->Ts, cfg->w_c_min};
     fs_status st = fs_lpf_init(&o->lpf, &lc);
     if (st != FS_OK) return st;
@@ -63,8 +66,13 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
     /* eq. (4) over the period that just ended, with the voltage that acted in it */
     float di_a = (-c->R_s * o->i_hat.alpha - wdL * o->i_hat.beta + u.alpha - e_hat.alpha - o->z.alpha) / c->L_d;
     float di_b = (wdL * o->i_hat.alpha - c->R_s * o->i_hat.beta + u.beta - e_hat.beta - o->z.beta) / c->L_d;
-    o->i_hat.alpha += c->Ts * di_a;
-    o->i_hat.beta += c->Ts * di_b;
+    /* Held within 16 i_max (it tracks currents of a few i_max): the forward
+     * Euler step grows without bound when R_s Ts / L_d or the rotation
+     * w Ts |L_d - L_q| / L_d comes near 1, faster than the bounded
+     * switching term pulls it back. */
+    const float lim = 16.0f * c->i_max;
+    o->i_hat.alpha = fs_clampf(o->i_hat.alpha + c->Ts * di_a, -lim, lim);
+    o->i_hat.beta = fs_clampf(o->i_hat.beta + c->Ts * di_b, -lim, lim);
     /* eqs. (5)-(7): switching function on the current error */
     const float e_a = o->i_hat.alpha - i.alpha, e_b = o->i_hat.beta - i.beta;
     o->z.alpha = o->k * sat(e_a, o->delta);

@@ -37,7 +37,7 @@ typedef struct {
     float Ts;            /* s */
     float R_s, L_d, L_q, psi_f;
     float w_e_max;       /* top electrical speed for the gain bound, rad/s */
-    float i_max;         /* top current for the gain bound, A */
+    float i_max;         /* top current for the gain bound, A; the current estimate is held within 16 i_max */
     float k;             /* switching gain, V; 0: designed as margin * bound */
     float margin;        /* >= 1 */
     float delta;         /* boundary layer, A; floored at k Ts / L_d */

@@ -14,25 +14,28 @@
 #include <stdint.h>
 
 /* Status returned by every fs_<thing>_init. FS_OK is zero; each error names
- * the configuration field at fault (fs_status_str gives the message). */
+ * the configuration field at fault (fs_status_str gives the message). Every
+ * init refuses a non-finite field: NaN, an infinity, or a double beyond the
+ * float range (1e39), which arrives as an infinity. */
 typedef enum {
     FS_OK = 0,
     FS_ERR_NULL = 1,            /* a null pointer was passed */
-    FS_ERR_TS = 2,              /* sampling period must be > 0 */
-    FS_ERR_RS = 3,              /* stator resistance must be >= 0 */
-    FS_ERR_LD = 4,              /* d-axis inductance must be > 0 */
-    FS_ERR_LQ = 5,              /* q-axis inductance must be > 0 */
-    FS_ERR_PSI_F = 6,           /* magnet flux must be >= 0 */
+    FS_ERR_TS = 2,              /* sampling period must be finite and > 0 (carrier period >= it) */
+    FS_ERR_RS = 3,              /* stator resistance must be finite and >= 0 */
+    FS_ERR_LD = 4,              /* d-axis inductance must be finite and > 0 */
+    FS_ERR_LQ = 5,              /* q-axis inductance must be finite and > 0 (MTPA: >= L_d) */
+    FS_ERR_PSI_F = 6,           /* magnet flux must be finite and >= 0 */
     FS_ERR_POLE_PAIRS = 7,      /* pole pairs must be >= 1 */
-    FS_ERR_J = 8,               /* inertia must be > 0 */
-    FS_ERR_BANDWIDTH = 9,       /* a bandwidth must be > 0 and below the Nyquist limit */
-    FS_ERR_LIMIT = 10,          /* a limit must be > 0 (and max >= min) */
-    FS_ERR_I_MAX = 11,          /* current limit must be > 0 */
+    FS_ERR_J = 8,               /* inertia must be finite and > 0 */
+    FS_ERR_BANDWIDTH = 9,       /* a bandwidth must be finite, > 0 and within its limit for Ts */
+    FS_ERR_LIMIT = 10,          /* a limit must be finite and > 0 (and max > min) */
+    FS_ERR_I_MAX = 11,          /* a current limit or amplitude must be finite and > 0 */
     FS_ERR_MODE = 12,           /* unknown mode or angle source */
-    FS_ERR_SMO_GAIN = 13,       /* SMO gain below the Lyapunov bound, eq. (18) */
-    FS_ERR_PARAM = 14,          /* another parameter is out of range */
+    FS_ERR_SMO_GAIN = 13,       /* SMO gain not finite or not above the Lyapunov bound, eq. (18) */
+    FS_ERR_PARAM = 14,          /* another parameter is out of range or not finite */
     FS_ERR_SALIENCY = 15,       /* injection needs a salient machine, L_d != L_q */
-    FS_ERR__COUNT = 16
+    FS_ERR_ABOVE_I_MAX = 16,    /* a current setting above the current limit i_max */
+    FS_ERR__COUNT = 17
 } fs_status;
 
 const char *fs_status_str(fs_status status);

@@ -5,13 +5,13 @@
 
 static double w_grid(const fs_grid_config *c) { return 2.0 * 3.14159265358979323846 * c->f_grid; }
 
-int fs_grid_check(const fs_grid_config *c)
+fs_status fs_grid_check(const fs_grid_config *c)
 {
     const double v[5] = {c->V_im, c->f_grid, c->L_f, c->R_f, c->C_f};
     for (int k = 0; k < 5; ++k) {
-        if (!(v[k] > 0.0) || !isfinite(v[k])) return -1;
+        if (!(v[k] > 0.0) || !isfinite(v[k])) return FS_ERR_PARAM;
     }
-    return 0;
+    return FS_OK;
 }
 
 void fs_grid_voltage(const fs_grid_config *c, double t, double *e_a, double *e_b)

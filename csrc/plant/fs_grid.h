@@ -16,6 +16,8 @@
 #ifndef FS_GRID_H
 #define FS_GRID_H
 
+#include "../control/fs_types.h"
+
 typedef struct {
     double V_im;      /* phase voltage amplitude, V */
     double f_grid;    /* Hz */
@@ -31,8 +33,8 @@ enum {
     FS_GRID_X_N
 };
 
-/* 0, or -1 if a field is not a positive finite number. */
-int fs_grid_check(const fs_grid_config *c);
+/* FS_OK (0), or FS_ERR_PARAM if a field is not a positive finite number. */
+fs_status fs_grid_check(const fs_grid_config *c);
 /* The sinusoidal steady state without load at t = 0, meters zero. */
 void fs_grid_initial_state(const fs_grid_config *c, double *x);
 /* Grid voltage at t, stationary frame. */

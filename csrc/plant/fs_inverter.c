@@ -39,6 +39,16 @@ void fs_inverter_vsd5(const double v[5], double *alpha, double *beta, double *x,
     *y = 0.4 * q;
 }
 
+fs_status fs_inverter_check(const fs_inverter_config *c)
+{
+    if (c->kind != FS_INV_AVERAGED && c->kind != FS_INV_SWITCHING) return FS_ERR_MODE;
+    if (!(c->u_dc > 0.0) || !isfinite(c->u_dc)) return FS_ERR_LIMIT;
+    if (!(c->T_pwm > 0.0) || !isfinite(c->T_pwm)) return FS_ERR_TS;
+    if (!(c->t_dead >= 0.0 && c->t_dead < 0.5 * c->T_pwm)) return FS_ERR_PARAM;
+    if (!(c->u_on >= 0.0) || !isfinite(c->u_on)) return FS_ERR_PARAM;
+    return c->phases == 3 || c->phases == 5 ? FS_OK : FS_ERR_PARAM;
+}
+
 void fs_inverter_vsd5_inverse(double alpha, double beta, double x, double y, double zero, double v[5])
 {
     for (int k = 0; k < 5; ++k)

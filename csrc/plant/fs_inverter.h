@@ -32,6 +32,8 @@
 #ifndef FS_INVERTER_H
 #define FS_INVERTER_H
 
+#include "../control/fs_types.h"
+
 typedef enum { FS_INV_AVERAGED = 0, FS_INV_SWITCHING = 1 } fs_inverter_kind;
 
 typedef struct {
@@ -42,6 +44,12 @@ typedef struct {
     double u_on;       /* device on-state drop, V */
     int phases;        /* legs: 3 or 5 (5: five-phase; anything else is taken as 3) */
 } fs_inverter_config;
+
+/* FS_OK (0), or the status of the first field out of range or not finite:
+ * FS_ERR_MODE (kind), FS_ERR_LIMIT (u_dc > 0), FS_ERR_TS (T_pwm > 0),
+ * FS_ERR_PARAM (t_dead in [0, T_pwm / 2), u_on >= 0, phases 3 or 5). The
+ * functions below take any config; this tells whether it is a sound one. */
+fs_status fs_inverter_check(const fs_inverter_config *c);
 
 /* Most legs, and most constant segments of a half period (two cuts per leg
  * plus its ends: 2 FS_INV_MAX_LEGS + 1). */

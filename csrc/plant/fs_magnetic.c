@@ -97,20 +97,29 @@ static void map_current(fs_mag *m, double psi_d, double psi_q, double *i_d, doub
     *i_q = iq;
 }
 
-int fs_mag_init(fs_mag *m, const fs_mag_config *cfg)
+/* x >= 0 (or > 0) and finite */
+static int nonneg(double x) { return x >= 0.0 && isfinite(x); }
+static int pos(double x) { return x > 0.0 && isfinite(x); }
+
+fs_status fs_mag_init(fs_mag *m, const fs_mag_config *cfg)
 {
     m->cfg = *cfg;
     m->i_f = 0.0;
     m->hint_d = m->hint_q = 0.0;
     m->a_d0 = m->a_q0 = m->c_d = m->c_q = 0.0;
     m->n_S = m->n_T = m->n_U = m->n_V = -1;
+    if (cfg->kind != FS_MAG_LINEAR && cfg->kind != FS_MAG_ALGEBRAIC && cfg->kind != FS_MAG_FLUXMAP) return FS_ERR_MODE;
+    /* a flux map does not read them: finite is enough there */
+    const int map = cfg->kind == FS_MAG_FLUXMAP;
+    if (map ? !isfinite(cfg->L_d) : !pos(cfg->L_d)) return FS_ERR_LD;
+    if (map ? !isfinite(cfg->L_q) : !pos(cfg->L_q)) return FS_ERR_LQ;
+    if (map ? !isfinite(cfg->psi_f) : !nonneg(cfg->psi_f)) return FS_ERR_PSI_F;
     switch (cfg->kind) {
     case FS_MAG_LINEAR:
-        return (cfg->L_d > 0.0 && cfg->L_q > 0.0 && cfg->psi_f >= 0.0) ? 0 : -1;
+        return FS_OK;
     case FS_MAG_ALGEBRAIC: {
-        if (!(cfg->L_d > 0.0 && cfg->L_q > 0.0 && cfg->psi_f >= 0.0)) return -1;
-        if (!(cfg->a_dd >= 0.0 && cfg->a_qq >= 0.0 && cfg->a_dq >= 0.0)) return -1;
-        if (!(cfg->S >= 0.0 && cfg->T >= 0.0 && cfg->U >= 0.0 && cfg->V >= 0.0)) return -1;
+        if (!nonneg(cfg->a_dd) || !nonneg(cfg->a_qq) || !nonneg(cfg->a_dq)) return FS_ERR_PARAM;
+        if (!nonneg(cfg->S) || !nonneg(cfg->T) || !nonneg(cfg->U) || !nonneg(cfg->V)) return FS_ERR_PARAM;
         m->a_d0 = 1.0 / cfg->L_d;
         m->a_q0 = 1.0 / cfg->L_q;
         m->c_d = cfg->a_dq / (cfg->V + 2.0);
@@ -122,14 +131,16 @@ int fs_mag_init(fs_mag *m, const fs_mag_config *cfg)
         double id, iq;
         algebraic_current(m, cfg->psi_f, 0.0, &id, &iq);
         m->i_f = id;  /* i_d(psi_f, 0) with i_f = 0: makes psi_d = psi_f at zero current */
-        return 0;
+        return isfinite(id) ? FS_OK : FS_ERR_PARAM;
     }
-    case FS_MAG_FLUXMAP:
-        if (cfg->map_n_d < 2 || cfg->map_n_q < 2 || !(cfg->map_di_d > 0.0) || !(cfg->map_di_q > 0.0)) return -1;
-        if (!cfg->map_psi_d || !cfg->map_psi_q) return -1;
-        return 0;
-    default:
-        return -1;
+    default:   /* FS_MAG_FLUXMAP */
+        if (cfg->map_n_d < 2 || cfg->map_n_q < 2 || !pos(cfg->map_di_d) || !pos(cfg->map_di_q)
+            || !isfinite(cfg->map_i_d0) || !isfinite(cfg->map_i_q0))
+            return FS_ERR_PARAM;
+        if (!cfg->map_psi_d || !cfg->map_psi_q) return FS_ERR_NULL;
+        for (long k = 0; k < (long)cfg->map_n_d * cfg->map_n_q; ++k)
+            if (!isfinite(cfg->map_psi_d[k]) || !isfinite(cfg->map_psi_q[k])) return FS_ERR_PARAM;
+        return FS_OK;
     }
 }
 

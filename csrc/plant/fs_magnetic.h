@@ -23,6 +23,8 @@
 #ifndef FS_MAGNETIC_H
 #define FS_MAGNETIC_H
 
+#include "../control/fs_types.h"
+
 typedef enum { FS_MAG_LINEAR = 0, FS_MAG_ALGEBRAIC = 1, FS_MAG_FLUXMAP = 2 } fs_mag_kind;
 
 /* Largest integer exponent of ALGEBRAIC taken by repeated multiplication. */
@@ -51,8 +53,13 @@ typedef struct {
     double hint_d, hint_q;    /* FLUXMAP: last solution, Newton's start */
 } fs_mag;
 
-/* Returns 0, or -1 if the configuration is invalid. */
-int fs_mag_init(fs_mag *m, const fs_mag_config *cfg);
+/* FS_OK (0), or the status of the first field out of range or not finite:
+ * FS_ERR_MODE (kind), FS_ERR_LD, FS_ERR_LQ, FS_ERR_PSI_F (L_d, L_q > 0 and
+ * psi_f >= 0 for LINEAR and ALGEBRAIC, finite for FLUXMAP), FS_ERR_PARAM
+ * (ALGEBRAIC: a coefficient or an exponent < 0, or a magnet current i_f
+ * beyond the double range; FLUXMAP: fewer than 2 x 2 points, a step <= 0,
+ * a map value not finite), FS_ERR_NULL (a map pointer). */
+fs_status fs_mag_init(fs_mag *m, const fs_mag_config *cfg);
 void fs_mag_current(fs_mag *m, double psi_d, double psi_q, double *i_d, double *i_q);
 /* Flux linkages at given currents (the inverse of fs_mag_current). */
 void fs_mag_flux(fs_mag *m, double i_d, double i_q, double *psi_d, double *psi_q);

@@ -3,27 +3,38 @@
 #include <math.h>
 #include <string.h>
 
-int fs_pmsm_init(fs_pmsm *m, const fs_pmsm_config *cfg)
+/* x >= 0 (or > 0) and finite */
+static int nonneg(double x) { return x >= 0.0 && isfinite(x); }
+static int pos(double x) { return x > 0.0 && isfinite(x); }
+
+fs_status fs_pmsm_init(fs_pmsm *m, const fs_pmsm_config *cfg)
 {
     m->cfg = *cfg;
-    if (cfg->pole_pairs < 1 || !(cfg->R_s >= 0.0) || !(cfg->J > 0.0)) return -1;
-    if (!(cfg->B >= 0.0) || !(cfg->T_coulomb >= 0.0)) return -1;
-    if (cfg->T_coulomb > 0.0 && !(cfg->w_coulomb > 0.0)) return -1;
-    if (fs_mag_init(&m->mag, &cfg->mag) != 0) return -1;
+    if (cfg->pole_pairs < 1) return FS_ERR_POLE_PAIRS;
+    if (!nonneg(cfg->R_s)) return FS_ERR_RS;
+    if (!pos(cfg->J)) return FS_ERR_J;
+    if (!nonneg(cfg->B) || !nonneg(cfg->T_coulomb) || !nonneg(cfg->J_load) || !isfinite(cfg->w_coulomb)
+        || !isfinite(cfg->load_bandwidth))
+        return FS_ERR_PARAM;
+    if ((cfg->T_coulomb > 0.0 || cfg->load_kind == FS_LOAD_BRAKE) && !(cfg->w_coulomb > 0.0)) return FS_ERR_PARAM;
+    if (cfg->load_kind < FS_LOAD_TORQUE || cfg->load_kind > FS_LOAD_BRAKE) return FS_ERR_MODE;
+    if (cfg->load_kind == FS_LOAD_SPEED_PI && !(cfg->load_bandwidth > 0.0)) return FS_ERR_PARAM;
+    fs_status st = fs_mag_init(&m->mag, &cfg->mag);
+    if (st != FS_OK) return st;
     double J_tot = cfg->J + cfg->J_load;
     m->k_p_load = 2.0 * cfg->load_bandwidth * J_tot;   /* double pole at -bandwidth */
     m->k_i_load = cfg->load_bandwidth * cfg->load_bandwidth * J_tot;
-    if (cfg->load_kind == FS_LOAD_SPEED_PI && !(cfg->load_bandwidth > 0.0)) return -1;
-    if (cfg->load_kind == FS_LOAD_BRAKE && !(cfg->w_coulomb > 0.0)) return -1;
-    if (cfg->phases != 3 && cfg->phases != 5) return -1;
+    if (!isfinite(m->k_i_load)) return FS_ERR_PARAM;
+    if (cfg->phases != 3 && cfg->phases != 5) return FS_ERR_PARAM;
     m->inv_L_d3 = m->inv_L_q3 = 0.0;
     if (cfg->phases == 5) {
-        if (!(cfg->L_d3 > 0.0 && cfg->L_d3 < INFINITY) || !(cfg->L_q3 > 0.0 && cfg->L_q3 < INFINITY)) return -1;
-        if (!(cfg->psi_f3 >= 0.0 && cfg->psi_f3 < INFINITY)) return -1;
+        if (!pos(cfg->L_d3)) return FS_ERR_LD;
+        if (!pos(cfg->L_q3)) return FS_ERR_LQ;
+        if (!nonneg(cfg->psi_f3)) return FS_ERR_PSI_F;
         m->inv_L_d3 = 1.0 / cfg->L_d3;
         m->inv_L_q3 = 1.0 / cfg->L_q3;
     }
-    return 0;
+    return FS_OK;
 }
 
 void fs_pmsm_initial_state(fs_pmsm *m, double *x)

@@ -85,8 +85,13 @@ typedef struct {
     double tau_open;
 } fs_pmsm_input;
 
-/* Returns 0, or -1 if the configuration is invalid. */
-int fs_pmsm_init(fs_pmsm *m, const fs_pmsm_config *cfg);
+/* FS_OK (0), or the status of the first field out of range or not finite:
+ * FS_ERR_POLE_PAIRS, FS_ERR_RS, FS_ERR_J (J > 0), FS_ERR_PARAM (B,
+ * T_coulomb, J_load >= 0; w_coulomb > 0 with Coulomb friction or a brake;
+ * load_bandwidth > 0 for SPEED_PI, finite always; phases 3 or 5),
+ * FS_ERR_MODE (load_kind), the magnetic model's (fs_mag_init), and for five
+ * phases FS_ERR_LD, FS_ERR_LQ, FS_ERR_PSI_F (L_d3, L_q3 > 0, psi_f3 >= 0). */
+fs_status fs_pmsm_init(fs_pmsm *m, const fs_pmsm_config *cfg);
 /* The state at rest without current: fluxes at zero current (psi_d3 =
  * psi_f3 for five phases), everything else zero. */
 void fs_pmsm_initial_state(fs_pmsm *m, double *x);

@@ -148,10 +148,12 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
         if (fs_pwl_copy(&s->prof[p], src[p]) != 0)
             FAIL("profile %s: times must be non-decreasing", names[p]);
     }
-    if (!(cfg->inverter.T_pwm > 0.0)) FAIL("inverter.T_pwm = %g: must be > 0", cfg->inverter.T_pwm);
+    if (!(cfg->inverter.T_pwm > 0.0) || !isfinite(cfg->inverter.T_pwm))
+        FAIL("inverter.T_pwm = %g: must be finite and > 0", cfg->inverter.T_pwm);
     if (!(cfg->inverter.t_dead >= 0.0) || cfg->inverter.t_dead >= 0.5 * cfg->inverter.T_pwm)
         FAIL("inverter.t_dead = %g: must be in [0, T_pwm/2)", cfg->inverter.t_dead);
-    if (!(cfg->inverter.u_dc > 0.0)) FAIL("inverter.u_dc = %g: must be > 0", cfg->inverter.u_dc);
+    if (!(cfg->inverter.u_dc > 0.0) || !isfinite(cfg->inverter.u_dc))
+        FAIL("inverter.u_dc = %g: must be finite and > 0", cfg->inverter.u_dc);
     if (cfg->sampling != FS_SAMPLING_SINGLE && cfg->sampling != FS_SAMPLING_DOUBLE)
         FAIL("timing.sampling = %d: must be single (0) or double (1)", cfg->sampling);
     /* an interval is at most T_pwm: its RK4 step count must fit an int */
@@ -172,6 +174,9 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
     if (ph != 3 && ph != 5) FAIL("plant.phases = %d: must be 3 or 5", ph);
     if (cfg->inverter.phases != ph)
         FAIL("inverter.phases = %d: must equal plant.phases (%d)", cfg->inverter.phases, ph);
+    fs_status ist = fs_inverter_check(&cfg->inverter);   /* what the messages above leave: kind, u_on */
+    if (ist != FS_OK)
+        FAIL("inverter: kind = %d, u_on = %g: %s", cfg->inverter.kind, cfg->inverter.u_on, fs_status_str(ist));
     if (cfg->drive.phases != ph)
         FAIL("controller.phases = %d: must equal plant.phases (%d)", cfg->drive.phases, ph);
     if (ph == 5) {
@@ -205,12 +210,13 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
     }
     s->phases = ph;
     s->nx = ph == 5 ? FS_X_N : FS_X_N3;
-    if (fs_pmsm_init(&s->pmsm, &cfg->plant) != 0) FAIL("machine: invalid plant parameters");
+    fs_status pst = fs_pmsm_init(&s->pmsm, &cfg->plant);
+    if (pst != FS_OK) FAIL("machine: %s", fs_status_str(pst));
     s->Tc = cfg->sampling == FS_SAMPLING_DOUBLE ? 0.5 * cfg->inverter.T_pwm : cfg->inverter.T_pwm;
     if (fabs(cfg->drive.Ts - s->Tc) > 1e-6 * s->Tc)
         FAIL("controller.Ts = %g: must equal the control period %g", cfg->drive.Ts, s->Tc);
     fs_status st = fs_drive_init(&s->drive, &cfg->drive);
-    if (st != FS_OK) FAIL("controller: %s", fs_status_str(st));
+    if (st != FS_OK) FAIL("controller.%s: %s", s->drive.fail ? s->drive.fail : "?", fs_status_str(st));
 
     fs_pmsm_initial_state(&s->pmsm, s->x);
     s->x[FS_X_THETA_M] = cfg->theta_m0;

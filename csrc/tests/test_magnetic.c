@@ -166,13 +166,13 @@ int main(void)
     FS_CHECK_NEAR(fs_mag_energy(&m, 0.1, 0.0), 0.0, 1e-15, "linear energy at zero current");
     fs_mag_config bad = lc;
     bad.L_d = 0.0;
-    FS_CHECK(fs_mag_init(&m, &bad) == -1, "L_d = 0 accepted");
+    FS_CHECK(fs_mag_init(&m, &bad) == FS_ERR_LD, "L_d = 0 accepted");
     bad = lc;
     bad.L_q = -1e-3;
-    FS_CHECK(fs_mag_init(&m, &bad) == -1, "L_q < 0 accepted");
+    FS_CHECK(fs_mag_init(&m, &bad) == FS_ERR_LQ, "L_q < 0 accepted");
     bad = lc;
     bad.kind = 7;
-    FS_CHECK(fs_mag_init(&m, &bad) == -1, "unknown kind accepted");
+    FS_CHECK(fs_mag_init(&m, &bad) == FS_ERR_MODE, "unknown kind accepted");
 
     /* ALGEBRAIC without saturation terms equals LINEAR. */
     fs_mag_config ac = lc;
@@ -199,13 +199,13 @@ int main(void)
     check_saturated(sat_cfg(1), "ALGEBRAIC fractional exponents");
     bad = sat_cfg(0);
     bad.a_dd = -1.0;
-    FS_CHECK(fs_mag_init(&m, &bad) == -1, "a_dd < 0 accepted");
+    FS_CHECK(fs_mag_init(&m, &bad) == FS_ERR_PARAM, "a_dd < 0 accepted");
     bad = sat_cfg(0);
     bad.a_dq = -1.0;
-    FS_CHECK(fs_mag_init(&m, &bad) == -1, "a_dq < 0 accepted");
+    FS_CHECK(fs_mag_init(&m, &bad) == FS_ERR_PARAM, "a_dq < 0 accepted");
     bad = sat_cfg(0);
     bad.S = -1.0;
-    FS_CHECK(fs_mag_init(&m, &bad) == -1, "S < 0 accepted");
+    FS_CHECK(fs_mag_init(&m, &bad) == FS_ERR_PARAM, "S < 0 accepted");
 
     /* FLUXMAP from the linear model on a 21 x 17 grid. */
     enum { ND = 21, NQ = 17 };
@@ -271,12 +271,12 @@ int main(void)
     /* invalid maps */
     bad = fc;
     bad.map_n_d = 1;
-    FS_CHECK(fs_mag_init(&m, &bad) == -1, "map_n_d = 1 accepted");
+    FS_CHECK(fs_mag_init(&m, &bad) == FS_ERR_PARAM, "map_n_d = 1 accepted");
     bad = fc;
     bad.map_di_q = 0.0;
-    FS_CHECK(fs_mag_init(&m, &bad) == -1, "map_di_q = 0 accepted");
+    FS_CHECK(fs_mag_init(&m, &bad) == FS_ERR_PARAM, "map_di_q = 0 accepted");
     bad = fc;
     bad.map_psi_q = NULL;
-    FS_CHECK(fs_mag_init(&m, &bad) == -1, "null map accepted");
+    FS_CHECK(fs_mag_init(&m, &bad) == FS_ERR_NULL, "null map accepted");
     return fs_test_summary("test_magnetic");
 }

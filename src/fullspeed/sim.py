@@ -276,7 +276,8 @@ def _check_smo_gain(cfg, sc: Scenario) -> None:
     oc = ffi.new("fs_smo_config *", dc.smo)
     oc.Ts, oc.R_s, oc.L_d, oc.L_q, oc.psi_f = dc.Ts, dc.R_s, dc.L_d, dc.L_q, dc.psi_f
     smo = ffi.new("fs_smo *")
-    if lib.fs_smo_init(smo, oc) == lib.FS_ERR_SMO_GAIN:
+    # FS_ERR_SMO_GAIN also covers a designed gain of 0 (no EMF); fs_sim_create names that one
+    if lib.fs_smo_init(smo, oc) == lib.FS_ERR_SMO_GAIN and 0.0 < oc.k <= smo.k_bound:
         raise ConfigError("observer.k", sc.data["observer"]["k"],
                           f"must be above the Lyapunov bound of eq. (18), {smo.k_bound:.4g} V "
                           f"for the top speed {sc.data['observer']['top_speed_rpm']:g} rpm and i_max "
