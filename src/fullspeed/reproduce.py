@@ -29,9 +29,7 @@ class Measurement:
 # that implement the papers' parts.
 MEASURES: dict[str, Callable[[Path], Measurement]] = {}
 
-NOT_YET = {
-    "beyond": "square-wave injection on the three-phase machine is not built yet (issue 9)",
-}
+NOT_YET: dict[str, str] = {}   # paper -> why its unregistered claims cannot be measured yet
 
 
 def measure(claim: Claim, out: Path) -> dict:
