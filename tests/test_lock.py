@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 
 from fullspeed._core import ffi, lib
-from fullspeed.sim import simulate
+from fullspeed.errors import ConfigError
+from fullspeed.scenario import load_scenario
+from fullspeed.sim import build_config, simulate
 
 SS = "yang2022-smo-steady-400rpm"      # current mode on the SMO, speed held by the load machine
 HANDOVER = 0.2
@@ -70,8 +72,36 @@ def test_the_same_observer_designed_for_its_speed_keeps_lock():
     ("yang2022-hfi-iqstep", {}),                          # injection, a 5 -> 20 A step
     ("beyond-xcomp-3ph", {}),                             # injection at 25 A, the noisiest residual
     (SS, {"controller": {"psi_f_scale": 0.5}}),           # a wrong magnet flux the observer tolerates
+    ("beyond-swvi-3ph", {}),                              # square wave: 50 el.deg off at the start, rated load
+    ("yu2022-xcouple", {"injection": {"xcomp": "yu2022-xsat"}}),   # a rated brake step swings it 30 el.deg
 ])
 def test_no_false_alarm_where_the_estimators_track(name, overrides):
     r = simulate(name, overrides={**overrides, "controller": {**overrides.get("controller", {}), "lock": "stop"}})
     assert r.stop_reason == "done"
     assert np.max(r["lock_resid"]) < 1.0
+
+
+def swvi_impact(lock: str, torque: float = 6.0):
+    """beyond-swvi-3ph on its ramp to 200 rpm, a load of `torque` N m from
+    1.01 s: three times rated, beyond what i_max can hold."""
+    load = [[0.0, 0.0], [0.1, 0.0], [0.3, 2.0], [1.0, 2.0], [1.01, torque]]
+    return simulate("beyond-swvi-3ph", overrides={"load": {"torque": load}, "controller": {"lock": lock}})
+
+
+def test_a_square_wave_estimate_thrown_off_by_a_load_impact_is_stopped_as_lost():
+    r = swvi_impact("stop")
+    assert r.stop_reason == "loss_of_lock" and 1.01 < r.stop_time < 1.06
+    seen = swvi_impact("detect")          # runs on: the estimate truly left the rotor
+    t, err = seen["t"], np.degrees(np.abs(seen["est_err"]))
+    assert np.max(err[(t > r.stop_time) & (t < r.stop_time + 0.1)]) > 45.0
+    assert np.max(err[(t > 0.1) & (t < 1.01)]) < 10.0   # and before the impact it tracked
+
+
+def test_square_wave_cannot_recover_and_says_so():
+    with pytest.raises(ConfigError, match=r"controller\.lock.*restart sequence"):
+        load_scenario("beyond-swvi-3ph", {"controller": {"lock": "recover"}})
+    cfg, keep = build_config(load_scenario("beyond-swvi-3ph", {"controller": {"lock": "stop"}}))
+    cfg.drive.lock_recover, cfg.drive.t_recover = 1, 0.1
+    drv = ffi.new("fs_drive *")
+    assert lib.fs_drive_init(drv, ffi.addressof(cfg, "drive")) == lib.FS_ERR_MODE
+    assert ffi.string(drv.fail) == b"lock_recover"

@@ -132,10 +132,12 @@ typedef struct {
      * counts as lost (0: no monitor). The residual: the sliding-mode
      * observer's current error over twice its boundary layer and its PLL
      * error over sin 30 deg (once valid); the injection estimator's error
-     * over 15 deg (once settled); in the blend, those whose weight is not 0,
-     * and while the SMO is valid, its disagreement with the blended angle
-     * over 45 deg (an injection estimate that slipped while the rotor was
-     * thrown beyond the injection's speed range). */
+     * over 15 deg (once settled); the square wave's PLL error over 30 deg
+     * (it has no recovery: lock_recover is refused); in the blend, those
+     * whose weight is not 0, and while the SMO is valid, its disagreement
+     * with the blended angle over 45 deg (an injection estimate that
+     * slipped while the rotor was thrown beyond the injection's speed
+     * range). */
     float lock_time;
     /* recovery from a loss of lock (lock_recover = 1; else the monitor
      * latches lock_lost). The currents are held at zero for t_recover, s,

@@ -421,6 +421,9 @@ def _swvi_fields(d: dict, m: Machine, source, bw_speed_given: bool) -> None:
     _check_saliency(ctl, m, source)
     if ctl["mode"] not in ("current", "speed"):
         raise ConfigError("controller.mode", ctl["mode"], "must be \"current\" or \"speed\" with angle = \"swvi\"", source)
+    if ctl["lock"] == "recover":
+        raise ConfigError("controller.lock", "recover", "must be \"off\", \"detect\" or \"stop\" with angle = \"swvi\": "
+                          "the square wave has no restart sequence (no polarity detection)", source)
     _machine_injection(inj, m, ("u_h", "f_h", "bw_pll"), source)
     Ts = _control_period(d)
     if not math.isclose(inj["f_h"], 0.25 / Ts, rel_tol=1e-6):
