@@ -540,15 +540,22 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, float g_w
     /* each low-pass runs while its signal means something and starts from
      * 0 when it comes back, so that no stale value returns */
     const bool smo_on = run && drive_has_smo(c) && drv->smo.valid;
-    const bool hfi_on = run && drive_injects(c) && drv->injecting && drv->hfi.k_settle == 0;
+    /* the injection's error: the rotating carrier's once settled, over 15
+     * deg; the square wave's PLL error once it has seen a carrier period,
+     * over 30 deg (a rated load step swings it to about 28 on yu2022's
+     * bench, U-XCOUPLE, and the estimate comes back) */
+    const bool square = drive_square(c);
+    const bool inj_on = run && (square ? c->mode != FS_MODE_OFF && drv->sw.k > 4
+                                       : drive_injects(c) && drv->injecting && drv->hfi.k_settle == 0);
+    const float eps_inj = square ? drv->sw.eps : drv->hfi.eps;
     drv->lock_ri = smo_on ? drv->lock_ri + b * (drv->smo.r_i - drv->lock_ri) : 0.0f;
     drv->lock_es = smo_on ? drv->lock_es + b * (drv->smo.eps - drv->lock_es) : 0.0f;
-    drv->lock_eh = hfi_on ? drv->lock_eh + b * (drv->hfi.eps - drv->lock_eh) : 0.0f;
+    drv->lock_eh = inj_on ? drv->lock_eh + b * (eps_inj - drv->lock_eh) : 0.0f;
     const float r_smo = fmaxf(0.5f * drv->lock_ri, 2.0f * fabsf(drv->lock_es));   /* 2 delta, sin 30 deg */
-    const float r_hfi = fabsf(drv->lock_eh) * 3.8197186f;                         /* 15 deg = 0.2618 rad */
+    const float r_inj = fabsf(drv->lock_eh) * (square ? 1.9098593f : 3.8197186f); /* 30 or 15 deg */
     float r = 0.0f;
     if (c->angle_source == FS_ANGLE_SMO || (blend && g_w > 0.0f)) r = r_smo;
-    if (c->angle_source == FS_ANGLE_HFI || (blend && g_w < 1.0f)) r = fmaxf(r, r_hfi);
+    if (c->angle_source == FS_ANGLE_HFI || square || (blend && g_w < 1.0f)) r = fmaxf(r, r_inj);
     /* an observer on track above the band, whose EMF is as large as its
      * speed says (not a PLL swinging at low speed: at least half of the
      * |w| psi_f / sqrt 2 its filter passes), against the blended angle */
@@ -719,14 +726,9 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     out->injecting = c->mode != FS_MODE_OFF;
     out->i_hf_d = sw->i_h.d;
     out->i_hf_q = sw->i_h.q;
-    /* loss of lock (fs_drive.h), at the loops' rate: the PLL's error,
-     * low-passed as the rotating injection's, over 30 deg (not 15: a rated
-     * load step swings it to about 28 on yu2022's bench, U-XCOUPLE, and the
-     * estimate comes back), once the estimator has seen a carrier period */
+    /* loss of lock (fs_drive.h), at the loops' rate */
     if (c->lock_time > 0.0f && sw->ff_fresh) {
-        const bool on = in->sensorless && c->mode != FS_MODE_OFF && sw->k > 4;
-        drv->lock_eh = on ? drv->lock_eh + (1.0f - drv->lock_a) * (sw->eps - drv->lock_eh) : 0.0f;
-        h->lock_resid = fabsf(drv->lock_eh) * 1.9098593f;                  /* 30 deg = 0.5236 rad */
+        h->lock_resid = drive_lock_residual(drv, in, 0.0f);
         h->lock_lost = fs_lock_step(&drv->lock, h->lock_resid);
     }
     out->lock_resid = h->lock_resid;

@@ -242,7 +242,7 @@ typedef struct {
     fs_lock lock;
     float i_hf;              /* the rotating carrier current's peak, A: i_max less it bounds the fundamental */
     float lock_a;            /* the residual's low-pass pole */
-    float lock_ri, lock_es, lock_eh;   /* low-passed: SMO current error / delta, SMO PLL error, HFI error */
+    float lock_ri, lock_es, lock_eh;   /* low-passed: SMO current error / delta, SMO PLL error, injection error */
     float lock_ex;           /* low-passed: |SMO angle - blended angle| while the SMO is valid, rad */
     int stage;               /* fs_drive_stage */
     int recoveries;

@@ -23,6 +23,7 @@ fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
     o->delta = fmaxf(cfg->delta, o->k * cfg->Ts / cfg->L_d);
     /* a designed gain of 0 (no EMF: psi_f = 0, L_d = L_q) or beyond the float range */
     if (!fs_pos(o->k) || !fs_pos(o->delta)) return FS_ERR_SMO_GAIN;
+    o->i_hat_max = 16.0f * cfg->i_max;
     fs_lpf_config lc = {cfg->Ts, cfg->w_c_min};
     fs_status st = fs_lpf_init(&o->lpf, &lc);
     if (st != FS_OK) return st;
@@ -70,7 +71,7 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
      * Euler step grows without bound when R_s Ts / L_d or the rotation
      * w Ts |L_d - L_q| / L_d comes near 1, faster than the bounded
      * switching term pulls it back. */
-    const float lim = 16.0f * c->i_max;
+    const float lim = o->i_hat_max;
     o->i_hat.alpha = fs_clampf(o->i_hat.alpha + c->Ts * di_a, -lim, lim);
     o->i_hat.beta = fs_clampf(o->i_hat.beta + c->Ts * di_b, -lim, lim);
     /* eqs. (5)-(7): switching function on the current error */

@@ -52,6 +52,7 @@ typedef struct {
     fs_smo_config cfg;
     float k, delta;      /* designed */
     float k_bound;       /* eq. (18) for w_e_max, i_max */
+    float i_hat_max;     /* the current estimate's bound, 16 i_max (fs_smo_step) */
     fs_ab i_hat;         /* estimated current */
     fs_ab z;             /* switching function output */
     fs_lpf lpf;          /* e_hat = lpf.y */
