@@ -29,7 +29,7 @@ class Measurement:
 # that implement the papers' parts.
 MEASURES: dict[str, Callable[[Path], Measurement]] = {}
 
-NOT_YET: dict[str, str] = {}   # paper -> why its unregistered claims cannot be measured yet
+NOT_YET: dict[str, str] = {}   # claim id (or paper) -> why it cannot be measured yet
 
 
 def measure(claim: Claim, out: Path) -> dict:
@@ -38,7 +38,7 @@ def measure(claim: Claim, out: Path) -> dict:
            "note": "", "figures": []}
     fn = MEASURES.get(claim.id)
     if fn is None:
-        row["note"] = "not yet measurable: " + NOT_YET.get(claim.paper, "no measurement yet")
+        row["note"] = "not yet measurable: " + NOT_YET.get(claim.id, NOT_YET.get(claim.paper, "no measurement yet"))
         return row
     try:
         m = fn(out)
