@@ -1,47 +1,8 @@
 #include "fs_drive.h"
+#include "fs_drive_start.h"
 #include "fs_math.h"
 
 #include <stddef.h>
-
-static bool drive_starts(const fs_drive_config *c)
-{
-    return c->mode == FS_MODE_SPEED && c->angle_source == FS_ANGLE_SMO && c->i_start > 0.0f;
-}
-
-static bool drive_weakens(const fs_drive_config *c)
-{
-    return c->mode == FS_MODE_SPEED && c->fw_w_e_max > 0.0f;
-}
-
-static bool drive_injects(const fs_drive_config *c)
-{
-    return c->angle_source == FS_ANGLE_HFI || c->angle_source == FS_ANGLE_BLEND;
-}
-
-static bool drive_square(const fs_drive_config *c) { return c->angle_source == FS_ANGLE_SWVI; }
-
-static bool drive_imc(const fs_drive_config *c) { return c->converter == FS_CONV_IMC; }
-
-/* zou2021 PART_2: the depth controller runs in speed mode with flux weakening. */
-static bool drive_imc_depth(const fs_drive_config *c)
-{
-    return drive_imc(c) && c->imc_depth && c->imc_region == FS_IMC_OM2 && drive_weakens(c);
-}
-
-/* The loops' period: every other sample with the square wave (sec. 2.2). */
-static float drive_loop_Ts(const fs_drive_config *c) { return drive_square(c) ? 2.0f * c->Ts : c->Ts; }
-
-/* The SMO runs for its own source and inside the blend. */
-static bool drive_has_smo(const fs_drive_config *c)
-{
-    return c->angle_source == FS_ANGLE_SMO || c->angle_source == FS_ANGLE_BLEND;
-}
-
-/* The controller's torque at a current (the motion observers' feed-forward). */
-static float drive_torque(const fs_drive_config *c, fs_dq i)
-{
-    return 0.5f * (float)c->phases * (float)c->pole_pairs * (c->psi_f + (c->L_d - c->L_q) * i.d) * i.q;
-}
 
 /* A refusal names the config field or sub-block at fault (fs_drive.fail). */
 #define REFUSE(where, status) do { drv->fail = (where); return (status); } while (0)
@@ -270,22 +231,6 @@ static fs_ab drive_u_past(const fs_drive *drv)
     return drv->cfg.delay > 0.5f ? drv->u_hist[1] : drv->u_hist[0];
 }
 
-/* The injection estimators' first step: sensorless from the start, the
- * polarity is detected first; with the encoder in the loop they start from
- * its angle (commissioning, calibration). */
-static void drive_start_estimators(fs_drive *drv, const fs_drive_in *in)
-{
-    const fs_drive_config *c = &drv->cfg;
-    drv->est_started = true;
-    if (in->sensorless) {
-        bool closed_loop = c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED;
-        if (closed_loop && c->polarity.i_pulse > 0.0f) drv->phase = FS_PHASE_POLARITY;
-        return;
-    }
-    float theta = fs_wrap_pi((float)c->pole_pairs * in->theta_m_enc);
-    fs_hfi_set_angle(&drv->hfi, theta, 0.0f);
-    if (c->angle_source == FS_ANGLE_BLEND) fs_blend_reset(&drv->blend, theta, 0.0f);
-}
 
 /* HFI (while injecting), the SMO on the fundamental, the blend; the
  * fundamental current is returned for the loops. */
@@ -332,21 +277,6 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
     return i_f;
 }
 
-/* Polarity found: turn the estimates by pi if they point at the south pole. */
-static void drive_polarity_done(fs_drive *drv)
-{
-    if (drv->pol.flip) {
-        const float theta = fs_wrap_pi(drv->hfi.theta + FS_PI), T_d = drv->hfi.obs.T_d_hat;
-        fs_hfi_set_angle(&drv->hfi, theta, drv->hfi.w);
-        drv->hfi.obs.T_d_hat = T_d;   /* the load does not turn with the estimate */
-        if (drv->cfg.angle_source == FS_ANGLE_BLEND) {
-            fs_blend_reset(&drv->blend, theta, drv->hfi.w);
-            drv->blend.obs.T_d_hat = T_d;
-        }
-    }
-    if (drv->cfg.mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
-    drv->phase = FS_PHASE_RUN;
-}
 
 /* Angle and speed from the external input or the encoder (the PLL gives the speed). */
 static void drive_sensor_angle(fs_drive *drv, const fs_drive_in *in, float *theta, float *w)
@@ -383,7 +313,7 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float
         }
     }
     if (drive_injects(c) && c->mode != FS_MODE_OFF) {   /* OFF injects nothing to estimate from */
-        if (!drv->est_started) drive_start_estimators(drv, in);
+        if (!drv->est_started) fs_drive_start_estimators(drv, in);
         *i_ab = drive_injection_step(drv, *i_ab);
         if (in->sensorless) {
             bool blend = c->angle_source == FS_ANGLE_BLEND;
@@ -395,30 +325,6 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float
     drive_sensor_angle(drv, in, theta, w);
 }
 
-/* I/f start: the frame accelerates towards the reference, or up to the
- * hand-over speed, with i_start on its d axis; the rotor's d axis lags the
- * current by the load angle at which the torque carries the load and the
- * acceleration (self-synchronising, and at standstill the current aligns the
- * rotor without torque). Once past the hand-over speed with the observer valid and turning
- * the same way, the loops take the observer, and the speed controller's
- * integral is preset to the torque the current makes in the observer's
- * frame, so that the hand-over does not bump the torque. */
-static fs_dq drive_start_step(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab)
-{
-    const fs_drive_config *c = &drv->cfg;
-    float w_target = fs_clampf((float)c->pole_pairs * in->w_m_ref, -c->w_handover, c->w_handover);
-    float dw = c->a_start * c->Ts;
-    drv->w_if += fs_clampf(w_target - drv->w_if, -dw, dw);
-    drv->theta_if = fs_wrap_pi(drv->theta_if + c->Ts * drv->w_if);
-    fs_dq i_ref = {c->i_start, 0.0f};
-    bool fast = fabsf(drv->w_if) >= c->w_handover * 0.999f;
-    if (fast && drv->smo.valid && drv->smo.w * drv->w_if > 0.0f) {
-        fs_dq i_o = fs_park(i_ab, cosf(drv->smo.theta), sinf(drv->smo.theta));
-        fs_speed_ctrl_preset(&drv->sc, drv->smo.w / (float)c->pole_pairs, drive_torque(c, i_o));
-        drv->phase = FS_PHASE_RUN;
-    }
-    return i_ref;
-}
 
 /* Dead-time compensation: the average pole-voltage loss is
  * sign(i) t_dead / T_pwm u_dc, added back on the duty. */
@@ -433,58 +339,9 @@ static void dead_time_comp(const fs_drive_config *c, const float i_ph[], float d
     }
 }
 
-/* Lock lost, recovery on (fs_drive.h): zero current from now on; the loops'
- * controllers start afresh; an observer that still tracks (the SMO, valid,
- * in the blend above w_lower) hands its angle and speed to every estimate. */
-static bool drive_smo_catches(const fs_drive *drv)
-{
-    const fs_drive_config *c = &drv->cfg;
-    if (!drive_has_smo(c) || !drv->smo.valid) return false;
-    return c->angle_source != FS_ANGLE_BLEND || fabsf(drv->smo.w) >= drv->blend.cfg.w_lower;
-}
 
-static void drive_catch(fs_drive *drv)
-{
-    if (drv->cfg.angle_source != FS_ANGLE_BLEND) return;
-    fs_blend_reset(&drv->blend, drv->smo.theta, drv->smo.w);
-    fs_hfi_set_angle(&drv->hfi, drv->smo.theta, drv->smo.w);
-}
 
-static void drive_recover_begin(fs_drive *drv)
-{
-    const fs_drive_config *c = &drv->cfg;
-    drv->phase = FS_PHASE_RECOVER;
-    drv->t_left = c->t_recover;
-    drv->recoveries += 1;
-    fs_lock_reset(&drv->lock);   /* the residual's low-passes restart out of FS_PHASE_RUN */
-    if (c->mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
-    if (drive_weakens(c)) fs_fw_reset(&drv->fw);
-    if (drive_smo_catches(drv)) drive_catch(drv);
-}
 
-/* The end of the zero-current wait: on the observer's estimate if it
- * tracks, else the start sequence again (polarity detection on the
- * injection estimator, which kept following the saliency, or the I/f start). */
-static void drive_recover_end(fs_drive *drv)
-{
-    const fs_drive_config *c = &drv->cfg;
-    drv->phase = FS_PHASE_RUN;
-    if (drive_smo_catches(drv)) {
-        drive_catch(drv);
-        if (c->mode == FS_MODE_SPEED) fs_speed_ctrl_preset(&drv->sc, drv->smo.w / (float)c->pole_pairs, 0.0f);
-    } else if (drive_injects(c)) {
-        drv->inject_on = true;
-        if (c->angle_source == FS_ANGLE_BLEND) fs_blend_reset(&drv->blend, drv->hfi.theta, drv->hfi.w);
-        if (c->polarity.i_pulse > 0.0f) {
-            fs_polarity_reset(&drv->pol);
-            drv->phase = FS_PHASE_POLARITY;
-        }
-    } else if (drive_starts(c)) {
-        drv->theta_if = drv->smo.theta;
-        drv->w_if = 0.0f;
-        drv->phase = FS_PHASE_START;
-    }
-}
 
 /* The current reference of the closed-loop modes: polarity pulses, the I/f
  * start, speed control (MTPA and flux weakening) or the reference input. */
@@ -496,13 +353,13 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
     if (drv->phase == FS_PHASE_RECOVER) {
         i_ref.d = i_ref.q = 0.0f;
         drv->t_left -= c->Ts;
-        if (drv->t_left <= 0.0f) drive_recover_end(drv);
+        if (drv->t_left <= 0.0f) fs_drive_recover_end(drv);
     } else if (drv->phase == FS_PHASE_POLARITY) {
         i_ref.d = fs_polarity_step(&drv->pol, drv->hfi.i_p);
         i_ref.q = 0.0f;
-        if (drv->pol.stage == FS_POLARITY_DONE) drive_polarity_done(drv);
+        if (drv->pol.stage == FS_POLARITY_DONE) fs_drive_polarity_done(drv);
     } else if (c->mode == FS_MODE_SPEED && in->sensorless && drv->phase == FS_PHASE_START) {
-        i_ref = drive_start_step(drv, in, i_ab);
+        i_ref = fs_drive_if_step(drv, in, i_ab);
     } else if (c->mode == FS_MODE_SPEED) {
         *T_ref = fs_speed_ctrl_step(&drv->sc, in->w_m_ref, w_e / (float)c->pole_pairs);
         i_ref = fs_mtpa_step(&drv->mtpa, *T_ref);
@@ -835,7 +692,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
         out->lock_resid = drive_lock_residual(drv, in, out->g_w);
         out->lock_lost = fs_lock_step(&drv->lock, out->lock_resid);
         if (out->lock_lost && c->lock_recover && drv->recoveries < c->lock_retries) {
-            drive_recover_begin(drv);
+            fs_drive_recover_begin(drv);
             out->lock_lost = false;
         }
     }

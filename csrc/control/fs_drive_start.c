@@ -1,0 +1,116 @@
+/* The drive's start-up sequence (polarity detection, the injection
+ * estimators' first step, the I/f start and its hand-over) and its recovery
+ * from a loss of lock; the hub (fs_drive.c) calls these. */
+#include "fs_drive_start.h"
+#include "fs_math.h"
+
+/* The injection estimators' first step: sensorless from the start, the
+ * polarity is detected first; with the encoder in the loop they start from
+ * its angle (commissioning, calibration). */
+void fs_drive_start_estimators(fs_drive *drv, const fs_drive_in *in)
+{
+    const fs_drive_config *c = &drv->cfg;
+    drv->est_started = true;
+    if (in->sensorless) {
+        bool closed_loop = c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED;
+        if (closed_loop && c->polarity.i_pulse > 0.0f) drv->phase = FS_PHASE_POLARITY;
+        return;
+    }
+    float theta = fs_wrap_pi((float)c->pole_pairs * in->theta_m_enc);
+    fs_hfi_set_angle(&drv->hfi, theta, 0.0f);
+    if (c->angle_source == FS_ANGLE_BLEND) fs_blend_reset(&drv->blend, theta, 0.0f);
+}
+
+/* Polarity found: turn the estimates by pi if they point at the south pole. */
+void fs_drive_polarity_done(fs_drive *drv)
+{
+    if (drv->pol.flip) {
+        const float theta = fs_wrap_pi(drv->hfi.theta + FS_PI), T_d = drv->hfi.obs.T_d_hat;
+        fs_hfi_set_angle(&drv->hfi, theta, drv->hfi.w);
+        drv->hfi.obs.T_d_hat = T_d;   /* the load does not turn with the estimate */
+        if (drv->cfg.angle_source == FS_ANGLE_BLEND) {
+            fs_blend_reset(&drv->blend, theta, drv->hfi.w);
+            drv->blend.obs.T_d_hat = T_d;
+        }
+    }
+    if (drv->cfg.mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
+    drv->phase = FS_PHASE_RUN;
+}
+
+/* I/f start: the frame accelerates towards the reference, or up to the
+ * hand-over speed, with i_start on its d axis; the rotor's d axis lags the
+ * current by the load angle at which the torque carries the load and the
+ * acceleration (self-synchronising, and at standstill the current aligns the
+ * rotor without torque). Once past the hand-over speed with the observer valid and turning
+ * the same way, the loops take the observer, and the speed controller's
+ * integral is preset to the torque the current makes in the observer's
+ * frame, so that the hand-over does not bump the torque. */
+fs_dq fs_drive_if_step(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab)
+{
+    const fs_drive_config *c = &drv->cfg;
+    float w_target = fs_clampf((float)c->pole_pairs * in->w_m_ref, -c->w_handover, c->w_handover);
+    float dw = c->a_start * c->Ts;
+    drv->w_if += fs_clampf(w_target - drv->w_if, -dw, dw);
+    drv->theta_if = fs_wrap_pi(drv->theta_if + c->Ts * drv->w_if);
+    fs_dq i_ref = {c->i_start, 0.0f};
+    bool fast = fabsf(drv->w_if) >= c->w_handover * 0.999f;
+    if (fast && drv->smo.valid && drv->smo.w * drv->w_if > 0.0f) {
+        fs_dq i_o = fs_park(i_ab, cosf(drv->smo.theta), sinf(drv->smo.theta));
+        fs_speed_ctrl_preset(&drv->sc, drv->smo.w / (float)c->pole_pairs, drive_torque(c, i_o));
+        drv->phase = FS_PHASE_RUN;
+    }
+    return i_ref;
+}
+
+/* Lock lost, recovery on (fs_drive.h): zero current from now on; the loops'
+ * controllers start afresh; an observer that still tracks (the SMO, valid,
+ * in the blend above w_lower) hands its angle and speed to every estimate. */
+static bool drive_smo_catches(const fs_drive *drv)
+{
+    const fs_drive_config *c = &drv->cfg;
+    if (!drive_has_smo(c) || !drv->smo.valid) return false;
+    return c->angle_source != FS_ANGLE_BLEND || fabsf(drv->smo.w) >= drv->blend.cfg.w_lower;
+}
+
+static void drive_catch(fs_drive *drv)
+{
+    if (drv->cfg.angle_source != FS_ANGLE_BLEND) return;
+    fs_blend_reset(&drv->blend, drv->smo.theta, drv->smo.w);
+    fs_hfi_set_angle(&drv->hfi, drv->smo.theta, drv->smo.w);
+}
+
+void fs_drive_recover_begin(fs_drive *drv)
+{
+    const fs_drive_config *c = &drv->cfg;
+    drv->phase = FS_PHASE_RECOVER;
+    drv->t_left = c->t_recover;
+    drv->recoveries += 1;
+    fs_lock_reset(&drv->lock);   /* the residual's low-passes restart out of FS_PHASE_RUN */
+    if (c->mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
+    if (drive_weakens(c)) fs_fw_reset(&drv->fw);
+    if (drive_smo_catches(drv)) drive_catch(drv);
+}
+
+/* The end of the zero-current wait: on the observer's estimate if it
+ * tracks, else the start sequence again (polarity detection on the
+ * injection estimator, which kept following the saliency, or the I/f start). */
+void fs_drive_recover_end(fs_drive *drv)
+{
+    const fs_drive_config *c = &drv->cfg;
+    drv->phase = FS_PHASE_RUN;
+    if (drive_smo_catches(drv)) {
+        drive_catch(drv);
+        if (c->mode == FS_MODE_SPEED) fs_speed_ctrl_preset(&drv->sc, drv->smo.w / (float)c->pole_pairs, 0.0f);
+    } else if (drive_injects(c)) {
+        drv->inject_on = true;
+        if (c->angle_source == FS_ANGLE_BLEND) fs_blend_reset(&drv->blend, drv->hfi.theta, drv->hfi.w);
+        if (c->polarity.i_pulse > 0.0f) {
+            fs_polarity_reset(&drv->pol);
+            drv->phase = FS_PHASE_POLARITY;
+        }
+    } else if (drive_starts(c)) {
+        drv->theta_if = drv->smo.theta;
+        drv->w_if = 0.0f;
+        drv->phase = FS_PHASE_START;
+    }
+}

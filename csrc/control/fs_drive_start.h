@@ -1,0 +1,61 @@
+/* The drive's internals shared by its files (not part of the public API):
+ * the predicates on its configuration, and the start-up sequence and
+ * recovery (fs_drive_start.c) that the hub (fs_drive.c) calls. */
+#ifndef FS_DRIVE_START_H
+#define FS_DRIVE_START_H
+
+#include "fs_drive.h"
+
+static inline bool drive_starts(const fs_drive_config *c)
+{
+    return c->mode == FS_MODE_SPEED && c->angle_source == FS_ANGLE_SMO && c->i_start > 0.0f;
+}
+
+static inline bool drive_weakens(const fs_drive_config *c)
+{
+    return c->mode == FS_MODE_SPEED && c->fw_w_e_max > 0.0f;
+}
+
+static inline bool drive_injects(const fs_drive_config *c)
+{
+    return c->angle_source == FS_ANGLE_HFI || c->angle_source == FS_ANGLE_BLEND;
+}
+
+static inline bool drive_square(const fs_drive_config *c) { return c->angle_source == FS_ANGLE_SWVI; }
+
+static inline bool drive_imc(const fs_drive_config *c) { return c->converter == FS_CONV_IMC; }
+
+/* zou2021 PART_2: the depth controller runs in speed mode with flux weakening. */
+static inline bool drive_imc_depth(const fs_drive_config *c)
+{
+    return drive_imc(c) && c->imc_depth && c->imc_region == FS_IMC_OM2 && drive_weakens(c);
+}
+
+/* The loops' period: every other sample with the square wave (sec. 2.2). */
+static inline float drive_loop_Ts(const fs_drive_config *c) { return drive_square(c) ? 2.0f * c->Ts : c->Ts; }
+
+/* The SMO runs for its own source and inside the blend. */
+static inline bool drive_has_smo(const fs_drive_config *c)
+{
+    return c->angle_source == FS_ANGLE_SMO || c->angle_source == FS_ANGLE_BLEND;
+}
+
+/* The controller's torque at a current (the motion observers' feed-forward). */
+static inline float drive_torque(const fs_drive_config *c, fs_dq i)
+{
+    return 0.5f * (float)c->phases * (float)c->pole_pairs * (c->psi_f + (c->L_d - c->L_q) * i.d) * i.q;
+}
+
+/* The injection estimators' first step (polarity detection first when
+ * sensorless, else their angle from the encoder). */
+void fs_drive_start_estimators(fs_drive *drv, const fs_drive_in *in);
+/* Polarity detection done: the estimates turned by pi if it says so. */
+void fs_drive_polarity_done(fs_drive *drv);
+/* One step of the I/f start: its current reference, and the hand-over. */
+fs_dq fs_drive_if_step(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab);
+/* Lock lost with recovery on: zero current, the catch if the observer tracks. */
+void fs_drive_recover_begin(fs_drive *drv);
+/* The end of the zero-current wait: the catch, or the start sequence again. */
+void fs_drive_recover_end(fs_drive *drv);
+
+#endif /* FS_DRIVE_START_H */
