@@ -29,6 +29,36 @@ def angle_error_stats(err_rad: np.ndarray) -> dict:
     return {"mean": float(np.mean(e)), "pp": float(np.ptp(e)), "max": float(np.max(np.abs(e)))}
 
 
+# The stages in which the loops run on an estimate with current flowing
+# (fs_drive_stage): where a wrong angle is a loss of lock. Polarity detection,
+# the I/f start (its frame lags by design) and the zero-current recovery are not.
+SENSORLESS_STAGES = (4, 5, 6, 7)
+
+
+def true_loss_at(tr, threshold: float = math.pi / 2, t_net: float = 0.02) -> float | None:
+    """When the simulation's truth says lock was lost: the loops' angle more
+    than `threshold` (rad) from the rotor's, in a sensorless stage, for
+    `t_net` s net (time off counts up, time on counts down to no less than 0,
+    as fs_lock.h counts its residual); None if never. The drive cannot know
+    this; the campaigns compare its flags against it."""
+    t = np.asarray(tr["t"])
+    if t.size < 2:
+        return None
+    dt = float(t[1] - t[0])
+    off = (np.abs(np.asarray(tr["theta_err"])) > threshold) & np.isin(np.asarray(tr["stage"]).astype(int), SENSORLESS_STAGES)
+    # segments of equal state: the counter moves linearly within each
+    edges = np.r_[0, np.flatnonzero(np.diff(off.astype(np.int8))) + 1, off.size]
+    acc = 0.0
+    for a, b in zip(edges[:-1], edges[1:]):
+        if off[a]:
+            if acc + (b - a) * dt >= t_net - 1e-12:
+                return float(t[a + max(0, math.ceil((t_net - acc) / dt - 1e-9) - 1)])
+            acc += (b - a) * dt
+        else:
+            acc = max(0.0, acc - (b - a) * dt)
+    return None
+
+
 def compute_metrics(res) -> dict:
     tr = res.traces
     t = tr["t"]
@@ -48,6 +78,10 @@ def compute_metrics(res) -> dict:
     lost = np.flatnonzero(tr["lock_lost"] > 0)
     out["lock_lost_at"] = float(t[lost[0]]) if lost.size else None
     out["recoveries"] = int(tr["recoveries"][-1])
+    out["true_loss_at"] = true_loss_at(tr)
+    # a loss the simulation's truth sees and nothing in the run flagged
+    out["silent_failure"] = bool(out["true_loss_at"] is not None and res.stop_reason == "done"
+                                 and out["lock_lost_at"] is None)
     faults = fault_report(res)
     if faults is not None:
         out["faults"] = faults
@@ -128,7 +162,7 @@ def fault_report(res) -> dict | None:
 # sweep may keep. Those a run's mode does not give are empty for it.
 METRIC_NAMES = (
     "stop_reason", "stop_time", "sim_time", "wall_time", "speed_ratio", "i_phase_max",
-    "lock_lost_at", "recoveries",
+    "lock_lost_at", "recoveries", "true_loss_at", "silent_failure",
     "speed_ref_rpm", "speed_rpm", "speed_error_pct", "i_d_error_rms", "i_q_error_rms",
     "T_e_mean", "T_e_pp",
     "theta_err_deg.mean", "theta_err_deg.pp", "theta_err_deg.max",
