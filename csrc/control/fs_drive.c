@@ -94,6 +94,7 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     if (!drv) return FS_ERR_NULL;
     drv->fail = NULL;
     if (!cfg) REFUSE("config", FS_ERR_NULL);
+    if (cfg->config_size != 0u && cfg->config_size != (unsigned int)sizeof(fs_drive_config)) REFUSE("config_size", FS_ERR_PARAM);
     fs_status st = drive_check_fields(cfg, &drv->fail);
     if (st != FS_OK) return st;
     if (cfg->phases != 3 && cfg->phases != 5) REFUSE("phases", FS_ERR_PARAM);

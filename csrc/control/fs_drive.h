@@ -90,6 +90,11 @@ typedef enum {
 } fs_drive_stage;
 
 typedef struct {
+    /* sizeof(fs_drive_config) as the writer of this configuration saw it:
+     * `fullspeed export` and the simulator set it, and fs_drive_init refuses
+     * a configuration whose size differs from the library's (a header and a
+     * library from different versions); 0: not checked (hand-written code) */
+    unsigned int config_size;
     int phases;              /* 3, or 5: the fundamental plane of the VSD, nearest-four-vector PWM */
     int mode;                /* fs_drive_mode */
     int angle_source;        /* fs_angle_source */
