@@ -117,3 +117,12 @@ def test_cli_export_and_bad_name(tmp_path, capsys):
     assert cli.main(["export", "yang2022-hfi-iqstep", "--out", str(tmp_path), "--name", "../evil"]) == 2
     assert "--name" in capsys.readouterr().err
     assert cli.main(["export", "no-such-scenario", "--out", str(tmp_path)]) == 2
+
+
+def test_the_firmware_configuration_is_a_fresh_export(tmp_path):
+    """firmware/fs_config.[ch] is the export of beyond-full-range, not hand-edited and not stale."""
+    export("beyond-full-range", tmp_path, "fs_config")
+    for name in ("fs_config.h", "fs_config.c"):
+        fresh, kept = (tmp_path / name).read_text(), (ROOT / "firmware" / name).read_text()
+        assert kept == fresh, (f"firmware/{name} differs from a fresh export: run "
+                               "`fullspeed export beyond-full-range --out firmware --name fs_config`")

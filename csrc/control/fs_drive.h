@@ -43,6 +43,26 @@
 #include "fs_vsd.h"
 #include "fs_types.h"
 
+/* Compile-time options: a firmware leaves out what it does not use by
+ * defining one to 0 for every file of csrc/control (-DFS_WITH_IMC=0); the
+ * code and the sub-blocks behind it are then not linked, and fs_drive_init
+ * refuses a configuration that needs them (FS_ERR_MODE, drv->fail naming
+ * phases, angle_source or converter). The structs keep every field, so a
+ * configuration is the same bytes whatever the options.
+ *   FS_WITH_IMC         the indirect matrix converter (fs_imc.h)
+ *   FS_WITH_FIVE_PHASE  five phases (fs_vsd.h, fs_pwm5.h)
+ *   FS_WITH_SWVI        square-wave injection (fs_swvi.h)
+ * A three-phase inverter drive on the blend with flux weakening needs none. */
+#ifndef FS_WITH_IMC
+#define FS_WITH_IMC 1
+#endif
+#ifndef FS_WITH_FIVE_PHASE
+#define FS_WITH_FIVE_PHASE 1
+#endif
+#ifndef FS_WITH_SWVI
+#define FS_WITH_SWVI 1
+#endif
+
 typedef enum {
     FS_MODE_OFF = 0,         /* duties 0.5, zero voltage */
     FS_MODE_VOLTAGE_DQ = 1,  /* u_d_ref, u_q_ref in a frame at w_e_ref */
