@@ -7,7 +7,7 @@
 
 /* The layout this configuration was written for: a header that changed since
  * the export fails here, naming the field. */
-_Static_assert(sizeof(fs_drive_config) == 700u, "fs_drive_config: size differs from the exported layout");
+_Static_assert(sizeof(fs_drive_config) == 720u, "fs_drive_config: size differs from the exported layout");
 _Static_assert(offsetof(fs_drive_config, config_size) == 0u, "fs_drive_config.config_size moved");
 _Static_assert(offsetof(fs_drive_config, phases) == 4u, "fs_drive_config.phases moved");
 _Static_assert(offsetof(fs_drive_config, mode) == 8u, "fs_drive_config.mode moved");
@@ -94,37 +94,42 @@ _Static_assert(offsetof(fs_drive_config, polarity.Ts) == 440u, "fs_drive_config.
 _Static_assert(offsetof(fs_drive_config, polarity.i_pulse) == 444u, "fs_drive_config.polarity.i_pulse moved");
 _Static_assert(offsetof(fs_drive_config, polarity.t_lock) == 448u, "fs_drive_config.polarity.t_lock moved");
 _Static_assert(offsetof(fs_drive_config, polarity.t_pulse) == 452u, "fs_drive_config.polarity.t_pulse moved");
-_Static_assert(offsetof(fs_drive_config, swvi) == 456u, "fs_drive_config.swvi moved");
-_Static_assert(offsetof(fs_drive_config, swvi.Ts) == 456u, "fs_drive_config.swvi.Ts moved");
-_Static_assert(offsetof(fs_drive_config, swvi.delay) == 460u, "fs_drive_config.swvi.delay moved");
-_Static_assert(offsetof(fs_drive_config, swvi.u_h) == 464u, "fs_drive_config.swvi.u_h moved");
-_Static_assert(offsetof(fs_drive_config, swvi.L_d) == 468u, "fs_drive_config.swvi.L_d moved");
-_Static_assert(offsetof(fs_drive_config, swvi.L_q) == 472u, "fs_drive_config.swvi.L_q moved");
-_Static_assert(offsetof(fs_drive_config, swvi.bandwidth) == 476u, "fs_drive_config.swvi.bandwidth moved");
-_Static_assert(offsetof(fs_drive_config, swvi.w_max) == 480u, "fs_drive_config.swvi.w_max moved");
-_Static_assert(offsetof(fs_drive_config, swvi.sequence) == 484u, "fs_drive_config.swvi.sequence moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp) == 488u, "fs_drive_config.swvi.xcomp moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.n) == 488u, "fs_drive_config.swvi.xcomp.n moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.i_q0) == 492u, "fs_drive_config.swvi.xcomp.i_q0 moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.di_q) == 496u, "fs_drive_config.swvi.xcomp.di_q moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.delta) == 500u, "fs_drive_config.swvi.xcomp.delta moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.poly) == 632u, "fs_drive_config.swvi.xcomp.poly moved");
-_Static_assert(offsetof(fs_drive_config, swvi.carrier_off) == 648u, "fs_drive_config.swvi.carrier_off moved");
-_Static_assert(offsetof(fs_drive_config, k_p_d) == 652u, "fs_drive_config.k_p_d moved");
-_Static_assert(offsetof(fs_drive_config, k_i_d) == 656u, "fs_drive_config.k_i_d moved");
-_Static_assert(offsetof(fs_drive_config, k_p_q) == 660u, "fs_drive_config.k_p_q moved");
-_Static_assert(offsetof(fs_drive_config, k_i_q) == 664u, "fs_drive_config.k_i_q moved");
-_Static_assert(offsetof(fs_drive_config, k_p_w) == 668u, "fs_drive_config.k_p_w moved");
-_Static_assert(offsetof(fs_drive_config, k_i_w) == 672u, "fs_drive_config.k_i_w moved");
-_Static_assert(offsetof(fs_drive_config, converter) == 676u, "fs_drive_config.converter moved");
-_Static_assert(offsetof(fs_drive_config, imc_region) == 680u, "fs_drive_config.imc_region moved");
-_Static_assert(offsetof(fs_drive_config, imc_w_grid) == 684u, "fs_drive_config.imc_w_grid moved");
-_Static_assert(offsetof(fs_drive_config, imc_depth) == 688u, "fs_drive_config.imc_depth moved");
-_Static_assert(offsetof(fs_drive_config, imc_i_lim) == 692u, "fs_drive_config.imc_i_lim moved");
-_Static_assert(offsetof(fs_drive_config, imc_V_im) == 696u, "fs_drive_config.imc_V_im moved");
+_Static_assert(offsetof(fs_drive_config, polarity.i_pulse_max) == 456u, "fs_drive_config.polarity.i_pulse_max moved");
+_Static_assert(offsetof(fs_drive_config, polarity.d_min) == 460u, "fs_drive_config.polarity.d_min moved");
+_Static_assert(offsetof(fs_drive_config, polarity.w_filter) == 464u, "fs_drive_config.polarity.w_filter moved");
+_Static_assert(offsetof(fs_drive_config, polarity.n_carrier) == 468u, "fs_drive_config.polarity.n_carrier moved");
+_Static_assert(offsetof(fs_drive_config, polarity.w_max) == 472u, "fs_drive_config.polarity.w_max moved");
+_Static_assert(offsetof(fs_drive_config, swvi) == 476u, "fs_drive_config.swvi moved");
+_Static_assert(offsetof(fs_drive_config, swvi.Ts) == 476u, "fs_drive_config.swvi.Ts moved");
+_Static_assert(offsetof(fs_drive_config, swvi.delay) == 480u, "fs_drive_config.swvi.delay moved");
+_Static_assert(offsetof(fs_drive_config, swvi.u_h) == 484u, "fs_drive_config.swvi.u_h moved");
+_Static_assert(offsetof(fs_drive_config, swvi.L_d) == 488u, "fs_drive_config.swvi.L_d moved");
+_Static_assert(offsetof(fs_drive_config, swvi.L_q) == 492u, "fs_drive_config.swvi.L_q moved");
+_Static_assert(offsetof(fs_drive_config, swvi.bandwidth) == 496u, "fs_drive_config.swvi.bandwidth moved");
+_Static_assert(offsetof(fs_drive_config, swvi.w_max) == 500u, "fs_drive_config.swvi.w_max moved");
+_Static_assert(offsetof(fs_drive_config, swvi.sequence) == 504u, "fs_drive_config.swvi.sequence moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp) == 508u, "fs_drive_config.swvi.xcomp moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.n) == 508u, "fs_drive_config.swvi.xcomp.n moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.i_q0) == 512u, "fs_drive_config.swvi.xcomp.i_q0 moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.di_q) == 516u, "fs_drive_config.swvi.xcomp.di_q moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.delta) == 520u, "fs_drive_config.swvi.xcomp.delta moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.poly) == 652u, "fs_drive_config.swvi.xcomp.poly moved");
+_Static_assert(offsetof(fs_drive_config, swvi.carrier_off) == 668u, "fs_drive_config.swvi.carrier_off moved");
+_Static_assert(offsetof(fs_drive_config, k_p_d) == 672u, "fs_drive_config.k_p_d moved");
+_Static_assert(offsetof(fs_drive_config, k_i_d) == 676u, "fs_drive_config.k_i_d moved");
+_Static_assert(offsetof(fs_drive_config, k_p_q) == 680u, "fs_drive_config.k_p_q moved");
+_Static_assert(offsetof(fs_drive_config, k_i_q) == 684u, "fs_drive_config.k_i_q moved");
+_Static_assert(offsetof(fs_drive_config, k_p_w) == 688u, "fs_drive_config.k_p_w moved");
+_Static_assert(offsetof(fs_drive_config, k_i_w) == 692u, "fs_drive_config.k_i_w moved");
+_Static_assert(offsetof(fs_drive_config, converter) == 696u, "fs_drive_config.converter moved");
+_Static_assert(offsetof(fs_drive_config, imc_region) == 700u, "fs_drive_config.imc_region moved");
+_Static_assert(offsetof(fs_drive_config, imc_w_grid) == 704u, "fs_drive_config.imc_w_grid moved");
+_Static_assert(offsetof(fs_drive_config, imc_depth) == 708u, "fs_drive_config.imc_depth moved");
+_Static_assert(offsetof(fs_drive_config, imc_i_lim) == 712u, "fs_drive_config.imc_i_lim moved");
+_Static_assert(offsetof(fs_drive_config, imc_V_im) == 716u, "fs_drive_config.imc_V_im moved");
 
 const fs_drive_config fs_config = {
-    .config_size = 700u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator se...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
+    .config_size = 720u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator se...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
     .phases = 3,   /* 3, or 5: the fundamental plane of the VSD, nearest-four-vector PWM; machine yang2022: phases */
     .mode = FS_MODE_SPEED,   /* fs_drive_mode; scenario beyond-full-range: [controller] mode */
     .angle_source = FS_ANGLE_BLEND,   /* fs_angle_source; scenario beyond-full-range: [controller] angle */
@@ -220,11 +225,16 @@ const fs_drive_config fs_config = {
         },
     },
     .w_inject_max = 163.362823f,   /* default of [injection] stop_rpm (fullspeed.scenario) */
-    .polarity = {   /* polarity detection when sensorless from the first step (i_pulse 0: none; Ts taken from above) */
+    .polarity = {   /* polarity detection when sensorless from the first step (i_pulse 0: none; Ts taken from above; i_pulse_max 0... */
         .Ts = 0.0f,   /* sampling period, s; 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .i_pulse = 30.0f,   /* d-current pulse amplitude, A (> 0); default of [polarity] i_pulse (fullspeed.scenario) */
         .t_lock = 0.0599999987f,   /* settling of the estimator before the pulses, s (>= 0); default of [polarity] t_lock (fullspeed.scenario) */
         .t_pulse = 0.0199999996f,   /* length of each pulse, s (>= 4 Ts; t_lock + t_pulse < 1e3 s and 1e9 Ts); default of [polarity] t_pulse (fullspeed.scenario) */
+        .i_pulse_max = 0.0f,   /* the largest pulse of the retries, A (0: i_pulse, no retry; else >= i_pulse); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .d_min = 0.0f,   /* the relative difference's floor (0: FS_POLARITY_D_MIN; else in (0, 1)); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .w_filter = 0.0f,   /* the carrier amplitude's filter bandwidth, rad/s (0: samples taken as independent); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .n_carrier = 0,   /* samples per carrier period (0 or 1: the window is not rounded); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .w_max = 0.0f,   /* the change of the estimated speed that invalidates a pair, el. rad/s (0: w_filter / 10; none without w_filter); 0: taken from the drive's fields or designed by fs_drive_init, or off */
     },
     .swvi = {   /* square-wave injection (FS_ANGLE_SWVI): Ts, delay, L_d, L_q are taken from above; delay must be 0 or 1 */
         .Ts = 0.0f,   /* sampling period, s; the carrier period is 4 Ts; 0: taken from the drive's fields or designed by fs_drive_init, or off */

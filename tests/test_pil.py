@@ -47,8 +47,8 @@ def test_replay_on_the_target_within_tolerance(builds, mode):
     # a drive step is a few thousand instructions: not the marking's overhead, not a runaway loop
     assert 500 < ins["mean"] <= ins["max"] < 20000
     assert 0 < r["stack_used"] < 4096
-    # the target's RAM for the drive: the host's less what 8-byte pointers add (drv->fail)
-    assert 0 < pil._core()[0].sizeof("fs_drive") - r["sizeof_fs_drive"] <= 8
+    # the target's RAM for the drive: the host's less at most what an 8-byte pointer adds (drv->fail)
+    assert 0 <= pil._core()[0].sizeof("fs_drive") - r["sizeof_fs_drive"] <= 8
 
 
 def test_a_planted_difference_is_found(builds):
