@@ -371,11 +371,11 @@ def replay_host(rec: Recording) -> np.ndarray:
 
 # -- the target side ------------------------------------------------------------
 
-def _qemu_cmd(t: dict, b: Builds, counts: Path | None) -> list[str]:
+def _qemu_cmd(t: dict, b: Builds, counts: Path | None, hist: Path | None = None) -> list[str]:
     cmd = [t["qemu"], "-M", "mps2-an386", "-display", "none", "-monitor", "none", "-serial", "none",
            "-semihosting-config", "enable=on,target=native", "-kernel", str(b.target)]
     if counts is not None:
-        cmd += ["-plugin", f"{b.plugin},mark={b.mark:#x},out={counts}"]
+        cmd += ["-plugin", f"{b.plugin},mark={b.mark:#x},out={counts}" + (f",hist={hist}" if hist else "")]
     return cmd
 
 
@@ -392,6 +392,20 @@ def _out_trailer(raw: bytes, what: str) -> dict:
     if w[0] != MAGIC:
         raise PilError(f"{what}: the target's output is malformed")
     return {"status": int(np.int32(w[1])), "sizeof_fs_drive": int(w[2]), "stack_used": int(w[6]), "steps": int(w[7])}
+
+
+def _profile(t: dict, b: Builds, hist: np.ndarray, steps: int) -> dict[str, float]:
+    """Instructions per step by function (its own instructions, not its callees'), largest first."""
+    out = {}
+    harness = {"main", "sh_call", "sh_exit", "pil_mark", "stack_paint", "stack_used", "Reset_Handler", "Default_Handler"}
+    for ln in _run([t["nm"], "-S", "--defined-only", str(b.target)], "nm").stdout.splitlines():
+        p = ln.split()
+        if len(p) == 4 and p[2] in "tTwW" and p[3].split(".")[0] not in harness:
+            a, n = int(p[0], 16) & ~1, int(p[1], 16)
+            tot = int(hist[a >> 1:(a + n) >> 1].sum())
+            if tot:
+                out[p[3]] = out.get(p[3], 0.0) + tot / steps
+    return dict(sorted(out.items(), key=lambda kv: -kv[1]))
 
 
 def _step_counts(raw: bytes, steps: int) -> np.ndarray:
@@ -411,8 +425,10 @@ def _insn_stats(ins: np.ndarray, stage: np.ndarray) -> dict:
             "p99": float(np.percentile(ins, 99)), "per_stage": per}
 
 
-def replay_target(t: dict, b: Builds, rec: Recording, count: bool = True, timeout: float = 300.0) -> tuple[np.ndarray, dict]:
-    """The recorded inputs through fs_drive_step on the emulated Cortex-M4F."""
+def replay_target(t: dict, b: Builds, rec: Recording, count: bool = True, timeout: float = 300.0,
+                  profile: bool = False) -> tuple[np.ndarray, dict]:
+    """The recorded inputs through fs_drive_step on the emulated Cortex-M4F
+    (profile: info["profile"], instructions per step by function)."""
     ffi, _ = _core()
     n = len(rec.ins) // ffi.sizeof("fs_drive_in")
     with tempfile.TemporaryDirectory(prefix="fs-pil-") as tmp:
@@ -420,7 +436,8 @@ def replay_target(t: dict, b: Builds, rec: Recording, count: bool = True, timeou
         (tmp / "pil_in.bin").write_bytes(_in_header(n, 64) + rec.cfg + rec.ins)
         counts = tmp / "counts.bin" if count else None
         t0 = time.perf_counter()
-        res = subprocess.run(_qemu_cmd(t, b, counts), cwd=tmp, capture_output=True, text=True, timeout=timeout)
+        hist = tmp / "hist.bin" if profile and count else None
+        res = subprocess.run(_qemu_cmd(t, b, counts, hist), cwd=tmp, capture_output=True, text=True, timeout=timeout)
         wall = time.perf_counter() - t0
         raw = (tmp / "pil_out.bin").read_bytes() if (tmp / "pil_out.bin").exists() else b""
         if res.returncode != 0:
@@ -431,6 +448,8 @@ def replay_target(t: dict, b: Builds, rec: Recording, count: bool = True, timeou
         outs = np.frombuffer(raw[: info["steps"] * size], dtype=np_dtype("fs_drive_out"))
         if count:
             info["insns"] = _step_counts(counts.read_bytes(), info["steps"])
+        if hist is not None:
+            info["profile"] = _profile(t, b, np.frombuffer(hist.read_bytes(), dtype="<u8"), max(info["steps"], 1))
     if info["status"] != 0:
         raise PilError(f"{rec.mode}: fs_drive_init on the target returned {info['status']}")
     return outs, info
@@ -486,12 +505,28 @@ def compare(rec: Recording, host: np.ndarray, target: np.ndarray) -> dict:
     return res
 
 
-def run_mode(t: dict, b: Builds, mode: str, duration: float | None = None) -> dict:
+# libm's share of a step, by what the drive calls: the trigonometry (with
+# its argument reduction) and the min/max (newlib's fmaxf/fminf are calls
+# that classify both arguments; an FPv4 has no VMAXNM).
+LIBM_GROUPS = {"sinf/cosf": ("sinf", "cosf", "__kernel_sinf", "__kernel_cosf", "__ieee754_rem_pio2f", "__kernel_rem_pio2f"),
+               "fmaxf/fminf": ("fmaxf", "fminf", "__fpclassifyf"),
+               "other libm": ("atanf", "atan2f", "__ieee754_atan2f", "expf", "__ieee754_expf", "expm1f", "logf",
+                              "__ieee754_logf", "fmodf", "__ieee754_fmodf", "sqrtf", "__ieee754_sqrtf", "floorf", "ceilf",
+                              "tanf", "__kernel_tanf", "tanhf", "finitef", "scalbnf")}
+
+
+def cost_groups(profile: dict[str, float]) -> dict[str, float]:
+    out = {g: sum(profile.get(f, 0.0) for f in fs) for g, fs in LIBM_GROUPS.items()}
+    out["the drive's own code"] = sum(profile.values()) - sum(out.values())
+    return out
+
+
+def run_mode(t: dict, b: Builds, mode: str, duration: float | None = None, profile: bool = False) -> dict:
     rec = record(b, mode, duration)
     host = replay_host(rec)
     ffi, _ = _core()
     deterministic = bool(len(host) == len(rec.outs) and not np.any(list(_unequal(host, rec.outs, rec.phases).values())))
-    target, info = replay_target(t, b, rec)
+    target, info = replay_target(t, b, rec, profile=profile)
     Ts = float(np.frombuffer(rec.cfg[16:20], "<f4")[0])
     until = COMPARE_UNTIL.get(mode)
     n_cmp = min(len(host), int(round(until / Ts))) if until else len(host)
@@ -507,6 +542,8 @@ def run_mode(t: dict, b: Builds, mode: str, duration: float | None = None) -> di
         "compare": cmp,
         "insns": _insn_stats(ins, target["stage"][: len(ins)]),
         "stack_used": info["stack_used"], "sizeof_fs_drive": info["sizeof_fs_drive"], "qemu_wall_s": info["wall_s"],
+        **({"profile": dict(list(info["profile"].items())[:20]), "cost_groups": cost_groups(info["profile"])}
+           if profile else {}),
     }
 
 
@@ -536,8 +573,8 @@ def closed_loop(t: dict, b: Builds, mode: str, duration: float | None = None, ti
         tmp = Path(tmp)
         os.mkfifo(tmp / "pil_in.bin")
         os.mkfifo(tmp / "pil_out.bin")
-        counts = tmp / "counts.bin"
-        qemu = subprocess.Popen(_qemu_cmd(t, b, counts), cwd=tmp, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        counts, hist = tmp / "counts.bin", tmp / "hist.bin"
+        qemu = subprocess.Popen(_qemu_cmd(t, b, counts, hist), cwd=tmp, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
         timer = threading.Timer(timeout, qemu.kill)
         timer.start()
         try:
@@ -554,6 +591,7 @@ def closed_loop(t: dict, b: Builds, mode: str, duration: float | None = None, ti
             os.close(fd_r)
             qemu.wait(timeout=30)
             ins = _step_counts(counts.read_bytes(), len(trace_t))
+            prof = _profile(t, b, np.frombuffer(hist.read_bytes(), dtype="<u8"), max(len(ins), 1))
         finally:
             timer.cancel()
             if qemu.poll() is None:
@@ -570,6 +608,7 @@ def closed_loop(t: dict, b: Builds, mode: str, duration: float | None = None, ti
     dth = np.abs(_wrap(trace_t[:n, col["theta_err"]] - trace_h[:n, col["theta_err"]]))
     return {"mode": mode, "scenario": scenario, "duration_s": dur, "steps_target": info["steps"],
             "insns": _insn_stats(ins, trace_t[: len(ins), col["stage"]].astype(int)),
+            "profile": dict(list(prof.items())[:20]), "cost_groups": cost_groups(prof),
             "host": pick(m_h), "target": pick(m_t), "wall_s": {"host": wall_h, "target_in_loop": wall_t},
             "max_w_m_diff_rpm": float(dw.max(initial=0.0) * 60 / (2 * np.pi)),
             "max_theta_err_diff_deg": float(np.degrees(dth.max(initial=0.0))),
@@ -677,7 +716,7 @@ def pil_report(modes: list[str] | None = None, duration: float | None = None, lo
         rep = {**base, "status": "ok", "reason": None, "image": fw.sizes(t, [b.target])[b.target.name],
                "static_stack_fs_drive_step": static_stack(t, b), "modes": {}}
         for m in modes or list(MODES):
-            rep["modes"][m] = run_mode(t, b, m, duration)
+            rep["modes"][m] = run_mode(t, b, m, duration, profile=m == "encoder")
         if loop:
             rep["closed_loop"] = closed_loop(t, b, loop, loop_duration)
             rep["closed_loop"]["verdict"] = loop_verdict(rep["closed_loop"])
@@ -726,6 +765,11 @@ def format_report(rep: dict) -> str:
     if "goal" in rep:
         per = ", ".join(f"{STAGES.get(k, k)} {v['mean']:.0f}/{v['max']}" for k, v in sorted(rep["goal"]["per_stage"].items()))
         lines.append(f"  blend per stage (mean/max instructions, {rep['goal']['from']}): {per}")
+    for m, r in [*rep["modes"].items(), ("blend (closed loop)", rep.get("closed_loop") or {})]:
+        if "cost_groups" in r:
+            top = ", ".join(f"{k} {v:.0f}" for k, v in list(r["profile"].items())[:8])
+            lines.append(f"  {m}, instructions per step by what runs: "
+                         + ", ".join(f"{k} {v:.0f}" for k, v in r["cost_groups"].items()) + f"; largest: {top}")
     lines.append(f"  stack: measured (painted) above; static call graph from fs_drive_step (-fstack-usage): "
                  f"{rep['static_stack_fs_drive_step']} B")
     lm = rep["libm"]

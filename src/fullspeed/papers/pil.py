@@ -59,6 +59,7 @@ def pil(out: Path) -> Measurement:
         "closed_loop": {"scenario": loop["scenario"], "host": loop["host"], "target": loop["target"],
                         "criteria": claim_loop, "stages_equal": loop["stages_host"] == loop["stages_target"]},
         "blend_insns_mean": rep["goal"]["mean"], "blend_insns_max": rep["goal"]["max"],
+        "blend_insns_by_what": loop.get("cost_groups"),
         "sizeof_fs_drive": next(iter(rep["modes"].values()))["sizeof_fs_drive"],
         "libm_differ_pct": {k: v["differ_pct"] for k, v in rep["libm"].items()},
     }
@@ -82,5 +83,7 @@ def pil(out: Path) -> Measurement:
             f"({loop['scenario']}, {loop['duration_s']:g} s, plant on the host, one sample per exchange) covers the "
             "rest: its metrics against the host run's are the closed_loop values (criteria: each within 1 %, "
             "angle errors within 0.5 el.deg). Instructions per step are counted exactly by a QEMU plugin (not "
-            "cycles: QEMU has no Cortex-M4 timing). " + ("All met." if ok else "Not met: " + "; ".join(fails) + "."))
+            "cycles: QEMU has no Cortex-M4 timing); blend_insns_by_what splits the blended step's mean between newlib's "
+            "sinf/cosf (argument reduction on every call), its fmaxf/fminf (calls that classify both arguments: an "
+            "FPv4 FPU has no VMAXNM) and the drive's own code. " + ("All met." if ok else "Not met: " + "; ".join(fails) + "."))
     return Measurement(value, bool(ok), note)
