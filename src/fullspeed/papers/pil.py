@@ -59,7 +59,8 @@ def pil(out: Path) -> Measurement:
         "closed_loop": {"scenario": loop["scenario"], "host": loop["host"], "target": loop["target"],
                         "criteria": claim_loop, "stages_equal": loop["stages_host"] == loop["stages_target"]},
         "blend_insns_mean": rep["goal"]["mean"], "blend_insns_max": rep["goal"]["max"],
-        "blend_insns_by_what": loop.get("cost_groups"),
+        "blend_insns_by_what": rep.get("firmware_build", loop).get("cost_groups"),
+        "blend_insns_from": rep["goal"]["from"],
         "sizeof_fs_drive": next(iter(rep["modes"].values()))["sizeof_fs_drive"],
         "libm_differ_pct": {k: v["differ_pct"] for k, v in rep["libm"].items()},
     }
