@@ -126,3 +126,29 @@ def test_the_firmware_configuration_is_a_fresh_export(tmp_path):
         fresh, kept = (tmp_path / name).read_text(), (ROOT / "firmware" / name).read_text()
         assert kept == fresh, (f"firmware/{name} differs from a fresh export: run "
                                "`fullspeed export beyond-full-range --out firmware --name fs_config`")
+
+
+@needs_cc
+def test_exported_configs_initialise_and_options_refuse_what_they_leave_out(tmp_path):
+    """The export through the C library end to end: fs_drive_init accepts each exported
+    configuration (config_size included); built with -DFS_WITH_SWVI=0 it refuses the
+    square wave's, naming angle_source, and still accepts the blend's."""
+    names = {"beyond-swvi-3ph": "cfg_swvi", "beyond-full-range": "cfg_blend"}
+    for s, n in names.items():
+        export(s, tmp_path, n)
+    main = ['#include <stdio.h>', '#include "fs_drive.h"'] + [f'#include "{n}.h"' for n in names.values()]
+    main += ["static fs_drive drv;", "int main(void) {"]
+    main += [f'    {{ int st = (int)fs_drive_init(&drv, &{n}); printf("{n} %d %s\\n", st, drv.fail ? drv.fail : "-"); }}'
+             for n in names.values()]
+    main += ["    return 0;", "}"]
+    (tmp_path / "main.c").write_text("\n".join(main) + "\n")
+    srcs = [str(p) for p in sorted(CONTROL.glob("*.c"))] + [str(tmp_path / f"{n}.c") for n in names.values()]
+
+    def run(flags):
+        exe = tmp_path / "init"
+        subprocess.run([CC, "-std=c11", "-O0", *flags, f"-I{CONTROL}", f"-I{tmp_path}", str(tmp_path / "main.c"), *srcs,
+                        "-lm", "-o", str(exe)], check=True, capture_output=True)
+        out = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout
+        return {ln.split()[0]: (int(ln.split()[1]), ln.split()[2]) for ln in out.splitlines()}
+    assert run([]) == {"cfg_swvi": (lib.FS_OK, "-"), "cfg_blend": (lib.FS_OK, "-")}
+    assert run(["-DFS_WITH_SWVI=0"]) == {"cfg_swvi": (lib.FS_ERR_MODE, "angle_source"), "cfg_blend": (lib.FS_OK, "-")}
