@@ -228,8 +228,8 @@ const fs_drive_config fs_config = {
     .polarity = {   /* polarity detection when sensorless from the first step (i_pulse 0: none; Ts taken from above; i_pulse_max 0... */
         .Ts = 0.0f,   /* sampling period, s; 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .i_pulse = 30.0f,   /* d-current pulse amplitude, A (> 0); default of [polarity] i_pulse (fullspeed.scenario) */
-        .t_lock = 0.0599999987f,   /* settling of the estimator before the pulses, s (>= 0); default of [polarity] t_lock (fullspeed.scenario) */
-        .t_pulse = 0.0199999996f,   /* length of each pulse, s (>= 4 Ts; t_lock + t_pulse < 1e3 s and 1e9 Ts); default of [polarity] t_pulse (fullspeed.scenario) */
+        .t_lock = 0.0611154959f,   /* settling of the estimator before the pulses, s (>= 0); default of [polarity] t_lock (fullspeed.scenario) */
+        .t_pulse = 0.0229183119f,   /* length of each pulse, s (>= 4 Ts; t_lock + t_pulse < 1e3 s and 1e9 Ts); default of [polarity] t_pulse (fullspeed.scenario) */
         .i_pulse_max = 0.0f,   /* the largest pulse of the retries, A (0: i_pulse, no retry; else >= i_pulse); 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .d_min = 0.0f,   /* the relative difference's floor (0: FS_POLARITY_D_MIN; else in (0, 1)); 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .w_filter = 0.0f,   /* the carrier amplitude's filter bandwidth, rad/s (0: samples taken as independent); 0: taken from the drive's fields or designed by fs_drive_init, or off */
