@@ -11,7 +11,7 @@ import pytest
 
 from fullspeed import design as dz
 from fullspeed import zoo
-from fullspeed.machines import load_machine, machine_from_dict
+from fullspeed.machines import machine_from_dict
 from fullspeed.scenario import load_scenario, scenario_from_dict
 from fullspeed.sim import simulate
 
