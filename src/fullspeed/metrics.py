@@ -38,23 +38,28 @@ SENSORLESS_STAGES = (4, 5, 6, 7)
 def true_loss_at(tr, threshold: float = math.pi / 2, t_net: float = 0.02) -> float | None:
     """When the simulation's truth says lock was lost: the loops' angle more
     than `threshold` (rad) from the rotor's, in a sensorless stage, for
-    `t_net` s net (time off counts up, time on counts down to no less than 0,
-    as fs_lock.h counts its residual); None if never. The drive cannot know
-    this; the campaigns compare its flags against it."""
+    `t_net` s net; None if never. Net as fs_lock.h counts: time off counts
+    up; time back on track (within half the threshold) counts down to no
+    less than 0; time in between holds, so that an estimate slipping round
+    and round (a quarter of its time within 45 deg, half beyond 90) counts
+    as lost and not as on track half the time. The drive cannot know this;
+    the campaigns compare its flags against it."""
     t = np.asarray(tr["t"])
     if t.size < 2:
         return None
     dt = float(t[1] - t[0])
-    off = (np.abs(np.asarray(tr["theta_err"])) > threshold) & np.isin(np.asarray(tr["stage"]).astype(int), SENSORLESS_STAGES)
+    e = np.abs(np.asarray(tr["theta_err"]))
+    sensorless = np.isin(np.asarray(tr["stage"]).astype(int), SENSORLESS_STAGES)
+    state = np.where(sensorless & (e > threshold), 1, np.where(~sensorless | (e < 0.5 * threshold), -1, 0)).astype(np.int8)
     # segments of equal state: the counter moves linearly within each
-    edges = np.r_[0, np.flatnonzero(np.diff(off.astype(np.int8))) + 1, off.size]
+    edges = np.r_[0, np.flatnonzero(np.diff(state)) + 1, state.size]
     acc = 0.0
     for a, b in zip(edges[:-1], edges[1:]):
-        if off[a]:
+        if state[a] == 1:
             if acc + (b - a) * dt >= t_net - 1e-12:
                 return float(t[a + max(0, math.ceil((t_net - acc) / dt - 1e-9) - 1)])
             acc += (b - a) * dt
-        else:
+        elif state[a] == -1:
             acc = max(0.0, acc - (b - a) * dt)
     return None
 
