@@ -58,7 +58,7 @@ void fs_monitor_reset(fs_monitor *m)
     m->e_d = m->e_q = 0.0f;
     m->w_f = m->T_f = m->id_f = m->i_f = m->ierr_f = 0.0f;
     m->r_dir = m->r_mech = m->r_cur = 0.0f;
-    m->E_hat = m->E_err = m->T_L_hat = 0.0f;
+    m->E_hat = m->E_err = m->T_L_hat = m->T_L_abs = 0.0f;
 }
 
 /* The extended EMF over the period that ended at this sample, alpha-beta. */
@@ -119,6 +119,9 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
     /* d(w_f)/dt: the low-passed speed's own derivative, s / (tau s + 1) w */
     const float T_L = m->T_f - (c->J / pp) * (m->w_f - w_prev) / c->Ts - (c->B / pp) * m->w_f;
     m->T_L_hat += b * (T_L - m->T_L_hat);   /* a second pole: the speed's noise differentiated */
+    /* its size, averaged: an estimate whose speed swings both ways implies
+     * loads of both signs, which would cancel in T_L_hat itself */
+    m->T_L_abs += b * (fabsf(m->T_L_hat) - m->T_L_abs);
     if ((float)m->k < FS_MONITOR_WARM * c->tau / c->Ts) return 0.0f;
 
     const float p = s * m->e_q;
@@ -128,7 +131,7 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
     const bool emf = m->E_hat >= FS_MONITOR_E_USE * m->E_err;
     const float den = m->E_hat + m->E_err;
     m->r_dir = den > 0.0f ? fmaxf(1.0f + ((emf ? FS_MONITOR_K_DIR * m->E_hat : 0.0f) - m->E_err - p) / den, 0.0f) : 0.0f;
-    m->r_mech = emf || !(c->J > 0.0f && c->T_max > 0.0f) ? 0.0f : fabsf(m->T_L_hat) / (FS_MONITOR_K_MECH * c->T_max);
+    m->r_mech = emf || !(c->J > 0.0f && c->T_max > 0.0f) ? 0.0f : m->T_L_abs / (FS_MONITOR_K_MECH * c->T_max);
     m->r_cur = m->ierr_f / (FS_MONITOR_K_CUR * c->i_max);
     return fmaxf(m->r_dir, fmaxf(m->r_mech, m->r_cur));
 }

@@ -29,7 +29,7 @@
  *    a pi-off estimate reverses the torque the loops command, and their
  *    speed loop, seeing the rotor run the wrong way, saturates it: T_L_hat
  *    then reaches 2 T_ref + T_L, about 2 T_max:
- *      r_mech = |T_L_hat| / (k_mech T_max)
+ *      r_mech = <|T_L_hat|> / (k_mech T_max)     (its size low-passed once more)
  * 3. The current loops' error |i_ref - i| low-passed against k_cur i_max:
  *    an estimate that spins against the rotor leaves the loops a rotating
  *    back-EMF they cannot follow.
@@ -82,6 +82,7 @@ typedef struct {
     float r_dir, r_mech, r_cur;
     float E_hat, E_err;       /* V, the last step's expected EMF and error bound */
     float T_L_hat;            /* N m */
+    float T_L_abs;            /* N m, |T_L_hat| low-passed: what r_mech compares */
 } fs_monitor;
 
 /* The design constants (see above; reasons in fs_monitor.c). */
