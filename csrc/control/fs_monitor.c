@@ -3,28 +3,39 @@
 #include "fs_transforms.h"
 
 /* Design constants (fs_monitor.h), each with its reason:
- * K_DIR 0.15: p < 0.15 E_hat - E_err. With the magnet flux exact an angle
- *   error past acos 0.15 = 81 el.deg; with psi_f off by x2 either way (E_hat
- *   = 2 or 0.5 E_ext) past 72 or 86 el.deg: a flag comes at most about 20
- *   el.deg before the 90 of a true loss, never for the 30-45 el.deg a
- *   tracking estimator swings in transients.
+ * K_DIR 0.25: p < 0.25 E_hat - E_err. With the magnet flux exact an angle
+ *   error past acos 0.25 = 76 el.deg; with psi_f off by x2 either way (E_hat
+ *   = 2 or 0.5 E_ext) past 60 or 83 el.deg: never for the 30-45 el.deg a
+ *   tracking estimator swings in transients, and a flag up to 30 el.deg
+ *   before the truth's 90 gives the 20 ms net count a head start on the
+ *   filters' lag (tau).
+ * K_MAG 2.3: the voltage (beyond R i) more than 2.3 times what the loops'
+ *   speed can ask of the machine, |w_hat| (psi_f + L |i|), plus twice the
+ *   error bound and what the current's rate takes, L |di/dt|: a magnet flux
+ *   or inductance off by x2 gives at most 2; 15 % above it.
  * U_FLOOR 0.01: 1 % of the dc link added to the voltage error bound: what
  *   the model leaves out beside the parameters (the modulator's and the
  *   sampling's timing, the carrier's leak into the fundamental), so that
  *   at standstill with no current the back-EMF is not judged on nothing.
- * K_MECH 1.5: a pi-off estimate implies a load of 2 T_ref + T_L, about 2
- *   T_max once its speed loop saturates; a load the drive can hold is within
- *   T_max, and an inertia off by x2 adds at most (J_hat - J) a, up to
- *   about T_max in the fastest acceleration, of the opposite sign to a
- *   loss's. 1.5 T_max lies between.
- * K_CUR 0.5: the current loops' error averaged over tau stays a small part
+ * K_MECH 1.2: a pi-off estimate implies a load of 2 T_ref + T_L, about 2
+ *   T_max once its speed loop saturates. On track the implied load is the
+ *   load, within T_max for a drive that can hold it; an inertia off by x2
+ *   turns it into 2 T_L - T_ref at most (J_hat = 2 J), still within T_max
+ *   for T_ref and T_L within it. 1.2 T_max: 20 % above what a tracking
+ *   drive shows, below what a reversed torque does.
+ * K_CUR 0.4: the current loops' error averaged over tau stays a small part
  *   of i_max on track (a step of i_max leaves i_max / (bw_current tau), 7 %
- *   at 3000 rad/s and 5 ms); half of i_max is a loop that no longer holds.
+ *   at 3000 rad/s and 5 ms); 40 % of i_max is a loop that no longer holds.
  * E_USE 3 E_err: the back-EMF is judged where the loops' speed makes it 3
  *   times the voltage the model leaves out; below, the mechanics are.
  * WARM 2 tau: the low-passes start from 0 when the checks come on; before
- *   two time constants (86 % of a step) no residual is reported. */
+ *   two time constants (86 % of a step) no residual is reported.
+ * The constants were set from these bounds, then checked on the campaign
+ * (fullspeed.lock_campaign): thresholds 1.3 times lower everywhere added
+ * detections there but also false alarms on healthy runs (zoo machines
+ * near their own limits), 1.6 times lower more so. */
 #define FS_MONITOR_E_USE 3.0f
+#define FS_MONITOR_K_MAG 2.3f
 #define FS_MONITOR_U_FLOOR 0.01f
 #define FS_MONITOR_WARM 2.0f
 
@@ -55,9 +66,9 @@ void fs_monitor_reset(fs_monitor *m)
     m->k = 0;
     m->i_prev.alpha = m->i_prev.beta = 0.0f;
     m->u_q1 = m->u_q2 = m->i_prev;
-    m->e_d = m->e_q = 0.0f;
+    m->e_d = m->e_q = m->v_mag = m->di_mag = 0.0f;
     m->w_f = m->T_f = m->id_f = m->i_f = m->ierr_f = 0.0f;
-    m->r_dir = m->r_mech = m->r_cur = 0.0f;
+    m->r_dir = m->r_mag = m->r_mech = m->r_cur = 0.0f;
     m->E_hat = m->E_err = m->T_L_hat = m->T_L_abs = 0.0f;
 }
 
@@ -96,6 +107,17 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
     }
     /* back-EMF in the loops' frame, at the period's middle */
     const fs_ab e_ab = monitor_emf(m, in);
+    /* the voltage beyond the resistance's, as a magnitude (no derivative:
+     * the carrier's leak and the noise in di/dt would bias it), and the
+     * current's rate, which bounds what the inductance takes */
+    {
+        const fs_ab u = c->delay == 0 ? m->u_q1 : m->u_q2;
+        const float va = u.alpha - c->R_s * 0.5f * (in->i.alpha + m->i_prev.alpha);
+        const float vb = u.beta - c->R_s * 0.5f * (in->i.beta + m->i_prev.beta);
+        const float da = in->i.alpha - m->i_prev.alpha, db = in->i.beta - m->i_prev.beta;
+        m->v_mag += b * (sqrtf(va * va + vb * vb) - m->v_mag);
+        m->di_mag += b * (sqrtf(da * da + db * db) / c->Ts - m->di_mag);
+    }
     const float th = in->theta - 0.5f * in->w * c->Ts;
     const fs_dq e = fs_park(e_ab, cosf(th), sinf(th));
     const fs_dq i_dq = fs_park(in->i, cosf(in->theta), sinf(in->theta));
@@ -133,5 +155,7 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
     m->r_dir = den > 0.0f ? fmaxf(1.0f + ((emf ? FS_MONITOR_K_DIR * m->E_hat : 0.0f) - m->E_err - p) / den, 0.0f) : 0.0f;
     m->r_mech = emf || !(c->J > 0.0f && c->T_max > 0.0f) ? 0.0f : m->T_L_abs / (FS_MONITOR_K_MECH * c->T_max);
     m->r_cur = m->ierr_f / (FS_MONITOR_K_CUR * c->i_max);
-    return fmaxf(m->r_dir, fmaxf(m->r_mech, m->r_cur));
+    const float L = fmaxf(c->L_d, c->L_q);
+    m->r_mag = m->v_mag / (FS_MONITOR_K_MAG * aw * (c->psi_f + L * m->i_f) + 2.0f * m->E_err + L * m->di_mag);
+    return fmaxf(fmaxf(m->r_dir, m->r_mag), fmaxf(m->r_mech, m->r_cur));
 }

@@ -22,6 +22,11 @@
  *    by up to 100 % acting through the d current (|w_hat| max(L_d, L_q) |i_d|;
  *    for the q current they turn e along d, not q), and a floor of 1 % of the
  *    dc link.
+ *    And an estimate stuck at low speed while the rotor turns fast leaves
+ *    a voltage far beyond what its speed asks (the EMF it rotates through
+ *    averages out of e in its frame, not out of the magnitude):
+ *      r_mag = <|u - R i|> / (k_mag |w_hat| (psi_f + L |i|) + 2 E_err + L <|di/dt|>)
+ *    with L = max(L_d, L_q) and <> the low-pass of the magnitude.
  * 2. Mechanics (where the back-EMF is too small to judge: E_hat below
  *    3 E_err). The load the loops' motion implies,
  *      T_L_hat = T_ref - (J/p) dw_hat/dt - (B/p) w_hat   (low-passed twice)
@@ -46,7 +51,7 @@
 
 typedef struct {
     float Ts;                 /* s, the loops' period */
-    int delay;                /* 0, 1 or 2: the voltage computed at k acts over (k+delay, k+delay+1) sampling periods */
+    int delay;                /* 0, 1 or 2: the voltage computed at k acts over (k+delay, k+delay+1) sampling periods (2 is taken as 1) */
     float R_s, L_d, L_q, psi_f;   /* the controller's machine */
     int pole_pairs;
     float J, B;               /* kg m^2, N m s (J = 0: no mechanical check) */
@@ -76,19 +81,21 @@ typedef struct {
     fs_ab i_prev;             /* the last sample's current */
     fs_ab u_q1, u_q2;         /* the voltages computed 1 and 2 steps ago */
     float e_d, e_q;           /* low-passed EMF in the loops' frame, V */
+    float v_mag;              /* low-passed |u - R i|, V */
+    float di_mag;             /* low-passed |di/dt|, A/s */
     float w_f, T_f, id_f, i_f;    /* low-passed: speed, torque reference, d current, |i| */
     float ierr_f;             /* low-passed |i_ref - i| */
     /* the last step's residuals (<= 1 on track) */
-    float r_dir, r_mech, r_cur;
+    float r_dir, r_mag, r_mech, r_cur;
     float E_hat, E_err;       /* V, the last step's expected EMF and error bound */
     float T_L_hat;            /* N m */
     float T_L_abs;            /* N m, |T_L_hat| low-passed: what r_mech compares */
 } fs_monitor;
 
 /* The design constants (see above; reasons in fs_monitor.c). */
-#define FS_MONITOR_K_DIR 0.15f
-#define FS_MONITOR_K_MECH 1.5f
-#define FS_MONITOR_K_CUR 0.5f
+#define FS_MONITOR_K_DIR 0.25f
+#define FS_MONITOR_K_MECH 1.2f
+#define FS_MONITOR_K_CUR 0.4f
 
 fs_status fs_monitor_init(fs_monitor *m, const fs_monitor_config *cfg);
 void fs_monitor_reset(fs_monitor *m);

@@ -102,12 +102,12 @@ int main(void)
 
     /* the current loops' error */
     FS_CHECK(fs_monitor_init(&m, &CFG) == FS_OK, "init");
-    fs_monitor_in in = {{0.0f, 0.0f}, {0.0f, 0.0f}, U_DC, 0.0f, 0.0f, 0.0f, {0.0f, 0.4f * CFG.i_max}, true};
+    fs_monitor_in in = {{0.0f, 0.0f}, {0.0f, 0.0f}, U_DC, 0.0f, 0.0f, 0.0f, {0.0f, 0.3f * CFG.i_max}, true};
     for (int k = 0; k < 300; ++k) r = fs_monitor_step(&m, &in);
-    FS_CHECK(r > 0.7f && r < 0.81f, "0.4 i_max of error: r_cur %g", r);
-    in.i_err.q = 0.6f * CFG.i_max;
+    FS_CHECK(r > 0.7f && r < 0.76f, "0.3 i_max of error: r_cur %g", r);
+    in.i_err.q = 0.5f * CFG.i_max;
     for (int k = 0; k < 300; ++k) r = fs_monitor_step(&m, &in);
-    FS_CHECK(r > 1.1f, "0.6 i_max of error: r_cur %g", r);
+    FS_CHECK(r > 1.1f, "0.5 i_max of error: r_cur %g", r);
     in.on = false;
     FS_CHECK(fs_monitor_step(&m, &in) == 0.0f && m.ierr_f == 0.0f && !m.started, "off: 0 and the filters rest");
     in.on = true;
