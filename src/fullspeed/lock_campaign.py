@@ -10,7 +10,8 @@ true loss counts 0 when the run truly lost; a flag in a run that never
 truly lost is a false alarm).
 
 Cases, on SMO, rotating injection and the blend, on the catalog machines
-yang2022 and motulator-2kw-ipmsm (`BASES`):
+yang2022 and motulator-2kw-ipmsm (`BASES`), and blended on a sample of the
+machine zoo with its designed defaults (`zoo_bases`):
 - healthy: the controller's R_s, L_d, L_q, psi_f each x U(0.85, 1.15) and
   the sensors' noise drawn afresh (seeded);
 - param: one of the controller's R_s, L_d, L_q, psi_f, J at x0.5 or x2;
@@ -38,7 +39,9 @@ from .metrics import SENSORLESS_STAGES, true_loss_at
 from .schema import deep_merge
 
 KINDS = ("healthy", "param", "impact", "reversal", "polarity")
-DESCRIPTION = ("per base (SMO, rotating injection and the blend on yang2022 and motulator-2kw-ipmsm): healthy runs "
+DESCRIPTION = ("per base (SMO, rotating injection and the blend on yang2022 and motulator-2kw-ipmsm; the blend on the "
+               "first six machines of the zoo whose scenario loads, designed defaults, 0 -> half rated speed under half "
+               "rated torque): healthy runs "
                "with R_s, L_d, L_q, psi_f each x U(0.85, 1.15) and fresh sensor noise; the controller's R_s, L_d, "
                "L_q, psi_f, J at x0.5 and x2; load steps to 1.5 and 2.5 T_max; the speed reference stepped to its "
                "negative; with injection, polarity detection off and the rotor 180 el.deg from the estimate.")

@@ -267,5 +267,7 @@ def lock(out: Path) -> Measurement:
             f"flagged. Beside them, {a['false_alarms']} runs of all kinds were flagged without a true loss; "
             f"{a['slipping_flags']} of these had the error past 90 el.deg for 20 ms or more in all (an estimate "
             "slipping through +-180 el.deg, which the net count of the truth does not see as lost), the others are "
-            "overloads the mechanical check cannot tell from a reversed torque. By kind: B-LOCK-table.md.")
+            "overloads the mechanical check cannot tell from a reversed torque. By kind: B-LOCK-table.md."
+            + "".join(f" Zoo machine {k} left out: its scenario is refused ({why})." for k, why in
+                      lock_campaign.ZOO_REFUSED.items()))
     return Measurement(value, bool(ok), note, [fig])
