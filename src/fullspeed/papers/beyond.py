@@ -254,6 +254,7 @@ def lock(out: Path) -> Measurement:
     value = {"runs": a["runs"], "true_losses": a["true_losses"], "detected": a["detected"],
              "detection_pct": a["detection_pct"], "healthy_runs": h["not_lost"], "false_alarms_healthy": h["false_alarms"],
              "false_alarm_pct": 100.0 * h["false_alarms"] / h["not_lost"] if h["not_lost"] else None,
+             "false_alarms_healthy_not_slipping": h["false_alarms"] - h["slipping_flags"],
              "flagged_without_true_loss": a["false_alarms"], "of_them_slipping": a["slipping_flags"],
              "delay_median_ms": a["delay_median_ms"], "delay_worst_ms": a["delay_worst_ms"], "refused": a["errors"]}
     ok = (value["detection_pct"] is not None and value["detection_pct"] >= 99.0
