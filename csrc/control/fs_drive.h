@@ -87,6 +87,7 @@
 #include "fs_hfi.h"
 #include "fs_imc.h"
 #include "fs_lock.h"
+#include "fs_monitor.h"
 #include "fs_mtpa.h"
 #include "fs_pll.h"
 #include "fs_polarity.h"
@@ -225,7 +226,11 @@ typedef struct {
      * whose weight is not 0, and while the SMO is valid, its disagreement
      * with the blended angle over 45 deg (an injection estimate that
      * slipped while the rotor was thrown beyond the injection's speed
-     * range). */
+     * range); and, except with the square wave, the checks that do not
+     * trust the estimator (fs_monitor.h: the back-EMF against the loops'
+     * angle and speed, the voltage against what their speed asks, the load
+     * their motion implies, the current loops' error), low-passed over
+     * lock_time / 4 as well. */
     float lock_time;
     /* recovery from a loss of lock (lock_recover = 1; else the monitor
      * latches lock_lost). The currents are held at zero for t_recover, s,
@@ -331,6 +336,7 @@ typedef struct {
     fs_swvi sw;
     fs_imc_depth depth;      /* matrix converter, PART_2 */
     fs_lock lock;
+    fs_monitor mon;          /* the checks that do not trust the estimator (with lock_time > 0) */
     float i_hf;              /* the rotating carrier current's peak, A: i_max less it bounds the fundamental */
     float lock_a;            /* the residual's low-pass pole */
     float lock_ri, lock_es, lock_eh;   /* low-passed: SMO current error / delta, SMO PLL error, injection error */
