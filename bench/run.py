@@ -1,11 +1,12 @@
 """fullspeed's benchmarks in one command: wall time against motulator, the
-drive step's instructions per control step, and the Cortex-M4F build.
+position estimators against motulator on its own examples, the drive
+step's instructions per control step, and the Cortex-M4F build.
 
 Each part runs on its own and skips, saying why, where this machine lacks
 what it needs (a Python >= 3.12 for motulator, valgrind, the ARM
 toolchain). The report is printed and written as JSON to --out.
 
-Usage: python bench/run.py [--repeat N] [--steps N] [--out DIR] [--only wall,instructions,firmware]
+Usage: python bench/run.py [--repeat N] [--steps N] [--out DIR] [--only wall,estimators,instructions,firmware]
 """
 from __future__ import annotations
 
@@ -17,11 +18,12 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
+import estimators  # noqa: E402
 import firmware  # noqa: E402
 import instructions  # noqa: E402
 import wall  # noqa: E402
 
-PARTS = ("wall", "instructions", "firmware")
+PARTS = ("wall", "estimators", "instructions", "firmware")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -44,6 +46,9 @@ def main(argv: list[str] | None = None) -> int:
         if part == "wall":
             rep = wall.wall_report(a.repeat)
             text = wall.format_report(rep)
+        elif part == "estimators":
+            rep = estimators.estimators_report(a.out)
+            text = estimators.format_report(rep)
         elif part == "instructions":
             rep = instructions.instructions_report(steps=a.steps)
             text = instructions.format_report(rep)
