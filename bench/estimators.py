@@ -3,9 +3,10 @@ examples for its 2.2 kW IPMSM (same machine, profiles and 125 us sampling,
 ideal sensors, no dead time, linear magnetics, exact parameters).
 
   (a) flux-vector example, 0 -> 3000 rpm at 0.2 s, 0.7 x 14 N m at 0.8 s:
-      motulator's flux observer against fullspeed's SMO with the I/f start
-      (catalog scenario bench-motulator-2kw), the SMO as yang2022 gives it
-      (observer.lag = "paper"), and the blend (injection from standstill).
+      motulator's flux observer against fullspeed's SMO (its tracking form,
+      fs_smo.h) with the I/f start (catalog scenario bench-motulator-2kw),
+      the SMO as yang2022 gives it (observer.form = "paper"), and the blend
+      (injection from standstill).
   (b) signal-injection example, +-150 rpm, rated 14 N m at standstill
       (0.5 s) released at 3.5 s: motulator's square wave against fullspeed's
       square wave, rotating injection and blend (bench-motulator-2kw-swvi,
@@ -55,7 +56,7 @@ CASES = {
         "peer": "motulator FVC (flux observer)",
         "runs": {
             "SMO + I/f": ("bench-motulator-2kw", _AVG),
-            "SMO paper + I/f": ("bench-motulator-2kw", {**_AVG, "observer": {"lag": "paper"}}),
+            "SMO paper + I/f": ("bench-motulator-2kw", {**_AVG, "observer": {"form": "paper"}}),
             "blend": ("bench-motulator-2kw", {**_AVG, **_BLEND_A}),
         },
         "windows": (("start-up", 0.2, 0.35), ("acceleration", 0.35, 0.8), ("load step", 0.8, 1.2),

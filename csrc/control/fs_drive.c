@@ -121,6 +121,10 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         oc.L_d = cfg->L_d;
         oc.L_q = cfg->L_q;
         oc.psi_f = cfg->psi_f;
+        oc.J = cfg->J;            /* the tracking form's motion observer and torque */
+        oc.B = cfg->B;
+        oc.pole_pairs = cfg->pole_pairs;
+        oc.phases = cfg->phases;
         oc.dir_external = cfg->angle_source == FS_ANGLE_BLEND;
         SUB("smo", fs_smo_init(&drv->smo, &oc));
     }

@@ -76,7 +76,10 @@ SCENARIO = {
         "bw_pll": POS(None, hi=1e6, doc="rad/s; default from the machine's bench"),
         "valid_rpm": NONNEG(100.0, hi=1e6),
         "top_speed_rpm": POS(None, hi=1e6, doc="for the gain bound; default 1.5 x rated"),
-        "lag": C("exact", "paper", default="exact"),
+        "lag": C("exact", "paper", default="exact", doc="form = \"paper\": the filter's lag compensated exactly or by pi/4"),
+        "form": C("paper", "tracking", default="paper",
+                  doc="paper: the SMO and PLL of yang2022 sec. 2; tracking: fullspeed's, exact in discrete time, "
+                      "with a motion observer on the measured torque (fs_smo.h)"),
         # how the sensorless drive starts: on the encoder until `handover`, or
         # sensorless from standstill with an I/f start
         "start": C("encoder", "if", default="encoder"),

@@ -40,6 +40,7 @@ ANGLES = {"encoder": lib.FS_ANGLE_ENCODER, "true": lib.FS_ANGLE_EXTERNAL, "smo":
           "hfi": lib.FS_ANGLE_HFI, "blend": lib.FS_ANGLE_BLEND, "swvi": lib.FS_ANGLE_SWVI}
 SEQUENCES = {"conventional": lib.FS_SWVI_CONVENTIONAL, "optimized": lib.FS_SWVI_OPTIMIZED}
 LAGS = {"exact": lib.FS_SMO_LAG_EXACT, "paper": lib.FS_SMO_LAG_PAPER}
+SMO_FORMS = {"paper": lib.FS_SMO_FORM_PAPER, "tracking": lib.FS_SMO_FORM_TRACKING}
 REGIONS = {"linear": lib.FS_IMC_LINEAR, "om1": lib.FS_IMC_OM1, "om2": lib.FS_IMC_OM2}
 MAGNETIC = {"linear": lib.FS_MAG_LINEAR, "algebraic": lib.FS_MAG_ALGEBRAIC, "fluxmap": lib.FS_MAG_FLUXMAP}
 
@@ -188,6 +189,7 @@ def build_config(sc: Scenario):
     oc.bw_pll = obs["bw_pll"]
     oc.w_valid = p * rpm_to_rad_s(obs["valid_rpm"])
     oc.lag = LAGS[obs["lag"]]
+    oc.form = SMO_FORMS[obs["form"]]
     if obs["start"] == "if":
         dc.i_start = obs["i_start"]
         dc.a_start = p * rpm_to_rad_s(obs["start_accel_rpm_s"])
