@@ -1,6 +1,14 @@
 #include "fs_hfi.h"
 #include "fs_math.h"
 
+float fs_hfi_w_h_max(float Ts)
+{
+    if (!fs_pos(Ts)) return 0.0f;
+    float w = 0.5f * FS_PI / Ts;
+    while (w > 0.0f && !(w * Ts < 0.5f * FS_PI)) w = nextafterf(w, 0.0f);
+    return w;
+}
+
 fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
 {
     if (!h || !cfg) return FS_ERR_NULL;
@@ -8,7 +16,7 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
     if (!fs_pos(c.Ts)) return FS_ERR_TS;
     if (!(c.delay >= 0.0f && c.delay <= 2.0f)) return FS_ERR_PARAM;
     if (!fs_pos(c.u_h)) return FS_ERR_PARAM;
-    if (!(c.w_h > 0.0f) || !(c.w_h * c.Ts <= 0.5f * FS_PI)) return FS_ERR_BANDWIDTH;
+    if (!(c.w_h > 0.0f) || !(c.w_h <= fs_hfi_w_h_max(c.Ts))) return FS_ERR_BANDWIDTH;
     if (!fs_nonneg(c.w_b_p) || !fs_nonneg(c.w_b_n)) return FS_ERR_BANDWIDTH;
     if (!fs_nonneg(c.R_s)) return FS_ERR_RS;
     if (!fs_pos(c.L_d)) return FS_ERR_LD;

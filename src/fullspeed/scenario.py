@@ -340,8 +340,7 @@ def _injection_fields(d: dict, m: Machine, source) -> None:
     _check_saliency(ctl, m, source)
     _machine_injection(inj, m, ("u_h", "f_h"), source)
     Ts = _control_period(d)
-    if inj["f_h"] > 0.25 / Ts:
-        raise ConfigError("injection.f_h", inj["f_h"], f"must be <= {0.25 / Ts:g} Hz: at least 4 samples per carrier period at Ts = {Ts:g} s", source)
+    _check_carrier(inj["f_h"], Ts, source)
     for key in ("bw_filter_p", "bw_filter_n", "bw_observer"):
         if inj[key] is not None and inj[key] * Ts > 0.5:
             raise ConfigError(f"injection.{key}", inj[key], f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s", source)
@@ -383,6 +382,16 @@ def _injection_fields(d: dict, m: Machine, source) -> None:
             inj["stop_rpm"] = 1.2 * bl["upper_rpm"]
         if not 0.9 * inj["stop_rpm"] >= bl["upper_rpm"]:
             raise ConfigError("injection.stop_rpm", inj["stop_rpm"], f"must be >= upper_rpm / 0.9 = {bl['upper_rpm'] / 0.9:g} (the injection resumes at 0.9 x stop_rpm)", source)
+
+
+def _check_carrier(f_h: float, Ts: float, source) -> None:
+    """The rotating carrier's limit, fs_hfi_w_h_max's rule (the one C applies):
+    more than 4 samples per carrier period, w_h Ts < pi/2 in float32."""
+    w_max = _core.lib.fs_hfi_w_h_max(Ts)
+    if not float(_core.ffi.cast("float", 2 * math.pi * f_h)) <= w_max:   # w_h as the C config holds it
+        raise ConfigError("injection.f_h", f_h, f"must be at most {w_max / (2 * math.pi):.10g} Hz: more than 4 samples per carrier "
+                          f"period at Ts = {Ts:g} s, w_h Ts below pi/2 in float32 (a quarter of the sampling rate, {0.25 / Ts:g} Hz, "
+                          "is not below it there)", source)
 
 
 def _check_saliency(ctl: dict, m: Machine, source) -> None:
