@@ -42,11 +42,13 @@ import wall  # noqa: E402  (the peer's virtual environment)
 PEER = HERE / "estimators_peer.py"
 RPM = 30.0 / np.pi
 
-# the (a) blend: injection from standstill with the rotating carrier the (b)
-# runs use; polarity detection off (the rotor starts at the estimate, as in
-# motulator's example); band at 10 % / 20 % of rated speed (fs_blend.h)
-_BLEND_A = {"controller": {"angle": "blend"}, "observer": {"start": "encoder"},
-            "injection": {"u_h": 250.0, "f_h": 1000.0}, "blending": {"lower_rpm": 150.0, "upper_rpm": 300.0},
+# the (a) blend: injection from standstill with the carrier, filters and
+# observers of bench-motulator-2kw-blend (case b), the SMO's tracking form;
+# polarity detection off (the rotor starts at the estimate, as in motulator's
+# example); band at 10 % / 20 % of rated speed (fs_blend.h)
+_BLEND_A = {"controller": {"angle": "blend"}, "observer": {"start": "encoder", "form": "tracking"},
+            "injection": {"u_h": 250.0, "f_h": 1600.0, "bw_filter_p": 1005.3, "bw_filter_n": 1005.3, "bw_observer": 251.3, "leak": "remove"},
+            "blending": {"lower_rpm": 150.0, "upper_rpm": 300.0, "bw_observer": 251.3, "gate": True},
             "polarity": {"enabled": False}}
 _AVG = {"converter": {"inverter": "averaged"}}
 

@@ -95,6 +95,8 @@ SCENARIO = {
         "bw_filter_p": POS(None, hi=1e6, doc="rad/s, SRFF at +w_h; default w_h / 20 (fs_hfi.h)"),
         "bw_filter_n": POS(None, hi=1e6, doc="rad/s, SRFF at -w_h + 2 w_r; default w_h / 20"),
         "bw_observer": POS(None, hi=1e6, doc="rad/s, motion observer; default bw_filter_n / 5"),
+        "leak": C("keep", "remove", default="keep",
+                  doc="hfi/blend: remove takes the fundamental's leak out of the negative carrier (fs_hfi_filter.h; no load-proportional bias); keep: the paper's filter"),
         "xcomp": Spec("any", None, doc="cross-saturation table {i_q = [A...], delta_deg = [...]} on an even grid, or a TOML file holding it, or (swvi) \"paper\": the machine's fitted error polynomial"),
         "stop_rpm": POS(None, hi=1e6, doc="blend: the injection stops above this speed (resumes below 0.9 of it); default 1.2 x the upper blending speed"),
         "sequence": C("optimized", "conventional", default="optimized", doc="swvi: the time sequence of yu2022 sec. 3.2"),
@@ -111,6 +113,7 @@ SCENARIO = {
         "lower_rpm": NONNEG(None, hi=1e6, doc="eq. (28); default the machine's [blending]"),
         "upper_rpm": POS(None, hi=1e6),
         "bw_observer": POS(None, hi=1e6, doc="rad/s, the motion observer after the blend (Fig. 6); default that of the injection's"),
+        "gate": B(False, doc="the SMO's weight only once it has converged, the injection stopped only then (fs_blend.h); false: eq. (28) alone"),
     }, default={}),
     "load": T({
         "kind": C("torque", "speed", "speed_pi", "brake", default="torque",

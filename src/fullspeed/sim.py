@@ -238,6 +238,7 @@ def _set_injection(dc, d: dict, p: int) -> None:
     hc.w_b_p = inj["bw_filter_p"] or 0.0
     hc.w_b_n = inj["bw_filter_n"] or 0.0
     hc.obs.bandwidth = inj["bw_observer"] or 0.0
+    hc.leak = inj["leak"] == "remove"
     xc = inj["xcomp"]
     if xc is not None:
         _set_xcomp(hc.xcomp, xc)
@@ -245,6 +246,7 @@ def _set_injection(dc, d: dict, p: int) -> None:
         dc.blend.w_lower = p * rpm_to_rad_s(bl["lower_rpm"])
         dc.blend.w_upper = p * rpm_to_rad_s(bl["upper_rpm"])
         dc.blend.obs.bandwidth = bl["bw_observer"] or 0.0
+        dc.blend.gate = bl["gate"]
         dc.w_inject_max = p * rpm_to_rad_s(inj["stop_rpm"])
     if pol["enabled"]:
         dc.polarity.i_pulse, dc.polarity.t_lock, dc.polarity.t_pulse = pol["i_pulse"], pol["t_lock"], pol["t_pulse"]
