@@ -133,6 +133,10 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         oc.L_d = cfg->L_d;
         oc.L_q = cfg->L_q;
         oc.psi_f = cfg->psi_f;
+        oc.J = cfg->J;            /* the tracking form's motion observer and torque */
+        oc.B = cfg->B;
+        oc.pole_pairs = cfg->pole_pairs;
+        oc.phases = cfg->phases;
         oc.dir_external = cfg->angle_source == FS_ANGLE_BLEND;
         SUB("smo", fs_smo_init(&drv->smo, &oc));
     }
@@ -273,12 +277,15 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
         const float w_min = own ? drv->smo.cfg.w_valid : 0.5f * drv->blend.cfg.w_lower;
         if (fabsf(w_dir) > w_min) fs_smo_set_dir(&drv->smo, w_dir);
         fs_smo_step(&drv->smo, i_f, drive_u_past(drv));
-        fs_blend_step(&drv->blend, drv->smo.theta, drv->hfi.theta, T_ff);   /* Fig. 6 */
+        fs_blend_step_gated(&drv->blend, drv->smo.theta, drv->hfi.theta, T_ff,   /* Fig. 6 */
+                            drv->smo.converged || !c->blend.gate, drv->injecting);
         /* Above w_inject_max the injection stops (g_w = 1 there: the HFI
          * angle is not read); below 0.9 w_inject_max it resumes from the
          * blended estimate. */
         const float aw = fabsf(drv->blend.w_hat);
-        if (c->w_inject_max > 0.0f && drv->inject_on && aw > c->w_inject_max) {
+        /* ... and, with the blend's gate, only once the SMO has converged
+         * (fs_blend.h: a load release can carry the rotor past it before) */
+        if (c->w_inject_max > 0.0f && drv->inject_on && aw > c->w_inject_max && drv->blend.trust >= 1.0f) {
             drv->inject_on = false;
         } else if (c->w_inject_max > 0.0f && !drv->inject_on && aw < 0.9f * c->w_inject_max) {
             drv->inject_on = true;

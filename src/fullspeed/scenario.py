@@ -77,7 +77,10 @@ SCENARIO = {
         "bw_pll": POS(None, hi=1e6, doc="rad/s; default from the machine's bench"),
         "valid_rpm": NONNEG(None, hi=1e6, doc="the observer's estimate is trusted above this speed; default 5/8 of the lower blending speed (yang2022: 100 rpm)"),
         "top_speed_rpm": POS(None, hi=1e6, doc="for the gain bound; default 1.5 x rated"),
-        "lag": C("exact", "paper", default="exact"),
+        "lag": C("exact", "paper", default="exact", doc="form = \"paper\": the filter's lag compensated exactly or by pi/4"),
+        "form": C("paper", "tracking", default="paper",
+                  doc="paper: the SMO and PLL of yang2022 sec. 2; tracking: fullspeed's, exact in discrete time, "
+                      "with a motion observer on the measured torque (fs_smo.h)"),
         # how the sensorless drive starts: on the encoder until `handover`, or
         # sensorless from standstill with an I/f start
         "start": C("encoder", "if", default="encoder"),
@@ -93,6 +96,8 @@ SCENARIO = {
         "bw_filter_p": POS(None, hi=1e6, doc="rad/s, SRFF at +w_h; default w_h / 20 (fs_hfi.h)"),
         "bw_filter_n": POS(None, hi=1e6, doc="rad/s, SRFF at -w_h + 2 w_r; default w_h / 20"),
         "bw_observer": POS(None, hi=1e6, doc="rad/s, motion observer; default bw_filter_n / 5"),
+        "leak": C("keep", "remove", default="keep",
+                  doc="hfi/blend: remove takes the fundamental's leak out of the negative carrier (fs_hfi_filter.h; no load-proportional bias); keep: the paper's filter"),
         "xcomp": Spec("any", None, doc="cross-saturation table {i_q = [A...], delta_deg = [...]} on an even grid, or a TOML file holding it, or (swvi) \"paper\": the machine's fitted error polynomial"),
         "stop_rpm": POS(None, hi=1e6, doc="blend: the injection stops above this speed (resumes below 0.9 of it); default 1.2 x the upper blending speed"),
         "sequence": C("optimized", "conventional", default="optimized", doc="swvi: the time sequence of yu2022 sec. 3.2"),
@@ -110,6 +115,7 @@ SCENARIO = {
         "lower_rpm": NONNEG(None, hi=1e6, doc="eq. (28); default the machine's [blending]"),
         "upper_rpm": POS(None, hi=1e6),
         "bw_observer": POS(None, hi=1e6, doc="rad/s, the motion observer after the blend (Fig. 6); default that of the injection's"),
+        "gate": B(False, doc="the SMO's weight only once it has converged, the injection stopped only then (fs_blend.h); false: eq. (28) alone"),
     }, default={}),
     "load": T({
         "kind": C("torque", "speed", "speed_pi", "brake", default="torque",
@@ -417,8 +423,7 @@ def _injection_fields(d: dict, m: Machine, source) -> None:
     _machine_injection(inj, m, ("u_h", "f_h"), source, designed)
     d.setdefault("_notes", {}).update(inj.pop("_notes", {}))
     Ts = _control_period(d)
-    if inj["f_h"] > 0.25 / Ts:
-        raise ConfigError("injection.f_h", inj["f_h"], f"must be <= {0.25 / Ts:g} Hz: at least 4 samples per carrier period at Ts = {Ts:g} s", source)
+    _check_carrier(inj["f_h"], Ts, source)
     for key in ("bw_filter_p", "bw_filter_n", "bw_observer"):
         if inj[key] is not None and inj[key] * Ts > 0.5:
             raise ConfigError(f"injection.{key}", inj[key], f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s", source)
@@ -467,6 +472,16 @@ def _injection_fields(d: dict, m: Machine, source) -> None:
             inj["stop_rpm"] = 1.2 * bl["upper_rpm"]
         if not 0.9 * inj["stop_rpm"] >= bl["upper_rpm"]:
             raise ConfigError("injection.stop_rpm", inj["stop_rpm"], f"must be >= upper_rpm / 0.9 = {bl['upper_rpm'] / 0.9:g} (the injection resumes at 0.9 x stop_rpm)", source)
+
+
+def _check_carrier(f_h: float, Ts: float, source) -> None:
+    """The rotating carrier's limit, fs_hfi_w_h_max's rule (the one C applies):
+    more than 4 samples per carrier period, w_h Ts < pi/2 in float32."""
+    w_max = _core.lib.fs_hfi_w_h_max(Ts)
+    if not float(_core.ffi.cast("float", 2 * math.pi * f_h)) <= w_max:   # w_h as the C config holds it
+        raise ConfigError("injection.f_h", f_h, f"must be at most {w_max / (2 * math.pi):.10g} Hz: more than 4 samples per carrier "
+                          f"period at Ts = {Ts:g} s, w_h Ts below pi/2 in float32 (a quarter of the sampling rate, {0.25 / Ts:g} Hz, "
+                          "is not below it there)", source)
 
 
 def _check_saliency(ctl: dict, m: Machine, source) -> None:

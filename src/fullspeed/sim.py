@@ -41,6 +41,7 @@ ANGLES = {"encoder": lib.FS_ANGLE_ENCODER, "true": lib.FS_ANGLE_EXTERNAL, "smo":
           "hfi": lib.FS_ANGLE_HFI, "blend": lib.FS_ANGLE_BLEND, "swvi": lib.FS_ANGLE_SWVI}
 SEQUENCES = {"conventional": lib.FS_SWVI_CONVENTIONAL, "optimized": lib.FS_SWVI_OPTIMIZED}
 LAGS = {"exact": lib.FS_SMO_LAG_EXACT, "paper": lib.FS_SMO_LAG_PAPER}
+SMO_FORMS = {"paper": lib.FS_SMO_FORM_PAPER, "tracking": lib.FS_SMO_FORM_TRACKING}
 REGIONS = {"linear": lib.FS_IMC_LINEAR, "om1": lib.FS_IMC_OM1, "om2": lib.FS_IMC_OM2}
 MAGNETIC = {"linear": lib.FS_MAG_LINEAR, "algebraic": lib.FS_MAG_ALGEBRAIC, "fluxmap": lib.FS_MAG_FLUXMAP}
 
@@ -191,6 +192,7 @@ def build_config(sc: Scenario):
     oc.bw_pll = obs["bw_pll"]
     oc.w_valid = p * rpm_to_rad_s(obs["valid_rpm"])
     oc.lag = LAGS[obs["lag"]]
+    oc.form = SMO_FORMS[obs["form"]]
     if obs["start"] == "if":
         dc.i_start = obs["i_start"]
         dc.a_start = p * rpm_to_rad_s(obs["start_accel_rpm_s"])
@@ -239,6 +241,7 @@ def _set_injection(dc, d: dict, p: int) -> None:
     hc.w_b_p = inj["bw_filter_p"] or 0.0
     hc.w_b_n = inj["bw_filter_n"] or 0.0
     hc.obs.bandwidth = inj["bw_observer"] or 0.0
+    hc.leak = inj["leak"] == "remove"
     xc = inj["xcomp"]
     if xc is not None:
         _set_xcomp(hc.xcomp, xc)
@@ -246,6 +249,7 @@ def _set_injection(dc, d: dict, p: int) -> None:
         dc.blend.w_lower = p * rpm_to_rad_s(bl["lower_rpm"])
         dc.blend.w_upper = p * rpm_to_rad_s(bl["upper_rpm"])
         dc.blend.obs.bandwidth = bl["bw_observer"] or 0.0
+        dc.blend.gate = bl["gate"]
         dc.w_inject_max = p * rpm_to_rad_s(inj["stop_rpm"])
     if pol["enabled"]:
         dc.polarity.i_pulse, dc.polarity.t_lock, dc.polarity.t_pulse = pol["i_pulse"], pol["t_lock"], pol["t_pulse"]
