@@ -12,7 +12,7 @@ from .errors import ConfigError, SimulationError
 
 
 def _cmd_run(args) -> int:
-    from .metrics import json_safe
+    from .metrics import json_safe, summary_lines
     from .plots import plot_run
     from .sim import simulate
 
@@ -27,8 +27,7 @@ def _cmd_run(args) -> int:
     plot_run(res, out / "run.png")
     print(f"{res.scenario.name}: {res.sim_time:.3f} s simulated in {res.wall_time:.3f} s wall "
           f"= {res.speed_ratio:.1f} simulated s per wall s ({res.scenario.data['converter']['inverter']} inverter)")
-    if "speed_error_pct" in res.metrics and res.metrics["speed_error_pct"] is not None:
-        print(f"steady speed error: {res.metrics['speed_error_pct']:+.4f} %")
+    print("\n".join(summary_lines(res.metrics)))
     print(f"wrote {out}/metrics.json, traces.npz, run.png")
     if res.stop_reason != "done":
         print(f"fullspeed: run stopped: {res.stop_reason} at t = {res.stop_time if res.stop_time is not None else res.sim_time:.6f} s "

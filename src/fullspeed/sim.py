@@ -27,6 +27,23 @@ CHANNELS = [
 ]
 assert len(CHANNELS) == lib.FS_CH_N, "channel names out of step with fs_sim.h"
 
+# Each channel's unit (SI; angles in electrical rad, speeds mechanical rad/s;
+# "1" for ratios and flags; stage is a name from metrics.STAGES).
+UNITS = {
+    "t": "s", "theta_e": "rad", "w_m": "rad/s", "psi_d": "Wb", "psi_q": "Wb",
+    **dict.fromkeys(("i_d", "i_q", "i_a", "i_b", "i_c", "i_d_ref", "i_q_ref", "i_d_hat", "i_q_hat", "i_d_fw",
+                     "i_d3", "i_q3", "i_hf_d", "i_hf_q", "i_grid_a"), "A"),
+    **dict.fromkeys(("T_e", "T_L", "T_ref"), "N m"),
+    **dict.fromkeys(("u_d", "u_q", "u_d_ref", "u_q_ref", "v_pn", "u_ab", "u_dc"), "V"),
+    **dict.fromkeys(("duty_a", "duty_b", "duty_c", "overmod", "est_valid", "phase", "g_w", "inject", "alpha",
+                     "lock_resid", "lock_lost", "recoveries"), "1"),
+    **dict.fromkeys(("w_m_ref", "w_m_hat", "w_m_est"), "rad/s"),
+    **dict.fromkeys(("theta_hat", "theta_err", "theta_est", "est_err"), "rad"),
+    **dict.fromkeys(("E_in", "E_cu", "E_airgap", "W_mag", "E_grid", "E_rf", "W_filter"), "J"),
+    "stage": "name",
+}
+assert set(UNITS) == set(CHANNELS), "a channel without a unit"
+
 STOP_REASONS = {
     lib.FS_RUN_DONE: "done",
     lib.FS_STOP_NAN: "nan",
@@ -65,11 +82,20 @@ class Result:
         return self.traces[name]
 
     def to_dataframe(self):
-        try:
-            import pandas as pd
-        except ImportError as exc:  # pragma: no cover - optional
-            raise ImportError("to_dataframe needs pandas: pip install pandas") from exc
-        return pd.DataFrame(self.traces)
+        """The traces as a pandas DataFrame indexed by time (s): one column
+        per channel, `stage` as a categorical of names (metrics.STAGES), and
+        each column's unit in df.attrs["units"] (the scenario's name in
+        df.attrs["scenario"])."""
+        import pandas as pd
+
+        from .metrics import STAGES
+
+        cols = {k: v for k, v in self.traces.items() if k != "t"}
+        cols["stage"] = pd.Categorical.from_codes(np.asarray(cols["stage"]).astype(int), categories=list(STAGES))
+        df = pd.DataFrame(cols, index=pd.Index(self.traces["t"], name="t"))
+        df.attrs["units"] = dict(UNITS)
+        df.attrs["scenario"] = self.scenario.name
+        return df
 
 
 class _Keep:
