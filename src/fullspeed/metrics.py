@@ -133,7 +133,8 @@ def _first_cross(t: np.ndarray, x: np.ndarray, level: float) -> float | None:
 def step_response(t: np.ndarray, y: np.ndarray, t0: float, y0: float, y1: float, band: float) -> dict:
     """A step from y0 to y1 at t0, the response y over t (from t0 to the next
     change): overshoot (% of the step), rise time (10 to 90 %), settling time
-    (from t0 until |y - y1| stays within band). A time that did not happen
+    (from t0 until |y - y1| stays within band), and the final value (the
+    mean over the window's last tenth). A time that did not happen
     within the window is None, with `note` saying which."""
     dy = y1 - y0
     x = (y - y0) / dy                      # 0 before, 1 on target, in the step's direction
@@ -141,6 +142,7 @@ def step_response(t: np.ndarray, y: np.ndarray, t0: float, y0: float, y1: float,
     t10, t90 = _first_cross(t, x, 0.1), _first_cross(t, x, 0.9)
     out["rise_time"] = t90 - t10 if t10 is not None and t90 is not None else None
     out["settling_time"] = _settled_from(t, np.abs(y - y1) > band, t0)
+    out["final"] = float(np.mean(y[-max(1, y.size // 10):])) if y.size else None   # the last tenth's mean
     notes = [w for w, v in (("did not reach 90 %", t90), ("did not settle", out["settling_time"])) if v is None]
     if notes:
         out["note"] = " and ".join(notes) + " before the next change"
@@ -179,6 +181,8 @@ def step_metrics(res) -> list[dict]:
         return m
 
     w_floor = SPEED_FLOOR * sc.machine.w_m_rated
+    injecting = d["controller"]["angle"] in ("hfi", "blend", "swvi")
+    n_carrier = round(1.0 / (d["injection"]["f_h"] * float(t[1] - t[0]))) if injecting else 0
     out = []
     for name, ch, ref_ch, unit in refs:
         to_si = rpm_to_rad_s(1.0) if unit == "rpm" else 1.0
@@ -189,7 +193,14 @@ def step_metrics(res) -> list[dict]:
             y0, y1 = c[2] * to_si, c[3] * to_si
             band = max(SETTLE_BAND * abs(y1 - y0), w_floor if unit == "rpm" else 0.0)
             r = {"kind": "reference", "signal": ch, "t": c[0], "ramp": c[1] - c[0], "from": c[2], "to": c[3], "unit": unit}
-            r.update(step_response(t[m], np.asarray(tr[ch])[m], c[0], y0, y1, band))
+            y = np.asarray(tr[ch])
+            if unit == "A" and n_carrier > 1:
+                # the carrier's current would read as overshoot: its one-period mean (adds up to a period to the times)
+                y = np.convolve(y, np.full(n_carrier, 1.0 / n_carrier), mode="same")
+                r["averaged_over"] = n_carrier * float(t[1] - t[0])
+            r.update(step_response(t[m], y[m], c[0], y0, y1, band))
+            if r["final"] is not None:
+                r["final"] /= to_si
             out.append(r)
     load = d["load"]
     if mode == "speed" and load["kind"] in ("torque", "brake"):
@@ -306,6 +317,8 @@ def summary_lines(metrics: dict) -> list[str]:
         else:
             body = (f"speed dip {opt(r['dip_rpm'], '.1f')} rpm at {opt(r['t_dip'], '.4g')} s, "
                     f"recovery {opt(r['recovery_time'] and r['recovery_time'] * 1e3, '.1f')} ms")
+        if r.get("final") is not None:
+            body += f", final {r['final']:.4g} {r['unit']}"
         lines.append(f"{head}: {body}" + (f" ({r['note']})" if r.get("note") else ""))
     for name, st in metrics.get("stages", {}).items():
         lines.append(f"stage {name:15s} {st['time']:8.4f} s in {st['entries']} entr{'y' if st['entries'] == 1 else 'ies'}, "
