@@ -95,12 +95,17 @@ def _cmd_reproduce(args) -> int:
 
 
 def _cmd_calibrate(args) -> int:
-    from .calibrate import write_table, xsat_table
+    from .calibrate import file_name, write_table, xsat_table
 
-    table, sc = xsat_table(args.scenario, i_q_max=args.i_q_max, points=args.points)
-    path = write_table(table, Path(args.out or Path("out") / f"{sc.machine.name}-xsat.toml"))
-    for i, dlt in zip(table["i_q"], table["delta_deg"]):
-        print(f"  i_q = {i:7.2f} A   delta = {dlt:+8.3f} el.deg")
+    table, sc = xsat_table(args.scenario, i_q_max=args.i_q_max, points=args.points, speed_rpm=args.speed_rpm)
+    path = write_table(table, Path(args.out or Path("out") / f"{file_name(sc.machine.name)}-xsat.toml"))
+    print(f"{sc.machine.name} at {table['speed_rpm']:g} rpm held by the load machine:")
+    for i, dlt, s, r in zip(table["i_q"], table["delta_deg"], table["spread_deg"], table["residual_deg"]):
+        print(f"  i_q = {i:7.2f} A   delta = {dlt:+8.3f} el.deg   scatter {s:5.2f}   compensated {r:+6.2f}")
+    res = np.abs(table["residual_deg"])
+    print(f"table {min(table['delta_deg']):+.2f}..{max(table['delta_deg']):+.2f} el.deg, scatter at most "
+          f"{max(table['spread_deg']):.2f}; with it the estimate's mean error is at most {res.max():.2f} el.deg "
+          f"(mean {np.mean(table['residual_deg']):+.3f})")
     print(f"wrote {path}; use it with [injection] xcomp = \"{path}\"")
     return 0
 
@@ -133,6 +138,7 @@ def main(argv: list[str] | None = None) -> int:
     cal.add_argument("scenario", help="a scenario with angle = \"hfi\" or \"blend\" (its machine, speed and injection)")
     cal.add_argument("--i-q-max", type=float, default=40.0, help="A: the table spans -i_q_max..i_q_max")
     cal.add_argument("--points", type=int, default=17)
+    cal.add_argument("--speed-rpm", type=float, help="speed held by the load machine (default: the scenario's speed load, else 100)")
     cal.add_argument("--out", help="TOML file (default out/<machine>-xsat.toml)")
     cal.set_defaults(func=_cmd_calibrate)
     args = ap.parse_args(argv)
