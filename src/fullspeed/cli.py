@@ -142,6 +142,8 @@ def main(argv: list[str] | None = None) -> int:
     cal.add_argument("--out", help="TOML file (default out/<machine>-xsat.toml)")
     cal.set_defaults(func=_cmd_calibrate)
     args = ap.parse_args(argv)
+    import warnings
+    warnings.formatwarning = lambda msg, cat, *a, **k: f"fullspeed: warning: {msg}\n"   # one line, as the errors
     try:
         return args.func(args)
     except (ConfigError, SimulationError) as exc:

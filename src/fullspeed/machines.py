@@ -3,10 +3,12 @@ from __future__ import annotations
 
 import math
 import tomllib
+import warnings
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
+from . import fluxmap
 from .errors import ConfigError
 from .schema import ANY, NOTES, C, F, I, N, NONNEG, POS, S, T, Spec, even_grid, read_toml, validate
 from .units import rpm_to_rad_s
@@ -20,6 +22,8 @@ MAGNETIC = {
     "i_d": Spec("any", None), "i_q": Spec("any", None),
     "psi_d": Spec("any", None), "psi_q": Spec("any", None),
     "source": S(""), "reason": S(""),
+    "file": S(None, doc="a flux map file, .csv or SyR-e .mat (fullspeed.fluxmap), beside the machine file; sets model, i_d, i_q, psi_d, psi_q"),
+    "torque": Spec("any", None, doc="N m, torque[k][l] at (i_d[k], i_q[l]) where the map file gives it (checked against the fluxes)"),
 }
 
 # Bounds are what a drive on a bench can be: generous, but they keep every
@@ -127,6 +131,8 @@ def catalog_data(name: str, source: str | None = None) -> dict:
 
 def machine_from_dict(data: dict, source: str | None = None, prefix: str = "machine") -> Machine:
     d = validate(data, MACHINE, prefix, source)
+    if d["magnetic"]["file"] is not None:
+        d["magnetic"] = _magnetic_file(d["magnetic"], f"{prefix}.magnetic", source)
     e, m, r, b = d["electrical"], d["mechanical"], d["rated"], d["bench"]
     if d["kind"] == "ipmsm" and not e["L_d"] < e["L_q"]:
         raise ConfigError(f"{prefix}.electrical.L_d", e["L_d"],
@@ -152,6 +158,9 @@ def machine_from_dict(data: dict, source: str | None = None, prefix: str = "mach
         raise ConfigError(f"{prefix}.injection.xcomp_paper", poly, "must list 1 to 4 coefficients (a cubic in i_q at most)", source)
     if d["magnetic"]["model"] == "fluxmap":
         _check_fluxmap(d["magnetic"], f"{prefix}.magnetic", source)
+        fluxmap.check_coverage(d["magnetic"], b["i_max"], f"{prefix}.magnetic", source)
+        for line in fluxmap.consistency_warnings(d["magnetic"], e, d["pole_pairs"], d["phases"], d["name"]):
+            warnings.warn(line, fluxmap.FluxMapWarning, stacklevel=2)
     extra = {k: {kk: vv for kk, vv in d[k].items() if vv is not None}
              for k in ("injection", "blending", "paper_gains", "third_harmonic", "bench_experiment") if d.get(k) is not None}
     return Machine(
@@ -162,6 +171,18 @@ def machine_from_dict(data: dict, source: str | None = None, prefix: str = "mach
         magnetic=d["magnetic"], bench=b, extra=extra, source=d["source"], description=d["description"],
         L_d3=th["L_d3"], L_q3=th["L_q3"], psi_f3=th["psi_f3"],
     )
+
+
+def _magnetic_file(mag: dict, field: str, source) -> dict:
+    """[magnetic] file = "map.csv": the map read (beside the machine or
+    scenario file first), its fields in place of the table's."""
+    p = Path(mag["file"])
+    if not p.is_absolute() and source and (Path(source).parent / p).is_file():
+        p = Path(source).parent / p
+    given = [k for k in ("i_d", "i_q", "psi_d", "psi_q", "torque") if mag[k] is not None]
+    if given:
+        raise ConfigError(f"{field}.{given[0]}", "given", "must be left out with file = ... (the file holds the map)", source)
+    return {**mag, **fluxmap.load_map(p, f"{field}.file", source)}
 
 
 def _check_fluxmap(mag: dict, prefix: str, source) -> None:
