@@ -137,3 +137,27 @@ def test_a_machine_file_with_its_map_runs_on_the_map(tmp_path):
     assert res.stop_reason == "done"
     assert res["psi_d"][0] == pytest.approx(PSI_F, rel=1e-6)
     assert abs(res.metrics["speed_error_pct"]) < 1.0
+
+
+def test_the_controller_takes_its_tables_from_the_map(tmp_path):
+    """On the synthetic map (psi_d linear, psi_q = 30 L_q tanh(i_q / 30)):
+    psi_f, the secant L_q at the rated MTPA point, the incremental L_q the
+    carrier sees at half rated current, and an MTPA locus that gives more
+    torque per ampere on the map than the linear model's locus does."""
+    from fullspeed.fluxmap import controller_values, interp, mtpa_locus
+    mag = load_map(write_csv(tmp_path / "map.csv"), "magnetic.file")
+    cv = controller_values(mag, 40.0, 28.0, 3, 4)
+    assert cv["psi_f"] == pytest.approx(PSI_F) and cv["L_d"] == pytest.approx(L_D, rel=1e-6)
+    I = 40.0 * np.arange(64) / 63
+    q_r, q_h = np.interp(28.0, I, cv["mtpa_i_q"]), np.interp(14.0, I, cv["mtpa_i_q"])
+    # the map is coarse (11.25 A steps after resampling): within 5 % of the function it samples
+    assert cv["L_q"] == pytest.approx(L_Q * 30 * np.tanh(q_r / 30) / q_r, rel=0.05)      # secant
+    assert cv["L_q_hf"] == pytest.approx(L_Q / np.cosh(q_h / 30) ** 2, rel=0.05)         # incremental
+    T, d, q = mtpa_locus(mag, 40.0, 3, 4)
+    assert np.all(np.diff(T) > 0) and np.allclose(np.hypot(d, q), I)
+    # the linear model's locus (fs_mtpa.h) at 40 A, on the map's fluxes
+    dL = L_Q - L_D
+    d_lin = (PSI_F - np.sqrt(PSI_F ** 2 + 8 * dL ** 2 * 40.0 ** 2)) / (4 * dL)
+    q_lin = np.sqrt(40.0 ** 2 - d_lin ** 2)
+    T_lin = 6 * (interp(mag, "psi_d", d_lin, q_lin) * q_lin - interp(mag, "psi_q", d_lin, q_lin) * d_lin)
+    assert T[-1] > T_lin * 1.005

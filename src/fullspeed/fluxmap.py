@@ -204,11 +204,60 @@ def load_map(path: str | Path, field: str, source=None) -> dict:
     return out
 
 
-def _at(mag: dict, name: str, i_d: float, i_q: float) -> float:
-    """A map's table at a current (bilinear)."""
+def interp(mag: dict, name: str, i_d, i_q):
+    """A map's table at currents (arrays or numbers; bilinear on its even
+    grid, held at the edges as the plant's lookup is not: the callers stay
+    inside the map)."""
     e_d, e_q, t = np.asarray(mag["i_d"]), np.asarray(mag["i_q"]), np.asarray(mag[name])
-    row = np.array([np.interp(i_q, e_q, r) for r in t])
-    return float(np.interp(i_d, e_d, row))
+    x = np.clip((np.asarray(i_d, float) - e_d[0]) / (e_d[1] - e_d[0]), 0.0, e_d.size - 1.0)
+    y = np.clip((np.asarray(i_q, float) - e_q[0]) / (e_q[1] - e_q[0]), 0.0, e_q.size - 1.0)
+    k, n = np.minimum(x.astype(int), e_d.size - 2), np.minimum(y.astype(int), e_q.size - 2)
+    a, b = x - k, y - n
+    return ((1 - a) * (1 - b) * t[k, n] + a * (1 - b) * t[k + 1, n]
+            + (1 - a) * b * t[k, n + 1] + a * b * t[k + 1, n + 1])
+
+
+def _at(mag: dict, name: str, i_d: float, i_q: float) -> float:
+    return float(interp(mag, name, i_d, i_q))
+
+
+MTPA_N = 64          # csrc/control/fs_mtpa.h FS_MTPA_N
+MTPA_ANGLES = 4001   # current angles searched per magnitude, 90..180 deg: 0.0225 deg apart
+
+
+def mtpa_locus(mag: dict, i_max: float, phases: int, pole_pairs: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The map's MTPA locus at |i| = i_max k / (MTPA_N - 1): per magnitude
+    the current angle of most torque, (phases/2) p (psi_d i_q - psi_q i_d),
+    searched over the second quadrant. Returns T, i_d, i_q."""
+    I = i_max * np.arange(MTPA_N) / (MTPA_N - 1)
+    g = np.linspace(0.5 * np.pi, np.pi, MTPA_ANGLES)
+    i_d, i_q = np.outer(I, np.cos(g)), np.outer(I, np.sin(g))
+    T = 0.5 * phases * pole_pairs * (interp(mag, "psi_d", i_d, i_q) * i_q - interp(mag, "psi_q", i_d, i_q) * i_d)
+    best = np.argmax(T, axis=1)
+    r = np.arange(MTPA_N)
+    T_best, d, q = T[r, best], i_d[r, best], i_q[r, best]
+    d[0] = q[0] = T_best[0] = 0.0
+    return T_best, d, q
+
+
+def controller_values(mag: dict, i_max: float, i_rated: float, phases: int, pole_pairs: int) -> dict:
+    """What the controller takes from a flux map: psi_f at zero current; the
+    secant inductances at the MTPA point of rated current (the decoupling
+    feeds w psi forward, exact there); the incremental inductances at half
+    the rated current on the locus (what the injection's carrier sees where
+    it runs, loaded); and the MTPA table."""
+    T, d, q = mtpa_locus(mag, i_max, phases, pole_pairs)
+    psi_f = _at(mag, "psi_d", 0.0, 0.0)
+    I = i_max * np.arange(MTPA_N) / (MTPA_N - 1)
+    i_d_r, i_q_r = float(np.interp(i_rated, I, d)), float(np.interp(i_rated, I, q))
+    L_d = (psi_f - _at(mag, "psi_d", i_d_r, i_q_r)) / -i_d_r if i_d_r < -1e-9 * i_max else zero_current_values(mag)["L_d"]
+    L_q = _at(mag, "psi_q", i_d_r, i_q_r) / i_q_r
+    i_d_h, i_q_h = float(np.interp(0.5 * i_rated, I, d)), float(np.interp(0.5 * i_rated, I, q))
+    h_d, h_q = mag["i_d"][1] - mag["i_d"][0], mag["i_q"][1] - mag["i_q"][0]
+    L_d_hf = (_at(mag, "psi_d", i_d_h + h_d, i_q_h) - _at(mag, "psi_d", i_d_h - h_d, i_q_h)) / (2 * h_d)
+    L_q_hf = (_at(mag, "psi_q", i_d_h, i_q_h + h_q) - _at(mag, "psi_q", i_d_h, i_q_h - h_q)) / (2 * h_q)
+    return {"psi_f": psi_f, "L_d": L_d, "L_q": L_q, "L_d_hf": L_d_hf, "L_q_hf": L_q_hf,
+            "mtpa_T": T, "mtpa_i_d": d, "mtpa_i_q": q}
 
 
 def zero_current_values(mag: dict) -> dict:

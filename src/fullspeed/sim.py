@@ -125,6 +125,23 @@ def _fluxmap(cfg_mag, mag: dict, keep):
     cfg_mag.map_psi_q = keep(ffi.new("double[]", psi_q.ravel().tolist()))
 
 
+def _controller_from_map(dc, m, ctl: dict, keep) -> None:
+    """A flux map's inductances, magnet flux and MTPA table for the
+    controller (fluxmap.controller_values), with the scenario's mismatch
+    scales."""
+    from .fluxmap import controller_values
+
+    cv = controller_values(m.magnetic, ctl["i_max"], m.i_rated, m.phases, m.pole_pairs)
+    dc.psi_f = cv["psi_f"] * ctl["psi_f_scale"]
+    dc.L_d, dc.L_q = cv["L_d"] * ctl["L_d_scale"], cv["L_q"] * ctl["L_q_scale"]
+    dc.L_d_hf, dc.L_q_hf = cv["L_d_hf"] * ctl["L_d_scale"], cv["L_q_hf"] * ctl["L_q_scale"]
+    tab = keep(ffi.new("fs_mtpa_table *"))
+    tab.n = lib.FS_MTPA_N
+    for k in range(lib.FS_MTPA_N):
+        tab.T[k], tab.i_d[k], tab.i_q[k] = cv["mtpa_T"][k], cv["mtpa_i_d"][k], cv["mtpa_i_q"][k]
+    dc.mtpa_table = tab
+
+
 def build_config(sc: Scenario):
     """The C configuration of a scenario, and the buffers it points into."""
     keep = _Keep()
@@ -189,6 +206,8 @@ def build_config(sc: Scenario):
     dc.Ts, dc.T_pwm, dc.delay = Ts, inv.T_pwm, float(cfg.delay)
     dc.R_s, dc.L_d, dc.L_q = m.R_s * ctl["R_s_scale"], m.L_d * ctl["L_d_scale"], m.L_q * ctl["L_q_scale"]
     dc.psi_f, dc.pole_pairs = m.psi_f * ctl["psi_f_scale"], m.pole_pairs
+    if mag["model"] == "fluxmap":
+        _controller_from_map(dc, m, ctl, keep)
     dc.J, dc.B = (m.J + (load["J_load"] if load["kind"] == "speed_pi" else 0.0)) * ctl["J_scale"], m.B
     dc.i_max, dc.T_max = ctl["i_max"], ctl["T_max"]
     dc.bw_current, dc.bw_speed, dc.bw_pll = ctl["bw_current"], ctl["bw_speed"], ctl["bw_pll"]
