@@ -8,8 +8,8 @@ import sys
 import numpy as np
 import pytest
 
-from fullspeed.calibrate import (CalibrationError, circular_mean_deg, circular_std_deg, file_name, write_table,
-                                 xsat_table)
+from fullspeed.calibrate import CalibrationError, circular_mean_deg, circular_std_deg, write_table, xsat_table
+from fullspeed.files import file_name
 from fullspeed.scenario import _xcomp_table
 
 HFI_100 = '''name = "{name}"

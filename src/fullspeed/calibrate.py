@@ -24,14 +24,12 @@ mean error at each point (`residual_deg`).
 from __future__ import annotations
 
 import json
-import os
-import re
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from .errors import ConfigError
+from .files import write_atomic
 from .metrics import window_mask
 from .scenario import Scenario, load_scenario
 from .sim import simulate
@@ -213,20 +211,4 @@ def write_table(table: dict, path: Path) -> Path:
                  f"spread_deg = {arr(table['spread_deg'])}    # el.deg, circular std of the lead in each averaging window\n")
         if "residual_deg" in table:
             text += f"residual_deg = {arr(table['residual_deg'])}    # el.deg, the compensated estimate's mean lead, same steps\n"
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
-
-
-def file_name(name: str) -> str:
-    """A name as a file name inside the output folder: no separators, no
-    leading dots (a machine called '../../x' stays in out/)."""
-    return re.sub(r"[^\w.-]", "_", name).lstrip(".") or "machine"
+    return write_atomic(path, text)
