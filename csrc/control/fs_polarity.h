@@ -62,12 +62,12 @@ typedef enum {
 } fs_polarity_stage;
 
 /* d_min's default: the smallest relative difference of the carrier
- * amplitude taken as the magnet's. 2 %: measurement effects that do not
- * change sign with the pulse (the inverter's voltage error, eddy currents)
- * shift I_p by a few per mille, and machines that saturate enough to be
- * told apart show several per cent at half their rated current (yang2022's
- * machine: about 8 % at 30 A). */
-#define FS_POLARITY_D_MIN 0.02f
+ * amplitude taken as the magnet's. 5 %: on the machine zoo (fullspeed.zoo)
+ * the machines with linear magnetics show up to 2.5 % from effects that are
+ * not saturation (the rotor's motion under the pulses, the inverter's
+ * voltage error), the saturating ones 7 % and more at half their rated
+ * current (yang2022's machine: 17 % at 30 A). */
+#define FS_POLARITY_D_MIN 0.05f
 /* w_max's default, a fraction of w_filter: a tenth of the filter's band. */
 #define FS_POLARITY_W_MAX_PER_FILTER 0.1f
 

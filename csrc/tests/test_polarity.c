@@ -84,7 +84,7 @@ int main(void)
     FS_CHECK(p.stage == FS_POLARITY_LOCK && !p.flip && p.cfg.i_pulse_max == 4.0f && p.cfg.d_min == FS_POLARITY_D_MIN,
              "init resets; defaults: no retry, d_min %g", p.cfg.d_min);
 
-    /* I+ 10 A, I- 11 A: D = -1/10.5 = -9.5 %, 4.8 x d_min: decided, flip */
+    /* I+ 10 A, I- 11 A: D = -1/10.5 = -9.5 %, 1.9 x d_min: decided, flip */
     FS_CHECK_EQ_INT(sequence(&p, 10.0f, 11.0f, 0.01f), 1, "one pair");
     FS_CHECK(p.stage == FS_POLARITY_DONE && p.flip, "I+ < I- flips");
     FS_CHECK_NEAR(p.i_p_pos, 10.0, 1e-4, "I+ average over the window only");
@@ -101,9 +101,9 @@ int main(void)
     FS_CHECK_EQ_INT(fs_polarity_init(&p, &c), FS_OK, "init with retries");
     FS_CHECK_EQ_INT(sequence(&p, 10.0f, 10.0f, 0.01f), 4, "pairs at 4, 6, 9 and 10 A");
     FS_CHECK(p.stage == FS_POLARITY_UNDETERMINED && p.margin < 1.0f && p.i_now == 10.0f, "undetermined at i_pulse_max");
-    /* a 1.9 % difference is below d_min: refused too */
+    /* a 4.9 % difference is below d_min: refused too */
     fs_polarity_reset(&p);
-    sequence(&p, 10.1f, 9.91f, 0.01f);
+    sequence(&p, 10.25f, 9.76f, 0.01f);
     FS_CHECK(p.stage == FS_POLARITY_UNDETERMINED, "|D| %g below d_min", p.d);
 
     /* the same 9.5 % drowned in a +-2 A spread: sigma_D = sqrt(8 / 26) / 10.5 = 5.3 %, 3 sigma 15.8 % */
@@ -112,16 +112,16 @@ int main(void)
     sequence(&p, 10.0f, 11.0f, 2.0f);
     FS_CHECK(p.stage == FS_POLARITY_UNDETERMINED, "noise: undetermined (margin %g)", p.margin);
     FS_CHECK_NEAR(p.margin, (1.0 / 10.5) / (3.0 * sqrt(8.0 / 26.0) / 10.5), 2e-3, "margin against 3 sigma_D");
-    /* a spread of +-0.5 A: 3 sigma_D = 4.0 %, above d_min; decided */
+    /* a spread of +-0.7 A: 3 sigma_D = 5.5 %, above d_min; decided */
     fs_polarity_reset(&p);
-    sequence(&p, 10.0f, 11.0f, 0.5f);
-    FS_CHECK_NEAR(p.margin, (1.0 / 10.5) / (3.0 * sqrt(0.5 / 26.0) / 10.5), 2e-3, "margin against 3 sigma_D");
+    sequence(&p, 10.0f, 11.0f, 0.7f);
+    FS_CHECK_NEAR(p.margin, (1.0 / 10.5) / (3.0 * sqrt(0.98 / 26.0) / 10.5), 2e-3, "margin against 3 sigma_D");
     FS_CHECK(p.stage == FS_POLARITY_DONE && p.flip, "decided");
     /* correlated samples: w_filter Ts n / 2 = 1000 * 1e-4 * 26 / 2 = 1.3 independent ones: sigma_D 4.5 x larger */
     c.w_filter = 1000.0f;
     FS_CHECK_EQ_INT(fs_polarity_init(&p, &c), FS_OK, "init");
-    sequence(&p, 10.0f, 11.0f, 0.5f);
-    FS_CHECK_NEAR(p.margin, (1.0 / 10.5) / (3.0 * sqrt(0.5 / 1.3) / 10.5), 2e-3, "margin with n_eff = 1.3");
+    sequence(&p, 10.0f, 11.0f, 0.7f);
+    FS_CHECK_NEAR(p.margin, (1.0 / 10.5) / (3.0 * sqrt(0.98 / 1.3) / 10.5), 2e-3, "margin with n_eff = 1.3");
     FS_CHECK(p.stage == FS_POLARITY_UNDETERMINED, "undetermined with few independent samples");
 
     /* the window in whole carrier periods: second half 26 -> 3 periods of 8 = 24 */

@@ -115,8 +115,8 @@ SCENARIO = {
     "polarity": T({
         "enabled": B(True, doc="detect the magnet polarity before starting sensorless on injection"),
         "i_pulse": POS(None, hi=1e5, doc="A, d-current pulses; default half of controller.i_max"),
-        "t_lock": NONNEG(0.06, hi=10.0, doc="s, the estimator settles first: >= 6 / w_b_n + 2 / w_o (fade-in, filters, observer)"),
-        "t_pulse": POS(0.02, hi=10.0, doc="s, each pulse: >= 6 / w_b_p (the carrier amplitude settles in the first half)"),
+        "t_lock": NONNEG(None, hi=10.0, doc="s, the estimator settles first: >= 6 / w_b_n + 2 / w_o (fade-in, filters, observer); default 0.06 s or that bound x 1.2, the longer"),
+        "t_pulse": POS(None, hi=10.0, doc="s, each pulse: >= 6 / w_b_p (the carrier amplitude settles in the first half); default 0.02 s or that bound x 1.2, the longer"),
         "i_pulse_max": POS(None, hi=1e5, doc="A, the largest pulse of the retries when the first pair decides nothing; default controller.i_max less the carrier's peak"),
     }, default={}),
     "blending": T({
@@ -128,10 +128,12 @@ SCENARIO = {
         "kind": C("torque", "speed", "speed_pi", "brake", default="torque",
                   doc="brake: a passive brake (powder, eddy current), torque = its magnitude against the motion"),
         "torque": P(0.0, hi=1e6, doc="N m, kind torque or brake"), "speed_rpm": P(0.0, hi=1e6, doc="kind speed or speed_pi: the speed the load holds"),
+        "torque_pu": P(None, hi=100.0, doc="the torque as a fraction of the machine's rated torque (instead of torque)"),
         "bandwidth": POS(100.0, hi=1e6, doc="load machine speed loop, rad/s"), "J_load": NONNEG(0.0, hi=1e5, doc="kg m^2, the load machine's inertia (speed_pi)"),
     }, default={}),
     "references": T({
         "speed_rpm": P(0.0, hi=1e6, doc="mode speed"), "i_d": P(0.0, hi=1e5, doc="A, mode current"), "i_q": P(0.0, hi=1e5, doc="A, mode current"),
+        "speed_pu": P(None, hi=100.0, doc="the speed as a fraction of the machine's rated speed (instead of speed_rpm)"),
         "u_d": P(0.0, hi=1e5, doc="V, mode voltage"), "u_q": P(0.0, hi=1e5, doc="V, mode voltage"),
         "frame_rpm": P(0.0, hi=1e6, doc="modes voltage and vf: the frame's speed"),
     }, default={}),
@@ -198,8 +200,10 @@ def _machine_of(raw, source) -> Machine:
         from . import zoo
         k, seed = raw.pop("zoo"), raw.pop("zoo_seed", zoo.SEED)
         for key, v in (("machine.zoo", k), ("machine.zoo_seed", seed)):
-            if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v < 2**31:
+            whole = isinstance(v, int) or (isinstance(v, float) and v.is_integer())   # a sweep's range gives floats
+            if isinstance(v, bool) or not whole or not 0 <= v < 2**31:
                 raise ConfigError(key, v, "must be an integer in 0 .. 2^31 - 1", source)
+        k, seed = int(k), int(seed)
         return machine_from_dict(deep_merge(zoo.machine(k, seed), raw), source)
     name = raw.pop("catalog", None)
     if name is not None:
@@ -218,6 +222,7 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
     d = validate(data, SCENARIO, "", source)
     m = _machine_of(d["machine"], source)
     b = m.bench
+    _per_unit(d, data, m, source)
     conv, tim, sen, ctl = d["converter"], d["timing"], d["sensors"], d["controller"]
     if conv["kind"] == "imc":
         _imc_fields(d, m, source)
@@ -329,7 +334,20 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         if f"injection.{key}" not in notes and d["injection"][key] is not None and ctl["angle"] in ("hfi", "blend", "swvi"):
             notes[f"injection.{key}"] = dz.Value(d["injection"][key], "", "given in the machine file or the scenario", True)
     notes.update(d.pop("_notes", {}))
-    return Scenario(name=d["name"], machine=m, data=d, source=source, design=notes)
+    from .checks import warnings_of
+    return Scenario(name=d["name"], machine=m, data=d, source=source, design=notes, warnings=warnings_of(d, m))
+
+
+def _per_unit(d: dict, data: dict, m: Machine, source) -> None:
+    """Profiles given per unit of the machine's rating, into SI/rpm ones."""
+    for sec, pu, key, base in (("references", "speed_pu", "speed_rpm", m.w_m_rated * 60 / (2 * math.pi)),
+                               ("load", "torque_pu", "torque", m.T_rated)):
+        if d[sec][pu] is None:
+            continue
+        if key in data.get(sec, {}):
+            raise ConfigError(f"{sec}.{pu}", "given", f"and {sec}.{key} are one setting: give one of them", source)
+        t, y = d[sec][pu]
+        d[sec][key] = (t, [v * base for v in y])
 
 
 def _bench_of(d: dict, m: Machine) -> dict:
@@ -428,6 +446,11 @@ def _injection_fields(d: dict, m: Machine, source) -> None:
         raise ConfigError("blending.bw_observer", bl["bw_observer"], f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s", source)
     if pol["enabled"]:
         t_lock_min, t_pulse_min = 6.0 / w_b_n + 2.0 / w_o, 6.0 / w_b_p
+        for key, t_min, t_default in (("t_lock", t_lock_min, 0.06), ("t_pulse", t_pulse_min, 0.02)):
+            if pol[key] is None:   # 20 % above the settling bound: noise and the rounding to samples
+                pol[key] = max(t_default, 1.2 * t_min)
+                d.setdefault("_notes", {})[f"polarity.{key}"] = dz.Value(
+                    pol[key], "s", f"{t_default:g} s (yang2022's bench) or 1.2 x the settling bound {t_min:.3g} s, the longer")
         if pol["t_lock"] < t_lock_min:
             raise ConfigError("polarity.t_lock", pol["t_lock"], f"must be >= {t_lock_min:.3g} s: 6 / w_b_n + 2 / w_o, the fade-in, the filters and the observer settle first", source)
         if pol["t_pulse"] < t_pulse_min:

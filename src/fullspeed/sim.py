@@ -394,7 +394,7 @@ class Simulation:
         stages = {lib.FS_POLARITY_LOCK: "lock", lib.FS_POLARITY_POS: "pulse", lib.FS_POLARITY_NEG: "pulse",
                   lib.FS_POLARITY_DONE: "done", lib.FS_POLARITY_UNDETERMINED: "undetermined"}
         return {"stage": stages.get(p.stage, str(p.stage)), "d": float(p.d), "margin": float(p.margin),
-                "attempts": int(p.attempts), "i_pulse": float(p.i_now), "flip": bool(p.flip)}
+                "attempts": int(p.attempts), "i_pulse": float(p.i_now), "flip": bool(p.flip), "moved": bool(p.moved)}
 
     def traces(self) -> dict[str, np.ndarray]:
         """Each channel as a view into the buffer (strided, no copy)."""
