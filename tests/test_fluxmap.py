@@ -18,16 +18,17 @@ I_D = np.array([-45.0, -30.0, -20.0, -10.0, 0.0, 10.0, 25.0])   # uneven, as FEA
 I_Q = np.array([0.0, 10.0, 20.0, 30.0, 45.0])                   # i_q >= 0 only, as SyR-e maps
 
 
-def psi(i_d, i_q, scale=1.0):
+def psi(i_d, i_q, scale=1.0, i_sat=30.0):
     """Linear in i_d, odd and saturating in i_q (bilinear resampling is exact in i_d)."""
-    return scale * (PSI_F + L_D * i_d), L_Q * 30.0 * np.tanh(i_q / 30.0)
+    return scale * (PSI_F + L_D * i_d), L_Q * i_sat * np.tanh(i_q / i_sat)
 
 
-def write_csv(path, i_d=I_D, i_q=I_Q, scale=1.0, torque_p=4, header="i_d [A],i_q [A],psi_d [mWb],psi_q [Wb],T [N m]"):
+def write_csv(path, i_d=I_D, i_q=I_Q, scale=1.0, torque_p=4, header="i_d [A],i_q [A],psi_d [mWb],psi_q [Wb],T [N m]",
+              i_sat=30.0):
     lines = ["# FEA export, 2D, 20 C", header]
     for a in i_d:
         for b in i_q:
-            pd, pq = psi(a, b, scale)
+            pd, pq = psi(a, b, scale, i_sat)
             T = 1.5 * torque_p * (pd * b - pq * a)
             lines.append(f"{a},{b},{pd * 1e3:.9g},{pq:.9g},{T:.9g}")
     path.write_text("\n".join(lines) + "\n")
@@ -161,3 +162,18 @@ def test_the_controller_takes_its_tables_from_the_map(tmp_path):
     q_lin = np.sqrt(40.0 ** 2 - d_lin ** 2)
     T_lin = 6 * (interp(mag, "psi_d", d_lin, q_lin) * q_lin - interp(mag, "psi_q", d_lin, q_lin) * d_lin)
     assert T[-1] > T_lin * 1.005
+
+
+def test_a_map_whose_saliency_vanishes_under_load_says_how_much_torque_injection_can_hold(tmp_path):
+    """The incremental L_q = L_Q / cosh^2(i_q / i_sat) falls to L_D at
+    i_q = i_sat acosh(sqrt(L_Q / L_D)): 23.1 A with i_sat = 20 A, where the
+    injection has no axis left; with i_sat = 200 A it never gets there."""
+    from fullspeed.fluxmap import saliency_warnings
+    i_q = np.array([0.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 45.0])
+    mag = load_map(write_csv(tmp_path / "a.csv", i_q=i_q, i_sat=20.0), "magnetic.file")
+    (line,) = saliency_warnings(mag, 40.0, 3, 4, 5.0, "m")
+    i_cross = 20.0 * np.arccosh(np.sqrt(L_Q / L_D))
+    I = float(line.split(" N m (")[1].split(" A")[0])
+    assert i_cross * 0.8 < I < i_cross * 1.3        # on the locus, on a map of 5 A steps
+    mild = load_map(write_csv(tmp_path / "b.csv", i_q=i_q, i_sat=200.0), "magnetic.file")
+    assert saliency_warnings(mild, 40.0, 3, 4, 5.0, "m") == []

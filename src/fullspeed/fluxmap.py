@@ -240,6 +240,40 @@ def mtpa_locus(mag: dict, i_max: float, phases: int, pole_pairs: int) -> tuple[n
     return T_best, d, q
 
 
+SALIENCY_FLOOR = 0.05   # (L_q - L_d) / (L_q + L_d) of the incremental inductances below which an injection
+                        # estimator has little to lock on (yang2022's machine: 0.16 unloaded); at 0 it cannot tell the axis
+
+
+def incremental_saliency(mag: dict, i_d, i_q) -> np.ndarray:
+    """(L_max - L_min) / (L_max + L_min) of the incremental inductance matrix
+    d(psi_d, psi_q)/d(i_d, i_q) (its eigenvalues: what a carrier sees), as
+    the plant's bilinear map has it, signed: negative where the q path has
+    saturated below the d path (the axis an injection finds turns by 90 el.deg)."""
+    h = 1e-3 * (mag["i_d"][1] - mag["i_d"][0])
+    L_dd = (interp(mag, "psi_d", i_d + h, i_q) - interp(mag, "psi_d", i_d - h, i_q)) / (2 * h)
+    L_qq = (interp(mag, "psi_q", i_d, i_q + h) - interp(mag, "psi_q", i_d, i_q - h)) / (2 * h)
+    L_dq = 0.5 * ((interp(mag, "psi_d", i_d, i_q + h) - interp(mag, "psi_d", i_d, i_q - h))
+                  + (interp(mag, "psi_q", i_d + h, i_q) - interp(mag, "psi_q", i_d - h, i_q))) / (2 * h)
+    half = np.sqrt((0.5 * (L_qq - L_dd)) ** 2 + L_dq ** 2)
+    return np.sign(L_qq - L_dd) * half / (0.5 * (L_qq + L_dd))
+
+
+def saliency_warnings(mag: dict, i_max: float, phases: int, pole_pairs: int, T_rated: float, name: str) -> list[str]:
+    """One line when the injection's saliency, along the map's MTPA locus,
+    falls below SALIENCY_FLOOR before rated torque: the torque an injection
+    estimator can carry at low speed on this machine."""
+    T, d, q = mtpa_locus(mag, i_max, phases, pole_pairs)
+    sal = incremental_saliency(mag, d, q)
+    low = np.flatnonzero((sal < SALIENCY_FLOOR) & (T <= T_rated))
+    if not low.size:
+        return []
+    k = low[0]
+    return [f"injection: on {name}'s flux map the incremental saliency (L_q - L_d)/(L_q + L_d) falls from {sal[0]:.2f} at "
+            f"no load to {sal[k]:.2f} at {T[k]:.3g} N m ({np.hypot(d[k], q[k]):.3g} A on the MTPA locus), below "
+            f"{SALIENCY_FLOOR:g}: at low speed the injection cannot hold the rotor's angle under more torque than that "
+            f"(rated {T_rated:g} N m)"]
+
+
 def controller_values(mag: dict, i_max: float, i_rated: float, phases: int, pole_pairs: int) -> dict:
     """What the controller takes from a flux map: psi_f at zero current; the
     secant inductances at the MTPA point of rated current (the decoupling
