@@ -15,6 +15,7 @@ enum { F = 0, N = 1, P = 2 };
 #define DRIVE_FIELDS(X) \
     X(Ts, P, FS_ERR_TS) X(T_pwm, P, FS_ERR_TS) X(delay, F, FS_ERR_PARAM) \
     X(R_s, N, FS_ERR_RS) X(L_d, P, FS_ERR_LD) X(L_q, P, FS_ERR_LQ) X(psi_f, N, FS_ERR_PSI_F) \
+    X(L_d_hf, N, FS_ERR_LD) X(L_q_hf, N, FS_ERR_LQ) \
     X(J, F, FS_ERR_J) X(B, N, FS_ERR_PARAM) X(i_max, P, FS_ERR_I_MAX) X(T_max, F, FS_ERR_LIMIT) \
     X(bw_current, F, FS_ERR_BANDWIDTH) X(bw_speed, F, FS_ERR_BANDWIDTH) X(bw_pll, F, FS_ERR_BANDWIDTH) \
     X(t_dead_comp, N, FS_ERR_PARAM) X(i_dead_band, N, FS_ERR_PARAM) X(vf_gain, F, FS_ERR_PARAM) \
@@ -66,14 +67,14 @@ static fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
     hc.Ts = cfg->Ts;
     hc.delay = cfg->delay;
     hc.R_s = cfg->R_s;
-    hc.L_d = cfg->L_d;
-    hc.L_q = cfg->L_q;
+    hc.L_d = cfg->L_d_hf > 0.0f ? cfg->L_d_hf : cfg->L_d;   /* fs_drive.h */
+    hc.L_q = cfg->L_q_hf > 0.0f ? cfg->L_q_hf : cfg->L_q;
     mo.bandwidth = hc.obs.bandwidth;
     hc.obs = mo;
     if (!fs_pos(cfg->J)) REFUSE("J", FS_ERR_J);
     SUB("hfi", fs_hfi_init(&drv->hfi, &hc));
     /* the carrier current's peak, I_p + I_n = u_h / (w_h min(L_d, L_q)) */
-    drv->i_hf = hc.u_h / (drv->hfi.cfg.w_h * fminf(cfg->L_d, cfg->L_q));
+    drv->i_hf = hc.u_h / (drv->hfi.cfg.w_h * fminf(hc.L_d, hc.L_q));
     if (!(drv->i_hf < 0.5f * cfg->i_max)) REFUSE("hfi.u_h", FS_ERR_ABOVE_I_MAX);
     if (cfg->angle_source == FS_ANGLE_BLEND) {
         fs_blend_config bc = cfg->blend;
@@ -145,7 +146,7 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         st = fs_speed_ctrl_init(&drv->sc, &scc);
         if (st != FS_OK)
             REFUSE(st == FS_ERR_J ? "J" : st == FS_ERR_BANDWIDTH ? "bw_speed" : st == FS_ERR_LIMIT ? "T_max" : "k_p_w, k_i_w", st);
-        fs_mtpa_config mc = {cfg->L_d, cfg->L_q, cfg->psi_f, cfg->pole_pairs, cfg->i_max, cfg->phases};
+        fs_mtpa_config mc = {cfg->L_d, cfg->L_q, cfg->psi_f, cfg->pole_pairs, cfg->i_max, cfg->phases, cfg->mtpa_table};
         st = fs_mtpa_init(&drv->mtpa, &mc);
         if (st != FS_OK) REFUSE(st == FS_ERR_LQ ? "L_q" : "mtpa (psi_f, L_d, L_q, i_max)", st);
         if (drive_weakens(cfg)) {
