@@ -288,10 +288,11 @@ typedef struct {
     float imc_w_grid;
     int imc_depth;
     float imc_i_lim, imc_V_im;
-    /* the MTPA locus as a table (NULL: designed from L_d, L_q, psi_f; a flux
-     * map's from fullspeed.fluxmap, e.g. a const table in flash); read at
-     * init only */
-    const fs_mtpa_table *mtpa_table;
+    /* the MTPA locus as a table (n = 0: designed from L_d, L_q, psi_f; a flux
+     * map's from fullspeed.fluxmap); read at init only. Held in the config,
+     * not pointed to, so that the config has no pointer: the same bytes on
+     * the host and the target, and an export carries the table */
+    fs_mtpa_table mtpa_table;
 } fs_drive_config;
 
 typedef struct {
