@@ -1,4 +1,5 @@
 #include "fs_drive.h"
+#include "fs_drive_ident.h"
 #include "fs_drive_start.h"
 #include "fs_math.h"
 
@@ -94,6 +95,7 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     if (!drv) return FS_ERR_NULL;
     drv->fail = NULL;
     if (!cfg) REFUSE("config", FS_ERR_NULL);
+    if (cfg->mode == FS_MODE_IDENTIFY) return fs_drive_ident_init(drv, cfg);   /* knows no machine yet */
     fs_status st = drive_check_fields(cfg, &drv->fail);
     if (st != FS_OK) return st;
     if (cfg->phases != 3 && cfg->phases != 5) REFUSE("phases", FS_ERR_PARAM);
@@ -192,6 +194,10 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
 
 void fs_drive_reset(fs_drive *drv)
 {
+    if (drv->cfg.mode == FS_MODE_IDENTIFY) {
+        fs_ident_reset(&drv->ident);
+        return;
+    }
     fs_current_ctrl_reset(&drv->cc);
     fs_pll_reset(&drv->pll, 0.0f, 0.0f);
     if (drv->cfg.mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
@@ -598,6 +604,10 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
 void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
 {
     const fs_drive_config *c = &drv->cfg;
+    if (c->mode == FS_MODE_IDENTIFY) {
+        fs_drive_ident_step(drv, in, out);
+        return;
+    }
     fs_ab i_ab = drive_clarke(c, in->i_ph);
     out->rect = (fs_imc_rect){{{0, 0, 0.0f}, {0, 0, 0.0f}}, 0.0f, 0, false};
     out->alpha = 0.0f;

@@ -241,6 +241,8 @@ void fs_sim_destroy(fs_sim *s)
 }
 
 double fs_sim_time(const fs_sim *s) { return (double)s->k * s->Tc; }
+
+const fs_drive *fs_sim_drive(const fs_sim *s) { return &s->drive; }
 double fs_sim_stop_time(const fs_sim *s) { return s->stop_time; }
 double fs_sim_adc_saturated_at(const fs_sim *s) { return s->adc_sat_time; }
 

@@ -38,6 +38,7 @@ HEADERS = [
     "control/fs_polarity.h",
     "control/fs_lock.h",
     "control/fs_imc.h",
+    "control/fs_ident.h",
     "control/fs_drive.h",
     "plant/fs_magnetic.h",
     "plant/fs_pmsm.h",
