@@ -261,12 +261,16 @@ static float acc_std(float s, float ss, int n)
     return sqrtf(fmaxf(ss / (float)n - m * m, 0.0f));
 }
 
-/* ---- ALIGN: ramp to the top level over 0.1 s, hold until the rotor is still ---- */
+/* ---- ALIGN: ramp to half the top level over 0.2 s, hold until the rotor is still ----
+ * Half: the shorted q axis's current while the rotor creeps in is at most
+ * the alignment current (its EMF p w psi_f against R balances the torque),
+ * so the vector stays within i_max; the ramp is slower than a small
+ * rotor's swing, so it creeps rather than swings. */
 static fs_ab step_align(fs_ident *id, fs_ab i)
 {
     const fs_ident_config *c = &id->cfg;
-    const float I_top = LEV_FRAC[0] * c->i_max;
-    const int n_ramp = (int)(0.1f / c->Ts) + 1;
+    const float I_top = 0.5f * LEV_FRAC[0] * c->i_max;
+    const int n_ramp = (int)(0.2f / c->Ts) + 1;
     const int n_win = (int)(0.02f / c->Ts) + 1;   /* 20 ms windows: several swings of a small rotor */
     const float i_ref = I_top * fminf((float)id->k / (float)n_ramp, 1.0f);
     fs_ab u = dc_on_alpha(id, i, i_ref);
@@ -581,7 +585,7 @@ static fs_ab step_flux(fs_ident *id, fs_ab i)
     id->w_abs += fabsf(id->w0);
     id->s_u += ratio - id->u0;
     id->s_uu += (ratio - id->u0) * (ratio - id->u0);
-    id->s_i += fabsf(phi);
+    id->s_i += phi;   /* signed: its mean is the lock's offset, the noise averages out */
     id->n_acc++;
     if (id->n_acc < n_meas) return u;
     fs_ident_result *r = &id->res;
@@ -591,7 +595,7 @@ static fs_ab step_flux(fs_ident *id, fs_ab i)
         ident_fail(id, FS_IDQ_PSI_F, FS_IDR_NOT_TURNING);
         return u;
     }
-    if (r->w_flux > 1.5f * id->w_target || r->w_flux < 0.5f * id->w_target || id->s_i / (float)n > 0.1f) {
+    if (r->w_flux > 1.5f * id->w_target || r->w_flux < 0.5f * id->w_target || fabsf(id->s_i) / (float)n > 0.1f) {
         ident_fail(id, FS_IDQ_PSI_F, FS_IDR_LOST_SYNC);
         return u;
     }
@@ -737,8 +741,11 @@ fs_ab fs_ident_step(fs_ident *id, fs_ab i_ab, float u_dc)
         u = frame_current(id, i_ab, (fs_dq){0.0f, 0.0f});
         if (fabsf(id->w0) > 0.05f * id->w_target) frame_pll(id, i_ab);
         break;
-    default:   /* FAILED: zero current where a frame is known, else zero voltage */
-        if (id->res.status[FS_IDQ_LQ] == FS_IDS_OK) u = frame_current(id, i_ab, (fs_dq){0.0f, 0.0f});
+    default:   /* FAILED: zero current where a frame is known (tracking the EMF once it was), else zero voltage */
+        if (id->res.status[FS_IDQ_LQ] == FS_IDS_OK) {
+            u = frame_current(id, i_ab, (fs_dq){0.0f, 0.0f});
+            if (id->bw_pll > 0.0f && fabsf(id->w0) > 0.05f * id->w_target) frame_pll(id, i_ab);
+        }
         break;
     }
     id->u_prev[1] = id->u_prev[0];
