@@ -231,13 +231,13 @@ def report_tables(res: Identification) -> dict[str, dict]:
         if res.status[q] != "ok":
             t["reason"] = res.reason[q]
         for k in keys.get(q, [q]):
+            tail = "" if k == q else f"_{k}"
             if k in res.values:
-                t["identified"] = res.values[k] if k == q else None
-                t[f"identified_{k}" if k != q else "identified"] = res.values[k]
+                t[f"identified{tail}"] = res.values[k]
             if k in res.truth:
-                t[f"truth_{k}" if k != q else "truth"] = res.truth[k]
+                t[f"truth{tail}"] = res.truth[k]
             if k in res.values and res.truth.get(k):
-                t[f"error_pct_{k}" if k != q else "error_pct"] = 100.0 * (res.values[k] - res.truth[k]) / res.truth[k]
+                t[f"error_pct{tail}"] = 100.0 * (res.values[k] - res.truth[k]) / res.truth[k]
         if q in ("L_d", "L_q"):
             t["truth_nominal"] = res.truth[f"{q}_nominal"]
             t["truth_is"] = "the plant's incremental inductance at zero current (the unsaturated value the standstill test sees)"
@@ -285,3 +285,21 @@ def write_identification(res: Identification, sc: Scenario, out: Path) -> list[P
         paths.append(out / "machine.toml")
         _write_atomic(paths[1], _machine_toml(tab))
     return paths
+
+
+def print_identification(res: Identification) -> None:
+    """One line per quantity: identified, truth and error, or the failure."""
+    rows = [("u_e", "V"), ("R_s", "ohm"), ("L_d", "H"), ("L_q", "H"), ("psi_f", "Wb"), ("J", "kg m^2"),
+            ("B", "N m s/rad"), ("T_c", "N m")]
+    quantity = {"u_e": "verr", "B": "friction", "T_c": "friction"}
+    print(f"{res.machine}: identification ended in step '{res.step}' after {res.sim_time:.2f} s simulated "
+          f"({res.wall_time:.1f} s wall)")
+    for key, unit in rows:
+        q = quantity.get(key, key)
+        if res.status[q] != "ok":
+            print(f"  {key:6s} failed in step {STEP_OF[q]}: {res.reason[q]}")
+            continue
+        v, t = res.values[key], res.truth.get(key)
+        err = f"{100.0 * (v - t) / t:+7.2f} %" if t else "   (truth 0)"
+        goal = f"   goal {GOALS_PCT[key]:g} %" if key in GOALS_PCT else ""
+        print(f"  {key:6s} {v:12.5g} {unit:9s} truth {t:12.5g}  error {err}{goal}")
