@@ -73,6 +73,7 @@ void fs_ident_reset(fs_ident *id)
     id->u_max = 0.0f;
     acc_clear(id);
     id->u0 = id->i0 = 0.0f;
+    for (int b = 0; b < FS_IDENT_NBATCH; ++b) id->batch[b] = 0.0f;
     id->hf_u[0] = id->hf_u[1] = 0.0f;
     id->hf_i[0][0] = id->hf_i[0][1] = id->hf_i[1][0] = id->hf_i[1][1] = 0.0f;
     id->U_h = id->w_h = 0.0f;
@@ -240,6 +241,15 @@ static fs_ab dc_on_alpha(fs_ident *id, fs_ab i, float i_ref)
     return (fs_ab){ur, 0.0f};
 }
 
+/* the same in a frame at angle th (the alignment's first direction) */
+static fs_ab dc_in_frame(fs_ident *id, fs_ab i_ab, float i_ref, float th)
+{
+    const float ct = cosf(th), st = sinf(th);
+    const fs_dq i = fs_park(i_ab, ct, st);
+    const fs_ab u = dc_on_alpha(id, (fs_ab){i.d, i.q}, i_ref);
+    return fs_inv_park((fs_dq){u.alpha, 0.0f}, ct, st);
+}
+
 static void acc_add(fs_ident *id, float u, fs_ab i)
 {
     if (id->n_acc == 0) {
@@ -273,15 +283,22 @@ static fs_ab step_align(fs_ident *id, fs_ab i)
     const int n_ramp = (int)(0.2f / c->Ts) + 1;
     const int n_win = (int)(0.02f / c->Ts) + 1;   /* 20 ms windows: several swings of a small rotor */
     const float i_ref = I_top * fminf((float)id->k / (float)n_ramp, 1.0f);
-    fs_ab u = dc_on_alpha(id, i, i_ref);
+    /* first on beta, then turned to alpha over the next ramp time: a rotor
+     * that sits where the current points the other way (no torque, an
+     * unstable rest) is pulled off it by the first direction */
+    const float th = 0.5f * FS_PI * fs_clampf((float)(3 * n_ramp - id->k) / (float)n_ramp, 0.0f, 1.0f);
+    fs_ab u = th > 0.0f ? dc_in_frame(id, i, i_ref, th) : dc_on_alpha(id, i, i_ref);
     id->k++;
-    if (id->k <= n_ramp) return u;
+    if (id->k <= 3 * n_ramp) return u;
     acc_add(id, u.alpha, i);
     if (id->n_acc < n_win) return u;
-    /* still when i_beta is within noise and 1 % of the current; at most 3 s */
+    /* still when i_beta is within noise and 5 % of the current (a
+     * low-resistance machine creeps into its last degrees for seconds,
+     * its EMF over R_s a few percent of the current; harmless to the
+     * levels, see below); at most 3 s */
     const float s_a = acc_std(id->s_i, id->s_ii, id->n_acc);
     const float rms_b = sqrtf(id->s_ib2 / (float)id->n_acc);
-    const bool still = rms_b < 0.01f * I_top + 4.0f * s_a;
+    const bool still = rms_b < 0.05f * I_top + 4.0f * s_a;
     if (still && (float)id->k * c->Ts >= 0.3f) {
         ident_goto(id, FS_IDENT_LEVELS);
     } else if ((float)id->k * c->Ts > 3.0f) {
@@ -326,11 +343,18 @@ static fs_ab step_levels(fs_ident *id, fs_ab i)
     const int j = id->sub;
     const float I_ref = LEV_FRAC[j] * c->i_max;
     const int n_set = (int)(30.0f / (id->w_c * c->Ts)) + 1;
-    const int n_meas = (int)(0.1f / c->Ts) + 1;
+    /* 0.2 s on the three levels R_s comes from (its slope is the small
+     * difference of large voltages), 0.1 s on the rest */
+    const int n_meas = (int)((j < 3 ? 0.2f : 0.1f) / c->Ts) + 1;
     fs_ab u = dc_on_alpha(id, i, I_ref);
     id->k++;
     if (id->k <= n_set) return u;
     acc_add(id, u.alpha, i);
+    /* batch means of u: the loop's noise is correlated from sample to
+     * sample, so the noise of the mean comes from the batches' spread */
+    const int n_b = n_meas / FS_IDENT_NBATCH;
+    if (id->n_acc % n_b == 0 && id->n_acc / n_b <= FS_IDENT_NBATCH)
+        id->batch[id->n_acc / n_b - 1] = id->s_u;   /* running sums; differenced below */
     if (id->n_acc < n_meas) return u;
     const int n = id->n_acc;
     fs_ident_result *r = &id->res;
@@ -339,13 +363,25 @@ static fs_ab step_levels(fs_ident *id, fs_ab i)
     const float s_a = acc_std(id->s_i, id->s_ii, n);
     const float s_u = acc_std(id->s_u, id->s_uu, n);
     const float rms_b = sqrtf(id->s_ib2 / (float)n);
-    if (rms_b > 0.02f * I_ref + 4.0f * s_a + 0.005f * c->i_max) {
+    /* moved: a q current of a tenth of the level. A rotor creeping into
+     * its last degree against Coulomb friction drives a few percent through
+     * the shorted q axis of a low-resistance machine (its EMF over R_s) but
+     * puts no voltage on d; a turning one drives the level's order */
+    if (rms_b > 0.1f * I_ref + 4.0f * s_a + 0.01f * c->i_max) {
         ident_fail(id, FS_IDQ_VERR, FS_IDR_MOVED);
         return u;
     }
-    if (j < 3) {   /* the voltage's noise on a mean, from the top levels */
+    if (j < 3) {   /* the noise of a level's mean voltage, from the top levels */
         id->sigma_i = fmaxf(id->sigma_i, s_a);
-        r->snr_rs = fmaxf(r->snr_rs, s_u / sqrtf((float)n));   /* held here as the mean's noise, V */
+        float prev = 0.0f, sb = 0.0f, sbb = 0.0f;
+        for (int b = 0; b < FS_IDENT_NBATCH; ++b) {
+            const float m = (id->batch[b] - prev) / (float)(n_meas / FS_IDENT_NBATCH);
+            prev = id->batch[b];
+            sb += m;
+            sbb += m * m;
+        }
+        const float s_mean = acc_std(sb, sbb, FS_IDENT_NBATCH) / sqrtf((float)(FS_IDENT_NBATCH - 1));
+        r->snr_rs = fmaxf(r->snr_rs, fmaxf(s_mean, s_u / (float)n));   /* held here as that noise, V */
     }
     id->k = 0;
     acc_clear(id);
@@ -579,10 +615,14 @@ static fs_ab step_flux(fs_ident *id, fs_ab i)
     if (id->k <= n_lock) return u;
     const fs_dq e = frame_emf(id, i);
     const float em = sqrtf(e.d * e.d + e.q * e.q);
-    const float ratio = em / fmaxf(fabsf(id->w0), 1e-6f);
+    /* the frame's own speed w (not the PLL's integral w0, which lags a
+     * decelerating rotor by 2 a / bw_pll: 6 % on a machine whose friction
+     * halves its speed in the window): its mean is the frame's turn over
+     * the window, which is the rotor's */
+    const float ratio = em / fmaxf(fabsf(id->w), 1e-6f);
     if (id->n_acc == 0) id->u0 = ratio;
     id->e_abs += em;
-    id->w_abs += fabsf(id->w0);
+    id->w_abs += fabsf(id->w);
     id->s_u += ratio - id->u0;
     id->s_uu += (ratio - id->u0) * (ratio - id->u0);
     id->s_i += phi;   /* signed: its mean is the lock's offset, the noise averages out */

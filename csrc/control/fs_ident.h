@@ -75,7 +75,7 @@ typedef enum {
     FS_IDR__COUNT = 12
 } fs_ident_reason;
 
-enum { FS_IDENT_NLEV = 7, FS_IDENT_NREC = 128 };
+enum { FS_IDENT_NLEV = 7, FS_IDENT_NREC = 128, FS_IDENT_NBATCH = 8 };
 
 typedef struct {
     float Ts;            /* control period, s */
@@ -121,6 +121,7 @@ typedef struct {
     /* accumulators */
     float s_u, s_i, s_uu, s_ib2, s_ii, s_ia;   /* about the shift below, for float precision */
     float u0, i0;        /* the shift: the window's first sample */
+    float batch[FS_IDENT_NBATCH];   /* running sums of u at each batch's end */
     int n_acc;
     /* HF phasors: voltage and both currents, real and imaginary */
     float hf_u[2], hf_i[2][2];
