@@ -87,3 +87,30 @@ def test_bad_input_exits_2(tmp_path, capsys):
     assert main(["identify", "yang2022-encoder-speedstep", "--speed-frac", "0", "--out", str(tmp_path)]) == 2
     assert "speed_frac" in capsys.readouterr().err
     assert not (tmp_path / "identification.toml").exists()
+
+
+def test_zoo_campaign_row(tmp_path):
+    from fullspeed.identify import campaign_summary, zoo_campaign
+
+    rows = zoo_campaign([3], tmp_path, workers=1)
+    (row,) = rows
+    assert row["ended_in"] == "done" and all(s == "ok" for s in row["status"].values()), row["failures"]
+    s = campaign_summary(rows)
+    assert s["failed_pct"] == 0.0 and s["R_s"]["identified"] == 1
+    for q, goal in GOALS_PCT.items():
+        assert s[q]["p95"] == pytest.approx(abs(row["errors_pct"][q])) and s[q]["p95"] <= goal
+
+
+def test_campaign_summary_counts_failures():
+    from fullspeed.identify import campaign_summary
+
+    ok = {"machine": "a", "status": {q: "ok" for q in QUANTITIES}, "reason": {q: "" for q in QUANTITIES},
+          "errors_pct": {q: 1.0 for q in GOALS_PCT}, "failures": []}
+    bad = {"machine": "b", "status": {**ok["status"], "J": "failed", "friction": "failed"},
+           "reason": {**ok["reason"], "J": "the speed changed too fast to fit", "friction": "an earlier quantity failed"},
+           "errors_pct": {q: 2.0 for q in GOALS_PCT if q != "J"}, "failures": ["J (coast): ..."]}
+    s = campaign_summary([ok, bad, dict(bad, machine="c", reason={**bad["reason"], "J": ""})])
+    assert s["failed_pct"] == pytest.approx(200.0 / 3)
+    assert s["failed_with_reason"] == 1          # machine c failed J without saying why
+    assert s["J"]["identified"] == 1 and s["R_s"]["identified"] == 3
+    assert s["R_s"]["max"] == 2.0 and set(s["failures"]) == {"b", "c"}

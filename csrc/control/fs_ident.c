@@ -614,7 +614,12 @@ static fs_ab step_flux(fs_ident *id, fs_ab i)
     id->k++;
     if (id->k <= n_lock) return u;
     const fs_dq e = frame_emf(id, i);
-    const float em = sqrtf(e.d * e.d + e.q * e.q);
+    /* the EMF's q part in the locked frame, not its magnitude: the
+     * voltage carries the dead time's error of random sign at zero current
+     * (16 V on a 637 V link), and the mean magnitude of a noisy vector is
+     * biased up by sigma^2 / 2|e| (+5 % on zoo machine 39); e_q's mean is
+     * not (cos phi of the lock's small jitter aside) */
+    const float em = e.q * (id->w >= 0.0f ? 1.0f : -1.0f);
     /* the frame's own speed w (not the PLL's integral w0, which lags a
      * decelerating rotor by 2 a / bw_pll: 6 % on a machine whose friction
      * halves its speed in the window): its mean is the frame's turn over

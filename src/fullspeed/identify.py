@@ -303,3 +303,64 @@ def print_identification(res: Identification) -> None:
         err = f"{100.0 * (v - t) / t:+7.2f} %" if t else "   (truth 0)"
         goal = f"   goal {GOALS_PCT[key]:g} %" if key in GOALS_PCT else ""
         print(f"  {key:6s} {v:12.5g} {unit:9s} truth {t:12.5g}  error {err}{goal}")
+
+
+# ---- the zoo campaign (claim B-IDENT) ----
+
+def zoo_identification(k: int, seed: int | None = None) -> dict:
+    """Identify zoo machine k (fullspeed.zoo) from a seeded initial rotor
+    angle: one row of the campaign, every quantity with its status."""
+    from . import zoo
+    from .scenario import scenario_from_dict
+
+    seed = zoo.SEED if seed is None else seed
+    theta0 = float(np.random.default_rng([seed, k, 25]).uniform(-180.0, 180.0))   # the rotor rests anywhere
+    sc = scenario_from_dict({"name": f"identify-zoo-{seed}-{k}", "duration": 1.0,
+                             "machine": {"zoo": k, "zoo_seed": seed}, "controller": {"mode": "off"},
+                             "initial": {"theta_e_deg": theta0}})
+    res = identify(sc)
+    return {"k": k, "machine": res.machine, "description": sc.machine.description, "theta_e0_deg": theta0,
+            "ended_in": res.step, "status": res.status, "reason": res.reason, "errors_pct": res.errors_pct(),
+            "failures": res.failures(), "sim_time": res.sim_time, "wall_time": res.wall_time}
+
+
+def _zoo_task(task: dict) -> dict:
+    """journal.run_tasks' worker: one zoo machine (a refusal comes back as a
+    row with stop_reason "error" and its reason: journal.guarded)."""
+    return zoo_identification(task["k"], task["seed"])
+
+
+def zoo_campaign(ks, out: Path, seed: int | None = None, workers: int | None = None,
+                 progress: bool = False, fresh: bool = True) -> list[dict]:
+    """The identification of zoo machines ks, in parallel processes,
+    journaled in out (fullspeed.journal: a killed campaign resumes with
+    fresh=False). A machine that could not be run is a row with its reason."""
+    from .journal import run_tasks
+
+    ks = [int(k) for k in ks]
+    results = run_tasks(_zoo_task, [{"k": k, "seed": seed} for k in ks], out, workers=workers,
+                        progress=progress, fresh=fresh, desc="identify")
+    rows = []
+    for k, r in zip(ks, results):
+        if r is None or r.get("stop_reason") == "error":
+            why = (r or {}).get("error", "not run")
+            r = {"k": k, "machine": f"zoo-{k}", "ended_in": "refused", "status": {q: "failed" for q in QUANTITIES},
+                 "reason": {q: why for q in QUANTITIES}, "errors_pct": {}, "failures": [f"refused: {why}"]}
+        rows.append(r)
+    return rows
+
+
+def campaign_summary(rows: list[dict]) -> dict:
+    """Per quantity with a goal: how many were identified and the 50th,
+    95th percentile and worst |error|, %; the share of identifications that
+    failed (each with a reason) and the failures themselves."""
+    out: dict = {"machines": len(rows)}
+    for q in GOALS_PCT:
+        e = np.abs([r["errors_pct"][q] for r in rows if q in r["errors_pct"]])
+        out[q] = {"identified": int(e.size), "p50": float(np.percentile(e, 50)) if e.size else None,
+                  "p95": float(np.percentile(e, 95)) if e.size else None, "max": float(e.max()) if e.size else None}
+    failed = [r for r in rows if any(s != "ok" for s in r["status"].values())]
+    out["failed_pct"] = 100.0 * len(failed) / max(len(rows), 1)
+    out["failed_with_reason"] = sum(all(r["reason"][q] for q in QUANTITIES if r["status"][q] != "ok") for r in failed)
+    out["failures"] = {r["machine"]: r["failures"] for r in failed}
+    return out
