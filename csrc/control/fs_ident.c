@@ -12,7 +12,8 @@ static const float LEV_FRAC[FS_IDENT_NLEV] = {0.6f, 0.45f, 0.3f, 0.15f, 0.075f, 
 #define N_HF 10           /* samples per HF period: w_h Ts = 2 pi / 10, slow enough for the sampled model, fast against L/R */
 #define HF_SKIP 20        /* periods before the HF phasors are summed: the R-L transient */
 #define HF_MEAS 100       /* periods summed: the noise on the phasor falls as 1/sqrt(N) */
-#define I_HF 0.15f        /* of i_max: the HF current's amplitude, small against saturation, large against noise */
+#define I_HF 0.1f         /* of i_max: the q carrier's amplitude, small against saturation, large against noise */
+#define I_HF_D 0.15f      /* of i_max: the d carrier's, at zero current: larger, against the dead time's error (60 % larger: L_d +20 % on zoo machine 60 at 0.1) */
 #define I_IF 0.5f         /* of i_max: the I/f current, half the torque at a 90 deg load angle to spare */
 #define I_ACC 0.3f        /* of i_max: the first try of the acceleration current */
 #define U_SPIN 0.5f       /* of the linear limit: the EMF the spin may reach, leaving room for R i and L di/dt */
@@ -445,39 +446,66 @@ static float hf_inductance(const fs_ident *id, float Ur, float Ui, float Ir, flo
     return Ts / b;
 }
 
-/* ---- LDQ: zero current (one settling), then HF on alpha (d), then on beta (q) ---- */
+/* ---- LDQ: HF on alpha (d) at zero current, then on beta (q) at two d biases ----
+ * On q, a d bias keeps the two legs that carry the carrier off zero, where
+ * the dead time's error flips: with it constant the carrier sees none of
+ * it (at zero bias it was of the carrier's own size on high links and low
+ * L, and its quadrature part, from the ripple's timing, put up to 5 % into
+ * L_q). Two biases, I_b and 2 I_b, give L_q's change with i_d, and L_q at
+ * zero current by extrapolation. I_b clears the carrier's peak on those
+ * legs (sqrt 3 i_h) and six knees of the fitted error. On d the carrier
+ * rides on the biased leg itself, whose ripple still crosses zero on low-L
+ * machines (+5 to +9 % at a bias): d is measured at zero current, where
+ * the error's fundamental is mostly in phase with the current. */
+static float ldq_bias(const fs_ident *id, int level)
+{
+    const float i_max = id->cfg.i_max;
+    const float I_b = fs_clampf(FS_SQRT3 * I_HF * i_max + 6.0f * id->res.i_e, 0.2f * i_max, 0.4f * i_max);
+    return level == 0 ? I_b : 2.0f * I_b;
+}
+
+static void ldq_clear(fs_ident *id)
+{
+    id->k = 0;
+    id->hf_u[0] = id->hf_u[1] = 0.0f;
+    id->hf_i[0][0] = id->hf_i[0][1] = id->hf_i[1][0] = id->hf_i[1][1] = 0.0f;
+}
+
 static fs_ab step_ldq(fs_ident *id, fs_ab i)
 {
     const fs_ident_config *c = &id->cfg;
     const int n_set = (int)(30.0f / (id->w_c * c->Ts)) + 1;
-    if (id->sub == 0) {   /* back to zero current */
-        fs_ab u = dc_on_alpha(id, i, 0.0f);
-        if (++id->k >= n_set) {
-            id->sub = 1;
-            id->k = 0;
-            id->w_h = FS_TWO_PI / ((float)N_HF * c->Ts);
-            const float R = id->res.R_s, X = id->w_h * id->L0;
-            id->U_h = fminf(I_HF * c->i_max * sqrtf(R * R + X * X), 0.5f * id->u_max);
-        }
+    /* sub: 0: d at zero current; 1, 2: q at the first and second bias */
+    const int axis = id->sub > 0, level = id->sub - 1;
+    const float I_b = id->sub > 0 ? ldq_bias(id, level) : 0.0f;
+    if (id->k == 0) {
+        id->w_h = FS_TWO_PI / ((float)N_HF * c->Ts);
+        const float R = id->res.R_s, X = id->w_h * id->L0;
+        id->U_h = fminf((axis ? I_HF : I_HF_D) * c->i_max * sqrtf(R * R + X * X), 0.5f * id->u_max);
+    }
+    fs_ab u = dc_on_alpha(id, i, I_b);   /* the bias on d, q shorted */
+    if (id->k < n_set) {   /* each injection starts from a settled bias */
+        id->k++;
         return u;
     }
-    const int axis = id->sub - 1;   /* 0: alpha (d), 1: beta (q) */
-    const int kk = id->k % N_HF;
+    const int kh = id->k - n_set;
+    const int kk = kh % N_HF;
     const float ph = FS_TWO_PI * (float)kk / (float)N_HF;
     const float cu = cosf(ph), su = sinf(ph);
-    const float u = id->U_h * cu;   /* a cosine voltage: the inductive current starts at its own zero */
-    if (id->k >= HF_SKIP * N_HF) {
+    const float uh = id->U_h * cu;   /* a cosine voltage: the inductive current starts at its own zero */
+    if (axis == 0) u.alpha += uh; else u.beta += uh;
+    const float ua = axis == 0 ? u.alpha : u.beta;   /* all of the axis' voltage: the bias loop answers the carrier too */
+    if (kh >= HF_SKIP * N_HF) {
         /* phasors X = sum x[k] e^{-j w k Ts}: the current sampled now, the reference of now */
-        id->hf_u[0] += u * cu;
-        id->hf_u[1] -= u * su;
+        id->hf_u[0] += ua * cu;
+        id->hf_u[1] -= ua * su;
         id->hf_i[0][0] += i.alpha * cu;
         id->hf_i[0][1] -= i.alpha * su;
         id->hf_i[1][0] += i.beta * cu;
         id->hf_i[1][1] -= i.beta * su;
     }
     id->k++;
-    fs_ab out = axis == 0 ? (fs_ab){u, 0.0f} : (fs_ab){0.0f, u};
-    if (id->k < (HF_SKIP + HF_MEAS) * N_HF) return out;
+    if (kh + 1 < (HF_SKIP + HF_MEAS) * N_HF) return u;
 
     fs_ident_result *r = &id->res;
     const int n = HF_MEAS * N_HF;
@@ -486,29 +514,37 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i)
     /* amplitude 2|I|/n against the noise sigma sqrt(2/n) of that estimate */
     const float amp = 2.0f * sqrtf(Iax[0] * Iax[0] + Iax[1] * Iax[1]) / (float)n;
     const float snr = amp / fmaxf(id->sigma_i * sqrtf(2.0f / (float)n), 1e-6f * c->i_max);
-    r->snr_l = axis == 0 ? snr : fminf(r->snr_l, snr);
+    r->snr_l = id->sub == 0 ? snr : fminf(r->snr_l, snr);
     const int q = axis == 0 ? FS_IDQ_LD : FS_IDQ_LQ;
     if (!(L > 0.0f) || !fs_fin(L)) {
         ident_fail(id, q, FS_IDR_FIT);
-        return (fs_ab){0.0f, 0.0f};
+        return u;
     }
-    if (snr < 50.0f) {   /* 2 % of the amplitude at two sigma */
+    if (snr < 100.0f) {   /* 1 % of the amplitude at one sigma: L_q's extrapolation doubles the noise */
         ident_fail(id, q, FS_IDR_LOW_SIGNAL);
-        return (fs_ab){0.0f, 0.0f};
+        return u;
     }
-    if (axis == 0) {
+    if (id->sub == 0) {
         r->L_d = L;
-        /* the cross response's in-phase part, kept for the alignment check */
+        /* the cross response's in-phase part, for the alignment check */
         const float den = Iax[0] * Iax[0] + Iax[1] * Iax[1];
         r->eps_align = (Ix[0] * Iax[0] + Ix[1] * Iax[1]) / den;
-        ident_ok(id, FS_IDQ_LD);
-        id->sub = 2;
-        id->k = 0;
-        id->hf_u[0] = id->hf_u[1] = 0.0f;
-        id->hf_i[0][0] = id->hf_i[0][1] = id->hf_i[1][0] = id->hf_i[1][1] = 0.0f;
-        return (fs_ab){0.0f, 0.0f};
+    } else {
+        r->L_q_bias[level] = L;
+        r->I_bias[level] = I_b;
     }
-    r->L_q = L;
+    if (++id->sub < 3) {
+        ldq_clear(id);
+        return u;
+    }
+    /* L_q at zero current, linear in i_d through the two biases */
+    r->dL_q = (r->L_q_bias[1] - r->L_q_bias[0]) / (r->I_bias[1] - r->I_bias[0]);
+    r->L_q = r->L_q_bias[0] - r->I_bias[0] * r->dL_q;
+    if (!(r->L_q > 0.0f)) {   /* a curve too bent to extrapolate */
+        ident_fail(id, FS_IDQ_LQ, FS_IDR_FIT);
+        return u;
+    }
+    ident_ok(id, FS_IDQ_LD);
     ident_ok(id, FS_IDQ_LQ);
     /* i_q/i_d = (1 - L_d/L_q) eps for a small misalignment eps; without
      * saliency the axis does not matter to L */
@@ -519,7 +555,7 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i)
         ident_fail(id, FS_IDQ_LD, FS_IDR_MISALIGNED);
         id->res.status[FS_IDQ_LQ] = FS_IDS_FAILED;
         id->res.reason[FS_IDQ_LQ] = FS_IDR_MISALIGNED;
-        return (fs_ab){0.0f, 0.0f};
+        return u;
     }
     ident_design_pi(id, r->L_d, r->L_q, r->R_s);
     id->i_if = I_IF * c->i_max;

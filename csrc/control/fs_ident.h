@@ -16,11 +16,13 @@
  *           drops), fitted per leg as g(i) = u_e i / sqrt(i^2 + i_e^2), and
  *           R_s from the slope of the top three levels, where the error is
  *           flat (the slope cancels the inverter's offset).
- *   LDQ     an alternating HF voltage (a tenth of the sampling rate) on d,
- *           then on q, at zero dc current: L from the response's
- *           reactance (exact for a sampled R-L branch with the computation
- *           delay; the dead time, in phase with the current, only adds
- *           resistance); the cross response on q checks the alignment.
+ *   LDQ     an alternating HF voltage (a tenth of the sampling rate) on d
+ *           at zero current, then on q at two d-axis bias currents that
+ *           keep its legs' currents off zero (the dead time's error then
+ *           constant): L from the response's reactance (exact for a
+ *           sampled R-L branch with the computation delay), L_q's change
+ *           with i_d and L_q at zero current by extrapolation; the cross
+ *           response to the d carrier checks the alignment.
  *   SPIN    I/f: the current on the frame's d axis, the frame accelerated
  *           to w_spin (or to the speed where |u| reaches half the linear
  *           limit) in t_ramp.
@@ -101,6 +103,8 @@ typedef struct {
     float w_flux;                /* el. rad/s where psi_f was read */
     float a_acc, a_coast;        /* el. rad/s^2 at the acceleration's mean speed */
     float I_lev[FS_IDENT_NLEV], U_lev[FS_IDENT_NLEV];   /* the d-axis level means, A, V */
+    float I_bias[2], L_q_bias[2];    /* LDQ: the two d biases of the q injection, A, and L_q at each, H */
+    float dL_q;                  /* L_q's change with i_d, H/A (the cross-saturation the injection estimators see) */
 } fs_ident_result;
 
 typedef struct {

@@ -3,7 +3,7 @@
  * fs_ident's standstill steps against a locked-rotor R-L model in double
  * (d on alpha, one period of computation delay, a dead-time error of
  * u_e sign(i) per leg, exact discretization per axis): R_s, L_d, L_q and
- * the leg error come out within the goals; and each trust check says why:
+ * the leg error come out within the goals, the q carrier on two d biases; and each trust check says why:
  * no current (an open circuit), the rotor moving (an EMF on q), a current
  * beyond i_max. A failed quantity takes every later one with it, and none
  * is OK after a failure it needs. Init refuses what the sequence cannot use.
@@ -101,6 +101,11 @@ int main(void)
     FS_CHECK_REL(id.res.L_q, L_q, 0.02, 0.0, "L_q within 2 %");
     FS_CHECK_REL(id.res.u_e, u_e, 0.05, 0.0, "leg error within 5 %");
     FS_CHECK(fabsf(id.res.eps_align) < 0.02f, "no misalignment on a locked rotor at 0: %g", id.res.eps_align);
+    /* the q carrier rides on two d biases within 0.2..0.8 i_max; a linear
+     * load's L_q does not change with them */
+    FS_CHECK(id.res.I_bias[0] >= 2.0f - 1e-4f && id.res.I_bias[1] == 2.0f * id.res.I_bias[0] && id.res.I_bias[1] <= 8.0f + 1e-4f,
+             "biases %g, %g A", id.res.I_bias[0], id.res.I_bias[1]);
+    FS_CHECK(fabsf(id.res.dL_q) * id.res.I_bias[1] < 0.01f * (float)L_q, "no L_q change with i_d: %g H/A", id.res.dL_q);
     FS_CHECK_NEAR(fs_ident_leg_error(&id, -5.0f), -fs_ident_leg_error(&id, 5.0f), 1e-6, "the leg error is odd");
     FS_CHECK(fabsf(id.L0 - (float)L_d) < (float)L_d, "the probe's L within a factor of two: %g", id.L0);
 

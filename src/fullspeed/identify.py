@@ -175,7 +175,8 @@ def _result(sc: Scenario, drv, stop: str, sim_time: float, wall: float) -> Ident
         values["B"], values["T_c"] = r.B, r.T_c
     details = {"snr_rs": r.snr_rs, "r_fit_rs": r.r_fit_rs, "snr_l": r.snr_l, "snr_psi": r.snr_psi,
                "eps_align_deg": math.degrees(r.eps_align), "w_flux": r.w_flux, "a_acc": r.a_acc, "a_coast": r.a_coast,
-               "L_probe": drv.ident.L0, "i_acc": drv.ident.i_acc,
+               "L_probe": drv.ident.L0, "i_acc": drv.ident.i_acc, "i_e": r.i_e,
+               "I_bias": list(r.I_bias), "L_q_bias": list(r.L_q_bias), "dL_q": r.dL_q,
                "I_lev": [r.I_lev[k] for k in range(lib.FS_IDENT_NLEV)], "U_lev": [r.U_lev[k] for k in range(lib.FS_IDENT_NLEV)]}
     if stop != "done" and step not in ("done", "failed"):
         step = f"{step} (simulation stopped: {stop})"
