@@ -34,6 +34,18 @@
  *           two halves (B and T_coulomb); J = T / (a_acc - a_coast).
  * and DONE (zero current held on the tracking frame) or FAILED.
  *
+ * Where the design values come from: the probe's pulse from i_max and Ts
+ * (doubled from 1 % of the link until the current answers); the current
+ * loops' bandwidth from Ts (0.1/Ts), their gains from the probe's L, later
+ * the measured R_s, L_d, L_q; the levels' settling from that bandwidth and
+ * their windows from the noise (batch means); the carriers from i_max and
+ * the impedance |R_s + j w_h L| at w_h = 2 pi / (10 Ts); the PLL from the
+ * current loop and the spin's speed; the acceleration's current from a
+ * first try, cut by four while the speed changes faster than the PLL can
+ * follow (the mechanical time constant found on the way); the coast from
+ * the acceleration's duration. Each constant's reason is beside it in
+ * fs_ident.c.
+ *
  * Three phases, float32, no heap, no globals. The instance holds the
  * result; fs_ident_step returns the stationary voltage reference the drive
  * modulates (within the linear range, so that it is realised).

@@ -173,6 +173,8 @@ def _result(sc: Scenario, drv, stop: str, sim_time: float, wall: float) -> Ident
             values[q] = getattr(r, q)
     if status["friction"] == "ok":
         values["B"], values["T_c"] = r.B, r.T_c
+    if status["L_q"] == "ok":   # L_q's change with i_d (H/A), between the two biases of its carrier
+        values["dL_q_di_d"] = r.dL_q
     details = {"snr_rs": r.snr_rs, "r_fit_rs": r.r_fit_rs, "snr_l": r.snr_l, "snr_psi": r.snr_psi,
                "eps_align_deg": math.degrees(r.eps_align), "w_flux": r.w_flux, "a_acc": r.a_acc, "a_coast": r.a_coast,
                "L_probe": drv.ident.L0, "i_acc": drv.ident.i_acc, "i_e": r.i_e,
@@ -239,6 +241,8 @@ def report_tables(res: Identification) -> dict[str, dict]:
                 t[f"truth{tail}"] = res.truth[k]
             if k in res.values and res.truth.get(k):
                 t[f"error_pct{tail}"] = 100.0 * (res.values[k] - res.truth[k]) / res.truth[k]
+        if q == "L_q" and "dL_q_di_d" in res.values:
+            t["identified_dL_q_di_d"] = res.values["dL_q_di_d"]   # H/A, between d biases of details["I_bias"]
         if q in ("L_d", "L_q"):
             t["truth_nominal"] = res.truth[f"{q}_nominal"]
             t["truth_is"] = "the plant's incremental inductance at zero current (the unsaturated value the standstill test sees)"
