@@ -86,7 +86,8 @@ typedef enum {
     FS_IDR_PREREQ = 9,         /* an earlier quantity it needs failed */
     FS_IDR_MISALIGNED = 10,    /* the magnet axis is not where the alignment put it */
     FS_IDR_TOO_FAST = 11,      /* the speed changed too fast to fit, even at the least current */
-    FS_IDR__COUNT = 12
+    FS_IDR_FRICTION = 12,      /* friction too large a share of the test torque for J */
+    FS_IDR__COUNT = 13
 } fs_ident_reason;
 
 enum { FS_IDENT_NLEV = 7, FS_IDENT_NREC = 128, FS_IDENT_NBATCH = 8 };
