@@ -102,10 +102,15 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     if (!drv) return FS_ERR_NULL;
     drv->fail = NULL;
     if (!cfg) REFUSE("config", FS_ERR_NULL);
+    if (cfg->config_size != 0u && cfg->config_size != (unsigned int)sizeof(fs_drive_config)) REFUSE("config_size", FS_ERR_PARAM);
     if (cfg->mode == FS_MODE_IDENTIFY) return fs_drive_ident_init(drv, cfg);   /* knows no machine yet */
     fs_status st = drive_check_fields(cfg, &drv->fail);
     if (st != FS_OK) return st;
     if (cfg->phases != 3 && cfg->phases != 5) REFUSE("phases", FS_ERR_PARAM);
+    /* what this build leaves out (fs_drive.h, FS_WITH_*) */
+    if (!FS_WITH_FIVE_PHASE && cfg->phases == 5) REFUSE("phases", FS_ERR_MODE);
+    if (!FS_WITH_SWVI && cfg->angle_source == FS_ANGLE_SWVI) REFUSE("angle_source", FS_ERR_MODE);
+    if (!FS_WITH_IMC && cfg->converter == FS_CONV_IMC) REFUSE("converter", FS_ERR_MODE);
     if (cfg->mode < FS_MODE_OFF || cfg->mode > FS_MODE_SPEED) REFUSE("mode", FS_ERR_MODE);
     if (cfg->angle_source < FS_ANGLE_ENCODER || cfg->angle_source > FS_ANGLE_SWVI) REFUSE("angle_source", FS_ERR_MODE);
     if (!(cfg->T_pwm >= cfg->Ts)) REFUSE("T_pwm", FS_ERR_TS);
@@ -154,6 +159,12 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         fs_lock_config lc = {Tl, cfg->lock_time};
         SUB("lock_time", fs_lock_init(&drv->lock, &lc));
         drv->lock_a = expf(-4.0f * Tl / cfg->lock_time);
+        /* the rating: T_max, or in current mode the torque of i_max on q */
+        const float T_lim = fmaxf(cfg->T_max, fabsf(drive_torque(cfg, (fs_dq){0.0f, cfg->i_max})));
+        fs_monitor_config mc = {Tl, (int)(cfg->delay + 0.5f), cfg->R_s, cfg->L_d, cfg->L_q, cfg->psi_f,
+                                cfg->pole_pairs, fmaxf(cfg->J, 0.0f), cfg->B, T_lim, cfg->i_max,
+                                cfg->t_dead_comp / cfg->T_pwm, 0.25f * cfg->lock_time};
+        SUB("lock_time", fs_monitor_init(&drv->mon, &mc));
     }
     if (cfg->lock_recover != 0 && cfg->lock_recover != 1) REFUSE("lock_recover", FS_ERR_PARAM);
     if (cfg->lock_recover) {
@@ -218,7 +229,10 @@ void fs_drive_reset(fs_drive *drv)
     }
     if (drive_square(&drv->cfg)) fs_swvi_reset(&drv->sw, 0.0f, 0.0f);
     if (drive_imc_depth(&drv->cfg)) fs_imc_depth_reset(&drv->depth);
-    if (drv->cfg.lock_time > 0.0f) fs_lock_reset(&drv->lock);
+    if (drv->cfg.lock_time > 0.0f) {
+        fs_lock_reset(&drv->lock);
+        fs_monitor_reset(&drv->mon);
+    }
     drv->lock_ri = drv->lock_es = drv->lock_eh = drv->lock_ex = 0.0f;
     drv->stage = FS_STAGE_OPEN;
     drv->recoveries = 0;
@@ -401,11 +415,23 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
 /* The loss-of-lock residual of the estimator the loops use (fs_drive.h):
  * <= 1 on track, 0 while not monitored. Its signals are low-passed over a
  * quarter of lock_time first: single samples of a heterodyne or PLL error
- * are noisy, a lost estimator's are large for long. */
-static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, float g_w)
+ * are noisy, a lost estimator's are large for long. With the step's output
+ * (NULL for the square wave), the checks that do not trust the estimator
+ * (fs_monitor.h) join in. */
+static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_drive_out *out)
 {
     const fs_drive_config *c = &drv->cfg;
     const bool run = in->sensorless && drv->phase == FS_PHASE_RUN;
+    const float g_w = out ? out->g_w : 0.0f;
+    float r_mon = 0.0f;
+    if (out) {
+        const float ct = cosf(out->theta_e), st = sinf(out->theta_e);
+        const fs_monitor_in mi = {fs_inv_park((fs_dq){out->i_d, out->i_q}, ct, st), drv->u_hist[0], in->u_dc,
+                                  out->theta_e, out->w_e, drive_torque(c, (fs_dq){out->i_d_ref, out->i_q_ref}),
+                                  {out->i_d_ref - out->i_d, out->i_q_ref - out->i_q},
+                                  run && (c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED)};
+        r_mon = fs_monitor_step(&drv->mon, &mi);
+    }
     const bool blend = c->angle_source == FS_ANGLE_BLEND;
     const float b = 1.0f - drv->lock_a;
     /* each low-pass runs while its signal means something and starts from
@@ -435,21 +461,21 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, float g_w
                        && drv->smo.e_mag >= 0.35f * aw * c->psi_f;
     drv->lock_ex = cross ? drv->lock_ex + b * (fabsf(fs_wrap_pi(drv->smo.theta - drv->blend.theta_hat)) - drv->lock_ex)
                          : 0.0f;
-    return fmaxf(r, drv->lock_ex * 1.2732395f);                                   /* 45 deg = pi/4 rad */
+    return fmaxf(fmaxf(r, drv->lock_ex * 1.2732395f), r_mon);                     /* 45 deg = pi/4 rad */
 }
 
 /* The phase currents in the stationary frame (the fundamental plane with
  * five phases). */
 static fs_ab drive_clarke(const fs_drive_config *c, const float i_ph[])
 {
-    if (c->phases == 5) return fs_vsd5_forward(i_ph).ab;
+    if (drive_five(c)) return fs_vsd5_forward(i_ph).ab;
     return fs_clarke(i_ph[0], i_ph[1], i_ph[2]);
 }
 
 /* The largest voltage the modulator realises without distortion. */
 static float drive_u_lin(const fs_drive_config *c, float u_dc)
 {
-    return c->phases == 5 ? u_dc * 0.5257311f : u_dc * 0.5773503f;   /* 1/(2 cos(pi/10)), 1/sqrt(3) */
+    return drive_five(c) ? u_dc * 0.5257311f : u_dc * 0.5773503f;   /* 1/(2 cos(pi/10)), 1/sqrt(3) */
 }
 
 /* Duties for the reference (fundamental plus carrier u_inj), dead-time
@@ -465,7 +491,7 @@ static bool drive_modulate(const fs_drive *drv, const fs_drive_in *in, float u_d
     }
     u_ref.alpha += u_inj.alpha;
     u_ref.beta += u_inj.beta;
-    bool over = c->phases == 5 ? fs_pwm5(u_ref, u_dc, duty, u_f) : fs_svpwm(u_ref, u_dc, duty, u_f);
+    bool over = drive_five(c) ? fs_pwm5(u_ref, u_dc, duty, u_f) : fs_svpwm(u_ref, u_dc, duty, u_f);
     dead_time_comp(c, in->i_ph, duty);
     u_f->alpha -= u_inj.alpha;   /* the fundamental part */
     u_f->beta -= u_inj.beta;
@@ -599,7 +625,7 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     out->i_hf_q = sw->i_h.q;
     /* loss of lock (fs_drive.h), at the loops' rate */
     if (c->lock_time > 0.0f && sw->ff_fresh) {
-        h->lock_resid = drive_lock_residual(drv, in, 0.0f);
+        h->lock_resid = drive_lock_residual(drv, in, NULL);
         h->lock_lost = fs_lock_step(&drv->lock, h->lock_resid);
     }
     out->lock_resid = h->lock_resid;
@@ -726,7 +752,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     out->lock_resid = 0.0f;
     out->lock_lost = false;
     if (c->lock_time > 0.0f) {
-        out->lock_resid = drive_lock_residual(drv, in, out->g_w);
+        out->lock_resid = drive_lock_residual(drv, in, out);
         out->lock_lost = fs_lock_step(&drv->lock, out->lock_resid);
         if (out->lock_lost && c->lock_recover && drv->recoveries < c->lock_retries) {
             fs_drive_recover_begin(drv);

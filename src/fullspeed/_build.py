@@ -37,6 +37,7 @@ HEADERS = [
     "control/fs_swvi.h",
     "control/fs_polarity.h",
     "control/fs_lock.h",
+    "control/fs_monitor.h",
     "control/fs_imc.h",
     "control/fs_ident.h",
     "control/fs_drive.h",

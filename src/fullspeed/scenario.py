@@ -73,9 +73,9 @@ SCENARIO = {
         "k": NONNEG(0.0, hi=1e6, doc="V; 0: margin x the bound of eq. (18)"),
         "margin": F(1.5, lo=1.0, hi=100.0, lo_open=True),
         "delta": NONNEG(0.0, hi=1e5, doc="A; floored at k Ts / L_d"),
-        "cutoff_min_rpm": POS(20.0, hi=1e6, doc="floor of the adaptive filter's cutoff, as a mechanical speed"),
+        "cutoff_min_rpm": POS(None, hi=1e6, doc="floor of the adaptive filter's cutoff, as a mechanical speed; default 1/8 of the lower blending speed (yang2022: 20 rpm)"),
         "bw_pll": POS(None, hi=1e6, doc="rad/s; default from the machine's bench"),
-        "valid_rpm": NONNEG(100.0, hi=1e6),
+        "valid_rpm": NONNEG(None, hi=1e6, doc="the observer's estimate is trusted above this speed; default 5/8 of the lower blending speed (yang2022: 100 rpm)"),
         "top_speed_rpm": POS(None, hi=1e6, doc="for the gain bound; default 1.5 x rated"),
         "lag": C("exact", "paper", default="exact"),
         # how the sensorless drive starts: on the encoder until `handover`, or
@@ -102,8 +102,8 @@ SCENARIO = {
     "polarity": T({
         "enabled": B(True, doc="detect the magnet polarity before starting sensorless on injection"),
         "i_pulse": POS(None, hi=1e5, doc="A, d-current pulses; default half of controller.i_max"),
-        "t_lock": NONNEG(0.06, hi=10.0, doc="s, the estimator settles first: >= 6 / w_b_n + 2 / w_o (fade-in, filters, observer)"),
-        "t_pulse": POS(0.02, hi=10.0, doc="s, each pulse: >= 6 / w_b_p (the carrier amplitude settles in the first half)"),
+        "t_lock": NONNEG(None, hi=10.0, doc="s, the estimator settles first: >= 6 / w_b_n + 2 / w_o (fade-in, filters, observer); default 0.06 s or that bound x 1.2, the longer"),
+        "t_pulse": POS(None, hi=10.0, doc="s, each pulse: >= 6 / w_b_p (the carrier amplitude settles in the first half); default 0.02 s or that bound x 1.2, the longer"),
         "i_pulse_max": POS(None, hi=1e5, doc="A, the largest pulse of the retries when the first pair decides nothing; default controller.i_max less the carrier's peak"),
     }, default={}),
     "blending": T({
@@ -115,10 +115,12 @@ SCENARIO = {
         "kind": C("torque", "speed", "speed_pi", "brake", default="torque",
                   doc="brake: a passive brake (powder, eddy current), torque = its magnitude against the motion"),
         "torque": P(0.0, hi=1e6, doc="N m"), "speed_rpm": P(0.0, hi=1e6),
+        "torque_pu": P(None, hi=100.0, doc="the torque as a fraction of the machine's rated torque (instead of torque)"),
         "bandwidth": POS(100.0, hi=1e6, doc="load machine speed loop, rad/s"), "J_load": NONNEG(0.0, hi=1e5),
     }, default={}),
     "references": T({
         "speed_rpm": P(0.0, hi=1e6), "i_d": P(0.0, hi=1e5), "i_q": P(0.0, hi=1e5),
+        "speed_pu": P(None, hi=100.0, doc="the speed as a fraction of the machine's rated speed (instead of speed_rpm)"),
         "u_d": P(0.0, hi=1e5), "u_q": P(0.0, hi=1e5), "frame_rpm": P(0.0, hi=1e6),
     }, default={}),
     "initial": T({"theta_e_deg": F(0.0, -360.0, 360.0), "speed_rpm": F(0.0, -1e6, 1e6)}, default={}),
@@ -184,8 +186,10 @@ def _machine_of(raw, source) -> Machine:
         from . import zoo
         k, seed = raw.pop("zoo"), raw.pop("zoo_seed", zoo.SEED)
         for key, v in (("machine.zoo", k), ("machine.zoo_seed", seed)):
-            if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v < 2**31:
+            whole = isinstance(v, int) or (isinstance(v, float) and v.is_integer())   # a sweep's range gives floats
+            if isinstance(v, bool) or not whole or not 0 <= v < 2**31:
                 raise ConfigError(key, v, "must be an integer in 0 .. 2^31 - 1", source)
+        k, seed = int(k), int(seed)
         return machine_from_dict(deep_merge(zoo.machine(k, seed), raw), source)
     name = raw.pop("catalog", None)
     if name is not None:
@@ -204,6 +208,7 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
     d = validate(data, SCENARIO, "", source)
     m = _machine_of(d["machine"], source)
     b = m.bench
+    _per_unit(d, data, m, source)
     conv, tim, sen, ctl = d["converter"], d["timing"], d["sensors"], d["controller"]
     if conv["kind"] == "imc":
         _imc_fields(d, m, source)
@@ -233,6 +238,11 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
             notes["observer.bw_pll"] = dz.design_observer_pll(dz.machine_values(m), rpm_to_rad_s(band["lower_rpm"].value),
                                                               ctl["bw_speed"], ctl["bw_current"])
         obs["bw_pll"] = notes["observer.bw_pll"].value
+    for key, share in (("valid_rpm", 0.625), ("cutoff_min_rpm", 0.125)):
+        if obs[key] is None:   # where the observer is trusted, and its filter's floor, against the band it blends in
+            obs[key] = share * band["lower_rpm"].value
+            notes[f"observer.{key}"] = dz.Value(obs[key], "rpm", f"{share:g} x the lower blending speed (yang2022: "
+                                                f"{share * 160:g} rpm of 160): trusted inside the band, filtering below it")
     if ctl["angle"] == "smo" and "bw_speed" not in data.get("controller", {}):
         # the speed comes from the observer's PLL: keep its lag (a double pole)
         # small at the speed loop's crossover, as the bench's encoder PLL does
@@ -315,7 +325,20 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         if f"injection.{key}" not in notes and d["injection"][key] is not None and ctl["angle"] in ("hfi", "blend", "swvi"):
             notes[f"injection.{key}"] = dz.Value(d["injection"][key], "", "given in the machine file or the scenario", True)
     notes.update(d.pop("_notes", {}))
-    return Scenario(name=d["name"], machine=m, data=d, source=source, design=notes)
+    from .checks import warnings_of
+    return Scenario(name=d["name"], machine=m, data=d, source=source, design=notes, warnings=warnings_of(d, m))
+
+
+def _per_unit(d: dict, data: dict, m: Machine, source) -> None:
+    """Profiles given per unit of the machine's rating, into SI/rpm ones."""
+    for sec, pu, key, base in (("references", "speed_pu", "speed_rpm", m.w_m_rated * 60 / (2 * math.pi)),
+                               ("load", "torque_pu", "torque", m.T_rated)):
+        if d[sec][pu] is None:
+            continue
+        if key in data.get(sec, {}):
+            raise ConfigError(f"{sec}.{pu}", "given", f"and {sec}.{key} are one setting: give one of them", source)
+        t, y = d[sec][pu]
+        d[sec][key] = (t, [v * base for v in y])
 
 
 def _bench_of(d: dict, m: Machine) -> dict:
@@ -414,6 +437,11 @@ def _injection_fields(d: dict, m: Machine, source) -> None:
         raise ConfigError("blending.bw_observer", bl["bw_observer"], f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s", source)
     if pol["enabled"]:
         t_lock_min, t_pulse_min = 6.0 / w_b_n + 2.0 / w_o, 6.0 / w_b_p
+        for key, t_min, t_default in (("t_lock", t_lock_min, 0.06), ("t_pulse", t_pulse_min, 0.02)):
+            if pol[key] is None:   # 20 % above the settling bound: noise and the rounding to samples
+                pol[key] = max(t_default, 1.2 * t_min)
+                d.setdefault("_notes", {})[f"polarity.{key}"] = dz.Value(
+                    pol[key], "s", f"{t_default:g} s (yang2022's bench) or 1.2 x the settling bound {t_min:.3g} s, the longer")
         if pol["t_lock"] < t_lock_min:
             raise ConfigError("polarity.t_lock", pol["t_lock"], f"must be >= {t_lock_min:.3g} s: 6 / w_b_n + 2 / w_o, the fade-in, the filters and the observer settle first", source)
         if pol["t_pulse"] < t_pulse_min:

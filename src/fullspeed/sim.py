@@ -160,6 +160,7 @@ def build_config(sc: Scenario):
     cfg.w_m0 = rpm_to_rad_s(d["initial"]["speed_rpm"])
 
     dc = cfg.drive
+    dc.config_size = ffi.sizeof("fs_drive_config")   # fs_drive_init checks it against the library's
     dc.phases = m.phases
     dc.mode, dc.angle_source = MODES[ctl["mode"]], ANGLES[ctl["angle"]]
     dc.Ts, dc.T_pwm, dc.delay = Ts, inv.T_pwm, float(cfg.delay)
@@ -349,7 +350,7 @@ class Simulation:
         stages = {lib.FS_POLARITY_LOCK: "lock", lib.FS_POLARITY_POS: "pulse", lib.FS_POLARITY_NEG: "pulse",
                   lib.FS_POLARITY_DONE: "done", lib.FS_POLARITY_UNDETERMINED: "undetermined"}
         return {"stage": stages.get(p.stage, str(p.stage)), "d": float(p.d), "margin": float(p.margin),
-                "attempts": int(p.attempts), "i_pulse": float(p.i_now), "flip": bool(p.flip)}
+                "attempts": int(p.attempts), "i_pulse": float(p.i_now), "flip": bool(p.flip), "moved": bool(p.moved)}
 
     def traces(self) -> dict[str, np.ndarray]:
         """Each channel as a view into the buffer (strided, no copy)."""
