@@ -88,7 +88,7 @@ void fs_ident_reset(fs_ident *id)
     id->tries = 0;
     id->rec_n = id->rec_k = 0;
     id->rec_dec = 1;
-    id->t_acc = 0.0f;
+    id->t_acc = id->w_acc = 0.0f;
 }
 
 float fs_ident_leg_error(const fs_ident *id, float i)
@@ -729,7 +729,7 @@ static fs_ab step_accel(fs_ident *id, fs_ab i)
             }
         } else {
             id->res.a_acc = a;
-            id->e_abs = wm;   /* the acceleration's mean speed, for the coast's interpolation */
+            id->w_acc = wm;   /* the acceleration's mean speed, for the coast's interpolation */
             id->sub = 0;
         }
         const int redo = id->sub;
@@ -771,7 +771,7 @@ static fs_ab step_coast(fs_ident *id, fs_ab i)
         ident_fail(id, FS_IDQ_J, FS_IDR_TOO_FAST);
         return u;
     }
-    const float w_acc = id->e_abs;
+    const float w_acc = id->w_acc;
     float slope = 0.0f, a_c = 0.5f * (a1 + a2);
     if (fabsf(w1 - w2) > 0.02f * fabsf(w1)) {   /* two distinct speeds: a line a(w) */
         slope = (a1 - a2) / (w1 - w2);

@@ -153,6 +153,7 @@ typedef struct {
     float rec_t[FS_IDENT_NREC], rec_w[FS_IDENT_NREC];
     int rec_n, rec_dec, rec_k;
     float t_acc;         /* s the acceleration took */
+    float w_acc;         /* el. rad/s, its mean speed */
 } fs_ident;
 
 fs_status fs_ident_init(fs_ident *id, const fs_ident_config *cfg);
