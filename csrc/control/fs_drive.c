@@ -16,6 +16,7 @@ enum { F = 0, N = 1, P = 2 };
 #define DRIVE_FIELDS(X) \
     X(Ts, P, FS_ERR_TS) X(T_pwm, P, FS_ERR_TS) X(delay, F, FS_ERR_PARAM) \
     X(R_s, N, FS_ERR_RS) X(L_d, P, FS_ERR_LD) X(L_q, P, FS_ERR_LQ) X(psi_f, N, FS_ERR_PSI_F) \
+    X(L_d_hf, N, FS_ERR_LD) X(L_q_hf, N, FS_ERR_LQ) \
     X(J, F, FS_ERR_J) X(B, N, FS_ERR_PARAM) X(i_max, P, FS_ERR_I_MAX) X(T_max, F, FS_ERR_LIMIT) \
     X(bw_current, F, FS_ERR_BANDWIDTH) X(bw_speed, F, FS_ERR_BANDWIDTH) X(bw_pll, F, FS_ERR_BANDWIDTH) \
     X(t_dead_comp, N, FS_ERR_PARAM) X(i_dead_band, N, FS_ERR_PARAM) X(vf_gain, F, FS_ERR_PARAM) \
@@ -41,7 +42,9 @@ enum { F = 0, N = 1, P = 2 };
 #define FIELD_NAME(f, kind, status) #f "\0"
 static const uint8_t drive_fields[][2] = {DRIVE_FIELDS(FIELD_ENTRY)};
 static const char drive_field_names[] = DRIVE_FIELDS(FIELD_NAME);
-typedef char drive_fields_fit[(sizeof(fs_drive_config) <= 256 * sizeof(float) && FS_ERR__COUNT < 64) ? 1 : -1];
+/* every field the table names lies before the MTPA table (the config's
+ * last member, checked by fs_mtpa_init), within 256 floats of the start */
+typedef char drive_fields_fit[(offsetof(fs_drive_config, mtpa_table) <= 256 * sizeof(float) && FS_ERR__COUNT < 64) ? 1 : -1];
 
 /* The first field of the table out of its range, its status and its name. */
 static fs_status drive_check_fields(const fs_drive_config *cfg, const char **name)
@@ -67,14 +70,14 @@ static fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
     hc.Ts = cfg->Ts;
     hc.delay = cfg->delay;
     hc.R_s = cfg->R_s;
-    hc.L_d = cfg->L_d;
-    hc.L_q = cfg->L_q;
+    hc.L_d = cfg->L_d_hf > 0.0f ? cfg->L_d_hf : cfg->L_d;   /* fs_drive.h */
+    hc.L_q = cfg->L_q_hf > 0.0f ? cfg->L_q_hf : cfg->L_q;
     mo.bandwidth = hc.obs.bandwidth;
     hc.obs = mo;
     if (!fs_pos(cfg->J)) REFUSE("J", FS_ERR_J);
     SUB("hfi", fs_hfi_init(&drv->hfi, &hc));
     /* the carrier current's peak, I_p + I_n = u_h / (w_h min(L_d, L_q)) */
-    drv->i_hf = hc.u_h / (drv->hfi.cfg.w_h * fminf(cfg->L_d, cfg->L_q));
+    drv->i_hf = hc.u_h / (drv->hfi.cfg.w_h * fminf(hc.L_d, hc.L_q));
     if (!(drv->i_hf < 0.5f * cfg->i_max)) REFUSE("hfi.u_h", FS_ERR_ABOVE_I_MAX);
     if (cfg->angle_source == FS_ANGLE_BLEND) {
         fs_blend_config bc = cfg->blend;
@@ -135,6 +138,10 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         oc.L_d = cfg->L_d;
         oc.L_q = cfg->L_q;
         oc.psi_f = cfg->psi_f;
+        oc.J = cfg->J;            /* the tracking form's motion observer and torque */
+        oc.B = cfg->B;
+        oc.pole_pairs = cfg->pole_pairs;
+        oc.phases = cfg->phases;
         oc.dir_external = cfg->angle_source == FS_ANGLE_BLEND;
         SUB("smo", fs_smo_init(&drv->smo, &oc));
     }
@@ -143,7 +150,8 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         st = fs_speed_ctrl_init(&drv->sc, &scc);
         if (st != FS_OK)
             REFUSE(st == FS_ERR_J ? "J" : st == FS_ERR_BANDWIDTH ? "bw_speed" : st == FS_ERR_LIMIT ? "T_max" : "k_p_w, k_i_w", st);
-        fs_mtpa_config mc = {cfg->L_d, cfg->L_q, cfg->psi_f, cfg->pole_pairs, cfg->i_max, cfg->phases};
+        fs_mtpa_config mc = {cfg->L_d, cfg->L_q, cfg->psi_f, cfg->pole_pairs, cfg->i_max, cfg->phases,
+                             cfg->mtpa_table.n ? &cfg->mtpa_table : NULL};
         st = fs_mtpa_init(&drv->mtpa, &mc);
         if (st != FS_OK) REFUSE(st == FS_ERR_LQ ? "L_q" : "mtpa (psi_f, L_d, L_q, i_max)", st);
         if (drive_weakens(cfg)) {
@@ -279,12 +287,15 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
         const float w_min = own ? drv->smo.cfg.w_valid : 0.5f * drv->blend.cfg.w_lower;
         if (fabsf(w_dir) > w_min) fs_smo_set_dir(&drv->smo, w_dir);
         fs_smo_step(&drv->smo, i_f, drive_u_past(drv));
-        fs_blend_step(&drv->blend, drv->smo.theta, drv->hfi.theta, T_ff);   /* Fig. 6 */
+        fs_blend_step_gated(&drv->blend, drv->smo.theta, drv->hfi.theta, T_ff,   /* Fig. 6 */
+                            drv->smo.converged || !c->blend.gate, drv->injecting);
         /* Above w_inject_max the injection stops (g_w = 1 there: the HFI
          * angle is not read); below 0.9 w_inject_max it resumes from the
          * blended estimate. */
         const float aw = fabsf(drv->blend.w_hat);
-        if (c->w_inject_max > 0.0f && drv->inject_on && aw > c->w_inject_max) {
+        /* ... and, with the blend's gate, only once the SMO has converged
+         * (fs_blend.h: a load release can carry the rotor past it before) */
+        if (c->w_inject_max > 0.0f && drv->inject_on && aw > c->w_inject_max && drv->blend.trust >= 1.0f) {
             drv->inject_on = false;
         } else if (c->w_inject_max > 0.0f && !drv->inject_on && aw < 0.9f * c->w_inject_max) {
             drv->inject_on = true;

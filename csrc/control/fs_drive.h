@@ -187,8 +187,15 @@ typedef struct {
     float Ts;                /* control (sampling) period, s */
     float T_pwm;             /* carrier period, s (Ts or 2 Ts) */
     float delay;             /* computation delay in control periods: 1 or 0 */
-    /* the machine as the controller knows it */
+    /* the machine as the controller knows it: L_d, L_q, psi_f for the
+     * decoupling, the loops' design and the observers; a flux map's
+     * (fullspeed.fluxmap): psi_f at zero current and the secant inductances
+     * at the MTPA point of rated current */
     float R_s, L_d, L_q, psi_f;
+    /* the incremental inductances the injection sees (HFI and blend; 0:
+     * L_d, L_q above); a flux map's at half the rated current on its MTPA
+     * locus */
+    float L_d_hf, L_q_hf;
     int pole_pairs;
     float J, B;
     /* limits */
@@ -283,6 +290,11 @@ typedef struct {
     float imc_w_grid;
     int imc_depth;
     float imc_i_lim, imc_V_im;
+    /* the MTPA locus as a table (n = 0: designed from L_d, L_q, psi_f; a flux
+     * map's from fullspeed.fluxmap); read at init only. Held in the config,
+     * not pointed to, so that the config has no pointer: the same bytes on
+     * the host and the target, and an export carries the table */
+    fs_mtpa_table mtpa_table;
     /* FS_MODE_IDENTIFY (three phases, inverter): Ts, delay, pole_pairs and
      * i_max are taken from above */
     fs_ident_config ident;

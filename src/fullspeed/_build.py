@@ -23,6 +23,7 @@ HEADERS = [
     "control/fs_pwm5.h",
     "control/fs_pll.h",
     "control/fs_lpf.h",
+    "control/fs_motion_obs.h",   # the SMO's tracking form holds one
     "control/fs_smo.h",
     "control/fs_current_ctrl.h",
     "control/fs_speed_ctrl.h",
@@ -30,7 +31,6 @@ HEADERS = [
     "control/fs_fw.h",
     "control/fs_srff.h",
     "control/fs_hfi_filter.h",
-    "control/fs_motion_obs.h",
     "control/fs_blend.h",
     "control/fs_xcomp.h",
     "control/fs_hfi.h",

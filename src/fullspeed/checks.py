@@ -112,6 +112,11 @@ def warnings_of(d: dict, m) -> list[str]:
                 out.append(f"polarity.t_pulse: the rotor is light for its pulses: {pol['i_pulse']:.3g} A a few degrees off the "
                            f"axis spins it up within {SPIN / lam:.3g} s, shorter than a pulse pair ({2 * pol['t_pulse']:.3g} s); "
                            "the detection will likely refuse (stop reason polarity_undetermined)")
+
+    # the saliency an injection estimator locks on, where a flux map gives it
+    if ctl["angle"] in ("hfi", "blend") and m.magnetic["model"] == "fluxmap":
+        from .fluxmap import saliency_warnings
+        out += saliency_warnings(m.magnetic, ctl["i_max"], m.phases, m.pole_pairs, m.T_rated, m.name)
     return out
 
 
