@@ -55,8 +55,8 @@ PARAM_ERRORS = [("R_s x0.5", {"R_s": 0.5}), ("R_s x2", {"R_s": 2.0}), ("L_d x0.5
                 ("L_q x2", {"L_q": 2.0}), ("L_d, L_q x0.5", {"L_d": 0.5, "L_q": 0.5}),
                 ("L_d, L_q x2", {"L_d": 2.0, "L_q": 2.0}), ("psi_f x0.5", {"psi_f": 0.5}),
                 ("psi_f x2", {"psi_f": 2.0}), ("J x0.5", {"J": 0.5}), ("J x2", {"J": 2.0})]
-IMPACTS = (1.5, 2.5)
-SLIP_TIME = 0.02              # s: a run without a true loss whose error was past 90 el.deg this long in all slipped          # x T_max: beyond what the drive can hold
+IMPACTS = (1.5, 2.5)          # x T_max: beyond what the drive can hold
+SLIP_TIME = 0.02              # s: a run without a true loss whose error was past 90 el.deg this long in all slipped
 
 _INJ_MOT = {"u_h": 250.0, "f_h": 1000.0}   # the motulator machine has no [injection]: the comparison report's choice
 
