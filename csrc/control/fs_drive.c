@@ -124,6 +124,16 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         oc.dir_external = cfg->angle_source == FS_ANGLE_BLEND;
         SUB("smo", fs_smo_init(&drv->smo, &oc));
     }
+    if (cfg->adapt.T_f > 0.0f) {
+        fs_param_adapt_config ac = cfg->adapt;
+        ac.Ts = cfg->Ts;
+        ac.R_s = cfg->R_s;
+        ac.L_d = cfg->L_d;
+        ac.psi_f = cfg->psi_f;
+        ac.i_max = cfg->i_max;
+        if (!(ac.w_e_max > 0.0f)) ac.w_e_max = cfg->smo.w_e_max;
+        SUB("adapt", fs_param_adapt_init(&drv->adapt, &ac));
+    }
     if (cfg->mode == FS_MODE_SPEED) {
         fs_speed_ctrl_config scc = {Tl, cfg->J, cfg->B, cfg->bw_speed, cfg->T_max, cfg->k_p_w, cfg->k_i_w};
         st = fs_speed_ctrl_init(&drv->sc, &scc);
@@ -595,6 +605,17 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     out->recoveries = 0;
 }
 
+/* Online R_s and psi_f (fs_param_adapt.h), learnt while the loops run
+ * sensorless: the SMO's model and the current loop's feed-forward take them. */
+static void drive_adapt(fs_drive *drv, const fs_drive_in *in, fs_dq u, fs_dq i, float w_e, bool closed_loop)
+{
+    const bool learn = closed_loop && in->sensorless && drv->phase == FS_PHASE_RUN;
+    if (fs_param_adapt_step(&drv->adapt, u, i, w_e, learn)) {
+        drv->smo.cfg.R_s = drv->adapt.R_s;
+        drv->cc.cfg.psi_f = drv->adapt.psi_f;
+    }
+}
+
 void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
 {
     const fs_drive_config *c = &drv->cfg;
@@ -650,6 +671,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     drv->u_hist[0] = u_ab;
     fs_dq u_real = fs_park(u_ab, cos_u, sin_u);
     if (closed_loop) fs_current_ctrl_update(&drv->cc, u_real);
+    if (c->adapt.T_f > 0.0f) drive_adapt(drv, in, u_real, i_dq, w_e, closed_loop);
     if (drive_weakens(c) && !starting && !polarity && drv->phase != FS_PHASE_RECOVER)
         fs_fw_step(&drv->fw, u_ref.q - u_real.q, w_e);   /* eq. (26): dv_q */
 

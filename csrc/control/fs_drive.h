@@ -33,6 +33,7 @@
 #include "fs_imc.h"
 #include "fs_lock.h"
 #include "fs_mtpa.h"
+#include "fs_param_adapt.h"
 #include "fs_pll.h"
 #include "fs_polarity.h"
 #include "fs_pwm5.h"
@@ -186,6 +187,12 @@ typedef struct {
     float imc_w_grid;
     int imc_depth;
     float imc_i_lim, imc_V_im;
+    /* online correction of R_s and psi_f (fs_param_adapt.h), learnt while
+     * the loops run sensorless (rotating injection, SMO, blend); the SMO's
+     * model and the current loop's feed-forward take the estimates. T_f 0:
+     * off; Ts, R_s, L_d, psi_f and i_max are taken from above, w_e_max 0
+     * from smo.w_e_max */
+    fs_param_adapt_config adapt;
 } fs_drive_config;
 
 typedef struct {
@@ -240,6 +247,7 @@ typedef struct {
     fs_swvi sw;
     fs_imc_depth depth;      /* matrix converter, PART_2 */
     fs_lock lock;
+    fs_param_adapt adapt;    /* when cfg.adapt.T_f > 0 */
     float i_hf;              /* the rotating carrier current's peak, A: i_max less it bounds the fundamental */
     float lock_a;            /* the residual's low-pass pole */
     float lock_ri, lock_es, lock_eh;   /* low-passed: SMO current error / delta, SMO PLL error, injection error */

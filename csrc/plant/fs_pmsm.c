@@ -10,6 +10,8 @@ static int pos(double x) { return x > 0.0 && isfinite(x); }
 fs_status fs_pmsm_init(fs_pmsm *m, const fs_pmsm_config *cfg)
 {
     m->cfg = *cfg;
+    m->R_s0 = cfg->R_s;
+    m->psi_f30 = cfg->psi_f3;
     if (cfg->pole_pairs < 1) return FS_ERR_POLE_PAIRS;
     if (!nonneg(cfg->R_s)) return FS_ERR_RS;
     if (!pos(cfg->J)) return FS_ERR_J;
@@ -42,6 +44,20 @@ void fs_pmsm_initial_state(fs_pmsm *m, double *x)
     for (int n = 0; n < FS_X_N; ++n) x[n] = 0.0;
     fs_mag_flux(&m->mag, 0.0, 0.0, &x[FS_X_PSI_D], &x[FS_X_PSI_Q]);
     if (m->cfg.phases == 5) x[FS_X_PSI_D3] = m->cfg.psi_f3;
+}
+
+void fs_pmsm_set_temperature(fs_pmsm *m, double *x, double r, double k)
+{
+    m->cfg.R_s = r * m->R_s0;
+    double i_d, i_q;
+    fs_mag_current(&m->mag, x[FS_X_PSI_D], x[FS_X_PSI_Q], &i_d, &i_q);
+    fs_mag_set_magnet(&m->mag, k);
+    fs_mag_flux(&m->mag, i_d, i_q, &x[FS_X_PSI_D], &x[FS_X_PSI_Q]);
+    if (m->cfg.phases == 5) {
+        const double psi_f3 = k * m->psi_f30;   /* the linear d3 axis: i_d3 kept */
+        x[FS_X_PSI_D3] += psi_f3 - m->cfg.psi_f3;
+        m->cfg.psi_f3 = psi_f3;
+    }
 }
 
 /* The three- and five-phase paths are one body specialised by a constant

@@ -69,6 +69,7 @@ typedef struct {
     fs_mag mag;
     double k_p_load, k_i_load;  /* load machine PI, designed in init */
     double inv_L_d3, inv_L_q3;  /* five phases: 1/L_d3, 1/L_q3 */
+    double R_s0, psi_f30;       /* R_s and psi_f3 as configured (fs_pmsm_set_temperature scales them) */
 } fs_pmsm;
 
 /* Inputs of the right-hand side that are held over an integration step. */
@@ -104,6 +105,12 @@ void fs_pmsm_currents3(const fs_pmsm *m, const double *x, double *i_d3, double *
 /* Stored magnetic energy m/2 (W(psi) + W3), W3 = (psi_d3 - psi_f3)^2/(2 L_d3)
  * + psi_q3^2/(2 L_q3) (W as fs_mag_energy; 0 for three phases), J. */
 double fs_pmsm_energy(const fs_pmsm *m, const double *x);
+/* The winding's resistance at r times the configured R_s and the magnet's
+ * remanence at k times the configured one (fs_mag_set_magnet; psi_f3 with
+ * it), from a thermal model. The currents are kept: the flux states move
+ * with the magnet (the EMF of that slow change, d psi_f/dt, is neglected,
+ * and so is the energy it exchanges, which the meters do not see). */
+void fs_pmsm_set_temperature(fs_pmsm *m, double *x, double r, double k);
 /* Classic RK4 step of length h with held input. */
 void fs_pmsm_rk4(fs_pmsm *m, double *x, const fs_pmsm_input *in, double h);
 

@@ -33,6 +33,11 @@ struct fs_sim {
     float theta_enc_held;    /* the encoder's reading once it has stopped */
     int sensor_fault;        /* cfg.fault has a sensor offset or gain error */
     double adc_sat_time;     /* first saturated current reading, or NaN */
+    int thermal_on;          /* cfg.thermal.enabled */
+    fs_thermal thermal;
+    double e_cu_prev;        /* the copper-loss meter at the start of the period, J */
+    double k_mag;            /* the magnet factor the plant has */
+    double psi_f_true;       /* the plant's open-circuit magnet flux, Wb */
 };
 
 /* The runner passes drive duties to the inverter and phase currents back. */
@@ -132,6 +137,8 @@ static void phase_currents(fs_sim *s, const double *x, double *i_ph, double *i_d
     }
 }
 
+static void thermal_apply(fs_sim *s);
+
 #define FAIL(...) do { snprintf(err, (size_t)err_len, __VA_ARGS__); fs_sim_destroy(s); return NULL; } while (0)
 
 fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
@@ -230,7 +237,46 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
     for (int k = 0; k < FS_INV_MAX_LEGS; ++k)
         s->sensor_fault |= cfg->fault.i_gain[k] != 0.0 || cfg->fault.i_offset[k] != 0.0;
     s->u_dc0 = cfg->inverter.u_dc;
+    s->psi_f_true = cfg->plant.mag.psi_f;
+    s->k_mag = 1.0;
+    if (cfg->thermal.enabled) {
+        if (cfg->plant.mag.kind == FS_MAG_FLUXMAP)
+            FAIL("thermal: a flux map's magnet temperature is not modelled (use the linear or algebraic model)");
+        if (fs_thermal_init(&s->thermal, &cfg->thermal) != FS_OK)
+            FAIL("thermal: a field is out of range (resistances and capacities > 0, time_scale >= 1, shares in [0, 1], "
+                 "|alpha| < 0.1/K, temperatures in [-273.15, 1000] degC)");
+        s->thermal_on = 1;
+        thermal_apply(s);
+    }
     return s;
+}
+
+/* The plant's R_s and magnet at the thermal model's temperatures; the
+ * magnet (a flux solve) only when its factor moved by 1e-6 or more. */
+static void thermal_apply(fs_sim *s)
+{
+    const double r = fs_thermal_r_factor(&s->thermal), k = fs_thermal_magnet_factor(&s->thermal);
+    if (fabs(k - s->k_mag) >= 1e-6) {
+        fs_pmsm_set_temperature(&s->pmsm, s->x, r, k);
+        s->k_mag = k;
+        double pq;
+        fs_mag_flux(&s->pmsm.mag, 0.0, 0.0, &s->psi_f_true, &pq);
+    } else {
+        s->pmsm.cfg.R_s = r * s->pmsm.R_s0;
+    }
+}
+
+/* The thermal model over the period that ended: the copper loss from the
+ * plant's meter, the iron loss at the period's end. */
+static void thermal_period(fs_sim *s)
+{
+    const double P_cu = (s->x[FS_X_E_CU] - s->e_cu_prev) / s->Tc;
+    s->e_cu_prev = s->x[FS_X_E_CU];
+    const double psi_f0 = s->pmsm.mag.psi_f0;   /* P_fe_ref's flux; a machine without magnet: 1 */
+    const double psi = psi_f0 > 0.0 ? hypot(s->x[FS_X_PSI_D], s->x[FS_X_PSI_Q]) / psi_f0 : 1.0;
+    const double P_fe = fs_thermal_iron_loss(&s->thermal, s->pmsm.cfg.pole_pairs * s->x[FS_X_W_M], psi);
+    fs_thermal_step(&s->thermal, P_cu, P_fe, s->Tc);
+    thermal_apply(s);
 }
 
 void fs_sim_destroy(fs_sim *s)
@@ -509,6 +555,13 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
             r[FS_CH_STAGE] = dout.stage;
             r[FS_CH_RECOVERIES] = dout.recoveries;
             r[FS_CH_U_DC] = din.u_dc;
+            r[FS_CH_T_WINDING] = s->thermal_on ? s->thermal.T_w : 0.0;
+            r[FS_CH_T_MAGNET] = s->thermal_on ? s->thermal.T_m : 0.0;
+            r[FS_CH_R_S_TRUE] = s->pmsm.cfg.R_s;
+            r[FS_CH_PSI_F_TRUE] = s->psi_f_true;
+            const int adapt = c->drive.adapt.T_f > 0.0f;
+            r[FS_CH_R_S_HAT] = adapt ? s->drive.adapt.R_s : c->drive.R_s;
+            r[FS_CH_PSI_F_HAT] = adapt ? s->drive.adapt.psi_f : c->drive.psi_f;
             ++*rows;
         }
         if (c->lock_stop && dout.lock_lost) {
@@ -520,6 +573,7 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
         /* the plant over this period */
         s->x[FS_X_UD_INT] = s->x[FS_X_UQ_INT] = 0.0;
         if (s->imc) integrate_period_imc(s, t); else integrate_period(s, t);
+        if (s->thermal_on) thermal_period(s);
         if (c->delay) {
             for (int k = 0; k < s->phases; ++k) s->duty_now[k] = s->duty_next[k];
             s->rect_now = s->rect_next;

@@ -41,6 +41,23 @@ BENCH = {
 # psi_d3 = L_d3 i_d3 + psi_f3, psi_q3 = L_q3 i_q3 (yu2022 eq. (1)).
 THIRD_HARMONIC = {"L_d3": F(lo=1e-8, hi=10.0), "L_q3": F(lo=1e-8, hi=10.0), "psi_f3": NONNEG(hi=100.0)}
 
+# The two-node thermal model (csrc/plant/fs_thermal.h): winding and
+# magnets, their thermal resistances and heat capacities, the temperature
+# [electrical] holds at, and the losses' and parameters' coefficients.
+THERMAL = {
+    "T_ref": F(20.0, lo=-50.0, hi=300.0, doc="degC: R_s and psi_f of [electrical] are at this temperature"),
+    "T_amb": F(40.0, lo=-50.0, hi=300.0, doc="degC: ambient (housing sink, coolant)"),
+    "R_wa": POS(hi=1e4, doc="K/W, winding to ambient"), "R_wm": POS(hi=1e4, doc="K/W, winding to magnets"),
+    "R_ma": POS(hi=1e4, doc="K/W, magnets to ambient"),
+    "C_w": POS(hi=1e9, doc="J/K, winding node"), "C_m": POS(hi=1e9, doc="J/K, magnet node"),
+    "alpha_cu": F(0.00393, lo=-0.05, hi=0.05, doc="1/K, copper's resistance coefficient"),
+    "alpha_br": F(-0.0012, lo=-0.05, hi=0.05, doc="1/K, the magnet's remanence coefficient"),
+    "P_fe_ref": NONNEG(0.0, hi=1e9, doc="W, iron loss at speed_fe_rpm with the magnet's flux"),
+    "speed_fe_rpm": POS(1000.0, hi=1e6), "k_hyst": F(0.7, lo=0.0, hi=1.0, doc="hysteresis share of P_fe_ref"),
+    "k_rotor": F(0.1, lo=0.0, hi=1.0, doc="share of the iron loss in the rotor (heats the magnets)"),
+    "reasons": NOTES(),
+}
+
 # The estimators' defaults on this machine (scenario [injection] and
 # [blending] fields left out come from here), and the paper's printed gains.
 INJECTION = {
@@ -66,7 +83,7 @@ MACHINE = {
     "magnetic": T(MAGNETIC, default={}),
     "bench": T(BENCH),
     "injection": T(INJECTION, default=None), "blending": T(BLENDING, default=None),
-    "paper_gains": T(PAPER_GAINS, default=None), "third_harmonic": ANY,
+    "paper_gains": T(PAPER_GAINS, default=None), "third_harmonic": ANY, "thermal": T(THERMAL, default=None),
     "bench_experiment": T(BENCH_EXPERIMENT, default=None), "derivations": NOTES(),
 }
 
@@ -97,6 +114,7 @@ class Machine:
     L_d3: float = 0.0       # H
     L_q3: float = 0.0       # H
     psi_f3: float = 0.0     # Wb
+    thermal: dict | None = None   # [thermal] as validated (THERMAL), None without one
 
     def mtpa_torque(self, i: float) -> float:
         """Torque on the MTPA locus at current magnitude i (linear model), from
@@ -160,7 +178,7 @@ def machine_from_dict(data: dict, source: str | None = None, prefix: str = "mach
         J=m["J"], B=m["B"], T_coulomb=m["T_coulomb"],
         T_rated=r["torque"], i_rated=r["current"], w_m_rated=rpm_to_rad_s(r["speed_rpm"]),
         magnetic=d["magnetic"], bench=b, extra=extra, source=d["source"], description=d["description"],
-        L_d3=th["L_d3"], L_q3=th["L_q3"], psi_f3=th["psi_f3"],
+        L_d3=th["L_d3"], L_q3=th["L_q3"], psi_f3=th["psi_f3"], thermal=d["thermal"],
     )
 
 

@@ -65,6 +65,8 @@ SCENARIO = {
         "lock_time": POS(0.02, hi=10.0, doc="s off track, net, before lock counts as lost"),
         "recover_time": POS(0.05, hi=10.0, doc="s of zero current before a recovery re-acquires"),
         "lock_retries": I(3, 0, 1000, doc="recoveries before a loss of lock stops the run"),
+        "param_adapt": B(False, doc="online correction of R_s and psi_f while sensorless (fs_param_adapt.h)"),
+        "adapt_time": POS(5.0, hi=1e4, doc="s, its least squares' forgetting time: long against the drive's cycle of operating points, short against the machine's heating"),
     }),
     # the estimator (yang2022 sec. 2); used from `handover` on, running from t = 0
     "observer": T({
@@ -130,6 +132,14 @@ SCENARIO = {
         "t_open": NONNEG(0.0, hi=1e4, doc="s"),
         "t_encoder_stop": POS(None, hi=1e4, doc="s: the encoder's reading freezes here"),
         "u_dc_scale": P(1.0, hi=10.0, doc="the dc link relative to converter.u_dc: a sag or a step (inverter)"),
+    }, default={}),
+    # the machine's heating (its [thermal] table, csrc/plant/fs_thermal.h)
+    "thermal": T({
+        "enabled": B(False, doc="R_s and the magnet follow the winding's and magnets' temperatures"),
+        "time_scale": F(1.0, lo=1.0, hi=1e6, doc="the heat capacities divided by this: minutes of heating in seconds"),
+        "T_amb": F(None, lo=-50.0, hi=300.0, doc="degC; default the machine's"),
+        "T_winding0": F(None, lo=-50.0, hi=300.0, doc="degC; default the ambient"),
+        "T_magnet0": F(None, lo=-50.0, hi=300.0, doc="degC; default the ambient"),
     }, default={}),
     "trace": T({"decimation": I(1, 1, 10**6)}, default={}),
     "metrics": T({"steady": Spec("any", None)}, default={}),
@@ -274,6 +284,7 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         if d[sec][key] is not None and d[sec][key] * Ts > limit:   # None: designed in C
             raise ConfigError(f"{sec}.{key}", d[sec][key], f"must be <= {limit / Ts:g} rad/s for the control period {Ts:g} s", source)
     _fault_fields(d, m, source)
+    _thermal_fields(d, m, source)
     steady = d["metrics"]["steady"]
     if steady is not None:
         ok = (isinstance(steady, list) and len(steady) == 2
@@ -282,6 +293,22 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         if not ok:
             raise ConfigError("metrics.steady", steady, f"must be [t_start, t_end] with 0 <= t_start < t_end <= duration ({d['duration']:g})", source)
     return Scenario(name=d["name"], machine=m, data=d, source=source)
+
+
+def _thermal_fields(d: dict, m: Machine, source) -> None:
+    th = d["thermal"]
+    if not th["enabled"]:
+        return
+    if m.thermal is None:
+        raise ConfigError("thermal.enabled", True, f"needs a [thermal] table in the machine {m.name}", source)
+    if m.magnetic["model"] == "fluxmap":
+        raise ConfigError("thermal.enabled", True, "a flux map's magnet temperature is not modelled: "
+                          "the machine's magnetic model must be linear or algebraic", source)
+    if th["T_amb"] is None:
+        th["T_amb"] = m.thermal["T_amb"]
+    for key in ("T_winding0", "T_magnet0"):
+        if th[key] is None:
+            th[key] = th["T_amb"]
 
 
 def _fault_fields(d: dict, m: Machine, source) -> None:

@@ -24,6 +24,7 @@ CHANNELS = [
     "g_w", "inject", "i_d3", "i_q3", "i_hf_d", "i_hf_q",
     "i_grid_a", "v_pn", "u_ab", "alpha", "E_grid", "E_rf", "W_filter",
     "lock_resid", "lock_lost", "stage", "recoveries", "u_dc",
+    "T_winding", "T_magnet", "R_s_true", "psi_f_true", "R_s_hat", "psi_f_hat",
 ]
 assert len(CHANNELS) == lib.FS_CH_N, "channel names out of step with fs_sim.h"
 
@@ -125,6 +126,8 @@ def build_config(sc: Scenario):
     if m.phases == 5:   # the third-harmonic plane (machines.py checked the [third_harmonic] table)
         pl.L_d3, pl.L_q3, pl.psi_f3 = m.L_d3, m.L_q3, m.psi_f3
 
+    _set_thermal(cfg.thermal, m, d["thermal"])
+
     inv = cfg.inverter
     inv.kind = lib.FS_INV_SWITCHING if conv["inverter"] == "switching" else lib.FS_INV_AVERAGED
     inv.u_dc, inv.T_pwm, inv.t_dead, inv.u_on = conv["u_dc"], 1.0 / conv["f_pwm"], conv["t_dead"], conv["u_on"]
@@ -173,6 +176,8 @@ def build_config(sc: Scenario):
         dc.fw_w_e_max = m.pole_pairs * rpm_to_rad_s(ctl["fw_top_speed_rpm"])
         dc.fw_gain = ctl["fw_gain"]
         dc.fw_cutoff = ctl["fw_cutoff"] or 0.0   # 0: designed in fs_drive_init
+    if ctl["param_adapt"]:
+        dc.adapt.T_f = ctl["adapt_time"]
     dc.lock_time = ctl["lock_time"] if ctl["lock"] != "off" else 0.0
     dc.lock_recover = int(ctl["lock"] == "recover")
     dc.t_recover, dc.lock_retries = ctl["recover_time"], ctl["lock_retries"]
@@ -225,6 +230,20 @@ def build_config(sc: Scenario):
         _set_profile(getattr(cfg, name), t, [v * scale for v in y], keep)
     cfg.decimation = d["trace"]["decimation"]
     return cfg, keep
+
+
+def _set_thermal(tc, m, th: dict) -> None:
+    """The machine's [thermal] table and the scenario's [thermal] run
+    settings (checked by scenario._thermal_fields) into the plant's config."""
+    tc.enabled = 1 if th["enabled"] else 0
+    if not th["enabled"]:
+        return
+    mt = m.thermal
+    tc.T_amb, tc.T_ref, tc.T_w0, tc.T_m0 = th["T_amb"], mt["T_ref"], th["T_winding0"], th["T_magnet0"]
+    tc.R_wa, tc.R_wm, tc.R_ma, tc.C_w, tc.C_m = (mt[k] for k in ("R_wa", "R_wm", "R_ma", "C_w", "C_m"))
+    tc.alpha_cu, tc.alpha_br, tc.P_fe_ref = mt["alpha_cu"], mt["alpha_br"], mt["P_fe_ref"]
+    tc.w_fe_ref = m.pole_pairs * rpm_to_rad_s(mt["speed_fe_rpm"])
+    tc.k_hyst, tc.k_rotor, tc.time_scale = mt["k_hyst"], mt["k_rotor"], th["time_scale"]
 
 
 def _set_injection(dc, d: dict, p: int) -> None:
