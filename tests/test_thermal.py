@@ -178,3 +178,18 @@ def test_adapt_refuses_bad_config():
         cfg = ffi.new("fs_param_adapt_config *", {**base, field: value})
         assert lib.fs_param_adapt_init(a, cfg) == st, field
     assert lib.fs_param_adapt_init(ffi.NULL, ffi.new("fs_param_adapt_config *", base)) == lib.FS_ERR_NULL
+
+
+def test_hfi_takes_a_new_resistance_as_if_designed_with_it():
+    """fs_hfi_set_resistance gives the carrier phase and amplitude init gives
+    for that resistance, and a hotter winding turns the reference."""
+    base = {"Ts": 1e-4, "delay": 1.0, "u_h": 5.0, "w_h": 2 * math.pi * 1000, "R_s": 0.036, "L_d": 65e-6, "L_q": 90e-6,
+            "obs": {"J": 1.87e-3, "pole_pairs": 5}}
+    cold, hot = ffi.new("fs_hfi *"), ffi.new("fs_hfi *")
+    assert lib.fs_hfi_init(cold, ffi.new("fs_hfi_config *", base)) == lib.FS_OK
+    assert lib.fs_hfi_init(hot, ffi.new("fs_hfi_config *", {**base, "R_s": 0.054})) == lib.FS_OK
+    assert abs(hot.phi_ref - cold.phi_ref) > 0.02
+    lib.fs_hfi_set_resistance(cold, 0.054)
+    assert (cold.phi_ref, cold.i_n_design, cold.cfg.R_s) == (hot.phi_ref, hot.i_n_design, pytest.approx(0.054))
+    lib.fs_hfi_set_resistance(cold, -1.0)   # ignored
+    assert cold.phi_ref == hot.phi_ref

@@ -606,13 +606,17 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
 }
 
 /* Online R_s and psi_f (fs_param_adapt.h), learnt while the loops run
- * sensorless: the SMO's model and the current loop's feed-forward take them. */
+ * sensorless: the SMO's model, the injection's carrier phase and the
+ * current loop's feed-forward take them. */
 static void drive_adapt(fs_drive *drv, const fs_drive_in *in, fs_dq u, fs_dq i, float w_e, bool closed_loop)
 {
     const bool learn = closed_loop && in->sensorless && drv->phase == FS_PHASE_RUN;
     if (fs_param_adapt_step(&drv->adapt, u, i, w_e, learn)) {
         drv->smo.cfg.R_s = drv->adapt.R_s;
         drv->cc.cfg.psi_f = drv->adapt.psi_f;
+        /* the injection's phase compensation (trigonometry): on a 1 % move */
+        if (drive_injects(&drv->cfg) && fabsf(drv->adapt.R_s - drv->hfi.cfg.R_s) > 0.01f * drv->cfg.R_s)
+            fs_hfi_set_resistance(&drv->hfi, drv->adapt.R_s);
     }
 }
 

@@ -302,9 +302,9 @@ def thermal(out: Path) -> Measurement:
             f"{value['T_magnet_end_degC']:.0f} degC (open-circuit psi_f -{value['psi_f_fall_pct']:.1f} %). Max |error| "
             f"from {T_THERMAL:g} s on. Each estimator's mean error over its holds, first and last cycle: the back-EMF "
             f"observer drifts with R_s (R_s i_d along d, against the EMF w psi_f along q), which the correction removes; "
-            f"the injection estimator drifts with R_s (its carrier phase compensation, fixed in fs_hfi_init) and with "
-            f"the magnet (the saturation its cross-saturation table was calibrated at, cold), which the correction does "
-            f"not reach. The cold run is the same cycle with the thermal model off (machine at 20 degC). The online "
+            f"the injection estimator drifts with R_s (its carrier phase compensation, fs_hfi.h), which the correction "
+            f"reaches, and with the magnet (the saturation its cross-saturation table was calibrated at, cold), which it does "
+            f"not. The cold run is the same cycle with the thermal model off (machine at 20 degC). The online "
             f"correction (csrc/control/fs_param_adapt.h) fits the q-axis voltage equation u_q - w L_d i_d = R_s i_q + "
             f"w psi_f over a 5 s window of the cycle's operating points; its psi_f is the flux under load, which "
             f"cross-saturation lowers below the open-circuit value the plant traces (psi_f_hat_error_pct_last_cycle).")
