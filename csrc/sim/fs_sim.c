@@ -112,7 +112,7 @@ static void inv_clarke3(double a, double b, double *v)
 static void stator_current(fs_sim *s, const double *x, double *i_a, double *i_b, double *i_d, double *i_q)
 {
     double id, iq;
-    fs_mag_current(&s->pmsm.mag, x[FS_X_PSI_D], x[FS_X_PSI_Q], &id, &iq);
+    fs_pmsm_current_dq(&s->pmsm, x, &id, &iq);
     const double th = s->pmsm.cfg.pole_pairs * x[FS_X_THETA_M];
     const double cs = cos(th), sn = sin(th);
     *i_a = cs * id - sn * iq;
@@ -219,6 +219,8 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
     s->nx = ph == 5 ? FS_X_N : FS_X_N3;
     fs_status pst = fs_pmsm_init(&s->pmsm, &cfg->plant);
     if (pst != FS_OK) FAIL("machine: %s", fs_status_str(pst));
+    if (s->pmsm.harm && fc->open_phase)
+        FAIL("faults.open_phase = %d: not modelled with spatial harmonics (machine [harmonics])", fc->open_phase);
     s->Tc = cfg->sampling == FS_SAMPLING_DOUBLE ? 0.5 * cfg->inverter.T_pwm : cfg->inverter.T_pwm;
     if (fabs(cfg->drive.Ts - s->Tc) > 1e-6 * s->Tc)
         FAIL("controller.Ts = %g: must equal the control period %g", cfg->drive.Ts, s->Tc);
@@ -228,6 +230,7 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
     fs_pmsm_initial_state(&s->pmsm, s->x);
     s->x[FS_X_THETA_M] = cfg->theta_m0;
     s->x[FS_X_W_M] = cfg->w_m0;
+    fs_pmsm_rest_flux(&s->pmsm, s->x);   /* spatial harmonics: zero current at theta_m0 */
     if (cfg->plant.load_kind == FS_LOAD_SPEED_IDEAL)
         s->x[FS_X_W_M] = fs_pwl_eval(&s->prof[P_W_LOAD], 0.0, NULL);
     for (int k = 0; k < FS_INV_MAX_LEGS; ++k) s->duty_now[k] = s->duty_next[k] = 0.5;

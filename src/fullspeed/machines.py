@@ -58,6 +58,18 @@ THERMAL = {
     "reasons": NOTES(),
 }
 
+# Spatial harmonics (csrc/plant/fs_pmsm.h): the back-EMF's harmonics of
+# orders 5, 7, 11, 13 relative to its fundamental (signed: 1 = in phase at
+# theta = 0), the saliency harmonics as the flux transform's terms of orders
+# 6 and 12 (dd, qq, dq), and the cogging torque.
+HARMONICS = {
+    **{f"emf{n}": F(0.0, lo=-0.5, hi=0.5, doc=f"E_{n} / E_1") for n in (5, 7, 11, 13)},
+    **{f"sal{k}_{ax}": F(0.0, lo=-0.2, hi=0.2) for k in (6, 12) for ax in ("dd", "qq", "dq")},
+    "cogging_Nm": NONNEG(0.0, hi=1e6, doc="N m, amplitude"),
+    "cogging_order": Spec("choice", 12, choices=(6, 12, 18, 24), doc="per electrical turn: LCM(slots, 2p) / p"),
+    "reasons": NOTES(),
+}
+
 # The estimators' defaults on this machine (scenario [injection] and
 # [blending] fields left out come from here), and the paper's printed gains.
 INJECTION = {
@@ -84,6 +96,7 @@ MACHINE = {
     "bench": T(BENCH),
     "injection": T(INJECTION, default=None), "blending": T(BLENDING, default=None),
     "paper_gains": T(PAPER_GAINS, default=None), "third_harmonic": ANY, "thermal": T(THERMAL, default=None),
+    "harmonics": T(HARMONICS, default=None),
     "bench_experiment": T(BENCH_EXPERIMENT, default=None), "derivations": NOTES(),
 }
 
@@ -115,6 +128,7 @@ class Machine:
     L_q3: float = 0.0       # H
     psi_f3: float = 0.0     # Wb
     thermal: dict | None = None   # [thermal] as validated (THERMAL), None without one
+    harmonics: dict | None = None  # [harmonics] as validated (HARMONICS), None without one
 
     def mtpa_torque(self, i: float) -> float:
         """Torque on the MTPA locus at current magnitude i (linear model), from
@@ -179,6 +193,7 @@ def machine_from_dict(data: dict, source: str | None = None, prefix: str = "mach
         T_rated=r["torque"], i_rated=r["current"], w_m_rated=rpm_to_rad_s(r["speed_rpm"]),
         magnetic=d["magnetic"], bench=b, extra=extra, source=d["source"], description=d["description"],
         L_d3=th["L_d3"], L_q3=th["L_q3"], psi_f3=th["psi_f3"], thermal=d["thermal"],
+        harmonics=d["harmonics"],
     )
 
 

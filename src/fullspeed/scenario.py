@@ -141,6 +141,9 @@ SCENARIO = {
         "T_winding0": F(None, lo=-50.0, hi=300.0, doc="degC; default the ambient"),
         "T_magnet0": F(None, lo=-50.0, hi=300.0, doc="degC; default the ambient"),
     }, default={}),
+    # the machine's spatial harmonics (its [harmonics] table, csrc/plant/fs_pmsm.h)
+    "harmonics": T({"enabled": B(False, doc="the flux depends on the rotor angle: back-EMF and saliency harmonics, cogging")},
+                   default={}),
     "trace": T({"decimation": I(1, 1, 10**6)}, default={}),
     "metrics": T({"steady": Spec("any", None)}, default={}),
 }
@@ -296,6 +299,13 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
 
 
 def _thermal_fields(d: dict, m: Machine, source) -> None:
+    if d["harmonics"]["enabled"]:
+        if m.harmonics is None:
+            raise ConfigError("harmonics.enabled", True, f"needs a [harmonics] table in the machine {m.name}", source)
+        if m.phases != 3:
+            raise ConfigError("harmonics.enabled", True, "spatial harmonics are modelled on three-phase machines", source)
+        if d["faults"]["open_phase"] != "none":
+            raise ConfigError("harmonics.enabled", True, "not modelled with an open phase (faults.open_phase)", source)
     th = d["thermal"]
     if not th["enabled"]:
         return

@@ -127,6 +127,8 @@ def build_config(sc: Scenario):
         pl.L_d3, pl.L_q3, pl.psi_f3 = m.L_d3, m.L_q3, m.psi_f3
 
     _set_thermal(cfg.thermal, m, d["thermal"])
+    if d["harmonics"]["enabled"]:
+        _set_harmonics(pl, m)
 
     inv = cfg.inverter
     inv.kind = lib.FS_INV_SWITCHING if conv["inverter"] == "switching" else lib.FS_INV_AVERAGED
@@ -230,6 +232,17 @@ def build_config(sc: Scenario):
         _set_profile(getattr(cfg, name), t, [v * scale for v in y], keep)
     cfg.decimation = d["trace"]["decimation"]
     return cfg, keep
+
+
+def _set_harmonics(pl, m) -> None:
+    """The machine's [harmonics] (checked by scenario._thermal_fields) into
+    the plant: back-EMF harmonic E_n / E_1 of order n is n psi_n / psi_f."""
+    h = m.harmonics
+    for k, n in enumerate((5, 7, 11, 13)):
+        pl.psi_h[k] = h[f"emf{n}"] * m.psi_f / n
+    for k, ax in enumerate(("dd", "qq", "dq")):
+        pl.sal6[k], pl.sal12[k] = h[f"sal6_{ax}"], h[f"sal12_{ax}"]
+    pl.T_cog, pl.cog_order = h["cogging_Nm"], h["cogging_order"]
 
 
 def _set_thermal(tc, m, th: dict) -> None:
