@@ -2,8 +2,9 @@
 on and off, wall time in the same run (ratios, not seconds).
 
 Effects: the two-node thermal model (csrc/plant/fs_thermal.h, the
-scenario's [thermal]), and the online R_s / psi_f correction in the drive
-(csrc/control/fs_param_adapt.h, controller.param_adapt). The scenario is
+scenario's [thermal]), the online R_s / psi_f correction in the drive
+(csrc/control/fs_param_adapt.h, controller.param_adapt), and the spatial
+harmonics (csrc/plant/fs_pmsm.h, the scenario's [harmonics]). The scenario is
 beyond-thermal (the yang2022 machine, blended sensorless, switching
 inverter) cut to a few seconds. Runs alternate between the variants so a
 slow moment of the machine hits all of them; each variant's time is the
@@ -22,10 +23,12 @@ import sys
 from fullspeed.sim import simulate
 
 SCENARIO = "beyond-thermal"
+OFF = {"thermal": {"enabled": False}, "controller": {"param_adapt": False}, "harmonics": {"enabled": False}}
 VARIANTS = {
-    "off": {"thermal": {"enabled": False}, "controller": {"param_adapt": False}},
-    "thermal": {"thermal": {"enabled": True}, "controller": {"param_adapt": False}},
-    "thermal+adapt": {"thermal": {"enabled": True}, "controller": {"param_adapt": True}},
+    "off": OFF,
+    "thermal": {**OFF, "thermal": {"enabled": True}},
+    "thermal+adapt": {**OFF, "thermal": {"enabled": True}, "controller": {"param_adapt": True}},
+    "harmonics": {**OFF, "harmonics": {"enabled": True}},
 }
 
 

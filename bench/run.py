@@ -1,5 +1,6 @@
 """fullspeed's benchmarks in one command: wall time against motulator, the
-drive step's instructions per control step, and the Cortex-M4F build.
+drive step's instructions per control step, the Cortex-M4F build, and
+what each optional plant effect costs (effects.py).
 
 Each part runs on its own and skips, saying why, where this machine lacks
 what it needs (a Python >= 3.12 for motulator, valgrind, the ARM
@@ -17,11 +18,12 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
+import effects  # noqa: E402
 import firmware  # noqa: E402
 import instructions  # noqa: E402
 import wall  # noqa: E402
 
-PARTS = ("wall", "instructions", "firmware")
+PARTS = ("wall", "instructions", "firmware", "effects")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -44,6 +46,9 @@ def main(argv: list[str] | None = None) -> int:
         if part == "wall":
             rep = wall.wall_report(a.repeat)
             text = wall.format_report(rep)
+        elif part == "effects":
+            rep = effects.effects_report(a.repeat)
+            text = effects.format_report(rep)
         elif part == "instructions":
             rep = instructions.instructions_report(steps=a.steps)
             text = instructions.format_report(rep)

@@ -209,7 +209,7 @@ def test_harmonic_back_emf_matches_the_table():
         x[lib.FS_X_THETA_M] = t / p
         lib.fs_pmsm_rest_flux(m, x)
         i_d, i_q = ffi.new("double *"), ffi.new("double *")
-        lib.fs_pmsm_current_dq(m, x, i_d, i_q)
+        lib.fs_pmsm_current_dq(m, x, np.cos(t), np.sin(t), i_d, i_q)
         assert abs(i_d[0]) < 1e-9 and abs(i_q[0]) < 1e-9
         psi_a.append(x[lib.FS_X_PSI_D] * np.cos(t) - x[lib.FS_X_PSI_Q] * np.sin(t))
     psi_a = np.array(psi_a)

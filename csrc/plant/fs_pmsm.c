@@ -262,11 +262,10 @@ void fs_pmsm_outputs(fs_pmsm *m, const double *x, const fs_pmsm_input *in,
     }
 }
 
-void fs_pmsm_current_dq(fs_pmsm *m, const double *x, double *i_d, double *i_q)
+void fs_pmsm_current_dq(fs_pmsm *m, const double *x, double cs, double sn, double *i_d, double *i_q)
 {
     if (m->harm) {
-        const double th = m->cfg.pole_pairs * x[FS_X_THETA_M];
-        harm_current(m, x, cos(th), sin(th), i_d, i_q, NULL);
+        harm_current(m, x, cs, sn, i_d, i_q, NULL);
     } else {
         fs_mag_current(&m->mag, x[FS_X_PSI_D], x[FS_X_PSI_Q], i_d, i_q);
     }

@@ -127,8 +127,9 @@ void fs_pmsm_initial_state(fs_pmsm *m, double *x);
 /* With spatial harmonics: the fluxes of zero current at the state's angle
  * (after the angle is set); without, nothing. */
 void fs_pmsm_rest_flux(fs_pmsm *m, double *x);
-/* Rotor-frame currents of a state. */
-void fs_pmsm_current_dq(fs_pmsm *m, const double *x, double *i_d, double *i_q);
+/* Rotor-frame currents of a state whose electrical angle has cosine cs and
+ * sine sn (read only with spatial harmonics). */
+void fs_pmsm_current_dq(fs_pmsm *m, const double *x, double cs, double sn, double *i_d, double *i_q);
 void fs_pmsm_deriv(fs_pmsm *m, const double *x, const fs_pmsm_input *in, double *dx);
 /* Currents (rotor frame), torque and shaft load torque of a state. */
 void fs_pmsm_outputs(fs_pmsm *m, const double *x, const fs_pmsm_input *in,

@@ -111,10 +111,10 @@ static void inv_clarke3(double a, double b, double *v)
  * if asked, rotor frame (d, q). */
 static void stator_current(fs_sim *s, const double *x, double *i_a, double *i_b, double *i_d, double *i_q)
 {
-    double id, iq;
-    fs_pmsm_current_dq(&s->pmsm, x, &id, &iq);
     const double th = s->pmsm.cfg.pole_pairs * x[FS_X_THETA_M];
     const double cs = cos(th), sn = sin(th);
+    double id, iq;
+    fs_pmsm_current_dq(&s->pmsm, x, cs, sn, &id, &iq);
     *i_a = cs * id - sn * iq;
     *i_b = sn * id + cs * iq;
     if (i_d) *i_d = id;
