@@ -124,6 +124,11 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         oc.dir_external = cfg->angle_source == FS_ANGLE_BLEND;
         SUB("smo", fs_smo_init(&drv->smo, &oc));
     }
+    if (cfg->dt_predict && cfg->t_dead_comp > 0.0f) {
+        fs_dtcomp_config dc = {cfg->phases, cfg->T_pwm, cfg->Ts, cfg->delay, cfg->t_dead_comp, cfg->i_dead_band,
+                               cfg->L_d, cfg->L_q};
+        SUB("dt_predict", fs_dtcomp_init(&drv->dtc, &dc));
+    }
     if (cfg->adapt.T_f > 0.0f) {
         fs_param_adapt_config ac = cfg->adapt;
         ac.Ts = cfg->Ts;
@@ -450,7 +455,7 @@ static float drive_u_lin(const fs_drive_config *c, float u_dc)
 
 /* Duties for the reference (fundamental plus carrier u_inj), dead-time
  * compensated; *u_f receives the realised fundamental voltage. OFF: 0.5. */
-static bool drive_modulate(const fs_drive *drv, const fs_drive_in *in, float u_dc, fs_ab u_ref, fs_ab u_inj,
+static bool drive_modulate(fs_drive *drv, const fs_drive_in *in, float u_dc, fs_ab u_ref, fs_ab u_inj,
                            float duty[], fs_ab *u_f)
 {
     const fs_drive_config *c = &drv->cfg;
@@ -462,7 +467,8 @@ static bool drive_modulate(const fs_drive *drv, const fs_drive_in *in, float u_d
     u_ref.alpha += u_inj.alpha;
     u_ref.beta += u_inj.beta;
     bool over = c->phases == 5 ? fs_pwm5(u_ref, u_dc, duty, u_f) : fs_svpwm(u_ref, u_dc, duty, u_f);
-    dead_time_comp(c, in->i_ph, duty);
+    if (c->dt_predict && c->t_dead_comp > 0.0f) fs_dtcomp_step(&drv->dtc, in->i_ph, u_inj, duty);
+    else dead_time_comp(c, in->i_ph, duty);
     u_f->alpha -= u_inj.alpha;   /* the fundamental part */
     u_f->beta -= u_inj.beta;
     return over;

@@ -27,6 +27,7 @@
 #define FS_DRIVE_H
 
 #include "fs_current_ctrl.h"
+#include "fs_dtcomp.h"
 #include "fs_blend.h"
 #include "fs_fw.h"
 #include "fs_hfi.h"
@@ -110,6 +111,9 @@ typedef struct {
      * T_pwm / 2) and the current below which the compensation ramps linearly
      * to zero */
     float t_dead_comp, i_dead_band;
+    /* 1: the dead-time compensation takes each edge's sign from the current
+     * predicted there (fs_dtcomp.h); 0: from the sampled current */
+    int dt_predict;
     /* V/f: volts per electrical rad/s and boost volts */
     float vf_gain, vf_boost;
     /* the estimator, for FS_ANGLE_SMO (Ts and machine fields are taken from above) */
@@ -248,6 +252,7 @@ typedef struct {
     fs_imc_depth depth;      /* matrix converter, PART_2 */
     fs_lock lock;
     fs_param_adapt adapt;    /* when cfg.adapt.T_f > 0 */
+    fs_dtcomp dtc;           /* when cfg.dt_predict and t_dead_comp > 0 */
     float i_hf;              /* the rotating carrier current's peak, A: i_max less it bounds the fundamental */
     float lock_a;            /* the residual's low-pass pole */
     float lock_ri, lock_es, lock_eh;   /* low-passed: SMO current error / delta, SMO PLL error, injection error */

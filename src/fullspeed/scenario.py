@@ -45,6 +45,7 @@ SCENARIO = {
         "bw_current": POS(None, hi=1e6), "bw_speed": POS(None, hi=1e6), "bw_pll": POS(None, hi=1e6),
         "i_max": POS(None, hi=1e5), "T_max": POS(None, hi=1e6),
         "dead_time_comp": B(True), "i_dead_band": NONNEG(None, hi=1e5),
+        "dead_time_predict": B(False, doc="the compensation takes each edge's sign from the current predicted there (fs_dtcomp.h)"),
         "vf_gain": NONNEG(0.0, hi=1e3, doc="V per electrical rad/s"), "vf_boost": NONNEG(0.0, hi=1e5),
         # the controller's parameters relative to the true machine's
         "R_s_scale": F(1.0, lo=0.01, hi=100.0), "L_d_scale": F(1.0, lo=0.01, hi=100.0), "L_q_scale": F(1.0, lo=0.01, hi=100.0),

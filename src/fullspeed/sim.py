@@ -173,6 +173,7 @@ def build_config(sc: Scenario):
     dc.bw_current, dc.bw_speed, dc.bw_pll = ctl["bw_current"], ctl["bw_speed"], ctl["bw_pll"]
     dc.t_dead_comp = conv["t_dead"] if ctl["dead_time_comp"] else 0.0
     dc.i_dead_band = ctl["i_dead_band"]
+    dc.dt_predict = 1 if ctl["dead_time_predict"] else 0
     dc.vf_gain, dc.vf_boost = ctl["vf_gain"], ctl["vf_boost"]
     if ctl["flux_weakening"]:
         dc.fw_w_e_max = m.pole_pairs * rpm_to_rad_s(ctl["fw_top_speed_rpm"])
