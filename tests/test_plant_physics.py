@@ -26,14 +26,17 @@ def ideal_converter(inverter):
     return {"inverter": inverter, "t_dead": 0.0, "u_on": 0.0}
 
 
-@pytest.mark.parametrize("inverter", ["averaged", "switching"])
-def test_steady_state_equals_phasor_solution(make_scenario, inverter):
+@pytest.mark.parametrize("inverter,r_on", [("averaged", 0.0), ("switching", 0.0), ("averaged", 0.02),
+                                           ("switching", 0.02)])
+def test_steady_state_equals_phasor_solution(make_scenario, inverter, r_on):
     """Open-loop dq voltage at a held speed: the mean currents equal the
-    solution of u_d = R i_d - w L_q i_q, u_q = R i_q + w (L_d i_d + psi_f)."""
+    solution of u_d = R i_d - w L_q i_q, u_q = R i_q + w (L_d i_d + psi_f);
+    the devices' on-state resistance r_on (their drop r_on i in every phase)
+    adds to R."""
     n = 600.0
     u_d, u_q = -1.2, 3.0
     d = make_scenario(
-        duration=0.3, converter=ideal_converter(inverter),
+        duration=0.3, converter={**ideal_converter(inverter), "r_on": r_on},
         sensors={"adc_bits": 0, "encoder_bits": 0},
         controller={"mode": "voltage", "dead_time_comp": False},
         references={"u_d": u_d, "u_q": u_q, "frame_rpm": n},
@@ -42,7 +45,8 @@ def test_steady_state_equals_phasor_solution(make_scenario, inverter):
     res = run(d)
     e = MACHINE["electrical"]
     w = MACHINE["pole_pairs"] * rpm_to_rad_s(n)
-    A = np.array([[e["R_s"], -w * e["L_q"]], [w * e["L_d"], e["R_s"]]])
+    R = e["R_s"] + r_on
+    A = np.array([[R, -w * e["L_q"]], [w * e["L_d"], R]])
     i_d, i_q = np.linalg.solve(A, [u_d, u_q - w * e["psi_f"]])
     # the open-loop frame and the rotor both start at 0 and turn at w
     m_d = window(res, 0.2, 0.3, "i_d").mean()

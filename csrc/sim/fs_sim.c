@@ -159,6 +159,8 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
         FAIL("inverter.T_pwm = %g: must be finite and > 0", cfg->inverter.T_pwm);
     if (!(cfg->inverter.t_dead >= 0.0) || cfg->inverter.t_dead >= 0.5 * cfg->inverter.T_pwm)
         FAIL("inverter.t_dead = %g: must be in [0, T_pwm/2)", cfg->inverter.t_dead);
+    if (!(cfg->inverter.r_on >= 0.0) || !isfinite(cfg->inverter.r_on))
+        FAIL("converter.r_on = %g: must be finite and >= 0", cfg->inverter.r_on);
     if (!(cfg->inverter.u_dc > 0.0) || !isfinite(cfg->inverter.u_dc))
         FAIL("inverter.u_dc = %g: must be finite and > 0", cfg->inverter.u_dc);
     if (cfg->sampling != FS_SAMPLING_SINGLE && cfg->sampling != FS_SAMPLING_DOUBLE)
@@ -337,7 +339,7 @@ static void integrate_period(fs_sim *s, double t0)
             double hstep = Th / steps;
             /* the mean voltage depends on the currents only through dead time
              * and drops: without them it is one value for the half period */
-            int ideal = inv->t_dead == 0.0 && inv->u_on == 0.0;
+            int ideal = inv->t_dead == 0.0 && inv->u_on == 0.0 && inv->r_on == 0.0;
             if (ideal) {
                 for (int k = 0; k < FS_INV_MAX_LEGS; ++k) i_ph[k] = 0.0;
                 fs_inverter_mean_voltage(inv, s->duty_now, i_ph, &in.u_alpha, &in.u_beta, &in.u_x, &in.u_y);

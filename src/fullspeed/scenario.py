@@ -22,6 +22,7 @@ SCENARIO = {
                   doc="imc: the indirect matrix converter of zou2021 (grid, LC filter, rectifier and inverter stages)"),
         "inverter": C("averaged", "switching", default=None, doc="default switching; the imc's is averaged per rectifier interval"),
         "u_dc": POS(None, hi=1e5), "f_pwm": F(None, lo=100.0, hi=1e6), "t_dead": NONNEG(None, hi=1e-4), "u_on": NONNEG(0.0, hi=1e3),
+        "r_on": NONNEG(0.0, hi=1e3, doc="ohm: the devices' drop is sign(i) u_on + r_on i"),
         # the matrix converter (defaults from the machine's bench)
         "modulation": C("linear", "om1", "om2", default="om2",
                         doc="imc: the highest region (zou2021 sec. 3.3): linear, over-modulation I (CASE 1) or II (CASE 1 and 2)"),

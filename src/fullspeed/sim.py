@@ -133,6 +133,7 @@ def build_config(sc: Scenario):
     inv = cfg.inverter
     inv.kind = lib.FS_INV_SWITCHING if conv["inverter"] == "switching" else lib.FS_INV_AVERAGED
     inv.u_dc, inv.T_pwm, inv.t_dead, inv.u_on = conv["u_dc"], 1.0 / conv["f_pwm"], conv["t_dead"], conv["u_on"]
+    inv.r_on = conv["r_on"]
     inv.phases = m.phases
     imc = conv["kind"] == "imc"
     cfg.converter = lib.FS_CONV_IMC if imc else lib.FS_CONV_VSI
