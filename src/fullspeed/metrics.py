@@ -78,6 +78,8 @@ def compute_metrics(res) -> dict:
     lost = np.flatnonzero(tr["lock_lost"] > 0)
     out["lock_lost_at"] = float(t[lost[0]]) if lost.size else None
     out["recoveries"] = int(tr["recoveries"][-1])
+    if res.polarity is not None:
+        out["polarity"] = res.polarity
     out["true_loss_at"] = true_loss_at(tr)
     # a loss the simulation's truth sees and nothing in the run flagged
     out["silent_failure"] = bool(out["true_loss_at"] is not None and res.stop_reason == "done"

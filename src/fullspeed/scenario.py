@@ -3,11 +3,12 @@ reference profiles, read from TOML and validated field by field."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
 from . import _core
+from . import design as dz
 from .errors import ConfigError
 from .machines import Machine, catalog_data, machine_from_dict
 from .schema import ANY, B, C, F, I, N, NONNEG, POS, P, S, Spec, T, deep_merge, even_grid, parse_toml, read_toml, validate
@@ -107,6 +108,7 @@ SCENARIO = {
         "i_pulse": POS(None, hi=1e5, doc="A, d-current pulses; default half of controller.i_max"),
         "t_lock": NONNEG(0.06, hi=10.0, doc="s, the estimator settles first: >= 6 / w_b_n + 2 / w_o (fade-in, filters, observer)"),
         "t_pulse": POS(0.02, hi=10.0, doc="s, each pulse: >= 6 / w_b_p (the carrier amplitude settles in the first half)"),
+        "i_pulse_max": POS(None, hi=1e5, doc="A, the largest pulse of the retries when the first pair decides nothing; default controller.i_max less the carrier's peak"),
     }, default={}),
     "blending": T({
         "lower_rpm": NONNEG(None, hi=1e6, doc="eq. (28); default the machine's [blending]"),
@@ -162,6 +164,12 @@ class Scenario:
     machine: Machine
     data: dict          # validated, with the bench's values filled in
     source: str | None = None
+    # "section.key" -> design.Value for every setting that was designed or
+    # given (where it came from, and why), and one-line warnings about what
+    # the scenario asks (feasibility, plausibility, what polarity detection
+    # cannot see)
+    design: dict = field(default_factory=dict)
+    warnings: list = field(default_factory=list)
 
     @property
     def duration(self) -> float:
@@ -177,11 +185,23 @@ def scenario_names() -> list[str]:
 
 
 def _machine_of(raw, source) -> Machine:
+    if isinstance(raw, str) and raw.endswith(".toml"):   # a machine file, beside the scenario first
+        p = Path(raw)
+        if not p.is_absolute() and source and (Path(source).parent / p).is_file():
+            p = Path(source).parent / p
+        return machine_from_dict(read_toml(p, "machine"), str(p))
     if isinstance(raw, str):
         raw = {"catalog": raw}
     if not isinstance(raw, dict):
-        raise ConfigError("machine", raw, "must be a catalog name or a table", source)
+        raise ConfigError("machine", raw, "must be a catalog name, a machine file (.toml) or a table", source)
     raw = dict(raw)
+    if "zoo" in raw:   # a machine of the seeded zoo (fullspeed.zoo), its fields overridable
+        from . import zoo
+        k, seed = raw.pop("zoo"), raw.pop("zoo_seed", zoo.SEED)
+        for key, v in (("machine.zoo", k), ("machine.zoo_seed", seed)):
+            if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v < 2**31:
+                raise ConfigError(key, v, "must be an integer in 0 .. 2^31 - 1", source)
+        return machine_from_dict(deep_merge(zoo.machine(k, seed), raw), source)
     name = raw.pop("catalog", None)
     if name is not None:
         if not isinstance(name, str):
@@ -212,12 +232,22 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
     for key in ("adc_bits", "adc_range", "encoder_bits", "noise_i"):
         if sen[key] is None:
             sen[key] = b[key]
+    notes: dict = {}
     for key in ("bw_current", "bw_speed", "bw_pll", "i_max"):
         if ctl[key] is None:
             ctl[key] = b[key]
+            notes[f"controller.{key}"] = m.design[key]
+        else:
+            notes[f"controller.{key}"] = dz.Value(ctl[key], m.design[key].unit, "given in the scenario", True)
     obs = d["observer"]
+    band = _band(d, m)
     if obs["bw_pll"] is None:
-        obs["bw_pll"] = b.get("bw_pll_smo") or 2 * math.pi * 40.0
+        if b.get("bw_pll_smo") is not None:
+            notes["observer.bw_pll"] = dz.Value(b["bw_pll_smo"], "rad/s", "given in the machine file (bench.bw_pll_smo)", True)
+        else:
+            notes["observer.bw_pll"] = dz.design_observer_pll(dz.machine_values(m), rpm_to_rad_s(band["lower_rpm"].value),
+                                                              ctl["bw_speed"], ctl["bw_current"])
+        obs["bw_pll"] = notes["observer.bw_pll"].value
     if ctl["angle"] == "smo" and "bw_speed" not in data.get("controller", {}):
         # the speed comes from the observer's PLL: keep its lag (a double pole)
         # small at the speed loop's crossover, as the bench's encoder PLL does
@@ -297,7 +327,31 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
               and 0 <= steady[0] < steady[1] <= d["duration"])
         if not ok:
             raise ConfigError("metrics.steady", steady, f"must be [t_start, t_end] with 0 <= t_start < t_end <= duration ({d['duration']:g})", source)
-    return Scenario(name=d["name"], machine=m, data=d, source=source)
+    for key in ("u_h", "f_h"):
+        if f"injection.{key}" not in notes and d["injection"][key] is not None and ctl["angle"] in ("hfi", "blend", "swvi"):
+            notes[f"injection.{key}"] = dz.Value(d["injection"][key], "", "given in the machine file or the scenario", True)
+    notes.update(d.pop("_notes", {}))
+    return Scenario(name=d["name"], machine=m, data=d, source=source, design=notes)
+
+
+def _bench_of(d: dict, m: Machine) -> dict:
+    """The machine's bench with the scenario's converter and sensors: what
+    the injection and the band are designed against."""
+    conv, sen = d["converter"], d["sensors"]
+    return {**m.bench, "u_dc": conv["u_dc"], "f_pwm": conv["f_pwm"], "t_dead": conv["t_dead"],
+            "sampling": d["timing"]["sampling"], "adc_bits": sen["adc_bits"], "adc_range": sen["adc_range"],
+            "noise_i": sen["noise_i"]}
+
+
+def _band(d: dict, m: Machine) -> dict:
+    """The blending band: the machine's [blending], else designed."""
+    mb = m.extra.get("blending", {})
+    bench = _bench_of(d, m)
+    f_h = d["injection"]["f_h"] or m.extra.get("injection", {}).get("f_h") \
+        or dz.CARRIER_PER_FS / dz.sampling_period(bench["f_pwm"], bench["sampling"])
+    band = dz.design_band(dz.machine_values(m), bench, f_h)
+    return {k: dz.Value(float(mb[k]), "rpm", "given in the machine file", True) if k in mb else band[k]
+            for k in ("lower_rpm", "upper_rpm")}
 
 
 def _thermal_fields(d: dict, m: Machine, source) -> None:
@@ -374,7 +428,10 @@ def _injection_fields(d: dict, m: Machine, source) -> None:
     ctl, inj, pol, bl = d["controller"], d["injection"], d["polarity"], d["blending"]
     L_d, L_q = m.L_d * ctl["L_d_scale"], m.L_q * ctl["L_q_scale"]   # as the controller knows them
     _check_saliency(ctl, m, source)
-    _machine_injection(inj, m, ("u_h", "f_h"), source)
+    band = _band(d, m)
+    designed = dz.design_injection(dz.machine_values(m), _bench_of(d, m), ctl["i_max"], rpm_to_rad_s(band["upper_rpm"].value))
+    _machine_injection(inj, m, ("u_h", "f_h"), source, designed)
+    d.setdefault("_notes", {}).update(inj.pop("_notes", {}))
     Ts = _control_period(d)
     if inj["f_h"] > 0.25 / Ts:
         raise ConfigError("injection.f_h", inj["f_h"], f"must be <= {0.25 / Ts:g} Hz: at least 4 samples per carrier period at Ts = {Ts:g} s", source)
@@ -406,13 +463,15 @@ def _injection_fields(d: dict, m: Machine, source) -> None:
         pol["i_pulse"] = 0.5 * ctl["i_max"]
     if pol["i_pulse"] > ctl["i_max"]:
         raise ConfigError("polarity.i_pulse", pol["i_pulse"], f"must be <= controller.i_max ({ctl['i_max']:g} A)", source)
+    if pol["i_pulse_max"] is not None and not pol["i_pulse"] <= pol["i_pulse_max"] <= ctl["i_max"]:
+        raise ConfigError("polarity.i_pulse_max", pol["i_pulse_max"], f"must be within polarity.i_pulse ({pol['i_pulse']:g} A) .. controller.i_max ({ctl['i_max']:g} A)", source)
     if ctl["angle"] == "blend":
-        mb = m.extra.get("blending", {})
-        for key, mkey in (("lower_rpm", "omega_lower_rpm"), ("upper_rpm", "omega_upper_rpm")):
+        for key in ("lower_rpm", "upper_rpm"):
             if bl[key] is None:
-                if mkey not in mb:
-                    raise ConfigError(f"blending.{key}", "missing", f"is required: {m.name} has no [blending].{mkey}", source)
-                bl[key] = float(mb[mkey])
+                bl[key] = band[key].value
+                d["_notes"][f"blending.{key}"] = band[key]
+            else:
+                d["_notes"][f"blending.{key}"] = dz.Value(bl[key], "rpm", "given in the scenario", True)
         if not bl["upper_rpm"] > bl["lower_rpm"]:
             raise ConfigError("blending.upper_rpm", bl["upper_rpm"], f"must be > blending.lower_rpm ({bl['lower_rpm']:g})", source)
         if inj["stop_rpm"] is None:
@@ -432,14 +491,19 @@ def _check_saliency(ctl: dict, m: Machine, source) -> None:
                           "(no saliency to design the estimator for)", source)
 
 
-def _machine_injection(inj: dict, m: Machine, keys, source) -> None:
-    """Fields left out of [injection] from the machine's [injection]."""
+def _machine_injection(inj: dict, m: Machine, keys, source, designed: dict | None = None) -> None:
+    """Fields left out of [injection] from the machine's [injection], else
+    from the design (the rotating carrier's), else required."""
     mi = m.extra.get("injection", {})
     for key in keys:
         if inj[key] is None:
-            if key not in mi:
+            if key in mi:
+                inj[key] = float(mi[key])
+            elif designed is not None and key in designed:
+                inj[key] = designed[key].value
+                inj.setdefault("_notes", {})[f"injection.{key}"] = designed[key]
+            else:
                 raise ConfigError(f"injection.{key}", "missing", f"is required: {m.name} has no [injection].{key}", source)
-            inj[key] = float(mi[key])
 
 
 def _control_period(d: dict) -> float:
