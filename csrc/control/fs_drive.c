@@ -131,6 +131,11 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         oc.dir_external = cfg->angle_source == FS_ANGLE_BLEND;
         SUB("smo", fs_smo_init(&drv->smo, &oc));
     }
+    if (cfg->phases == 5 && cfg->bw_xy > 0.0f) {
+        fs_xyctrl_config xc = {cfg->Ts, cfg->delay, cfg->R_s, cfg->L_d3, cfg->L_q3, cfg->psi_f3, cfg->bw_xy,
+                               0.1f};   /* 10 % of u_dc: a few times what psi_f3 and the dead time ask */
+        SUB("bw_xy", fs_xyctrl_init(&drv->xy, &xc));
+    }
     if (cfg->dt_predict && cfg->t_dead_comp > 0.0f) {
         fs_dtcomp_config dc = {cfg->phases, cfg->T_pwm, cfg->Ts, cfg->delay, cfg->t_dead_comp, cfg->i_dead_band,
                                cfg->L_d, cfg->L_q};
@@ -464,7 +469,7 @@ static float drive_u_lin(const fs_drive_config *c, float u_dc)
 /* Duties for the reference (fundamental plus carrier u_inj), dead-time
  * compensated; *u_f receives the realised fundamental voltage. OFF: 0.5. */
 static bool drive_modulate(fs_drive *drv, const fs_drive_in *in, float u_dc, fs_ab u_ref, fs_ab u_inj,
-                           float duty[], fs_ab *u_f)
+                           float theta, float w_e, float duty[], fs_ab *u_f)
 {
     const fs_drive_config *c = &drv->cfg;
     if (c->mode == FS_MODE_OFF) {
@@ -475,6 +480,8 @@ static bool drive_modulate(fs_drive *drv, const fs_drive_in *in, float u_dc, fs_
     u_ref.alpha += u_inj.alpha;
     u_ref.beta += u_inj.beta;
     bool over = c->phases == 5 ? fs_pwm5(u_ref, u_dc, duty, u_f) : fs_svpwm(u_ref, u_dc, duty, u_f);
+    if (c->phases == 5 && c->bw_xy > 0.0f)   /* x-y current control on top of the nearest four vectors */
+        fs_xyctrl_duties(fs_xyctrl_step(&drv->xy, in->i_ph, theta, w_e, u_dc), u_dc, duty);
     if (c->dt_predict && c->t_dead_comp > 0.0f) fs_dtcomp_step(&drv->dtc, in->i_ph, u_inj, duty);
     else dead_time_comp(c, in->i_ph, duty);
     u_f->alpha -= u_inj.alpha;   /* the fundamental part */
@@ -586,7 +593,7 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     }
     fs_ab u_f;
     fs_ab u_inj = c->mode == FS_MODE_OFF ? (fs_ab){0.0f, 0.0f} : sw->u;
-    drive_modulate(drv, in, in->u_dc, drv->u_ff_hold, u_inj, out->duty, &u_f);
+    drive_modulate(drv, in, in->u_dc, drv->u_ff_hold, u_inj, theta, w_e, out->duty, &u_f);
 
     out->theta_e = theta;
     out->w_e = w_e;
@@ -703,7 +710,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     fs_ab u_ab;
     float u_dc = in->u_dc;
     if (drive_imc(c)) u_dc = drive_imc_rectify(drv, in, &u_ab_ref, out);
-    out->over_modulation = drive_modulate(drv, in, u_dc, u_ab_ref, u_inj, out->duty, &u_ab);
+    out->over_modulation = drive_modulate(drv, in, u_dc, u_ab_ref, u_inj, theta, w_e, out->duty, &u_ab);
     drv->u_hist[1] = drv->u_hist[0];
     drv->u_hist[0] = u_ab;
     fs_dq u_real = fs_park(u_ab, cos_u, sin_u);

@@ -28,6 +28,7 @@
 
 #include "fs_current_ctrl.h"
 #include "fs_dtcomp.h"
+#include "fs_xyctrl.h"
 #include "fs_blend.h"
 #include "fs_fw.h"
 #include "fs_hfi.h"
@@ -122,6 +123,10 @@ typedef struct {
     /* 1: the dead-time compensation takes each edge's sign from the current
      * predicted there (fs_dtcomp.h); 0: from the sampled current */
     int dt_predict;
+    /* five phases: x-y current control (fs_xyctrl.h) at this bandwidth,
+     * rad/s, with the third-harmonic plane's L_d3, L_q3, psi_f3 (0: off,
+     * the x-y voltage left at zero by the modulator) */
+    float bw_xy, L_d3, L_q3, psi_f3;
     /* V/f: volts per electrical rad/s and boost volts */
     float vf_gain, vf_boost;
     /* the estimator, for FS_ANGLE_SMO (Ts and machine fields are taken from above) */
@@ -264,6 +269,7 @@ typedef struct {
     fs_lock lock;
     fs_param_adapt adapt;    /* when cfg.adapt.T_f > 0 */
     fs_dtcomp dtc;           /* when cfg.dt_predict and t_dead_comp > 0 */
+    fs_xyctrl xy;            /* when cfg.bw_xy > 0 */
     float i_hf;              /* the rotating carrier current's peak, A: i_max less it bounds the fundamental */
     float lock_a;            /* the residual's low-pass pole */
     float lock_ri, lock_es, lock_eh;   /* low-passed: SMO current error / delta, SMO PLL error, injection error */

@@ -26,6 +26,7 @@ HEADERS = [
     "control/fs_smo.h",
     "control/fs_current_ctrl.h",
     "control/fs_dtcomp.h",
+    "control/fs_xyctrl.h",
     "control/fs_speed_ctrl.h",
     "control/fs_mtpa.h",
     "control/fs_param_adapt.h",

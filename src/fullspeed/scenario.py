@@ -47,6 +47,7 @@ SCENARIO = {
         "bw_current": POS(None, hi=1e6), "bw_speed": POS(None, hi=1e6), "bw_pll": POS(None, hi=1e6),
         "i_max": POS(None, hi=1e5), "T_max": POS(None, hi=1e6),
         "dead_time_comp": B(True), "i_dead_band": NONNEG(None, hi=1e5),
+        "xy_control": B(False, doc="five phases: PI control of the x-y current in the d3-q3 frame at bw_current (fs_xyctrl.h)"),
         "dead_time_predict": B(False, doc="the compensation takes each edge's sign from the current predicted there (fs_dtcomp.h)"),
         "vf_gain": NONNEG(0.0, hi=1e3, doc="V per electrical rad/s"), "vf_boost": NONNEG(0.0, hi=1e5),
         # the controller's parameters relative to the true machine's
@@ -320,6 +321,8 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
             raise ConfigError(f"{sec}.{key}", d[sec][key], f"must be <= {limit / Ts:g} rad/s for the control period {Ts:g} s", source)
     _fault_fields(d, m, source)
     _thermal_fields(d, m, source)
+    if ctl["xy_control"] and m.phases != 5:
+        raise ConfigError("controller.xy_control", True, "needs a five-phase machine (the x-y plane)", source)
     steady = d["metrics"]["steady"]
     if steady is not None:
         ok = (isinstance(steady, list) and len(steady) == 2

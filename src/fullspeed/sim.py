@@ -177,6 +177,8 @@ def build_config(sc: Scenario):
     dc.t_dead_comp = conv["t_dead"] if ctl["dead_time_comp"] else 0.0
     dc.i_dead_band = ctl["i_dead_band"]
     dc.dt_predict = 1 if ctl["dead_time_predict"] else 0
+    if ctl["xy_control"]:   # the same bandwidth as the fundamental's loops
+        dc.bw_xy, dc.L_d3, dc.L_q3, dc.psi_f3 = ctl["bw_current"], m.L_d3, m.L_q3, m.psi_f3
     dc.vf_gain, dc.vf_boost = ctl["vf_gain"], ctl["vf_boost"]
     if ctl["flux_weakening"]:
         dc.fw_w_e_max = m.pole_pairs * rpm_to_rad_s(ctl["fw_top_speed_rpm"])
