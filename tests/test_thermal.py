@@ -164,6 +164,9 @@ def test_adapt_finds_R_and_psi_over_two_operating_points():
     one = adapt()
     feed(one, *hot, [(-2.0, 40.0, 314.0)], 4.0)
     assert (one.R_s, one.psi_f) == (pytest.approx(0.036), pytest.approx(0.007)) and one.sep < 0.05
+    early = adapt()   # the window (T_f = 2 s) not yet filled: the start alone does not decide
+    feed(early, *hot, [(-2.0, 40.0, 52.0), (-5.0, 40.0, 314.0)], 1.0)
+    assert (early.R_s, early.psi_f) == (pytest.approx(0.036), pytest.approx(0.007))
     idle = adapt()
     feed(idle, *hot, [(-2.0, 40.0, 52.0), (-5.0, 40.0, 314.0)], 4.0, learn=False)
     assert (idle.R_s, idle.psi_f) == (pytest.approx(0.036), pytest.approx(0.007))

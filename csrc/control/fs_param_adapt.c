@@ -16,8 +16,9 @@ fs_status fs_param_adapt_init(fs_param_adapt *a, const fs_param_adapt_config *cf
      * lose less to rounding with lambda further from 1 */
     a->decim = (int)fmaxf(1.0f, roundf(1e-3f / cfg->Ts));
     const float T_u = (float)a->decim * cfg->Ts;
-    if (!fs_pos(cfg->T_f) || !(cfg->T_f >= 20.0f * T_u)) return FS_ERR_PARAM;
+    if (!fs_pos(cfg->T_f) || !(cfg->T_f >= 20.0f * T_u) || !(cfg->T_f <= 1e7f * T_u)) return FS_ERR_PARAM;
     a->lambda = expf(-T_u / cfg->T_f);
+    a->n_fill = (int)ceilf(cfg->T_f / T_u);
     /* 20 rad/s: -50 dB at a 1 kHz injection carrier, and a lag of 50 ms,
      * short against the seconds a drive cycle holds a point */
     if (a->cfg.w_lp <= 0.0f) a->cfg.w_lp = 20.0f;
@@ -31,6 +32,7 @@ fs_status fs_param_adapt_init(fs_param_adapt *a, const fs_param_adapt_config *cf
 void fs_param_adapt_reset(fs_param_adapt *a)
 {
     a->k = 0;
+    a->n_learn = 0;
     a->y = a->i_q = a->w = 0.0f;
     a->S11 = a->S12 = a->S22 = a->b1 = a->b2 = 0.0f;
     a->R_s = a->cfg.R_s;
@@ -61,7 +63,8 @@ bool fs_param_adapt_step(fs_param_adapt *a, fs_dq u, fs_dq i, float w_e, bool le
     a->sep = sq > 0.0f ? det / sq : 0.0f;
     /* the window's mean |phi|^2: its sum times (1 - lambda) */
     const float level = (a->S11 + a->S22) * (1.0f - l);
-    a->updating = a->sep >= c->min_sep && level >= c->min_level;
+    if (a->n_learn < a->n_fill) ++a->n_learn;
+    a->updating = a->n_learn >= a->n_fill && a->sep >= c->min_sep && level >= c->min_level;
     if (!a->updating) return false;
     /* theta = S^-1 b, in volts at i_max and w_e_max */
     const float t1 = (a->S22 * a->b1 - a->S12 * a->b2) / det;

@@ -17,7 +17,9 @@
  * equations of the exponentially weighted least squares over T_f are
  * updated, on the regressor scaled to volts, phi = (i_q / i_max, w_e / w_e_max),
  *   S <- lambda S + phi phi^T,  b <- lambda b + phi y,  lambda = exp(-decim Ts / T_f),
- * and the estimate S^-1 b is taken only while the window's operating points
+ * and the estimate S^-1 b is taken only once the window has been filled
+ * (T_f of learning: the first seconds of a run, a start from standstill
+ * under load, would otherwise decide it alone) and while its operating points
  * separate the two unknowns: 1 - rho^2 = det S / (S11 S22) >= min_sep (the
  * speed, or the ratio of speed to current, must have changed within T_f;
  * one operating point gives one equation for two unknowns) and the mean
@@ -48,6 +50,7 @@ typedef struct {
 typedef struct {
     fs_param_adapt_config cfg;
     int decim, k;        /* update every decim samples (1 ms); the count */
+    int n_fill, n_learn; /* updates in a window (T_f), learning updates so far (up to n_fill) */
     float a_lp;          /* the low-pass' step coefficient */
     float lambda;
     float y, i_q, w;     /* low-passed signals */
@@ -59,7 +62,7 @@ typedef struct {
 
 /* FS_ERR_NULL, FS_ERR_TS, FS_ERR_RS, FS_ERR_LD, FS_ERR_PSI_F (psi_f > 0
  * needed), FS_ERR_LIMIT (i_max, w_e_max > 0), FS_ERR_PARAM (T_f > 0 and at
- * least 20 updates long, w_lp, min_sep, min_level >= 0, min_sep < 1), or FS_OK. */
+ * 20 to 1e7 updates long, w_lp, min_sep, min_level >= 0, min_sep < 1), or FS_OK. */
 fs_status fs_param_adapt_init(fs_param_adapt *a, const fs_param_adapt_config *cfg);
 /* Back to the nominal values, the window emptied. */
 void fs_param_adapt_reset(fs_param_adapt *a);
