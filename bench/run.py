@@ -1,12 +1,17 @@
 """fullspeed's benchmarks in one command: wall time against motulator, the
-drive step's instructions per control step, the Cortex-M4F build, and
+drive step's instructions per control step, the Cortex-M4F build, the
+position estimators against motulator on its own examples, the
+drive step run on an emulated Cortex-M4F (processor in the loop: per mode
+the target's instructions per step, stack, RAM and the replay's largest
+difference from the host; the loop closed through the emulator), and
 what each optional plant effect costs (effects.py).
 
 Each part runs on its own and skips, saying why, where this machine lacks
 what it needs (a Python >= 3.12 for motulator, valgrind, the ARM
-toolchain). The report is printed and written as JSON to --out.
+toolchain, QEMU). The report is printed, and written to --out as JSON
+(bench.json) beside the printout (bench.txt).
 
-Usage: python bench/run.py [--repeat N] [--steps N] [--out DIR] [--only wall,instructions,firmware]
+Usage: python bench/run.py [--repeat N] [--steps N] [--out DIR] [--only wall,estimators,instructions,firmware,pil,effects]
 """
 from __future__ import annotations
 
@@ -19,11 +24,13 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 import effects  # noqa: E402
+import estimators  # noqa: E402
 import firmware  # noqa: E402
 import instructions  # noqa: E402
+import pil  # noqa: E402
 import wall  # noqa: E402
 
-PARTS = ("wall", "instructions", "firmware", "effects")
+PARTS = ("wall", "estimators", "instructions", "firmware", "pil", "effects")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -40,7 +47,7 @@ def main(argv: list[str] | None = None) -> int:
             f"--repeat = {a.repeat}, --steps = {a.steps}: must be >= 1"
         print(what, file=sys.stderr)
         return 2
-    report, status = {}, 0
+    report, status, texts = {}, 0, []
     a.out.mkdir(parents=True, exist_ok=True)
     for part in parts:
         if part == "wall":
@@ -49,17 +56,25 @@ def main(argv: list[str] | None = None) -> int:
         elif part == "effects":
             rep = effects.effects_report(a.repeat)
             text = effects.format_report(rep)
+        elif part == "estimators":
+            rep = estimators.estimators_report(a.out)
+            text = estimators.format_report(rep)
         elif part == "instructions":
             rep = instructions.instructions_report(steps=a.steps)
             text = instructions.format_report(rep)
-        else:
+        elif part == "firmware":
             rep = firmware.firmware_report()
             text = firmware.format_report(rep)
+        else:
+            rep = pil.pil_report()
+            text = pil.format_report(rep)
         print(text + "\n", flush=True)
+        texts.append(text)
         report[part] = rep
         if rep.get("status") == "fail":
             status = 1
         (a.out / "bench.json").write_text(json.dumps(report, indent=2, default=str))
+        (a.out / "bench.txt").write_text("\n\n".join(texts) + "\n")
     print(f"written: {a.out / 'bench.json'}")
     return status
 

@@ -193,3 +193,18 @@ def design_observer_pll(m, w_m_lower: float, bw_speed: float, bw_current: float)
         why = "bw_current / 10: well inside the current loop"
     return Value(v, "rad/s", why)
 
+
+
+def design_report(sc) -> str:
+    """The designed (and given) settings of a scenario, one a line with its
+    reason: what `fullspeed design` prints."""
+    m = sc.machine
+    lines = [f"{m.name}: {m.description or m.source or ''}".rstrip(": "),
+             "bench (machine file; designed where left out):"]
+    for k, v in m.design.items():
+        lines.append(f"  bench.{k:<16s} {v.value:12.5g} {v.unit:<6s} {'given' if v.given else 'designed'}: {v.reason}")
+    lines.append(f"scenario {sc.name}:")
+    for k, v in sc.design.items():
+        lines.append(f"  {k:<22s} {v.value:12.5g} {v.unit:<6s} {'given' if v.given else 'designed'}: {v.reason}")
+    lines.append("(the PI, PLL and observer gains are designed from these in fs_drive_init; `fullspeed export` writes them)")
+    return "\n".join(lines)
