@@ -7,7 +7,7 @@
 
 /* The layout this configuration was written for: a header that changed since
  * the export fails here, naming the field. */
-_Static_assert(sizeof(fs_drive_config) == 824u, "fs_drive_config: size differs from the exported layout");
+_Static_assert(sizeof(fs_drive_config) == 1588u, "fs_drive_config: size differs from the exported layout");
 _Static_assert(offsetof(fs_drive_config, config_size) == 0u, "fs_drive_config.config_size moved");
 _Static_assert(offsetof(fs_drive_config, phases) == 4u, "fs_drive_config.phases moved");
 _Static_assert(offsetof(fs_drive_config, mode) == 8u, "fs_drive_config.mode moved");
@@ -153,9 +153,13 @@ _Static_assert(offsetof(fs_drive_config, adapt.w_lp) == 804u, "fs_drive_config.a
 _Static_assert(offsetof(fs_drive_config, adapt.min_sep) == 808u, "fs_drive_config.adapt.min_sep moved");
 _Static_assert(offsetof(fs_drive_config, adapt.min_level) == 812u, "fs_drive_config.adapt.min_level moved");
 _Static_assert(offsetof(fs_drive_config, mtpa_table) == 816u, "fs_drive_config.mtpa_table moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table.n) == 816u, "fs_drive_config.mtpa_table.n moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table.T) == 820u, "fs_drive_config.mtpa_table.T moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table.i_d) == 1076u, "fs_drive_config.mtpa_table.i_d moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table.i_q) == 1332u, "fs_drive_config.mtpa_table.i_q moved");
 
 const fs_drive_config fs_config = {
-    .config_size = 824u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator se...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
+    .config_size = 1588u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator se...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
     .phases = 3,   /* 3, or 5: the fundamental plane of the VSD, nearest-four-vector PWM; machine yang2022: phases */
     .mode = FS_MODE_SPEED,   /* fs_drive_mode; scenario beyond-full-range: [controller] mode */
     .angle_source = FS_ANGLE_BLEND,   /* fs_angle_source; scenario beyond-full-range: [controller] angle */
@@ -327,5 +331,46 @@ const fs_drive_config fs_config = {
         .min_sep = 0.0f,   /* 1 - rho^2 needed to update; 0: designed, 0.05; 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .min_level = 0.0f,   /* mean |phi|^2 needed; 0: designed, 0.01 (10 % of i_max or w_e_max); 0: taken from the drive's fields or designed by fs_drive_init, or off */
     },
-    .mtpa_table = NULL,
+    .mtpa_table = {   /* the MTPA locus as a table (n = 0: designed from L_d, L_q, psi_f; a flux map's from fullspeed.fluxmap); read... */
+        .n = 0,   /* 0, or FS_MTPA_N points; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .T = {   /* N m, 0 at k = 0 and rising; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f,
+        },
+        .i_d = {   /* A, |i_d + j i_q| = i_max k / (N - 1); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f,
+        },
+        .i_q = {   /* A, >= 0; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f,
+        },
+    },
 };

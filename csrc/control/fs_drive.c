@@ -41,7 +41,9 @@ enum { F = 0, N = 1, P = 2 };
 #define FIELD_NAME(f, kind, status) #f "\0"
 static const uint8_t drive_fields[][2] = {DRIVE_FIELDS(FIELD_ENTRY)};
 static const char drive_field_names[] = DRIVE_FIELDS(FIELD_NAME);
-typedef char drive_fields_fit[(sizeof(fs_drive_config) <= 256 * sizeof(float) && FS_ERR__COUNT < 64) ? 1 : -1];
+/* every field the table names lies before the MTPA table (the config's
+ * last member, checked by fs_mtpa_init), within 256 floats of the start */
+typedef char drive_fields_fit[(offsetof(fs_drive_config, mtpa_table) <= 256 * sizeof(float) && FS_ERR__COUNT < 64) ? 1 : -1];
 
 /* The first field of the table out of its range, its status and its name. */
 static fs_status drive_check_fields(const fs_drive_config *cfg, const char **name)
@@ -166,7 +168,8 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         st = fs_speed_ctrl_init(&drv->sc, &scc);
         if (st != FS_OK)
             REFUSE(st == FS_ERR_J ? "J" : st == FS_ERR_BANDWIDTH ? "bw_speed" : st == FS_ERR_LIMIT ? "T_max" : "k_p_w, k_i_w", st);
-        fs_mtpa_config mc = {cfg->L_d, cfg->L_q, cfg->psi_f, cfg->pole_pairs, cfg->i_max, cfg->phases, cfg->mtpa_table};
+        fs_mtpa_config mc = {cfg->L_d, cfg->L_q, cfg->psi_f, cfg->pole_pairs, cfg->i_max, cfg->phases,
+                             cfg->mtpa_table.n ? &cfg->mtpa_table : NULL};
         st = fs_mtpa_init(&drv->mtpa, &mc);
         if (st != FS_OK) REFUSE(st == FS_ERR_LQ ? "L_q" : "mtpa (psi_f, L_d, L_q, i_max)", st);
         if (drive_weakens(cfg)) {

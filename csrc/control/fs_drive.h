@@ -304,10 +304,11 @@ typedef struct {
      * off; Ts, R_s, L_d, psi_f and i_max are taken from above, w_e_max 0
      * from smo.w_e_max */
     fs_param_adapt_config adapt;
-    /* the MTPA locus as a table (NULL: designed from L_d, L_q, psi_f; a flux
-     * map's from fullspeed.fluxmap, e.g. a const table in flash); read at
-     * init only */
-    const fs_mtpa_table *mtpa_table;
+    /* the MTPA locus as a table (n = 0: designed from L_d, L_q, psi_f; a flux
+     * map's from fullspeed.fluxmap); read at init only. Held in the config,
+     * not pointed to, so that the config has no pointer: the same bytes on
+     * the host and the target, and an export carries the table */
+    fs_mtpa_table mtpa_table;
 } fs_drive_config;
 
 typedef struct {

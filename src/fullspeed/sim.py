@@ -140,11 +140,10 @@ def _controller_from_map(dc, m, ctl: dict, keep) -> None:
     dc.psi_f = cv["psi_f"] * ctl["psi_f_scale"]
     dc.L_d, dc.L_q = cv["L_d"] * ctl["L_d_scale"], cv["L_q"] * ctl["L_q_scale"]
     dc.L_d_hf, dc.L_q_hf = cv["L_d_hf"] * ctl["L_d_scale"], cv["L_q_hf"] * ctl["L_q_scale"]
-    tab = keep(ffi.new("fs_mtpa_table *"))
+    tab = dc.mtpa_table
     tab.n = lib.FS_MTPA_N
     for k in range(lib.FS_MTPA_N):
         tab.T[k], tab.i_d[k], tab.i_q[k] = cv["mtpa_T"][k], cv["mtpa_i_d"][k], cv["mtpa_i_q"][k]
-    dc.mtpa_table = tab
 
 
 def build_config(sc: Scenario):
