@@ -7,7 +7,7 @@
 
 /* The layout this configuration was written for: a header that changed since
  * the export fails here, naming the field. */
-_Static_assert(sizeof(fs_drive_config) == 1556u, "fs_drive_config: size differs from the exported layout");
+_Static_assert(sizeof(fs_drive_config) == 1616u, "fs_drive_config: size differs from the exported layout");
 _Static_assert(offsetof(fs_drive_config, config_size) == 0u, "fs_drive_config.config_size moved");
 _Static_assert(offsetof(fs_drive_config, phases) == 4u, "fs_drive_config.phases moved");
 _Static_assert(offsetof(fs_drive_config, mode) == 8u, "fs_drive_config.mode moved");
@@ -31,127 +31,143 @@ _Static_assert(offsetof(fs_drive_config, bw_speed) == 76u, "fs_drive_config.bw_s
 _Static_assert(offsetof(fs_drive_config, bw_pll) == 80u, "fs_drive_config.bw_pll moved");
 _Static_assert(offsetof(fs_drive_config, t_dead_comp) == 84u, "fs_drive_config.t_dead_comp moved");
 _Static_assert(offsetof(fs_drive_config, i_dead_band) == 88u, "fs_drive_config.i_dead_band moved");
-_Static_assert(offsetof(fs_drive_config, vf_gain) == 92u, "fs_drive_config.vf_gain moved");
-_Static_assert(offsetof(fs_drive_config, vf_boost) == 96u, "fs_drive_config.vf_boost moved");
-_Static_assert(offsetof(fs_drive_config, smo) == 100u, "fs_drive_config.smo moved");
-_Static_assert(offsetof(fs_drive_config, smo.Ts) == 100u, "fs_drive_config.smo.Ts moved");
-_Static_assert(offsetof(fs_drive_config, smo.R_s) == 104u, "fs_drive_config.smo.R_s moved");
-_Static_assert(offsetof(fs_drive_config, smo.L_d) == 108u, "fs_drive_config.smo.L_d moved");
-_Static_assert(offsetof(fs_drive_config, smo.L_q) == 112u, "fs_drive_config.smo.L_q moved");
-_Static_assert(offsetof(fs_drive_config, smo.psi_f) == 116u, "fs_drive_config.smo.psi_f moved");
-_Static_assert(offsetof(fs_drive_config, smo.w_e_max) == 120u, "fs_drive_config.smo.w_e_max moved");
-_Static_assert(offsetof(fs_drive_config, smo.i_max) == 124u, "fs_drive_config.smo.i_max moved");
-_Static_assert(offsetof(fs_drive_config, smo.k) == 128u, "fs_drive_config.smo.k moved");
-_Static_assert(offsetof(fs_drive_config, smo.margin) == 132u, "fs_drive_config.smo.margin moved");
-_Static_assert(offsetof(fs_drive_config, smo.delta) == 136u, "fs_drive_config.smo.delta moved");
-_Static_assert(offsetof(fs_drive_config, smo.w_c_min) == 140u, "fs_drive_config.smo.w_c_min moved");
-_Static_assert(offsetof(fs_drive_config, smo.bw_pll) == 144u, "fs_drive_config.smo.bw_pll moved");
-_Static_assert(offsetof(fs_drive_config, smo.w_valid) == 148u, "fs_drive_config.smo.w_valid moved");
-_Static_assert(offsetof(fs_drive_config, smo.lag) == 152u, "fs_drive_config.smo.lag moved");
-_Static_assert(offsetof(fs_drive_config, smo.form) == 156u, "fs_drive_config.smo.form moved");
-_Static_assert(offsetof(fs_drive_config, smo.J) == 160u, "fs_drive_config.smo.J moved");
-_Static_assert(offsetof(fs_drive_config, smo.B) == 164u, "fs_drive_config.smo.B moved");
-_Static_assert(offsetof(fs_drive_config, smo.pole_pairs) == 168u, "fs_drive_config.smo.pole_pairs moved");
-_Static_assert(offsetof(fs_drive_config, smo.phases) == 172u, "fs_drive_config.smo.phases moved");
-_Static_assert(offsetof(fs_drive_config, smo.dir_external) == 176u, "fs_drive_config.smo.dir_external moved");
-_Static_assert(offsetof(fs_drive_config, fw_w_e_max) == 180u, "fs_drive_config.fw_w_e_max moved");
-_Static_assert(offsetof(fs_drive_config, fw_gain) == 184u, "fs_drive_config.fw_gain moved");
-_Static_assert(offsetof(fs_drive_config, fw_cutoff) == 188u, "fs_drive_config.fw_cutoff moved");
-_Static_assert(offsetof(fs_drive_config, lock_time) == 192u, "fs_drive_config.lock_time moved");
-_Static_assert(offsetof(fs_drive_config, lock_recover) == 196u, "fs_drive_config.lock_recover moved");
-_Static_assert(offsetof(fs_drive_config, t_recover) == 200u, "fs_drive_config.t_recover moved");
-_Static_assert(offsetof(fs_drive_config, lock_retries) == 204u, "fs_drive_config.lock_retries moved");
-_Static_assert(offsetof(fs_drive_config, i_start) == 208u, "fs_drive_config.i_start moved");
-_Static_assert(offsetof(fs_drive_config, a_start) == 212u, "fs_drive_config.a_start moved");
-_Static_assert(offsetof(fs_drive_config, w_handover) == 216u, "fs_drive_config.w_handover moved");
-_Static_assert(offsetof(fs_drive_config, hfi) == 220u, "fs_drive_config.hfi moved");
-_Static_assert(offsetof(fs_drive_config, hfi.Ts) == 220u, "fs_drive_config.hfi.Ts moved");
-_Static_assert(offsetof(fs_drive_config, hfi.delay) == 224u, "fs_drive_config.hfi.delay moved");
-_Static_assert(offsetof(fs_drive_config, hfi.u_h) == 228u, "fs_drive_config.hfi.u_h moved");
-_Static_assert(offsetof(fs_drive_config, hfi.w_h) == 232u, "fs_drive_config.hfi.w_h moved");
-_Static_assert(offsetof(fs_drive_config, hfi.R_s) == 236u, "fs_drive_config.hfi.R_s moved");
-_Static_assert(offsetof(fs_drive_config, hfi.L_d) == 240u, "fs_drive_config.hfi.L_d moved");
-_Static_assert(offsetof(fs_drive_config, hfi.L_q) == 244u, "fs_drive_config.hfi.L_q moved");
-_Static_assert(offsetof(fs_drive_config, hfi.w_b_p) == 248u, "fs_drive_config.hfi.w_b_p moved");
-_Static_assert(offsetof(fs_drive_config, hfi.w_b_n) == 252u, "fs_drive_config.hfi.w_b_n moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs) == 256u, "fs_drive_config.hfi.obs moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.Ts) == 256u, "fs_drive_config.hfi.obs.Ts moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.J) == 260u, "fs_drive_config.hfi.obs.J moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.B) == 264u, "fs_drive_config.hfi.obs.B moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.pole_pairs) == 268u, "fs_drive_config.hfi.obs.pole_pairs moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.bandwidth) == 272u, "fs_drive_config.hfi.obs.bandwidth moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp) == 276u, "fs_drive_config.hfi.xcomp moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.n) == 276u, "fs_drive_config.hfi.xcomp.n moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.i_q0) == 280u, "fs_drive_config.hfi.xcomp.i_q0 moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.di_q) == 284u, "fs_drive_config.hfi.xcomp.di_q moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.delta) == 288u, "fs_drive_config.hfi.xcomp.delta moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.poly) == 420u, "fs_drive_config.hfi.xcomp.poly moved");
-_Static_assert(offsetof(fs_drive_config, hfi.leak) == 436u, "fs_drive_config.hfi.leak moved");
-_Static_assert(offsetof(fs_drive_config, blend) == 440u, "fs_drive_config.blend moved");
-_Static_assert(offsetof(fs_drive_config, blend.w_lower) == 440u, "fs_drive_config.blend.w_lower moved");
-_Static_assert(offsetof(fs_drive_config, blend.w_upper) == 444u, "fs_drive_config.blend.w_upper moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs) == 448u, "fs_drive_config.blend.obs moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.Ts) == 448u, "fs_drive_config.blend.obs.Ts moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.J) == 452u, "fs_drive_config.blend.obs.J moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.B) == 456u, "fs_drive_config.blend.obs.B moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.pole_pairs) == 460u, "fs_drive_config.blend.obs.pole_pairs moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.bandwidth) == 464u, "fs_drive_config.blend.obs.bandwidth moved");
-_Static_assert(offsetof(fs_drive_config, blend.gate) == 468u, "fs_drive_config.blend.gate moved");
-_Static_assert(offsetof(fs_drive_config, w_inject_max) == 472u, "fs_drive_config.w_inject_max moved");
-_Static_assert(offsetof(fs_drive_config, polarity) == 476u, "fs_drive_config.polarity moved");
-_Static_assert(offsetof(fs_drive_config, polarity.Ts) == 476u, "fs_drive_config.polarity.Ts moved");
-_Static_assert(offsetof(fs_drive_config, polarity.i_pulse) == 480u, "fs_drive_config.polarity.i_pulse moved");
-_Static_assert(offsetof(fs_drive_config, polarity.t_lock) == 484u, "fs_drive_config.polarity.t_lock moved");
-_Static_assert(offsetof(fs_drive_config, polarity.t_pulse) == 488u, "fs_drive_config.polarity.t_pulse moved");
-_Static_assert(offsetof(fs_drive_config, polarity.i_pulse_max) == 492u, "fs_drive_config.polarity.i_pulse_max moved");
-_Static_assert(offsetof(fs_drive_config, polarity.d_min) == 496u, "fs_drive_config.polarity.d_min moved");
-_Static_assert(offsetof(fs_drive_config, polarity.w_filter) == 500u, "fs_drive_config.polarity.w_filter moved");
-_Static_assert(offsetof(fs_drive_config, polarity.n_carrier) == 504u, "fs_drive_config.polarity.n_carrier moved");
-_Static_assert(offsetof(fs_drive_config, polarity.w_max) == 508u, "fs_drive_config.polarity.w_max moved");
-_Static_assert(offsetof(fs_drive_config, swvi) == 512u, "fs_drive_config.swvi moved");
-_Static_assert(offsetof(fs_drive_config, swvi.Ts) == 512u, "fs_drive_config.swvi.Ts moved");
-_Static_assert(offsetof(fs_drive_config, swvi.delay) == 516u, "fs_drive_config.swvi.delay moved");
-_Static_assert(offsetof(fs_drive_config, swvi.u_h) == 520u, "fs_drive_config.swvi.u_h moved");
-_Static_assert(offsetof(fs_drive_config, swvi.L_d) == 524u, "fs_drive_config.swvi.L_d moved");
-_Static_assert(offsetof(fs_drive_config, swvi.L_q) == 528u, "fs_drive_config.swvi.L_q moved");
-_Static_assert(offsetof(fs_drive_config, swvi.bandwidth) == 532u, "fs_drive_config.swvi.bandwidth moved");
-_Static_assert(offsetof(fs_drive_config, swvi.w_max) == 536u, "fs_drive_config.swvi.w_max moved");
-_Static_assert(offsetof(fs_drive_config, swvi.sequence) == 540u, "fs_drive_config.swvi.sequence moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp) == 544u, "fs_drive_config.swvi.xcomp moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.n) == 544u, "fs_drive_config.swvi.xcomp.n moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.i_q0) == 548u, "fs_drive_config.swvi.xcomp.i_q0 moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.di_q) == 552u, "fs_drive_config.swvi.xcomp.di_q moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.delta) == 556u, "fs_drive_config.swvi.xcomp.delta moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.poly) == 688u, "fs_drive_config.swvi.xcomp.poly moved");
-_Static_assert(offsetof(fs_drive_config, swvi.carrier_off) == 704u, "fs_drive_config.swvi.carrier_off moved");
-_Static_assert(offsetof(fs_drive_config, k_p_d) == 708u, "fs_drive_config.k_p_d moved");
-_Static_assert(offsetof(fs_drive_config, k_i_d) == 712u, "fs_drive_config.k_i_d moved");
-_Static_assert(offsetof(fs_drive_config, k_p_q) == 716u, "fs_drive_config.k_p_q moved");
-_Static_assert(offsetof(fs_drive_config, k_i_q) == 720u, "fs_drive_config.k_i_q moved");
-_Static_assert(offsetof(fs_drive_config, k_p_w) == 724u, "fs_drive_config.k_p_w moved");
-_Static_assert(offsetof(fs_drive_config, k_i_w) == 728u, "fs_drive_config.k_i_w moved");
-_Static_assert(offsetof(fs_drive_config, converter) == 732u, "fs_drive_config.converter moved");
-_Static_assert(offsetof(fs_drive_config, imc_region) == 736u, "fs_drive_config.imc_region moved");
-_Static_assert(offsetof(fs_drive_config, imc_w_grid) == 740u, "fs_drive_config.imc_w_grid moved");
-_Static_assert(offsetof(fs_drive_config, imc_depth) == 744u, "fs_drive_config.imc_depth moved");
-_Static_assert(offsetof(fs_drive_config, imc_i_lim) == 748u, "fs_drive_config.imc_i_lim moved");
-_Static_assert(offsetof(fs_drive_config, imc_V_im) == 752u, "fs_drive_config.imc_V_im moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table) == 756u, "fs_drive_config.mtpa_table moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table.n) == 756u, "fs_drive_config.mtpa_table.n moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table.T) == 760u, "fs_drive_config.mtpa_table.T moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table.i_d) == 1016u, "fs_drive_config.mtpa_table.i_d moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table.i_q) == 1272u, "fs_drive_config.mtpa_table.i_q moved");
-_Static_assert(offsetof(fs_drive_config, ident) == 1528u, "fs_drive_config.ident moved");
-_Static_assert(offsetof(fs_drive_config, ident.Ts) == 1528u, "fs_drive_config.ident.Ts moved");
-_Static_assert(offsetof(fs_drive_config, ident.delay) == 1532u, "fs_drive_config.ident.delay moved");
-_Static_assert(offsetof(fs_drive_config, ident.pole_pairs) == 1536u, "fs_drive_config.ident.pole_pairs moved");
-_Static_assert(offsetof(fs_drive_config, ident.i_max) == 1540u, "fs_drive_config.ident.i_max moved");
-_Static_assert(offsetof(fs_drive_config, ident.w_spin) == 1544u, "fs_drive_config.ident.w_spin moved");
-_Static_assert(offsetof(fs_drive_config, ident.t_ramp) == 1548u, "fs_drive_config.ident.t_ramp moved");
-_Static_assert(offsetof(fs_drive_config, ident.u_dc_min) == 1552u, "fs_drive_config.ident.u_dc_min moved");
+_Static_assert(offsetof(fs_drive_config, dt_predict) == 92u, "fs_drive_config.dt_predict moved");
+_Static_assert(offsetof(fs_drive_config, bw_xy) == 96u, "fs_drive_config.bw_xy moved");
+_Static_assert(offsetof(fs_drive_config, L_d3) == 100u, "fs_drive_config.L_d3 moved");
+_Static_assert(offsetof(fs_drive_config, L_q3) == 104u, "fs_drive_config.L_q3 moved");
+_Static_assert(offsetof(fs_drive_config, psi_f3) == 108u, "fs_drive_config.psi_f3 moved");
+_Static_assert(offsetof(fs_drive_config, vf_gain) == 112u, "fs_drive_config.vf_gain moved");
+_Static_assert(offsetof(fs_drive_config, vf_boost) == 116u, "fs_drive_config.vf_boost moved");
+_Static_assert(offsetof(fs_drive_config, smo) == 120u, "fs_drive_config.smo moved");
+_Static_assert(offsetof(fs_drive_config, smo.Ts) == 120u, "fs_drive_config.smo.Ts moved");
+_Static_assert(offsetof(fs_drive_config, smo.R_s) == 124u, "fs_drive_config.smo.R_s moved");
+_Static_assert(offsetof(fs_drive_config, smo.L_d) == 128u, "fs_drive_config.smo.L_d moved");
+_Static_assert(offsetof(fs_drive_config, smo.L_q) == 132u, "fs_drive_config.smo.L_q moved");
+_Static_assert(offsetof(fs_drive_config, smo.psi_f) == 136u, "fs_drive_config.smo.psi_f moved");
+_Static_assert(offsetof(fs_drive_config, smo.w_e_max) == 140u, "fs_drive_config.smo.w_e_max moved");
+_Static_assert(offsetof(fs_drive_config, smo.i_max) == 144u, "fs_drive_config.smo.i_max moved");
+_Static_assert(offsetof(fs_drive_config, smo.k) == 148u, "fs_drive_config.smo.k moved");
+_Static_assert(offsetof(fs_drive_config, smo.margin) == 152u, "fs_drive_config.smo.margin moved");
+_Static_assert(offsetof(fs_drive_config, smo.delta) == 156u, "fs_drive_config.smo.delta moved");
+_Static_assert(offsetof(fs_drive_config, smo.w_c_min) == 160u, "fs_drive_config.smo.w_c_min moved");
+_Static_assert(offsetof(fs_drive_config, smo.bw_pll) == 164u, "fs_drive_config.smo.bw_pll moved");
+_Static_assert(offsetof(fs_drive_config, smo.w_valid) == 168u, "fs_drive_config.smo.w_valid moved");
+_Static_assert(offsetof(fs_drive_config, smo.lag) == 172u, "fs_drive_config.smo.lag moved");
+_Static_assert(offsetof(fs_drive_config, smo.form) == 176u, "fs_drive_config.smo.form moved");
+_Static_assert(offsetof(fs_drive_config, smo.J) == 180u, "fs_drive_config.smo.J moved");
+_Static_assert(offsetof(fs_drive_config, smo.B) == 184u, "fs_drive_config.smo.B moved");
+_Static_assert(offsetof(fs_drive_config, smo.pole_pairs) == 188u, "fs_drive_config.smo.pole_pairs moved");
+_Static_assert(offsetof(fs_drive_config, smo.phases) == 192u, "fs_drive_config.smo.phases moved");
+_Static_assert(offsetof(fs_drive_config, smo.dir_external) == 196u, "fs_drive_config.smo.dir_external moved");
+_Static_assert(offsetof(fs_drive_config, fw_w_e_max) == 200u, "fs_drive_config.fw_w_e_max moved");
+_Static_assert(offsetof(fs_drive_config, fw_gain) == 204u, "fs_drive_config.fw_gain moved");
+_Static_assert(offsetof(fs_drive_config, fw_cutoff) == 208u, "fs_drive_config.fw_cutoff moved");
+_Static_assert(offsetof(fs_drive_config, lock_time) == 212u, "fs_drive_config.lock_time moved");
+_Static_assert(offsetof(fs_drive_config, lock_recover) == 216u, "fs_drive_config.lock_recover moved");
+_Static_assert(offsetof(fs_drive_config, t_recover) == 220u, "fs_drive_config.t_recover moved");
+_Static_assert(offsetof(fs_drive_config, lock_retries) == 224u, "fs_drive_config.lock_retries moved");
+_Static_assert(offsetof(fs_drive_config, i_start) == 228u, "fs_drive_config.i_start moved");
+_Static_assert(offsetof(fs_drive_config, a_start) == 232u, "fs_drive_config.a_start moved");
+_Static_assert(offsetof(fs_drive_config, w_handover) == 236u, "fs_drive_config.w_handover moved");
+_Static_assert(offsetof(fs_drive_config, hfi) == 240u, "fs_drive_config.hfi moved");
+_Static_assert(offsetof(fs_drive_config, hfi.Ts) == 240u, "fs_drive_config.hfi.Ts moved");
+_Static_assert(offsetof(fs_drive_config, hfi.delay) == 244u, "fs_drive_config.hfi.delay moved");
+_Static_assert(offsetof(fs_drive_config, hfi.u_h) == 248u, "fs_drive_config.hfi.u_h moved");
+_Static_assert(offsetof(fs_drive_config, hfi.w_h) == 252u, "fs_drive_config.hfi.w_h moved");
+_Static_assert(offsetof(fs_drive_config, hfi.R_s) == 256u, "fs_drive_config.hfi.R_s moved");
+_Static_assert(offsetof(fs_drive_config, hfi.L_d) == 260u, "fs_drive_config.hfi.L_d moved");
+_Static_assert(offsetof(fs_drive_config, hfi.L_q) == 264u, "fs_drive_config.hfi.L_q moved");
+_Static_assert(offsetof(fs_drive_config, hfi.w_b_p) == 268u, "fs_drive_config.hfi.w_b_p moved");
+_Static_assert(offsetof(fs_drive_config, hfi.w_b_n) == 272u, "fs_drive_config.hfi.w_b_n moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs) == 276u, "fs_drive_config.hfi.obs moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.Ts) == 276u, "fs_drive_config.hfi.obs.Ts moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.J) == 280u, "fs_drive_config.hfi.obs.J moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.B) == 284u, "fs_drive_config.hfi.obs.B moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.pole_pairs) == 288u, "fs_drive_config.hfi.obs.pole_pairs moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.bandwidth) == 292u, "fs_drive_config.hfi.obs.bandwidth moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp) == 296u, "fs_drive_config.hfi.xcomp moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.n) == 296u, "fs_drive_config.hfi.xcomp.n moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.i_q0) == 300u, "fs_drive_config.hfi.xcomp.i_q0 moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.di_q) == 304u, "fs_drive_config.hfi.xcomp.di_q moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.delta) == 308u, "fs_drive_config.hfi.xcomp.delta moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.poly) == 440u, "fs_drive_config.hfi.xcomp.poly moved");
+_Static_assert(offsetof(fs_drive_config, hfi.leak) == 456u, "fs_drive_config.hfi.leak moved");
+_Static_assert(offsetof(fs_drive_config, blend) == 460u, "fs_drive_config.blend moved");
+_Static_assert(offsetof(fs_drive_config, blend.w_lower) == 460u, "fs_drive_config.blend.w_lower moved");
+_Static_assert(offsetof(fs_drive_config, blend.w_upper) == 464u, "fs_drive_config.blend.w_upper moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs) == 468u, "fs_drive_config.blend.obs moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.Ts) == 468u, "fs_drive_config.blend.obs.Ts moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.J) == 472u, "fs_drive_config.blend.obs.J moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.B) == 476u, "fs_drive_config.blend.obs.B moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.pole_pairs) == 480u, "fs_drive_config.blend.obs.pole_pairs moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.bandwidth) == 484u, "fs_drive_config.blend.obs.bandwidth moved");
+_Static_assert(offsetof(fs_drive_config, blend.gate) == 488u, "fs_drive_config.blend.gate moved");
+_Static_assert(offsetof(fs_drive_config, w_inject_max) == 492u, "fs_drive_config.w_inject_max moved");
+_Static_assert(offsetof(fs_drive_config, polarity) == 496u, "fs_drive_config.polarity moved");
+_Static_assert(offsetof(fs_drive_config, polarity.Ts) == 496u, "fs_drive_config.polarity.Ts moved");
+_Static_assert(offsetof(fs_drive_config, polarity.i_pulse) == 500u, "fs_drive_config.polarity.i_pulse moved");
+_Static_assert(offsetof(fs_drive_config, polarity.t_lock) == 504u, "fs_drive_config.polarity.t_lock moved");
+_Static_assert(offsetof(fs_drive_config, polarity.t_pulse) == 508u, "fs_drive_config.polarity.t_pulse moved");
+_Static_assert(offsetof(fs_drive_config, polarity.i_pulse_max) == 512u, "fs_drive_config.polarity.i_pulse_max moved");
+_Static_assert(offsetof(fs_drive_config, polarity.d_min) == 516u, "fs_drive_config.polarity.d_min moved");
+_Static_assert(offsetof(fs_drive_config, polarity.w_filter) == 520u, "fs_drive_config.polarity.w_filter moved");
+_Static_assert(offsetof(fs_drive_config, polarity.n_carrier) == 524u, "fs_drive_config.polarity.n_carrier moved");
+_Static_assert(offsetof(fs_drive_config, polarity.w_max) == 528u, "fs_drive_config.polarity.w_max moved");
+_Static_assert(offsetof(fs_drive_config, swvi) == 532u, "fs_drive_config.swvi moved");
+_Static_assert(offsetof(fs_drive_config, swvi.Ts) == 532u, "fs_drive_config.swvi.Ts moved");
+_Static_assert(offsetof(fs_drive_config, swvi.delay) == 536u, "fs_drive_config.swvi.delay moved");
+_Static_assert(offsetof(fs_drive_config, swvi.u_h) == 540u, "fs_drive_config.swvi.u_h moved");
+_Static_assert(offsetof(fs_drive_config, swvi.L_d) == 544u, "fs_drive_config.swvi.L_d moved");
+_Static_assert(offsetof(fs_drive_config, swvi.L_q) == 548u, "fs_drive_config.swvi.L_q moved");
+_Static_assert(offsetof(fs_drive_config, swvi.bandwidth) == 552u, "fs_drive_config.swvi.bandwidth moved");
+_Static_assert(offsetof(fs_drive_config, swvi.w_max) == 556u, "fs_drive_config.swvi.w_max moved");
+_Static_assert(offsetof(fs_drive_config, swvi.sequence) == 560u, "fs_drive_config.swvi.sequence moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp) == 564u, "fs_drive_config.swvi.xcomp moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.n) == 564u, "fs_drive_config.swvi.xcomp.n moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.i_q0) == 568u, "fs_drive_config.swvi.xcomp.i_q0 moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.di_q) == 572u, "fs_drive_config.swvi.xcomp.di_q moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.delta) == 576u, "fs_drive_config.swvi.xcomp.delta moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.poly) == 708u, "fs_drive_config.swvi.xcomp.poly moved");
+_Static_assert(offsetof(fs_drive_config, swvi.carrier_off) == 724u, "fs_drive_config.swvi.carrier_off moved");
+_Static_assert(offsetof(fs_drive_config, k_p_d) == 728u, "fs_drive_config.k_p_d moved");
+_Static_assert(offsetof(fs_drive_config, k_i_d) == 732u, "fs_drive_config.k_i_d moved");
+_Static_assert(offsetof(fs_drive_config, k_p_q) == 736u, "fs_drive_config.k_p_q moved");
+_Static_assert(offsetof(fs_drive_config, k_i_q) == 740u, "fs_drive_config.k_i_q moved");
+_Static_assert(offsetof(fs_drive_config, k_p_w) == 744u, "fs_drive_config.k_p_w moved");
+_Static_assert(offsetof(fs_drive_config, k_i_w) == 748u, "fs_drive_config.k_i_w moved");
+_Static_assert(offsetof(fs_drive_config, converter) == 752u, "fs_drive_config.converter moved");
+_Static_assert(offsetof(fs_drive_config, imc_region) == 756u, "fs_drive_config.imc_region moved");
+_Static_assert(offsetof(fs_drive_config, imc_w_grid) == 760u, "fs_drive_config.imc_w_grid moved");
+_Static_assert(offsetof(fs_drive_config, imc_depth) == 764u, "fs_drive_config.imc_depth moved");
+_Static_assert(offsetof(fs_drive_config, imc_i_lim) == 768u, "fs_drive_config.imc_i_lim moved");
+_Static_assert(offsetof(fs_drive_config, imc_V_im) == 772u, "fs_drive_config.imc_V_im moved");
+_Static_assert(offsetof(fs_drive_config, adapt) == 776u, "fs_drive_config.adapt moved");
+_Static_assert(offsetof(fs_drive_config, adapt.Ts) == 776u, "fs_drive_config.adapt.Ts moved");
+_Static_assert(offsetof(fs_drive_config, adapt.R_s) == 780u, "fs_drive_config.adapt.R_s moved");
+_Static_assert(offsetof(fs_drive_config, adapt.L_d) == 784u, "fs_drive_config.adapt.L_d moved");
+_Static_assert(offsetof(fs_drive_config, adapt.psi_f) == 788u, "fs_drive_config.adapt.psi_f moved");
+_Static_assert(offsetof(fs_drive_config, adapt.i_max) == 792u, "fs_drive_config.adapt.i_max moved");
+_Static_assert(offsetof(fs_drive_config, adapt.w_e_max) == 796u, "fs_drive_config.adapt.w_e_max moved");
+_Static_assert(offsetof(fs_drive_config, adapt.T_f) == 800u, "fs_drive_config.adapt.T_f moved");
+_Static_assert(offsetof(fs_drive_config, adapt.w_lp) == 804u, "fs_drive_config.adapt.w_lp moved");
+_Static_assert(offsetof(fs_drive_config, adapt.min_sep) == 808u, "fs_drive_config.adapt.min_sep moved");
+_Static_assert(offsetof(fs_drive_config, adapt.min_level) == 812u, "fs_drive_config.adapt.min_level moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table) == 816u, "fs_drive_config.mtpa_table moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table.n) == 816u, "fs_drive_config.mtpa_table.n moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table.T) == 820u, "fs_drive_config.mtpa_table.T moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table.i_d) == 1076u, "fs_drive_config.mtpa_table.i_d moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table.i_q) == 1332u, "fs_drive_config.mtpa_table.i_q moved");
+_Static_assert(offsetof(fs_drive_config, ident) == 1588u, "fs_drive_config.ident moved");
+_Static_assert(offsetof(fs_drive_config, ident.Ts) == 1588u, "fs_drive_config.ident.Ts moved");
+_Static_assert(offsetof(fs_drive_config, ident.delay) == 1592u, "fs_drive_config.ident.delay moved");
+_Static_assert(offsetof(fs_drive_config, ident.pole_pairs) == 1596u, "fs_drive_config.ident.pole_pairs moved");
+_Static_assert(offsetof(fs_drive_config, ident.i_max) == 1600u, "fs_drive_config.ident.i_max moved");
+_Static_assert(offsetof(fs_drive_config, ident.w_spin) == 1604u, "fs_drive_config.ident.w_spin moved");
+_Static_assert(offsetof(fs_drive_config, ident.t_ramp) == 1608u, "fs_drive_config.ident.t_ramp moved");
+_Static_assert(offsetof(fs_drive_config, ident.u_dc_min) == 1612u, "fs_drive_config.ident.u_dc_min moved");
 
 const fs_drive_config fs_config = {
-    .config_size = 1556u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator se...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
+    .config_size = 1616u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator se...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
     .phases = 3,   /* 3, or 5: the fundamental plane of the VSD, nearest-four-vector PWM; machine yang2022: phases */
     .mode = FS_MODE_SPEED,   /* fs_drive_mode; scenario beyond-full-range: [controller] mode */
     .angle_source = FS_ANGLE_BLEND,   /* fs_angle_source; scenario beyond-full-range: [controller] angle */
@@ -174,6 +190,11 @@ const fs_drive_config fs_config = {
     .bw_pll = 628.0f,   /* design bandwidths, rad/s; machine yang2022: bench.bw_pll (scenario default) */
     .t_dead_comp = 9.99999997e-07f,   /* dead-time compensation: the dead time to compensate (0: off; below T_pwm / 2) and the current below which t...; machine yang2022: bench.t_dead (scenario default) */
     .i_dead_band = 0.600000024f,   /* dead-time compensation: the dead time to compensate (0: off; below T_pwm / 2) and the current below which t...; default of [controller] i_dead_band (fullspeed.scenario) */
+    .dt_predict = 0,   /* 1: the dead-time compensation takes each edge's sign from the current predicted there (fs_dtcomp.h); 0: fro...; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+    .bw_xy = 0.0f,   /* five phases: x-y current control (fs_xyctrl.h) at this bandwidth, rad/s, with the third-harmonic plane's L_...; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+    .L_d3 = 0.0f,   /* five phases: x-y current control (fs_xyctrl.h) at this bandwidth, rad/s, with the third-harmonic plane's L_...; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+    .L_q3 = 0.0f,   /* five phases: x-y current control (fs_xyctrl.h) at this bandwidth, rad/s, with the third-harmonic plane's L_...; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+    .psi_f3 = 0.0f,   /* five phases: x-y current control (fs_xyctrl.h) at this bandwidth, rad/s, with the third-harmonic plane's L_...; 0: taken from the drive's fields or designed by fs_drive_init, or off */
     .vf_gain = 0.0f,   /* V/f: volts per electrical rad/s and boost volts; 0: taken from the drive's fields or designed by fs_drive_init, or off (controller.vf_gain) */
     .vf_boost = 0.0f,   /* V/f: volts per electrical rad/s and boost volts; 0: taken from the drive's fields or designed by fs_drive_init, or off (controller.vf_boost) */
     .smo = {   /* the estimator, for FS_ANGLE_SMO (Ts and machine fields are taken from above) */
@@ -306,6 +327,18 @@ const fs_drive_config fs_config = {
     .imc_depth = 0,   /* 0: taken from the drive's fields or designed by fs_drive_init, or off (controller.depth_control) */
     .imc_i_lim = 0.0f,   /* 0: taken from the drive's fields or designed by fs_drive_init, or off (controller.i_lim) */
     .imc_V_im = 0.0f,   /* 0: taken from the drive's fields or designed by fs_drive_init, or off (converter.grid_ll_rms) */
+    .adapt = {   /* online correction of R_s and psi_f (fs_param_adapt.h), learnt while the loops run sensorless (rotating inje... */
+        .Ts = 0.0f,   /* control period, s; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .R_s = 0.0f,   /* nominal (cold) machine, the estimates' start; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .L_d = 0.0f,   /* nominal (cold) machine, the estimates' start; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .psi_f = 0.0f,   /* nominal (cold) machine, the estimates' start; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .i_max = 0.0f,   /* A: the regressor's current scale; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .w_e_max = 0.0f,   /* rad/s: the regressor's speed scale; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .T_f = 0.0f,   /* s, the least squares' forgetting time (> 0); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .w_lp = 0.0f,   /* rad/s, the signals' low-pass; 0: designed, 20 rad/s (below); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .min_sep = 0.0f,   /* 1 - rho^2 needed to update; 0: designed, 0.05; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .min_level = 0.0f,   /* mean |phi|^2 needed; 0: designed, 0.01 (10 % of i_max or w_e_max); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+    },
     .mtpa_table = {   /* the MTPA locus as a table (n = 0: designed from L_d, L_q, psi_f; a flux map's from fullspeed.fluxmap); read... */
         .n = 0,   /* 0, or FS_MTPA_N points; 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .T = {   /* N m, 0 at k = 0 and rising; 0: taken from the drive's fields or designed by fs_drive_init, or off */

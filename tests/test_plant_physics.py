@@ -26,14 +26,17 @@ def ideal_converter(inverter):
     return {"inverter": inverter, "t_dead": 0.0, "u_on": 0.0}
 
 
-@pytest.mark.parametrize("inverter", ["averaged", "switching"])
-def test_steady_state_equals_phasor_solution(make_scenario, inverter):
+@pytest.mark.parametrize("inverter,r_on", [("averaged", 0.0), ("switching", 0.0), ("averaged", 0.02),
+                                           ("switching", 0.02)])
+def test_steady_state_equals_phasor_solution(make_scenario, inverter, r_on):
     """Open-loop dq voltage at a held speed: the mean currents equal the
-    solution of u_d = R i_d - w L_q i_q, u_q = R i_q + w (L_d i_d + psi_f)."""
+    solution of u_d = R i_d - w L_q i_q, u_q = R i_q + w (L_d i_d + psi_f);
+    the devices' on-state resistance r_on (their drop r_on i in every phase)
+    adds to R."""
     n = 600.0
     u_d, u_q = -1.2, 3.0
     d = make_scenario(
-        duration=0.3, converter=ideal_converter(inverter),
+        duration=0.3, converter={**ideal_converter(inverter), "r_on": r_on},
         sensors={"adc_bits": 0, "encoder_bits": 0},
         controller={"mode": "voltage", "dead_time_comp": False},
         references={"u_d": u_d, "u_q": u_q, "frame_rpm": n},
@@ -42,7 +45,8 @@ def test_steady_state_equals_phasor_solution(make_scenario, inverter):
     res = run(d)
     e = MACHINE["electrical"]
     w = MACHINE["pole_pairs"] * rpm_to_rad_s(n)
-    A = np.array([[e["R_s"], -w * e["L_q"]], [w * e["L_d"], e["R_s"]]])
+    R = e["R_s"] + r_on
+    A = np.array([[R, -w * e["L_q"]], [w * e["L_d"], R]])
     i_d, i_q = np.linalg.solve(A, [u_d, u_q - w * e["psi_f"]])
     # the open-loop frame and the rotor both start at 0 and turn at w
     m_d = window(res, 0.2, 0.3, "i_d").mean()
@@ -156,3 +160,65 @@ def test_overcurrent_stops_with_reason_and_time_and_keeps_traces(make_scenario):
     assert res["t"][-1] <= res.stop_time
     assert res["t"].size > 400  # what was computed before the stop is kept
     assert np.max(np.abs(res["i_a"])) < 90.0 * 1.5  # tripped near the 90 A level
+
+
+@pytest.mark.parametrize("model", ["linear", "algebraic"])
+def test_power_balance_with_spatial_harmonics(make_scenario, model):
+    """The flux depends on the rotor angle (back-EMF harmonics 5..13,
+    saliency harmonics, cogging): the torque from the co-energy with its
+    angle derivative keeps terminal energy = copper loss + air-gap work +
+    change of stored energy at every sample of an acceleration, while the
+    angle-dependent energy exchanged is far larger than the tolerance."""
+    d = make_scenario(duration=0.15, controller={"mode": "speed"},
+                      references={"speed_rpm": [[0, 0], [0.01, 0], [0.01, 800]]},
+                      harmonics={"enabled": True})
+    d["machine"]["harmonics"] = {"emf5": 0.1, "emf7": -0.05, "emf11": 0.03, "emf13": 0.02,
+                                 "sal6_dd": 0.1, "sal6_qq": -0.08, "sal6_dq": 0.05, "sal12_dd": 0.03,
+                                 "cogging_Nm": 0.1, "cogging_order": 12}
+    if model == "algebraic":
+        d["machine"]["magnetic"] = {"model": "algebraic", "a_dd": 2e8, "S": 4.0, "a_qq": 5e8, "T": 4.0,
+                                    "a_dq": 1e9, "U": 1.0, "V": 1.0}
+    res = run(d)
+    assert res.stop_reason == "done"
+    E_in = res["E_in"] - res["E_in"][0]
+    E_bal = (res["E_cu"] - res["E_cu"][0]) + (res["E_airgap"] - res["E_airgap"][0]) + (res["W_mag"] - res["W_mag"][0])
+    assert E_in[-1] > 1.0
+    assert np.max(np.abs(E_in - E_bal)) < 1e-3 * E_in[-1]
+    # the angle's share is not negligible: the torque ripples at the harmonics' orders
+    t = res["t"]
+    m = t > 0.1
+    assert np.ptp(res["T_e"][m]) > 0.2
+    # and the stored energy swings with the angle by far more than the tolerance
+    assert np.ptp(np.diff(res["W_mag"][m])) > 10 * 1e-3 * E_in[-1] / m.sum()
+
+
+def test_harmonic_back_emf_matches_the_table():
+    """At zero current phase a's flux linkage has the table's harmonics:
+    E_n / E_1 = n psi_n / psi_1 at orders 5, 7, 11, 13 (signed, in phase at
+    theta = 0), through the plant's own flux at rest."""
+    from fullspeed._core import ffi, lib
+
+    table = {5: 0.04, 7: -0.02, 11: 0.01, 13: 0.008}
+    psi_f, p = 0.007, 5
+    cfg = ffi.new("fs_pmsm_config *", {"pole_pairs": p, "R_s": 0.036, "J": 1e-3, "phases": 3,
+                                       "mag": {"kind": lib.FS_MAG_LINEAR, "L_d": 65e-6, "L_q": 90e-6, "psi_f": psi_f},
+                                       "psi_h": [table[n] * psi_f / n for n in (5, 7, 11, 13)],
+                                       "sal6": [0.1, -0.05, 0.02]})   # saliency harmonics act with current only
+    m = ffi.new("fs_pmsm *")
+    assert lib.fs_pmsm_init(m, cfg) == lib.FS_OK and m.harm
+    x = ffi.new("double[]", lib.FS_X_N)
+    th = np.linspace(0.0, 2 * np.pi, 720, endpoint=False)
+    psi_a = []
+    for t in th:
+        x[lib.FS_X_THETA_M] = t / p
+        lib.fs_pmsm_rest_flux(m, x)
+        i_d, i_q = ffi.new("double *"), ffi.new("double *")
+        lib.fs_pmsm_current_dq(m, x, np.cos(t), np.sin(t), i_d, i_q)
+        assert abs(i_d[0]) < 1e-9 and abs(i_q[0]) < 1e-9
+        psi_a.append(x[lib.FS_X_PSI_D] * np.cos(t) - x[lib.FS_X_PSI_Q] * np.sin(t))
+    psi_a = np.array(psi_a)
+    c1 = 2 * np.mean(psi_a * np.cos(th))
+    assert c1 == pytest.approx(psi_f, rel=1e-9)
+    for n, ratio in table.items():
+        assert n * 2 * np.mean(psi_a * np.cos(n * th)) / c1 == pytest.approx(ratio, rel=1e-9), n
+        assert abs(np.mean(psi_a * np.sin(n * th))) < 1e-12

@@ -145,6 +145,26 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         oc.dir_external = cfg->angle_source == FS_ANGLE_BLEND;
         SUB("smo", fs_smo_init(&drv->smo, &oc));
     }
+    if (cfg->phases == 5 && cfg->bw_xy > 0.0f) {
+        fs_xyctrl_config xc = {cfg->Ts, cfg->delay, cfg->R_s, cfg->L_d3, cfg->L_q3, cfg->psi_f3, cfg->bw_xy,
+                               0.1f};   /* 10 % of u_dc: a few times what psi_f3 and the dead time ask */
+        SUB("bw_xy", fs_xyctrl_init(&drv->xy, &xc));
+    }
+    if (cfg->dt_predict && cfg->t_dead_comp > 0.0f) {
+        fs_dtcomp_config dc = {cfg->phases, cfg->T_pwm, cfg->Ts, cfg->delay, cfg->t_dead_comp, cfg->i_dead_band,
+                               cfg->L_d, cfg->L_q};
+        SUB("dt_predict", fs_dtcomp_init(&drv->dtc, &dc));
+    }
+    if (cfg->adapt.T_f > 0.0f) {
+        fs_param_adapt_config ac = cfg->adapt;
+        ac.Ts = cfg->Ts;
+        ac.R_s = cfg->R_s;
+        ac.L_d = cfg->L_d;
+        ac.psi_f = cfg->psi_f;
+        ac.i_max = cfg->i_max;
+        if (!(ac.w_e_max > 0.0f)) ac.w_e_max = cfg->smo.w_e_max;
+        SUB("adapt", fs_param_adapt_init(&drv->adapt, &ac));
+    }
     if (cfg->mode == FS_MODE_SPEED) {
         fs_speed_ctrl_config scc = {Tl, cfg->J, cfg->B, cfg->bw_speed, cfg->T_max, cfg->k_p_w, cfg->k_i_w};
         st = fs_speed_ctrl_init(&drv->sc, &scc);
@@ -491,8 +511,8 @@ static float drive_u_lin(const fs_drive_config *c, float u_dc)
 
 /* Duties for the reference (fundamental plus carrier u_inj), dead-time
  * compensated; *u_f receives the realised fundamental voltage. OFF: 0.5. */
-static bool drive_modulate(const fs_drive *drv, const fs_drive_in *in, float u_dc, fs_ab u_ref, fs_ab u_inj,
-                           float duty[], fs_ab *u_f)
+static bool drive_modulate(fs_drive *drv, const fs_drive_in *in, float u_dc, fs_ab u_ref, fs_ab u_inj,
+                           float theta, float w_e, float duty[], fs_ab *u_f)
 {
     const fs_drive_config *c = &drv->cfg;
     if (c->mode == FS_MODE_OFF) {
@@ -503,7 +523,10 @@ static bool drive_modulate(const fs_drive *drv, const fs_drive_in *in, float u_d
     u_ref.alpha += u_inj.alpha;
     u_ref.beta += u_inj.beta;
     bool over = drive_five(c) ? fs_pwm5(u_ref, u_dc, duty, u_f) : fs_svpwm(u_ref, u_dc, duty, u_f);
-    dead_time_comp(c, in->i_ph, duty);
+    if (drive_five(c) && c->bw_xy > 0.0f)   /* x-y current control on top of the nearest four vectors */
+        fs_xyctrl_duties(fs_xyctrl_step(&drv->xy, in->i_ph, theta, w_e, u_dc), u_dc, duty);
+    if (c->dt_predict && c->t_dead_comp > 0.0f) fs_dtcomp_step(&drv->dtc, in->i_ph, u_inj, duty);
+    else dead_time_comp(c, in->i_ph, duty);
     u_f->alpha -= u_inj.alpha;   /* the fundamental part */
     u_f->beta -= u_inj.beta;
     return over;
@@ -613,7 +636,7 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     }
     fs_ab u_f;
     fs_ab u_inj = c->mode == FS_MODE_OFF ? (fs_ab){0.0f, 0.0f} : sw->u;
-    drive_modulate(drv, in, in->u_dc, drv->u_ff_hold, u_inj, out->duty, &u_f);
+    drive_modulate(drv, in, in->u_dc, drv->u_ff_hold, u_inj, theta, w_e, out->duty, &u_f);
 
     out->theta_e = theta;
     out->w_e = w_e;
@@ -644,6 +667,21 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     drv->stage = drive_stage(drv, in, 0.0f);
     out->stage = drv->stage;
     out->recoveries = 0;
+}
+
+/* Online R_s and psi_f (fs_param_adapt.h), learnt while the loops run
+ * sensorless: the SMO's model, the injection's carrier phase and the
+ * current loop's feed-forward take them. */
+static void drive_adapt(fs_drive *drv, const fs_drive_in *in, fs_dq u, fs_dq i, float w_e, bool closed_loop)
+{
+    const bool learn = closed_loop && in->sensorless && drv->phase == FS_PHASE_RUN;
+    if (fs_param_adapt_step(&drv->adapt, u, i, w_e, learn)) {
+        drv->smo.cfg.R_s = drv->adapt.R_s;
+        drv->cc.cfg.psi_f = drv->adapt.psi_f;
+        /* the injection's phase compensation (trigonometry): on a 1 % move */
+        if (drive_injects(&drv->cfg) && fabsf(drv->adapt.R_s - drv->hfi.cfg.R_s) > 0.01f * drv->cfg.R_s)
+            fs_hfi_set_resistance(&drv->hfi, drv->adapt.R_s);
+    }
 }
 
 /* Halted (FS_PHASE_HALT): zero voltage, the fault held. */
@@ -719,11 +757,12 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     fs_ab u_ab;
     float u_dc = in->u_dc;
     if (drive_imc(c)) u_dc = drive_imc_rectify(drv, in, &u_ab_ref, out);
-    out->over_modulation = drive_modulate(drv, in, u_dc, u_ab_ref, u_inj, out->duty, &u_ab);
+    out->over_modulation = drive_modulate(drv, in, u_dc, u_ab_ref, u_inj, theta, w_e, out->duty, &u_ab);
     drv->u_hist[1] = drv->u_hist[0];
     drv->u_hist[0] = u_ab;
     fs_dq u_real = fs_park(u_ab, cos_u, sin_u);
     if (closed_loop) fs_current_ctrl_update(&drv->cc, u_real);
+    if (c->adapt.T_f > 0.0f) drive_adapt(drv, in, u_real, i_dq, w_e, closed_loop);
     if (drive_weakens(c) && !starting && !polarity && drv->phase != FS_PHASE_RECOVER)
         fs_fw_step(&drv->fw, u_ref.q - u_real.q, w_e);   /* eq. (26): dv_q */
 

@@ -82,6 +82,8 @@
 #define FS_DRIVE_H
 
 #include "fs_current_ctrl.h"
+#include "fs_dtcomp.h"
+#include "fs_xyctrl.h"
 #include "fs_blend.h"
 #include "fs_fw.h"
 #include "fs_hfi.h"
@@ -90,6 +92,7 @@
 #include "fs_lock.h"
 #include "fs_monitor.h"
 #include "fs_mtpa.h"
+#include "fs_param_adapt.h"
 #include "fs_pll.h"
 #include "fs_polarity.h"
 #include "fs_pwm5.h"
@@ -207,6 +210,13 @@ typedef struct {
      * T_pwm / 2) and the current below which the compensation ramps linearly
      * to zero */
     float t_dead_comp, i_dead_band;
+    /* 1: the dead-time compensation takes each edge's sign from the current
+     * predicted there (fs_dtcomp.h); 0: from the sampled current */
+    int dt_predict;
+    /* five phases: x-y current control (fs_xyctrl.h) at this bandwidth,
+     * rad/s, with the third-harmonic plane's L_d3, L_q3, psi_f3 (0: off,
+     * the x-y voltage left at zero by the modulator) */
+    float bw_xy, L_d3, L_q3, psi_f3;
     /* V/f: volts per electrical rad/s and boost volts */
     float vf_gain, vf_boost;
     /* the estimator, for FS_ANGLE_SMO (Ts and machine fields are taken from above) */
@@ -290,6 +300,12 @@ typedef struct {
     float imc_w_grid;
     int imc_depth;
     float imc_i_lim, imc_V_im;
+    /* online correction of R_s and psi_f (fs_param_adapt.h), learnt while
+     * the loops run sensorless (rotating injection, SMO, blend); the SMO's
+     * model and the current loop's feed-forward take the estimates. T_f 0:
+     * off; Ts, R_s, L_d, psi_f and i_max are taken from above, w_e_max 0
+     * from smo.w_e_max */
+    fs_param_adapt_config adapt;
     /* the MTPA locus as a table (n = 0: designed from L_d, L_q, psi_f; a flux
      * map's from fullspeed.fluxmap); read at init only. Held in the config,
      * not pointed to, so that the config has no pointer: the same bytes on
@@ -354,6 +370,9 @@ typedef struct {
     fs_swvi sw;
     fs_imc_depth depth;      /* matrix converter, PART_2 */
     fs_lock lock;
+    fs_param_adapt adapt;    /* when cfg.adapt.T_f > 0 */
+    fs_dtcomp dtc;           /* when cfg.dt_predict and t_dead_comp > 0 */
+    fs_xyctrl xy;            /* when cfg.bw_xy > 0 */
     fs_monitor mon;          /* the checks that do not trust the estimator (with lock_time > 0) */
     fs_ident ident;          /* FS_MODE_IDENTIFY */
     float i_hf;              /* the rotating carrier current's peak, A: i_max less it bounds the fundamental */

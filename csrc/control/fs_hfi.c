@@ -1,6 +1,37 @@
 #include "fs_hfi.h"
 #include "fs_math.h"
 
+/* The heterodyne reference's rotation phi_ref and the negative carrier's
+ * amplitude for the stator resistance R_s (h->cfg holds the rest). */
+static void carrier_phase(fs_hfi *h, float R_s)
+{
+    const fs_hfi_config c = h->cfg;
+    const float x = 0.5f * c.w_h * c.Ts, sinc = sinf(x) / x;
+    /* the first SRFF's phase on the negative carrier, 2 w_h below its stop
+     * band (the bilinear images of fs_srff.h) */
+    const float w_b = (2.0f / c.Ts) * tanhf(0.5f * c.w_b_p * c.Ts);
+    const float v = (2.0f / c.Ts) * tanf(c.w_h * c.Ts);
+    const float phi_p = atanf(w_b / v);
+    /* the resistance's phase on the negative carrier, with the held
+     * voltage's R x cot x (header) */
+    const float sl = 0.5f * (c.L_d + c.L_q), dl = 0.5f * (c.L_d - c.L_q);
+    const float R = R_s * x / tanf(x), w = c.w_h;
+    const float D_re = w * w * (sl * sl - dl * dl) - R * R, D_im = 2.0f * R * w * sl;
+    const float phi_r = atan2f(D_im, D_re);
+    h->phi_ref = 0.5f * FS_PI - phi_p - phi_r;
+    if (dl > 0.0f) h->phi_ref -= FS_PI;   /* L_d > L_q: the carrier of eq. (24) changes sign */
+    /* the negative carrier's amplitude, |B| of the header, at the samples */
+    h->i_n_design = c.u_h * w * fabsf(dl) / sqrtf(D_re * D_re + D_im * D_im) / (sinc * sinc);
+    h->rot_ref.alpha = cosf(h->phi_ref);
+    h->rot_ref.beta = sinf(h->phi_ref);
+    h->cfg.R_s = R_s;
+}
+
+void fs_hfi_set_resistance(fs_hfi *h, float R_s)
+{
+    if (h && fs_nonneg(R_s)) carrier_phase(h, R_s);
+}
+
 float fs_hfi_w_h_max(float Ts)
 {
     if (!fs_pos(Ts)) return 0.0f;
@@ -41,28 +72,12 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
     h->dtheta_h = c.w_h * c.Ts;
     h->theta_u = c.w_h * c.Ts * (c.delay + 0.5f);
     h->u_amp = c.u_h / sinc;                        /* the held staircase's component at w_h is eq. (22) */
-    /* the first SRFF's phase on the negative carrier, 2 w_h below its stop
-     * band (the bilinear images of fs_srff.h) */
-    const float w_b = (2.0f / c.Ts) * tanhf(0.5f * c.w_b_p * c.Ts);
-    const float v = (2.0f / c.Ts) * tanf(c.w_h * c.Ts);
-    const float phi_p = atanf(w_b / v);
-    /* the resistance's phase on the negative carrier, with the held
-     * voltage's R x cot x (header) */
-    const float sl = 0.5f * (c.L_d + c.L_q), dl = 0.5f * (c.L_d - c.L_q);
-    const float R = c.R_s * x / tanf(x), w = c.w_h;
-    const float D_re = w * w * (sl * sl - dl * dl) - R * R, D_im = 2.0f * R * w * sl;
-    const float phi_r = atan2f(D_im, D_re);
-    h->phi_ref = 0.5f * FS_PI - phi_p - phi_r;
-    if (dl > 0.0f) h->phi_ref -= FS_PI;   /* L_d > L_q: the carrier of eq. (24) changes sign */
-    /* the negative carrier's amplitude, |B| of the header, at the samples */
-    h->i_n_design = c.u_h * w * fabsf(dl) / sqrtf(D_re * D_re + D_im * D_im) / (sinc * sinc);
+    carrier_phase(h, c.R_s);
     if (!fs_pos(h->i_n_design) || !fs_fin(h->u_amp)) return FS_ERR_PARAM;   /* beyond the float range */
     h->k_avg = -expm1f(-0.25f * c.w_b_n * c.Ts);
     h->n_settle = (int)ceilf(3.0f / (c.w_b_n * c.Ts));
     h->rot_u.alpha = cosf(h->theta_u);
     h->rot_u.beta = sinf(h->theta_u);
-    h->rot_ref.alpha = cosf(h->phi_ref);
-    h->rot_ref.beta = sinf(h->phi_ref);
     fs_hfi_reset(h, 0.0f, 0.0f);
     return FS_OK;
 }

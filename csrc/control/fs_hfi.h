@@ -134,6 +134,9 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg);
  * carrier at angle 0. For the filters' settling time, 3 / w_b_n, the
  * observer runs on its model alone (the error is taken as 0). */
 void fs_hfi_reset(fs_hfi *h, float theta, float w);
+/* The resistance the carrier's phase compensation assumes (an online
+ * estimate, fs_param_adapt.h); a value not finite or < 0 is ignored. */
+void fs_hfi_set_resistance(fs_hfi *h, float R_s);
 /* Move the observer only (polarity flip, re-sync), keeping filters and carrier. */
 void fs_hfi_set_angle(fs_hfi *h, float theta, float w);
 /* One step on the sampled current with the torque that acted over the

@@ -46,6 +46,7 @@ fs_status fs_inverter_check(const fs_inverter_config *c)
     if (!(c->T_pwm > 0.0) || !isfinite(c->T_pwm)) return FS_ERR_TS;
     if (!(c->t_dead >= 0.0 && c->t_dead < 0.5 * c->T_pwm)) return FS_ERR_PARAM;
     if (!(c->u_on >= 0.0) || !isfinite(c->u_on)) return FS_ERR_PARAM;
+    if (!(c->r_on >= 0.0) || !isfinite(c->r_on)) return FS_ERR_PARAM;
     return c->phases == 3 || c->phases == 5 ? FS_OK : FS_ERR_PARAM;
 }
 
@@ -110,7 +111,7 @@ static void pole_voltages(const fs_inverter_config *c, int nl, const int *state,
     for (int k = 0; k < nl; ++k) {
         int s = state[k];
         if (s < 0) s = i_ph[k] < 0.0;  /* diode: i > 0 flows through the lower one */
-        v[k] = (s ? 0.5 : -0.5) * c->u_dc - sgn(i_ph[k]) * c->u_on;
+        v[k] = (s ? 0.5 : -0.5) * c->u_dc - sgn(i_ph[k]) * c->u_on - c->r_on * i_ph[k];
     }
 }
 
@@ -126,7 +127,7 @@ static void mean_pole_voltages(const fs_inverter_config *c, int nl, const double
             if (i_ph[k] > 0.0) err = -fmin(c->t_dead, d * Th);
             else if (i_ph[k] < 0.0) err = fmin(c->t_dead, (1.0 - d) * Th);
         }
-        v[k] = (d - 0.5 + err / c->T_pwm) * c->u_dc - sgn(i_ph[k]) * c->u_on;
+        v[k] = (d - 0.5 + err / c->T_pwm) * c->u_dc - sgn(i_ph[k]) * c->u_on - c->r_on * i_ph[k];
     }
 }
 

@@ -8,7 +8,7 @@
  *
  * AVERAGED  the pole voltage is its mean over the period: (d - 1/2) u_dc,
  *           less the mean dead-time error sign(i) t_dead/T_pwm u_dc (when the
- *           pole switches), less the device drop sign(i) u_on.
+ *           pole switches), less the device drop sign(i) u_on + r_on i.
  * SWITCHING each half period is cut at the commanded edges and at the ends of
  *           the dead times; in a dead time both devices are off and a diode
  *           carries the current, so the pole sits on the rail opposite to the
@@ -41,13 +41,14 @@ typedef struct {
     double u_dc;       /* dc-link voltage, V */
     double T_pwm;      /* carrier period, s */
     double t_dead;     /* dead time, s */
-    double u_on;       /* device on-state drop, V */
+    double u_on;       /* device on-state drop, V (its threshold part) */
+    double r_on;       /* device on-state resistance, ohm: the drop is sign(i) u_on + r_on i */
     int phases;        /* legs: 3 or 5 (5: five-phase; anything else is taken as 3) */
 } fs_inverter_config;
 
 /* FS_OK (0), or the status of the first field out of range or not finite:
  * FS_ERR_MODE (kind), FS_ERR_LIMIT (u_dc > 0), FS_ERR_TS (T_pwm > 0),
- * FS_ERR_PARAM (t_dead in [0, T_pwm / 2), u_on >= 0, phases 3 or 5). The
+ * FS_ERR_PARAM (t_dead in [0, T_pwm / 2), u_on, r_on >= 0, phases 3 or 5). The
  * functions below take any config; this tells whether it is a sound one. */
 fs_status fs_inverter_check(const fs_inverter_config *c);
 

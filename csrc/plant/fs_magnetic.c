@@ -106,6 +106,8 @@ fs_status fs_mag_init(fs_mag *m, const fs_mag_config *cfg)
     m->cfg = *cfg;
     m->i_f = 0.0;
     m->hint_d = m->hint_q = 0.0;
+    m->psi_f0 = cfg->psi_f;
+    m->i_f0 = 0.0;
     m->a_d0 = m->a_q0 = m->c_d = m->c_q = 0.0;
     m->n_S = m->n_T = m->n_U = m->n_V = -1;
     if (cfg->kind != FS_MAG_LINEAR && cfg->kind != FS_MAG_ALGEBRAIC && cfg->kind != FS_MAG_FLUXMAP) return FS_ERR_MODE;
@@ -130,7 +132,7 @@ fs_status fs_mag_init(fs_mag *m, const fs_mag_config *cfg)
         m->n_V = small_int(cfg->V);
         double id, iq;
         algebraic_current(m, cfg->psi_f, 0.0, &id, &iq);
-        m->i_f = id;  /* i_d(psi_f, 0) with i_f = 0: makes psi_d = psi_f at zero current */
+        m->i_f = m->i_f0 = id;  /* i_d(psi_f, 0) with i_f = 0: makes psi_d = psi_f at zero current */
         return isfinite(id) ? FS_OK : FS_ERR_PARAM;
     }
     default:   /* FS_MAG_FLUXMAP */
@@ -142,6 +144,13 @@ fs_status fs_mag_init(fs_mag *m, const fs_mag_config *cfg)
             if (!isfinite(cfg->map_psi_d[k]) || !isfinite(cfg->map_psi_q[k])) return FS_ERR_PARAM;
         return FS_OK;
     }
+}
+
+void fs_mag_set_magnet(fs_mag *m, double k)
+{
+    if (m->cfg.kind == FS_MAG_FLUXMAP) return;
+    m->cfg.psi_f = k * m->psi_f0;   /* LINEAR's magnet; ALGEBRAIC: Newton's start in fs_mag_flux */
+    m->i_f = k * m->i_f0;
 }
 
 void fs_mag_current(fs_mag *m, double psi_d, double psi_q, double *i_d, double *i_q)

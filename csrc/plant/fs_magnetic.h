@@ -51,6 +51,7 @@ typedef struct {
     double a_d0, a_q0, c_d, c_q;
     int n_S, n_T, n_U, n_V;
     double hint_d, hint_q;    /* FLUXMAP: last solution, Newton's start */
+    double psi_f0, i_f0;      /* the magnet as configured (fs_mag_set_magnet scales it) */
 } fs_mag;
 
 /* FS_OK (0), or the status of the first field out of range or not finite:
@@ -63,6 +64,12 @@ fs_status fs_mag_init(fs_mag *m, const fs_mag_config *cfg);
 void fs_mag_current(fs_mag *m, double psi_d, double psi_q, double *i_d, double *i_q);
 /* Flux linkages at given currents (the inverse of fs_mag_current). */
 void fs_mag_flux(fs_mag *m, double i_d, double i_q, double *psi_d, double *psi_q);
+/* The magnet's remanence at k times the configured one (temperature,
+ * fs_thermal.h): LINEAR psi_f, ALGEBRAIC its equivalent current i_f (a
+ * magnet on its recoil line is a current sheet proportional to its
+ * remanence, so the open-circuit flux falls a little less than k where the
+ * iron saturates). FLUXMAP: not modelled, unchanged. */
+void fs_mag_set_magnet(fs_mag *m, double k);
 /* Magnetic energy W(psi) - i_f psi_d per unit of the dq frame (times 3/2 for
  * the three-phase machine); NaN for FLUXMAP. */
 double fs_mag_energy(const fs_mag *m, double psi_d, double psi_q);

@@ -7,9 +7,82 @@
 static int nonneg(double x) { return x >= 0.0 && isfinite(x); }
 static int pos(double x) { return x > 0.0 && isfinite(x); }
 
+/* Spatial harmonics at electrical angle theta (cos cs, sin sn): the
+ * magnet's harmonic flux h (rotor frame) and the flux transform M = I + A,
+ * with their derivatives in theta (fs_pmsm.h). */
+typedef struct {
+    double h_d, h_q, dh_d, dh_q;      /* psi_h and d psi_h / d theta */
+    double a_d, a_q, a_x;             /* A = [[a_d, a_x], [a_x, a_q]] */
+    double da_d, da_q, da_x;          /* dA / d theta */
+    double c_cog, s_cog;              /* cos, sin of cog_order theta */
+} fs_harm_at;
+
+static inline void harm_at(const fs_pmsm *m, double cs, double sn, fs_harm_at *g)
+{
+    const fs_pmsm_config *c = &m->cfg;
+    /* e^{j 6 theta} and e^{j 12 theta} by products, no trigonometry */
+    const double c2 = cs * cs - sn * sn, s2 = 2.0 * cs * sn;
+    const double c3 = c2 * cs - s2 * sn, s3 = s2 * cs + c2 * sn;
+    const double c6 = c3 * c3 - s3 * s3, s6 = 2.0 * c3 * s3;
+    const double c12 = c6 * c6 - s6 * s6, s12 = 2.0 * c6 * s6;
+    /* 5th and 11th turn backwards, 7th and 13th forwards: in the rotor
+     * frame psi_5 e^{-j6th} + psi_7 e^{j6th} + psi_11 e^{-j12th} + psi_13 e^{j12th} */
+    const double p6 = c->psi_h[0] + c->psi_h[1], m6 = c->psi_h[1] - c->psi_h[0];
+    const double p12 = c->psi_h[2] + c->psi_h[3], m12 = c->psi_h[3] - c->psi_h[2];
+    g->h_d = p6 * c6 + p12 * c12;
+    g->h_q = m6 * s6 + m12 * s12;
+    g->dh_d = -6.0 * p6 * s6 - 12.0 * p12 * s12;
+    g->dh_q = 6.0 * m6 * c6 + 12.0 * m12 * c12;
+    g->a_d = c->sal6[0] * c6 + c->sal12[0] * c12;
+    g->a_q = c->sal6[1] * c6 + c->sal12[1] * c12;
+    g->a_x = c->sal6[2] * s6 + c->sal12[2] * s12;
+    g->da_d = -6.0 * c->sal6[0] * s6 - 12.0 * c->sal12[0] * s12;
+    g->da_q = -6.0 * c->sal6[1] * s6 - 12.0 * c->sal12[1] * s12;
+    g->da_x = 6.0 * c->sal6[2] * c6 + 12.0 * c->sal12[2] * c12;
+    switch (c->cog_order) {
+    case 6: g->c_cog = c6; g->s_cog = s6; break;
+    case 12: g->c_cog = c12; g->s_cog = s12; break;
+    case 18: g->c_cog = c12 * c6 - s12 * s6; g->s_cog = s12 * c6 + c12 * s6; break;
+    default: g->c_cog = c12 * c12 - s12 * s12; g->s_cog = 2.0 * c12 * s12; break;   /* 24 */
+    }
+}
+
+/* The base model's flux phi = p0 + M (psi - h - p0) (fs_pmsm.h). */
+static inline void harm_phi(const fs_pmsm *m, const double *x, const fs_harm_at *g, double *r_d, double *r_q,
+                            double *phi_d, double *phi_q)
+{
+    *r_d = x[FS_X_PSI_D] - g->h_d - m->p0_d;
+    *r_q = x[FS_X_PSI_Q] - g->h_q - m->p0_q;
+    *phi_d = m->p0_d + (1.0 + g->a_d) * *r_d + g->a_x * *r_q;
+    *phi_q = m->p0_q + g->a_x * *r_d + (1.0 + g->a_q) * *r_q;
+}
+
+/* Currents i = M^T f(phi) and, if asked, dW/dtheta at constant flux, the
+ * torque's angle term: f^T (A' r - M h') - T_cog(theta) / (3/2 p). */
+static void harm_current(fs_pmsm *m, const double *x, double cs, double sn, double *i_d, double *i_q,
+                         double *dW)
+{
+    fs_harm_at g;
+    harm_at(m, cs, sn, &g);
+    double r_d, r_q, phi_d, phi_q, f_d, f_q;
+    harm_phi(m, x, &g, &r_d, &r_q, &phi_d, &phi_q);
+    fs_mag_current(&m->mag, phi_d, phi_q, &f_d, &f_q);
+    *i_d = (1.0 + g.a_d) * f_d + g.a_x * f_q;
+    *i_q = g.a_x * f_d + (1.0 + g.a_q) * f_q;
+    if (dW) {
+        const double v_d = g.da_d * r_d + g.da_x * r_q - ((1.0 + g.a_d) * g.dh_d + g.a_x * g.dh_q);
+        const double v_q = g.da_x * r_d + g.da_q * r_q - (g.a_x * g.dh_d + (1.0 + g.a_q) * g.dh_q);
+        /* cogging: W_cog = T_cog cos(n theta) / (3/2 p n), so -3/2 p dW_cog/dtheta = T_cog sin(n theta) */
+        *dW = f_d * v_d + f_q * v_q - m->cfg.T_cog * g.s_cog / (1.5 * m->cfg.pole_pairs);
+    }
+}
+
+
 fs_status fs_pmsm_init(fs_pmsm *m, const fs_pmsm_config *cfg)
 {
     m->cfg = *cfg;
+    m->R_s0 = cfg->R_s;
+    m->psi_f30 = cfg->psi_f3;
     if (cfg->pole_pairs < 1) return FS_ERR_POLE_PAIRS;
     if (!nonneg(cfg->R_s)) return FS_ERR_RS;
     if (!pos(cfg->J)) return FS_ERR_J;
@@ -26,6 +99,23 @@ fs_status fs_pmsm_init(fs_pmsm *m, const fs_pmsm_config *cfg)
     m->k_i_load = cfg->load_bandwidth * cfg->load_bandwidth * J_tot;
     if (!isfinite(m->k_i_load)) return FS_ERR_PARAM;
     if (cfg->phases != 3 && cfg->phases != 5) return FS_ERR_PARAM;
+    m->harm = 0;
+    for (int k = 0; k < 4; ++k) {
+        if (!isfinite(cfg->psi_h[k])) return FS_ERR_PARAM;
+        m->harm |= cfg->psi_h[k] != 0.0;
+    }
+    for (int k = 0; k < 3; ++k) {
+        /* M = I + A must stay invertible (and near I: a transform, not a new machine) */
+        if (!(fabs(cfg->sal6[k]) + fabs(cfg->sal12[k]) < 0.5)) return FS_ERR_PARAM;
+        m->harm |= cfg->sal6[k] != 0.0 || cfg->sal12[k] != 0.0;
+    }
+    if (!isfinite(cfg->T_cog)) return FS_ERR_PARAM;
+    m->harm |= cfg->T_cog != 0.0;
+    if (cfg->T_cog != 0.0 && cfg->cog_order != 6 && cfg->cog_order != 12 && cfg->cog_order != 18
+        && cfg->cog_order != 24)
+        return FS_ERR_PARAM;
+    if (m->harm && cfg->phases != 3) return FS_ERR_PARAM;
+    fs_mag_flux(&m->mag, 0.0, 0.0, &m->p0_d, &m->p0_q);
     m->inv_L_d3 = m->inv_L_q3 = 0.0;
     if (cfg->phases == 5) {
         if (!pos(cfg->L_d3)) return FS_ERR_LD;
@@ -42,10 +132,53 @@ void fs_pmsm_initial_state(fs_pmsm *m, double *x)
     for (int n = 0; n < FS_X_N; ++n) x[n] = 0.0;
     fs_mag_flux(&m->mag, 0.0, 0.0, &x[FS_X_PSI_D], &x[FS_X_PSI_Q]);
     if (m->cfg.phases == 5) x[FS_X_PSI_D3] = m->cfg.psi_f3;
+    fs_pmsm_rest_flux(m, x);
 }
 
-/* The three- and five-phase paths are one body specialised by a constant
- * `five`, so that the three-phase one does no more work than it ever did. */
+void fs_pmsm_rest_flux(fs_pmsm *m, double *x)
+{
+    if (!m->harm) return;
+    const double th = m->cfg.pole_pairs * x[FS_X_THETA_M];
+    fs_harm_at g;
+    harm_at(m, cos(th), sin(th), &g);
+    x[FS_X_PSI_D] = m->p0_d + g.h_d;
+    x[FS_X_PSI_Q] = m->p0_q + g.h_q;
+}
+
+void fs_pmsm_set_temperature(fs_pmsm *m, double *x, double r, double k)
+{
+    m->cfg.R_s = r * m->R_s0;
+    if (m->harm) {
+        /* the base model's currents f kept: phi' = flux'(f), psi = h + p0' + M^-1 (phi' - p0') */
+        const double th = m->cfg.pole_pairs * x[FS_X_THETA_M];
+        fs_harm_at g;
+        harm_at(m, cos(th), sin(th), &g);
+        double r_d, r_q, phi_d, phi_q, f_d, f_q;
+        harm_phi(m, x, &g, &r_d, &r_q, &phi_d, &phi_q);
+        fs_mag_current(&m->mag, phi_d, phi_q, &f_d, &f_q);
+        fs_mag_set_magnet(&m->mag, k);
+        fs_mag_flux(&m->mag, 0.0, 0.0, &m->p0_d, &m->p0_q);
+        fs_mag_flux(&m->mag, f_d, f_q, &phi_d, &phi_q);
+        const double m_d = 1.0 + g.a_d, m_q = 1.0 + g.a_q, det = m_d * m_q - g.a_x * g.a_x;
+        const double e_d = phi_d - m->p0_d, e_q = phi_q - m->p0_q;
+        x[FS_X_PSI_D] = g.h_d + m->p0_d + (m_q * e_d - g.a_x * e_q) / det;
+        x[FS_X_PSI_Q] = g.h_q + m->p0_q + (m_d * e_q - g.a_x * e_d) / det;
+        return;
+    }
+    double i_d, i_q;
+    fs_mag_current(&m->mag, x[FS_X_PSI_D], x[FS_X_PSI_Q], &i_d, &i_q);
+    fs_mag_set_magnet(&m->mag, k);
+    fs_mag_flux(&m->mag, i_d, i_q, &x[FS_X_PSI_D], &x[FS_X_PSI_Q]);
+    if (m->cfg.phases == 5) {
+        const double psi_f3 = k * m->psi_f30;   /* the linear d3 axis: i_d3 kept */
+        x[FS_X_PSI_D3] += psi_f3 - m->cfg.psi_f3;
+        m->cfg.psi_f3 = psi_f3;
+    }
+}
+
+/* The three- and five-phase paths, and the three-phase one with spatial
+ * harmonics, are one body specialised by constants `five` and `harm`, so
+ * that the three-phase one does no more work than it ever did. */
 #if defined(__GNUC__)
 #define FS_SPECIALISE static inline __attribute__((always_inline))
 #else
@@ -87,17 +220,23 @@ FS_SPECIALISE void currents3(const fs_pmsm *m, const double *x, double *i_d3, do
     *i_q3 = x[FS_X_PSI_Q3] * m->inv_L_q3;
 }
 
-FS_SPECIALISE void outputs(fs_pmsm *m, const double *x, const fs_pmsm_input *in, const int five,
-                           double *i_d, double *i_q, double *i_d3, double *i_q3, double *T_e,
-                           double *T_shaft)
+FS_SPECIALISE void outputs(fs_pmsm *m, const double *x, const fs_pmsm_input *in, double cs, double sn,
+                           const int five, const int harm, double *i_d, double *i_q, double *i_d3,
+                           double *i_q3, double *T_e, double *T_shaft)
 {
-    fs_mag_current(&m->mag, x[FS_X_PSI_D], x[FS_X_PSI_Q], i_d, i_q);
+    if (harm) {
+        double dW;
+        harm_current(m, x, cs, sn, i_d, i_q, &dW);
+        *T_e = 1.5 * m->cfg.pole_pairs * (x[FS_X_PSI_D] * *i_q - x[FS_X_PSI_Q] * *i_d - dW);
+    } else {
+        fs_mag_current(&m->mag, x[FS_X_PSI_D], x[FS_X_PSI_Q], i_d, i_q);
+    }
     if (five) {
         currents3(m, x, i_d3, i_q3);
         *T_e = 2.5 * m->cfg.pole_pairs
                * (x[FS_X_PSI_D] * *i_q - x[FS_X_PSI_Q] * *i_d
                   + 3.0 * (x[FS_X_PSI_D3] * *i_q3 - x[FS_X_PSI_Q3] * *i_d3));
-    } else {
+    } else if (!harm) {
         *T_e = 1.5 * m->cfg.pole_pairs * (x[FS_X_PSI_D] * *i_q - x[FS_X_PSI_Q] * *i_d);
     }
     double T = in->T_load;
@@ -113,8 +252,23 @@ void fs_pmsm_outputs(fs_pmsm *m, const double *x, const fs_pmsm_input *in,
                      double *i_d, double *i_q, double *T_e, double *T_shaft)
 {
     double i_d3, i_q3;
-    if (m->cfg.phases == 5) outputs(m, x, in, 1, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
-    else outputs(m, x, in, 0, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
+    if (m->cfg.phases == 5) {
+        outputs(m, x, in, 0.0, 0.0, 1, 0, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
+    } else if (m->harm) {
+        const double th = m->cfg.pole_pairs * x[FS_X_THETA_M];
+        outputs(m, x, in, cos(th), sin(th), 0, 1, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
+    } else {
+        outputs(m, x, in, 0.0, 0.0, 0, 0, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
+    }
+}
+
+void fs_pmsm_current_dq(fs_pmsm *m, const double *x, double cs, double sn, double *i_d, double *i_q)
+{
+    if (m->harm) {
+        harm_current(m, x, cs, sn, i_d, i_q, NULL);
+    } else {
+        fs_mag_current(&m->mag, x[FS_X_PSI_D], x[FS_X_PSI_Q], i_d, i_q);
+    }
 }
 
 void fs_pmsm_currents3(const fs_pmsm *m, const double *x, double *i_d3, double *i_q3)
@@ -125,6 +279,15 @@ void fs_pmsm_currents3(const fs_pmsm *m, const double *x, double *i_d3, double *
 
 double fs_pmsm_energy(const fs_pmsm *m, const double *x)
 {
+    if (m->harm) {
+        const double th = m->cfg.pole_pairs * x[FS_X_THETA_M];
+        fs_harm_at g;
+        harm_at(m, cos(th), sin(th), &g);
+        double r_d, r_q, phi_d, phi_q;
+        harm_phi(m, x, &g, &r_d, &r_q, &phi_d, &phi_q);
+        const double W_cog = m->cfg.T_cog * g.c_cog / (1.5 * m->cfg.pole_pairs * m->cfg.cog_order);
+        return 1.5 * (fs_mag_energy(&m->mag, phi_d, phi_q) + W_cog);
+    }
     double W = fs_mag_energy(&m->mag, x[FS_X_PSI_D], x[FS_X_PSI_Q]);
     if (m->cfg.phases != 5) return 1.5 * W;
     double dd = x[FS_X_PSI_D3] - m->cfg.psi_f3, qq = x[FS_X_PSI_Q3];
@@ -149,11 +312,11 @@ static void incremental_inverse(fs_pmsm *m, double psi_d, double psi_q, double G
 
 /* The right-hand side with the rotor angle's cosine and sine given. */
 FS_SPECIALISE void deriv_cs(fs_pmsm *m, const double *x, const fs_pmsm_input *in, double cs,
-                            double sn, const int five, double *dx)
+                            double sn, const int five, const int harm, double *dx)
 {
     const fs_pmsm_config *c = &m->cfg;
     double i_d, i_q, i_d3 = 0.0, i_q3 = 0.0, T_e, T_shaft;
-    outputs(m, x, in, five, &i_d, &i_q, &i_d3, &i_q3, &T_e, &T_shaft);
+    outputs(m, x, in, cs, sn, five, harm, &i_d, &i_q, &i_d3, &i_q3, &T_e, &T_shaft);
     double w_m = x[FS_X_W_M];  /* SPEED_IDEAL: follows dw_load, reset each sample */
     double w_e = c->pole_pairs * w_m;
     double u_d = cs * in->u_alpha + sn * in->u_beta;
@@ -161,7 +324,7 @@ FS_SPECIALISE void deriv_cs(fs_pmsm *m, const double *x, const fs_pmsm_input *in
 
     dx[FS_X_PSI_D] = u_d - c->R_s * i_d + w_e * x[FS_X_PSI_Q];
     dx[FS_X_PSI_Q] = u_q - c->R_s * i_q - w_e * x[FS_X_PSI_D];
-    if (!five && in->open_phase) {
+    if (!five && !harm && in->open_phase) {   /* fs_sim refuses an open phase with harmonics */
         /* the open phase's terminal floats: a voltage lam along its axis n
          * keeps n.i at zero, d(n.i)/dt = -n.i / tau_open (Baumgarte) */
         const double n_a[3] = {1.0, -0.5, -0.5}, n_b[3] = {0.0, 0.8660254037844386, -0.8660254037844386};
@@ -218,8 +381,9 @@ FS_SPECIALISE void deriv_cs(fs_pmsm *m, const double *x, const fs_pmsm_input *in
 void fs_pmsm_deriv(fs_pmsm *m, const double *x, const fs_pmsm_input *in, double *dx)
 {
     double th = m->cfg.pole_pairs * x[FS_X_THETA_M];
-    if (m->cfg.phases == 5) deriv_cs(m, x, in, cos(th), sin(th), 1, dx);
-    else deriv_cs(m, x, in, cos(th), sin(th), 0, dx);
+    if (m->cfg.phases == 5) deriv_cs(m, x, in, cos(th), sin(th), 1, 0, dx);
+    else if (m->harm) deriv_cs(m, x, in, cos(th), sin(th), 0, 1, dx);
+    else deriv_cs(m, x, in, cos(th), sin(th), 0, 0, dx);
 }
 
 /* The right-hand side at a stage whose angle is the step's start angle
@@ -228,7 +392,7 @@ void fs_pmsm_deriv(fs_pmsm *m, const double *x, const fs_pmsm_input *in, double 
  * and by the library otherwise. */
 FS_SPECIALISE void deriv_stage(fs_pmsm *m, const double *x0, const double *y,
                                const fs_pmsm_input *in, double c0, double s0, const int five,
-                               double *dx)
+                               const int harm, double *dx)
 {
     double d = m->cfg.pole_pairs * (y[FS_X_THETA_M] - x0[FS_X_THETA_M]);
     double cd, sd;
@@ -240,29 +404,32 @@ FS_SPECIALISE void deriv_stage(fs_pmsm *m, const double *x0, const double *y,
         cd = cos(d);
         sd = sin(d);
     }
-    deriv_cs(m, y, in, c0 * cd - s0 * sd, s0 * cd + c0 * sd, five, dx);
+    deriv_cs(m, y, in, c0 * cd - s0 * sd, s0 * cd + c0 * sd, five, harm, dx);
 }
 
-/* RK4 over the first NX states (FS_X_N3: three phases, FS_X_N: five). */
-FS_SPECIALISE void rk4(fs_pmsm *m, double *x, const fs_pmsm_input *in, double h, const int five)
+/* RK4 over the first NX states (FS_X_N3: three phases, FS_X_N: five);
+ * harm: the three-phase machine with its spatial harmonics. */
+FS_SPECIALISE void rk4(fs_pmsm *m, double *x, const fs_pmsm_input *in, double h, const int five,
+                       const int harm)
 {
     enum { NX = FS_X_N };
     const int nx = five ? FS_X_N : FS_X_N3;
     double k1[NX], k2[NX], k3[NX], k4[NX], y[NX];
     double th = m->cfg.pole_pairs * x[FS_X_THETA_M];
     double c0 = cos(th), s0 = sin(th);
-    deriv_cs(m, x, in, c0, s0, five, k1);
+    deriv_cs(m, x, in, c0, s0, five, harm, k1);
     for (int n = 0; n < nx; ++n) y[n] = x[n] + 0.5 * h * k1[n];
-    deriv_stage(m, x, y, in, c0, s0, five, k2);
+    deriv_stage(m, x, y, in, c0, s0, five, harm, k2);
     for (int n = 0; n < nx; ++n) y[n] = x[n] + 0.5 * h * k2[n];
-    deriv_stage(m, x, y, in, c0, s0, five, k3);
+    deriv_stage(m, x, y, in, c0, s0, five, harm, k3);
     for (int n = 0; n < nx; ++n) y[n] = x[n] + h * k3[n];
-    deriv_stage(m, x, y, in, c0, s0, five, k4);
+    deriv_stage(m, x, y, in, c0, s0, five, harm, k4);
     for (int n = 0; n < nx; ++n) x[n] += h / 6.0 * (k1[n] + 2.0 * k2[n] + 2.0 * k3[n] + k4[n]);
 }
 
 void fs_pmsm_rk4(fs_pmsm *m, double *x, const fs_pmsm_input *in, double h)
 {
-    if (m->cfg.phases == 5) rk4(m, x, in, h, 1);
-    else rk4(m, x, in, h, 0);
+    if (m->cfg.phases == 5) rk4(m, x, in, h, 1, 0);
+    else if (m->harm) rk4(m, x, in, h, 0, 1);
+    else rk4(m, x, in, h, 0, 0);
 }

@@ -20,6 +20,25 @@
  * machine with a PI of finite bandwidth, as on the papers' test benches).
  * Energy meters (input, copper loss, air-gap power) are integrated alongside
  * the states so that the power balance can be checked exactly.
+ *
+ * Spatial harmonics (three phases): the flux depends on the rotor angle
+ * theta = theta_e as well. The magnet's harmonic flux h(theta) of orders
+ * 5, 7, 11, 13 (psi_h[], Wb: in the stationary frame psi_5 e^{-j5 theta} +
+ * psi_7 e^{j7 theta} + ..., phase a's back-EMF harmonic of order n is n
+ * psi_n / psi_f of the fundamental), saliency harmonics as a flux transform
+ * M(theta) = I + A(theta) of orders 6 and 12 in the rotor frame,
+ *   A = sum_k [[sal_k[0] cos k theta, sal_k[2] sin k theta],
+ *              [sal_k[2] sin k theta, sal_k[1] cos k theta]],  k = 6, 12,
+ * and a cogging torque T_cog sin(cog_order theta). The currents come from
+ * the magnetic model f (fs_magnetic.h) at the transformed flux
+ *   phi = p0 + M (psi - h - p0),   i = M^T f(phi),
+ * p0 its zero-current flux, so that with W0 the model's energy the stored
+ * energy W(psi, theta) = W0(phi) + W_cog(theta) has i = grad_psi W (a
+ * Gamma = M^T Gamma_0 M modulated with the angle: inductance harmonics that
+ * act with the current), and the torque from the co-energy's angle
+ * derivative keeps the balance exact:
+ *   T_e = 3/2 p [psi_d i_q - psi_q i_d - dW/dtheta |psi],
+ *   dW/dtheta |psi = f^T (A' (psi - h - p0) - M h') - T_cog sin(n theta) / (3/2 p).
  */
 #ifndef FS_PMSM_H
 #define FS_PMSM_H
@@ -48,6 +67,11 @@ typedef struct {
     int phases;               /* 3 or 5 */
     double L_d3, L_q3;        /* five phases: third-harmonic inductances, H (> 0) */
     double psi_f3;            /* five phases: third-harmonic magnet flux, Wb (>= 0) */
+    /* spatial harmonics (three phases; all 0: none, and no cost) */
+    double psi_h[4];          /* magnet flux harmonics of orders 5, 7, 11, 13, Wb (signed) */
+    double sal6[3], sal12[3]; /* the flux transform's (dd, qq, dq) terms of orders 6 and 12; |sal6| + |sal12| < 0.5 each */
+    double T_cog;             /* cogging torque amplitude, N m */
+    int cog_order;            /* its order per electrical turn: 6, 12, 18 or 24 (needed with T_cog != 0) */
 } fs_pmsm_config;
 
 /* State vector layout: the first FS_X_N3 states are those of a
@@ -69,6 +93,9 @@ typedef struct {
     fs_mag mag;
     double k_p_load, k_i_load;  /* load machine PI, designed in init */
     double inv_L_d3, inv_L_q3;  /* five phases: 1/L_d3, 1/L_q3 */
+    double R_s0, psi_f30;       /* R_s and psi_f3 as configured (fs_pmsm_set_temperature scales them) */
+    int harm;                   /* spatial harmonics configured */
+    double p0_d, p0_q;          /* with them: the magnetic model's zero-current flux */
 } fs_pmsm;
 
 /* Inputs of the right-hand side that are held over an integration step. */
@@ -90,11 +117,19 @@ typedef struct {
  * T_coulomb, J_load >= 0; w_coulomb > 0 with Coulomb friction or a brake;
  * load_bandwidth > 0 for SPEED_PI, finite always; phases 3 or 5),
  * FS_ERR_MODE (load_kind), the magnetic model's (fs_mag_init), and for five
- * phases FS_ERR_LD, FS_ERR_LQ, FS_ERR_PSI_F (L_d3, L_q3 > 0, psi_f3 >= 0). */
+ * phases FS_ERR_LD, FS_ERR_LQ, FS_ERR_PSI_F (L_d3, L_q3 > 0, psi_f3 >= 0);
+ * FS_ERR_PARAM for spatial harmonics not finite, a transform term out of
+ * range, a cogging order not 6, 12, 18 or 24, or harmonics on five phases. */
 fs_status fs_pmsm_init(fs_pmsm *m, const fs_pmsm_config *cfg);
 /* The state at rest without current: fluxes at zero current (psi_d3 =
  * psi_f3 for five phases), everything else zero. */
 void fs_pmsm_initial_state(fs_pmsm *m, double *x);
+/* With spatial harmonics: the fluxes of zero current at the state's angle
+ * (after the angle is set); without, nothing. */
+void fs_pmsm_rest_flux(fs_pmsm *m, double *x);
+/* Rotor-frame currents of a state whose electrical angle has cosine cs and
+ * sine sn (read only with spatial harmonics). */
+void fs_pmsm_current_dq(fs_pmsm *m, const double *x, double cs, double sn, double *i_d, double *i_q);
 void fs_pmsm_deriv(fs_pmsm *m, const double *x, const fs_pmsm_input *in, double *dx);
 /* Currents (rotor frame), torque and shaft load torque of a state. */
 void fs_pmsm_outputs(fs_pmsm *m, const double *x, const fs_pmsm_input *in,
@@ -104,6 +139,12 @@ void fs_pmsm_currents3(const fs_pmsm *m, const double *x, double *i_d3, double *
 /* Stored magnetic energy m/2 (W(psi) + W3), W3 = (psi_d3 - psi_f3)^2/(2 L_d3)
  * + psi_q3^2/(2 L_q3) (W as fs_mag_energy; 0 for three phases), J. */
 double fs_pmsm_energy(const fs_pmsm *m, const double *x);
+/* The winding's resistance at r times the configured R_s and the magnet's
+ * remanence at k times the configured one (fs_mag_set_magnet; psi_f3 with
+ * it), from a thermal model. The currents are kept: the flux states move
+ * with the magnet (the EMF of that slow change, d psi_f/dt, is neglected,
+ * and so is the energy it exchanges, which the meters do not see). */
+void fs_pmsm_set_temperature(fs_pmsm *m, double *x, double r, double k);
 /* Classic RK4 step of length h with held input. */
 void fs_pmsm_rk4(fs_pmsm *m, double *x, const fs_pmsm_input *in, double h);
 

@@ -33,6 +33,11 @@ struct fs_sim {
     float theta_enc_held;    /* the encoder's reading once it has stopped */
     int sensor_fault;        /* cfg.fault has a sensor offset or gain error */
     double adc_sat_time;     /* first saturated current reading, or NaN */
+    int thermal_on;          /* cfg.thermal.enabled */
+    fs_thermal thermal;
+    double e_cu_prev;        /* the copper-loss meter at the start of the period, J */
+    double k_mag;            /* the magnet factor the plant has */
+    double psi_f_true;       /* the plant's open-circuit magnet flux, Wb */
 };
 
 /* The runner passes drive duties to the inverter and phase currents back. */
@@ -106,10 +111,10 @@ static void inv_clarke3(double a, double b, double *v)
  * if asked, rotor frame (d, q). */
 static void stator_current(fs_sim *s, const double *x, double *i_a, double *i_b, double *i_d, double *i_q)
 {
-    double id, iq;
-    fs_mag_current(&s->pmsm.mag, x[FS_X_PSI_D], x[FS_X_PSI_Q], &id, &iq);
     const double th = s->pmsm.cfg.pole_pairs * x[FS_X_THETA_M];
     const double cs = cos(th), sn = sin(th);
+    double id, iq;
+    fs_pmsm_current_dq(&s->pmsm, x, cs, sn, &id, &iq);
     *i_a = cs * id - sn * iq;
     *i_b = sn * id + cs * iq;
     if (i_d) *i_d = id;
@@ -132,6 +137,8 @@ static void phase_currents(fs_sim *s, const double *x, double *i_ph, double *i_d
     }
 }
 
+static void thermal_apply(fs_sim *s);
+
 #define FAIL(...) do { snprintf(err, (size_t)err_len, __VA_ARGS__); fs_sim_destroy(s); return NULL; } while (0)
 
 fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
@@ -152,6 +159,8 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
         FAIL("inverter.T_pwm = %g: must be finite and > 0", cfg->inverter.T_pwm);
     if (!(cfg->inverter.t_dead >= 0.0) || cfg->inverter.t_dead >= 0.5 * cfg->inverter.T_pwm)
         FAIL("inverter.t_dead = %g: must be in [0, T_pwm/2)", cfg->inverter.t_dead);
+    if (!(cfg->inverter.r_on >= 0.0) || !isfinite(cfg->inverter.r_on))
+        FAIL("converter.r_on = %g: must be finite and >= 0", cfg->inverter.r_on);
     if (!(cfg->inverter.u_dc > 0.0) || !isfinite(cfg->inverter.u_dc))
         FAIL("inverter.u_dc = %g: must be finite and > 0", cfg->inverter.u_dc);
     if (cfg->sampling != FS_SAMPLING_SINGLE && cfg->sampling != FS_SAMPLING_DOUBLE)
@@ -212,6 +221,8 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
     s->nx = ph == 5 ? FS_X_N : FS_X_N3;
     fs_status pst = fs_pmsm_init(&s->pmsm, &cfg->plant);
     if (pst != FS_OK) FAIL("machine: %s", fs_status_str(pst));
+    if (s->pmsm.harm && fc->open_phase)
+        FAIL("faults.open_phase = %d: not modelled with spatial harmonics (machine [harmonics])", fc->open_phase);
     s->Tc = cfg->sampling == FS_SAMPLING_DOUBLE ? 0.5 * cfg->inverter.T_pwm : cfg->inverter.T_pwm;
     if (fabs(cfg->drive.Ts - s->Tc) > 1e-6 * s->Tc)
         FAIL("controller.Ts = %g: must equal the control period %g", cfg->drive.Ts, s->Tc);
@@ -221,6 +232,7 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
     fs_pmsm_initial_state(&s->pmsm, s->x);
     s->x[FS_X_THETA_M] = cfg->theta_m0;
     s->x[FS_X_W_M] = cfg->w_m0;
+    fs_pmsm_rest_flux(&s->pmsm, s->x);   /* spatial harmonics: zero current at theta_m0 */
     if (cfg->plant.load_kind == FS_LOAD_SPEED_IDEAL)
         s->x[FS_X_W_M] = fs_pwl_eval(&s->prof[P_W_LOAD], 0.0, NULL);
     for (int k = 0; k < FS_INV_MAX_LEGS; ++k) s->duty_now[k] = s->duty_next[k] = 0.5;
@@ -230,7 +242,46 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
     for (int k = 0; k < FS_INV_MAX_LEGS; ++k)
         s->sensor_fault |= cfg->fault.i_gain[k] != 0.0 || cfg->fault.i_offset[k] != 0.0;
     s->u_dc0 = cfg->inverter.u_dc;
+    s->psi_f_true = cfg->plant.mag.psi_f;
+    s->k_mag = 1.0;
+    if (cfg->thermal.enabled) {
+        if (cfg->plant.mag.kind == FS_MAG_FLUXMAP)
+            FAIL("thermal: a flux map's magnet temperature is not modelled (use the linear or algebraic model)");
+        if (fs_thermal_init(&s->thermal, &cfg->thermal) != FS_OK)
+            FAIL("thermal: a field is out of range (resistances and capacities > 0, time_scale >= 1, shares in [0, 1], "
+                 "|alpha| < 0.1/K, temperatures in [-273.15, 1000] degC)");
+        s->thermal_on = 1;
+        thermal_apply(s);
+    }
     return s;
+}
+
+/* The plant's R_s and magnet at the thermal model's temperatures; the
+ * magnet (a flux solve) only when its factor moved by 1e-6 or more. */
+static void thermal_apply(fs_sim *s)
+{
+    const double r = fs_thermal_r_factor(&s->thermal), k = fs_thermal_magnet_factor(&s->thermal);
+    if (fabs(k - s->k_mag) >= 1e-6) {
+        fs_pmsm_set_temperature(&s->pmsm, s->x, r, k);
+        s->k_mag = k;
+        double pq;
+        fs_mag_flux(&s->pmsm.mag, 0.0, 0.0, &s->psi_f_true, &pq);
+    } else {
+        s->pmsm.cfg.R_s = r * s->pmsm.R_s0;
+    }
+}
+
+/* The thermal model over the period that ended: the copper loss from the
+ * plant's meter, the iron loss at the period's end. */
+static void thermal_period(fs_sim *s)
+{
+    const double P_cu = (s->x[FS_X_E_CU] - s->e_cu_prev) / s->Tc;
+    s->e_cu_prev = s->x[FS_X_E_CU];
+    const double psi_f0 = s->pmsm.mag.psi_f0;   /* P_fe_ref's flux; a machine without magnet: 1 */
+    const double psi = psi_f0 > 0.0 ? hypot(s->x[FS_X_PSI_D], s->x[FS_X_PSI_Q]) / psi_f0 : 1.0;
+    const double P_fe = fs_thermal_iron_loss(&s->thermal, s->pmsm.cfg.pole_pairs * s->x[FS_X_W_M], psi);
+    fs_thermal_step(&s->thermal, P_cu, P_fe, s->Tc);
+    thermal_apply(s);
 }
 
 void fs_sim_destroy(fs_sim *s)
@@ -290,7 +341,7 @@ static void integrate_period(fs_sim *s, double t0)
             double hstep = Th / steps;
             /* the mean voltage depends on the currents only through dead time
              * and drops: without them it is one value for the half period */
-            int ideal = inv->t_dead == 0.0 && inv->u_on == 0.0;
+            int ideal = inv->t_dead == 0.0 && inv->u_on == 0.0 && inv->r_on == 0.0;
             if (ideal) {
                 for (int k = 0; k < FS_INV_MAX_LEGS; ++k) i_ph[k] = 0.0;
                 fs_inverter_mean_voltage(inv, s->duty_now, i_ph, &in.u_alpha, &in.u_beta, &in.u_x, &in.u_y);
@@ -511,6 +562,13 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
             r[FS_CH_STAGE] = dout.stage;
             r[FS_CH_RECOVERIES] = dout.recoveries;
             r[FS_CH_U_DC] = din.u_dc;
+            r[FS_CH_T_WINDING] = s->thermal_on ? s->thermal.T_w : 0.0;
+            r[FS_CH_T_MAGNET] = s->thermal_on ? s->thermal.T_m : 0.0;
+            r[FS_CH_R_S_TRUE] = s->pmsm.cfg.R_s;
+            r[FS_CH_PSI_F_TRUE] = s->psi_f_true;
+            const int adapt = c->drive.adapt.T_f > 0.0f;
+            r[FS_CH_R_S_HAT] = adapt ? s->drive.adapt.R_s : c->drive.R_s;
+            r[FS_CH_PSI_F_HAT] = adapt ? s->drive.adapt.psi_f : c->drive.psi_f;
             ++*rows;
         }
         if (c->lock_stop && dout.lock_lost) {
@@ -527,6 +585,7 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
         /* the plant over this period */
         s->x[FS_X_UD_INT] = s->x[FS_X_UQ_INT] = 0.0;
         if (s->imc) integrate_period_imc(s, t); else integrate_period(s, t);
+        if (s->thermal_on) thermal_period(s);
         if (c->delay) {
             for (int k = 0; k < s->phases; ++k) s->duty_now[k] = s->duty_next[k];
             s->rect_now = s->rect_next;

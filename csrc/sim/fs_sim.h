@@ -29,6 +29,7 @@
 #include "../plant/fs_grid.h"
 #include "../plant/fs_inverter.h"
 #include "../plant/fs_pmsm.h"
+#include "../plant/fs_thermal.h"
 
 /* A piecewise-linear profile y(t), held constant outside [t[0], t[n-1]]. */
 typedef struct {
@@ -54,6 +55,7 @@ typedef struct {
 /* plant.phases, inverter.phases and drive.phases must agree (3 or 5). */
 typedef struct {
     fs_pmsm_config plant;
+    fs_thermal_config thermal;  /* enabled: R_s and the magnet follow the winding's and magnets' temperatures */
     fs_inverter_config inverter;
     int converter;            /* fs_converter; must equal drive.converter */
     fs_grid_config grid;      /* the matrix converter's input side */
@@ -118,6 +120,11 @@ enum {
     FS_CH_LOCK_RESID, FS_CH_LOCK_LOST,   /* the drive's loss-of-lock residual and flag (fs_lock.h) */
     FS_CH_STAGE, FS_CH_RECOVERIES,       /* its operating stage (fs_drive_stage) and recoveries begun */
     FS_CH_U_DC,               /* the dc link at this sample, V (the inverter's; the matrix converter's mean v_pn) */
+    /* the thermal model (fs_thermal.h): winding and magnet temperatures,
+     * degC (0 without one), and the plant's true R_s and open-circuit
+     * magnet flux (psi_d at zero current), ohm and Wb */
+    FS_CH_T_WINDING, FS_CH_T_MAGNET, FS_CH_R_S_TRUE, FS_CH_PSI_F_TRUE,
+    FS_CH_R_S_HAT, FS_CH_PSI_F_HAT,   /* the controller's R_s and psi_f (online correction, fs_param_adapt.h) */
     FS_CH_N
 };
 

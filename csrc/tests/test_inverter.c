@@ -23,7 +23,7 @@
 
 static fs_inverter_config cfg(double t_dead, double u_on)
 {
-    fs_inverter_config c;
+    fs_inverter_config c = {0};
     c.kind = FS_INV_SWITCHING;
     c.u_dc = 600.0;
     c.T_pwm = 1e-4;

@@ -55,6 +55,36 @@ BENCH = {
 # psi_d3 = L_d3 i_d3 + psi_f3, psi_q3 = L_q3 i_q3 (yu2022 eq. (1)).
 THIRD_HARMONIC = {"L_d3": F(lo=1e-8, hi=10.0), "L_q3": F(lo=1e-8, hi=10.0), "psi_f3": NONNEG(hi=100.0)}
 
+# The two-node thermal model (csrc/plant/fs_thermal.h): winding and
+# magnets, their thermal resistances and heat capacities, the temperature
+# [electrical] holds at, and the losses' and parameters' coefficients.
+THERMAL = {
+    "T_ref": F(20.0, lo=-50.0, hi=300.0, doc="degC: R_s and psi_f of [electrical] are at this temperature"),
+    "T_amb": F(40.0, lo=-50.0, hi=300.0, doc="degC: ambient (housing sink, coolant)"),
+    "R_wa": POS(hi=1e4, doc="K/W, winding to ambient"), "R_wm": POS(hi=1e4, doc="K/W, winding to magnets"),
+    "R_ma": POS(hi=1e4, doc="K/W, magnets to ambient"),
+    "C_w": POS(hi=1e9, doc="J/K, winding node"), "C_m": POS(hi=1e9, doc="J/K, magnet node"),
+    "alpha_cu": F(0.00393, lo=-0.05, hi=0.05, doc="1/K, copper's resistance coefficient"),
+    "alpha_br": F(-0.0012, lo=-0.05, hi=0.05, doc="1/K, the magnet's remanence coefficient"),
+    "P_fe_ref": NONNEG(0.0, hi=1e9, doc="W, iron loss at speed_fe_rpm with the magnet's flux"),
+    "speed_fe_rpm": POS(1000.0, hi=1e6, doc="the speed P_fe_ref is at"), "k_hyst": F(0.7, lo=0.0, hi=1.0, doc="hysteresis share of P_fe_ref"),
+    "k_rotor": F(0.1, lo=0.0, hi=1.0, doc="share of the iron loss in the rotor (heats the magnets)"),
+    "reasons": NOTES(doc="why each value (text)"),
+}
+
+# Spatial harmonics (csrc/plant/fs_pmsm.h): the back-EMF's harmonics of
+# orders 5, 7, 11, 13 relative to its fundamental (signed: 1 = in phase at
+# theta = 0), the saliency harmonics as the flux transform's terms of orders
+# 6 and 12 (dd, qq, dq), and the cogging torque.
+HARMONICS = {
+    **{f"emf{n}": F(0.0, lo=-0.5, hi=0.5, doc=f"E_{n} / E_1") for n in (5, 7, 11, 13)},
+    **{f"sal{k}_{ax}": F(0.0, lo=-0.2, hi=0.2, doc=f"the flux transform's {ax} term of order {k} (relative)")
+       for k in (6, 12) for ax in ("dd", "qq", "dq")},
+    "cogging_Nm": NONNEG(0.0, hi=1e6, doc="N m, amplitude"),
+    "cogging_order": Spec("choice", 12, choices=(6, 12, 18, 24), doc="per electrical turn: LCM(slots, 2p) / p"),
+    "reasons": NOTES(doc="why each value (text)"),
+}
+
 # The estimators' defaults on this machine (scenario [injection] and
 # [blending] fields left out come from here), and the paper's printed gains.
 INJECTION = {
@@ -86,6 +116,8 @@ MACHINE = {
     "injection": T(INJECTION, default=None), "blending": T(BLENDING, default=None),
     "paper_gains": T(PAPER_GAINS, default=None, doc="a paper's printed PI gains (controller.gains = \"paper\")"),
     "third_harmonic": Spec("any", None, doc="five phases: L_d3, L_q3 (H) and psi_f3 (Wb) of the third-harmonic plane"),
+    "thermal": T(THERMAL, default=None, doc="the two-node thermal model (csrc/plant/fs_thermal.h), used where a scenario enables it"),
+    "harmonics": T(HARMONICS, default=None, doc="spatial harmonics (csrc/plant/fs_pmsm.h), used where a scenario enables them"),
     "bench_experiment": T(BENCH_EXPERIMENT, default=None, doc="a paper's experimental bench, where it differs"), "derivations": NOTES(doc="how values were derived (text)"),
 }
 
@@ -116,6 +148,8 @@ class Machine:
     L_d3: float = 0.0       # H
     L_q3: float = 0.0       # H
     psi_f3: float = 0.0     # Wb
+    thermal: dict | None = None   # [thermal] as validated (THERMAL), None without one
+    harmonics: dict | None = None  # [harmonics] as validated (HARMONICS), None without one
     # the bench's limits and bandwidths as given or designed (fullspeed.design.Value, by key)
     design: dict = field(default_factory=dict)
 
@@ -193,7 +227,8 @@ def machine_from_dict(data: dict, source: str | None = None, prefix: str = "mach
         J=m["J"], B=m["B"], T_coulomb=m["T_coulomb"],
         T_rated=r["torque"], i_rated=r["current"], w_m_rated=rpm_to_rad_s(r["speed_rpm"]),
         magnetic=d["magnetic"], bench=b, extra=extra, source=d["source"], description=d["description"],
-        L_d3=th["L_d3"], L_q3=th["L_q3"], psi_f3=th["psi_f3"], design=designed,
+        L_d3=th["L_d3"], L_q3=th["L_q3"], psi_f3=th["psi_f3"], thermal=d["thermal"],
+        harmonics=d["harmonics"], design=designed,
     )
 
 

@@ -25,6 +25,7 @@ SCENARIO = {
         "inverter": C("averaged", "switching", default=None, doc="default switching; the imc's is averaged per rectifier interval"),
         "u_dc": POS(None, hi=1e5, doc="V; default the machine's bench"), "f_pwm": F(None, lo=100.0, hi=1e6, doc="Hz, PWM carrier; default the machine's bench"),
         "t_dead": NONNEG(None, hi=1e-4, doc="s, dead time; default the machine's bench"), "u_on": NONNEG(0.0, hi=1e3, doc="V, device on-state drop"),
+        "r_on": NONNEG(0.0, hi=1e3, doc="ohm, device on-state resistance: the drop is sign(i) u_on + r_on i"),
         # the matrix converter (defaults from the machine's bench)
         "modulation": C("linear", "om1", "om2", default="om2",
                         doc="imc: the highest region (zou2021 sec. 3.3): linear, over-modulation I (CASE 1) or II (CASE 1 and 2)"),
@@ -56,6 +57,8 @@ SCENARIO = {
         "T_max": POS(None, hi=1e6, doc="N m, torque limit; default the MTPA torque at i_max"),
         "dead_time_comp": B(True, doc="compensate the converter's dead time"),
         "i_dead_band": NONNEG(None, hi=1e5, doc="A, below this the dead-time compensation ramps to zero; default 1 % of i_max"),
+        "dead_time_predict": B(False, doc="the compensation takes each edge's sign from the current predicted there (fs_dtcomp.h)"),
+        "xy_control": B(False, doc="five phases: PI control of the x-y current in the d3-q3 frame at bw_current (fs_xyctrl.h)"),
         "vf_gain": NONNEG(0.0, hi=1e3, doc="V per electrical rad/s"), "vf_boost": NONNEG(0.0, hi=1e5, doc="V, V/f boost at zero frequency"),
         # the controller's parameters relative to the true machine's
         "R_s_scale": F(1.0, lo=0.01, hi=100.0, doc="the controller's R_s over the machine's (a mismatch)"),
@@ -79,6 +82,8 @@ SCENARIO = {
         "lock_time": POS(0.02, hi=10.0, doc="s off track, net, before lock counts as lost"),
         "recover_time": POS(0.05, hi=10.0, doc="s of zero current before a recovery re-acquires"),
         "lock_retries": I(3, 0, 1000, doc="recoveries before a loss of lock stops the run"),
+        "param_adapt": B(False, doc="online correction of R_s and psi_f while sensorless (fs_param_adapt.h)"),
+        "adapt_time": POS(5.0, hi=1e4, doc="s, its least squares' forgetting time: long against the drive's cycle of operating points, short against the machine's heating"),
     }),
     # the estimator (yang2022 sec. 2); used from `handover` on, running from t = 0
     "observer": T({
@@ -155,6 +160,17 @@ SCENARIO = {
         "t_encoder_stop": POS(None, hi=1e4, doc="s: the encoder's reading freezes here"),
         "u_dc_scale": P(1.0, hi=10.0, doc="the dc link relative to converter.u_dc: a sag or a step (inverter)"),
     }, default={}),
+    # the machine's heating (its [thermal] table, csrc/plant/fs_thermal.h)
+    "thermal": T({
+        "enabled": B(False, doc="R_s and the magnet follow the winding's and magnets' temperatures"),
+        "time_scale": F(1.0, lo=1.0, hi=1e6, doc="the heat capacities divided by this: minutes of heating in seconds"),
+        "T_amb": F(None, lo=-50.0, hi=300.0, doc="degC; default the machine's"),
+        "T_winding0": F(None, lo=-50.0, hi=300.0, doc="degC; default the ambient"),
+        "T_magnet0": F(None, lo=-50.0, hi=300.0, doc="degC; default the ambient"),
+    }, default={}),
+    # the machine's spatial harmonics (its [harmonics] table, csrc/plant/fs_pmsm.h)
+    "harmonics": T({"enabled": B(False, doc="the flux depends on the rotor angle: back-EMF and saliency harmonics, cogging")},
+                   default={}),
     "trace": T({"decimation": I(1, 1, 10**6, doc="record every n-th control period")}, default={}),
     "metrics": T({"steady": Spec("any", None, doc="[t_start, t_end] s, the steady window; default the last flat stretch of the references and load after the loop settles (fullspeed.metrics)")}, default={}),
 }
@@ -334,6 +350,9 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         if d[sec][key] is not None and d[sec][key] * Ts > limit:   # None: designed in C
             raise ConfigError(f"{sec}.{key}", d[sec][key], f"must be <= {limit / Ts:g} rad/s for the control period {Ts:g} s", source)
     _fault_fields(d, m, source)
+    _thermal_fields(d, m, source)
+    if ctl["xy_control"] and m.phases != 5:
+        raise ConfigError("controller.xy_control", True, "needs a five-phase machine (the x-y plane)", source)
     steady = d["metrics"]["steady"]
     if steady is not None:
         ok = (isinstance(steady, list) and len(steady) == 2
@@ -379,6 +398,29 @@ def _band(d: dict, m: Machine) -> dict:
     band = dz.design_band(dz.machine_values(m), bench, f_h)
     return {k: dz.Value(float(mb[k]), "rpm", "given in the machine file", True) if k in mb else band[k]
             for k in ("lower_rpm", "upper_rpm")}
+
+
+def _thermal_fields(d: dict, m: Machine, source) -> None:
+    if d["harmonics"]["enabled"]:
+        if m.harmonics is None:
+            raise ConfigError("harmonics.enabled", True, f"needs a [harmonics] table in the machine {m.name}", source)
+        if m.phases != 3:
+            raise ConfigError("harmonics.enabled", True, "spatial harmonics are modelled on three-phase machines", source)
+        if d["faults"]["open_phase"] != "none":
+            raise ConfigError("harmonics.enabled", True, "not modelled with an open phase (faults.open_phase)", source)
+    th = d["thermal"]
+    if not th["enabled"]:
+        return
+    if m.thermal is None:
+        raise ConfigError("thermal.enabled", True, f"needs a [thermal] table in the machine {m.name}", source)
+    if m.magnetic["model"] == "fluxmap":
+        raise ConfigError("thermal.enabled", True, "a flux map's magnet temperature is not modelled: "
+                          "the machine's magnetic model must be linear or algebraic", source)
+    if th["T_amb"] is None:
+        th["T_amb"] = m.thermal["T_amb"]
+    for key in ("T_winding0", "T_magnet0"):
+        if th[key] is None:
+            th[key] = th["T_amb"]
 
 
 def _fault_fields(d: dict, m: Machine, source) -> None:

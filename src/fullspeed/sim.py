@@ -24,6 +24,7 @@ CHANNELS = [
     "g_w", "inject", "i_d3", "i_q3", "i_hf_d", "i_hf_q",
     "i_grid_a", "v_pn", "u_ab", "alpha", "E_grid", "E_rf", "W_filter",
     "lock_resid", "lock_lost", "stage", "recoveries", "u_dc",
+    "T_winding", "T_magnet", "R_s_true", "psi_f_true", "R_s_hat", "psi_f_hat",
 ]
 assert len(CHANNELS) == lib.FS_CH_N, "channel names out of step with fs_sim.h"
 
@@ -41,6 +42,7 @@ UNITS = {
     **dict.fromkeys(("theta_hat", "theta_err", "theta_est", "est_err"), "rad"),
     **dict.fromkeys(("E_in", "E_cu", "E_airgap", "W_mag", "E_grid", "E_rf", "W_filter"), "J"),
     "stage": "name",
+    "T_winding": "degC", "T_magnet": "degC", "R_s_true": "ohm", "R_s_hat": "ohm", "psi_f_true": "Wb", "psi_f_hat": "Wb",
 }
 assert set(UNITS) == set(CHANNELS), "a channel without a unit"
 
@@ -170,9 +172,14 @@ def build_config(sc: Scenario):
     if m.phases == 5:   # the third-harmonic plane (machines.py checked the [third_harmonic] table)
         pl.L_d3, pl.L_q3, pl.psi_f3 = m.L_d3, m.L_q3, m.psi_f3
 
+    _set_thermal(cfg.thermal, m, d["thermal"])
+    if d["harmonics"]["enabled"]:
+        _set_harmonics(pl, m)
+
     inv = cfg.inverter
     inv.kind = lib.FS_INV_SWITCHING if conv["inverter"] == "switching" else lib.FS_INV_AVERAGED
     inv.u_dc, inv.T_pwm, inv.t_dead, inv.u_on = conv["u_dc"], 1.0 / conv["f_pwm"], conv["t_dead"], conv["u_on"]
+    inv.r_on = conv["r_on"]
     inv.phases = m.phases
     imc = conv["kind"] == "imc"
     cfg.converter = lib.FS_CONV_IMC if imc else lib.FS_CONV_VSI
@@ -216,11 +223,16 @@ def build_config(sc: Scenario):
     dc.bw_current, dc.bw_speed, dc.bw_pll = ctl["bw_current"], ctl["bw_speed"], ctl["bw_pll"]
     dc.t_dead_comp = conv["t_dead"] if ctl["dead_time_comp"] else 0.0
     dc.i_dead_band = ctl["i_dead_band"]
+    dc.dt_predict = 1 if ctl["dead_time_predict"] else 0
+    if ctl["xy_control"]:   # the same bandwidth as the fundamental's loops
+        dc.bw_xy, dc.L_d3, dc.L_q3, dc.psi_f3 = ctl["bw_current"], m.L_d3, m.L_q3, m.psi_f3
     dc.vf_gain, dc.vf_boost = ctl["vf_gain"], ctl["vf_boost"]
     if ctl["flux_weakening"]:
         dc.fw_w_e_max = m.pole_pairs * rpm_to_rad_s(ctl["fw_top_speed_rpm"])
         dc.fw_gain = ctl["fw_gain"]
         dc.fw_cutoff = ctl["fw_cutoff"] or 0.0   # 0: designed in fs_drive_init
+    if ctl["param_adapt"]:
+        dc.adapt.T_f = ctl["adapt_time"]
     dc.lock_time = ctl["lock_time"] if ctl["lock"] != "off" else 0.0
     dc.lock_recover = int(ctl["lock"] == "recover")
     dc.t_recover, dc.lock_retries = ctl["recover_time"], ctl["lock_retries"]
@@ -274,6 +286,31 @@ def build_config(sc: Scenario):
         _set_profile(getattr(cfg, name), t, [v * scale for v in y], keep)
     cfg.decimation = d["trace"]["decimation"]
     return cfg, keep
+
+
+def _set_harmonics(pl, m) -> None:
+    """The machine's [harmonics] (checked by scenario._thermal_fields) into
+    the plant: back-EMF harmonic E_n / E_1 of order n is n psi_n / psi_f."""
+    h = m.harmonics
+    for k, n in enumerate((5, 7, 11, 13)):
+        pl.psi_h[k] = h[f"emf{n}"] * m.psi_f / n
+    for k, ax in enumerate(("dd", "qq", "dq")):
+        pl.sal6[k], pl.sal12[k] = h[f"sal6_{ax}"], h[f"sal12_{ax}"]
+    pl.T_cog, pl.cog_order = h["cogging_Nm"], h["cogging_order"]
+
+
+def _set_thermal(tc, m, th: dict) -> None:
+    """The machine's [thermal] table and the scenario's [thermal] run
+    settings (checked by scenario._thermal_fields) into the plant's config."""
+    tc.enabled = 1 if th["enabled"] else 0
+    if not th["enabled"]:
+        return
+    mt = m.thermal
+    tc.T_amb, tc.T_ref, tc.T_w0, tc.T_m0 = th["T_amb"], mt["T_ref"], th["T_winding0"], th["T_magnet0"]
+    tc.R_wa, tc.R_wm, tc.R_ma, tc.C_w, tc.C_m = (mt[k] for k in ("R_wa", "R_wm", "R_ma", "C_w", "C_m"))
+    tc.alpha_cu, tc.alpha_br, tc.P_fe_ref = mt["alpha_cu"], mt["alpha_br"], mt["P_fe_ref"]
+    tc.w_fe_ref = m.pole_pairs * rpm_to_rad_s(mt["speed_fe_rpm"])
+    tc.k_hyst, tc.k_rotor, tc.time_scale = mt["k_hyst"], mt["k_rotor"], th["time_scale"]
 
 
 def _set_injection(dc, d: dict, p: int) -> None:

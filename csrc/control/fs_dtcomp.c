@@ -1,0 +1,75 @@
+#include "fs_dtcomp.h"
+#include "fs_math.h"
+#include "fs_vsd.h"
+
+fs_status fs_dtcomp_init(fs_dtcomp *d, const fs_dtcomp_config *cfg)
+{
+    if (!d || !cfg) return FS_ERR_NULL;
+    const fs_dtcomp_config *c = cfg;
+    if (c->phases != 3 && c->phases != 5) return FS_ERR_PARAM;
+    if (!fs_pos(c->T_pwm)) return FS_ERR_TS;
+    const int dbl = fabsf(c->Ts - 0.5f * c->T_pwm) <= 1e-6f * c->T_pwm;
+    if (!dbl && !(fabsf(c->Ts - c->T_pwm) <= 1e-6f * c->T_pwm)) return FS_ERR_TS;
+    if (c->delay != 0.0f && c->delay != 1.0f) return FS_ERR_PARAM;
+    if (!fs_pos(c->t_dead) || !(c->t_dead < 0.5f * c->T_pwm) || !fs_nonneg(c->i_band)) return FS_ERR_PARAM;
+    if (!fs_pos(c->L_d)) return FS_ERR_LD;
+    if (!fs_pos(c->L_q)) return FS_ERR_LQ;
+    d->cfg = *cfg;
+    d->inv_L = 2.0f / (c->L_d + c->L_q);
+    d->double_update = dbl;
+    fs_dtcomp_reset(d);
+    return FS_OK;
+}
+
+void fs_dtcomp_reset(fs_dtcomp *d)
+{
+    d->k = 0;
+    d->u_inj_now.alpha = d->u_inj_now.beta = 0.0f;
+}
+
+/* The part of a current's sign that loses (pos) or gains (neg) dead time. */
+static float pos_part(float i, float band)
+{
+    return band > 0.0f ? fs_clampf(i / band, 0.0f, 1.0f) : (i > 0.0f ? 1.0f : 0.0f);
+}
+
+/* Each phase's share of a stationary vector (the amplitude-invariant inverse). */
+static void phase_values(int phases, fs_ab v, float out[])
+{
+    if (phases == 5) {
+        fs_vsd5 p = {v, {0.0f, 0.0f}, 0.0f};
+        fs_vsd5_inverse(&p, out);
+    } else {
+        fs_inv_clarke(v, out);
+    }
+}
+
+void fs_dtcomp_step(fs_dtcomp *d, const float i_ph[], fs_ab u_inj, float duty[])
+{
+    const fs_dtcomp_config *c = &d->cfg;
+    const float Th = 0.5f * c->T_pwm;
+    /* flux the carrier adds until the interval starts, and its rate in it */
+    const float t0 = c->delay * c->Ts;
+    float di0[FS_PHASES_MAX], rate[FS_PHASES_MAX];
+    phase_values(c->phases, (fs_ab){t0 * d->inv_L * d->u_inj_now.alpha, t0 * d->inv_L * d->u_inj_now.beta}, di0);
+    phase_values(c->phases, (fs_ab){u_inj.alpha * d->inv_L, u_inj.beta * d->inv_L}, rate);
+    /* the half the interval is: with delay it starts one step after this one */
+    const int half = d->double_update ? (int)((d->k + (int)c->delay) & 1) : -1;
+    for (int k = 0; k < c->phases; ++k) {
+        const float dk = duty[k];
+        if (!(dk > 0.0f && dk < 1.0f)) continue;   /* no edge, no dead time */
+        const float i0 = i_ph[k] + di0[k];
+        float dd = 0.0f;
+        if (half != 1) {   /* the rising edge: the first half of the interval */
+            const float tau = (1.0f - dk) * Th + 0.5f * c->t_dead;
+            dd += pos_part(i0 + tau * rate[k], c->i_band);
+        }
+        if (half != 0) {   /* the falling edge: in the second half (a period's, or the interval's own) */
+            const float tau = (half < 0 ? Th : 0.0f) + dk * Th + 0.5f * c->t_dead;
+            dd -= pos_part(-(i0 + tau * rate[k]), c->i_band);
+        }
+        duty[k] = fs_clampf(dk + dd * c->t_dead / (half < 0 ? c->T_pwm : Th), 0.0f, 1.0f);
+    }
+    d->u_inj_now = u_inj;
+    ++d->k;
+}
