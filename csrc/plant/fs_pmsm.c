@@ -9,6 +9,7 @@ static int pos(double x) { return x > 0.0 && isfinite(x); }
 
 fs_status fs_pmsm_init(fs_pmsm *m, const fs_pmsm_config *cfg)
 {
+    if (!m || !cfg) return FS_ERR_NULL;
     m->cfg = *cfg;
     if (cfg->pole_pairs < 1) return FS_ERR_POLE_PAIRS;
     if (!nonneg(cfg->R_s)) return FS_ERR_RS;

@@ -136,6 +136,8 @@ static void phase_currents(fs_sim *s, const double *x, double *i_ph, double *i_d
 
 fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
 {
+    if (!err || err_len < 1) err_len = 0;   /* no message buffer: snprintf writes nothing */
+    if (!cfg) { if (err_len) snprintf(err, (size_t)err_len, "config is NULL"); return NULL; }
     fs_sim *s = calloc(1, sizeof(*s));
     if (!s) { snprintf(err, (size_t)err_len, "out of memory"); return NULL; }
     s->cfg = *cfg;
@@ -240,9 +242,9 @@ void fs_sim_destroy(fs_sim *s)
     free(s);
 }
 
-double fs_sim_time(const fs_sim *s) { return (double)s->k * s->Tc; }
-double fs_sim_stop_time(const fs_sim *s) { return s->stop_time; }
-double fs_sim_adc_saturated_at(const fs_sim *s) { return s->adc_sat_time; }
+double fs_sim_time(const fs_sim *s) { return s ? (double)s->k * s->Tc : NAN; }
+double fs_sim_stop_time(const fs_sim *s) { return s ? s->stop_time : NAN; }
+double fs_sim_adc_saturated_at(const fs_sim *s) { return s ? s->adc_sat_time : NAN; }
 
 /* RK4 steps of at most h_max over an interval T (<= T_pwm, so the count
  * fits an int: fs_sim_create). T is NaN when the drive's duties are (the
@@ -390,6 +392,7 @@ static void integrate_period_imc(fs_sim *s, double t0)
 
 int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
 {
+    if (!s || !rows || (!trace && max_rows > 0)) return FS_RUN_ERR_NULL;
     *rows = 0;
     if (s->stopped) return s->stopped;
     const fs_sim_config *c = &s->cfg;

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ConfigError
+from .files import write_atomic
 from .metrics import window_mask
 from .scenario import Scenario, load_scenario
 from .sim import simulate
@@ -78,6 +79,4 @@ def write_table(table: dict, path: Path) -> Path:
             f"source = {json.dumps(table['source'])}\n"
             + f"i_q = {arr(table['i_q'])}              # A\n"
             f"delta_deg = {arr(table['delta_deg'])}    # el.deg, theta_hat - theta_r uncompensated\n")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text)
-    return path
+    return write_atomic(path, text)
