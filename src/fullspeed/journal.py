@@ -236,9 +236,11 @@ def _dask(fn, tasks: dict[int, dict], address: str, timeout: float = DASK_TIMEOU
         msg = " ".join(str(exc).split())[:160]
         raise ConfigError("--dask", address, f"no Dask scheduler answers there ({type(exc).__name__}: {msg}); "
                           "give tcp://HOST:PORT", None) from None
-    quiet = logging.getLogger("distributed")
-    level = quiet.level
-    quiet.setLevel(logging.CRITICAL)   # a lost scheduler is our one line, not Dask's logged tracebacks
+    # a lost scheduler is our one line, not Dask's logged tracebacks (its loggers have their own levels)
+    quiet = [logging.getLogger(n) for n in list(logging.root.manager.loggerDict) if n.split(".")[0] == "distributed"]
+    levels = [lg.level for lg in quiet]
+    for lg in quiet:
+        lg.setLevel(logging.CRITICAL)
     try:
         futures = {client.submit(guarded, fn, task, pure=False): k for k, task in tasks.items()}
         pending = set(futures)
@@ -265,7 +267,8 @@ def _dask(fn, tasks: dict[int, dict], address: str, timeout: float = DASK_TIMEOU
             client.close(timeout=5)
         except Exception:   # the scheduler is gone already
             pass
-        quiet.setLevel(level)
+        for lg, level in zip(quiet, levels):
+            lg.setLevel(level)
 
 
 def run_tasks(fn: Callable[[dict], dict], tasks: list[dict], out: Path, workers: int | None = None,

@@ -49,7 +49,7 @@ INJECTION = {
     "xcomp_paper": N(None, doc="swvi: the fitted error polynomial, el.rad in i_q (A)"),
 }
 BLENDING = {"omega_lower_rpm": NONNEG(None, hi=1e6), "omega_upper_rpm": POS(None, hi=1e6)}
-PAPER_GAINS = {k: NONNEG(None, hi=1e9) for k in (
+PAPER_GAINS = {k: (POS if k in ("current_kp_d", "current_kp_q", "speed_kp") else NONNEG)(None, hi=1e9) for k in (   # the PIs need k_p > 0
     "current_kp_d", "current_ki_d", "current_kp_q", "current_ki_q", "speed_kp", "speed_ki", "pll_kp", "pll_ki")}
 BENCH_EXPERIMENT = {k: POS(None, hi=1e6) for k in ("u_grid_ll_rms", "f_grid", "u_dc", "u_dc_min", "i_max", "i_lim")}
 
@@ -144,8 +144,8 @@ def machine_from_dict(data: dict, source: str | None = None, prefix: str = "mach
     if d["phases"] == 5 or d.get("third_harmonic") is not None:   # given: checked whatever the phases
         if not isinstance(d.get("third_harmonic"), dict):
             raise ConfigError(f"{prefix}.third_harmonic", d.get("third_harmonic", "missing"),
-                              "a five-phase machine needs a [third_harmonic] table with L_d3 > 0 (H), "
-                              "L_q3 > 0 (H) and psi_f3 >= 0 (Wb)", source)
+                              "must be a [third_harmonic] table with L_d3 > 0 (H), L_q3 > 0 (H) and psi_f3 >= 0 (Wb)"
+                              + (" (a five-phase machine needs one)" if d["phases"] == 5 else ""), source)
         d["third_harmonic"] = validate(d["third_harmonic"], THIRD_HARMONIC, f"{prefix}.third_harmonic", source)
         if d["phases"] == 5:
             th = d["third_harmonic"]

@@ -210,6 +210,11 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         ctl["bw_speed"] = min(ctl["bw_speed"], obs["bw_pll"] / 6.0)
     if obs["top_speed_rpm"] is None:
         obs["top_speed_rpm"] = 1.5 * m.w_m_rated * 60 / (2 * math.pi)
+        if not obs["top_speed_rpm"] >= 1e-3:
+            raise ConfigError("machine.rated.speed_rpm", m.w_m_rated * 60 / (2 * math.pi), "must be >= 1e-3 rpm "
+                              "(1.5 x it is the observer's top speed; a denormal one divides by zero)", source)
+    if not obs["top_speed_rpm"] >= 1e-3:   # the SMO's gain bound and h_max divide by it
+        raise ConfigError("observer.top_speed_rpm", obs["top_speed_rpm"], "must be >= 1e-3 rpm", source)
     if tim["h_max"] is None:
         # RK4 within a PWM segment: a fifth of the shortest electrical time
         # constant and of the time the rotor turns a radian (el.) at the top
@@ -236,6 +241,9 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
             # a quarter of the torque the start current makes at a 90 deg load angle
             T = 0.25 * 1.5 * m.pole_pairs * m.psi_f * obs["i_start"]
             obs["start_accel_rpm_s"] = T / m.J * 60 / (2 * math.pi)
+        for key, why in (("start_handover_rpm", "twice valid_rpm"), ("start_accel_rpm_s", "from the magnet flux psi_f")):
+            if not obs[key] > 0:   # a default that came out 0: the I/f start would never hand over
+                raise ConfigError(f"observer.{key}", obs[key], f"must be > 0 (the default is {why}): set it", source)
     if ctl["angle"] in ("hfi", "blend"):
         _injection_fields(d, m, source)
     if ctl["angle"] == "swvi":

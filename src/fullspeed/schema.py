@@ -113,6 +113,7 @@ def _is_number(v) -> bool:
 
 
 FLOAT_MAX = sys.float_info.max
+FLT32_MIN = 1.1754943508222875e-38   # the smallest normal float32: the controllers compute in float32
 MAX_STR = 4096   # characters in a TOML string field: a name or a description, not a document
 
 
@@ -137,6 +138,9 @@ def check_value(spec: Spec, value, field: str, source: str | None):
         if not finite_number(value):
             fail()
         v = float(value)
+        if 0.0 < abs(v) < FLT32_MIN:   # 5e-324 would be 0 in the C core (a division by zero, a limit of 0)
+            raise ConfigError(field, value, f"{spec.allowed()}, and 0 or at least {FLT32_MIN:.3g} in magnitude "
+                              "(the controllers compute in float32)", source)
         if spec.lo is not None and (v < spec.lo or (spec.lo_open and v == spec.lo)):
             fail()
         if spec.hi is not None and (v > spec.hi or (spec.hi_open and v == spec.hi)):
