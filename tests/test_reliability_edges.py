@@ -220,6 +220,30 @@ def test_dask_address_without_a_port_is_exit_2_at_once(tmp_path, capsys, address
     assert not (tmp_path / "o").exists()
 
 
+# --- 20: a long axis starts quickly, an absurd one is refused --------------------------
+
+def test_a_long_axis_is_checked_at_a_bounded_spread_and_a_huge_one_refused(tmp_path, capsys, monkeypatch):
+    import fullspeed.scenario
+    from fullspeed.sweep import CHECKED_VALUES, MAX_POINTS, load_sweep_file
+
+    calls = []
+    real = fullspeed.scenario.scenario_from_dict
+
+    def counted(d, source=None):
+        calls.append(d["references"]["i_q"])
+        return real(d, source)
+    monkeypatch.setattr(fullspeed.scenario, "scenario_from_dict", counted)
+    sw = load_sweep_file(sweep_file(tmp_path / "s.toml", axes='"references.i_q" = { linspace = [0.0, 20.0, 100000] }'))
+    assert len(sw.points()) == 100_000
+    checked = calls[1:]   # the first is the base
+    assert len(checked) <= CHECKED_VALUES + 2 and 0.0 in checked and 20.0 in checked
+    f = sweep_file(tmp_path / "s.toml", axes=f'"references.i_q" = {{ linspace = [0.0, 20.0, {MAX_POINTS + 1}] }}')
+    one_line_exit_2(capsys, "sweep", str(f), "--quiet", "--out", str(tmp_path / "o"), words=("linspace",))
+    f.write_text(f"samples = {MAX_POINTS}\n" + SWEEP.format(name="mc", duration=0.3, axes='"references.i_q" = [1.0, 2.0]\n'
+                                                        '"controller.R_s_scale" = { uniform = [0.8, 1.2] }'))
+    one_line_exit_2(capsys, "sweep", str(f), "--quiet", "--out", str(tmp_path / "o"), words=("at most",))
+
+
 # --- 44, 45: which file a name means ----------------------------------------------
 
 def test_a_folder_named_like_a_catalog_entry_does_not_shadow_it(tmp_path, monkeypatch):
@@ -316,6 +340,12 @@ def _strace_sweep(cwd: Path, inject: str) -> tuple[subprocess.CompletedProcess, 
 RENAMES = "rename,renameat,renameat2"
 
 
+def _killed_at(trace: str, name: str) -> bool:
+    """The last rename strace saw put o/name in place and did not return."""
+    last = [line for line in trace.splitlines() if "rename" in line and "(" in line][-1]
+    return f'"o/{name}"' in last and "= 0" not in last
+
+
 @pytest.mark.skipif(shutil.which("strace") is None, reason="strace is not installed")
 def test_sigkill_at_the_writes_of_tasks_json_and_the_table_leaves_a_resumable_sweep(tmp_path):
     """The probe's strace kills (cases 23, 24): SIGKILL as tasks.json and
@@ -328,10 +358,10 @@ def test_sigkill_at_the_writes_of_tasks_json_and_the_table_leaves_a_resumable_sw
     out = tmp_path / "o"
     # the first start writes sweep.json, tasks.json, (the points,) results.parquet, sweep.png, in that order
     r, trace = _strace_sweep(tmp_path, f"-e trace={RENAMES} -e inject={RENAMES}:signal=KILL:when=2")
-    assert r.returncode in (-signal.SIGKILL, 137) and '"o/tasks.json") = ?' in trace, trace   # killed at that rename
+    assert r.returncode in (-signal.SIGKILL, 137) and _killed_at(trace, "tasks.json"), trace
     assert not (out / TASKS).exists() and not (out / JOURNAL).exists()
     r, trace = _strace_sweep(tmp_path, f"-e trace={RENAMES} -e inject={RENAMES}:signal=KILL:when=3")
-    assert r.returncode in (-signal.SIGKILL, 137) and '"o/results.parquet") = ?' in trace, trace
+    assert r.returncode in (-signal.SIGKILL, 137) and _killed_at(trace, "results.parquet"), trace
     assert sorted(_journal_tasks(out)) == [0, 1] and not (out / "results.parquet").exists()
     assert list(load_sweep(out)["point"]) == [0, 1]   # from the journal
     stamp = (out / TASKS).read_text()
