@@ -102,7 +102,7 @@ def machine_params(toml_path: Path = MACHINE_TOML) -> dict[str, float]:
         "speed_rpm": SPEED_RPM, "T_load": T_LOAD,
         "noise_i": b.get("noise_i", 0.0), "encoder_bits": b["encoder_bits"],
         "inj_u_h": m["injection"]["u_h"], "inj_f_h": m["injection"]["f_h"],
-        "blend_lower_rpm": m["blending"]["omega_lower_rpm"], "blend_upper_rpm": m["blending"]["omega_upper_rpm"],
+        "blend_lower_rpm": m["blending"]["lower_rpm"], "blend_upper_rpm": m["blending"]["upper_rpm"],
     }
 
 

@@ -140,7 +140,8 @@ INITS = {
              {"Ts": P, "u_h": P, "L_d": P, "L_q": P, "bandwidth": P, "w_max": N, "xcomp.poly[1]": F}),
     "polarity": ("fs_polarity *", "fs_polarity_config *", lib.fs_polarity_init,
                  {"Ts": 1e-4, "i_pulse": 10.0, "t_lock": 0.01, "t_pulse": 0.02},
-                 {"Ts": P, "i_pulse": P, "t_lock": N, "t_pulse": P}),
+                 {"Ts": P, "i_pulse": P, "t_lock": N, "t_pulse": P, "i_pulse_max": N, "d_min": N, "w_filter": N,
+                  "w_max": N}),
     "lock": ("fs_lock *", "fs_lock_config *", lib.fs_lock_init, {"Ts": 1e-4, "t_lost": 0.02},
              {"Ts": P, "t_lost": P}),
     "imc_depth": ("fs_imc_depth *", "fs_imc_depth_config *", lib.fs_imc_depth_init,
@@ -304,7 +305,7 @@ DRIVE_FIELDS = {
     "lock_time": N, "t_recover": F, "i_start": N, "a_start": F, "w_handover": F, "hfi.u_h": F, "hfi.w_h": F,
     "hfi.w_b_p": F, "hfi.w_b_n": F, "hfi.obs.bandwidth": F, "blend.w_lower": F, "blend.w_upper": F,
     "blend.obs.bandwidth": F, "w_inject_max": N, "polarity.i_pulse": F, "polarity.t_lock": F,
-    "polarity.t_pulse": F, "swvi.u_h": F, "swvi.bandwidth": F, "swvi.w_max": F, "k_p_d": N, "k_i_d": N,
+    "polarity.t_pulse": F, "polarity.i_pulse_max": N, "polarity.d_min": N, "polarity.w_filter": N, "polarity.w_max": N, "swvi.u_h": F, "swvi.bandwidth": F, "swvi.w_max": F, "k_p_d": N, "k_i_d": N,
     "k_p_q": N, "k_i_q": N, "k_p_w": N, "k_i_w": N, "imc_w_grid": N, "imc_i_lim": F, "imc_V_im": F,
 }
 # Refused by a sub-block's init in the scenario below (current mode, SMO), with where it is named.
@@ -728,13 +729,14 @@ def test_polarity_lock_and_imc_depth_steps_stay_finite(Ts, i_max, pulse, n_lock,
     rng = np.random.default_rng(seed)
     i_p, r, i_ref = draws(rng, N_STEPS, 0.0, 4 * i_max), sym(rng, N_STEPS, 1e6), draws(rng, N_STEPS, 0.0, 4 * i_max)
     weak = rng.random(N_STEPS) < 0.8
+    w = sym(rng, N_STEPS, 1e4)
     out = ffi.new("float[2]")
 
     def step(k):
-        out[0] = lib.fs_polarity_step(p, i_p[k])
+        out[0] = lib.fs_polarity_step(p, i_p[k], w[k])
         lib.fs_lock_step(lk, r[k])
         out[1] = lib.fs_imc_depth_step(dc, i_ref[k], bool(weak[k]))
-        assert abs(out[0]) <= p.cfg.i_pulse and 0.0 <= out[1] <= math.pi / 6 + 1e-6
+        assert abs(out[0]) <= p.cfg.i_pulse_max and 0.0 <= out[1] <= math.pi / 6 + 1e-6
     run_steps("polarity, lock, imc depth", [p, lk, dc, out], step)
 
 

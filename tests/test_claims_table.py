@@ -63,7 +63,7 @@ SCHEMA = {
 EXTRA = {
     "yang2022": {
         "injection": {"kind", "u_h", "f_h"},
-        "blending": {"omega_lower_rpm", "omega_upper_rpm"},
+        "blending": {"lower_rpm", "upper_rpm"},
     },
     "zou2021": {
         "bench": {"i_lim", "u_dc_min"},
@@ -291,7 +291,7 @@ def test_injection_and_machine_specifics():
     assert 0 < yang["injection"]["u_h"] < yang["bench"]["u_dc"] / math.sqrt(3)
     # carrier well below Nyquist: at least 5 samples per period
     assert yang["bench"]["f_pwm"] / yang["injection"]["f_h"] >= 5
-    assert yang["blending"]["omega_lower_rpm"] < yang["blending"]["omega_upper_rpm"]
+    assert yang["blending"]["lower_rpm"] < yang["blending"]["upper_rpm"]
 
     inj = yu["injection"]
     assert (inj["kind"], inj["u_h"], inj["f_h"]) == ("square", 60.0, 2000.0)

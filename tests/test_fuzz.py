@@ -26,6 +26,7 @@ from pathlib import Path
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from fullspeed import zoo
 from fullspeed.cli import main
 from fullspeed.machines import catalog_data
 from fullspeed.schema import deep_merge
@@ -85,7 +86,8 @@ def scenario_texts(draw) -> str:
         return draw(st.text(max_size=200))
     if draw(st.booleans()):                            # the machine inline, so its fields are fuzzed too
         m = d["machine"] if isinstance(d["machine"], dict) else {"catalog": d["machine"]}
-        d["machine"] = deep_merge(catalog_data(m["catalog"]), {k: v for k, v in m.items() if k != "catalog"})
+        base = zoo.machine(m["zoo"]) if "zoo" in m else catalog_data(m["catalog"])
+        d["machine"] = deep_merge(base, {k: v for k, v in m.items() if k not in ("catalog", "zoo")})
     paths = list(_leaves(d))
     for _ in range(draw(st.integers(0, 4))):
         if draw(st.integers(0, 4)) == 0:               # a new key, perhaps in a new table
@@ -139,8 +141,8 @@ def run_case(text: str) -> tuple[int, str, Path]:
 def check_outcome(rc: int, err: str, out: Path, text: str) -> str:
     assert "Traceback" not in err and "internal error" not in err, f"{err}\n--- for ---\n{text}"
     assert rc in (0, 1, 2), (rc, err, text)
-    if rc == 2:
-        lines = err.strip().splitlines()
+    if rc == 2:   # one line of refusal (the warnings a loaded scenario prints before it are not errors)
+        lines = [ln for ln in err.strip().splitlines() if not ln.startswith("fullspeed: warning: ")]
         assert len(lines) == 1 and lines[0].startswith("fullspeed: error: "), (err, text)
         assert not out.exists()
         return "refused"
@@ -149,8 +151,12 @@ def check_outcome(rc: int, err: str, out: Path, text: str) -> str:
     if rc == 0:
         assert m["stop_reason"] == "done"
         return "ran"
+    # a failed run (exit 1): stopped, or a loss of lock flagged or seen by the truth, and said so
+    assert "fullspeed: run failed: " in err, err
+    if m["stop_reason"] == "done":
+        assert m["lock_lost_at"] is not None or m["true_loss_at"] is not None, m
+        return "lost"
     assert m["stop_reason"] in set(STOP_REASONS.values()) - {"done"} and m["stop_time"] is not None, m
-    assert "run stopped" in err
     return "stopped"
 
 

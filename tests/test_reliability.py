@@ -66,7 +66,7 @@ BAD_INPUTS = [
     ("ADC bits", BASE + '[sensors]\nadc_bits = 99\n', "sensors.adc_bits"),
     ("seed negative", BASE + '[sensors]\nseed = -1\n', "sensors.seed"),
     ("machine injection amplitude a string", MACHINE + '[machine.injection]\nu_h = "five"\n', "machine.injection.u_h"),
-    ("machine blending speed a list", MACHINE + '[machine.blending]\nomega_lower_rpm = [1]\n', "machine.blending.omega_lower_rpm"),
+    ("machine blending speed a list", MACHINE + "[machine.blending]\nlower_rpm = [1]\n", "machine.blending.lower_rpm"),
     ("machine note not text", MACHINE + '[machine.derivations]\nx = 5\n', "machine.derivations"),
     ("paper gain a string", SWVI.replace('machine = "yu2022"\n', "") + '[machine]\ncatalog = "yu2022"\n[machine.paper_gains]\nspeed_kp = "x"\n',
      "machine.paper_gains.speed_kp"),

@@ -28,6 +28,8 @@ enum { F = 0, N = 1, P = 2 };
     X(hfi.obs.bandwidth, F, FS_ERR_BANDWIDTH) X(blend.w_lower, F, FS_ERR_LIMIT) X(blend.w_upper, F, FS_ERR_LIMIT) \
     X(blend.obs.bandwidth, F, FS_ERR_BANDWIDTH) X(w_inject_max, N, FS_ERR_LIMIT) \
     X(polarity.i_pulse, F, FS_ERR_I_MAX) X(polarity.t_lock, F, FS_ERR_PARAM) X(polarity.t_pulse, F, FS_ERR_PARAM) \
+    X(polarity.i_pulse_max, N, FS_ERR_I_MAX) X(polarity.d_min, N, FS_ERR_PARAM) X(polarity.w_filter, N, FS_ERR_BANDWIDTH) \
+    X(polarity.w_max, N, FS_ERR_PARAM) \
     X(swvi.u_h, F, FS_ERR_PARAM) X(swvi.bandwidth, F, FS_ERR_BANDWIDTH) X(swvi.w_max, F, FS_ERR_LIMIT) \
     X(k_p_d, N, FS_ERR_PARAM) X(k_i_d, N, FS_ERR_PARAM) X(k_p_q, N, FS_ERR_PARAM) X(k_i_q, N, FS_ERR_PARAM) \
     X(k_p_w, N, FS_ERR_PARAM) X(k_i_w, N, FS_ERR_PARAM) X(imc_w_grid, N, FS_ERR_PARAM) \
@@ -84,6 +86,11 @@ static fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
         fs_polarity_config pc = cfg->polarity;
         pc.Ts = cfg->Ts;
         if (pc.i_pulse > cfg->i_max) REFUSE("polarity.i_pulse", FS_ERR_ABOVE_I_MAX);
+        if (pc.i_pulse_max > cfg->i_max) REFUSE("polarity.i_pulse_max", FS_ERR_ABOVE_I_MAX);
+        /* the retries up to the current limit less the carrier's peak */
+        if (pc.i_pulse_max == 0.0f) pc.i_pulse_max = fmaxf(cfg->i_max - drv->i_hf, pc.i_pulse);
+        pc.w_filter = drv->hfi.cfg.w_b_p;
+        pc.n_carrier = (int)(2.0f * FS_PI / (drv->hfi.cfg.w_h * cfg->Ts) + 0.5f);
         SUB("polarity", fs_polarity_init(&drv->pol, &pc));
     }
     return FS_OK;
@@ -355,9 +362,10 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
         drv->t_left -= c->Ts;
         if (drv->t_left <= 0.0f) fs_drive_recover_end(drv);
     } else if (drv->phase == FS_PHASE_POLARITY) {
-        i_ref.d = fs_polarity_step(&drv->pol, drv->hfi.i_p);
+        i_ref.d = fs_polarity_step(&drv->pol, drv->hfi.i_p, drv->hfi.w);
         i_ref.q = 0.0f;
         if (drv->pol.stage == FS_POLARITY_DONE) fs_drive_polarity_done(drv);
+        if (drv->pol.stage == FS_POLARITY_UNDETERMINED) drv->phase = FS_PHASE_HALT;
     } else if (c->mode == FS_MODE_SPEED && in->sensorless && drv->phase == FS_PHASE_START) {
         i_ref = fs_drive_if_step(drv, in, i_ab);
     } else if (c->mode == FS_MODE_SPEED) {
@@ -595,12 +603,31 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     out->recoveries = 0;
 }
 
+/* Halted (FS_PHASE_HALT): zero voltage, the fault held. */
+static void drive_step_halt(const fs_drive *drv, fs_ab i_ab, fs_drive_out *out)
+{
+    *out = (fs_drive_out){0};
+    for (int k = 0; k < drv->cfg.phases; ++k) out->duty[k] = 0.5f;
+    fs_dq i = fs_park(i_ab, 1.0f, 0.0f);
+    out->i_d = i.d;
+    out->i_q = i.q;
+    out->phase = FS_PHASE_HALT;
+    out->stage = FS_STAGE_OPEN;
+    out->fault = FS_FAULT_POLARITY;   /* the only refusal so far */
+    out->recoveries = drv->recoveries;
+}
+
 void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
 {
     const fs_drive_config *c = &drv->cfg;
     fs_ab i_ab = drive_clarke(c, in->i_ph);
+    if (drv->phase == FS_PHASE_HALT) {
+        drive_step_halt(drv, i_ab, out);
+        return;
+    }
     out->rect = (fs_imc_rect){{{0, 0, 0.0f}, {0, 0, 0.0f}}, 0.0f, 0, false};
     out->alpha = 0.0f;
+    out->fault = FS_FAULT_NONE;
     if (drive_square(c)) {
         drive_step_square(drv, in, i_ab, out);
         return;

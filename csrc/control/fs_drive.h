@@ -69,8 +69,16 @@ typedef enum {
     FS_PHASE_RUN = 0,        /* the loops on the configured angle source */
     FS_PHASE_START = 1,      /* I/f start: open-loop frame, waiting for the observer */
     FS_PHASE_POLARITY = 2,   /* magnet polarity detection: d-current pulses, i_q = 0 */
-    FS_PHASE_RECOVER = 3     /* lock lost: zero current while the estimators settle (fs_drive.c) */
+    FS_PHASE_RECOVER = 3,    /* lock lost: zero current while the estimators settle (fs_drive_start.c) */
+    FS_PHASE_HALT = 4        /* refused to go on (fs_drive_out.fault): zero voltage, no injection */
 } fs_drive_phase;
+
+/* Why the drive refused to go on (fs_drive_out.fault), held from then on;
+ * the caller must stop the inverter and report it. */
+typedef enum {
+    FS_FAULT_NONE = 0,
+    FS_FAULT_POLARITY = 1    /* polarity detection found no margin up to its largest pulse (fs_polarity.h) */
+} fs_drive_fault;
 
 /* The operating stage, traced: where the drive is in its sequence
  * polarity -> injection -> blend -> back-EMF observer -> flux weakening and
@@ -165,7 +173,9 @@ typedef struct {
     fs_blend_config blend;
     float w_inject_max;
     /* polarity detection when sensorless from the first step (i_pulse 0: none;
-     * Ts taken from above) */
+     * Ts taken from above; i_pulse_max 0: i_max less the carrier's peak; the
+     * carrier's period and filter bandwidth taken from hfi). Without a margin
+     * at its largest pulse the drive halts with FS_FAULT_POLARITY. */
     fs_polarity_config polarity;
     /* square-wave injection (FS_ANGLE_SWVI): Ts, delay, L_d, L_q are taken
      * from above; delay must be 0 or 1 */
@@ -224,6 +234,7 @@ typedef struct {
     bool lock_lost;          /* latched by the monitor (fs_lock.h); with recovery, once the retries are spent */
     int stage;               /* fs_drive_stage */
     int recoveries;          /* recoveries begun so far */
+    int fault;               /* fs_drive_fault: the drive refused to go on (duties 0.5 from then on) */
 } fs_drive_out;
 
 typedef struct {

@@ -246,6 +246,8 @@ double fs_sim_time(const fs_sim *s) { return s ? (double)s->k * s->Tc : NAN; }
 double fs_sim_stop_time(const fs_sim *s) { return s ? s->stop_time : NAN; }
 double fs_sim_adc_saturated_at(const fs_sim *s) { return s ? s->adc_sat_time : NAN; }
 
+const fs_drive *fs_sim_drive(const fs_sim *s) { return s ? &s->drive : NULL; }
+
 /* RK4 steps of at most h_max over an interval T (<= T_pwm, so the count
  * fits an int: fs_sim_create). T is NaN when the drive's duties are (the
  * switching instants are NaN): one step then carries the NaN into the
@@ -516,6 +518,11 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
         }
         if (c->lock_stop && dout.lock_lost) {
             s->stopped = FS_STOP_LOSS_OF_LOCK;
+            s->stop_time = t;
+            return s->stopped;
+        }
+        if (dout.fault == FS_FAULT_POLARITY) {   /* the drive refused to start: as a firmware would, stop */
+            s->stopped = FS_STOP_POLARITY;
             s->stop_time = t;
             return s->stopped;
         }

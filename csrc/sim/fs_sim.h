@@ -127,6 +127,7 @@ typedef enum {
     FS_STOP_NAN = 2,          /* a state became NaN or infinite */
     FS_STOP_OVERCURRENT = 3,  /* a phase current exceeded i_trip */
     FS_STOP_LOSS_OF_LOCK = 4, /* an estimator lost track of the rotor */
+    FS_STOP_POLARITY = 5,     /* the drive could not determine the magnet's polarity and refused to start */
     FS_RUN_ERR_NULL = -1      /* sim or rows (or trace, with max_rows > 0) is NULL: nothing run */
 } fs_run_status;
 
@@ -145,5 +146,7 @@ double fs_sim_time(const fs_sim *sim);
 double fs_sim_stop_time(const fs_sim *sim);
 /* First sample whose current reading saturated at +-adc_range (NaN: none yet). */
 double fs_sim_adc_saturated_at(const fs_sim *sim);
+/* The drive under simulation, to read its state (e.g. the polarity detection's margin). */
+const fs_drive *fs_sim_drive(const fs_sim *sim);
 
 #endif /* FS_SIM_H */

@@ -1,117 +1,166 @@
 /* fs-test-sources: control/fs_polarity.c control/fs_status.c
  *
- * fs_polarity, the magnet polarity detection by two d-current pulses (LOCK,
- * +i_pulse, -i_pulse, DONE), against the header's sequence call by call:
- * n_lock = round(t_lock / Ts), n_pulse = round(t_pulse / Ts) (both rounding
- * directions tried); calls 1 .. n_lock - 1 return 0, call n_lock starts the
- * + pulse (a return acts over the period after its call), returned n_pulse
- * times, then -i_pulse n_pulse times, then 0 for ever, the stage DONE from
- * the call that returns that first 0. Each stage thus takes n samples, and
- * those of a pulse stage follow periods under that pulse. Without LOCK
- * (t_lock = 0) the first + sample precedes any + reference: + is returned
- * n_pulse - 1 times (harmless, only the second half is averaged).
- * Averaging: of a stage's n_pulse samples only k >= n_pulse / 2 count
- * (n_pulse - n_pulse / 2 of them, odd and even n_pulse tried). The first
- * half is fed 1000 A above the rest, which moves any average it leaks into
- * by > 38 A; the second half a ramp base + k / 2, whose mean moves by
- * >= 0.25 A if its first sample is dropped. Float sums of halves are exact:
- * averages checked to 1e-5 A.
- * Decision: flip = I_p(+) < I_p(-) (the + pulse opposed the magnet: the
- * estimate points at the south pole), both ways and on equality (no flip);
- * samples after DONE (fed 1e6) change nothing. Reset, init refusals.
+ * fs_polarity, the magnet polarity detection by pairs of d-current pulses
+ * (LOCK, +i, -i, then DONE, another pair 1.5 times larger, or UNDETERMINED),
+ * against the header call by call: n_lock = round(t_lock / Ts), n_pulse =
+ * round(t_pulse / Ts); calls 1 .. n_lock - 1 return 0, call n_lock starts
+ * the + pulse, returned n_pulse times, then - n_pulse times, then 0 (or the
+ * next pair). Averaging: only the last n_avg samples of a pulse count, n_avg
+ * the second half rounded down to whole carrier periods; the samples before
+ * are fed 1000 A above, which moves any average they leak into by far more
+ * than the 1e-4 A the checks allow. The window's samples alternate
+ * base +- a, so the average is base (even n_avg) and the spread a.
+ * Decision: D = (I+ - I-) / mean against max(d_min, 3 sigma_D), sigma_D =
+ * sqrt((var+ + var-) / n_eff) / mean, the variances those of the carrier
+ * periods' means (a ripple within each period is not noise): decided both ways, refused on equal
+ * averages (after the retries, each 1.5x larger up to i_pulse_max) and on
+ * a difference drowned in the spread; n_eff from w_filter; an estimated
+ * speed that moves by more than w_max (default w_filter / 10) from its
+ * value at the pair's start: undetermined at once (a steady 100 el. rad/s
+ * in every other case: a rotor held turning is measured). Reset, refusals.
  */
 #include "control/fs_polarity.h"
 #include "tests/fs_test.h"
 
-/* i_p fed at sample k (0-based) of a pulse stage of n samples: junk in the
- * first half, base + k/2 in the second. */
-static float feed(int k, int n, float base)
+#include <math.h>
+
+/* i_p at sample k (0-based) of a pulse of n samples whose last n_avg count. */
+static float feed(int k, int n, int n_avg, float base, float a)
 {
-    return k < n / 2 ? base + 1000.0f : base + 0.5f * (float)(k - n / 2);
+    if (k < n - n_avg) return base + 1000.0f;
+    return base + ((k & 1) ? a : -a);
 }
 
-/* The mean of the second half of feed(), in double. */
-static double second_half_mean(int n, float base)
-{
-    double sum = 0.0;
-    for (int k = n / 2; k < n; ++k) sum += feed(k, n, base);
-    return sum / (n - n / 2);
-}
+/* The estimated speed during a pair: 100 el. rad/s (a rotor held turning)
+ * in the + pulse, 100 +- spin in the - pulse. */
+static float spin;
+static float w_at(int j, int n) { return 100.0f + (j >= n ? spin * (float)((j & 1) ? 1 : -1) : 0.0f); }
 
-/* One whole sequence from reset, checking every reference and stage; base_pos
- * and base_neg set the two averages. Call c (1-based) carries sample
- * j = c - 1 - n_lock of the pulses and returns the reference for the period
- * after it; m = c - n_lock counts from the call that starts the + pulse. */
-static void sequence(fs_polarity *p, float base_pos, float base_neg)
+/* One pair of pulses from its first call (the + pulse's reference already
+ * returned by the previous call); returns the reference of the last call. */
+static float pair(fs_polarity *p, float base_pos, float base_neg, float a, int *errors)
 {
-    const int n_lock = p->n_lock, n = p->n_pulse;
-    const float i_pulse = p->cfg.i_pulse;
-    int errors = 0, n_plus = 0, n_minus = 0;
-    for (int c = 1; c <= n_lock + 2 * n + 20; ++c) {
-        const int j = c - 1 - n_lock, m = c - n_lock;
-        float i_p = 7.0f;                                            /* LOCK */
-        if (j >= 0 && j < n) i_p = feed(j, n, base_pos);
-        else if (j >= n && j < 2 * n) i_p = feed(j - n, n, base_neg);
-        else if (j >= 2 * n) i_p = 1e6f;                             /* DONE: changes nothing */
-        const float ref = fs_polarity_step(p, i_p);
-        n_plus += ref == i_pulse;
-        n_minus += ref == -i_pulse;
-        const float want = m < 0 ? 0.0f : m < n ? i_pulse : m < 2 * n ? -i_pulse : 0.0f;
-        const int stage = m < 0 ? FS_POLARITY_LOCK : m < n ? FS_POLARITY_POS : m < 2 * n ? FS_POLARITY_NEG
-                                                                                 : FS_POLARITY_DONE;
-        if ((ref != want || p->stage != stage) && ++errors <= 5)
-            FS_CHECK(0, "call %d: reference %g (want %g), stage %d (want %d)", c, ref, want, p->stage, stage);
+    const int n = p->n_pulse;
+    const float i = p->i_now;
+    float ref = 0.0f;
+    for (int j = 0; j < 2 * n; ++j) {
+        const bool pos = j < n;
+        ref = fs_polarity_step(p, feed(pos ? j : j - n, n, p->n_avg, pos ? base_pos : base_neg, a), w_at(j, n));
+        const float want = j < n - 1 ? i : -i;
+        if (j < 2 * n - 1 && ref != want && ++*errors <= 5) FS_CHECK(0, "sample %d: reference %g, want %g", j, ref, want);
     }
-    FS_CHECK_EQ_INT(errors, 0, "calls with a wrong reference or stage");
-    /* n_lock = 0: the first sample precedes any + reference (see the report) */
-    FS_CHECK_EQ_INT(n_plus, n_lock > 0 ? n : n - 1, "periods with +i_pulse");
-    FS_CHECK_EQ_INT(n_minus, n, "periods with -i_pulse");
-    const double e_pos = second_half_mean(n, base_pos), e_neg = second_half_mean(n, base_neg);
-    FS_CHECK_NEAR(p->i_p_pos, e_pos, 1e-5, "I_p average over the second half of the + pulse");
-    FS_CHECK_NEAR(p->i_p_neg, e_neg, 1e-5, "I_p average over the second half of the - pulse");
-    FS_CHECK(p->flip == (e_pos < e_neg), "flip %d with I_p(+) %g, I_p(-) %g", p->flip, e_pos, e_neg);
+    return ref;
+}
+
+/* LOCK, then pairs until the detector ends; returns the pairs run. */
+static int sequence(fs_polarity *p, float base_pos, float base_neg, float a)
+{
+    int errors = 0, pairs = 0;
+    for (int c = 1; c < p->n_lock; ++c)
+        if (fs_polarity_step(p, 7.0f, 1.0f) != 0.0f && ++errors <= 5) FS_CHECK(0, "LOCK call %d returned current", c);
+    if (p->n_lock > 0) FS_CHECK(fs_polarity_step(p, 7.0f, 1.0f) == p->cfg.i_pulse, "LOCK's last call starts the + pulse");
+    float ref;
+    do {
+        const float i = p->i_now;
+        ref = pair(p, base_pos, base_neg, a, &errors);
+        ++pairs;
+        if (p->stage == FS_POLARITY_POS) FS_CHECK(ref == p->i_now && p->i_now == fminf(1.5f * i, p->cfg.i_pulse_max),
+                                                  "a retry starts 1.5 x larger: %g after %g", p->i_now, i);
+    } while (p->stage == FS_POLARITY_POS && pairs < 20);
+    FS_CHECK(ref == 0.0f, "0 once ended");
+    FS_CHECK(fs_polarity_step(p, 1e6f, 3.0f) == 0.0f, "and after");
+    FS_CHECK_EQ_INT(errors, 0, "calls with a wrong reference");
+    FS_CHECK_EQ_INT(p->attempts, pairs, "attempts");
+    return pairs;
 }
 
 int main(void)
 {
     fs_polarity p;
-    /* n_lock: 0.01236 / 1e-4 = 123.6 -> 124; n_pulse: 0.00506 / 1e-4 = 50.6 -> 51 (odd: 26 averaged) */
-    fs_polarity_config c = {1e-4f, 4.0f, 0.01236f, 0.00506f};
+    /* n_lock: 0.01236 / 1e-4 = 123.6 -> 124; n_pulse: 0.00506 / 1e-4 = 50.6 -> 51, second half 26 */
+    fs_polarity_config c = {1e-4f, 4.0f, 0.01236f, 0.00506f, 0.0f, 0.0f, 0.0f, 0, 0.0f};
     FS_CHECK_EQ_INT(fs_polarity_init(&p, &c), FS_OK, "init");
-    FS_CHECK_EQ_INT(p.n_lock, 124, "n_lock = round(t_lock / Ts)");
-    FS_CHECK_EQ_INT(p.n_pulse, 51, "n_pulse = round(t_pulse / Ts)");
-    FS_CHECK(p.stage == FS_POLARITY_LOCK && p.k == 0 && !p.flip, "init resets");
+    FS_CHECK(p.n_lock == 124 && p.n_pulse == 51 && p.n_avg == 26, "n_lock %d, n_pulse %d, n_avg %d", p.n_lock, p.n_pulse, p.n_avg);
+    FS_CHECK(p.stage == FS_POLARITY_LOCK && !p.flip && p.cfg.i_pulse_max == 4.0f && p.cfg.d_min == FS_POLARITY_D_MIN,
+             "init resets; defaults: no retry, d_min %g", p.cfg.d_min);
 
-    /* + pulse 10 .. 22.5 A, - pulse 11 ..: I_p(+) < I_p(-): flip */
-    sequence(&p, 10.0f, 11.0f);
-    FS_CHECK(p.flip, "I_p(+) < I_p(-) must flip");
-    /* reset, and the other way: no flip */
+    /* I+ 10 A, I- 11 A: D = -1/10.5 = -9.5 %, 1.9 x d_min: decided, flip */
+    FS_CHECK_EQ_INT(sequence(&p, 10.0f, 11.0f, 0.01f), 1, "one pair");
+    FS_CHECK(p.stage == FS_POLARITY_DONE && p.flip, "I+ < I- flips");
+    FS_CHECK_NEAR(p.i_p_pos, 10.0, 1e-4, "I+ average over the window only");
+    FS_CHECK_NEAR(p.i_p_neg, 11.0, 1e-4, "I- average over the window only");
+    FS_CHECK_NEAR(p.d, -1.0 / 10.5, 1e-5, "D");
+    FS_CHECK_NEAR(p.margin, (1.0 / 10.5) / FS_POLARITY_D_MIN, 1e-3, "margin = |D| / d_min");
     fs_polarity_reset(&p);
-    FS_CHECK(p.stage == FS_POLARITY_LOCK && p.k == 0 && !p.flip && p.sum_pos == 0.0f && p.sum_neg == 0.0f &&
-             p.i_p_pos == 0.0f && p.i_p_neg == 0.0f, "reset clears");
-    sequence(&p, 11.0f, 10.0f);
-    FS_CHECK(!p.flip, "I_p(+) > I_p(-) must not flip");
-    fs_polarity_reset(&p);
-    sequence(&p, 10.0f, 10.0f);
-    FS_CHECK(!p.flip, "equal I_p: no flip");
+    FS_CHECK(p.stage == FS_POLARITY_LOCK && p.attempts == 0 && p.margin == 0.0f && !p.flip, "reset clears");
+    sequence(&p, 11.0f, 10.0f, 0.01f);
+    FS_CHECK(p.stage == FS_POLARITY_DONE && !p.flip, "I+ > I-: no flip");
 
-    /* even n_pulse (40.3 -> 40: 20 averaged), one LOCK step */
-    c.t_lock = 1e-4f;
-    c.t_pulse = 4.03e-3f;
+    /* equal averages, retries 4 -> 6 -> 9 -> 10 A, then UNDETERMINED */
+    c.i_pulse_max = 10.0f;
+    FS_CHECK_EQ_INT(fs_polarity_init(&p, &c), FS_OK, "init with retries");
+    FS_CHECK_EQ_INT(sequence(&p, 10.0f, 10.0f, 0.01f), 4, "pairs at 4, 6, 9 and 10 A");
+    FS_CHECK(p.stage == FS_POLARITY_UNDETERMINED && p.margin < 1.0f && p.i_now == 10.0f, "undetermined at i_pulse_max");
+    /* a 4.9 % difference is below d_min: refused too */
+    fs_polarity_reset(&p);
+    sequence(&p, 10.25f, 9.76f, 0.01f);
+    FS_CHECK(p.stage == FS_POLARITY_UNDETERMINED, "|D| %g below d_min", p.d);
+
+    /* the same 9.5 % drowned in a +-2 A spread: sigma_D = sqrt(8 / 26) / 10.5 = 5.3 %, 3 sigma 15.8 % */
+    c.i_pulse_max = 0.0f;
     FS_CHECK_EQ_INT(fs_polarity_init(&p, &c), FS_OK, "init");
-    FS_CHECK(p.n_lock == 1 && p.n_pulse == 40, "n_lock %d, n_pulse %d", p.n_lock, p.n_pulse);
-    sequence(&p, 3.0f, 2.5f);
-    FS_CHECK(!p.flip, "no flip");
-    /* no LOCK: starts in the + pulse (the header's sequence without t_lock) */
+    sequence(&p, 10.0f, 11.0f, 2.0f);
+    FS_CHECK(p.stage == FS_POLARITY_UNDETERMINED, "noise: undetermined (margin %g)", p.margin);
+    FS_CHECK_NEAR(p.margin, (1.0 / 10.5) / (3.0 * sqrt(8.0 / 26.0) / 10.5), 2e-3, "margin against 3 sigma_D");
+    /* a spread of +-0.7 A: 3 sigma_D = 5.5 %, above d_min; decided */
+    fs_polarity_reset(&p);
+    sequence(&p, 10.0f, 11.0f, 0.7f);
+    FS_CHECK_NEAR(p.margin, (1.0 / 10.5) / (3.0 * sqrt(0.98 / 26.0) / 10.5), 2e-3, "margin against 3 sigma_D");
+    FS_CHECK(p.stage == FS_POLARITY_DONE && p.flip, "decided");
+    /* correlated samples: w_filter Ts n / 2 = 1000 * 1e-4 * 26 / 2 = 1.3 independent ones: sigma_D 4.5 x larger */
+    c.w_filter = 1000.0f;
+    FS_CHECK_EQ_INT(fs_polarity_init(&p, &c), FS_OK, "init");
+    sequence(&p, 10.0f, 11.0f, 0.7f);
+    FS_CHECK_NEAR(p.margin, (1.0 / 10.5) / (3.0 * sqrt(0.98 / 1.3) / 10.5), 2e-3, "margin with n_eff = 1.3");
+    FS_CHECK(p.stage == FS_POLARITY_UNDETERMINED, "undetermined with few independent samples");
+
+    /* the window in whole carrier periods: second half 26 -> 3 periods of 8 = 24 */
+    c.w_filter = 0.0f;
+    c.n_carrier = 8;
+    FS_CHECK_EQ_INT(fs_polarity_init(&p, &c), FS_OK, "init");
+    FS_CHECK_EQ_INT(p.n_avg, 24, "n_avg in whole carrier periods");
+    sequence(&p, 3.0f, 2.5f, 0.01f);
+    FS_CHECK(p.stage == FS_POLARITY_DONE && !p.flip, "decided over the rounded window");
+    FS_CHECK_NEAR(p.i_p_pos, 3.0, 1e-4, "I+ over the rounded window");
+    /* a +-2 A ripple that repeats every carrier period leaves the periods' means equal: decided on d_min */
+    c.n_carrier = 2;
+    FS_CHECK_EQ_INT(fs_polarity_init(&p, &c), FS_OK, "init");
+    FS_CHECK(p.n_avg == 26 && p.n_per == 2, "n_avg %d, n_per %d", p.n_avg, p.n_per);
+    sequence(&p, 10.0f, 11.0f, 2.0f);
+    FS_CHECK(p.stage == FS_POLARITY_DONE && p.flip, "the carrier's ripple is not noise");
+    FS_CHECK_NEAR(p.margin, (1.0 / 10.5) / FS_POLARITY_D_MIN, 1e-3, "margin = |D| / d_min");
+    /* no LOCK: starts in the + pulse */
     c.t_lock = 0.0f;
-    c.t_pulse = 4.0f * c.Ts;
-    FS_CHECK_EQ_INT(fs_polarity_init(&p, &c), FS_OK, "t_lock = 0, t_pulse = 4 Ts");
-    FS_CHECK(p.n_lock == 0 && p.n_pulse == 4 && p.stage == FS_POLARITY_POS, "no LOCK stage");
-    sequence(&p, 2.0f, 5.0f);
-    FS_CHECK(p.flip, "flip");
+    c.n_carrier = 0;
+    FS_CHECK_EQ_INT(fs_polarity_init(&p, &c), FS_OK, "t_lock = 0");
+    FS_CHECK(p.n_lock == 0 && p.stage == FS_POLARITY_POS, "no LOCK stage");
+
+    /* the estimate's speed moves by +-29 el. rad/s from the 100 it had: decided; by +-31, above w_filter / 10:
+     * spun, undetermined without retry */
+    c = (fs_polarity_config){1e-4f, 4.0f, 0.01f, 0.005f, 8.0f, 0.0f, 300.0f, 0, 0.0f};
+    FS_CHECK_EQ_INT(fs_polarity_init(&p, &c), FS_OK, "init");
+    FS_CHECK_NEAR(p.cfg.w_max, 30.0, 1e-5, "w_max's default: w_filter / 10");
+    spin = 29.0f;
+    sequence(&p, 10.0f, 11.0f, 0.01f);
+    FS_CHECK(p.stage == FS_POLARITY_DONE && !p.moved && p.w_peak == 29.0f, "29 rad/s: decided (peak %g)", p.w_peak);
+    fs_polarity_reset(&p);
+    spin = 31.0f;
+    FS_CHECK_EQ_INT(sequence(&p, 10.0f, 11.0f, 0.01f), 1, "no retry once spun");
+    FS_CHECK(p.stage == FS_POLARITY_UNDETERMINED && p.moved && p.margin == 0.0f, "31 rad/s: spun (peak %g)", p.w_peak);
+    spin = 0.0f;
 
     /* refusals */
-    c = (fs_polarity_config){1e-4f, 4.0f, 0.01f, 0.005f};
+    c = (fs_polarity_config){1e-4f, 4.0f, 0.01f, 0.005f, 0.0f, 0.0f, 0.0f, 0, 0.0f};
     FS_CHECK_EQ_INT(fs_polarity_init(NULL, &c), FS_ERR_NULL, "NULL");
     FS_CHECK_EQ_INT(fs_polarity_init(&p, NULL), FS_ERR_NULL, "NULL config");
 #define REFUSE(field, value, status) \
@@ -122,5 +171,11 @@ int main(void)
     REFUSE(t_lock, -1e-3f, FS_ERR_PARAM); REFUSE(t_lock, NAN, FS_ERR_PARAM); REFUSE(t_lock, INFINITY, FS_ERR_PARAM);
     REFUSE(t_lock, 0.0f, FS_OK);
     REFUSE(t_pulse, 3.9e-4f, FS_ERR_PARAM); REFUSE(t_pulse, NAN, FS_ERR_PARAM); REFUSE(t_pulse, 2e3f, FS_ERR_PARAM);
+    REFUSE(i_pulse_max, 3.9f, FS_ERR_I_MAX); REFUSE(i_pulse_max, NAN, FS_ERR_I_MAX); REFUSE(i_pulse_max, INFINITY, FS_ERR_I_MAX);
+    REFUSE(i_pulse_max, 4.0f, FS_OK);
+    REFUSE(d_min, -0.01f, FS_ERR_PARAM); REFUSE(d_min, 1.0f, FS_ERR_PARAM); REFUSE(d_min, NAN, FS_ERR_PARAM);
+    REFUSE(w_filter, -1.0f, FS_ERR_BANDWIDTH); REFUSE(w_filter, INFINITY, FS_ERR_BANDWIDTH);
+    REFUSE(n_carrier, -1, FS_ERR_PARAM);
+    REFUSE(w_max, -0.1f, FS_ERR_PARAM); REFUSE(w_max, NAN, FS_ERR_PARAM);
     return fs_test_summary("test_polarity");
 }

@@ -22,6 +22,34 @@ from .files import out_path, write_json, write_npz, write_with
 OUT = Path("out")
 
 
+# `fullspeed run`'s exit status (README, "Exit status"): 0 only for a run that
+# completed with the drive in control; 2 is bad input, 3 an internal error.
+EXIT_FAILED = 1   # a protection stop, a refusal, a loss of lock (flagged, or seen by the simulation's truth)
+
+
+def run_verdict(res) -> list[str]:
+    """Why a run failed, one line each; empty for a run that completed with
+    the drive in control."""
+    m, out = res.metrics, []
+    t_stop = res.stop_time if res.stop_time is not None else res.sim_time
+    if res.stop_reason == "polarity_undetermined":
+        p = res.polarity or {}
+        why = "the pulses spun the rotor" if p.get("moved") else \
+            f"margin {p.get('margin', 0):.2f} < 1 at {p.get('i_pulse', 0):.3g} A (D = {100 * p.get('d', 0):.2f} %)"
+        out.append(f"stopped at t = {t_stop:.4f} s: polarity undetermined ({why}): the drive refused to start sensorless")
+    elif res.stop_reason == "interrupted":
+        out.append(f"interrupted at t = {t_stop:.6f} s (traces up to there were written)")
+    elif res.stop_reason != "done":
+        out.append(f"stopped at t = {t_stop:.6f} s: {res.stop_reason} (traces up to the stop were written)")
+    if m.get("lock_lost_at") is not None:
+        out.append(f"loss of lock flagged by the drive's monitor at t = {m['lock_lost_at']:.4f} s")
+    if m.get("true_loss_at") is not None:
+        flagged = m.get("lock_lost_at") is not None or res.stop_reason != "done"
+        out.append(f"the estimate was 90 el.deg off the rotor for 20 ms net by t = {m['true_loss_at']:.4f} s (the simulation's truth)"
+                   + ("" if flagged else ": the drive did not flag it (a silent failure)"))
+    return out
+
+
 def _cmd_run(args) -> int:
     from .metrics import json_safe
     from .plots import plot_run
@@ -33,6 +61,8 @@ def _cmd_run(args) -> int:
         overrides["converter"] = {"inverter": args.inverter}
     sc = load_scenario(args.scenario, overrides or None)
     out = Path(args.out) if args.out else out_path(OUT, sc.name, "name", sc.source)   # before the run, not after
+    for w in sc.warnings:
+        print(f"fullspeed: warning: {w}", file=sys.stderr)
     res = simulate(sc, progress=not args.quiet)
     # metrics.json last: its presence marks the folder complete (an older one goes first)
     (out / "metrics.json").unlink(missing_ok=True)
@@ -43,12 +73,46 @@ def _cmd_run(args) -> int:
           f"= {res.speed_ratio:.1f} simulated s per wall s ({res.scenario.data['converter']['inverter']} inverter)")
     if "speed_error_pct" in res.metrics and res.metrics["speed_error_pct"] is not None:
         print(f"steady speed error: {res.metrics['speed_error_pct']:+.4f} %")
+    if res.metrics.get("sensorless_err_deg_max") is not None:
+        print(f"largest angle error while sensorless: {res.metrics['sensorless_err_deg_max']:.2f} el.deg")
+    if res.polarity is not None and res.polarity["stage"] == "done":
+        print(f"polarity: decided with margin {res.polarity['margin']:.2f} at {res.polarity['i_pulse']:.3g} A"
+              + (" (the estimate turned by pi)" if res.polarity["flip"] else ""))
+    if res.metrics.get("ideal_hardware"):
+        print("ideal hardware: " + ", ".join(res.metrics["ideal_hardware"]))
     print(f"wrote {out}/metrics.json, traces.npz, run.png")
-    if res.stop_reason != "done":
-        print(f"fullspeed: run stopped: {res.stop_reason} at t = {res.stop_time if res.stop_time is not None else res.sim_time:.6f} s "
-              "(traces up to the stop were written)", file=sys.stderr)
-        return 1
+    failed = run_verdict(res)
+    for line in failed:
+        print(f"fullspeed: run failed: {line}", file=sys.stderr)
+    return EXIT_FAILED if failed else 0
+
+
+def _cmd_design(args) -> int:
+    from .design import design_report
+    from .scenario import load_scenario, scenario_from_dict
+
+    target = args.target
+    if target.endswith(".toml") or target in _machine_names():
+        from .schema import read_toml
+        data = read_toml(target, "machine") if target.endswith(".toml") else None
+        if data is not None and "machine" in data:   # a scenario file
+            sc = load_scenario(target)
+        else:
+            sc = scenario_from_dict({"name": f"design-{Path(target).stem}", "duration": 1.0,
+                                     "machine": str(Path(target).resolve()) if data is not None else target,
+                                     "controller": {"mode": "speed", "angle": "blend", "flux_weakening": True}},
+                                    target)
+    else:
+        sc = load_scenario(target)
+    for w in sc.warnings:
+        print(f"fullspeed: warning: {w}", file=sys.stderr)
+    print(design_report(sc))
     return 0
+
+
+def _machine_names() -> list[str]:
+    from .machines import catalog_names
+    return catalog_names()
 
 
 def _cmd_list(args) -> int:
@@ -152,12 +216,18 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="fullspeed", description="Wide-speed-range sensorless PMSM drives")
     ap.add_argument("--debug", action="store_true", help="show tracebacks")
     sub = ap.add_subparsers(dest="cmd", required=True)
-    r = sub.add_parser("run", help="run a scenario (catalog name or TOML file)")
+    r = sub.add_parser("run", help="run a scenario (catalog name or TOML file)",
+                       description="Run a scenario. Exit status: 0 the run completed with the drive in control; "
+                                   "1 it failed (a protection stop, polarity undetermined, a loss of lock the drive "
+                                   "flagged or the simulation's truth saw, an interrupt); 2 bad input; 3 internal error.")
     r.add_argument("scenario")
     r.add_argument("--out", help="output folder (default out/<name>)")
     r.add_argument("--inverter", choices=["averaged", "switching"], help="override the inverter model")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     r.set_defaults(func=_cmd_run)
+    dz = sub.add_parser("design", help="print every designed setting of a machine or scenario, with its reason")
+    dz.add_argument("target", help="a catalog machine, a machine TOML (datasheet fields), or a scenario (name or TOML)")
+    dz.set_defaults(func=_cmd_design)
     ls = sub.add_parser("list", help="list catalog machines and scenarios")
     ls.set_defaults(func=_cmd_list)
     sw = sub.add_parser("sweep", help="run a sweep (catalog name or TOML file): maps and Monte Carlo, resumable")

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
+from .design import design_bench
 from .errors import ConfigError
 from .schema import ANY, NOTES, C, F, I, N, NONNEG, POS, S, T, Spec, even_grid, finite_number, read_toml, validate
 from .units import rpm_to_rad_s
@@ -27,10 +28,12 @@ MAGNETIC = {
 BENCH = {
     "u_dc": POS(hi=1e5, doc="V"), "f_pwm": F(lo=100.0, hi=1e6, doc="Hz"), "t_dead": NONNEG(0.0, hi=1e-4, doc="s"),
     "sampling": C("single", "double", default="single"),
-    "i_max": POS(hi=1e5, doc="A"), "i_trip": POS(hi=1e5), "i_lim": POS(None, hi=1e5),
-    "adc_bits": I(12, 0, 24), "adc_range": POS(hi=1e6), "noise_i": NONNEG(0.0, hi=1e4),
+    # left out: designed (fullspeed.design; `fullspeed design` prints them with their reasons)
+    "i_max": POS(None, hi=1e5, doc="A"), "i_trip": POS(None, hi=1e5, doc="A"), "i_lim": POS(None, hi=1e5),
+    "adc_bits": I(12, 0, 24), "adc_range": POS(None, hi=1e6, doc="A"), "noise_i": NONNEG(0.0, hi=1e4),
     "encoder_bits": I(0, 0, 32),
-    "bw_current": POS(hi=1e6, doc="rad/s"), "bw_speed": POS(hi=1e6), "bw_pll": POS(hi=1e6), "bw_pll_smo": POS(None, hi=1e6),
+    "bw_current": POS(None, hi=1e6, doc="rad/s"), "bw_speed": POS(None, hi=1e6, doc="rad/s"),
+    "bw_pll": POS(None, hi=1e6, doc="rad/s"), "bw_pll_smo": POS(None, hi=1e6, doc="rad/s"),
     # the indirect matrix converter's grid and input filter (zou2021)
     "u_dc_min": POS(None, hi=1e5), "u_grid_ll_rms": POS(None, hi=1e5), "f_grid": POS(None, hi=1e4),
     "l_filter": POS(None, hi=10.0), "r_filter": POS(None, hi=1e6), "c_filter": POS(None, hi=10.0),
@@ -48,7 +51,9 @@ INJECTION = {
     "u_h": POS(None, hi=1e4, doc="V"), "f_h": POS(None, hi=1e5, doc="Hz"), "bw_pll": POS(None, hi=1e6, doc="rad/s"),
     "xcomp_paper": N(None, doc="swvi: the fitted error polynomial, el.rad in i_q (A)"),
 }
-BLENDING = {"omega_lower_rpm": NONNEG(None, hi=1e6), "omega_upper_rpm": POS(None, hi=1e6)}
+# the same names as the scenario's [blending], which overrides them
+BLENDING = {"lower_rpm": NONNEG(None, hi=1e6), "upper_rpm": POS(None, hi=1e6)}
+RENAMED = {"blending.omega_lower_rpm": "blending.lower_rpm", "blending.omega_upper_rpm": "blending.upper_rpm"}
 PAPER_GAINS = {k: (POS if k in ("current_kp_d", "current_kp_q", "speed_kp") else NONNEG)(None, hi=1e9) for k in (   # the PIs need k_p > 0
     "current_kp_d", "current_ki_d", "current_kp_q", "current_ki_q", "speed_kp", "speed_ki", "pll_kp", "pll_ki")}
 BENCH_EXPERIMENT = {k: POS(None, hi=1e6) for k in ("u_grid_ll_rms", "f_grid", "u_dc", "u_dc_min", "i_max", "i_lim")}
@@ -97,6 +102,8 @@ class Machine:
     L_d3: float = 0.0       # H
     L_q3: float = 0.0       # H
     psi_f3: float = 0.0     # Wb
+    # the bench's limits and bandwidths as given or designed (fullspeed.design.Value, by key)
+    design: dict = field(default_factory=dict)
 
     def mtpa_torque(self, i: float) -> float:
         """Torque on the MTPA locus at current magnitude i (linear model), from
@@ -126,8 +133,15 @@ def catalog_data(name: str, source: str | None = None) -> dict:
 
 
 def machine_from_dict(data: dict, source: str | None = None, prefix: str = "machine") -> Machine:
+    for table, keys in (("blending", BLENDING), ):
+        given = data.get(table) if isinstance(data, dict) else None
+        for old, new in RENAMED.items():
+            if isinstance(given, dict) and old.split(".")[1] in given:
+                raise ConfigError(f"{prefix}.{old}", given[old.split('.')[1]], f"is now called {prefix}.{new} (one name for one setting, as in a scenario)", source)
     d = validate(data, MACHINE, prefix, source)
     e, m, r, b = d["electrical"], d["mechanical"], d["rated"], d["bench"]
+    designed = design_bench({"i_rated": r["current"]}, b)
+    b.update({k: v.value for k, v in designed.items()})
     if d["kind"] == "ipmsm" and not e["L_d"] < e["L_q"]:
         raise ConfigError(f"{prefix}.electrical.L_d", e["L_d"],
                           f"an interior-magnet machine needs L_d < L_q (L_q = {e['L_q']:g})", source)
@@ -162,7 +176,7 @@ def machine_from_dict(data: dict, source: str | None = None, prefix: str = "mach
         J=m["J"], B=m["B"], T_coulomb=m["T_coulomb"],
         T_rated=r["torque"], i_rated=r["current"], w_m_rated=rpm_to_rad_s(r["speed_rpm"]),
         magnetic=d["magnetic"], bench=b, extra=extra, source=d["source"], description=d["description"],
-        L_d3=th["L_d3"], L_q3=th["L_q3"], psi_f3=th["psi_f3"],
+        L_d3=th["L_d3"], L_q3=th["L_q3"], psi_f3=th["psi_f3"], design=designed,
     )
 
 

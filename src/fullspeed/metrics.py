@@ -59,6 +59,37 @@ def true_loss_at(tr, threshold: float = math.pi / 2, t_net: float = 0.02) -> flo
     return None
 
 
+def step_times(tr, channels=("w_m_ref", "T_L", "i_d_ref", "i_q_ref")) -> list[float]:
+    """The instants a reference or the load jumps (between two samples by
+    more than 5 % of its range): the steps a run's error is forgiven after."""
+    out = []
+    for ch in channels:
+        if ch not in tr:
+            continue
+        y = np.asarray(tr[ch])
+        span = float(np.ptp(y)) if y.size else 0.0
+        if span > 0:
+            out += [float(tr["t"][k + 1]) for k in np.flatnonzero(np.abs(np.diff(y)) > 0.05 * span)]
+    return sorted(out)
+
+
+def sensorless_error_max(tr, after_step: float = 0.05) -> float | None:
+    """The largest |angle error| (el.deg) while the loops run on an estimate
+    (SENSORLESS_STAGES), outside the `after_step` s after each step of a
+    reference or the load and after each entry from a stage without an
+    estimate (polarity detection, the I/f start, a recovery); None if the
+    run never ran sensorless."""
+    t = np.asarray(tr["t"])
+    on = np.isin(np.asarray(tr["stage"]).astype(int), SENSORLESS_STAGES)
+    entries = [float(t[k + 1]) for k in np.flatnonzero(on[1:] & ~on[:-1])]
+    keep = on.copy()
+    for t0 in step_times(tr) + entries:
+        keep &= ~((t >= t0) & (t < t0 + after_step))
+    if not keep.any():
+        return None
+    return float(np.degrees(np.max(np.abs(np.asarray(tr["theta_err"])[keep]))))
+
+
 def compute_metrics(res) -> dict:
     tr = res.traces
     t = tr["t"]
@@ -78,7 +109,13 @@ def compute_metrics(res) -> dict:
     lost = np.flatnonzero(tr["lock_lost"] > 0)
     out["lock_lost_at"] = float(t[lost[0]]) if lost.size else None
     out["recoveries"] = int(tr["recoveries"][-1])
+    if res.polarity is not None:
+        out["polarity"] = res.polarity
+    from .checks import ideal_hardware
+    out["ideal_hardware"] = ideal_hardware(res.scenario.data)
+    out["warnings"] = list(res.scenario.warnings)
     out["true_loss_at"] = true_loss_at(tr)
+    out["sensorless_err_deg_max"] = sensorless_error_max(tr)
     # a loss the simulation's truth sees and nothing in the run flagged
     out["silent_failure"] = bool(out["true_loss_at"] is not None and res.stop_reason == "done"
                                  and out["lock_lost_at"] is None)
@@ -162,7 +199,7 @@ def fault_report(res) -> dict | None:
 # sweep may keep. Those a run's mode does not give are empty for it.
 METRIC_NAMES = (
     "stop_reason", "stop_time", "sim_time", "wall_time", "speed_ratio", "i_phase_max",
-    "lock_lost_at", "recoveries", "true_loss_at", "silent_failure",
+    "lock_lost_at", "recoveries", "true_loss_at", "silent_failure", "sensorless_err_deg_max",
     "speed_ref_rpm", "speed_rpm", "speed_error_pct", "i_d_error_rms", "i_q_error_rms",
     "T_e_mean", "T_e_pp",
     "theta_err_deg.mean", "theta_err_deg.pp", "theta_err_deg.max",

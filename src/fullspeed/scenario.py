@@ -3,11 +3,12 @@ reference profiles, read from TOML and validated field by field."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
 from . import _core
+from . import design as dz
 from .errors import ConfigError
 from .files import path_kind
 from .machines import Machine, catalog_data, machine_from_dict
@@ -102,8 +103,9 @@ SCENARIO = {
     "polarity": T({
         "enabled": B(True, doc="detect the magnet polarity before starting sensorless on injection"),
         "i_pulse": POS(None, hi=1e5, doc="A, d-current pulses; default half of controller.i_max"),
-        "t_lock": NONNEG(0.06, hi=10.0, doc="s, the estimator settles first: >= 6 / w_b_n + 2 / w_o (fade-in, filters, observer)"),
-        "t_pulse": POS(0.02, hi=10.0, doc="s, each pulse: >= 6 / w_b_p (the carrier amplitude settles in the first half)"),
+        "t_lock": NONNEG(None, hi=10.0, doc="s, the estimator settles first: >= 6 / w_b_n + 2 / w_o (fade-in, filters, observer); default 0.06 s or that bound x 1.2, the longer"),
+        "t_pulse": POS(None, hi=10.0, doc="s, each pulse: >= 6 / w_b_p (the carrier amplitude settles in the first half); default 0.02 s or that bound x 1.2, the longer"),
+        "i_pulse_max": POS(None, hi=1e5, doc="A, the largest pulse of the retries when the first pair decides nothing; default controller.i_max less the carrier's peak"),
     }, default={}),
     "blending": T({
         "lower_rpm": NONNEG(None, hi=1e6, doc="eq. (28); default the machine's [blending]"),
@@ -114,10 +116,12 @@ SCENARIO = {
         "kind": C("torque", "speed", "speed_pi", "brake", default="torque",
                   doc="brake: a passive brake (powder, eddy current), torque = its magnitude against the motion"),
         "torque": P(0.0, hi=1e6, doc="N m"), "speed_rpm": P(0.0, hi=1e6),
+        "torque_pu": P(None, hi=100.0, doc="the torque as a fraction of the machine's rated torque (instead of torque)"),
         "bandwidth": POS(100.0, hi=1e6, doc="load machine speed loop, rad/s"), "J_load": NONNEG(0.0, hi=1e5),
     }, default={}),
     "references": T({
         "speed_rpm": P(0.0, hi=1e6), "i_d": P(0.0, hi=1e5), "i_q": P(0.0, hi=1e5),
+        "speed_pu": P(None, hi=100.0, doc="the speed as a fraction of the machine's rated speed (instead of speed_rpm)"),
         "u_d": P(0.0, hi=1e5), "u_q": P(0.0, hi=1e5), "frame_rpm": P(0.0, hi=1e6),
     }, default={}),
     "initial": T({"theta_e_deg": F(0.0, -360.0, 360.0), "speed_rpm": F(0.0, -1e6, 1e6)}, default={}),
@@ -148,6 +152,12 @@ class Scenario:
     machine: Machine
     data: dict          # validated, with the bench's values filled in
     source: str | None = None
+    # "section.key" -> design.Value for every setting that was designed or
+    # given (where it came from, and why), and one-line warnings about what
+    # the scenario asks (feasibility, plausibility, what polarity detection
+    # cannot see)
+    design: dict = field(default_factory=dict)
+    warnings: list = field(default_factory=list)
 
     @property
     def duration(self) -> float:
@@ -163,11 +173,25 @@ def scenario_names() -> list[str]:
 
 
 def _machine_of(raw, source) -> Machine:
+    if isinstance(raw, str) and raw.endswith(".toml"):   # a machine file, beside the scenario first
+        p = Path(raw)
+        if not p.is_absolute() and source and (Path(source).parent / p).is_file():
+            p = Path(source).parent / p
+        return machine_from_dict(read_toml(p, "machine"), str(p))
     if isinstance(raw, str):
         raw = {"catalog": raw}
     if not isinstance(raw, dict):
-        raise ConfigError("machine", raw, "must be a catalog name or a table", source)
+        raise ConfigError("machine", raw, "must be a catalog name, a machine file (.toml) or a table", source)
     raw = dict(raw)
+    if "zoo" in raw:   # a machine of the seeded zoo (fullspeed.zoo), its fields overridable
+        from . import zoo
+        k, seed = raw.pop("zoo"), raw.pop("zoo_seed", zoo.SEED)
+        for key, v in (("machine.zoo", k), ("machine.zoo_seed", seed)):
+            whole = isinstance(v, int) or (isinstance(v, float) and v.is_integer())   # a sweep's range gives floats
+            if isinstance(v, bool) or not whole or not 0 <= v < 2**31:
+                raise ConfigError(key, v, "must be an integer in 0 .. 2^31 - 1", source)
+        k, seed = int(k), int(seed)
+        return machine_from_dict(deep_merge(zoo.machine(k, seed), raw), source)
     name = raw.pop("catalog", None)
     if name is not None:
         if not isinstance(name, str):
@@ -185,6 +209,7 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
     d = validate(data, SCENARIO, "", source)
     m = _machine_of(d["machine"], source)
     b = m.bench
+    _per_unit(d, data, m, source)
     conv, tim, sen, ctl = d["converter"], d["timing"], d["sensors"], d["controller"]
     if conv["kind"] == "imc":
         _imc_fields(d, m, source)
@@ -198,12 +223,22 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
     for key in ("adc_bits", "adc_range", "encoder_bits", "noise_i"):
         if sen[key] is None:
             sen[key] = b[key]
+    notes: dict = {}
     for key in ("bw_current", "bw_speed", "bw_pll", "i_max"):
         if ctl[key] is None:
             ctl[key] = b[key]
+            notes[f"controller.{key}"] = m.design[key]
+        else:
+            notes[f"controller.{key}"] = dz.Value(ctl[key], m.design[key].unit, "given in the scenario", True)
     obs = d["observer"]
+    band = _band(d, m)
     if obs["bw_pll"] is None:
-        obs["bw_pll"] = b.get("bw_pll_smo") or 2 * math.pi * 40.0
+        if b.get("bw_pll_smo") is not None:
+            notes["observer.bw_pll"] = dz.Value(b["bw_pll_smo"], "rad/s", "given in the machine file (bench.bw_pll_smo)", True)
+        else:
+            notes["observer.bw_pll"] = dz.design_observer_pll(dz.machine_values(m), rpm_to_rad_s(band["lower_rpm"].value),
+                                                              ctl["bw_speed"], ctl["bw_current"])
+        obs["bw_pll"] = notes["observer.bw_pll"].value
     if ctl["angle"] == "smo" and "bw_speed" not in data.get("controller", {}):
         # the speed comes from the observer's PLL: keep its lag (a double pole)
         # small at the speed loop's crossover, as the bench's encoder PLL does
@@ -290,7 +325,44 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
               and 0 <= steady[0] < steady[1] <= d["duration"])
         if not ok:
             raise ConfigError("metrics.steady", steady, f"must be [t_start, t_end] with 0 <= t_start < t_end <= duration ({d['duration']:g})", source)
-    return Scenario(name=d["name"], machine=m, data=d, source=source)
+    for key in ("u_h", "f_h"):
+        if f"injection.{key}" not in notes and d["injection"][key] is not None and ctl["angle"] in ("hfi", "blend", "swvi"):
+            notes[f"injection.{key}"] = dz.Value(d["injection"][key], "", "given in the machine file or the scenario", True)
+    notes.update(d.pop("_notes", {}))
+    from .checks import warnings_of
+    return Scenario(name=d["name"], machine=m, data=d, source=source, design=notes, warnings=warnings_of(d, m))
+
+
+def _per_unit(d: dict, data: dict, m: Machine, source) -> None:
+    """Profiles given per unit of the machine's rating, into SI/rpm ones."""
+    for sec, pu, key, base in (("references", "speed_pu", "speed_rpm", m.w_m_rated * 60 / (2 * math.pi)),
+                               ("load", "torque_pu", "torque", m.T_rated)):
+        if d[sec][pu] is None:
+            continue
+        if key in data.get(sec, {}):
+            raise ConfigError(f"{sec}.{pu}", "given", f"and {sec}.{key} are one setting: give one of them", source)
+        t, y = d[sec][pu]
+        d[sec][key] = (t, [v * base for v in y])
+
+
+def _bench_of(d: dict, m: Machine) -> dict:
+    """The machine's bench with the scenario's converter and sensors: what
+    the injection and the band are designed against."""
+    conv, sen = d["converter"], d["sensors"]
+    return {**m.bench, "u_dc": conv["u_dc"], "f_pwm": conv["f_pwm"], "t_dead": conv["t_dead"],
+            "sampling": d["timing"]["sampling"], "adc_bits": sen["adc_bits"], "adc_range": sen["adc_range"],
+            "noise_i": sen["noise_i"]}
+
+
+def _band(d: dict, m: Machine) -> dict:
+    """The blending band: the machine's [blending], else designed."""
+    mb = m.extra.get("blending", {})
+    bench = _bench_of(d, m)
+    f_h = d["injection"]["f_h"] or m.extra.get("injection", {}).get("f_h") \
+        or dz.CARRIER_PER_FS / dz.sampling_period(bench["f_pwm"], bench["sampling"])
+    band = dz.design_band(dz.machine_values(m), bench, f_h)
+    return {k: dz.Value(float(mb[k]), "rpm", "given in the machine file", True) if k in mb else band[k]
+            for k in ("lower_rpm", "upper_rpm")}
 
 
 def _fault_fields(d: dict, m: Machine, source) -> None:
@@ -344,7 +416,10 @@ def _injection_fields(d: dict, m: Machine, source) -> None:
     ctl, inj, pol, bl = d["controller"], d["injection"], d["polarity"], d["blending"]
     L_d, L_q = m.L_d * ctl["L_d_scale"], m.L_q * ctl["L_q_scale"]   # as the controller knows them
     _check_saliency(ctl, m, source)
-    _machine_injection(inj, m, ("u_h", "f_h"), source)
+    band = _band(d, m)
+    designed = dz.design_injection(dz.machine_values(m), _bench_of(d, m), ctl["i_max"], rpm_to_rad_s(band["upper_rpm"].value))
+    _machine_injection(inj, m, ("u_h", "f_h"), source, designed)
+    d.setdefault("_notes", {}).update(inj.pop("_notes", {}))
     Ts = _control_period(d)
     if inj["f_h"] > 0.25 / Ts:
         raise ConfigError("injection.f_h", inj["f_h"], f"must be <= {0.25 / Ts:g} Hz: at least 4 samples per carrier period at Ts = {Ts:g} s", source)
@@ -366,6 +441,11 @@ def _injection_fields(d: dict, m: Machine, source) -> None:
         raise ConfigError("blending.bw_observer", bl["bw_observer"], f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s", source)
     if pol["enabled"]:
         t_lock_min, t_pulse_min = 6.0 / w_b_n + 2.0 / w_o, 6.0 / w_b_p
+        for key, t_min, t_default in (("t_lock", t_lock_min, 0.06), ("t_pulse", t_pulse_min, 0.02)):
+            if pol[key] is None:   # 20 % above the settling bound: noise and the rounding to samples
+                pol[key] = max(t_default, 1.2 * t_min)
+                d.setdefault("_notes", {})[f"polarity.{key}"] = dz.Value(
+                    pol[key], "s", f"{t_default:g} s (yang2022's bench) or 1.2 x the settling bound {t_min:.3g} s, the longer")
         if pol["t_lock"] < t_lock_min:
             raise ConfigError("polarity.t_lock", pol["t_lock"], f"must be >= {t_lock_min:.3g} s: 6 / w_b_n + 2 / w_o, the fade-in, the filters and the observer settle first", source)
         if pol["t_pulse"] < t_pulse_min:
@@ -376,13 +456,15 @@ def _injection_fields(d: dict, m: Machine, source) -> None:
         pol["i_pulse"] = 0.5 * ctl["i_max"]
     if pol["i_pulse"] > ctl["i_max"]:
         raise ConfigError("polarity.i_pulse", pol["i_pulse"], f"must be <= controller.i_max ({ctl['i_max']:g} A)", source)
+    if pol["i_pulse_max"] is not None and not pol["i_pulse"] <= pol["i_pulse_max"] <= ctl["i_max"]:
+        raise ConfigError("polarity.i_pulse_max", pol["i_pulse_max"], f"must be within polarity.i_pulse ({pol['i_pulse']:g} A) .. controller.i_max ({ctl['i_max']:g} A)", source)
     if ctl["angle"] == "blend":
-        mb = m.extra.get("blending", {})
-        for key, mkey in (("lower_rpm", "omega_lower_rpm"), ("upper_rpm", "omega_upper_rpm")):
+        for key in ("lower_rpm", "upper_rpm"):
             if bl[key] is None:
-                if mkey not in mb:
-                    raise ConfigError(f"blending.{key}", "missing", f"is required: {m.name} has no [blending].{mkey}", source)
-                bl[key] = float(mb[mkey])
+                bl[key] = band[key].value
+                d["_notes"][f"blending.{key}"] = band[key]
+            else:
+                d["_notes"][f"blending.{key}"] = dz.Value(bl[key], "rpm", "given in the scenario", True)
         if not bl["upper_rpm"] > bl["lower_rpm"]:
             raise ConfigError("blending.upper_rpm", bl["upper_rpm"], f"must be > blending.lower_rpm ({bl['lower_rpm']:g})", source)
         if inj["stop_rpm"] is None:
@@ -402,14 +484,19 @@ def _check_saliency(ctl: dict, m: Machine, source) -> None:
                           "(no saliency to design the estimator for)", source)
 
 
-def _machine_injection(inj: dict, m: Machine, keys, source) -> None:
-    """Fields left out of [injection] from the machine's [injection]."""
+def _machine_injection(inj: dict, m: Machine, keys, source, designed: dict | None = None) -> None:
+    """Fields left out of [injection] from the machine's [injection], else
+    from the design (the rotating carrier's), else required."""
     mi = m.extra.get("injection", {})
     for key in keys:
         if inj[key] is None:
-            if key not in mi:
+            if key in mi:
+                inj[key] = float(mi[key])
+            elif designed is not None and key in designed:
+                inj[key] = designed[key].value
+                inj.setdefault("_notes", {})[f"injection.{key}"] = designed[key]
+            else:
                 raise ConfigError(f"injection.{key}", "missing", f"is required: {m.name} has no [injection].{key}", source)
-            inj[key] = float(mi[key])
 
 
 def _control_period(d: dict) -> float:

@@ -230,7 +230,7 @@ def validate(data: dict, table: dict[str, Spec], prefix: str, source: str | None
         if spec.kind == "table" and isinstance(spec.default, dict):
             out[key] = validate(spec.default, spec.table, field, source)
         elif spec.kind == "profile":
-            out[key] = check_profile(spec.default, field, source, spec)
+            out[key] = None if spec.default is None else check_profile(spec.default, field, source, spec)
         else:
             out[key] = spec.default
     return out

@@ -32,6 +32,7 @@ STOP_REASONS = {
     lib.FS_STOP_NAN: "nan",
     lib.FS_STOP_OVERCURRENT: "overcurrent",
     lib.FS_STOP_LOSS_OF_LOCK: "loss_of_lock",
+    lib.FS_STOP_POLARITY: "polarity_undetermined",
 }
 
 MODES = {"off": lib.FS_MODE_OFF, "voltage": lib.FS_MODE_VOLTAGE_DQ, "vf": lib.FS_MODE_VF,
@@ -49,12 +50,13 @@ class Result:
     """Traces (NumPy arrays by channel name, SI units) and metrics of a run."""
     scenario: Scenario
     traces: dict[str, np.ndarray]
-    stop_reason: str                 # "done", "nan", "overcurrent", "loss_of_lock", "interrupted"
+    stop_reason: str                 # "done", "nan", "overcurrent", "loss_of_lock", "polarity_undetermined", "interrupted"
     stop_time: float | None
     wall_time: float                 # s
     sim_time: float                  # s simulated
     metrics: dict = field(default_factory=dict)
     adc_saturated_at: float | None = None   # s, the first current reading at +-adc_range
+    polarity: dict | None = None     # the polarity detection's outcome (Simulation.polarity)
 
     @property
     def speed_ratio(self) -> float:
@@ -246,6 +248,7 @@ def _set_injection(dc, d: dict, p: int) -> None:
         dc.w_inject_max = p * rpm_to_rad_s(inj["stop_rpm"])
     if pol["enabled"]:
         dc.polarity.i_pulse, dc.polarity.t_lock, dc.polarity.t_pulse = pol["i_pulse"], pol["t_lock"], pol["t_pulse"]
+        dc.polarity.i_pulse_max = pol["i_pulse_max"] or 0.0   # 0: up to i_max less the carrier's peak
 
 
 def _set_swvi(sc, inj: dict) -> None:
@@ -339,6 +342,19 @@ class Simulation:
         t = lib.fs_sim_adc_saturated_at(self._sim)
         return None if math.isnan(t) else t
 
+    def polarity(self) -> dict | None:
+        """The polarity detection's outcome (fs_polarity.h): its stage, the
+        relative difference D of the last pulse pair and its margin (>= 1
+        decides), the pairs run, the last pulse; None without detection."""
+        drv = lib.fs_sim_drive(self._sim)
+        if drv.cfg.polarity.i_pulse <= 0.0 or drv.cfg.angle_source not in (lib.FS_ANGLE_HFI, lib.FS_ANGLE_BLEND):
+            return None
+        p = drv.pol
+        stages = {lib.FS_POLARITY_LOCK: "lock", lib.FS_POLARITY_POS: "pulse", lib.FS_POLARITY_NEG: "pulse",
+                  lib.FS_POLARITY_DONE: "done", lib.FS_POLARITY_UNDETERMINED: "undetermined"}
+        return {"stage": stages.get(p.stage, str(p.stage)), "d": float(p.d), "margin": float(p.margin),
+                "attempts": int(p.attempts), "i_pulse": float(p.i_now), "flip": bool(p.flip), "moved": bool(p.moved)}
+
     def traces(self) -> dict[str, np.ndarray]:
         """Each channel as a view into the buffer (strided, no copy)."""
         self._n += self._rows[0]; self._rows[0] = 0   # noqa: E702 (rows of a call a Ctrl-C cut off)
@@ -378,6 +394,7 @@ def simulate(scenario: Scenario | str, progress: bool = False, chunk: float | No
     wall = time.perf_counter() - t0
     if status == "running":
         status = "done"
-    res = Result(sc, sim.traces(), status, sim.stop_time, wall, sim.time, adc_saturated_at=sim.adc_saturated_at)
+    res = Result(sc, sim.traces(), status, sim.stop_time, wall, sim.time, adc_saturated_at=sim.adc_saturated_at,
+                 polarity=sim.polarity())
     res.metrics = compute_metrics(res)
     return res

@@ -55,7 +55,6 @@ def xcomp_3ph(out: Path) -> Measurement:
 
 # Claims whose work is still open: listed with the reason, never left out.
 NOT_YET.update({
-    "B-ZOO": "the machine zoo and the designed defaults it runs on are not built yet (issue 21)",
     "B-LOCK": "the loss-of-lock campaign is not built yet (issue 21)",
     "B-IDENT": "the identification sequence is not built yet (issue 25)",
     "B-PIL": "the processor-in-the-loop replay on the emulated Cortex-M4F is not built yet (issue 23)",

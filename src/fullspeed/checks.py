@@ -1,0 +1,129 @@
+"""What a scenario asks, said out loud when it is loaded: one warning line
+per finding, each naming the field. Not errors: the run may be what the
+user wants (a machine at its limit, a test of a refusal); the command line
+prints them before it runs, and the run's summary names the idealised
+hardware.
+
+- feasibility: a speed reference beyond what the link allows at the load
+  (without flux weakening, or beyond what flux weakening can reach);
+- plausibility: parameters far outside what machines have (time constants,
+  the back-EMF against the link and the rated voltage, the torque constant
+  against the rated torque, copper losses), which are unit mistakes more
+  often than machines (H for mH, kg m^2 for g m^2);
+- polarity detection on a machine without the d-axis saturation asymmetry
+  it measures (linear magnetics), or with a rotor so light that its pulses
+  spin it (fs_polarity.h): the drive will refuse to start sensorless.
+"""
+from __future__ import annotations
+
+import math
+
+from .units import rad_s_to_rpm
+
+# The bands of plausibility, each with its reason.
+TAU_E = (1e-5, 1.0)      # s, L_d / R_s: 10 us (a few-mH machine with a large R) .. 1 s (large machines reach 0.1 s)
+TAU_M = (1e-3, 20.0)     # s, J w_rated / T_rated: the time to rated speed at rated torque
+EMF_PER_LINK = 2.0       # the back-EMF at rated speed may exceed the link (flux weakening), not by 2x
+K_T = (0.5, 3.0)         # 1.5 p psi_f i_rated / T_rated: reluctance torque and saturation move it, not by 2x
+COPPER = 0.5             # copper losses at rated current, of rated power: small low-voltage machines reach 0.4 (yang2022: 0.41 at its 40 A rms)
+SPIN = 4.0               # growth exponent of the pulses' torque on a rotor a pulse pair may reach (e^4 = 55x)
+
+
+def _u_lin(d: dict, m) -> float:
+    u_dc = d["converter"]["u_dc"]
+    return u_dc / (2 * math.cos(math.pi / 10)) if m.phases == 5 else u_dc / math.sqrt(3)
+
+
+def top_speed(m, u: float, T: float, i_d: float = 0.0) -> float:
+    """The mechanical speed (rad/s) at which the voltage reaches u with the
+    q current for torque T (and i_d), in steady state."""
+    k = 0.5 * m.phases * m.pole_pairs
+    i_q = abs(T) / (k * (m.psi_f + (m.L_d - m.L_q) * i_d)) if m.psi_f + (m.L_d - m.L_q) * i_d > 0 else math.inf
+    if not math.isfinite(i_q):
+        return 0.0
+    # (R i_q + w psi_d)^2 + (w L_q i_q - R i_d)^2 = u^2, psi_d = psi_f + L_d i_d: a quadratic in w
+    psi_d = m.psi_f + m.L_d * i_d
+    a = psi_d ** 2 + (m.L_q * i_q) ** 2
+    b = 2 * (m.R_s * i_q * psi_d - m.L_q * i_q * m.R_s * i_d)
+    c = (m.R_s * i_q) ** 2 + (m.R_s * i_d) ** 2 - u ** 2
+    disc = b * b - 4 * a * c
+    if a <= 0 or disc < 0:
+        return 0.0
+    return max((-b + math.sqrt(disc)) / (2 * a), 0.0) / m.pole_pairs
+
+
+def warnings_of(d: dict, m) -> list[str]:
+    """The warning lines of a validated scenario (data d, machine m)."""
+    out = []
+    ctl = d["controller"]
+    u_lin = _u_lin(d, m)
+    w_e_rated = m.pole_pairs * m.w_m_rated
+
+    # plausibility
+    if m.R_s > 0 and not TAU_E[0] <= m.L_d / m.R_s <= TAU_E[1]:
+        out.append(f"machine.electrical.L_d: L_d / R_s = {m.L_d / m.R_s:.3g} s is outside {TAU_E[0]:g}..{TAU_E[1]:g} s, "
+                   "unusual for a PMSM: check the units (H, not mH) of L_d, L_q and R_s (ohm)")
+    tau_m = m.J * m.w_m_rated / m.T_rated
+    if not TAU_M[0] <= tau_m <= TAU_M[1]:
+        out.append(f"machine.mechanical.J: J w_rated / T_rated = {tau_m:.3g} s to rated speed at rated torque is outside "
+                   f"{TAU_M[0]:g}..{TAU_M[1]:g} s: check J's unit (kg m^2)")
+    emf = w_e_rated * m.psi_f
+    if emf > EMF_PER_LINK * u_lin:
+        out.append(f"machine.electrical.psi_f: the back-EMF at rated speed, {emf:.4g} V, is {emf / u_lin:.3g} x the "
+                   f"{u_lin:.4g} V the link gives: check psi_f (Wb, peak phase flux linkage) and converter.u_dc")
+    k_t = 0.5 * m.phases * m.pole_pairs * m.psi_f * m.i_rated / m.T_rated
+    if m.psi_f > 0 and not K_T[0] <= k_t <= K_T[1]:
+        out.append(f"machine.rated.current: (phases/2) p psi_f i_rated = {k_t:.3g} x the rated torque, outside "
+                   f"{K_T[0]:g}..{K_T[1]:g}: check psi_f (Wb), the rated current (A peak) and torque (N m)")
+    p_rated = m.T_rated * m.w_m_rated
+    loss = 0.5 * m.phases * m.R_s * m.i_rated ** 2
+    if loss > COPPER * p_rated:
+        out.append(f"machine.electrical.R_s: the copper losses at rated current, {loss:.4g} W, are {loss / p_rated:.0%} "
+                   f"of the rated power: check R_s (ohm, per phase)")
+
+    # feasibility of the speed reference
+    if ctl["mode"] == "speed":
+        w_ref = max((abs(v) for v in d["references"]["speed_rpm"][1]), default=0.0)
+        T_load = max((abs(v) for v in d["load"]["torque"][1]), default=0.0) if d["load"]["kind"] in ("torque", "brake") else 0.0
+        T = T_load + m.B * w_ref * 2 * math.pi / 60 + m.T_coulomb
+        w_top = rad_s_to_rpm(top_speed(m, u_lin, T))
+        if not ctl["flux_weakening"] and w_ref > 1.02 * w_top:
+            out.append(f"references.speed_rpm: {w_ref:.5g} rpm is beyond the {w_top:.5g} rpm the {d['converter']['u_dc']:g} V link "
+                       f"allows at {T:.3g} N m without flux weakening (controller.flux_weakening = false): the speed will not be reached")
+        elif ctl["flux_weakening"]:
+            w_fw = rad_s_to_rpm(top_speed(m, u_lin, T, -ctl["i_max"] * 0.9)) if m.psi_f > m.L_d * ctl["i_max"] * 0.9 else math.inf
+            if w_ref > 1.02 * max(w_fw, w_top):
+                out.append(f"references.speed_rpm: {w_ref:.5g} rpm is beyond the {max(w_fw, w_top):.5g} rpm flux weakening reaches "
+                           f"at {T:.3g} N m with {0.9 * ctl['i_max']:.4g} A of d current: the speed will not be reached")
+
+    # polarity detection
+    pol = d.get("polarity", {})
+    if ctl["angle"] in ("hfi", "blend") and pol.get("enabled") and ctl["mode"] in ("current", "speed"):
+        if m.magnetic["model"] == "linear":
+            out.append(f"polarity.enabled: polarity detection measures the d axis's saturation asymmetry, and {m.name}'s "
+                       "magnetics are linear: the drive will refuse to start sensorless (stop reason polarity_undetermined); "
+                       "give [magnetic] its saturation, or start at a known angle (polarity.enabled = false)")
+        elif pol.get("i_pulse") and pol.get("t_pulse") and m.psi_f > 0:
+            lam = math.sqrt(0.5 * m.phases * m.pole_pairs ** 2 * m.psi_f * pol["i_pulse"] / m.J)
+            if lam * 2 * pol["t_pulse"] > SPIN:
+                out.append(f"polarity.t_pulse: the rotor is light for its pulses: {pol['i_pulse']:.3g} A a few degrees off the "
+                           f"axis spins it up within {SPIN / lam:.3g} s, shorter than a pulse pair ({2 * pol['t_pulse']:.3g} s); "
+                           "the detection will likely refuse (stop reason polarity_undetermined)")
+    return out
+
+
+def ideal_hardware(d: dict) -> list[str]:
+    """What the scenario's hardware leaves out, named in the run's summary."""
+    conv, sen, ctl = d["converter"], d["sensors"], d["controller"]
+    out = []
+    if conv["kind"] == "inverter" and conv["t_dead"] == 0:
+        out.append("no dead time")
+    if conv["inverter"] == "averaged":
+        out.append("averaged inverter (no switching ripple)")
+    if sen["noise_i"] == 0:
+        out.append("no current-sensor noise")
+    if sen["adc_bits"] == 0:
+        out.append("no ADC quantization")
+    if ctl["angle"] == "encoder" and sen["encoder_bits"] == 0:
+        out.append("an ideal encoder")
+    return out
