@@ -75,6 +75,7 @@ def no_run(monkeypatch):
     ("401-digit profile time", BASE.replace("i_q = 5.0", f"i_q = [[{BIG}, 1.0]]"), "references.i_q[0]"),
     ("-401-digit float field", BASE + f"bandwidth = -{BIG}\n", "load.bandwidth"),
     ("5000-digit integer", BASE.replace("duration = 0.05", "duration = 1" + "0" * 5000), "toml"),
+    ("machine file name of 5000 bytes", BASE.replace('machine = "yang2022"', f'machine = "{"m" * 5000}.toml"'), "machine"),
     ("5000-segment dotted key", BASE + ".".join(["a"] * 5000) + " = 1\n", "load.a"),
     ("5000-segment table header", BASE + "[" + ".".join(["t"] * 5000) + "]\n", "t"),
     ("tiny top speed (smo)", BASE.replace('"encoder"', '"smo"') + "[observer]\ntop_speed_rpm = 5e-324\n", "observer.top_speed_rpm"),

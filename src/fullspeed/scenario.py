@@ -175,7 +175,7 @@ def scenario_names() -> list[str]:
 def _machine_of(raw, source) -> Machine:
     if isinstance(raw, str) and raw.endswith(".toml"):   # a machine file, beside the scenario first
         p = Path(raw)
-        if not p.is_absolute() and source and (Path(source).parent / p).is_file():
+        if not p.is_absolute() and source and path_kind(Path(source).parent / p) == "file":
             p = Path(source).parent / p
         return machine_from_dict(read_toml(p, "machine"), str(p))
     if isinstance(raw, str):
