@@ -1,11 +1,15 @@
 """fullspeed's benchmarks in one command: wall time against motulator, the
-drive step's instructions per control step, and the Cortex-M4F build.
+drive step's instructions per control step, the Cortex-M4F build, and the
+drive step run on an emulated Cortex-M4F (processor in the loop: per mode
+the target's instructions per step, stack, RAM and the replay's largest
+difference from the host; the loop closed through the emulator).
 
 Each part runs on its own and skips, saying why, where this machine lacks
 what it needs (a Python >= 3.12 for motulator, valgrind, the ARM
-toolchain). The report is printed and written as JSON to --out.
+toolchain, QEMU). The report is printed, and written to --out as JSON
+(bench.json) beside the printout (bench.txt).
 
-Usage: python bench/run.py [--repeat N] [--steps N] [--out DIR] [--only wall,instructions,firmware]
+Usage: python bench/run.py [--repeat N] [--steps N] [--out DIR] [--only wall,instructions,firmware,pil]
 """
 from __future__ import annotations
 
@@ -19,9 +23,10 @@ sys.path.insert(0, str(HERE))
 
 import firmware  # noqa: E402
 import instructions  # noqa: E402
+import pil  # noqa: E402
 import wall  # noqa: E402
 
-PARTS = ("wall", "instructions", "firmware")
+PARTS = ("wall", "instructions", "firmware", "pil")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -38,7 +43,7 @@ def main(argv: list[str] | None = None) -> int:
             f"--repeat = {a.repeat}, --steps = {a.steps}: must be >= 1"
         print(what, file=sys.stderr)
         return 2
-    report, status = {}, 0
+    report, status, texts = {}, 0, []
     a.out.mkdir(parents=True, exist_ok=True)
     for part in parts:
         if part == "wall":
@@ -47,14 +52,19 @@ def main(argv: list[str] | None = None) -> int:
         elif part == "instructions":
             rep = instructions.instructions_report(steps=a.steps)
             text = instructions.format_report(rep)
-        else:
+        elif part == "firmware":
             rep = firmware.firmware_report()
             text = firmware.format_report(rep)
+        else:
+            rep = pil.pil_report()
+            text = pil.format_report(rep)
         print(text + "\n", flush=True)
+        texts.append(text)
         report[part] = rep
         if rep.get("status") == "fail":
             status = 1
         (a.out / "bench.json").write_text(json.dumps(report, indent=2, default=str))
+        (a.out / "bench.txt").write_text("\n\n".join(texts) + "\n")
     print(f"written: {a.out / 'bench.json'}")
     return status
 

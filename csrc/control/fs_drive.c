@@ -101,9 +101,14 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     if (!drv) return FS_ERR_NULL;
     drv->fail = NULL;
     if (!cfg) REFUSE("config", FS_ERR_NULL);
+    if (cfg->config_size != 0u && cfg->config_size != (unsigned int)sizeof(fs_drive_config)) REFUSE("config_size", FS_ERR_PARAM);
     fs_status st = drive_check_fields(cfg, &drv->fail);
     if (st != FS_OK) return st;
     if (cfg->phases != 3 && cfg->phases != 5) REFUSE("phases", FS_ERR_PARAM);
+    /* what this build leaves out (fs_drive.h, FS_WITH_*) */
+    if (!FS_WITH_FIVE_PHASE && cfg->phases == 5) REFUSE("phases", FS_ERR_MODE);
+    if (!FS_WITH_SWVI && cfg->angle_source == FS_ANGLE_SWVI) REFUSE("angle_source", FS_ERR_MODE);
+    if (!FS_WITH_IMC && cfg->converter == FS_CONV_IMC) REFUSE("converter", FS_ERR_MODE);
     if (cfg->mode < FS_MODE_OFF || cfg->mode > FS_MODE_SPEED) REFUSE("mode", FS_ERR_MODE);
     if (cfg->angle_source < FS_ANGLE_ENCODER || cfg->angle_source > FS_ANGLE_SWVI) REFUSE("angle_source", FS_ERR_MODE);
     if (!(cfg->T_pwm >= cfg->Ts)) REFUSE("T_pwm", FS_ERR_TS);
@@ -436,14 +441,14 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, float g_w
  * five phases). */
 static fs_ab drive_clarke(const fs_drive_config *c, const float i_ph[])
 {
-    if (c->phases == 5) return fs_vsd5_forward(i_ph).ab;
+    if (drive_five(c)) return fs_vsd5_forward(i_ph).ab;
     return fs_clarke(i_ph[0], i_ph[1], i_ph[2]);
 }
 
 /* The largest voltage the modulator realises without distortion. */
 static float drive_u_lin(const fs_drive_config *c, float u_dc)
 {
-    return c->phases == 5 ? u_dc * 0.5257311f : u_dc * 0.5773503f;   /* 1/(2 cos(pi/10)), 1/sqrt(3) */
+    return drive_five(c) ? u_dc * 0.5257311f : u_dc * 0.5773503f;   /* 1/(2 cos(pi/10)), 1/sqrt(3) */
 }
 
 /* Duties for the reference (fundamental plus carrier u_inj), dead-time
@@ -459,7 +464,7 @@ static bool drive_modulate(const fs_drive *drv, const fs_drive_in *in, float u_d
     }
     u_ref.alpha += u_inj.alpha;
     u_ref.beta += u_inj.beta;
-    bool over = c->phases == 5 ? fs_pwm5(u_ref, u_dc, duty, u_f) : fs_svpwm(u_ref, u_dc, duty, u_f);
+    bool over = drive_five(c) ? fs_pwm5(u_ref, u_dc, duty, u_f) : fs_svpwm(u_ref, u_dc, duty, u_f);
     dead_time_comp(c, in->i_ph, duty);
     u_f->alpha -= u_inj.alpha;   /* the fundamental part */
     u_f->beta -= u_inj.beta;

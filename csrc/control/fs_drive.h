@@ -22,6 +22,61 @@
  * link, or an indirect matrix converter (zou2021, fs_imc.h) on the sampled
  * input voltages: the rectifier stage's intervals and, for the inverter
  * stage, the period mean of the virtual dc link in place of u_dc.
+ *
+ * Integration contract (what a firmware must do; firmware/drive_app.c does it
+ * for a board behind firmware/board.h; README "On a microcontroller"):
+ *
+ * Configuration. `fullspeed export SCENARIO --out DIR` writes the
+ *   fs_drive_config a simulation used as C source; it carries config_size,
+ *   and fs_drive_init refuses a configuration written for another layout.
+ *   The gains are designed inside fs_drive_init from the machine's
+ *   parameters, so the firmware computes what the simulator computed.
+ * Sampling. Once per control period Ts, at the carrier's peak of a
+ *   centre-aligned PWM (all poles on the low rail, the zero vector in which
+ *   low-side shunts carry the phase currents); with double sampling
+ *   (Ts = T_pwm / 2) also at the valley, which needs in-line current sensors.
+ *   At that instant: i_ph[k], A, positive flowing from the inverter into the
+ *   machine's terminal k, offset-corrected (measure the ADC's zero with the
+ *   PWM off); u_dc, V; theta_m_enc, mechanical rad, any range, 0 when the
+ *   rotor's d axis (the magnet's north pole) is on phase a's axis (the
+ *   encoder's zero offset is the firmware's to subtract; theta_e = p theta_m).
+ * Duties. out.duty[k] in [0, 1] is the fraction of the carrier period that
+ *   leg k's high-side switch is on (its pole's mean voltage is
+ *   (duty - 1/2) u_dc about the link's midpoint); write duty x period to the
+ *   compare registers with preload, so they take effect at the next update
+ *   event: the drive compensates that one-period delay (config delay = 1;
+ *   delay = 0 assumes they act at once, for idealised runs only). The
+ *   hardware dead time is the firmware's; t_dead_comp compensates it.
+ * Protection. The drive limits its current references to i_max and its
+ *   voltage to the modulator's hexagon, refuses a bad configuration (naming
+ *   the field), and watches the estimator: out.lock_lost is latched when lock
+ *   is lost (after lock_retries recoveries, if configured). It does NOT trip
+ *   on overcurrent (i_trip lives in the simulator, not here), on dc-link
+ *   over- or under-voltage, temperature, or a failed sensor, and does not
+ *   check its inputs for NaN: the firmware turns the PWM off on those, and on
+ *   lock_lost, within the same interrupt.
+ * Start-up. fs_drive_init (the PWM off), measure the current offsets, enable
+ *   the PWM (bootstrap charged) and call fs_drive_step from the next update
+ *   interrupt on, with the drive's state as fs_drive_init (or fs_drive_reset)
+ *   left it. in.sensorless = 1 from the first step with the injection
+ *   sources (HFI, blend: the polarity detection runs first, rotor at
+ *   standstill, ~0.1 s of d-current pulses), the square wave, or the SMO with
+ *   an I/f start; with the SMO alone, 0 (the encoder) until the speed is
+ *   above the observer's valid speed, then 1. After the PWM was off,
+ *   fs_drive_reset before stepping again (the sequence starts over).
+ * Timing and re-entrancy. fs_drive_step must complete within Ts of its
+ *   sampling instant, before the next update event. On a Cortex-M4F at
+ *   -O2 a step takes about 1,700-3,000 instructions, 4,400 at most (the
+ *   injection and blend stages): bench/pil.py measures it per mode. It
+ *   touches only *drv, *in and *out (no globals, no heap): instances are
+ *   independent, one step may run per instance at a time, and
+ *   fs_drive_init, fs_drive_reset and fs_drive_step on one instance must not
+ *   interrupt each other. It uses the FPU (lazy stacking keeps an interrupt
+ *   that does correct).
+ * Memory. sizeof(fs_drive) is about 3.4 KB (bench/pil.py reports the
+ *   target's; a 64-bit host's may be 8 B more: one pointer); its stack is
+ *   under 600 B (bench/pil.py: the static call graph and the measured
+ *   high-water mark).
  */
 #ifndef FS_DRIVE_H
 #define FS_DRIVE_H
@@ -42,6 +97,26 @@
 #include "fs_swvi.h"
 #include "fs_vsd.h"
 #include "fs_types.h"
+
+/* Compile-time options: a firmware leaves out what it does not use by
+ * defining one to 0 for every file of csrc/control (-DFS_WITH_IMC=0); the
+ * code and the sub-blocks behind it are then not linked, and fs_drive_init
+ * refuses a configuration that needs them (FS_ERR_MODE, drv->fail naming
+ * phases, angle_source or converter). The structs keep every field, so a
+ * configuration is the same bytes whatever the options.
+ *   FS_WITH_IMC         the indirect matrix converter (fs_imc.h)
+ *   FS_WITH_FIVE_PHASE  five phases (fs_vsd.h, fs_pwm5.h)
+ *   FS_WITH_SWVI        square-wave injection (fs_swvi.h)
+ * A three-phase inverter drive on the blend with flux weakening needs none. */
+#ifndef FS_WITH_IMC
+#define FS_WITH_IMC 1
+#endif
+#ifndef FS_WITH_FIVE_PHASE
+#define FS_WITH_FIVE_PHASE 1
+#endif
+#ifndef FS_WITH_SWVI
+#define FS_WITH_SWVI 1
+#endif
 
 typedef enum {
     FS_MODE_OFF = 0,         /* duties 0.5, zero voltage */
@@ -98,6 +173,11 @@ typedef enum {
 } fs_drive_stage;
 
 typedef struct {
+    /* sizeof(fs_drive_config) as the writer of this configuration saw it:
+     * `fullspeed export` and the simulator set it, and fs_drive_init refuses
+     * a configuration whose size differs from the library's (a header and a
+     * library from different versions); 0: not checked (hand-written code) */
+    unsigned int config_size;
     int phases;              /* 3, or 5: the fundamental plane of the VSD, nearest-four-vector PWM */
     int mode;                /* fs_drive_mode */
     int angle_source;        /* fs_angle_source */

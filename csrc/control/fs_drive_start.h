@@ -21,9 +21,13 @@ static inline bool drive_injects(const fs_drive_config *c)
     return c->angle_source == FS_ANGLE_HFI || c->angle_source == FS_ANGLE_BLEND;
 }
 
-static inline bool drive_square(const fs_drive_config *c) { return c->angle_source == FS_ANGLE_SWVI; }
+/* With an option off (fs_drive.h, FS_WITH_*) the predicate is constant false:
+ * the compiler drops the code it guards and the linker its sub-blocks. */
+static inline bool drive_square(const fs_drive_config *c) { return FS_WITH_SWVI && c->angle_source == FS_ANGLE_SWVI; }
 
-static inline bool drive_imc(const fs_drive_config *c) { return c->converter == FS_CONV_IMC; }
+static inline bool drive_imc(const fs_drive_config *c) { return FS_WITH_IMC && c->converter == FS_CONV_IMC; }
+
+static inline bool drive_five(const fs_drive_config *c) { return FS_WITH_FIVE_PHASE && c->phases == 5; }
 
 /* zou2021 PART_2: the depth controller runs in speed mode with flux weakening. */
 static inline bool drive_imc_depth(const fs_drive_config *c)

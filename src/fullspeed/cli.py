@@ -1,4 +1,4 @@
-"""Command line: fullspeed run | list | sweep | reproduce | calibrate.
+"""Command line: fullspeed run | list | sweep | reproduce | calibrate | export.
 
 Exit status: 0 done; 1 a run that stopped (a protection, lost lock, an
 interrupt during the simulation) or a sweep with points not run; 2 bad input
@@ -212,6 +212,15 @@ def _cmd_calibrate(args) -> int:
     return 0
 
 
+def _cmd_export(args) -> int:
+    from .export import export
+
+    paths = export(args.scenario, args.out, args.name)
+    print(f"wrote {' and '.join(str(p) for p in paths)}: the fs_drive_config of {args.scenario} "
+          f"(compile the .c with csrc/control; fs_drive_init(&drive, &{args.name}))")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="fullspeed", description="Wide-speed-range sensorless PMSM drives")
     ap.add_argument("--debug", action="store_true", help="show tracebacks")
@@ -250,6 +259,11 @@ def main(argv: list[str] | None = None) -> int:
     cal.add_argument("--points", type=int, default=17)
     cal.add_argument("--out", help="TOML file (default out/<machine>-xsat.toml)")
     cal.set_defaults(func=_cmd_calibrate)
+    ex = sub.add_parser("export", help="write the fs_drive_config a scenario's simulation uses as C source for a firmware")
+    ex.add_argument("scenario", help="catalog name or TOML file")
+    ex.add_argument("--out", required=True, help="output folder: <name>.h and <name>.c are written there")
+    ex.add_argument("--name", default="fs_config", help="the C constant and the files' name (default fs_config)")
+    ex.set_defaults(func=_cmd_export)
     args = ap.parse_args(argv)
     try:
         return args.func(args)

@@ -74,9 +74,9 @@ SCENARIO = {
         "k": NONNEG(0.0, hi=1e6, doc="V; 0: margin x the bound of eq. (18)"),
         "margin": F(1.5, lo=1.0, hi=100.0, lo_open=True),
         "delta": NONNEG(0.0, hi=1e5, doc="A; floored at k Ts / L_d"),
-        "cutoff_min_rpm": POS(20.0, hi=1e6, doc="floor of the adaptive filter's cutoff, as a mechanical speed"),
+        "cutoff_min_rpm": POS(None, hi=1e6, doc="floor of the adaptive filter's cutoff, as a mechanical speed; default 1/8 of the lower blending speed (yang2022: 20 rpm)"),
         "bw_pll": POS(None, hi=1e6, doc="rad/s; default from the machine's bench"),
-        "valid_rpm": NONNEG(100.0, hi=1e6),
+        "valid_rpm": NONNEG(None, hi=1e6, doc="the observer's estimate is trusted above this speed; default 5/8 of the lower blending speed (yang2022: 100 rpm)"),
         "top_speed_rpm": POS(None, hi=1e6, doc="for the gain bound; default 1.5 x rated"),
         "lag": C("exact", "paper", default="exact"),
         # how the sensorless drive starts: on the encoder until `handover`, or
@@ -239,6 +239,11 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
             notes["observer.bw_pll"] = dz.design_observer_pll(dz.machine_values(m), rpm_to_rad_s(band["lower_rpm"].value),
                                                               ctl["bw_speed"], ctl["bw_current"])
         obs["bw_pll"] = notes["observer.bw_pll"].value
+    for key, share in (("valid_rpm", 0.625), ("cutoff_min_rpm", 0.125)):
+        if obs[key] is None:   # where the observer is trusted, and its filter's floor, against the band it blends in
+            obs[key] = share * band["lower_rpm"].value
+            notes[f"observer.{key}"] = dz.Value(obs[key], "rpm", f"{share:g} x the lower blending speed (yang2022: "
+                                                f"{share * 160:g} rpm of 160): trusted inside the band, filtering below it")
     if ctl["angle"] == "smo" and "bw_speed" not in data.get("controller", {}):
         # the speed comes from the observer's PLL: keep its lag (a double pole)
         # small at the speed loop's crossover, as the bench's encoder PLL does

@@ -160,6 +160,7 @@ def build_config(sc: Scenario):
     cfg.w_m0 = rpm_to_rad_s(d["initial"]["speed_rpm"])
 
     dc = cfg.drive
+    dc.config_size = ffi.sizeof("fs_drive_config")   # fs_drive_init checks it against the library's
     dc.phases = m.phases
     dc.mode, dc.angle_source = MODES[ctl["mode"]], ANGLES[ctl["angle"]]
     dc.Ts, dc.T_pwm, dc.delay = Ts, inv.T_pwm, float(cfg.delay)

@@ -57,7 +57,6 @@ def xcomp_3ph(out: Path) -> Measurement:
 NOT_YET.update({
     "B-LOCK": "the loss-of-lock campaign is not built yet (issue 21)",
     "B-IDENT": "the identification sequence is not built yet (issue 25)",
-    "B-PIL": "the processor-in-the-loop replay on the emulated Cortex-M4F is not built yet (issue 23)",
     "B-THERMAL": "the plant has no thermal model yet (issue 26)",
 })
 

@@ -1,0 +1,78 @@
+#include "drive_app.h"
+#include "board.h"
+
+#include <math.h>
+
+int app_init(drive_app *app, const fs_drive_config *cfg, const app_config *board)
+{
+    board_pwm(false);
+    app->state = APP_STOPPED;
+    app->cfg = *board;
+    app->in = (fs_drive_in){0};
+    app->w_m_ref = 0.0f;
+    app->sensorless = 0;
+    return (int)fs_drive_init(&app->drive, cfg);
+}
+
+void app_calibrate(drive_app *app, int n)
+{
+    float sum[FS_PHASES_MAX] = {0};
+    board_sample s;
+    for (int j = 0; j < n; ++j) {
+        board_read(&s);   /* a real board waits for the next conversion here */
+        for (int k = 0; k < FS_PHASES_MAX; ++k) sum[k] += (float)s.i_ph[k];
+    }
+    for (int k = 0; k < FS_PHASES_MAX; ++k) app->cfg.i_zero[k] = n > 0 ? sum[k] / (float)n : 0.0f;
+}
+
+void app_start(drive_app *app)
+{
+    fs_drive_reset(&app->drive);   /* the sequence starts over: polarity detection, injection, ... */
+    app->state = APP_RUN;
+    board_pwm(true);
+}
+
+void app_stop(drive_app *app)
+{
+    board_pwm(false);
+    app->state = APP_STOPPED;
+}
+
+static void app_fault(drive_app *app, app_state why)
+{
+    board_pwm(false);   /* first: the switches open */
+    app->state = why;
+}
+
+void app_pwm_isr(drive_app *app)
+{
+    const app_config *c = &app->cfg;
+    const int n = app->drive.cfg.phases;
+    board_sample s;
+    board_read(&s);
+    float i_peak = 0.0f;
+    for (int k = 0; k < n; ++k) {
+        app->in.i_ph[k] = ((float)s.i_ph[k] - c->i_zero[k]) * c->i_gain;
+        i_peak = fmaxf(i_peak, fabsf(app->in.i_ph[k]));
+    }
+    app->in.u_dc = (float)s.u_dc * c->u_gain;
+    float th = (float)s.enc * (6.2831853f / c->enc_counts) - c->enc_offset;
+    app->in.theta_m_enc = th - 6.2831853f * floorf((th + 3.1415927f) * 0.15915494f);   /* wrapped to [-pi, pi) */
+    app->in.w_m_ref = app->w_m_ref;
+    app->in.sensorless = app->sensorless;
+    if (app->state != APP_RUN) return;
+    if (i_peak > c->i_trip) {
+        app_fault(app, APP_FAULT_OVERCURRENT);
+        return;
+    }
+    if (app->in.u_dc < c->u_dc_min || app->in.u_dc > c->u_dc_max) {
+        app_fault(app, app->in.u_dc < c->u_dc_min ? APP_FAULT_UNDERVOLTAGE : APP_FAULT_OVERVOLTAGE);
+        return;
+    }
+    fs_drive_step(&app->drive, &app->in, &app->out);
+    if (app->out.lock_lost) {   /* recovery, when configured, has run out of retries */
+        app_fault(app, APP_FAULT_LOCK);
+        return;
+    }
+    board_set_duty(app->out.duty, n);
+}

@@ -1,0 +1,191 @@
+"""Designed defaults (fullspeed.design), the warnings a scenario says out
+loud (fullspeed.checks), and polarity detection that refuses what it cannot
+tell (issue 21)."""
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from fullspeed import design as dz
+from fullspeed import zoo
+from fullspeed.machines import load_machine, machine_from_dict
+from fullspeed.scenario import load_scenario, scenario_from_dict
+from fullspeed.sim import simulate
+
+# a 48 V machine given by its datasheet alone (the new user's trial)
+DATASHEET = {
+    "name": "my48", "kind": "ipmsm", "phases": 3, "pole_pairs": 4,
+    "electrical": {"R_s": 0.05, "L_d": 0.3e-3, "L_q": 0.8e-3, "psi_f": 0.02},
+    "mechanical": {"J": 5e-4},
+    "rated": {"torque": 3.0, "current": 30.0, "speed_rpm": 3000.0},
+    "bench": {"u_dc": 48.0, "f_pwm": 20000.0, "t_dead": 0.5e-6, "noise_i": 0.05},
+}
+
+
+def scenario(machine, **sections):
+    d = {"name": "t", "duration": 0.5, "machine": machine,
+         "controller": {"mode": "speed", "angle": "blend", "flux_weakening": True}}
+    d.update(sections)
+    return scenario_from_dict(d)
+
+
+def test_a_datasheet_machine_gets_every_setting_designed_with_its_reason():
+    sc = scenario(DATASHEET)
+    m, d = sc.machine, sc.data
+    Ts = 1 / 20e3
+    assert m.bench["i_max"] == pytest.approx(45.0) and m.bench["i_trip"] == pytest.approx(56.25)
+    assert m.bench["adc_range"] >= m.bench["i_trip"]
+    assert d["controller"]["bw_current"] == pytest.approx(2 * math.pi / (20 * Ts))
+    assert d["injection"]["f_h"] == pytest.approx(2000.0)   # f_s / 10: twice the current loop's bandwidth
+    assert 2 * math.pi * d["injection"]["f_h"] >= 2 * d["controller"]["bw_current"] * 0.999
+    # the carrier's negative-sequence current is 35 ADC steps, eq. (24)
+    lsb = 2 * m.bench["adc_range"] / 2 ** 12
+    _, i_n = dz.carrier_currents(d["injection"]["u_h"], 2 * math.pi * d["injection"]["f_h"], m.L_d, m.L_q)
+    assert i_n == pytest.approx(35 * lsb, rel=1e-6)
+    # the band within 5..30 % of rated speed, upper 1.6 x lower, under the carrier's speed range
+    lo, hi = d["blending"]["lower_rpm"], d["blending"]["upper_rpm"]
+    assert 0.05 * 3000 - 1e-9 <= lo <= 0.3 * 3000 and hi == pytest.approx(1.6 * lo)
+    assert hi * 4 / 60 <= d["injection"]["f_h"] / 10 + 1e-9
+    for key in ("controller.bw_current", "controller.i_max", "injection.u_h", "injection.f_h", "blending.lower_rpm",
+                "observer.bw_pll", "observer.valid_rpm"):
+        v = sc.design[key]
+        assert not v.given and len(v.reason.split()) >= 4, key
+
+
+def test_the_catalog_keeps_its_values():
+    sc = load_scenario("yang2022-blend-accdec")
+    d = sc.data
+    assert (d["injection"]["u_h"], d["injection"]["f_h"]) == (5.0, 1000.0)
+    assert (d["blending"]["lower_rpm"], d["blending"]["upper_rpm"]) == (160.0, 260.0)
+    assert (d["controller"]["bw_current"], d["observer"]["bw_pll"]) == (3000.0, 250.0)
+    assert (d["observer"]["valid_rpm"], d["observer"]["cutoff_min_rpm"]) == (100.0, 20.0)
+    assert all(v.given for k, v in sc.machine.design.items())
+
+
+def test_a_scenario_overrides_the_design():
+    sc = scenario(DATASHEET, injection={"u_h": 5.0}, blending={"lower_rpm": 100.0, "upper_rpm": 200.0})
+    assert sc.data["injection"]["u_h"] == 5.0 and sc.data["blending"]["lower_rpm"] == 100.0
+    assert sc.design["blending.lower_rpm"].given
+
+
+def test_the_old_blending_names_are_refused_with_the_new_one():
+    from fullspeed.errors import ConfigError
+    with pytest.raises(ConfigError, match="blending.lower_rpm"):
+        machine_from_dict({**DATASHEET, "blending": {"omega_lower_rpm": 100.0}})
+
+
+def test_design_command_prints_each_value_and_its_reason(tmp_path):
+    f = tmp_path / "my48.toml"
+    f.write_text(json_to_toml(DATASHEET))
+    p = subprocess.run([sys.executable, "-m", "fullspeed", "design", str(f)], capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    for key in ("bench.i_max", "injection.u_h", "injection.f_h", "blending.lower_rpm", "observer.bw_pll"):
+        line = next(ln for ln in p.stdout.splitlines() if key in ln)
+        assert "designed:" in line
+    assert "45 A" in next(ln for ln in p.stdout.splitlines() if "bench.i_max" in ln)
+    # linear magnetics: polarity detection cannot work, and the command says so
+    assert "polarity.enabled" in p.stderr and "linear" in p.stderr
+
+
+def json_to_toml(d: dict) -> str:
+    top = [f"{k} = {json.dumps(v)}" for k, v in d.items() if not isinstance(v, dict)]
+    tables = [f"[{k}]\n" + "\n".join(f"{kk} = {json.dumps(vv)}" for kk, vv in v.items()) for k, v in d.items() if isinstance(v, dict)]
+    return "\n".join(top) + "\n" + "\n".join(tables) + "\n"
+
+
+# --- warnings ------------------------------------------------------------------
+
+@pytest.mark.parametrize("change, field", [
+    ({"electrical": {"R_s": 0.05, "L_d": 0.3, "L_q": 0.8, "psi_f": 0.02}}, "machine.electrical.L_d"),   # H for mH
+    ({"mechanical": {"J": 50.0}}, "machine.mechanical.J"),
+    ({"electrical": {"R_s": 0.05, "L_d": 0.3e-3, "L_q": 0.8e-3, "psi_f": 2.0}}, "machine.electrical.psi_f"),
+    ({"electrical": {"R_s": 50.0, "L_d": 0.3e-3, "L_q": 0.8e-3, "psi_f": 0.02}}, "machine.electrical.R_s"),
+])
+def test_implausible_parameters_are_named(change, field):
+    m = {**DATASHEET, **change}
+    sc = scenario_from_dict({"name": "t", "duration": 0.1, "machine": m, "controller": {"mode": "current"}})
+    assert any(w.startswith(field + ":") for w in sc.warnings), sc.warnings
+    clean = scenario_from_dict({"name": "t", "duration": 0.1, "machine": DATASHEET, "controller": {"mode": "current"}})
+    assert not clean.warnings
+
+
+def test_an_unreachable_speed_is_named():
+    refs = {"speed_rpm": 10000.0}
+    no_fw = scenario_from_dict({"name": "t", "duration": 0.1, "machine": DATASHEET, "controller": {"mode": "speed"},
+                                "references": refs})
+    assert any(w.startswith("references.speed_rpm:") and "without flux weakening" in w for w in no_fw.warnings)
+    ok = scenario_from_dict({"name": "t", "duration": 0.1, "machine": DATASHEET, "controller": {"mode": "speed"},
+                             "references": {"speed_rpm": 3000.0}})
+    assert not any(w.startswith("references.") for w in ok.warnings)
+
+
+# --- polarity ----------------------------------------------------------------------
+
+def test_polarity_on_a_linear_machine_is_right_or_refused_at_every_angle():
+    """Linear magnetics: nothing to measure; the drive refuses to start
+    sensorless, and never starts pi off (yang2022's machine made linear)."""
+    for th in range(0, 360, 45):
+        r = simulate("yang2022-polarity", overrides={"machine": {"catalog": "yang2022", "magnetic": {"model": "linear"}}, "duration": 0.5,
+                                                     "initial": {"theta_e_deg": th}})
+        assert r.stop_reason == "polarity_undetermined", (th, r.polarity)
+        assert r.polarity["stage"] == "undetermined" and r.polarity["margin"] < 1.0
+
+
+def test_polarity_on_the_saturating_machine_decides_with_margin():
+    for th in (0, 135, 180, 315):
+        r = simulate("yang2022-polarity", overrides={"initial": {"theta_e_deg": th}})
+        assert r.stop_reason == "done" and r.polarity["margin"] > 2.0, (th, r.polarity)
+        assert abs(np.degrees(r["theta_err"][-1])) < 20.0   # ended on the right pole
+
+
+def test_a_run_that_failed_exits_1_and_says_why(tmp_path):
+    out = tmp_path / "o"
+    p = subprocess.run([sys.executable, "-c",
+                        "import sys; from fullspeed.cli import main; sys.exit(main(['run', sys.argv[1], '--quiet', '--out', sys.argv[2]]))",
+                        str(_linear_polarity(tmp_path)), str(out)], capture_output=True, text=True, timeout=120)
+    assert p.returncode == 1, p.stderr
+    assert "fullspeed: run failed: " in p.stderr and "polarity undetermined" in p.stderr
+    m = json.loads((out / "metrics.json").read_text())
+    assert m["stop_reason"] == "polarity_undetermined" and m["polarity"]["stage"] == "undetermined"
+
+
+def _linear_polarity(tmp_path):
+    f = tmp_path / "lin.toml"
+    f.write_text('name = "lin"\nduration = 0.4\nmachine = { catalog = "yang2022", magnetic = { model = "linear" } }\n'
+                 '[controller]\nmode = "current"\nangle = "hfi"\n[load]\nkind = "speed"\n')
+    return f
+
+
+# --- the zoo ---------------------------------------------------------------------
+
+def test_the_zoo_is_seeded_and_plausible():
+    a, b = zoo.machine(7), zoo.machine(7)
+    assert a == b and zoo.machine(7, seed=1) != a
+    for k in range(20):
+        d = zoo.machine(k)
+        m = machine_from_dict(d)
+        assert 2 <= m.pole_pairs <= 12 and 1.2 <= m.L_q / m.L_d <= 3.5
+        assert 24.0 <= m.bench["u_dc"] <= 700.0 and 8e3 <= m.bench["f_pwm"] <= 20e3
+        assert 100.0 <= d["rated"]["power"] <= 50e3
+        assert (d.get("magnetic") is not None) == (k % 2 == 0)
+        sc = scenario_from_dict({"name": "z", "duration": 0.1, "machine": {"zoo": k},
+                                 "controller": {"mode": "speed", "angle": "blend"}})
+        assert not [w for w in sc.warnings if not w.startswith("polarity.")], sc.warnings
+
+
+@pytest.mark.parametrize("k, outcome", [(1, "refused"), (4, "success")])
+def test_zoo_sample(k, outcome):
+    """Two of the zoo's runs (the whole zoo is claim B-ZOO): a linear machine
+    is refused by the polarity detection, a saturating one runs the whole
+    profile within 15 el.deg."""
+    from fullspeed.papers.zoo import classify
+    r = simulate("beyond-zoo", overrides={"machine": {"zoo": k}})
+    if outcome == "refused":
+        assert r.stop_reason == "polarity_undetermined"
+    else:
+        row = {**r.metrics, "stop_reason": r.stop_reason}
+        assert classify(row) == "success", r.metrics
+        assert r["w_m"].max() > 1.25 * r.scenario.machine.w_m_rated and r["w_m"][-1] < 0

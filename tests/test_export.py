@@ -1,0 +1,154 @@
+"""`fullspeed export`: the exported C configuration is the simulator's, byte for byte.
+
+What could be wrong: a float written with too few digits (one ulp off), a
+field or a nested block left out or out of order, an enum written as the
+wrong constant, a sub-block's table cut short, padding that differs; a
+header that changed since the export compiling silently; a configuration
+from another library version accepted by fs_drive_init. The exported sources
+are compiled with the host cc into one small program that prints the bytes
+of each constant, compared with ffi.buffer of the configuration the
+simulator builds (fullspeed.sim.build_config, the one fs_sim_create hands to
+fs_drive_init).
+"""
+from __future__ import annotations
+
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from fullspeed import cli
+from fullspeed.export import c_float, export
+from fullspeed.scenario import load_scenario
+from fullspeed.sim import build_config, ffi, lib
+
+ROOT = Path(__file__).resolve().parents[1]
+CONTROL = ROOT / "csrc" / "control"
+CC = shutil.which("cc") or shutil.which("gcc")
+needs_cc = pytest.mark.skipif(CC is None, reason="no host C compiler (cc) found")
+
+# one scenario per angle source and converter: SMO, HFI, blend, square wave
+# (three and five phases), the matrix converter, the encoder
+SCENARIOS = ["yang2022-smo-ramp", "yang2022-hfi-iqstep", "beyond-full-range", "beyond-swvi-3ph",
+             "yu2022-seq-dyn", "zou2021-experiment", "yang2022-encoder-speedstep"]
+
+
+def _compile_and_dump(tmp: Path, names: dict[str, str], include: Path = CONTROL) -> dict[str, bytes]:
+    """Compile the exports named {scenario: C name} with a main printing each constant's bytes."""
+    main = ["#include <stdio.h>"] + [f'#include "{n}.h"' for n in names.values()]
+    main += ["static void dump(const char *tag, const void *p, size_t n) {",
+             "    const unsigned char *b = p; printf(\"%s \", tag);",
+             "    for (size_t k = 0; k < n; ++k) printf(\"%02x\", b[k]);",
+             "    printf(\"\\n\");",
+             "}",
+             "int main(void) {"]
+    main += [f'    dump("{s}", &{n}, sizeof {n});' for s, n in names.items()]
+    main += ["    return 0; }"]
+    (tmp / "main.c").write_text("\n".join(main) + "\n")
+    exe = tmp / "dump"
+    srcs = [str(tmp / "main.c")] + [str(tmp / f"{n}.c") for n in names.values()]
+    res = subprocess.run([CC, "-std=c11", "-Wall", "-Werror", f"-I{include}", f"-I{tmp}", *srcs, "-o", str(exe)],
+                         capture_output=True, text=True)
+    if res.returncode != 0:
+        raise AssertionError(res.stderr)
+    out = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout
+    return {ln.split()[0]: bytes.fromhex(ln.split()[1]) for ln in out.splitlines()}
+
+
+@needs_cc
+def test_exported_bytes_equal_the_simulators(tmp_path):
+    names = {s: "cfg_" + s.replace("-", "_") for s in SCENARIOS}
+    for s, n in names.items():
+        export(s, tmp_path, n)
+    dumped = _compile_and_dump(tmp_path, names)
+    for s in SCENARIOS:
+        cfg, _keep = build_config(load_scenario(s))
+        want = bytes(ffi.buffer(ffi.addressof(cfg, "drive")))
+        got = dumped[s]
+        assert len(got) == len(want) == ffi.sizeof("fs_drive_config")
+        diff = [k for k in range(len(want)) if got[k] != want[k]]
+        assert not diff, f"{s}: bytes differ at offsets {diff[:8]}"
+        # the export is not trivially all zeros: the scenario's own values are in it
+        assert cfg.drive.config_size == len(want) and cfg.drive.Ts > 0 and cfg.drive.i_max > 0
+
+
+def test_floats_round_trip_in_float32():
+    vals = ffi.new("float[]", [1e-4, 0.036, 6.5e-5, 2617.99390, 1.0 / 3.0, -0.0, 3.0, 1e-38, 3.4e38])
+    for k in range(len(vals)):
+        text = c_float(vals[k])
+        assert text.endswith("f") and any(c in text for c in ".e")
+        back = ffi.new("float *", float(text[:-1]))[0]
+        assert back == vals[k], text
+
+
+@needs_cc
+def test_a_changed_header_fails_to_compile_naming_the_field(tmp_path):
+    """The exported layout is static-asserted: a field inserted since the export is caught."""
+    export("yang2022-smo-ramp", tmp_path, "fs_config")
+    inc = tmp_path / "control"
+    shutil.copytree(CONTROL, inc)
+    h = inc / "fs_drive.h"
+    text = h.read_text()
+    h.write_text(text.replace("    int mode;                /* fs_drive_mode */", "    float added_later;\n    int mode;", 1))
+    res = subprocess.run([CC, "-std=c11", f"-I{inc}", f"-I{tmp_path}", "-c", str(tmp_path / "fs_config.c"),
+                          "-o", str(tmp_path / "x.o")], capture_output=True, text=True)
+    assert res.returncode != 0
+    assert "fs_drive_config.mode moved" in res.stderr
+
+
+def test_init_refuses_a_config_of_another_size():
+    cfg, _keep = build_config(load_scenario("yang2022-smo-ramp"))
+    drv = ffi.new("fs_drive *")
+    assert lib.fs_drive_init(drv, ffi.addressof(cfg, "drive")) == lib.FS_OK
+    cfg.drive.config_size += 4
+    assert lib.fs_drive_init(drv, ffi.addressof(cfg, "drive")) == lib.FS_ERR_PARAM
+    assert ffi.string(drv.fail) == b"config_size"
+    cfg.drive.config_size = 0   # hand-written: not checked
+    assert lib.fs_drive_init(drv, ffi.addressof(cfg, "drive")) == lib.FS_OK
+
+
+def test_cli_export_and_bad_name(tmp_path, capsys):
+    assert cli.main(["export", "yang2022-hfi-iqstep", "--out", str(tmp_path), "--name", "bench_cfg"]) == 0
+    src = (tmp_path / "bench_cfg.c").read_text()
+    assert "const fs_drive_config bench_cfg = {" in src and ".angle_source = FS_ANGLE_HFI," in src
+    assert "machine yang2022: R_s" in src   # where a value came from
+    assert not list(tmp_path.glob("*.tmp"))
+    assert cli.main(["export", "yang2022-hfi-iqstep", "--out", str(tmp_path), "--name", "../evil"]) == 2
+    assert "--name" in capsys.readouterr().err
+    assert cli.main(["export", "no-such-scenario", "--out", str(tmp_path)]) == 2
+
+
+def test_the_firmware_configuration_is_a_fresh_export(tmp_path):
+    """firmware/fs_config.[ch] is the export of beyond-full-range, not hand-edited and not stale."""
+    export("beyond-full-range", tmp_path, "fs_config")
+    for name in ("fs_config.h", "fs_config.c"):
+        fresh, kept = (tmp_path / name).read_text(), (ROOT / "firmware" / name).read_text()
+        assert kept == fresh, (f"firmware/{name} differs from a fresh export: run "
+                               "`fullspeed export beyond-full-range --out firmware --name fs_config`")
+
+
+@needs_cc
+def test_exported_configs_initialise_and_options_refuse_what_they_leave_out(tmp_path):
+    """The export through the C library end to end: fs_drive_init accepts each exported
+    configuration (config_size included); built with -DFS_WITH_SWVI=0 it refuses the
+    square wave's, naming angle_source, and still accepts the blend's."""
+    names = {"beyond-swvi-3ph": "cfg_swvi", "beyond-full-range": "cfg_blend"}
+    for s, n in names.items():
+        export(s, tmp_path, n)
+    main = ['#include <stdio.h>', '#include "fs_drive.h"'] + [f'#include "{n}.h"' for n in names.values()]
+    main += ["static fs_drive drv;", "int main(void) {"]
+    main += [f'    {{ int st = (int)fs_drive_init(&drv, &{n}); printf("{n} %d %s\\n", st, drv.fail ? drv.fail : "-"); }}'
+             for n in names.values()]
+    main += ["    return 0;", "}"]
+    (tmp_path / "main.c").write_text("\n".join(main) + "\n")
+    srcs = [str(p) for p in sorted(CONTROL.glob("*.c"))] + [str(tmp_path / f"{n}.c") for n in names.values()]
+
+    def run(flags):
+        exe = tmp_path / "init"
+        subprocess.run([CC, "-std=c11", "-O0", *flags, f"-I{CONTROL}", f"-I{tmp_path}", str(tmp_path / "main.c"), *srcs,
+                        "-lm", "-o", str(exe)], check=True, capture_output=True)
+        out = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout
+        return {ln.split()[0]: (int(ln.split()[1]), ln.split()[2]) for ln in out.splitlines()}
+    assert run([]) == {"cfg_swvi": (lib.FS_OK, "-"), "cfg_blend": (lib.FS_OK, "-")}
+    assert run(["-DFS_WITH_SWVI=0"]) == {"cfg_swvi": (lib.FS_ERR_MODE, "angle_source"), "cfg_blend": (lib.FS_OK, "-")}

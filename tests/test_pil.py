@@ -1,0 +1,81 @@
+"""Processor in the loop (bench/pil.py): the drive step on an emulated Cortex-M4F.
+
+What could be wrong: a target that does not run the step at all (outputs
+left at zero would differ, and the instruction count would be tiny), a
+replay fed other inputs than the simulator's (the host's open-loop replay
+must reproduce the closed loop's outputs exactly), a comparison that sees no
+difference (a planted one must be found), struct layouts that differ between
+host and target (static asserts in the target build, sizes checked at run
+time), and a closed loop through the emulator that silently falls back to the
+host's step (the target reports how many steps it ran). Without the cross
+toolchain and QEMU these tests skip, saying what to install.
+"""
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+spec = importlib.util.spec_from_file_location("bench_pil", ROOT / "bench" / "pil.py")
+pil = importlib.util.module_from_spec(spec)
+sys.modules[spec.name] = pil
+spec.loader.exec_module(pil)
+
+TOOLS = pil.tools()
+pytestmark = pytest.mark.skipif(TOOLS is None, reason=f"PIL needs the ARM toolchain and QEMU: {pil.INSTALL_HINT}")
+
+
+@pytest.fixture(scope="module")
+def builds(tmp_path_factory):
+    return pil.build(TOOLS, tmp_path_factory.mktemp("pil"))
+
+
+@pytest.mark.parametrize("mode", list(pil.MODES))
+def test_replay_on_the_target_within_tolerance(builds, mode):
+    r = pil.run_mode(TOOLS, builds, mode)
+    c = r["compare"]
+    assert r["sim_status"] == "done"
+    assert r["host_replay_equals_closed_loop"], "the recorded inputs do not reproduce the simulator's outputs"
+    assert c["steps_target"] == c["steps_host"] > 1000
+    assert c["within"], (f"{mode}: duty {c['max_duty']:.3g}, theta {c['max_theta_e']:.3g}, w {c['max_w_e_rel']:.3g}, "
+                         f"stages {c['stage_mismatches']} (tolerance {pil.TOLERANCE})")
+    ins = r["insns"]
+    # a drive step is a few thousand instructions: not the marking's overhead, not a runaway loop
+    assert 500 < ins["mean"] <= ins["max"] < 20000
+    assert 0 < r["stack_used"] < 4096
+    # the target's RAM for the drive: the host's less at most what an 8-byte pointer adds (drv->fail)
+    assert 0 <= pil._core()[0].sizeof("fs_drive") - r["sizeof_fs_drive"] <= 8
+
+
+def test_a_planted_difference_is_found(builds):
+    rec = pil.record(builds, "encoder", 0.05)
+    host = pil.replay_host(rec)
+    other = host.copy()
+    other["duty"][123, 1] += 2e-3
+    c = pil.compare(rec, host, other)
+    assert not c["within"] and c["first_difference"] == 123 and c["first_fields"] == ["duty"]
+    assert c["max_duty"] == pytest.approx(2e-3, rel=1e-3)
+    assert pil.compare(rec, host, host)["identical_steps"] == len(host)
+
+
+def test_closed_loop_through_the_emulator(builds):
+    """The blend from standstill (polarity, injection, blend, the back-EMF
+    observer) with the controller on the target: the same course as the host's."""
+    r = pil.closed_loop(TOOLS, builds, "blend", 1.2)
+    assert r["steps_target"] == int(round(1.2 / 1e-4))   # every step ran on the target
+    v = pil.loop_verdict(r)
+    assert v["within"], v
+    assert r["stages_target"][:4] == [2, 4, 5, 6]
+    assert r["max_w_m_diff_rpm"] < 5.0 and r["max_theta_err_diff_deg"] < 2.0
+    assert r["insns"]["per_stage"][4]["mean"] > r["insns"]["per_stage"][6]["mean"]   # injection costs more than the SMO alone
+
+
+def test_libm_is_where_target_and_host_part(builds):
+    lm = pil.libm_probe(TOOLS, builds, n=4000)
+    assert lm["x*y+y"]["differ_pct"] == 0.0 and lm["sqrtf"]["differ_pct"] == 0.0   # IEEE arithmetic: identical
+    assert lm["sinf"]["differ_pct"] > 0.0 and all(v["max_ulp"] <= 2 for v in lm.values())
+    assert not [f for f in pil.fused_in_image(TOOLS, builds) if f.startswith("fs_") or f.startswith("drive_")]
