@@ -244,6 +244,9 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
             obs[key] = share * band["lower_rpm"].value
             notes[f"observer.{key}"] = dz.Value(obs[key], "rpm", f"{share:g} x the lower blending speed (yang2022: "
                                                 f"{share * 160:g} rpm of 160): trusted inside the band, filtering below it")
+    if ctl["angle"] in ("smo", "blend") and not obs["cutoff_min_rpm"] > 0:   # the SMO's filter needs a floor
+        raise ConfigError("observer.cutoff_min_rpm", obs["cutoff_min_rpm"], "must be > 0 (the default, 1/8 of the "
+                          f"lower blending speed {band['lower_rpm'].value:g} rpm, is 0): set it", source)
     if ctl["angle"] == "smo" and "bw_speed" not in data.get("controller", {}):
         # the speed comes from the observer's PLL: keep its lag (a double pole)
         # small at the speed loop's crossover, as the bench's encoder PLL does
