@@ -1,5 +1,6 @@
 """fullspeed's benchmarks in one command: wall time against motulator, the
-drive step's instructions per control step, the Cortex-M4F build, and the
+drive step's instructions per control step, the Cortex-M4F build, the
+position estimators against motulator on its own examples, and the
 drive step run on an emulated Cortex-M4F (processor in the loop: per mode
 the target's instructions per step, stack, RAM and the replay's largest
 difference from the host; the loop closed through the emulator).
@@ -9,7 +10,7 @@ what it needs (a Python >= 3.12 for motulator, valgrind, the ARM
 toolchain, QEMU). The report is printed, and written to --out as JSON
 (bench.json) beside the printout (bench.txt).
 
-Usage: python bench/run.py [--repeat N] [--steps N] [--out DIR] [--only wall,instructions,firmware,pil]
+Usage: python bench/run.py [--repeat N] [--steps N] [--out DIR] [--only wall,estimators,instructions,firmware,pil]
 """
 from __future__ import annotations
 
@@ -21,12 +22,13 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
+import estimators  # noqa: E402
 import firmware  # noqa: E402
 import instructions  # noqa: E402
 import pil  # noqa: E402
 import wall  # noqa: E402
 
-PARTS = ("wall", "instructions", "firmware", "pil")
+PARTS = ("wall", "estimators", "instructions", "firmware", "pil")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -49,6 +51,9 @@ def main(argv: list[str] | None = None) -> int:
         if part == "wall":
             rep = wall.wall_report(a.repeat)
             text = wall.format_report(rep)
+        elif part == "estimators":
+            rep = estimators.estimators_report(a.out)
+            text = estimators.format_report(rep)
         elif part == "instructions":
             rep = instructions.instructions_report(steps=a.steps)
             text = instructions.format_report(rep)

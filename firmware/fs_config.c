@@ -7,7 +7,7 @@
 
 /* The layout this configuration was written for: a header that changed since
  * the export fails here, naming the field. */
-_Static_assert(sizeof(fs_drive_config) == 720u, "fs_drive_config: size differs from the exported layout");
+_Static_assert(sizeof(fs_drive_config) == 1528u, "fs_drive_config: size differs from the exported layout");
 _Static_assert(offsetof(fs_drive_config, config_size) == 0u, "fs_drive_config.config_size moved");
 _Static_assert(offsetof(fs_drive_config, phases) == 4u, "fs_drive_config.phases moved");
 _Static_assert(offsetof(fs_drive_config, mode) == 8u, "fs_drive_config.mode moved");
@@ -19,127 +19,143 @@ _Static_assert(offsetof(fs_drive_config, R_s) == 28u, "fs_drive_config.R_s moved
 _Static_assert(offsetof(fs_drive_config, L_d) == 32u, "fs_drive_config.L_d moved");
 _Static_assert(offsetof(fs_drive_config, L_q) == 36u, "fs_drive_config.L_q moved");
 _Static_assert(offsetof(fs_drive_config, psi_f) == 40u, "fs_drive_config.psi_f moved");
-_Static_assert(offsetof(fs_drive_config, pole_pairs) == 44u, "fs_drive_config.pole_pairs moved");
-_Static_assert(offsetof(fs_drive_config, J) == 48u, "fs_drive_config.J moved");
-_Static_assert(offsetof(fs_drive_config, B) == 52u, "fs_drive_config.B moved");
-_Static_assert(offsetof(fs_drive_config, i_max) == 56u, "fs_drive_config.i_max moved");
-_Static_assert(offsetof(fs_drive_config, T_max) == 60u, "fs_drive_config.T_max moved");
-_Static_assert(offsetof(fs_drive_config, bw_current) == 64u, "fs_drive_config.bw_current moved");
-_Static_assert(offsetof(fs_drive_config, bw_speed) == 68u, "fs_drive_config.bw_speed moved");
-_Static_assert(offsetof(fs_drive_config, bw_pll) == 72u, "fs_drive_config.bw_pll moved");
-_Static_assert(offsetof(fs_drive_config, t_dead_comp) == 76u, "fs_drive_config.t_dead_comp moved");
-_Static_assert(offsetof(fs_drive_config, i_dead_band) == 80u, "fs_drive_config.i_dead_band moved");
-_Static_assert(offsetof(fs_drive_config, vf_gain) == 84u, "fs_drive_config.vf_gain moved");
-_Static_assert(offsetof(fs_drive_config, vf_boost) == 88u, "fs_drive_config.vf_boost moved");
-_Static_assert(offsetof(fs_drive_config, smo) == 92u, "fs_drive_config.smo moved");
-_Static_assert(offsetof(fs_drive_config, smo.Ts) == 92u, "fs_drive_config.smo.Ts moved");
-_Static_assert(offsetof(fs_drive_config, smo.R_s) == 96u, "fs_drive_config.smo.R_s moved");
-_Static_assert(offsetof(fs_drive_config, smo.L_d) == 100u, "fs_drive_config.smo.L_d moved");
-_Static_assert(offsetof(fs_drive_config, smo.L_q) == 104u, "fs_drive_config.smo.L_q moved");
-_Static_assert(offsetof(fs_drive_config, smo.psi_f) == 108u, "fs_drive_config.smo.psi_f moved");
-_Static_assert(offsetof(fs_drive_config, smo.w_e_max) == 112u, "fs_drive_config.smo.w_e_max moved");
-_Static_assert(offsetof(fs_drive_config, smo.i_max) == 116u, "fs_drive_config.smo.i_max moved");
-_Static_assert(offsetof(fs_drive_config, smo.k) == 120u, "fs_drive_config.smo.k moved");
-_Static_assert(offsetof(fs_drive_config, smo.margin) == 124u, "fs_drive_config.smo.margin moved");
-_Static_assert(offsetof(fs_drive_config, smo.delta) == 128u, "fs_drive_config.smo.delta moved");
-_Static_assert(offsetof(fs_drive_config, smo.w_c_min) == 132u, "fs_drive_config.smo.w_c_min moved");
-_Static_assert(offsetof(fs_drive_config, smo.bw_pll) == 136u, "fs_drive_config.smo.bw_pll moved");
-_Static_assert(offsetof(fs_drive_config, smo.w_valid) == 140u, "fs_drive_config.smo.w_valid moved");
-_Static_assert(offsetof(fs_drive_config, smo.lag) == 144u, "fs_drive_config.smo.lag moved");
-_Static_assert(offsetof(fs_drive_config, smo.dir_external) == 148u, "fs_drive_config.smo.dir_external moved");
-_Static_assert(offsetof(fs_drive_config, fw_w_e_max) == 152u, "fs_drive_config.fw_w_e_max moved");
-_Static_assert(offsetof(fs_drive_config, fw_gain) == 156u, "fs_drive_config.fw_gain moved");
-_Static_assert(offsetof(fs_drive_config, fw_cutoff) == 160u, "fs_drive_config.fw_cutoff moved");
-_Static_assert(offsetof(fs_drive_config, lock_time) == 164u, "fs_drive_config.lock_time moved");
-_Static_assert(offsetof(fs_drive_config, lock_recover) == 168u, "fs_drive_config.lock_recover moved");
-_Static_assert(offsetof(fs_drive_config, t_recover) == 172u, "fs_drive_config.t_recover moved");
-_Static_assert(offsetof(fs_drive_config, lock_retries) == 176u, "fs_drive_config.lock_retries moved");
-_Static_assert(offsetof(fs_drive_config, i_start) == 180u, "fs_drive_config.i_start moved");
-_Static_assert(offsetof(fs_drive_config, a_start) == 184u, "fs_drive_config.a_start moved");
-_Static_assert(offsetof(fs_drive_config, w_handover) == 188u, "fs_drive_config.w_handover moved");
-_Static_assert(offsetof(fs_drive_config, hfi) == 192u, "fs_drive_config.hfi moved");
-_Static_assert(offsetof(fs_drive_config, hfi.Ts) == 192u, "fs_drive_config.hfi.Ts moved");
-_Static_assert(offsetof(fs_drive_config, hfi.delay) == 196u, "fs_drive_config.hfi.delay moved");
-_Static_assert(offsetof(fs_drive_config, hfi.u_h) == 200u, "fs_drive_config.hfi.u_h moved");
-_Static_assert(offsetof(fs_drive_config, hfi.w_h) == 204u, "fs_drive_config.hfi.w_h moved");
-_Static_assert(offsetof(fs_drive_config, hfi.R_s) == 208u, "fs_drive_config.hfi.R_s moved");
-_Static_assert(offsetof(fs_drive_config, hfi.L_d) == 212u, "fs_drive_config.hfi.L_d moved");
-_Static_assert(offsetof(fs_drive_config, hfi.L_q) == 216u, "fs_drive_config.hfi.L_q moved");
-_Static_assert(offsetof(fs_drive_config, hfi.w_b_p) == 220u, "fs_drive_config.hfi.w_b_p moved");
-_Static_assert(offsetof(fs_drive_config, hfi.w_b_n) == 224u, "fs_drive_config.hfi.w_b_n moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs) == 228u, "fs_drive_config.hfi.obs moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.Ts) == 228u, "fs_drive_config.hfi.obs.Ts moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.J) == 232u, "fs_drive_config.hfi.obs.J moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.B) == 236u, "fs_drive_config.hfi.obs.B moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.pole_pairs) == 240u, "fs_drive_config.hfi.obs.pole_pairs moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.bandwidth) == 244u, "fs_drive_config.hfi.obs.bandwidth moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp) == 248u, "fs_drive_config.hfi.xcomp moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.n) == 248u, "fs_drive_config.hfi.xcomp.n moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.i_q0) == 252u, "fs_drive_config.hfi.xcomp.i_q0 moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.di_q) == 256u, "fs_drive_config.hfi.xcomp.di_q moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.delta) == 260u, "fs_drive_config.hfi.xcomp.delta moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.poly) == 392u, "fs_drive_config.hfi.xcomp.poly moved");
-_Static_assert(offsetof(fs_drive_config, blend) == 408u, "fs_drive_config.blend moved");
-_Static_assert(offsetof(fs_drive_config, blend.w_lower) == 408u, "fs_drive_config.blend.w_lower moved");
-_Static_assert(offsetof(fs_drive_config, blend.w_upper) == 412u, "fs_drive_config.blend.w_upper moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs) == 416u, "fs_drive_config.blend.obs moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.Ts) == 416u, "fs_drive_config.blend.obs.Ts moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.J) == 420u, "fs_drive_config.blend.obs.J moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.B) == 424u, "fs_drive_config.blend.obs.B moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.pole_pairs) == 428u, "fs_drive_config.blend.obs.pole_pairs moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.bandwidth) == 432u, "fs_drive_config.blend.obs.bandwidth moved");
-_Static_assert(offsetof(fs_drive_config, w_inject_max) == 436u, "fs_drive_config.w_inject_max moved");
-_Static_assert(offsetof(fs_drive_config, polarity) == 440u, "fs_drive_config.polarity moved");
-_Static_assert(offsetof(fs_drive_config, polarity.Ts) == 440u, "fs_drive_config.polarity.Ts moved");
-_Static_assert(offsetof(fs_drive_config, polarity.i_pulse) == 444u, "fs_drive_config.polarity.i_pulse moved");
-_Static_assert(offsetof(fs_drive_config, polarity.t_lock) == 448u, "fs_drive_config.polarity.t_lock moved");
-_Static_assert(offsetof(fs_drive_config, polarity.t_pulse) == 452u, "fs_drive_config.polarity.t_pulse moved");
-_Static_assert(offsetof(fs_drive_config, polarity.i_pulse_max) == 456u, "fs_drive_config.polarity.i_pulse_max moved");
-_Static_assert(offsetof(fs_drive_config, polarity.d_min) == 460u, "fs_drive_config.polarity.d_min moved");
-_Static_assert(offsetof(fs_drive_config, polarity.w_filter) == 464u, "fs_drive_config.polarity.w_filter moved");
-_Static_assert(offsetof(fs_drive_config, polarity.n_carrier) == 468u, "fs_drive_config.polarity.n_carrier moved");
-_Static_assert(offsetof(fs_drive_config, polarity.w_max) == 472u, "fs_drive_config.polarity.w_max moved");
-_Static_assert(offsetof(fs_drive_config, swvi) == 476u, "fs_drive_config.swvi moved");
-_Static_assert(offsetof(fs_drive_config, swvi.Ts) == 476u, "fs_drive_config.swvi.Ts moved");
-_Static_assert(offsetof(fs_drive_config, swvi.delay) == 480u, "fs_drive_config.swvi.delay moved");
-_Static_assert(offsetof(fs_drive_config, swvi.u_h) == 484u, "fs_drive_config.swvi.u_h moved");
-_Static_assert(offsetof(fs_drive_config, swvi.L_d) == 488u, "fs_drive_config.swvi.L_d moved");
-_Static_assert(offsetof(fs_drive_config, swvi.L_q) == 492u, "fs_drive_config.swvi.L_q moved");
-_Static_assert(offsetof(fs_drive_config, swvi.bandwidth) == 496u, "fs_drive_config.swvi.bandwidth moved");
-_Static_assert(offsetof(fs_drive_config, swvi.w_max) == 500u, "fs_drive_config.swvi.w_max moved");
-_Static_assert(offsetof(fs_drive_config, swvi.sequence) == 504u, "fs_drive_config.swvi.sequence moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp) == 508u, "fs_drive_config.swvi.xcomp moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.n) == 508u, "fs_drive_config.swvi.xcomp.n moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.i_q0) == 512u, "fs_drive_config.swvi.xcomp.i_q0 moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.di_q) == 516u, "fs_drive_config.swvi.xcomp.di_q moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.delta) == 520u, "fs_drive_config.swvi.xcomp.delta moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.poly) == 652u, "fs_drive_config.swvi.xcomp.poly moved");
-_Static_assert(offsetof(fs_drive_config, swvi.carrier_off) == 668u, "fs_drive_config.swvi.carrier_off moved");
-_Static_assert(offsetof(fs_drive_config, k_p_d) == 672u, "fs_drive_config.k_p_d moved");
-_Static_assert(offsetof(fs_drive_config, k_i_d) == 676u, "fs_drive_config.k_i_d moved");
-_Static_assert(offsetof(fs_drive_config, k_p_q) == 680u, "fs_drive_config.k_p_q moved");
-_Static_assert(offsetof(fs_drive_config, k_i_q) == 684u, "fs_drive_config.k_i_q moved");
-_Static_assert(offsetof(fs_drive_config, k_p_w) == 688u, "fs_drive_config.k_p_w moved");
-_Static_assert(offsetof(fs_drive_config, k_i_w) == 692u, "fs_drive_config.k_i_w moved");
-_Static_assert(offsetof(fs_drive_config, converter) == 696u, "fs_drive_config.converter moved");
-_Static_assert(offsetof(fs_drive_config, imc_region) == 700u, "fs_drive_config.imc_region moved");
-_Static_assert(offsetof(fs_drive_config, imc_w_grid) == 704u, "fs_drive_config.imc_w_grid moved");
-_Static_assert(offsetof(fs_drive_config, imc_depth) == 708u, "fs_drive_config.imc_depth moved");
-_Static_assert(offsetof(fs_drive_config, imc_i_lim) == 712u, "fs_drive_config.imc_i_lim moved");
-_Static_assert(offsetof(fs_drive_config, imc_V_im) == 716u, "fs_drive_config.imc_V_im moved");
+_Static_assert(offsetof(fs_drive_config, L_d_hf) == 44u, "fs_drive_config.L_d_hf moved");
+_Static_assert(offsetof(fs_drive_config, L_q_hf) == 48u, "fs_drive_config.L_q_hf moved");
+_Static_assert(offsetof(fs_drive_config, pole_pairs) == 52u, "fs_drive_config.pole_pairs moved");
+_Static_assert(offsetof(fs_drive_config, J) == 56u, "fs_drive_config.J moved");
+_Static_assert(offsetof(fs_drive_config, B) == 60u, "fs_drive_config.B moved");
+_Static_assert(offsetof(fs_drive_config, i_max) == 64u, "fs_drive_config.i_max moved");
+_Static_assert(offsetof(fs_drive_config, T_max) == 68u, "fs_drive_config.T_max moved");
+_Static_assert(offsetof(fs_drive_config, bw_current) == 72u, "fs_drive_config.bw_current moved");
+_Static_assert(offsetof(fs_drive_config, bw_speed) == 76u, "fs_drive_config.bw_speed moved");
+_Static_assert(offsetof(fs_drive_config, bw_pll) == 80u, "fs_drive_config.bw_pll moved");
+_Static_assert(offsetof(fs_drive_config, t_dead_comp) == 84u, "fs_drive_config.t_dead_comp moved");
+_Static_assert(offsetof(fs_drive_config, i_dead_band) == 88u, "fs_drive_config.i_dead_band moved");
+_Static_assert(offsetof(fs_drive_config, vf_gain) == 92u, "fs_drive_config.vf_gain moved");
+_Static_assert(offsetof(fs_drive_config, vf_boost) == 96u, "fs_drive_config.vf_boost moved");
+_Static_assert(offsetof(fs_drive_config, smo) == 100u, "fs_drive_config.smo moved");
+_Static_assert(offsetof(fs_drive_config, smo.Ts) == 100u, "fs_drive_config.smo.Ts moved");
+_Static_assert(offsetof(fs_drive_config, smo.R_s) == 104u, "fs_drive_config.smo.R_s moved");
+_Static_assert(offsetof(fs_drive_config, smo.L_d) == 108u, "fs_drive_config.smo.L_d moved");
+_Static_assert(offsetof(fs_drive_config, smo.L_q) == 112u, "fs_drive_config.smo.L_q moved");
+_Static_assert(offsetof(fs_drive_config, smo.psi_f) == 116u, "fs_drive_config.smo.psi_f moved");
+_Static_assert(offsetof(fs_drive_config, smo.w_e_max) == 120u, "fs_drive_config.smo.w_e_max moved");
+_Static_assert(offsetof(fs_drive_config, smo.i_max) == 124u, "fs_drive_config.smo.i_max moved");
+_Static_assert(offsetof(fs_drive_config, smo.k) == 128u, "fs_drive_config.smo.k moved");
+_Static_assert(offsetof(fs_drive_config, smo.margin) == 132u, "fs_drive_config.smo.margin moved");
+_Static_assert(offsetof(fs_drive_config, smo.delta) == 136u, "fs_drive_config.smo.delta moved");
+_Static_assert(offsetof(fs_drive_config, smo.w_c_min) == 140u, "fs_drive_config.smo.w_c_min moved");
+_Static_assert(offsetof(fs_drive_config, smo.bw_pll) == 144u, "fs_drive_config.smo.bw_pll moved");
+_Static_assert(offsetof(fs_drive_config, smo.w_valid) == 148u, "fs_drive_config.smo.w_valid moved");
+_Static_assert(offsetof(fs_drive_config, smo.lag) == 152u, "fs_drive_config.smo.lag moved");
+_Static_assert(offsetof(fs_drive_config, smo.form) == 156u, "fs_drive_config.smo.form moved");
+_Static_assert(offsetof(fs_drive_config, smo.J) == 160u, "fs_drive_config.smo.J moved");
+_Static_assert(offsetof(fs_drive_config, smo.B) == 164u, "fs_drive_config.smo.B moved");
+_Static_assert(offsetof(fs_drive_config, smo.pole_pairs) == 168u, "fs_drive_config.smo.pole_pairs moved");
+_Static_assert(offsetof(fs_drive_config, smo.phases) == 172u, "fs_drive_config.smo.phases moved");
+_Static_assert(offsetof(fs_drive_config, smo.dir_external) == 176u, "fs_drive_config.smo.dir_external moved");
+_Static_assert(offsetof(fs_drive_config, fw_w_e_max) == 180u, "fs_drive_config.fw_w_e_max moved");
+_Static_assert(offsetof(fs_drive_config, fw_gain) == 184u, "fs_drive_config.fw_gain moved");
+_Static_assert(offsetof(fs_drive_config, fw_cutoff) == 188u, "fs_drive_config.fw_cutoff moved");
+_Static_assert(offsetof(fs_drive_config, lock_time) == 192u, "fs_drive_config.lock_time moved");
+_Static_assert(offsetof(fs_drive_config, lock_recover) == 196u, "fs_drive_config.lock_recover moved");
+_Static_assert(offsetof(fs_drive_config, t_recover) == 200u, "fs_drive_config.t_recover moved");
+_Static_assert(offsetof(fs_drive_config, lock_retries) == 204u, "fs_drive_config.lock_retries moved");
+_Static_assert(offsetof(fs_drive_config, i_start) == 208u, "fs_drive_config.i_start moved");
+_Static_assert(offsetof(fs_drive_config, a_start) == 212u, "fs_drive_config.a_start moved");
+_Static_assert(offsetof(fs_drive_config, w_handover) == 216u, "fs_drive_config.w_handover moved");
+_Static_assert(offsetof(fs_drive_config, hfi) == 220u, "fs_drive_config.hfi moved");
+_Static_assert(offsetof(fs_drive_config, hfi.Ts) == 220u, "fs_drive_config.hfi.Ts moved");
+_Static_assert(offsetof(fs_drive_config, hfi.delay) == 224u, "fs_drive_config.hfi.delay moved");
+_Static_assert(offsetof(fs_drive_config, hfi.u_h) == 228u, "fs_drive_config.hfi.u_h moved");
+_Static_assert(offsetof(fs_drive_config, hfi.w_h) == 232u, "fs_drive_config.hfi.w_h moved");
+_Static_assert(offsetof(fs_drive_config, hfi.R_s) == 236u, "fs_drive_config.hfi.R_s moved");
+_Static_assert(offsetof(fs_drive_config, hfi.L_d) == 240u, "fs_drive_config.hfi.L_d moved");
+_Static_assert(offsetof(fs_drive_config, hfi.L_q) == 244u, "fs_drive_config.hfi.L_q moved");
+_Static_assert(offsetof(fs_drive_config, hfi.w_b_p) == 248u, "fs_drive_config.hfi.w_b_p moved");
+_Static_assert(offsetof(fs_drive_config, hfi.w_b_n) == 252u, "fs_drive_config.hfi.w_b_n moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs) == 256u, "fs_drive_config.hfi.obs moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.Ts) == 256u, "fs_drive_config.hfi.obs.Ts moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.J) == 260u, "fs_drive_config.hfi.obs.J moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.B) == 264u, "fs_drive_config.hfi.obs.B moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.pole_pairs) == 268u, "fs_drive_config.hfi.obs.pole_pairs moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.bandwidth) == 272u, "fs_drive_config.hfi.obs.bandwidth moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp) == 276u, "fs_drive_config.hfi.xcomp moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.n) == 276u, "fs_drive_config.hfi.xcomp.n moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.i_q0) == 280u, "fs_drive_config.hfi.xcomp.i_q0 moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.di_q) == 284u, "fs_drive_config.hfi.xcomp.di_q moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.delta) == 288u, "fs_drive_config.hfi.xcomp.delta moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.poly) == 420u, "fs_drive_config.hfi.xcomp.poly moved");
+_Static_assert(offsetof(fs_drive_config, hfi.leak) == 436u, "fs_drive_config.hfi.leak moved");
+_Static_assert(offsetof(fs_drive_config, blend) == 440u, "fs_drive_config.blend moved");
+_Static_assert(offsetof(fs_drive_config, blend.w_lower) == 440u, "fs_drive_config.blend.w_lower moved");
+_Static_assert(offsetof(fs_drive_config, blend.w_upper) == 444u, "fs_drive_config.blend.w_upper moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs) == 448u, "fs_drive_config.blend.obs moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.Ts) == 448u, "fs_drive_config.blend.obs.Ts moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.J) == 452u, "fs_drive_config.blend.obs.J moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.B) == 456u, "fs_drive_config.blend.obs.B moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.pole_pairs) == 460u, "fs_drive_config.blend.obs.pole_pairs moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.bandwidth) == 464u, "fs_drive_config.blend.obs.bandwidth moved");
+_Static_assert(offsetof(fs_drive_config, blend.gate) == 468u, "fs_drive_config.blend.gate moved");
+_Static_assert(offsetof(fs_drive_config, w_inject_max) == 472u, "fs_drive_config.w_inject_max moved");
+_Static_assert(offsetof(fs_drive_config, polarity) == 476u, "fs_drive_config.polarity moved");
+_Static_assert(offsetof(fs_drive_config, polarity.Ts) == 476u, "fs_drive_config.polarity.Ts moved");
+_Static_assert(offsetof(fs_drive_config, polarity.i_pulse) == 480u, "fs_drive_config.polarity.i_pulse moved");
+_Static_assert(offsetof(fs_drive_config, polarity.t_lock) == 484u, "fs_drive_config.polarity.t_lock moved");
+_Static_assert(offsetof(fs_drive_config, polarity.t_pulse) == 488u, "fs_drive_config.polarity.t_pulse moved");
+_Static_assert(offsetof(fs_drive_config, polarity.i_pulse_max) == 492u, "fs_drive_config.polarity.i_pulse_max moved");
+_Static_assert(offsetof(fs_drive_config, polarity.d_min) == 496u, "fs_drive_config.polarity.d_min moved");
+_Static_assert(offsetof(fs_drive_config, polarity.w_filter) == 500u, "fs_drive_config.polarity.w_filter moved");
+_Static_assert(offsetof(fs_drive_config, polarity.n_carrier) == 504u, "fs_drive_config.polarity.n_carrier moved");
+_Static_assert(offsetof(fs_drive_config, polarity.w_max) == 508u, "fs_drive_config.polarity.w_max moved");
+_Static_assert(offsetof(fs_drive_config, swvi) == 512u, "fs_drive_config.swvi moved");
+_Static_assert(offsetof(fs_drive_config, swvi.Ts) == 512u, "fs_drive_config.swvi.Ts moved");
+_Static_assert(offsetof(fs_drive_config, swvi.delay) == 516u, "fs_drive_config.swvi.delay moved");
+_Static_assert(offsetof(fs_drive_config, swvi.u_h) == 520u, "fs_drive_config.swvi.u_h moved");
+_Static_assert(offsetof(fs_drive_config, swvi.L_d) == 524u, "fs_drive_config.swvi.L_d moved");
+_Static_assert(offsetof(fs_drive_config, swvi.L_q) == 528u, "fs_drive_config.swvi.L_q moved");
+_Static_assert(offsetof(fs_drive_config, swvi.bandwidth) == 532u, "fs_drive_config.swvi.bandwidth moved");
+_Static_assert(offsetof(fs_drive_config, swvi.w_max) == 536u, "fs_drive_config.swvi.w_max moved");
+_Static_assert(offsetof(fs_drive_config, swvi.sequence) == 540u, "fs_drive_config.swvi.sequence moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp) == 544u, "fs_drive_config.swvi.xcomp moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.n) == 544u, "fs_drive_config.swvi.xcomp.n moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.i_q0) == 548u, "fs_drive_config.swvi.xcomp.i_q0 moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.di_q) == 552u, "fs_drive_config.swvi.xcomp.di_q moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.delta) == 556u, "fs_drive_config.swvi.xcomp.delta moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.poly) == 688u, "fs_drive_config.swvi.xcomp.poly moved");
+_Static_assert(offsetof(fs_drive_config, swvi.carrier_off) == 704u, "fs_drive_config.swvi.carrier_off moved");
+_Static_assert(offsetof(fs_drive_config, k_p_d) == 708u, "fs_drive_config.k_p_d moved");
+_Static_assert(offsetof(fs_drive_config, k_i_d) == 712u, "fs_drive_config.k_i_d moved");
+_Static_assert(offsetof(fs_drive_config, k_p_q) == 716u, "fs_drive_config.k_p_q moved");
+_Static_assert(offsetof(fs_drive_config, k_i_q) == 720u, "fs_drive_config.k_i_q moved");
+_Static_assert(offsetof(fs_drive_config, k_p_w) == 724u, "fs_drive_config.k_p_w moved");
+_Static_assert(offsetof(fs_drive_config, k_i_w) == 728u, "fs_drive_config.k_i_w moved");
+_Static_assert(offsetof(fs_drive_config, converter) == 732u, "fs_drive_config.converter moved");
+_Static_assert(offsetof(fs_drive_config, imc_region) == 736u, "fs_drive_config.imc_region moved");
+_Static_assert(offsetof(fs_drive_config, imc_w_grid) == 740u, "fs_drive_config.imc_w_grid moved");
+_Static_assert(offsetof(fs_drive_config, imc_depth) == 744u, "fs_drive_config.imc_depth moved");
+_Static_assert(offsetof(fs_drive_config, imc_i_lim) == 748u, "fs_drive_config.imc_i_lim moved");
+_Static_assert(offsetof(fs_drive_config, imc_V_im) == 752u, "fs_drive_config.imc_V_im moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table) == 756u, "fs_drive_config.mtpa_table moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table.n) == 756u, "fs_drive_config.mtpa_table.n moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table.T) == 760u, "fs_drive_config.mtpa_table.T moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table.i_d) == 1016u, "fs_drive_config.mtpa_table.i_d moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table.i_q) == 1272u, "fs_drive_config.mtpa_table.i_q moved");
 
 const fs_drive_config fs_config = {
-    .config_size = 720u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator se...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
+    .config_size = 1528u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator se...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
     .phases = 3,   /* 3, or 5: the fundamental plane of the VSD, nearest-four-vector PWM; machine yang2022: phases */
     .mode = FS_MODE_SPEED,   /* fs_drive_mode; scenario beyond-full-range: [controller] mode */
     .angle_source = FS_ANGLE_BLEND,   /* fs_angle_source; scenario beyond-full-range: [controller] angle */
     .Ts = 9.99999975e-05f,   /* control (sampling) period, s; machine yang2022: bench.f_pwm (scenario default) */
     .T_pwm = 9.99999975e-05f,   /* carrier period, s (Ts or 2 Ts); machine yang2022: bench.f_pwm (scenario default) */
     .delay = 1.0f,   /* computation delay in control periods: 1 or 0; default of [timing] delay (fullspeed.scenario) */
-    .R_s = 0.0359999985f,   /* the machine as the controller knows it; machine yang2022: R_s */
-    .L_d = 6.50000002e-05f,   /* the machine as the controller knows it; machine yang2022: L_d */
-    .L_q = 9.00000014e-05f,   /* the machine as the controller knows it; machine yang2022: L_q */
-    .psi_f = 0.00700000022f,   /* the machine as the controller knows it; machine yang2022: psi_f */
+    .R_s = 0.0359999985f,   /* the machine as the controller knows it: L_d, L_q, psi_f for the decoupling, the loops' design and the obser...; machine yang2022: R_s */
+    .L_d = 6.50000002e-05f,   /* the machine as the controller knows it: L_d, L_q, psi_f for the decoupling, the loops' design and the obser...; machine yang2022: L_d */
+    .L_q = 9.00000014e-05f,   /* the machine as the controller knows it: L_d, L_q, psi_f for the decoupling, the loops' design and the obser...; machine yang2022: L_q */
+    .psi_f = 0.00700000022f,   /* the machine as the controller knows it: L_d, L_q, psi_f for the decoupling, the loops' design and the obser...; machine yang2022: psi_f */
+    .L_d_hf = 0.0f,   /* the incremental inductances the injection sees (HFI and blend; 0: L_d, L_q above); a flux map's at half the...; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+    .L_q_hf = 0.0f,   /* the incremental inductances the injection sees (HFI and blend; 0: L_d, L_q above); a flux map's at half the...; 0: taken from the drive's fields or designed by fs_drive_init, or off */
     .pole_pairs = 5,   /* machine yang2022: pole_pairs */
     .J = 0.00187000004f,   /* machine yang2022: J */
     .B = 0.000199999995f,   /* machine yang2022: B */
@@ -166,7 +182,12 @@ const fs_drive_config fs_config = {
         .w_c_min = 10.4719753f,   /* filter cutoff floor, rad/s; default of [observer] cutoff_min_rpm (fullspeed.scenario) */
         .bw_pll = 250.0f,   /* PLL double pole, rad/s; default of [observer] bw_pll (fullspeed.scenario) */
         .w_valid = 52.3598785f,   /* |w_hat| below this: not valid, rad/s (el.); default of [observer] valid_rpm (fullspeed.scenario) */
-        .lag = FS_SMO_LAG_EXACT,   /* fs_smo_lag; default of [observer] lag (fullspeed.scenario) */
+        .lag = FS_SMO_LAG_EXACT,   /* fs_smo_lag (FS_SMO_FORM_PAPER); default of [observer] lag (fullspeed.scenario) */
+        .form = 0,   /* fs_smo_form; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .J = 0.0f,   /* FS_SMO_FORM_TRACKING: inertia kg m^2 (> 0), viscous friction N m s; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .B = 0.0f,   /* FS_SMO_FORM_TRACKING: inertia kg m^2 (> 0), viscous friction N m s; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .pole_pairs = 0,   /* FS_SMO_FORM_TRACKING: >= 1; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .phases = 0,   /* FS_SMO_FORM_TRACKING: the torque's phases / 2 (3 or 5); 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .dir_external = 0,   /* 1: the direction the PLL error assumes is the caller's (fs_smo_set_dir); 0: taken from the drive's fields or designed by fs_drive_init, or off */
     },
     .fw_w_e_max = 2617.9939f,   /* flux weakening in speed mode (zou2021 PART_1, fs_fw.h): the top electrical speed of eq. (31), rad/s (0: off...; default of [controller] fw_top_speed_rpm (fullspeed.scenario) */
@@ -183,7 +204,7 @@ const fs_drive_config fs_config = {
         .Ts = 0.0f,   /* sampling period, s; 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .delay = 0.0f,   /* computation delay, control periods (0..2); 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .u_h = 5.0f,   /* injected amplitude, V (> 0), eq. (22); default of [injection] u_h (fullspeed.scenario) */
-        .w_h = 6283.18555f,   /* injected frequency, rad/s; 4 <= samples per period: w_h Ts <= pi/2; default of [injection] f_h (fullspeed.scenario) */
+        .w_h = 6283.18555f,   /* injected frequency, rad/s; more than 4 samples per period: w_h <= fs_hfi_w_h_max(Ts); default of [injection] f_h (fullspeed.scenario) */
         .R_s = 0.0f,   /* the controller's resistance, ohm (>= 0); 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .L_d = 0.0f,   /* the controller's inductances: saliency needed, |L_q - L_d| > 1 %; 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .L_q = 0.0f,   /* the controller's inductances: saliency needed, |L_q - L_d| > 1 %; 0: taken from the drive's fields or designed by fs_drive_init, or off */
@@ -212,6 +233,7 @@ const fs_drive_config fs_config = {
                 0.0f, 0.0f, 0.0f, 0.0f,
             },
         },
+        .leak = 0,   /* 1: the fundamental's leak taken out of i_hn (fs_hfi_filter_step_nl); 0: the paper's filter; 0: taken from the drive's fields or designed by fs_drive_init, or off */
     },
     .blend = {   /* FS_ANGLE_BLEND: the band (w_lower, w_upper) and the filtering observer's bandwidth (the rest as for hfi.obs... */
         .w_lower = 83.7758026f,   /* g_w = 0 at and below, rad/s (el.), >= 0; default of [blending] lower_rpm (fullspeed.scenario) */
@@ -223,6 +245,7 @@ const fs_drive_config fs_config = {
             .pole_pairs = 0,   /* p (>= 1); 0: taken from the drive's fields or designed by fs_drive_init, or off */
             .bandwidth = 0.0f,   /* w_o, triple pole at -w_o, rad/s; w_o Ts <= 0.5; 0: taken from the drive's fields or designed by fs_drive_init, or off (blending.bw_observer) */
         },
+        .gate = 0,   /* 1: the caller gates the SMO's weight (header, fs_blend_step_gated); 0: eq. (28) alone; 0: taken from the drive's fields or designed by fs_drive_init, or off */
     },
     .w_inject_max = 163.362823f,   /* default of [injection] stop_rpm (fullspeed.scenario) */
     .polarity = {   /* polarity detection when sensorless from the first step (i_pulse 0: none; Ts taken from above; i_pulse_max 0... */
@@ -275,4 +298,46 @@ const fs_drive_config fs_config = {
     .imc_depth = 0,   /* 0: taken from the drive's fields or designed by fs_drive_init, or off (controller.depth_control) */
     .imc_i_lim = 0.0f,   /* 0: taken from the drive's fields or designed by fs_drive_init, or off (controller.i_lim) */
     .imc_V_im = 0.0f,   /* 0: taken from the drive's fields or designed by fs_drive_init, or off (converter.grid_ll_rms) */
+    .mtpa_table = {   /* the MTPA locus as a table (n = 0: designed from L_d, L_q, psi_f; a flux map's from fullspeed.fluxmap); read... */
+        .n = 0,   /* 0, or FS_MTPA_N points; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .T = {   /* N m, 0 at k = 0 and rising; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f,
+        },
+        .i_d = {   /* A, |i_d + j i_q| = i_max k / (N - 1); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f,
+        },
+        .i_q = {   /* A, >= 0; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+            0.0f, 0.0f, 0.0f, 0.0f,
+        },
+    },
 };

@@ -11,7 +11,7 @@ import pytest
 
 from fullspeed import design as dz
 from fullspeed import zoo
-from fullspeed.machines import load_machine, machine_from_dict
+from fullspeed.machines import machine_from_dict
 from fullspeed.scenario import load_scenario, scenario_from_dict
 from fullspeed.sim import simulate
 
@@ -189,3 +189,20 @@ def test_zoo_sample(k, outcome):
         row = {**r.metrics, "stop_reason": r.stop_reason}
         assert classify(row) == "success", r.metrics
         assert r["w_m"].max() > 1.25 * r.scenario.machine.w_m_rated and r["w_m"][-1] < 0
+
+
+def _fluxmap(asym: float) -> dict:
+    """A flux map of the test machine whose incremental L_d falls by `asym`
+    from negative to positive d current (none with asym = 0)."""
+    i = [-60.0 + 10.0 * k for k in range(13)]
+    L_d, L_q, psi_f = 0.3e-3, 0.8e-3, 0.02
+    psi_d = [[psi_f + L_d * (x - asym * max(x, 0.0) ** 2 / 120.0) for _ in i] for x in i]
+    psi_q = [[L_q * y for y in i] for _ in i]
+    return {"model": "fluxmap", "i_d": i, "i_q": i, "psi_d": psi_d, "psi_q": psi_q}
+
+
+@pytest.mark.parametrize("asym, warned", [(0.0, True), (0.6, False)])
+def test_a_flux_map_without_d_asymmetry_is_named(asym, warned):
+    m = {**DATASHEET, "magnetic": _fluxmap(asym)}
+    sc = scenario(m)
+    assert any(w.startswith("polarity.enabled:") and "flux map" in w for w in sc.warnings) == warned, sc.warnings

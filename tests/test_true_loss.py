@@ -28,6 +28,16 @@ def test_time_back_on_track_counts_down():
     assert lost is not None and 0.024 < lost < 0.04
 
 
+def test_an_estimate_slipping_round_and_round_is_lost():
+    """Half its time beyond 90 deg, a quarter within 45: a loss, although it
+    is as long on one side of 90 deg as on the other."""
+    err = (2 * np.pi * 50.0 * T + np.pi) % (2 * np.pi) - np.pi     # slips at 50 Hz
+    lost = true_loss_at(trace(err))
+    assert lost is not None and lost < 0.1
+    # the same swing within +-80 deg is not
+    assert true_loss_at(trace(np.radians(80.0) * np.sin(2 * np.pi * 50.0 * T))) is None
+
+
 @pytest.mark.parametrize("stage", [2, 3, 8])   # polarity, I/f start, recovery
 def test_stages_without_an_estimate_in_the_loop_do_not_count(stage):
     assert true_loss_at(trace(np.full_like(T, 3.0), stage)) is None

@@ -19,6 +19,21 @@
  *
  * The sampling period is the observer's (obs.Ts): the blend itself does not
  * depend on time.
+ *
+ * Gate (beyond the paper, fs_blend_step_gated): eq. (28) trusts the SMO by
+ * speed alone. A load step at standstill or its release pushes the rotor
+ * into the band within tens of ms (motulator's 2.2 kW IPMSM at rated load:
+ * to -250 and +250 rpm), before the SMO, idle at standstill, has converged;
+ * blending its angle in then swung the estimate (39.5 el.deg, and with a
+ * 120/195 rpm band the rotor was lost). While the injection estimate is live,
+ * the SMO's weight is multiplied by a trust that drops to 0 whenever the SMO
+ * has not converged (fs_smo.h: its residuals settled) and comes back over
+ * 4 / w_o once it has (so that a gate opening and closing cannot make the
+ * weight chatter through the band). Not gated on the two angles agreeing: on
+ * a cross-saturated machine the injection estimate is off by the saliency's
+ * turn (15 el.deg at 25 A on yang2022's) and the SMO is the better one.
+ * Once the injection has stopped there is nothing else: eq. (28) alone, and
+ * the caller should stop the injection only at full trust.
  */
 #ifndef FS_BLEND_H
 #define FS_BLEND_H
@@ -30,6 +45,7 @@ typedef struct {
     float w_lower;             /* g_w = 0 at and below, rad/s (el.), >= 0 */
     float w_upper;             /* g_w = 1 at and above, rad/s (el.), > w_lower */
     fs_motion_obs_config obs;  /* the filtering observer (Ts, J, B, p, bandwidth) */
+    int gate;                  /* 1: the caller gates the SMO's weight (header, fs_blend_step_gated); 0: eq. (28) alone */
 } fs_blend_config;
 
 typedef struct {
@@ -39,6 +55,8 @@ typedef struct {
     float theta_blnd;   /* blended angle of the last step, rad */
     float theta_hat;    /* filtered angle, rad, (-pi, pi] (= obs.theta_hat) */
     float w_hat;        /* electrical speed, rad/s (= obs.w_hat) */
+    float trust;        /* the gate's factor on g_w, 0..1 */
+    float d_trust;      /* its rise per step, w_o Ts / 4 */
 } fs_blend;
 
 /* eq. (28): weight for the speed w (either sign). */
@@ -53,5 +71,8 @@ void fs_blend_reset(fs_blend *b, float theta, float w);
 /* One step with the two angles sampled now and the torque of the period
  * that just ended (N m). Returns the filtered angle theta_hat. */
 float fs_blend_step(fs_blend *b, float theta_smo, float theta_hfi, float T_ff);
+/* The same with the gate (header): smo_converged is the SMO's `converged`,
+ * hfi_live whether the injection estimate ran this step (else the trust is 1). */
+float fs_blend_step_gated(fs_blend *b, float theta_smo, float theta_hfi, float T_ff, bool smo_converged, bool hfi_live);
 
 #endif /* FS_BLEND_H */

@@ -15,6 +15,7 @@ enum { F = 0, N = 1, P = 2 };
 #define DRIVE_FIELDS(X) \
     X(Ts, P, FS_ERR_TS) X(T_pwm, P, FS_ERR_TS) X(delay, F, FS_ERR_PARAM) \
     X(R_s, N, FS_ERR_RS) X(L_d, P, FS_ERR_LD) X(L_q, P, FS_ERR_LQ) X(psi_f, N, FS_ERR_PSI_F) \
+    X(L_d_hf, N, FS_ERR_LD) X(L_q_hf, N, FS_ERR_LQ) \
     X(J, F, FS_ERR_J) X(B, N, FS_ERR_PARAM) X(i_max, P, FS_ERR_I_MAX) X(T_max, F, FS_ERR_LIMIT) \
     X(bw_current, F, FS_ERR_BANDWIDTH) X(bw_speed, F, FS_ERR_BANDWIDTH) X(bw_pll, F, FS_ERR_BANDWIDTH) \
     X(t_dead_comp, N, FS_ERR_PARAM) X(i_dead_band, N, FS_ERR_PARAM) X(vf_gain, F, FS_ERR_PARAM) \
@@ -40,7 +41,9 @@ enum { F = 0, N = 1, P = 2 };
 #define FIELD_NAME(f, kind, status) #f "\0"
 static const uint8_t drive_fields[][2] = {DRIVE_FIELDS(FIELD_ENTRY)};
 static const char drive_field_names[] = DRIVE_FIELDS(FIELD_NAME);
-typedef char drive_fields_fit[(sizeof(fs_drive_config) <= 256 * sizeof(float) && FS_ERR__COUNT < 64) ? 1 : -1];
+/* every field the table names lies before the MTPA table (the config's
+ * last member, checked by fs_mtpa_init), within 256 floats of the start */
+typedef char drive_fields_fit[(offsetof(fs_drive_config, mtpa_table) <= 256 * sizeof(float) && FS_ERR__COUNT < 64) ? 1 : -1];
 
 /* The first field of the table out of its range, its status and its name. */
 static fs_status drive_check_fields(const fs_drive_config *cfg, const char **name)
@@ -66,14 +69,14 @@ static fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
     hc.Ts = cfg->Ts;
     hc.delay = cfg->delay;
     hc.R_s = cfg->R_s;
-    hc.L_d = cfg->L_d;
-    hc.L_q = cfg->L_q;
+    hc.L_d = cfg->L_d_hf > 0.0f ? cfg->L_d_hf : cfg->L_d;   /* fs_drive.h */
+    hc.L_q = cfg->L_q_hf > 0.0f ? cfg->L_q_hf : cfg->L_q;
     mo.bandwidth = hc.obs.bandwidth;
     hc.obs = mo;
     if (!fs_pos(cfg->J)) REFUSE("J", FS_ERR_J);
     SUB("hfi", fs_hfi_init(&drv->hfi, &hc));
     /* the carrier current's peak, I_p + I_n = u_h / (w_h min(L_d, L_q)) */
-    drv->i_hf = hc.u_h / (drv->hfi.cfg.w_h * fminf(cfg->L_d, cfg->L_q));
+    drv->i_hf = hc.u_h / (drv->hfi.cfg.w_h * fminf(hc.L_d, hc.L_q));
     if (!(drv->i_hf < 0.5f * cfg->i_max)) REFUSE("hfi.u_h", FS_ERR_ABOVE_I_MAX);
     if (cfg->angle_source == FS_ANGLE_BLEND) {
         fs_blend_config bc = cfg->blend;
@@ -133,6 +136,10 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         oc.L_d = cfg->L_d;
         oc.L_q = cfg->L_q;
         oc.psi_f = cfg->psi_f;
+        oc.J = cfg->J;            /* the tracking form's motion observer and torque */
+        oc.B = cfg->B;
+        oc.pole_pairs = cfg->pole_pairs;
+        oc.phases = cfg->phases;
         oc.dir_external = cfg->angle_source == FS_ANGLE_BLEND;
         SUB("smo", fs_smo_init(&drv->smo, &oc));
     }
@@ -141,7 +148,8 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         st = fs_speed_ctrl_init(&drv->sc, &scc);
         if (st != FS_OK)
             REFUSE(st == FS_ERR_J ? "J" : st == FS_ERR_BANDWIDTH ? "bw_speed" : st == FS_ERR_LIMIT ? "T_max" : "k_p_w, k_i_w", st);
-        fs_mtpa_config mc = {cfg->L_d, cfg->L_q, cfg->psi_f, cfg->pole_pairs, cfg->i_max, cfg->phases};
+        fs_mtpa_config mc = {cfg->L_d, cfg->L_q, cfg->psi_f, cfg->pole_pairs, cfg->i_max, cfg->phases,
+                             cfg->mtpa_table.n ? &cfg->mtpa_table : NULL};
         st = fs_mtpa_init(&drv->mtpa, &mc);
         if (st != FS_OK) REFUSE(st == FS_ERR_LQ ? "L_q" : "mtpa (psi_f, L_d, L_q, i_max)", st);
         if (drive_weakens(cfg)) {
@@ -157,6 +165,12 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         fs_lock_config lc = {Tl, cfg->lock_time};
         SUB("lock_time", fs_lock_init(&drv->lock, &lc));
         drv->lock_a = expf(-4.0f * Tl / cfg->lock_time);
+        /* the rating: T_max, or in current mode the torque of i_max on q */
+        const float T_lim = fmaxf(cfg->T_max, fabsf(drive_torque(cfg, (fs_dq){0.0f, cfg->i_max})));
+        fs_monitor_config mc = {Tl, (int)(cfg->delay + 0.5f), cfg->R_s, cfg->L_d, cfg->L_q, cfg->psi_f,
+                                cfg->pole_pairs, fmaxf(cfg->J, 0.0f), cfg->B, T_lim, cfg->i_max,
+                                cfg->t_dead_comp / cfg->T_pwm, 0.25f * cfg->lock_time};
+        SUB("lock_time", fs_monitor_init(&drv->mon, &mc));
     }
     if (cfg->lock_recover != 0 && cfg->lock_recover != 1) REFUSE("lock_recover", FS_ERR_PARAM);
     if (cfg->lock_recover) {
@@ -217,7 +231,10 @@ void fs_drive_reset(fs_drive *drv)
     }
     if (drive_square(&drv->cfg)) fs_swvi_reset(&drv->sw, 0.0f, 0.0f);
     if (drive_imc_depth(&drv->cfg)) fs_imc_depth_reset(&drv->depth);
-    if (drv->cfg.lock_time > 0.0f) fs_lock_reset(&drv->lock);
+    if (drv->cfg.lock_time > 0.0f) {
+        fs_lock_reset(&drv->lock);
+        fs_monitor_reset(&drv->mon);
+    }
     drv->lock_ri = drv->lock_es = drv->lock_eh = drv->lock_ex = 0.0f;
     drv->stage = FS_STAGE_OPEN;
     drv->recoveries = 0;
@@ -264,12 +281,15 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
         const float w_min = own ? drv->smo.cfg.w_valid : 0.5f * drv->blend.cfg.w_lower;
         if (fabsf(w_dir) > w_min) fs_smo_set_dir(&drv->smo, w_dir);
         fs_smo_step(&drv->smo, i_f, drive_u_past(drv));
-        fs_blend_step(&drv->blend, drv->smo.theta, drv->hfi.theta, T_ff);   /* Fig. 6 */
+        fs_blend_step_gated(&drv->blend, drv->smo.theta, drv->hfi.theta, T_ff,   /* Fig. 6 */
+                            drv->smo.converged || !c->blend.gate, drv->injecting);
         /* Above w_inject_max the injection stops (g_w = 1 there: the HFI
          * angle is not read); below 0.9 w_inject_max it resumes from the
          * blended estimate. */
         const float aw = fabsf(drv->blend.w_hat);
-        if (c->w_inject_max > 0.0f && drv->inject_on && aw > c->w_inject_max) {
+        /* ... and, with the blend's gate, only once the SMO has converged
+         * (fs_blend.h: a load release can carry the rotor past it before) */
+        if (c->w_inject_max > 0.0f && drv->inject_on && aw > c->w_inject_max && drv->blend.trust >= 1.0f) {
             drv->inject_on = false;
         } else if (c->w_inject_max > 0.0f && !drv->inject_on && aw < 0.9f * c->w_inject_max) {
             drv->inject_on = true;
@@ -400,11 +420,23 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
 /* The loss-of-lock residual of the estimator the loops use (fs_drive.h):
  * <= 1 on track, 0 while not monitored. Its signals are low-passed over a
  * quarter of lock_time first: single samples of a heterodyne or PLL error
- * are noisy, a lost estimator's are large for long. */
-static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, float g_w)
+ * are noisy, a lost estimator's are large for long. With the step's output
+ * (NULL for the square wave), the checks that do not trust the estimator
+ * (fs_monitor.h) join in. */
+static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_drive_out *out)
 {
     const fs_drive_config *c = &drv->cfg;
     const bool run = in->sensorless && drv->phase == FS_PHASE_RUN;
+    const float g_w = out ? out->g_w : 0.0f;
+    float r_mon = 0.0f;
+    if (out) {
+        const float ct = cosf(out->theta_e), st = sinf(out->theta_e);
+        const fs_monitor_in mi = {fs_inv_park((fs_dq){out->i_d, out->i_q}, ct, st), drv->u_hist[0], in->u_dc,
+                                  out->theta_e, out->w_e, drive_torque(c, (fs_dq){out->i_d_ref, out->i_q_ref}),
+                                  {out->i_d_ref - out->i_d, out->i_q_ref - out->i_q},
+                                  run && (c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED)};
+        r_mon = fs_monitor_step(&drv->mon, &mi);
+    }
     const bool blend = c->angle_source == FS_ANGLE_BLEND;
     const float b = 1.0f - drv->lock_a;
     /* each low-pass runs while its signal means something and starts from
@@ -434,7 +466,7 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, float g_w
                        && drv->smo.e_mag >= 0.35f * aw * c->psi_f;
     drv->lock_ex = cross ? drv->lock_ex + b * (fabsf(fs_wrap_pi(drv->smo.theta - drv->blend.theta_hat)) - drv->lock_ex)
                          : 0.0f;
-    return fmaxf(r, drv->lock_ex * 1.2732395f);                                   /* 45 deg = pi/4 rad */
+    return fmaxf(fmaxf(r, drv->lock_ex * 1.2732395f), r_mon);                     /* 45 deg = pi/4 rad */
 }
 
 /* The phase currents in the stationary frame (the fundamental plane with
@@ -598,7 +630,7 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     out->i_hf_q = sw->i_h.q;
     /* loss of lock (fs_drive.h), at the loops' rate */
     if (c->lock_time > 0.0f && sw->ff_fresh) {
-        h->lock_resid = drive_lock_residual(drv, in, 0.0f);
+        h->lock_resid = drive_lock_residual(drv, in, NULL);
         h->lock_lost = fs_lock_step(&drv->lock, h->lock_resid);
     }
     out->lock_resid = h->lock_resid;
@@ -721,7 +753,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     out->lock_resid = 0.0f;
     out->lock_lost = false;
     if (c->lock_time > 0.0f) {
-        out->lock_resid = drive_lock_residual(drv, in, out->g_w);
+        out->lock_resid = drive_lock_residual(drv, in, out);
         out->lock_lost = fs_lock_step(&drv->lock, out->lock_resid);
         if (out->lock_lost && c->lock_recover && drv->recoveries < c->lock_retries) {
             fs_drive_recover_begin(drv);

@@ -87,6 +87,7 @@
 #include "fs_hfi.h"
 #include "fs_imc.h"
 #include "fs_lock.h"
+#include "fs_monitor.h"
 #include "fs_mtpa.h"
 #include "fs_pll.h"
 #include "fs_polarity.h"
@@ -184,8 +185,15 @@ typedef struct {
     float Ts;                /* control (sampling) period, s */
     float T_pwm;             /* carrier period, s (Ts or 2 Ts) */
     float delay;             /* computation delay in control periods: 1 or 0 */
-    /* the machine as the controller knows it */
+    /* the machine as the controller knows it: L_d, L_q, psi_f for the
+     * decoupling, the loops' design and the observers; a flux map's
+     * (fullspeed.fluxmap): psi_f at zero current and the secant inductances
+     * at the MTPA point of rated current */
     float R_s, L_d, L_q, psi_f;
+    /* the incremental inductances the injection sees (HFI and blend; 0:
+     * L_d, L_q above); a flux map's at half the rated current on its MTPA
+     * locus */
+    float L_d_hf, L_q_hf;
     int pole_pairs;
     float J, B;
     /* limits */
@@ -225,7 +233,11 @@ typedef struct {
      * whose weight is not 0, and while the SMO is valid, its disagreement
      * with the blended angle over 45 deg (an injection estimate that
      * slipped while the rotor was thrown beyond the injection's speed
-     * range). */
+     * range); and, except with the square wave, the checks that do not
+     * trust the estimator (fs_monitor.h: the back-EMF against the loops'
+     * angle and speed, the voltage against what their speed asks, the load
+     * their motion implies, the current loops' error), low-passed over
+     * lock_time / 4 as well. */
     float lock_time;
     /* recovery from a loss of lock (lock_recover = 1; else the monitor
      * latches lock_lost). The currents are held at zero for t_recover, s,
@@ -276,6 +288,11 @@ typedef struct {
     float imc_w_grid;
     int imc_depth;
     float imc_i_lim, imc_V_im;
+    /* the MTPA locus as a table (n = 0: designed from L_d, L_q, psi_f; a flux
+     * map's from fullspeed.fluxmap); read at init only. Held in the config,
+     * not pointed to, so that the config has no pointer: the same bytes on
+     * the host and the target, and an export carries the table */
+    fs_mtpa_table mtpa_table;
 } fs_drive_config;
 
 typedef struct {
@@ -331,6 +348,7 @@ typedef struct {
     fs_swvi sw;
     fs_imc_depth depth;      /* matrix converter, PART_2 */
     fs_lock lock;
+    fs_monitor mon;          /* the checks that do not trust the estimator (with lock_time > 0) */
     float i_hf;              /* the rotating carrier current's peak, A: i_max less it bounds the fundamental */
     float lock_a;            /* the residual's low-pass pole */
     float lock_ri, lock_es, lock_eh;   /* low-passed: SMO current error / delta, SMO PLL error, injection error */

@@ -41,10 +41,16 @@ void fs_drive_polarity_done(fs_drive *drv)
  * hand-over speed, with i_start on its d axis; the rotor's d axis lags the
  * current by the load angle at which the torque carries the load and the
  * acceleration (self-synchronising, and at standstill the current aligns the
- * rotor without torque). Once past the hand-over speed with the observer valid and turning
- * the same way, the loops take the observer, and the speed controller's
- * integral is preset to the torque the current makes in the observer's
- * frame, so that the hand-over does not bump the torque. */
+ * rotor without torque). The observer is told the frame's direction (it has
+ * no EMF to take it from at standstill). The loops take the observer once
+ * the frame is at the hand-over speed and the observer has converged: valid,
+ * its residuals settled (fs_smo.h: `converged`, the current error inside the
+ * boundary layer and the angle error under 5 el.deg for 4 / bw_pll) and its
+ * speed within a quarter of the frame's (the rotor swings about the frame,
+ * a mislocked observer is far off). Until then the frame holds the hand-over
+ * speed. The speed controller's integral is preset to the torque the
+ * current makes in the observer's frame, so that the hand-over does not bump
+ * the torque. */
 fs_dq fs_drive_if_step(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab)
 {
     const fs_drive_config *c = &drv->cfg;
@@ -52,9 +58,11 @@ fs_dq fs_drive_if_step(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab)
     float dw = c->a_start * c->Ts;
     drv->w_if += fs_clampf(w_target - drv->w_if, -dw, dw);
     drv->theta_if = fs_wrap_pi(drv->theta_if + c->Ts * drv->w_if);
+    fs_smo_set_dir(&drv->smo, drv->w_if);
     fs_dq i_ref = {c->i_start, 0.0f};
-    bool fast = fabsf(drv->w_if) >= c->w_handover * 0.999f;
-    if (fast && drv->smo.valid && drv->smo.w * drv->w_if > 0.0f) {
+    const bool fast = fabsf(drv->w_if) >= c->w_handover * 0.999f;
+    const bool agree = drv->smo.w * drv->w_if > 0.0f && fabsf(drv->smo.w - drv->w_if) <= 0.25f * fabsf(drv->w_if);
+    if (fast && drv->smo.valid && drv->smo.converged && agree) {
         fs_dq i_o = fs_park(i_ab, cosf(drv->smo.theta), sinf(drv->smo.theta));
         fs_speed_ctrl_preset(&drv->sc, drv->smo.w / (float)c->pole_pairs, drive_torque(c, i_o));
         drv->phase = FS_PHASE_RUN;

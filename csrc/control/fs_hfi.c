@@ -1,6 +1,14 @@
 #include "fs_hfi.h"
 #include "fs_math.h"
 
+float fs_hfi_w_h_max(float Ts)
+{
+    if (!fs_pos(Ts)) return 0.0f;
+    float w = 0.5f * FS_PI / Ts;
+    while (w > 0.0f && !(w * Ts < 0.5f * FS_PI)) w = nextafterf(w, 0.0f);
+    return w;
+}
+
 fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
 {
     if (!h || !cfg) return FS_ERR_NULL;
@@ -8,7 +16,8 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
     if (!fs_pos(c.Ts)) return FS_ERR_TS;
     if (!(c.delay >= 0.0f && c.delay <= 2.0f)) return FS_ERR_PARAM;
     if (!fs_pos(c.u_h)) return FS_ERR_PARAM;
-    if (!(c.w_h > 0.0f) || !(c.w_h * c.Ts <= 0.5f * FS_PI)) return FS_ERR_BANDWIDTH;
+    if (c.leak != 0 && c.leak != 1) return FS_ERR_PARAM;
+    if (!(c.w_h > 0.0f) || !(c.w_h <= fs_hfi_w_h_max(c.Ts))) return FS_ERR_BANDWIDTH;
     if (!fs_nonneg(c.w_b_p) || !fs_nonneg(c.w_b_n)) return FS_ERR_BANDWIDTH;
     if (!fs_nonneg(c.R_s)) return FS_ERR_RS;
     if (!fs_pos(c.L_d)) return FS_ERR_LD;
@@ -108,8 +117,10 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
     /* the carrier's frame and the negative carrier's, once per step */
     const float theta_n = fs_wrap_pi(2.0f * theta_hat - theta_h);
     const fs_ab e_h = {cosf(theta_h), sinf(theta_h)}, e_n = {cosf(theta_n), sinf(theta_n)};
-    /* Fig. 4b: fundamental and negative-sequence carrier */
-    fs_hfi_filter_step_cs(&h->filt, i, e_h, e_n, &h->i_f, &h->i_hn);
+    /* Fig. 4b: fundamental and negative-sequence carrier; with cfg.leak the
+     * fundamental's leak taken out of the latter (fs_hfi_filter_step_nl) */
+    if (h->cfg.leak) fs_hfi_filter_step_nl(&h->filt, i, e_h, e_n, &h->i_f, &h->i_hn);
+    else fs_hfi_filter_step_cs(&h->filt, i, e_h, e_n, &h->i_f, &h->i_hn);
     const fs_dq lp_p = h->filt.srff_p.lp, lp_n = h->filt.srff_n.lp;
     if (h->gain == 1.0f) {
         h->unit_p = lp_p;

@@ -10,7 +10,10 @@ fs_status fs_hfi_filter_init(fs_hfi_filter *f, const fs_hfi_filter_config *cfg)
     c.w_b = cfg->w_b_n;
     st = fs_srff_init(&f->srff_n, &c);
     if (st != FS_OK) return st;
+    f->leak_n = f->srff_n;
+    f->leak_p = f->srff_p;
     f->cfg = *cfg;
+    fs_hfi_filter_reset(f);
     return FS_OK;
 }
 
@@ -18,6 +21,8 @@ void fs_hfi_filter_reset(fs_hfi_filter *f)
 {
     fs_srff_reset(&f->srff_p);
     fs_srff_reset(&f->srff_n);
+    fs_srff_reset(&f->leak_p);
+    fs_srff_reset(&f->leak_n);
 }
 
 void fs_hfi_filter_step(fs_hfi_filter *f, fs_ab i, float theta_h, float theta_r_hat,
@@ -38,5 +43,19 @@ void fs_hfi_filter_step_cs(fs_hfi_filter *f, fs_ab i, fs_ab e_h, fs_ab e_n, fs_a
     if (i_hn) {
         i_hn->alpha = y.alpha - fund.alpha;
         i_hn->beta = y.beta - fund.beta;
+    }
+}
+
+void fs_hfi_filter_step_nl(fs_hfi_filter *f, fs_ab i, fs_ab e_h, fs_ab e_n, fs_ab *i_f, fs_ab *i_hn)
+{
+    fs_ab i_fund, hn;
+    fs_hfi_filter_step_cs(f, i, e_h, e_n, &i_fund, &hn);
+    /* (1 - H_n) H_p on the fundamental: the leak i_hn carries */
+    const fs_ab y = fs_srff_step_cs(&f->leak_p, i_fund, e_h.alpha, e_h.beta);
+    const fs_ab yn = fs_srff_step_cs(&f->leak_n, y, e_n.alpha, e_n.beta);
+    if (i_f) *i_f = i_fund;
+    if (i_hn) {
+        i_hn->alpha = hn.alpha - (y.alpha - yn.alpha);
+        i_hn->beta = hn.beta - (y.beta - yn.beta);
     }
 }

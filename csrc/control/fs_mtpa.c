@@ -1,6 +1,8 @@
 #include "fs_mtpa.h"
 #include "fs_math.h"
 
+#include <stddef.h>
+
 static float mtpa_id(const fs_mtpa_config *c, float I)
 {
     float dL = c->L_q - c->L_d;
@@ -10,6 +12,24 @@ static float mtpa_id(const fs_mtpa_config *c, float I)
 
 /* Torque per (flux x current): (phases / 2) p. */
 static float mtpa_k(const fs_mtpa_config *c) { return 0.5f * (float)c->phases * (float)c->pole_pairs; }
+
+/* A given table: FS_MTPA_N finite points, the current magnitude at each
+ * the table's own (i_max k / (N - 1), to 0.1 %), the torque 0 at first and
+ * rising. */
+static fs_status mtpa_copy(fs_mtpa *m, const fs_mtpa_table *t)
+{
+    if (t->n != FS_MTPA_N) return FS_ERR_PARAM;
+    for (int k = 0; k < FS_MTPA_N; ++k) {
+        float I = m->cfg.i_max * (float)k / (float)(FS_MTPA_N - 1);
+        if (!fs_fin(t->T[k]) || !fs_fin(t->i_d[k]) || !(t->i_q[k] >= 0.0f) || !fs_fin(t->i_q[k])) return FS_ERR_PARAM;
+        if (!(fabsf(hypotf(t->i_d[k], t->i_q[k]) - I) <= 1e-3f * m->cfg.i_max)) return FS_ERR_PARAM;
+        if (k == 0 ? !(t->T[0] == 0.0f) : !(t->T[k] > t->T[k - 1])) return FS_ERR_PARAM;
+        m->T[k] = t->T[k];
+        m->i_d[k] = t->i_d[k];
+        m->i_q[k] = t->i_q[k];
+    }
+    return FS_OK;
+}
 
 fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
 {
@@ -21,6 +41,9 @@ fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
     if (cfg->phases != 3 && cfg->phases != 5) return FS_ERR_PARAM;
     if (!fs_pos(cfg->i_max)) return FS_ERR_I_MAX;
     m->cfg = *cfg;
+    m->cfg.table = NULL;
+    m->tabulated = cfg->table != NULL;
+    if (cfg->table) return mtpa_copy(m, cfg->table);
     for (int k = 0; k < FS_MTPA_N; ++k) {
         float I = cfg->i_max * (float)k / (float)(FS_MTPA_N - 1);
         float id = mtpa_id(cfg, I);
@@ -74,6 +97,12 @@ fs_dq fs_mtpa_step(const fs_mtpa *m, float T_ref)
          * from it */
         float s = (T - m->T[lo]) / (m->T[hi] - m->T[lo]);
         float iq = m->i_q[lo] + s * (m->i_q[hi] - m->i_q[lo]), T0, dT;
+        if (m->tabulated) {   /* a flux map's locus: the table, linearly */
+            out.q = iq;
+            out.d = m->i_d[lo] + s * (m->i_d[hi] - m->i_d[lo]);
+            if (T_ref < 0.0f) out.q = -out.q;
+            return out;
+        }
         if (m->cfg.psi_f <= 0.0f) {   /* reluctance only: T = 1.5 p (L_q - L_d) i_q^2 exactly */
             iq = sqrtf(T / (mtpa_k(&m->cfg) * (m->cfg.L_q - m->cfg.L_d)));
         } else {

@@ -5,6 +5,11 @@
  * and i_d = 0 for a non-salient machine. init tabulates torque against I up
  * to i_max; step inverts the table for a torque reference. The locus does
  * not depend on the number of phases; the torque scales with it.
+ *
+ * A machine known by its flux map (saturation, cross-saturation) has its
+ * locus computed off line from the map (fullspeed.fluxmap.mtpa_table) and
+ * given as a table: the torque and currents at |i| = i_max k / (N - 1),
+ * k = 0..N-1; step then interpolates it linearly.
  */
 #ifndef FS_MTPA_H
 #define FS_MTPA_H
@@ -14,12 +19,21 @@
 
 enum { FS_MTPA_N = 64 };
 
+/* An MTPA locus given as a table (n = 0: none) */
+typedef struct {
+    int n;                  /* 0, or FS_MTPA_N points */
+    float T[FS_MTPA_N];     /* N m, 0 at k = 0 and rising */
+    float i_d[FS_MTPA_N];   /* A, |i_d + j i_q| = i_max k / (N - 1) */
+    float i_q[FS_MTPA_N];   /* A, >= 0 */
+} fs_mtpa_table;
+
 typedef struct {
     float L_d, L_q;   /* H */
     float psi_f;      /* Wb */
     int pole_pairs;
     float i_max;      /* A, peak */
     int phases;       /* 3 or 5: T = (phases / 2) p (psi_f + (L_d - L_q) i_d) i_q */
+    const fs_mtpa_table *table;   /* NULL: the locus of L_d, L_q, psi_f; else copied at init (not kept) */
 } fs_mtpa_config;
 
 typedef struct {
@@ -27,6 +41,7 @@ typedef struct {
     float T[FS_MTPA_N];    /* torque at each table point, N m, rising */
     float i_d[FS_MTPA_N];  /* A */
     float i_q[FS_MTPA_N];  /* A */
+    int tabulated;         /* 1: the table was given (step interpolates it) */
 } fs_mtpa;
 
 fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg);

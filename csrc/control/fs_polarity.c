@@ -36,7 +36,8 @@ static void polarity_pulses(fs_polarity *p)
     p->k = 0;
     p->sum_pos = p->sum_neg = p->sq_pos = p->sq_neg = 0.0f;
     p->acc = 0.0f;
-    p->w_peak = 0.0f;
+    p->w_peak = p->w_sum = p->w_prev = 0.0f;
+    p->halves = 0;
 }
 
 void fs_polarity_reset(fs_polarity *p)
@@ -48,7 +49,6 @@ void fs_polarity_reset(fs_polarity *p)
     p->ref_pos = p->ref_neg = 0.0f;
     p->i_p_pos = p->i_p_neg = 0.0f;
     p->d = p->margin = 0.0f;
-    p->w0 = 0.0f;
     p->flip = p->moved = false;
 }
 
@@ -103,8 +103,20 @@ static void polarity_sample(fs_polarity *p, float i_p, float *ref, float *sum, f
 
 float fs_polarity_step(fs_polarity *p, float i_p, float w)
 {
-    if (p->stage == FS_POLARITY_POS && p->k == 0) p->w0 = w;
-    if (p->stage == FS_POLARITY_POS || p->stage == FS_POLARITY_NEG) p->w_peak = fmaxf(p->w_peak, fabsf(w - p->w0));
+    /* the mean estimated speed over each half pulse against the half before
+     * (means: the estimate's noise averages out, a spin-up does not) */
+    if (p->stage == FS_POLARITY_POS || p->stage == FS_POLARITY_NEG) {
+        if (p->stage == FS_POLARITY_POS && p->k == 0) p->halves = 0;
+        p->w_sum += w;
+        const int half = p->n_pulse / 2;
+        if (p->k + 1 == half || p->k + 1 == p->n_pulse) {
+            const float mean = p->w_sum / (float)(p->k + 1 == half ? half : p->n_pulse - half);
+            if (p->halves > 0) p->w_peak = fmaxf(p->w_peak, fabsf(mean - p->w_prev));
+            p->w_prev = mean;
+            p->halves += 1;
+            p->w_sum = 0.0f;
+        }
+    }
     switch (p->stage) {
     case FS_POLARITY_LOCK:
         if (++p->k >= p->n_lock) {

@@ -33,8 +33,9 @@
  * fundamental current of a rotor turning at a fair fraction of the
  * positive-sequence filter's bandwidth enters that filter's band and
  * changes I_p by more than saturation does (a linear machine then shows
- * D of tens of per cent). When the estimated speed moves by more than
- * w_max from its value at the pair's start, the stage is UNDETERMINED
+ * D of tens of per cent). When the mean estimated speed over a half pulse
+ * differs by more than w_max from the half before it in the pair (means,
+ * so that the estimate's noise does not count), the stage is UNDETERMINED
  * (moved is set): larger pulses would spin it faster. A rotor held at a
  * speed, or drifting slowly under its load, is measured.
  * The averaging window is a whole number of carrier periods (n_carrier
@@ -98,8 +99,9 @@ typedef struct {
     float i_p_pos, i_p_neg;   /* the averages, A */
     float d;               /* the relative difference D of the last attempt */
     float margin;          /* |D| over its threshold: >= 1 decides */
-    float w0;              /* the estimated speed at the pair's start, el. rad/s */
-    float w_peak;          /* the largest change from there during the pair, el. rad/s */
+    float w_peak;          /* the largest change between half pulses' mean speeds in the pair, el. rad/s */
+    float w_sum, w_prev;   /* the running half pulse's sum of speeds; the last half's mean */
+    int halves;            /* half pulses closed in this pair */
     bool moved;            /* UNDETERMINED because the pulses spun the rotor */
     bool flip;             /* result, valid in DONE */
 } fs_polarity;

@@ -13,6 +13,7 @@ fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
         return FS_ERR_LIMIT;
     if (!fs_nonneg(cfg->k) || !fs_nonneg(cfg->delta) || !fs_nonneg(cfg->w_valid)) return FS_ERR_PARAM;
     if (cfg->lag != FS_SMO_LAG_EXACT && cfg->lag != FS_SMO_LAG_PAPER) return FS_ERR_MODE;
+    if (cfg->form != FS_SMO_FORM_PAPER && cfg->form != FS_SMO_FORM_TRACKING) return FS_ERR_MODE;
     o->cfg = *cfg;
     /* eq. (18): k > max(|e_alpha|, |e_beta|) / 2, with the extended EMF
      * E_ex = w psi_f + (L_d - L_q) w i_d at most w_max (psi_f + |L_d - L_q| i_max) */
@@ -30,6 +31,18 @@ fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
     fs_pll_config pc = {cfg->Ts, cfg->bw_pll, 1.5f * cfg->w_e_max};
     st = fs_pll_init(&o->pll, &pc);
     if (st != FS_OK) return st;
+    if (cfg->form == FS_SMO_FORM_TRACKING) {
+        if (cfg->phases != 3 && cfg->phases != 5) return FS_ERR_PARAM;
+        fs_motion_obs_config mc = {cfg->Ts, cfg->J, cfg->B, cfg->pole_pairs, cfg->bw_pll};
+        st = fs_motion_obs_init(&o->mo, &mc);
+        if (st != FS_OK) return st;
+        o->k_T = 0.5f * (float)cfg->phases * (float)cfg->pole_pairs;
+    }
+    /* 0.4 w_valid psi_f: the filtered EMF at w_valid (the loop passes
+     * 1 / sqrt 5 of it at w_c = w) */
+    o->e_valid = 0.4f * cfg->w_valid * cfg->psi_f;
+    /* converged: 4 time constants of the tracker without a break */
+    o->n_settle = (int)ceilf(4.0f / (cfg->bw_pll * cfg->Ts));
     fs_smo_reset(o, 0.0f, 0.0f);
     return FS_OK;
 }
@@ -40,6 +53,11 @@ void fs_smo_reset(fs_smo *o, float theta, float w)
     o->z = o->i_hat;
     fs_lpf_reset(&o->lpf);
     fs_pll_reset(&o->pll, theta, w);
+    if (o->cfg.form == FS_SMO_FORM_TRACKING) fs_motion_obs_reset(&o->mo, theta, w);
+    o->i_prev = o->i_hat;
+    o->have_prev = false;
+    o->k_settled = 0;
+    o->converged = false;
     o->theta = theta;
     o->w = w;
     o->dir = w < 0.0f ? -1.0f : 1.0f;
@@ -58,15 +76,52 @@ static float sat(float x, float delta)  /* eq. (6) */
     return fs_clampf(x / delta, -1.0f, 1.0f);
 }
 
+/* The tracking form's angle from the filtered EMF, at the sampling instant
+ * (fs_smo.h, change 2), for the speed w the filter and the model used. */
+static float smo_emf_angle(const fs_smo *o, fs_ab e, float w, float w_c)
+{
+    const float Ts = o->cfg.Ts;
+    const float th_e = o->dir > 0.0f ? atan2f(-e.alpha, e.beta) : atan2f(e.alpha, -e.beta);
+    const float g = w_c * Ts / (1.0f + w_c * Ts);
+    const float c = fminf(o->k * Ts / (o->cfg.L_d * o->delta), 1.0f);
+    const float zr = cosf(w * Ts), zi = sinf(w * Ts);
+    /* den = (z - 1 + g)(z - 1 + c) + g c z */
+    const float ar = zr - 1.0f + g, br = zr - 1.0f + c;
+    const float dr = ar * br - zi * zi + g * c * zr;
+    const float di = ar * zi + zi * br + g * c * zi;
+    return fs_wrap_pi(th_e - 1.5f * w * Ts + atan2f(di, dr));
+}
+
+static void smo_settle(fs_smo *o)
+{
+    const bool in = o->r_i <= 1.0f && fabsf(o->eps) < 0.0872f;   /* sin 5 deg */
+    o->k_settled = in ? o->k_settled + 1 : 0;
+    if (o->k_settled >= o->n_settle) {
+        o->k_settled = o->n_settle;
+        o->converged = true;
+    } else if (!in) {
+        o->converged = false;
+    }
+}
+
 float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
 {
     const fs_smo_config *c = &o->cfg;
+    const bool track = c->form == FS_SMO_FORM_TRACKING;
     const fs_ab e_hat = o->lpf.y;
-    const float w = o->pll.w;
+    const float w = track ? o->mo.w_hat : o->pll.w;
     const float wdL = w * (c->L_d - c->L_q);
-    /* eq. (4) over the period that just ended, with the voltage that acted in it */
-    float di_a = (-c->R_s * o->i_hat.alpha - wdL * o->i_hat.beta + u.alpha - e_hat.alpha - o->z.alpha) / c->L_d;
-    float di_b = (wdL * o->i_hat.alpha - c->R_s * o->i_hat.beta + u.beta - e_hat.beta - o->z.beta) / c->L_d;
+    /* eq. (4) over the period that just ended, with the voltage that acted in
+     * it; the tracking form takes the measured currents' mean in the
+     * resistive and cross-coupling terms (fs_smo.h, change 1) */
+    fs_ab i_m = o->i_hat;
+    if (track) {
+        const fs_ab i0 = o->have_prev ? o->i_prev : i;
+        i_m.alpha = 0.5f * (i0.alpha + i.alpha);
+        i_m.beta = 0.5f * (i0.beta + i.beta);
+    }
+    float di_a = (-c->R_s * i_m.alpha - wdL * i_m.beta + u.alpha - e_hat.alpha - o->z.alpha) / c->L_d;
+    float di_b = (wdL * i_m.alpha - c->R_s * i_m.beta + u.beta - e_hat.beta - o->z.beta) / c->L_d;
     /* Held within 16 i_max (it tracks currents of a few i_max): the forward
      * Euler step grows without bound when R_s Ts / L_d or the rotation
      * w Ts |L_d - L_q| / L_d comes near 1, faster than the bounded
@@ -80,35 +135,59 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
     o->z.beta = o->k * sat(e_b, o->delta);
     o->r_i = fmaxf(fabsf(e_a), fabsf(e_b)) / o->delta;
     /* Fig. 1: adaptive low-pass filter, cutoff at the estimated speed */
+    const float w_c_used = fmaxf(fabsf(w), c->w_c_min);
     fs_ab e = fs_lpf_step(&o->lpf, o->z, w);
-    /* eq. (12): normalized PLL error, sin(theta - theta_pll). The EMF turns
-     * with the speed's sign: without the direction the error would be
-     * -sin(theta - theta_pll) below zero speed and the PLL would lock pi off
-     * (the paper runs one way only). The direction changes only when the
-     * PLL's speed passes w_valid the other way: locked pi off, the PLL turns
-     * the wrong way, passes it, and the flipped error brings it back. */
-    float mag = sqrtf(e.alpha * e.alpha + e.beta * e.beta);
-    float eps = 0.0f;
-    if (mag > 1e-6f) {
-        float th = o->pll.theta;
-        eps = (-e.alpha * cosf(th) - e.beta * sinf(th)) / mag;
-        eps *= o->dir;
+    if (track) {
+        const float mag = sqrtf(e.alpha * e.alpha + e.beta * e.beta);
+        /* no angle without an EMF: the correction and the torque fade below e_valid */
+        const float kappa = o->e_valid > 0.0f ? fminf(mag / o->e_valid, 1.0f) : 1.0f;
+        const float th_prev = o->mo.theta_hat;
+        float err = 0.0f;
+        if (mag > 1e-6f) err = fs_wrap_pi(smo_emf_angle(o, e, w, w_c_used) - th_prev);
+        /* the torque of the period: mean current in the frame at its middle */
+        const float th_mid = th_prev + 0.5f * c->Ts * w;
+        const fs_dq i_dq = fs_park(i_m, cosf(th_mid), sinf(th_mid));
+        const float T = o->k_T * (c->psi_f + (c->L_d - c->L_q) * i_dq.d) * i_dq.q;
+        o->eps = sinf(fs_wrap_pi(err - c->Ts * w));   /* against the prediction, as the PLL's */
+        o->e_mag = mag;
+        /* the torque only in a frame the EMF has confirmed: at standstill a
+         * current in an unknown frame would accelerate the estimate away */
+        fs_motion_obs_step(&o->mo, kappa * err, o->valid ? kappa * T : 0.0f);
+        o->w = o->mo.w_hat;
+        o->theta = o->mo.theta_hat;
+        o->i_prev = i;
+        o->have_prev = true;
+    } else {
+        /* eq. (12): normalized PLL error, sin(theta - theta_pll). The EMF turns
+         * with the speed's sign: without the direction the error would be
+         * -sin(theta - theta_pll) below zero speed and the PLL would lock pi off
+         * (the paper runs one way only). The direction changes only when the
+         * PLL's speed passes w_valid the other way: locked pi off, the PLL turns
+         * the wrong way, passes it, and the flipped error brings it back. */
+        float mag = sqrtf(e.alpha * e.alpha + e.beta * e.beta);
+        float eps = 0.0f;
+        if (mag > 1e-6f) {
+            float th = o->pll.theta;
+            eps = (-e.alpha * cosf(th) - e.beta * sinf(th)) / mag;
+            eps *= o->dir;
+        }
+        fs_pll_step(&o->pll, eps);
+        o->eps = eps;
+        o->e_mag = mag;
+        o->w = o->pll.w;
+        float w_c = fmaxf(fabsf(o->w), c->w_c_min);
+        float lag = (c->lag == FS_SMO_LAG_PAPER) ? fs_signf(o->w) * 0.25f * FS_PI
+                                                 : atanf(o->w / (2.0f * w_c));
+        /* the PLL now predicts the next mid-period; back half a period to the sample */
+        o->theta = fs_wrap_pi(o->pll.theta - 0.5f * c->Ts * o->w + lag);
     }
-    fs_pll_step(&o->pll, eps);
-    o->eps = eps;
-    o->e_mag = mag;
-    o->w = o->pll.w;
     if (!c->dir_external) {
         if (o->w > c->w_valid) o->dir = 1.0f;
         else if (o->w < -c->w_valid) o->dir = -1.0f;
     }
-    float w_c = fmaxf(fabsf(o->w), c->w_c_min);
-    float lag = (c->lag == FS_SMO_LAG_PAPER) ? fs_signf(o->w) * 0.25f * FS_PI
-                                             : atanf(o->w / (2.0f * w_c));
-    /* the PLL now predicts the next mid-period; back half a period to the sample */
-    o->theta = fs_wrap_pi(o->pll.theta - 0.5f * c->Ts * o->w + lag);
     float aw = fabsf(o->w);
     if (aw >= c->w_valid) o->valid = true;
     else if (aw < 0.8f * c->w_valid) o->valid = false;  /* hysteresis */
+    smo_settle(o);
     return o->theta;
 }

@@ -22,16 +22,51 @@
  * Timing: the model is integrated over the last period with the voltage that
  * acted in it, so the EMF is that period's mean, half a period old: the angle
  * is advanced by w Ts / 2 to the sampling instant.
+ *
+ * Two forms (cfg.form):
+ *   FS_SMO_FORM_PAPER: the above as the paper gives it (forward Euler on
+ *     i_hat, the PLL of eqs. (12)-(13), lag as cfg.lag); kept for yang2022.
+ *   FS_SMO_FORM_TRACKING (fullspeed's): the same sliding-mode current
+ *     observer and adaptive filter, with three changes that remove its
+ *     errors at speed, under load and in acceleration:
+ *     1. the resistive and cross-coupling terms of eq. (4) take the mean of
+ *        the measured currents at both ends of the period (trapezoid)
+ *        instead of i_hat at its start: forward Euler leaves
+ *        (R + w (L_d - L_q) J) w Ts i / 2 in the EMF, a load- and
+ *        speed-dependent angle error (the bias at speed under load);
+ *     2. the lag of the sampled loop (switching term one period late, the
+ *        implicit-Euler filter, the EMF a period mean) is compensated
+ *        exactly for the estimated speed: with the boundary layer's
+ *        correction c = k Ts / (L_d delta) <= 1 and the filter's
+ *        g = w_c Ts / (1 + w_c Ts), e_hat(n) = H(z) e_mean(n),
+ *        H = g c z / ((z - 1 + g)(z - 1 + c) + g c z), so the angle at the
+ *        sampling instant is arg(e_hat) - 1.5 w Ts + arg(den(e^{j w Ts}))
+ *        (the continuous atan(w / 2 w_c) and the half period are this
+ *        formula's limits for w Ts -> 0);
+ *     3. a motion observer (fs_motion_obs, triple pole at bw_pll) replaces
+ *        the PLL: it integrates the torque of the measured current in the
+ *        estimated frame, (phases / 2) p (psi_f + (L_d - L_q) i_d) i_q, so
+ *        an acceleration is followed without lag (the PLL, type 2, lags
+ *        a / bw_pll^2); its load estimate takes the rest. Below the EMF of
+ *        w_valid the correction and the torque are scaled down with the EMF
+ *        (no angle is measured at standstill: the estimate holds instead of
+ *        chasing noise).
+ *
+ * Convergence (both forms, for a hand-over): `converged` is set once the
+ * current error stays in the boundary layer (r_i <= 1) and |eps| below
+ * sin 5 deg for 4 / bw_pll without a break.
  */
 #ifndef FS_SMO_H
 #define FS_SMO_H
 
 #include "fs_lpf.h"
+#include "fs_motion_obs.h"
 #include "fs_pll.h"
 #include "fs_transforms.h"
 #include "fs_types.h"
 
 typedef enum { FS_SMO_LAG_EXACT = 0, FS_SMO_LAG_PAPER = 1 } fs_smo_lag;
+typedef enum { FS_SMO_FORM_PAPER = 0, FS_SMO_FORM_TRACKING = 1 } fs_smo_form;
 
 typedef struct {
     float Ts;            /* s */
@@ -44,7 +79,11 @@ typedef struct {
     float w_c_min;       /* filter cutoff floor, rad/s */
     float bw_pll;        /* PLL double pole, rad/s */
     float w_valid;       /* |w_hat| below this: not valid, rad/s (el.) */
-    int lag;             /* fs_smo_lag */
+    int lag;             /* fs_smo_lag (FS_SMO_FORM_PAPER) */
+    int form;            /* fs_smo_form */
+    float J, B;          /* FS_SMO_FORM_TRACKING: inertia kg m^2 (> 0), viscous friction N m s */
+    int pole_pairs;      /* FS_SMO_FORM_TRACKING: >= 1 */
+    int phases;          /* FS_SMO_FORM_TRACKING: the torque's phases / 2 (3 or 5) */
     int dir_external;    /* 1: the direction the PLL error assumes is the caller's (fs_smo_set_dir) */
 } fs_smo_config;
 
@@ -56,7 +95,14 @@ typedef struct {
     fs_ab i_hat;         /* estimated current */
     fs_ab z;             /* switching function output */
     fs_lpf lpf;          /* e_hat = lpf.y */
-    fs_pll pll;
+    fs_pll pll;          /* FS_SMO_FORM_PAPER */
+    fs_motion_obs mo;    /* FS_SMO_FORM_TRACKING */
+    fs_ab i_prev;        /* the current measured at the last step */
+    bool have_prev;
+    float k_T;           /* (phases / 2) p, N m per (V s A) */
+    float e_valid;       /* |e_hat| at w_valid: below it the tracker's correction fades */
+    int n_settle, k_settled;  /* converged after n_settle steps in a row */
+    bool converged;
     float theta;         /* estimated angle at the sampling instant, rad */
     float w;             /* estimated electrical speed, rad/s */
     bool valid;

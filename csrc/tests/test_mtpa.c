@@ -82,7 +82,7 @@ static void salient(fs_mtpa_config c, const char *name)
 int main(void)
 {
     fs_mtpa m;
-    fs_mtpa_config c = {2e-3f, 6e-3f, 0.1f, 4, 20.0f, 3};
+    fs_mtpa_config c = {2e-3f, 6e-3f, 0.1f, 4, 20.0f, 3, NULL};
     FS_CHECK_EQ_INT(fs_mtpa_init(&m, &c), FS_OK, "init");
     FS_CHECK_EQ_INT(fs_mtpa_init(NULL, &c), FS_ERR_NULL, "null");
     FS_CHECK_EQ_INT(fs_mtpa_init(&m, NULL), FS_ERR_NULL, "null cfg");
@@ -96,7 +96,7 @@ int main(void)
     b = c; b.phases = 0;                 FS_CHECK_EQ_INT(fs_mtpa_init(&m, &b), FS_ERR_PARAM, "0 phases");
 
     /* Non-salient: i_d = 0, T = 1.5 p psi_f i_q. */
-    fs_mtpa_config ns = {4e-3f, 4e-3f, 0.08f, 3, 15.0f, 3};
+    fs_mtpa_config ns = {4e-3f, 4e-3f, 0.08f, 3, 15.0f, 3, NULL};
     FS_CHECK_EQ_INT(fs_mtpa_init(&m, &ns), FS_OK, "non-salient init");
     const double T_ns = 1.5 * 3 * 0.08 * 15.0;
     for (int k = -25; k <= 25; ++k) {
@@ -109,11 +109,11 @@ int main(void)
 
     /* Salient PM machines and a synchronous reluctance machine (psi_f = 0). */
     salient(c, "IPM 2/6 mH");
-    fs_mtpa_config strong = {1e-3f, 8e-3f, 0.05f, 5, 100.0f, 3};
+    fs_mtpa_config strong = {1e-3f, 8e-3f, 0.05f, 5, 100.0f, 3, NULL};
     salient(strong, "IPM strongly salient");
-    fs_mtpa_config weak = {4e-3f, 4.4e-3f, 0.2f, 2, 30.0f, 3};
+    fs_mtpa_config weak = {4e-3f, 4.4e-3f, 0.2f, 2, 30.0f, 3, NULL};
     salient(weak, "IPM weakly salient");
-    fs_mtpa_config synrm = {5e-3f, 40e-3f, 0.0f, 2, 10.0f, 3};
+    fs_mtpa_config synrm = {5e-3f, 40e-3f, 0.0f, 2, 10.0f, 3, NULL};
     salient(synrm, "SynRM");
     fs_mtpa_config five = c; five.phases = 5;
     salient(five, "IPM 2/6 mH, five phases");
@@ -132,5 +132,35 @@ int main(void)
     fs_mtpa_init(&m, &synrm);
     fs_dq s = fs_mtpa_step(&m, 1.0f);
     FS_CHECK_REL(s.d, -s.q, 1e-5, 0, "SynRM at 45 degrees");
+
+    /* A given table (a flux map's locus): copied, interpolated linearly.
+     * The designed table of c handed back as a table gives its currents
+     * within the chord's error (0.5 % of i_max), and the table is refused
+     * unless it has FS_MTPA_N points at |i| = i_max k / (N - 1), finite,
+     * its torque 0 and rising. */
+    fs_mtpa d;
+    fs_mtpa_init(&d, &c);
+    fs_mtpa_table tab = {FS_MTPA_N, {0}, {0}, {0}};
+    for (int k = 0; k < FS_MTPA_N; ++k) {
+        tab.T[k] = d.T[k];
+        tab.i_d[k] = d.i_d[k];
+        tab.i_q[k] = d.i_q[k];
+    }
+    fs_mtpa_config ct = c;
+    ct.table = &tab;
+    fs_mtpa t;
+    FS_CHECK_EQ_INT(fs_mtpa_init(&t, &ct), FS_OK, "table init");
+    FS_CHECK(t.tabulated == 1 && t.cfg.table == NULL, "table copied, pointer not kept");
+    for (int k = 1; k <= 99; ++k) {
+        float T_ref = d.T[FS_MTPA_N - 1] * (float)k / 100.0f;
+        fs_dq a = fs_mtpa_step(&d, T_ref), b2 = fs_mtpa_step(&t, -T_ref);
+        FS_CHECK(fabsf(a.d - b2.d) < 0.005f * c.i_max && fabsf(a.q + b2.q) < 0.005f * c.i_max,
+                 "table: (%g, %g) against the locus (%g, %g)", b2.d, -b2.q, a.d, a.q);
+    }
+    fs_mtpa_table bad = tab; bad.n = 10;          ct.table = &bad; FS_CHECK_EQ_INT(fs_mtpa_init(&t, &ct), FS_ERR_PARAM, "table n");
+    bad = tab; bad.T[5] = bad.T[4];               FS_CHECK_EQ_INT(fs_mtpa_init(&t, &ct), FS_ERR_PARAM, "table torque not rising");
+    bad = tab; bad.T[0] = 0.1f;                   FS_CHECK_EQ_INT(fs_mtpa_init(&t, &ct), FS_ERR_PARAM, "table torque at 0 A");
+    bad = tab; bad.i_q[7] *= 1.1f;                FS_CHECK_EQ_INT(fs_mtpa_init(&t, &ct), FS_ERR_PARAM, "table |i| off its point");
+    bad = tab; bad.i_d[3] = NAN;                  FS_CHECK_EQ_INT(fs_mtpa_init(&t, &ct), FS_ERR_PARAM, "table NaN");
     return fs_test_summary("test_mtpa");
 }

@@ -14,9 +14,9 @@
  * sqrt((var+ + var-) / n_eff) / mean, the variances those of the carrier
  * periods' means (a ripple within each period is not noise): decided both ways, refused on equal
  * averages (after the retries, each 1.5x larger up to i_pulse_max) and on
- * a difference drowned in the spread; n_eff from w_filter; an estimated
- * speed that moves by more than w_max (default w_filter / 10) from its
- * value at the pair's start: undetermined at once (a steady 100 el. rad/s
+ * a difference drowned in the spread; n_eff from w_filter; a half pulse whose
+ * mean estimated speed is more than w_max (default w_filter / 10) from the
+ * half before: undetermined at once (a steady 100 el. rad/s with +-50 of noise
  * in every other case: a rotor held turning is measured). Reset, refusals.
  */
 #include "control/fs_polarity.h"
@@ -32,9 +32,9 @@ static float feed(int k, int n, int n_avg, float base, float a)
 }
 
 /* The estimated speed during a pair: 100 el. rad/s (a rotor held turning)
- * in the + pulse, 100 +- spin in the - pulse. */
+ * +- 50 of noise in the + pulse, 100 + spin +- 50 in the - pulse. */
 static float spin;
-static float w_at(int j, int n) { return 100.0f + (j >= n ? spin * (float)((j & 1) ? 1 : -1) : 0.0f); }
+static float w_at(int j, int n) { return 100.0f + (j >= n ? spin : 0.0f) + ((j & 1) ? 50.0f : -50.0f); }
 
 /* One pair of pulses from its first call (the + pulse's reference already
  * returned by the previous call); returns the reference of the last call. */
@@ -145,18 +145,20 @@ int main(void)
     FS_CHECK_EQ_INT(fs_polarity_init(&p, &c), FS_OK, "t_lock = 0");
     FS_CHECK(p.n_lock == 0 && p.stage == FS_POLARITY_POS, "no LOCK stage");
 
-    /* the estimate's speed moves by +-29 el. rad/s from the 100 it had: decided; by +-31, above w_filter / 10:
-     * spun, undetermined without retry */
+    /* the - pulse's speed 25 el. rad/s above the + pulse's (and +-50 of noise on every sample): decided;
+     * 38: spun, undetermined without retry. 50-sample pulses, 25 a half: the noise leaves -2, +2, -2, +2 in
+     * the halves' means, so the largest change is spin - 4 (21 and 34 against w_max = w_filter / 10 = 30) */
     c = (fs_polarity_config){1e-4f, 4.0f, 0.01f, 0.005f, 8.0f, 0.0f, 300.0f, 0, 0.0f};
     FS_CHECK_EQ_INT(fs_polarity_init(&p, &c), FS_OK, "init");
     FS_CHECK_NEAR(p.cfg.w_max, 30.0, 1e-5, "w_max's default: w_filter / 10");
-    spin = 29.0f;
+    spin = 25.0f;
     sequence(&p, 10.0f, 11.0f, 0.01f);
-    FS_CHECK(p.stage == FS_POLARITY_DONE && !p.moved && p.w_peak == 29.0f, "29 rad/s: decided (peak %g)", p.w_peak);
+    FS_CHECK(p.stage == FS_POLARITY_DONE && !p.moved && fabsf(p.w_peak - 21.0f) < 1e-3f, "25 rad/s: decided (peak %g)", p.w_peak);
     fs_polarity_reset(&p);
-    spin = 31.0f;
+    spin = 38.0f;
     FS_CHECK_EQ_INT(sequence(&p, 10.0f, 11.0f, 0.01f), 1, "no retry once spun");
-    FS_CHECK(p.stage == FS_POLARITY_UNDETERMINED && p.moved && p.margin == 0.0f, "31 rad/s: spun (peak %g)", p.w_peak);
+    FS_CHECK(p.stage == FS_POLARITY_UNDETERMINED && p.moved && p.margin == 0.0f && fabsf(p.w_peak - 34.0f) < 1e-3f,
+             "38 rad/s: spun (peak %g)", p.w_peak);
     spin = 0.0f;
 
     /* refusals */

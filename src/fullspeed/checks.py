@@ -99,9 +99,12 @@ def warnings_of(d: dict, m) -> list[str]:
     # polarity detection
     pol = d.get("polarity", {})
     if ctl["angle"] in ("hfi", "blend") and pol.get("enabled") and ctl["mode"] in ("current", "speed"):
-        if m.magnetic["model"] == "linear":
+        asym = d_asymmetry(m, pol.get("i_pulse") or 0.5 * ctl["i_max"])
+        if m.magnetic["model"] == "linear" or (asym is not None and asym < POLARITY_ASYMMETRY):
+            what = "magnetics are linear" if m.magnetic["model"] == "linear" else \
+                f"flux map's incremental L_d differs by only {asym:.1%} between -i_pulse and +i_pulse"
             out.append(f"polarity.enabled: polarity detection measures the d axis's saturation asymmetry, and {m.name}'s "
-                       "magnetics are linear: the drive will refuse to start sensorless (stop reason polarity_undetermined); "
+                       f"{what}: the drive will refuse to start sensorless (stop reason polarity_undetermined); "
                        "give [magnetic] its saturation, or start at a known angle (polarity.enabled = false)")
         elif pol.get("i_pulse") and pol.get("t_pulse") and m.psi_f > 0:
             lam = math.sqrt(0.5 * m.phases * m.pole_pairs ** 2 * m.psi_f * pol["i_pulse"] / m.J)
@@ -109,7 +112,33 @@ def warnings_of(d: dict, m) -> list[str]:
                 out.append(f"polarity.t_pulse: the rotor is light for its pulses: {pol['i_pulse']:.3g} A a few degrees off the "
                            f"axis spins it up within {SPIN / lam:.3g} s, shorter than a pulse pair ({2 * pol['t_pulse']:.3g} s); "
                            "the detection will likely refuse (stop reason polarity_undetermined)")
+
+    # the saliency an injection estimator locks on, where a flux map gives it
+    if ctl["angle"] in ("hfi", "blend") and m.magnetic["model"] == "fluxmap":
+        from .fluxmap import saliency_warnings
+        out += saliency_warnings(m.magnetic, ctl["i_max"], m.phases, m.pole_pairs, m.T_rated, m.name)
     return out
+
+
+# the incremental L_d asymmetry below which the detection cannot decide: its
+# 5 % floor on the carrier amplitude (fs_polarity.h) needs about that much
+POLARITY_ASYMMETRY = 0.05
+
+
+def d_asymmetry(m, i_pulse: float) -> float | None:
+    """A flux map's incremental L_d at -i_pulse against +i_pulse (i_q = 0),
+    relative: what polarity detection decides on; None without a map."""
+    if m.magnetic.get("model") != "fluxmap":
+        return None
+    import numpy as np
+    i_d, i_q, psi_d = (np.asarray(m.magnetic[k], float) for k in ("i_d", "i_q", "psi_d"))
+    col = np.array([np.interp(0.0, i_q, row) for row in psi_d])     # psi_d(i_d) at i_q = 0
+    h = 0.25 * i_pulse
+
+    def L(i):   # the incremental L_d at i (the map's range clamps it)
+        return (np.interp(i + h, i_d, col) - np.interp(i - h, i_d, col)) / (2 * h)
+    lo, hi = L(-i_pulse), L(i_pulse)
+    return abs(lo - hi) / max(lo, hi) if max(lo, hi) > 0 else 0.0
 
 
 def ideal_hardware(d: dict) -> list[str]:

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["Claim", "CLAIMS", "PAPERS", "claims_for"]
+__all__ = ["Claim", "CLAIMS", "PAPERS", "claims_for", "claims_markdown"]
 
 PAPERS: tuple[str, ...] = ("yang2022", "zou2021", "yu2022", "beyond")
 
@@ -463,6 +463,29 @@ def claims_for(paper: str | None = None) -> tuple[Claim, ...]:
     if paper not in PAPERS:
         raise ValueError(f"paper = {paper!r}: must be one of {', '.join(PAPERS)}")
     return tuple(c for c in CLAIMS if c.paper == paper)
+
+
+def claims_markdown() -> str:
+    """docs/CLAIMS.md: the registry as a table per paper (a test keeps the
+    page equal to this)."""
+    lines = [
+        "# Claims that `fullspeed reproduce` measures",
+        "",
+        "Generated from `src/fullspeed/claims.py` (`fullspeed.claims.claims_markdown`); a test keeps this page",
+        "equal to the registry. `fullspeed reproduce --out DIR` runs the scenario behind each claim and writes",
+        "`DIR/claims.json` (per claim: id, paper, text, target, value, unit, pass, scenario) and `DIR/report.md`",
+        "with the figures; `--paper` runs one part. A claim that cannot be measured yet is listed with no value",
+        "and `pass: false`, never left out.",
+        "",
+        "Position error is the actual minus the estimated electrical angle, wrapped to (-180, 180] el.deg; mean",
+        "and pp (max minus min) are taken over the run's steady window; speeds are mechanical rpm; \"held by the",
+        "load machine\": a speed-controlled load machine imposes the speed, as on the papers' benches.",
+    ]
+    for paper in PAPERS:
+        lines += ["", f"## {paper}", "", "| id | conditions | target | unit | scenario |", "|---|---|---|---|---|"]
+        lines += [f"| {c.id} | {c.text} | {c.target} | {c.unit} | `{c.scenario}` |".replace("\n", " ")
+                  for c in claims_for(paper)]
+    return "\n".join(lines) + "\n"
 
 
 def _check_unique() -> None:

@@ -22,6 +22,32 @@ from .files import out_path, write_json, write_npz, write_with
 OUT = Path("out")
 
 
+def _set_overrides(pairs: list[str] | None) -> dict:
+    """--set key=value, repeatable: dotted scenario keys, TOML values
+    (`controller.bw_speed=50`, `references.speed_rpm=[[0, 0], [0.1, 1000]]`);
+    a value that is not TOML is taken as a string (`controller.angle=blend`)."""
+    import tomllib
+
+    from .schema import deep_merge
+
+    out: dict = {}
+    for pair in pairs or []:
+        key, eq, text = pair.partition("=")
+        parts = key.strip().split(".")
+        if not eq or not all(parts):
+            raise ConfigError("--set", pair, "must be key=value with a dotted scenario key, e.g. controller.bw_speed=50")
+        try:
+            value = tomllib.loads(f"v = {text}")["v"]
+        except tomllib.TOMLDecodeError:
+            if any(c in text for c in "[]{}\"'=") or not text.strip():
+                raise ConfigError(f"--set {key}", text, "is not a TOML value (a number, true/false, \"text\", [list] or {table})") from None
+            value = text.strip()
+        for k in reversed(parts):
+            value = {k: value}
+        out = deep_merge(out, value)
+    return out
+
+
 # `fullspeed run`'s exit status (README, "Exit status"): 0 only for a run that
 # completed with the drive in control; 2 is bad input, 3 an internal error.
 EXIT_FAILED = 1   # a protection stop, a refusal, a loss of lock (flagged, or seen by the simulation's truth)
@@ -51,14 +77,14 @@ def run_verdict(res) -> list[str]:
 
 
 def _cmd_run(args) -> int:
-    from .metrics import json_safe
+    from .metrics import json_safe, summary_lines
     from .plots import plot_run
     from .scenario import load_scenario
     from .sim import simulate
 
-    overrides = {}
+    overrides = _set_overrides(args.set)
     if args.inverter:
-        overrides["converter"] = {"inverter": args.inverter}
+        overrides.setdefault("converter", {})["inverter"] = args.inverter
     sc = load_scenario(args.scenario, overrides or None)
     out = Path(args.out) if args.out else out_path(OUT, sc.name, "name", sc.source)   # before the run, not after
     for w in sc.warnings:
@@ -71,8 +97,7 @@ def _cmd_run(args) -> int:
     write_json(out / "metrics.json", json_safe(res.metrics), indent=2)
     print(f"{res.scenario.name}: {res.sim_time:.3f} s simulated in {res.wall_time:.3f} s wall "
           f"= {res.speed_ratio:.1f} simulated s per wall s ({res.scenario.data['converter']['inverter']} inverter)")
-    if "speed_error_pct" in res.metrics and res.metrics["speed_error_pct"] is not None:
-        print(f"steady speed error: {res.metrics['speed_error_pct']:+.4f} %")
+    print("\n".join(summary_lines(res.metrics)))
     if res.metrics.get("sensorless_err_deg_max") is not None:
         print(f"largest angle error while sensorless: {res.metrics['sensorless_err_deg_max']:.2f} el.deg")
     if res.polarity is not None and res.polarity["stage"] == "done":
@@ -149,6 +174,8 @@ def _cmd_sweep(args) -> int:
     if not args.dask_timeout > 0:
         raise ConfigError("--dask-timeout", args.dask_timeout, "must be > 0 s")
     sw = load_sweep_file(args.file)
+    if args.set:
+        sw = _with_overrides(sw, _set_overrides(args.set))
     if args.workers is not None and args.workers < 1:
         raise ConfigError("--workers", args.workers, "must be at least 1")
     out = Path(args.out) if args.out else out_path(OUT / "sweeps", sw.name, "name", args.file)
@@ -184,6 +211,18 @@ def _check_dask_address(address: str) -> None:
         raise ConfigError("--dask", address, "must be a scheduler address with a port: tcp://HOST:PORT")
 
 
+def _with_overrides(sw, extra: dict):
+    """The sweep with --set merged into its [overrides] (checked as the file's are)."""
+    import dataclasses
+
+    from .schema import deep_merge
+    from .sweep import _check_points
+
+    overrides = deep_merge(sw.overrides, extra)
+    _check_points(sw.base, overrides, sw.axes, sw.base_source)
+    return dataclasses.replace(sw, overrides=overrides)
+
+
 def _cmd_reproduce(args) -> int:
     from .reproduce import reproduce
 
@@ -196,6 +235,8 @@ def _cmd_reproduce(args) -> int:
 
 
 def _cmd_calibrate(args) -> int:
+    import numpy as np
+
     from .calibrate import write_table, xsat_table
     from .scenario import load_scenario
 
@@ -204,10 +245,15 @@ def _cmd_calibrate(args) -> int:
     else:   # the machine's name makes the file's: checked before the calibration runs
         sc = load_scenario(args.scenario)
         target = out_path(OUT, sc.machine.name, "machine.name", sc.source, suffix="-xsat.toml")
-    table, sc = xsat_table(args.scenario, i_q_max=args.i_q_max, points=args.points)
+    table, sc = xsat_table(args.scenario, i_q_max=args.i_q_max, points=args.points, speed_rpm=args.speed_rpm)
     path = write_table(table, target)
-    for i, dlt in zip(table["i_q"], table["delta_deg"]):
-        print(f"  i_q = {i:7.2f} A   delta = {dlt:+8.3f} el.deg")
+    print(f"{sc.machine.name} at {table['speed_rpm']:g} rpm held by the load machine:")
+    for i, dlt, s, r in zip(table["i_q"], table["delta_deg"], table["spread_deg"], table["residual_deg"]):
+        print(f"  i_q = {i:7.2f} A   delta = {dlt:+8.3f} el.deg   scatter {s:5.2f}   compensated {r:+6.2f}")
+    res = np.abs(table["residual_deg"])
+    print(f"table {min(table['delta_deg']):+.2f}..{max(table['delta_deg']):+.2f} el.deg, scatter at most "
+          f"{max(table['spread_deg']):.2f}; with it the estimate's mean error is at most {res.max():.2f} el.deg "
+          f"(mean {np.mean(table['residual_deg']):+.3f})")
     print(f"wrote {path}; use it with [injection] xcomp = \"{path}\"")
     return 0
 
@@ -218,6 +264,27 @@ def _cmd_export(args) -> int:
     paths = export(args.scenario, args.out, args.name)
     print(f"wrote {' and '.join(str(p) for p in paths)}: the fs_drive_config of {args.scenario} "
           f"(compile the .c with csrc/control; fs_drive_init(&drive, &{args.name}))")
+    return 0
+
+
+def _cmd_schema(args) -> int:
+    from .reference import reference_text, section_names
+
+    if args.section is not None and not reference_text(args.section):
+        raise ConfigError("section", args.section, "unknown; the sections are " + ", ".join(section_names()))
+    print(reference_text(args.section), end="")
+    return 0
+
+
+def _cmd_new_machine(args) -> int:
+    from .files import file_name, write_atomic
+    from .reference import machine_template
+
+    path = Path(args.out or f"{file_name(args.name)}.toml")
+    if path.exists() and not args.force:
+        raise ConfigError("--out", str(path), "exists; --force to overwrite")
+    write_atomic(path, machine_template(args.name))
+    print(f"wrote {path}: fill in every \"?\"; `fullspeed schema machine` lists the optional fields")
     return 0
 
 
@@ -233,6 +300,8 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--out", help="output folder (default out/<name>)")
     r.add_argument("--inverter", choices=["averaged", "switching"], help="override the inverter model")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
+    r.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="override a scenario field, repeatable: dotted key, TOML value (controller.bw_speed=50)")
     r.set_defaults(func=_cmd_run)
     dz = sub.add_parser("design", help="print every designed setting of a machine or scenario, with its reason")
     dz.add_argument("target", help="a catalog machine, a machine TOML (datasheet fields), or a scenario (name or TOML)")
@@ -247,8 +316,11 @@ def main(argv: list[str] | None = None) -> int:
                     help="stop with an error when the Dask cluster has had no worker for S seconds (default 60)")
     sw.add_argument("--out", help="output folder (default out/sweeps/<name>); run again to resume")
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
+    sw.add_argument("--set", action="append", metavar="KEY=VALUE",
+                    help="add to the sweep's [overrides], repeatable: dotted scenario key, TOML value")
     sw.set_defaults(func=_cmd_sweep)
-    rp = sub.add_parser("reproduce", help="measure the claims of CLAIMS.md")
+    about = "measure the claims of docs/CLAIMS.md (generated from src/fullspeed/claims.py)"
+    rp = sub.add_parser("reproduce", help=about, description=about)
     rp.add_argument("--paper", choices=["yang2022", "zou2021", "yu2022", "beyond"])
     rp.add_argument("--out", default="out/reproduce")
     rp.add_argument("--quiet", action="store_true")
@@ -257,6 +329,7 @@ def main(argv: list[str] | None = None) -> int:
     cal.add_argument("scenario", help="a scenario with angle = \"hfi\" or \"blend\" (its machine, speed and injection)")
     cal.add_argument("--i-q-max", type=float, default=40.0, help="A: the table spans -i_q_max..i_q_max")
     cal.add_argument("--points", type=int, default=17)
+    cal.add_argument("--speed-rpm", type=float, help="speed held by the load machine (default: the scenario's speed load, else 100)")
     cal.add_argument("--out", help="TOML file (default out/<machine>-xsat.toml)")
     cal.set_defaults(func=_cmd_calibrate)
     ex = sub.add_parser("export", help="write the fs_drive_config a scenario's simulation uses as C source for a firmware")
@@ -264,7 +337,17 @@ def main(argv: list[str] | None = None) -> int:
     ex.add_argument("--out", required=True, help="output folder: <name>.h and <name>.c are written there")
     ex.add_argument("--name", default="fs_config", help="the C constant and the files' name (default fs_config)")
     ex.set_defaults(func=_cmd_export)
+    sch = sub.add_parser("schema", help="the scenario and machine fields: unit, default, range, meaning (docs/reference.md)")
+    sch.add_argument("section", nargs="?", help="e.g. controller, injection, machine, machine.bench (default: all)")
+    sch.set_defaults(func=_cmd_schema)
+    nm = sub.add_parser("new-machine", help="write a machine file template with the fields a machine requires")
+    nm.add_argument("name")
+    nm.add_argument("--out", help="file (default <name>.toml)")
+    nm.add_argument("--force", action="store_true", help="overwrite an existing file")
+    nm.set_defaults(func=_cmd_new_machine)
     args = ap.parse_args(argv)
+    import warnings
+    warnings.formatwarning = lambda msg, cat, *a, **k: f"fullspeed: warning: {msg}\n"   # one line, as the errors
     try:
         return args.func(args)
     except (ConfigError, SimulationError) as exc:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import stat
 import tempfile
 from collections.abc import Callable
@@ -110,6 +111,14 @@ def safe_name(name, field: str, source: str | None = None) -> str:
     if size > MAX_NAME_BYTES:
         refuse(f"it is {size} bytes long; at most {MAX_NAME_BYTES}")
     return name
+
+
+def file_name(name: str) -> str:
+    """A name typed for a new file (`fullspeed new-machine NAME`) with every
+    character but letters, digits, '.', '-' and '_' replaced by '_' and no
+    leading dot: it stays a file name in its folder. (Names taken from an
+    input file go through safe_name, which refuses rather than rewrites.)"""
+    return re.sub(r"[^\w.-]", "_", name).lstrip(".") or "unnamed"
 
 
 def out_path(root: str | Path, name, field: str, source: str | None = None, suffix: str = "") -> Path:

@@ -3,41 +3,52 @@ from __future__ import annotations
 
 import math
 import tomllib
+import warnings
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
+from . import fluxmap
 from .design import design_bench
 from .errors import ConfigError
-from .schema import ANY, NOTES, C, F, I, N, NONNEG, POS, S, T, Spec, even_grid, finite_number, read_toml, validate
+from .schema import NOTES, C, F, I, N, NONNEG, POS, S, T, Spec, even_grid, finite_number, read_toml, validate
 from .units import rpm_to_rad_s
 
 MAGNETIC = {
-    "model": C("linear", "algebraic", "fluxmap", default="linear"),
+    "model": C("linear", "algebraic", "fluxmap", default="linear", doc="linear: L_d, L_q, psi_f of [electrical]; algebraic saturation; a flux map (or file = ...)"),
     # the algebraic model's coefficients and exponents (fs_magnetic.h)
-    "a_dd": NONNEG(0.0, hi=1e100), "a_qq": NONNEG(0.0, hi=1e100), "a_dq": NONNEG(0.0, hi=1e100),
-    "S": NONNEG(0.0, hi=20.0), "T": NONNEG(0.0, hi=20.0), "U": NONNEG(0.0, hi=20.0), "V": NONNEG(0.0, hi=20.0),
+    "a_dd": NONNEG(0.0, hi=1e100, doc="algebraic: d self-saturation coefficient (fs_magnetic.h)"),
+    "a_qq": NONNEG(0.0, hi=1e100, doc="algebraic: q self-saturation coefficient"),
+    "a_dq": NONNEG(0.0, hi=1e100, doc="algebraic: cross-saturation coefficient"),
+    "S": NONNEG(0.0, hi=20.0, doc="algebraic: exponent of a_dd"), "T": NONNEG(0.0, hi=20.0, doc="algebraic: exponent of a_qq"),
+    "U": NONNEG(0.0, hi=20.0, doc="algebraic: d exponent of a_dq"), "V": NONNEG(0.0, hi=20.0, doc="algebraic: q exponent of a_dq"),
     # fluxmap: psi_d[k][l], psi_q[k][l] at currents i_d[k], i_q[l] (regular grids)
-    "i_d": Spec("any", None), "i_q": Spec("any", None),
-    "psi_d": Spec("any", None), "psi_q": Spec("any", None),
-    "source": S(""), "reason": S(""),
+    "i_d": Spec("any", None, doc="A, fluxmap: the d currents, rising in even steps"), "i_q": Spec("any", None, doc="A, fluxmap: the q currents, rising in even steps"),
+    "psi_d": Spec("any", None, doc="Wb, fluxmap: psi_d[k][l] at (i_d[k], i_q[l])"), "psi_q": Spec("any", None, doc="Wb, fluxmap: psi_q[k][l] at (i_d[k], i_q[l])"),
+    "source": S("", doc="where the magnetics come from"), "reason": S("", doc="why this model"),
+    "file": S(None, doc="a flux map file, .csv or SyR-e .mat (fullspeed.fluxmap), beside the machine file; sets model, i_d, i_q, psi_d, psi_q"),
+    "torque": Spec("any", None, doc="N m, torque[k][l] at (i_d[k], i_q[l]) where the map file gives it (checked against the fluxes)"),
 }
 
 # Bounds are what a drive on a bench can be: generous, but they keep every
 # value finite in float32 and every run a finite number of steps.
 BENCH = {
     "u_dc": POS(hi=1e5, doc="V"), "f_pwm": F(lo=100.0, hi=1e6, doc="Hz"), "t_dead": NONNEG(0.0, hi=1e-4, doc="s"),
-    "sampling": C("single", "double", default="single"),
+    "sampling": C("single", "double", default="single", doc="current sampling once or twice per PWM period"),
     # left out: designed (fullspeed.design; `fullspeed design` prints them with their reasons)
-    "i_max": POS(None, hi=1e5, doc="A"), "i_trip": POS(None, hi=1e5, doc="A"), "i_lim": POS(None, hi=1e5),
-    "adc_bits": I(12, 0, 24), "adc_range": POS(None, hi=1e6, doc="A"), "noise_i": NONNEG(0.0, hi=1e4),
-    "encoder_bits": I(0, 0, 32),
-    "bw_current": POS(None, hi=1e6, doc="rad/s"), "bw_speed": POS(None, hi=1e6, doc="rad/s"),
-    "bw_pll": POS(None, hi=1e6, doc="rad/s"), "bw_pll_smo": POS(None, hi=1e6, doc="rad/s"),
+    "i_max": POS(None, hi=1e5, doc="A, current limit; default designed: 1.5 x rated"),
+    "i_trip": POS(None, hi=1e5, doc="A, overcurrent trip; default designed: 1.25 x i_max"), "i_lim": POS(None, hi=1e5, doc="A, imc: I_lim of zou2021 eq. (33); optional"),
+    "adc_bits": I(12, 0, 24, doc="current ADC resolution (0: ideal)"), "adc_range": POS(None, hi=1e6, doc="A, the ADC's +- full scale; default designed: 1.2 x i_trip"),
+    "noise_i": NONNEG(0.0, hi=1e4, doc="A, rms current-sensor noise"), "encoder_bits": I(0, 0, 32, doc="encoder resolution (0: ideal)"),
+    "bw_current": POS(None, hi=1e6, doc="rad/s, current loop; default designed from the sampling rate"),
+    "bw_speed": POS(None, hi=1e6, doc="rad/s, speed loop; default designed: bw_current / 30"),
+    "bw_pll": POS(None, hi=1e6, doc="rad/s, encoder PLL; default designed from bw_speed"),
+    "bw_pll_smo": POS(None, hi=1e6, doc="rad/s, the back-EMF observer's PLL; default designed from the blending band"),
     # the indirect matrix converter's grid and input filter (zou2021)
-    "u_dc_min": POS(None, hi=1e5), "u_grid_ll_rms": POS(None, hi=1e5), "f_grid": POS(None, hi=1e4),
-    "l_filter": POS(None, hi=10.0), "r_filter": POS(None, hi=1e6), "c_filter": POS(None, hi=10.0),
-    "reasons": NOTES(),
+    "u_dc_min": POS(None, hi=1e5, doc="V, imc: optional"), "u_grid_ll_rms": POS(None, hi=1e5, doc="V, imc: grid line-line rms; optional"),
+    "f_grid": POS(None, hi=1e4, doc="Hz, imc: optional"), "l_filter": POS(None, hi=10.0, doc="H, imc input filter: optional"),
+    "r_filter": POS(None, hi=1e6, doc="ohm, imc input filter: optional"), "c_filter": POS(None, hi=10.0, doc="F, imc input filter: optional"),
+    "reasons": NOTES(doc="why each value (text by field name)"),
 }
 
 # The third-harmonic (d3-q3) plane of a five-phase machine, linear:
@@ -47,32 +58,35 @@ THIRD_HARMONIC = {"L_d3": F(lo=1e-8, hi=10.0), "L_q3": F(lo=1e-8, hi=10.0), "psi
 # The estimators' defaults on this machine (scenario [injection] and
 # [blending] fields left out come from here), and the paper's printed gains.
 INJECTION = {
-    "kind": C("rotating", "square", default="rotating"),
-    "u_h": POS(None, hi=1e4, doc="V"), "f_h": POS(None, hi=1e5, doc="Hz"), "bw_pll": POS(None, hi=1e6, doc="rad/s"),
+    "kind": C("rotating", "square", default="rotating", doc="the carrier these defaults are for"),
+    "u_h": POS(None, hi=1e4, doc="V, carrier amplitude; default designed (rotating)"), "f_h": POS(None, hi=1e5, doc="Hz, carrier; default designed (rotating)"),
+    "bw_pll": POS(None, hi=1e6, doc="rad/s, square wave's PLL; optional"),
     "xcomp_paper": N(None, doc="swvi: the fitted error polynomial, el.rad in i_q (A)"),
 }
 # the same names as the scenario's [blending], which overrides them
-BLENDING = {"lower_rpm": NONNEG(None, hi=1e6), "upper_rpm": POS(None, hi=1e6)}
+BLENDING = {"lower_rpm": NONNEG(None, hi=1e6, doc="default designed"), "upper_rpm": POS(None, hi=1e6, doc="default designed")}
 RENAMED = {"blending.omega_lower_rpm": "blending.lower_rpm", "blending.omega_upper_rpm": "blending.upper_rpm"}
-PAPER_GAINS = {k: (POS if k in ("current_kp_d", "current_kp_q", "speed_kp") else NONNEG)(None, hi=1e9) for k in (   # the PIs need k_p > 0
+PAPER_GAINS = {k: (POS if k in ("current_kp_d", "current_kp_q", "speed_kp") else NONNEG)(None, hi=1e9, doc="optional: as printed, V/A, V/(A s), A s/rad, A/rad") for k in (   # the PIs need k_p > 0
     "current_kp_d", "current_ki_d", "current_kp_q", "current_ki_q", "speed_kp", "speed_ki", "pll_kp", "pll_ki")}
-BENCH_EXPERIMENT = {k: POS(None, hi=1e6) for k in ("u_grid_ll_rms", "f_grid", "u_dc", "u_dc_min", "i_max", "i_lim")}
+BENCH_EXPERIMENT = {k: POS(None, hi=1e6, doc="optional: the experiment's value (SI)") for k in ("u_grid_ll_rms", "f_grid", "u_dc", "u_dc_min", "i_max", "i_lim")}
 
 MACHINE = {
-    "name": S(), "description": S(""), "source": S(""),
-    "kind": C("ipmsm", "spmsm"),
-    "phases": Spec("choice", 3, choices=(3, 5)),
-    "pole_pairs": I(lo=1, hi=100),
+    "name": S(doc="the machine's name"), "description": S("", doc="one line for `fullspeed list`"), "source": S("", doc="where the values come from"),
+    "kind": C("ipmsm", "spmsm", doc="interior (L_d < L_q) or surface (L_d = L_q) magnets"),
+    "phases": Spec("choice", 3, choices=(3, 5), doc="five: also [third_harmonic]"),
+    "pole_pairs": I(lo=1, hi=100, doc="pole pairs"),
     "electrical": T({"R_s": NONNEG(hi=1e3, doc="ohm"), "L_d": F(lo=1e-8, hi=10.0, doc="H"),
                      "L_q": F(lo=1e-8, hi=10.0, doc="H"), "psi_f": NONNEG(hi=100.0, doc="Wb")}),
-    "mechanical": T({"J": F(lo=1e-9, hi=1e5, doc="kg m^2"), "B": NONNEG(0.0, hi=1e4), "T_coulomb": NONNEG(0.0, hi=1e6)}),
-    "rated": T({"torque": POS(hi=1e6), "current": POS(hi=1e5), "speed_rpm": POS(hi=1e6),
-                "voltage": POS(None, hi=1e5), "power": POS(None, hi=1e9)}),
+    "mechanical": T({"J": F(lo=1e-9, hi=1e5, doc="kg m^2"), "B": NONNEG(0.0, hi=1e4, doc="N m s/rad, viscous friction"),
+                     "T_coulomb": NONNEG(0.0, hi=1e6, doc="N m, Coulomb friction")}),
+    "rated": T({"torque": POS(hi=1e6, doc="N m"), "current": POS(hi=1e5, doc="A, peak phase (rms x sqrt 2)"), "speed_rpm": POS(hi=1e6, doc="rated speed"),
+                "voltage": POS(None, hi=1e5, doc="V, peak phase; optional"), "power": POS(None, hi=1e9, doc="W; optional")}),
     "magnetic": T(MAGNETIC, default={}),
     "bench": T(BENCH),
     "injection": T(INJECTION, default=None), "blending": T(BLENDING, default=None),
-    "paper_gains": T(PAPER_GAINS, default=None), "third_harmonic": ANY,
-    "bench_experiment": T(BENCH_EXPERIMENT, default=None), "derivations": NOTES(),
+    "paper_gains": T(PAPER_GAINS, default=None, doc="a paper's printed PI gains (controller.gains = \"paper\")"),
+    "third_harmonic": Spec("any", None, doc="five phases: L_d3, L_q3 (H) and psi_f3 (Wb) of the third-harmonic plane"),
+    "bench_experiment": T(BENCH_EXPERIMENT, default=None, doc="a paper's experimental bench, where it differs"), "derivations": NOTES(doc="how values were derived (text)"),
 }
 
 
@@ -139,6 +153,8 @@ def machine_from_dict(data: dict, source: str | None = None, prefix: str = "mach
             if isinstance(given, dict) and old.split(".")[1] in given:
                 raise ConfigError(f"{prefix}.{old}", given[old.split('.')[1]], f"is now called {prefix}.{new} (one name for one setting, as in a scenario)", source)
     d = validate(data, MACHINE, prefix, source)
+    if d["magnetic"]["file"] is not None:
+        d["magnetic"] = _magnetic_file(d["magnetic"], f"{prefix}.magnetic", source)
     e, m, r, b = d["electrical"], d["mechanical"], d["rated"], d["bench"]
     designed = design_bench({"i_rated": r["current"]}, b)
     b.update({k: v.value for k, v in designed.items()})
@@ -168,6 +184,9 @@ def machine_from_dict(data: dict, source: str | None = None, prefix: str = "mach
         raise ConfigError(f"{prefix}.injection.xcomp_paper", poly, "must list 1 to 4 coefficients (a cubic in i_q at most)", source)
     if d["magnetic"]["model"] == "fluxmap":
         _check_fluxmap(d["magnetic"], f"{prefix}.magnetic", source)
+        fluxmap.check_coverage(d["magnetic"], b["i_max"], f"{prefix}.magnetic", source)
+        for line in fluxmap.consistency_warnings(d["magnetic"], e, d["pole_pairs"], d["phases"], d["name"]):
+            warnings.warn(line, fluxmap.FluxMapWarning, stacklevel=2)
     extra = {k: {kk: vv for kk, vv in d[k].items() if vv is not None}
              for k in ("injection", "blending", "paper_gains", "third_harmonic", "bench_experiment") if d.get(k) is not None}
     return Machine(
@@ -178,6 +197,18 @@ def machine_from_dict(data: dict, source: str | None = None, prefix: str = "mach
         magnetic=d["magnetic"], bench=b, extra=extra, source=d["source"], description=d["description"],
         L_d3=th["L_d3"], L_q3=th["L_q3"], psi_f3=th["psi_f3"], design=designed,
     )
+
+
+def _magnetic_file(mag: dict, field: str, source) -> dict:
+    """[magnetic] file = "map.csv": the map read (beside the machine or
+    scenario file first), its fields in place of the table's."""
+    p = Path(mag["file"])
+    if not p.is_absolute() and source and (Path(source).parent / p).is_file():
+        p = Path(source).parent / p
+    given = [k for k in ("i_d", "i_q", "psi_d", "psi_q", "torque") if mag[k] is not None]
+    if given:
+        raise ConfigError(f"{field}.{given[0]}", "given", "must be left out with file = ... (the file holds the map)", source)
+    return {**mag, **fluxmap.load_map(p, f"{field}.file", source)}
 
 
 def _check_fluxmap(mag: dict, prefix: str, source) -> None:

@@ -12,18 +12,20 @@ from . import design as dz
 from .errors import ConfigError
 from .files import path_kind
 from .machines import Machine, catalog_data, machine_from_dict
-from .schema import ANY, B, C, F, I, N, NONNEG, POS, P, S, Spec, T, deep_merge, even_grid, finite_number, parse_toml, read_toml, validate
+from .schema import MISSING, B, C, F, I, N, NONNEG, POS, P, S, Spec, T, deep_merge, even_grid, finite_number, parse_toml, read_toml, validate
 from .units import rpm_to_rad_s
 
 SCENARIO = {
-    "name": S(), "description": S(""), "paper": S(""),
+    "name": S(doc="the scenario's name (out/<name>/ by default)"), "description": S("", doc="one line for `fullspeed list`"),
+    "paper": S("", doc="the paper it reproduces, if any"),
     "duration": POS(hi=1e4, doc="simulated time, s"),
-    "machine": ANY,
+    "machine": Spec("any", MISSING, doc="a catalog name, a machine file (.toml), or a table: the fields of [machine] below, or catalog = \"name\" and the fields to override"),
     "converter": T({
         "kind": C("inverter", "imc", default="inverter",
                   doc="imc: the indirect matrix converter of zou2021 (grid, LC filter, rectifier and inverter stages)"),
         "inverter": C("averaged", "switching", default=None, doc="default switching; the imc's is averaged per rectifier interval"),
-        "u_dc": POS(None, hi=1e5), "f_pwm": F(None, lo=100.0, hi=1e6), "t_dead": NONNEG(None, hi=1e-4), "u_on": NONNEG(0.0, hi=1e3),
+        "u_dc": POS(None, hi=1e5, doc="V; default the machine's bench"), "f_pwm": F(None, lo=100.0, hi=1e6, doc="Hz, PWM carrier; default the machine's bench"),
+        "t_dead": NONNEG(None, hi=1e-4, doc="s, dead time; default the machine's bench"), "u_on": NONNEG(0.0, hi=1e3, doc="V, device on-state drop"),
         # the matrix converter (defaults from the machine's bench)
         "modulation": C("linear", "om1", "om2", default="om2",
                         doc="imc: the highest region (zou2021 sec. 3.3): linear, over-modulation I (CASE 1) or II (CASE 1 and 2)"),
@@ -31,28 +33,39 @@ SCENARIO = {
         "l_filter": POS(None, hi=10.0, doc="H"), "r_filter": POS(None, hi=1e6, doc="ohm, in parallel with l_filter"), "c_filter": POS(None, hi=10.0, doc="F"),
     }, default={}),
     "timing": T({
-        "sampling": C("single", "double", default=None),
+        "sampling": C("single", "double", default=None, doc="current sampling once or twice per PWM period; default the machine's bench"),
         "delay": B(True, doc="one control period of computation delay"),
         "h_max": F(None, lo=1e-9, hi=1e-3, doc="longest integration step, s; default from the machine's time constants; at least 1/1000 of the control period"),
     }, default={}),
     "sensors": T({
-        "adc_bits": I(None, 0, 24), "adc_range": POS(None, hi=1e6), "noise_i": NONNEG(None, hi=1e4),
-        "encoder_bits": I(None, 0, 32), "seed": I(1, 0, 2**63 - 1),
+        "adc_bits": I(None, 0, 24, doc="current ADC resolution (0: ideal); default the machine's bench"),
+        "adc_range": POS(None, hi=1e6, doc="A, the ADC's +- full scale; default the machine's bench"),
+        "noise_i": NONNEG(None, hi=1e4, doc="A, rms current-sensor noise; default the machine's bench"),
+        "encoder_bits": I(None, 0, 32, doc="encoder resolution (0: ideal); default the machine's bench"),
+        "seed": I(1, 0, 2**63 - 1, doc="the noise generator's seed"),
     }, default={}),
     "controller": T({
-        "mode": C("off", "voltage", "vf", "current", "speed"),
-        "angle": C("encoder", "true", "smo", "hfi", "blend", "swvi", default="encoder"),
+        "mode": C("off", "voltage", "vf", "current", "speed", doc="what the drive controls: nothing, dq voltages, V/f, currents or speed (the references below)"),
+        "angle": C("encoder", "true", "smo", "hfi", "blend", "swvi", default="encoder",
+                   doc="the loops' angle: encoder, the true angle, the sliding-mode observer, rotating HF injection, their blend, or square-wave injection"),
         "gains": C("designed", "paper", default="designed",
                    doc="PI gains: designed from the bandwidths, or the machine's [paper_gains]"),
-        "bw_current": POS(None, hi=1e6), "bw_speed": POS(None, hi=1e6), "bw_pll": POS(None, hi=1e6),
-        "i_max": POS(None, hi=1e5), "T_max": POS(None, hi=1e6),
-        "dead_time_comp": B(True), "i_dead_band": NONNEG(None, hi=1e5),
-        "vf_gain": NONNEG(0.0, hi=1e3, doc="V per electrical rad/s"), "vf_boost": NONNEG(0.0, hi=1e5),
+        "bw_current": POS(None, hi=1e6, doc="rad/s, current loop; default the machine's bench (designed)"),
+        "bw_speed": POS(None, hi=1e6, doc="rad/s, speed loop; default the machine's bench (designed)"),
+        "bw_pll": POS(None, hi=1e6, doc="rad/s, the encoder's speed PLL; default the machine's bench (designed)"),
+        "i_max": POS(None, hi=1e5, doc="A, current limit; default the machine's bench (designed)"),
+        "T_max": POS(None, hi=1e6, doc="N m, torque limit; default the MTPA torque at i_max"),
+        "dead_time_comp": B(True, doc="compensate the converter's dead time"),
+        "i_dead_band": NONNEG(None, hi=1e5, doc="A, below this the dead-time compensation ramps to zero; default 1 % of i_max"),
+        "vf_gain": NONNEG(0.0, hi=1e3, doc="V per electrical rad/s"), "vf_boost": NONNEG(0.0, hi=1e5, doc="V, V/f boost at zero frequency"),
         # the controller's parameters relative to the true machine's
-        "R_s_scale": F(1.0, lo=0.01, hi=100.0), "L_d_scale": F(1.0, lo=0.01, hi=100.0), "L_q_scale": F(1.0, lo=0.01, hi=100.0),
-        "psi_f_scale": F(1.0, lo=0.01, hi=100.0), "J_scale": F(1.0, lo=0.01, hi=100.0),
+        "R_s_scale": F(1.0, lo=0.01, hi=100.0, doc="the controller's R_s over the machine's (a mismatch)"),
+        "L_d_scale": F(1.0, lo=0.01, hi=100.0, doc="the controller's L_d over the machine's"),
+        "L_q_scale": F(1.0, lo=0.01, hi=100.0, doc="the controller's L_q over the machine's"),
+        "psi_f_scale": F(1.0, lo=0.01, hi=100.0, doc="the controller's psi_f over the machine's"),
+        "J_scale": F(1.0, lo=0.01, hi=100.0, doc="the controller's J over the machine's"),
         # zou2021 PART_1 voltage-error-feedback flux weakening on top of MTPA
-        "flux_weakening": B(False),
+        "flux_weakening": B(False, doc="speed mode: voltage-error-feedback flux weakening above the base speed (zou2021 PART_1)"),
         "fw_top_speed_rpm": POS(None, hi=1e6, doc="w_r,max of eq. (31); default the observer's top speed"),
         "fw_gain": POS(50.0, hi=1e6, doc="multiplies beta of eq. (31): the loop's dc gain at the top speed (the paper: 1)"),
         "fw_cutoff": POS(None, hi=1e6, doc="rad/s, the low-pass of eq. (30); default designed in the drive's init (fs_drive.h; the paper: bw_current)"),
@@ -72,16 +85,19 @@ SCENARIO = {
     "observer": T({
         "handover": NONNEG(0.0, hi=1e4, doc="s: the loops switch from the encoder to the observer"),
         "k": NONNEG(0.0, hi=1e6, doc="V; 0: margin x the bound of eq. (18)"),
-        "margin": F(1.5, lo=1.0, hi=100.0, lo_open=True),
+        "margin": F(1.5, lo=1.0, hi=100.0, lo_open=True, doc="the SMO gain over its bound of eq. (18) when k = 0"),
         "delta": NONNEG(0.0, hi=1e5, doc="A; floored at k Ts / L_d"),
         "cutoff_min_rpm": POS(None, hi=1e6, doc="floor of the adaptive filter's cutoff, as a mechanical speed; default 1/8 of the lower blending speed (yang2022: 20 rpm)"),
         "bw_pll": POS(None, hi=1e6, doc="rad/s; default from the machine's bench"),
         "valid_rpm": NONNEG(None, hi=1e6, doc="the observer's estimate is trusted above this speed; default 5/8 of the lower blending speed (yang2022: 100 rpm)"),
         "top_speed_rpm": POS(None, hi=1e6, doc="for the gain bound; default 1.5 x rated"),
-        "lag": C("exact", "paper", default="exact"),
+        "lag": C("exact", "paper", default="exact", doc="form = \"paper\": the adaptive filter's phase lag compensated exactly, or by pi/4 as the paper writes it"),
+        "form": C("paper", "tracking", default="paper",
+                  doc="paper: the SMO and PLL of yang2022 sec. 2; tracking: fullspeed's, exact in discrete time, "
+                      "with a motion observer on the measured torque (fs_smo.h)"),
         # how the sensorless drive starts: on the encoder until `handover`, or
         # sensorless from standstill with an I/f start
-        "start": C("encoder", "if", default="encoder"),
+        "start": C("encoder", "if", default="encoder", doc="sensorless start: on the encoder until handover, or I/f from standstill"),
         "i_start": POS(None, hi=1e5, doc="A; default half of i_max"),
         "start_accel_rpm_s": POS(None, hi=1e9, doc="frame acceleration; default from a quarter of the start current's torque"),
         "start_handover_rpm": POS(None, hi=1e6, doc="the loops take the observer here; default twice valid_rpm"),
@@ -94,6 +110,8 @@ SCENARIO = {
         "bw_filter_p": POS(None, hi=1e6, doc="rad/s, SRFF at +w_h; default w_h / 20 (fs_hfi.h)"),
         "bw_filter_n": POS(None, hi=1e6, doc="rad/s, SRFF at -w_h + 2 w_r; default w_h / 20"),
         "bw_observer": POS(None, hi=1e6, doc="rad/s, motion observer; default bw_filter_n / 5"),
+        "leak": C("keep", "remove", default="keep",
+                  doc="hfi/blend: remove takes the fundamental's leak out of the negative carrier (fs_hfi_filter.h; no load-proportional bias); keep: the paper's filter"),
         "xcomp": Spec("any", None, doc="cross-saturation table {i_q = [A...], delta_deg = [...]} on an even grid, or a TOML file holding it, or (swvi) \"paper\": the machine's fitted error polynomial"),
         "stop_rpm": POS(None, hi=1e6, doc="blend: the injection stops above this speed (resumes below 0.9 of it); default 1.2 x the upper blending speed"),
         "sequence": C("optimized", "conventional", default="optimized", doc="swvi: the time sequence of yu2022 sec. 3.2"),
@@ -108,23 +126,25 @@ SCENARIO = {
         "i_pulse_max": POS(None, hi=1e5, doc="A, the largest pulse of the retries when the first pair decides nothing; default controller.i_max less the carrier's peak"),
     }, default={}),
     "blending": T({
-        "lower_rpm": NONNEG(None, hi=1e6, doc="eq. (28); default the machine's [blending]"),
-        "upper_rpm": POS(None, hi=1e6),
+        "lower_rpm": NONNEG(None, hi=1e6, doc="eq. (28), the injection alone below; default the machine's [blending], else designed"),
+        "upper_rpm": POS(None, hi=1e6, doc="eq. (28), the back-EMF observer alone above; default the machine's [blending], else designed"),
         "bw_observer": POS(None, hi=1e6, doc="rad/s, the motion observer after the blend (Fig. 6); default that of the injection's"),
+        "gate": B(False, doc="the SMO's weight only once it has converged, the injection stopped only then (fs_blend.h); false: eq. (28) alone"),
     }, default={}),
     "load": T({
         "kind": C("torque", "speed", "speed_pi", "brake", default="torque",
                   doc="brake: a passive brake (powder, eddy current), torque = its magnitude against the motion"),
-        "torque": P(0.0, hi=1e6, doc="N m"), "speed_rpm": P(0.0, hi=1e6),
+        "torque": P(0.0, hi=1e6, doc="N m, kind torque or brake"), "speed_rpm": P(0.0, hi=1e6, doc="kind speed or speed_pi: the speed the load holds"),
         "torque_pu": P(None, hi=100.0, doc="the torque as a fraction of the machine's rated torque (instead of torque)"),
-        "bandwidth": POS(100.0, hi=1e6, doc="load machine speed loop, rad/s"), "J_load": NONNEG(0.0, hi=1e5),
+        "bandwidth": POS(100.0, hi=1e6, doc="load machine speed loop, rad/s"), "J_load": NONNEG(0.0, hi=1e5, doc="kg m^2, the load machine's inertia (speed_pi)"),
     }, default={}),
     "references": T({
-        "speed_rpm": P(0.0, hi=1e6), "i_d": P(0.0, hi=1e5), "i_q": P(0.0, hi=1e5),
+        "speed_rpm": P(0.0, hi=1e6, doc="mode speed"), "i_d": P(0.0, hi=1e5, doc="A, mode current"), "i_q": P(0.0, hi=1e5, doc="A, mode current"),
         "speed_pu": P(None, hi=100.0, doc="the speed as a fraction of the machine's rated speed (instead of speed_rpm)"),
-        "u_d": P(0.0, hi=1e5), "u_q": P(0.0, hi=1e5), "frame_rpm": P(0.0, hi=1e6),
+        "u_d": P(0.0, hi=1e5, doc="V, mode voltage"), "u_q": P(0.0, hi=1e5, doc="V, mode voltage"),
+        "frame_rpm": P(0.0, hi=1e6, doc="modes voltage and vf: the frame's speed"),
     }, default={}),
-    "initial": T({"theta_e_deg": F(0.0, -360.0, 360.0), "speed_rpm": F(0.0, -1e6, 1e6)}, default={}),
+    "initial": T({"theta_e_deg": F(0.0, -360.0, 360.0, doc="the rotor's angle at t = 0"), "speed_rpm": F(0.0, -1e6, 1e6, doc="the rotor's speed at t = 0")}, default={}),
     # faults of the drive's hardware, each from its time on (fs_sim.h); a load
     # impact is a [load] torque profile
     "faults": T({
@@ -136,8 +156,8 @@ SCENARIO = {
         "t_encoder_stop": POS(None, hi=1e4, doc="s: the encoder's reading freezes here"),
         "u_dc_scale": P(1.0, hi=10.0, doc="the dc link relative to converter.u_dc: a sag or a step (inverter)"),
     }, default={}),
-    "trace": T({"decimation": I(1, 1, 10**6)}, default={}),
-    "metrics": T({"steady": Spec("any", None)}, default={}),
+    "trace": T({"decimation": I(1, 1, 10**6, doc="record every n-th control period")}, default={}),
+    "metrics": T({"steady": Spec("any", None, doc="[t_start, t_end] s, the steady window; default the last flat stretch of the references and load after the loop settles (fullspeed.metrics)")}, default={}),
 }
 
 
@@ -429,8 +449,7 @@ def _injection_fields(d: dict, m: Machine, source) -> None:
     _machine_injection(inj, m, ("u_h", "f_h"), source, designed)
     d.setdefault("_notes", {}).update(inj.pop("_notes", {}))
     Ts = _control_period(d)
-    if inj["f_h"] > 0.25 / Ts:
-        raise ConfigError("injection.f_h", inj["f_h"], f"must be <= {0.25 / Ts:g} Hz: at least 4 samples per carrier period at Ts = {Ts:g} s", source)
+    _check_carrier(inj["f_h"], Ts, source)
     for key in ("bw_filter_p", "bw_filter_n", "bw_observer"):
         if inj[key] is not None and inj[key] * Ts > 0.5:
             raise ConfigError(f"injection.{key}", inj[key], f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s", source)
@@ -479,6 +498,16 @@ def _injection_fields(d: dict, m: Machine, source) -> None:
             inj["stop_rpm"] = 1.2 * bl["upper_rpm"]
         if not 0.9 * inj["stop_rpm"] >= bl["upper_rpm"]:
             raise ConfigError("injection.stop_rpm", inj["stop_rpm"], f"must be >= upper_rpm / 0.9 = {bl['upper_rpm'] / 0.9:g} (the injection resumes at 0.9 x stop_rpm)", source)
+
+
+def _check_carrier(f_h: float, Ts: float, source) -> None:
+    """The rotating carrier's limit, fs_hfi_w_h_max's rule (the one C applies):
+    more than 4 samples per carrier period, w_h Ts < pi/2 in float32."""
+    w_max = _core.lib.fs_hfi_w_h_max(Ts)
+    if not float(_core.ffi.cast("float", 2 * math.pi * f_h)) <= w_max:   # w_h as the C config holds it
+        raise ConfigError("injection.f_h", f_h, f"must be at most {w_max / (2 * math.pi):.10g} Hz: more than 4 samples per carrier "
+                          f"period at Ts = {Ts:g} s, w_h Ts below pi/2 in float32 (a quarter of the sampling rate, {0.25 / Ts:g} Hz, "
+                          "is not below it there)", source)
 
 
 def _check_saliency(ctl: dict, m: Machine, source) -> None:

@@ -27,6 +27,23 @@ CHANNELS = [
 ]
 assert len(CHANNELS) == lib.FS_CH_N, "channel names out of step with fs_sim.h"
 
+# Each channel's unit (SI; angles in electrical rad, speeds mechanical rad/s;
+# "1" for ratios and flags; stage is a name from metrics.STAGES).
+UNITS = {
+    "t": "s", "theta_e": "rad", "w_m": "rad/s", "psi_d": "Wb", "psi_q": "Wb",
+    **dict.fromkeys(("i_d", "i_q", "i_a", "i_b", "i_c", "i_d_ref", "i_q_ref", "i_d_hat", "i_q_hat", "i_d_fw",
+                     "i_d3", "i_q3", "i_hf_d", "i_hf_q", "i_grid_a"), "A"),
+    **dict.fromkeys(("T_e", "T_L", "T_ref"), "N m"),
+    **dict.fromkeys(("u_d", "u_q", "u_d_ref", "u_q_ref", "v_pn", "u_ab", "u_dc"), "V"),
+    **dict.fromkeys(("duty_a", "duty_b", "duty_c", "overmod", "est_valid", "phase", "g_w", "inject", "alpha",
+                     "lock_resid", "lock_lost", "recoveries"), "1"),
+    **dict.fromkeys(("w_m_ref", "w_m_hat", "w_m_est"), "rad/s"),
+    **dict.fromkeys(("theta_hat", "theta_err", "theta_est", "est_err"), "rad"),
+    **dict.fromkeys(("E_in", "E_cu", "E_airgap", "W_mag", "E_grid", "E_rf", "W_filter"), "J"),
+    "stage": "name",
+}
+assert set(UNITS) == set(CHANNELS), "a channel without a unit"
+
 STOP_REASONS = {
     lib.FS_RUN_DONE: "done",
     lib.FS_STOP_NAN: "nan",
@@ -41,6 +58,7 @@ ANGLES = {"encoder": lib.FS_ANGLE_ENCODER, "true": lib.FS_ANGLE_EXTERNAL, "smo":
           "hfi": lib.FS_ANGLE_HFI, "blend": lib.FS_ANGLE_BLEND, "swvi": lib.FS_ANGLE_SWVI}
 SEQUENCES = {"conventional": lib.FS_SWVI_CONVENTIONAL, "optimized": lib.FS_SWVI_OPTIMIZED}
 LAGS = {"exact": lib.FS_SMO_LAG_EXACT, "paper": lib.FS_SMO_LAG_PAPER}
+SMO_FORMS = {"paper": lib.FS_SMO_FORM_PAPER, "tracking": lib.FS_SMO_FORM_TRACKING}
 REGIONS = {"linear": lib.FS_IMC_LINEAR, "om1": lib.FS_IMC_OM1, "om2": lib.FS_IMC_OM2}
 MAGNETIC = {"linear": lib.FS_MAG_LINEAR, "algebraic": lib.FS_MAG_ALGEBRAIC, "fluxmap": lib.FS_MAG_FLUXMAP}
 
@@ -67,11 +85,20 @@ class Result:
         return self.traces[name]
 
     def to_dataframe(self):
-        try:
-            import pandas as pd
-        except ImportError as exc:  # pragma: no cover - optional
-            raise ImportError("to_dataframe needs pandas: pip install pandas") from exc
-        return pd.DataFrame(self.traces)
+        """The traces as a pandas DataFrame indexed by time (s): one column
+        per channel, `stage` as a categorical of names (metrics.STAGES), and
+        each column's unit in df.attrs["units"] (the scenario's name in
+        df.attrs["scenario"])."""
+        import pandas as pd
+
+        from .metrics import STAGES
+
+        cols = {k: v for k, v in self.traces.items() if k != "t"}
+        cols["stage"] = pd.Categorical.from_codes(np.asarray(cols["stage"]).astype(int), categories=list(STAGES))
+        df = pd.DataFrame(cols, index=pd.Index(self.traces["t"], name="t"))
+        df.attrs["units"] = dict(UNITS)
+        df.attrs["scenario"] = self.scenario.name
+        return df
 
 
 class _Keep:
@@ -99,6 +126,22 @@ def _fluxmap(cfg_mag, mag: dict, keep):
     cfg_mag.map_i_q0, cfg_mag.map_di_q = i_q[0], i_q[1] - i_q[0]
     cfg_mag.map_psi_d = keep(ffi.new("double[]", psi_d.ravel().tolist()))
     cfg_mag.map_psi_q = keep(ffi.new("double[]", psi_q.ravel().tolist()))
+
+
+def _controller_from_map(dc, m, ctl: dict, keep) -> None:
+    """A flux map's inductances, magnet flux and MTPA table for the
+    controller (fluxmap.controller_values), with the scenario's mismatch
+    scales."""
+    from .fluxmap import controller_values
+
+    cv = controller_values(m.magnetic, ctl["i_max"], m.i_rated, m.phases, m.pole_pairs)
+    dc.psi_f = cv["psi_f"] * ctl["psi_f_scale"]
+    dc.L_d, dc.L_q = cv["L_d"] * ctl["L_d_scale"], cv["L_q"] * ctl["L_q_scale"]
+    dc.L_d_hf, dc.L_q_hf = cv["L_d_hf"] * ctl["L_d_scale"], cv["L_q_hf"] * ctl["L_q_scale"]
+    tab = dc.mtpa_table
+    tab.n = lib.FS_MTPA_N
+    for k in range(lib.FS_MTPA_N):
+        tab.T[k], tab.i_d[k], tab.i_q[k] = cv["mtpa_T"][k], cv["mtpa_i_d"][k], cv["mtpa_i_q"][k]
 
 
 def build_config(sc: Scenario):
@@ -166,6 +209,8 @@ def build_config(sc: Scenario):
     dc.Ts, dc.T_pwm, dc.delay = Ts, inv.T_pwm, float(cfg.delay)
     dc.R_s, dc.L_d, dc.L_q = m.R_s * ctl["R_s_scale"], m.L_d * ctl["L_d_scale"], m.L_q * ctl["L_q_scale"]
     dc.psi_f, dc.pole_pairs = m.psi_f * ctl["psi_f_scale"], m.pole_pairs
+    if mag["model"] == "fluxmap":
+        _controller_from_map(dc, m, ctl, keep)
     dc.J, dc.B = (m.J + (load["J_load"] if load["kind"] == "speed_pi" else 0.0)) * ctl["J_scale"], m.B
     dc.i_max, dc.T_max = ctl["i_max"], ctl["T_max"]
     dc.bw_current, dc.bw_speed, dc.bw_pll = ctl["bw_current"], ctl["bw_speed"], ctl["bw_pll"]
@@ -191,6 +236,7 @@ def build_config(sc: Scenario):
     oc.bw_pll = obs["bw_pll"]
     oc.w_valid = p * rpm_to_rad_s(obs["valid_rpm"])
     oc.lag = LAGS[obs["lag"]]
+    oc.form = SMO_FORMS[obs["form"]]
     if obs["start"] == "if":
         dc.i_start = obs["i_start"]
         dc.a_start = p * rpm_to_rad_s(obs["start_accel_rpm_s"])
@@ -239,6 +285,7 @@ def _set_injection(dc, d: dict, p: int) -> None:
     hc.w_b_p = inj["bw_filter_p"] or 0.0
     hc.w_b_n = inj["bw_filter_n"] or 0.0
     hc.obs.bandwidth = inj["bw_observer"] or 0.0
+    hc.leak = inj["leak"] == "remove"
     xc = inj["xcomp"]
     if xc is not None:
         _set_xcomp(hc.xcomp, xc)
@@ -246,6 +293,7 @@ def _set_injection(dc, d: dict, p: int) -> None:
         dc.blend.w_lower = p * rpm_to_rad_s(bl["lower_rpm"])
         dc.blend.w_upper = p * rpm_to_rad_s(bl["upper_rpm"])
         dc.blend.obs.bandwidth = bl["bw_observer"] or 0.0
+        dc.blend.gate = bl["gate"]
         dc.w_inject_max = p * rpm_to_rad_s(inj["stop_rpm"])
     if pol["enabled"]:
         dc.polarity.i_pulse, dc.polarity.t_lock, dc.polarity.t_pulse = pol["i_pulse"], pol["t_lock"], pol["t_pulse"]

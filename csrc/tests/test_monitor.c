@@ -1,0 +1,134 @@
+/* fs-test-sources: control/fs_monitor.c control/fs_transforms.c control/fs_status.c
+ *
+ * fs_monitor: the lock checks that do not trust the estimator. A machine
+ * (non-salient, so that the model is exact for any angle) turning at 2000
+ * rpm with 20 A on the loops' q axis gives the voltage and current of its
+ * model; the loops' angle and speed are the rotor's (on track), 30 or 100
+ * el.deg off, pi off, spinning the other way, or three times too fast: only
+ * the first two keep the back-EMF residual below 1. At standstill the mechanics judge: an estimate
+ * whose motion implies a load of 2 T_max is off, a load of half T_max is
+ * not. The current loops' error, switching off, and the refusals.
+ */
+#include <math.h>
+
+#include "control/fs_monitor.h"
+#include "fs_test.h"
+
+/* yang2022's machine, bench and limits */
+static const fs_monitor_config CFG = {1e-4f, 0, 0.036f, 65e-6f, 65e-6f, 0.007f, 5, 1.87e-3f, 0.0f,
+                                      3.2f, 60.0f, 0.01f, 5e-3f};
+#define U_DC 24.0f
+
+/* The current j i_q e^{j phi} on the loops' q axis (phi = k_th w t + off). */
+static fs_ab current(double t, double w, double k_th, double off, double i_q)
+{
+    const double phi = k_th * w * t + off;
+    return (fs_ab){(float)(-i_q * sin(phi)), (float)(i_q * cos(phi))};
+}
+
+/* The model's voltage over (t0, t0 + Ts), alpha-beta: R i + L di/dt (the
+ * period's mean) + the EMF at the period's middle, the rotor at w t. */
+static fs_ab model_u(double t0, double w, double k_th, double off, double i_q)
+{
+    const double Ts = CFG.Ts, th = w * (t0 + 0.5 * Ts), E = w * CFG.psi_f;
+    const fs_ab i0 = current(t0, w, k_th, off, i_q), i1 = current(t0 + Ts, w, k_th, off, i_q);
+    fs_ab u;
+    u.alpha = (float)(CFG.R_s * 0.5 * (i0.alpha + i1.alpha) + CFG.L_d * (i1.alpha - i0.alpha) / Ts - E * sin(th));
+    u.beta = (float)(CFG.R_s * 0.5 * (i0.beta + i1.beta) + CFG.L_d * (i1.beta - i0.beta) / Ts + E * cos(th));
+    return u;
+}
+
+/* Runs 0.1 s with the loops' angle theta_hat(t) = k_th w t + off and speed
+ * k_th w; returns the largest residual over the last half. */
+static float run_emf(double w, double k_th, double off, fs_monitor *m)
+{
+    FS_CHECK(fs_monitor_init(m, &CFG) == FS_OK, "init");
+    const double Ts = CFG.Ts, i_q = 20.0;
+    float r_max = 0.0f;
+    for (int k = 0; k < 1000; ++k) {
+        const double t = k * Ts;
+        fs_monitor_in in = {current(t, w, k_th, off, i_q), model_u(t, w, k_th, off, i_q), U_DC,
+                            (float)fs_test_wrap(k_th * w * t + off), (float)(k_th * w), 2.0f, {0.0f, 0.0f}, true};
+        float r = fs_monitor_step(m, &in);
+        if (k >= 500 && r > r_max) r_max = r;
+    }
+    return r_max;
+}
+
+/* Standstill-ish: the loops' speed accelerates at a (el. rad/s^2) from 0
+ * while T_ref is commanded; returns the mechanical residual at the end.
+ * A 100 V link: its 2 % in the error bound keeps the EMF unjudged up to the
+ * 430 el. rad/s reached. */
+static float run_mech(float T_ref, double a, fs_monitor *m)
+{
+    FS_CHECK(fs_monitor_init(m, &CFG) == FS_OK, "init");
+    for (int k = 0; k < 500; ++k) {   /* 50 ms: 10 tau */
+        const double t = k * CFG.Ts;
+        fs_monitor_in in = {{0.0f, 5.0f}, {0.0f, 0.0f}, 100.0f, (float)fs_test_wrap(0.5 * a * t * t), (float)(a * t),
+                            T_ref, {0.0f, 0.0f}, true};
+        fs_monitor_step(m, &in);
+    }
+    return m->r_mech;
+}
+
+int main(void)
+{
+    fs_monitor m;
+    const double w = 2000.0 / 60.0 * 2.0 * FS_TEST_PI * 5.0;   /* 2000 rpm, el. rad/s */
+
+    float r = run_emf(w, 1.0, 0.0, &m);
+    FS_CHECK(r < 0.5f, "on track: residual %g", r);
+    FS_CHECK(m.E_hat > 3.0f * m.E_err, "the EMF judged at 2000 rpm: E_hat %g, E_err %g", m.E_hat, m.E_err);
+    FS_CHECK_REL(m.e_q, w * CFG.psi_f, 0.03, 0.0, "on track the EMF is w psi_f on q");
+    FS_CHECK(fabsf(m.e_d) < 0.05f * m.e_q, "and nothing on d: %g", m.e_d);
+    FS_CHECK(run_emf(w, 1.0, 0.5, &m) < 1.0f, "30 el.deg off: not lost");
+    r = run_emf(w, 1.0, FS_TEST_PI, &m);
+    FS_CHECK(r > 1.5f && m.r_dir == r, "pi off: residual %g from the EMF's direction", r);
+    FS_CHECK(run_emf(w, 1.0, 1.75, &m) > 1.0f, "100 el.deg off: lost");
+    r = run_emf(w, -1.0, 0.0, &m);
+    FS_CHECK(r > 1.0f, "an estimate turning the other way: residual %g", r);
+    r = run_emf(w, 3.0, 0.0, &m);
+    FS_CHECK(r > 1.0f, "an estimate three times too fast: residual %g", r);
+
+    /* mechanics: the drive pushes T_max, the loops' speed runs the other way
+     * as fast as T_max can turn it: an implied load of 2 T_max */
+    const double a_T = CFG.T_max * CFG.pole_pairs / CFG.J;   /* el. rad/s^2 per T_max */
+    r = run_mech(CFG.T_max, -a_T, &m);
+    FS_CHECK(r > 1.2f, "reversed torque: r_mech %g, T_L_hat %g", r, m.T_L_hat);
+    FS_CHECK_REL(m.T_L_hat, 2.0f * CFG.T_max, 0.05, 0.0, "the implied load");
+    r = run_mech(CFG.T_max, 0.5 * a_T, &m);
+    FS_CHECK(r < 0.5f, "half of T_max accelerates, half is load: r_mech %g", r);
+    FS_CHECK(m.r_dir < 1.0f && m.E_hat < 3.0f * m.E_err, "no EMF judged near standstill");
+
+    /* the current loops' error */
+    FS_CHECK(fs_monitor_init(&m, &CFG) == FS_OK, "init");
+    fs_monitor_in in = {{0.0f, 0.0f}, {0.0f, 0.0f}, U_DC, 0.0f, 0.0f, 0.0f, {0.0f, 0.3f * CFG.i_max}, true};
+    for (int k = 0; k < 300; ++k) r = fs_monitor_step(&m, &in);
+    FS_CHECK(r > 0.7f && r < 0.76f, "0.3 i_max of error: r_cur %g", r);
+    in.i_err.q = 0.5f * CFG.i_max;
+    for (int k = 0; k < 300; ++k) r = fs_monitor_step(&m, &in);
+    FS_CHECK(r > 1.1f, "0.5 i_max of error: r_cur %g", r);
+    in.on = false;
+    FS_CHECK(fs_monitor_step(&m, &in) == 0.0f && m.ierr_f == 0.0f && !m.started, "off: 0 and the filters rest");
+    in.on = true;
+    FS_CHECK(fs_monitor_step(&m, &in) == 0.0f, "back on: nothing before the filters warm up");
+
+    /* refusals */
+    fs_monitor_config c = CFG;
+    c.Ts = 0.0f;
+    FS_CHECK_EQ_INT(fs_monitor_init(&m, &c), FS_ERR_TS, "Ts 0");
+    c = CFG;
+    c.L_d = 0.0f;
+    FS_CHECK_EQ_INT(fs_monitor_init(&m, &c), FS_ERR_LD, "L_d 0");
+    c = CFG;
+    c.delay = 3;
+    FS_CHECK_EQ_INT(fs_monitor_init(&m, &c), FS_ERR_PARAM, "delay 3");
+    c = CFG;
+    c.tau = 0.5f * CFG.Ts;
+    FS_CHECK_EQ_INT(fs_monitor_init(&m, &c), FS_ERR_LIMIT, "tau below Ts");
+    c = CFG;
+    c.i_max = NAN;
+    FS_CHECK_EQ_INT(fs_monitor_init(&m, &c), FS_ERR_I_MAX, "i_max NaN");
+    FS_CHECK_EQ_INT(fs_monitor_init(NULL, &CFG), FS_ERR_NULL, "null");
+    return fs_test_summary("test_monitor");
+}

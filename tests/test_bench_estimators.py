@@ -1,0 +1,64 @@
+"""Tests of bench/estimators.py, the estimators' comparison with motulator.
+
+What could be wrong: window statistics that take the wrong samples or the
+wrong units (rad for deg, rad/s for rpm), a goal check that passes a value
+above its limit, and a peer that cannot run turning into a crash or into
+zeros instead of a missing column that says why. The simulations themselves
+are not run here (the bench runs them); everything is synthetic and fast.
+"""
+from __future__ import annotations
+
+import importlib.util
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "bench"))
+_spec = importlib.util.spec_from_file_location("bench_estimators", ROOT / "bench" / "estimators.py")
+est = importlib.util.module_from_spec(_spec)
+sys.modules[_spec.name] = est
+_spec.loader.exec_module(est)
+
+
+def test_window_stats_takes_the_window_and_converts_units():
+    t = np.arange(0.0, 1.0, 1e-3)
+    err = np.where(t < 0.5, np.radians(1.0), np.radians(-3.0))   # 1 el.deg, then -3
+    w = np.full_like(t, 100.0)
+    w_ref = w + np.where((t >= 0.6) & (t < 0.61), 10.0, 0.0)     # a 10 rad/s dip inside the second window
+    w_hat = w + np.where(t < 0.5, 1.0, 0.0)
+    s = est.window_stats(t, err, w, w_hat, w_ref, (("first", 0.0, 0.5), ("second", 0.5, 1.0), ("empty", 2.0, 3.0)))
+    assert s["first"]["max"] == pytest.approx(1.0) and s["first"]["mean"] == pytest.approx(1.0)
+    assert s["second"]["max"] == pytest.approx(3.0) and s["second"]["mean"] == pytest.approx(-3.0)
+    assert s["second"]["rms"] == pytest.approx(3.0)
+    assert s["first"]["dw_max"] == pytest.approx(0.0)
+    assert s["second"]["dw_max"] == pytest.approx(10.0 * 30.0 / math.pi)   # rpm
+    assert s["first"]["dw_hat_max"] == pytest.approx(30.0 / math.pi) and s["second"]["dw_hat_max"] == 0.0
+    assert s["empty"] is None
+
+
+def test_goals_compare_magnitudes_with_limits():
+    case = {"goals": {"x": (("w", "max", 2.0), ("w", "mean", 0.2))}}
+    runs = {"x": {"windows": {"w": {"max": 2.5, "mean": -0.1}}}}
+    rows = est.goals_met(case, runs)
+    assert [r["met"] for r in rows] == [False, True]
+    assert rows[1]["value"] == pytest.approx(0.1)
+    assert est.goals_met(case, {})[0]["met"] is False      # a run that is missing meets nothing
+
+
+def test_a_peer_that_cannot_run_is_missing_with_its_reason(monkeypatch):
+    def no_python():
+        raise est.wall.Skip("no Python >= 3.12 found")
+    monkeypatch.setattr(est.wall, "peer_python", no_python)
+    rep, traces = est.run_peer("a", est.CASES["a"]["windows"])
+    assert traces is None and rep == {"status": "missing", "reason": "no Python >= 3.12 found"}
+    row = {"windows": {w[0]: {"max": 1.0, "rms": 0.5, "mean": 0.1, "dw_max": 2.0, "dw_hat_max": 3.0}
+                       for w in est.CASES["a"]["windows"]},
+           "t_err_over_90deg_s": 0.0, "stop": "done", "wall_s": 0.01}
+    text = est.format_report({"cases": {"a": {"title": "t", "peer_label": "motulator FVC", "peer": rep,
+                                              "fullspeed": {"SMO": row}, "goals": [], "figure": None}}})
+    assert "motulator FVC: missing: no Python >= 3.12 found" in text
+    assert "fullspeed SMO" in text

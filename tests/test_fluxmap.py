@@ -1,0 +1,179 @@
+"""Flux maps from files: CSV and SyR-e .mat read, resampled to an even
+grid, completed by symmetry, checked against the current limit and
+[electrical], and run by the plant from a machine file's [magnetic] file."""
+import tomllib
+import warnings
+
+import numpy as np
+import pytest
+
+from fullspeed.errors import ConfigError
+from fullspeed.fluxmap import FluxMapWarning, load_map, zero_current_values
+from fullspeed.machines import load_machine
+from fullspeed.scenario import scenario_from_dict
+from fullspeed.sim import simulate
+
+PSI_F, L_D, L_Q = 0.0105, 0.30e-3, 0.55e-3        # a 48 V IPMSM of the trial's kind
+I_D = np.array([-45.0, -30.0, -20.0, -10.0, 0.0, 10.0, 25.0])   # uneven, as FEA grids often are
+I_Q = np.array([0.0, 10.0, 20.0, 30.0, 45.0])                   # i_q >= 0 only, as SyR-e maps
+
+
+def psi(i_d, i_q, scale=1.0, i_sat=30.0):
+    """Linear in i_d, odd and saturating in i_q (bilinear resampling is exact in i_d)."""
+    return scale * (PSI_F + L_D * i_d), L_Q * i_sat * np.tanh(i_q / i_sat)
+
+
+def write_csv(path, i_d=I_D, i_q=I_Q, scale=1.0, torque_p=4, header="i_d [A],i_q [A],psi_d [mWb],psi_q [Wb],T [N m]",
+              i_sat=30.0):
+    lines = ["# FEA export, 2D, 20 C", header]
+    for a in i_d:
+        for b in i_q:
+            pd, pq = psi(a, b, scale, i_sat)
+            T = 1.5 * torque_p * (pd * b - pq * a)
+            lines.append(f"{a},{b},{pd * 1e3:.9g},{pq:.9g},{T:.9g}")
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+MACHINE = '''name = "my-48v"
+kind = "ipmsm"
+pole_pairs = 4
+[electrical]
+R_s = 0.025
+L_d = 0.30e-3
+L_q = 0.55e-3
+psi_f = 0.0105
+[mechanical]
+J = 5e-4
+[rated]
+torque = 3.0
+current = 28.0
+speed_rpm = 3000.0
+[magnetic]
+file = "map.csv"
+[bench]
+u_dc = 48.0
+f_pwm = 20000.0
+i_max = {i_max}
+i_trip = 52.0
+adc_range = 60.0
+bw_current = 6000.0
+bw_speed = 150.0
+bw_pll = 600.0
+'''
+
+
+def test_csv_is_read_in_si_resampled_evenly_and_completed_by_symmetry(tmp_path):
+    mag = load_map(write_csv(tmp_path / "map.csv"), "magnetic.file")
+    i_d, i_q = np.array(mag["i_d"]), np.array(mag["i_q"])
+    assert np.allclose(np.diff(i_d), np.diff(i_d)[0]) and np.allclose(np.diff(i_q), np.diff(i_q)[0])
+    assert (i_d[0], i_d[-1], i_q[0], i_q[-1]) == (-45.0, 25.0, -45.0, 45.0) and i_d.size == 7 and i_q.size == 9
+    D, Q = np.meshgrid(i_d, i_q, indexing="ij")
+    pd, _ = psi(D, Q)
+    assert np.allclose(mag["psi_d"], pd, atol=1e-12)                   # mWb read as 1e-3 Wb; exact where linear
+    assert np.allclose(np.array(mag["psi_q"])[:, 0], -np.array(mag["psi_q"])[:, -1])   # odd in i_q
+    assert np.allclose(np.array(mag["torque"])[:, 0], -np.array(mag["torque"])[:, -1])
+    assert "negative i_q by symmetry" in mag["source"] and "resampled" in mag["source"] and "sha256" in mag["source"]
+    z = zero_current_values(mag)
+    assert z["psi_f"] == pytest.approx(PSI_F) and z["L_d"] == pytest.approx(L_D)
+
+
+@pytest.mark.parametrize("header, what", [
+    ("i_d [A],i_q [A],psi_d,psi_q [Wb]", "needs its unit"),
+    ("i_d [A],i_q [A],psi_d [T],psi_q [Wb]", "unit must be one of"),
+    ("i_d [A],i_q [A],psi_q [Wb],T [N m],x [1]", "has no column psi_d"),
+])
+def test_a_header_without_units_or_columns_is_refused(tmp_path, header, what):
+    with pytest.raises(ConfigError, match=what):
+        load_map(write_csv(tmp_path / "map.csv", header=header), "magnetic.file")
+
+
+def test_a_map_that_does_not_reach_the_current_limit_is_refused(tmp_path):
+    write_csv(tmp_path / "map.csv", i_d=np.array([-10.0, 0.0, 10.0]), i_q=np.array([0.0, 5.0, 10.0]))
+    (tmp_path / "m.toml").write_text(MACHINE.format(i_max=40.0))
+    with pytest.raises(ConfigError, match=r"machine.magnetic.i_q = '-10..10 A': must cover \+-i_max = \+-40 A"):
+        load_machine(tmp_path / "m.toml")
+
+
+def test_a_map_with_twice_the_flux_gets_one_warning_line(tmp_path):
+    write_csv(tmp_path / "map.csv", scale=2.0)
+    (tmp_path / "m.toml").write_text(MACHINE.format(i_max=40.0).replace("i_max = 40.0", "i_max = 25.0"))
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        load_machine(tmp_path / "m.toml")
+    lines = [str(x.message) for x in w if issubclass(x.category, FluxMapWarning)]
+    assert len(lines) == 1 and "\n" not in lines[0]
+    assert "psi_f 0.0105 Wb, map 0.021" in lines[0] and "L_d" in lines[0] and "L_q" not in lines[0]
+    write_csv(tmp_path / "map.csv")
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        load_machine(tmp_path / "m.toml")
+    assert not [x for x in w if issubclass(x.category, FluxMapWarning)]     # the consistent map: silent
+
+
+def test_syre_mat_is_turned_to_the_pmsm_convention(tmp_path):
+    sio = pytest.importorskip("scipy.io")
+    # SyR-e: magnet on -q. Id_syre = i_q, Iq_syre = -i_d, Fd = psi_q, Fq = -psi_d
+    Q, D = np.meshgrid(I_Q, I_D[::-1] * -1, indexing="xy")   # any layout of full matrices
+    i_d, i_q = -D, Q
+    pd, pq = psi(i_d, i_q)
+    fm = {"Id": i_q, "Iq": -i_d, "Fd": pq, "Fq": -pd, "T": 1.5 * 4 * (pd * i_q - pq * i_d)}
+    sio.savemat(tmp_path / "syre.mat", {"motorModel": {"FluxMap_dq": fm}})
+    mag = load_map(tmp_path / "syre.mat", "magnetic.file")
+    z = zero_current_values(mag)
+    assert z["psi_f"] == pytest.approx(PSI_F) and z["L_d"] == pytest.approx(L_D)
+    assert mag["i_q"][0] == -45.0 and mag["i_d"][0] == -45.0
+
+
+def test_a_machine_file_with_its_map_runs_on_the_map(tmp_path):
+    """The plant follows the file: at zero current its d flux is the map's."""
+    write_csv(tmp_path / "map.csv")
+    (tmp_path / "m.toml").write_text(MACHINE.format(i_max=40.0))
+    machine = tomllib.loads(MACHINE.format(i_max=40.0))     # inline, the map beside the scenario
+    sc = scenario_from_dict({"name": "s", "duration": 0.2, "machine": machine, "controller": {"mode": "speed"},
+                             "references": {"speed_rpm": [[0.0, 0.0], [0.02, 0.0], [0.02, 1000.0]]}},
+                            str(tmp_path / "s.toml"))
+    assert sc.machine.magnetic["model"] == "fluxmap" and sc.machine.magnetic["source"].startswith("map.csv")
+    res = simulate(sc)
+    assert res.stop_reason == "done"
+    assert res["psi_d"][0] == pytest.approx(PSI_F, rel=1e-6)
+    assert abs(res.metrics["speed_error_pct"]) < 1.0
+
+
+def test_the_controller_takes_its_tables_from_the_map(tmp_path):
+    """On the synthetic map (psi_d linear, psi_q = 30 L_q tanh(i_q / 30)):
+    psi_f, the secant L_q at the rated MTPA point, the incremental L_q the
+    carrier sees at half rated current, and an MTPA locus that gives more
+    torque per ampere on the map than the linear model's locus does."""
+    from fullspeed.fluxmap import controller_values, interp, mtpa_locus
+    mag = load_map(write_csv(tmp_path / "map.csv"), "magnetic.file")
+    cv = controller_values(mag, 40.0, 28.0, 3, 4)
+    assert cv["psi_f"] == pytest.approx(PSI_F) and cv["L_d"] == pytest.approx(L_D, rel=1e-6)
+    I = 40.0 * np.arange(64) / 63
+    q_r, q_h = np.interp(28.0, I, cv["mtpa_i_q"]), np.interp(14.0, I, cv["mtpa_i_q"])
+    # the map is coarse (11.25 A steps after resampling): within 5 % of the function it samples
+    assert cv["L_q"] == pytest.approx(L_Q * 30 * np.tanh(q_r / 30) / q_r, rel=0.05)      # secant
+    assert cv["L_q_hf"] == pytest.approx(L_Q / np.cosh(q_h / 30) ** 2, rel=0.05)         # incremental
+    T, d, q = mtpa_locus(mag, 40.0, 3, 4)
+    assert np.all(np.diff(T) > 0) and np.allclose(np.hypot(d, q), I)
+    # the linear model's locus (fs_mtpa.h) at 40 A, on the map's fluxes
+    dL = L_Q - L_D
+    d_lin = (PSI_F - np.sqrt(PSI_F ** 2 + 8 * dL ** 2 * 40.0 ** 2)) / (4 * dL)
+    q_lin = np.sqrt(40.0 ** 2 - d_lin ** 2)
+    T_lin = 6 * (interp(mag, "psi_d", d_lin, q_lin) * q_lin - interp(mag, "psi_q", d_lin, q_lin) * d_lin)
+    assert T[-1] > T_lin * 1.005
+
+
+def test_a_map_whose_saliency_vanishes_under_load_says_how_much_torque_injection_can_hold(tmp_path):
+    """The incremental L_q = L_Q / cosh^2(i_q / i_sat) falls to L_D at
+    i_q = i_sat acosh(sqrt(L_Q / L_D)): 23.1 A with i_sat = 20 A, where the
+    injection has no axis left; with i_sat = 200 A it never gets there."""
+    from fullspeed.fluxmap import saliency_warnings
+    i_q = np.array([0.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 45.0])
+    mag = load_map(write_csv(tmp_path / "a.csv", i_q=i_q, i_sat=20.0), "magnetic.file")
+    (line,) = saliency_warnings(mag, 40.0, 3, 4, 5.0, "m")
+    i_cross = 20.0 * np.arccosh(np.sqrt(L_Q / L_D))
+    I = float(line.split(" N m (")[1].split(" A")[0])
+    assert i_cross * 0.8 < I < i_cross * 1.3        # on the locus, on a map of 5 A steps
+    mild = load_map(write_csv(tmp_path / "b.csv", i_q=i_q, i_sat=200.0), "magnetic.file")
+    assert saliency_warnings(mild, 40.0, 3, 4, 5.0, "m") == []
