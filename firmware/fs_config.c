@@ -7,7 +7,7 @@
 
 /* The layout this configuration was written for: a header that changed since
  * the export fails here, naming the field. */
-_Static_assert(sizeof(fs_drive_config) == 1528u, "fs_drive_config: size differs from the exported layout");
+_Static_assert(sizeof(fs_drive_config) == 1556u, "fs_drive_config: size differs from the exported layout");
 _Static_assert(offsetof(fs_drive_config, config_size) == 0u, "fs_drive_config.config_size moved");
 _Static_assert(offsetof(fs_drive_config, phases) == 4u, "fs_drive_config.phases moved");
 _Static_assert(offsetof(fs_drive_config, mode) == 8u, "fs_drive_config.mode moved");
@@ -141,9 +141,17 @@ _Static_assert(offsetof(fs_drive_config, mtpa_table.n) == 756u, "fs_drive_config
 _Static_assert(offsetof(fs_drive_config, mtpa_table.T) == 760u, "fs_drive_config.mtpa_table.T moved");
 _Static_assert(offsetof(fs_drive_config, mtpa_table.i_d) == 1016u, "fs_drive_config.mtpa_table.i_d moved");
 _Static_assert(offsetof(fs_drive_config, mtpa_table.i_q) == 1272u, "fs_drive_config.mtpa_table.i_q moved");
+_Static_assert(offsetof(fs_drive_config, ident) == 1528u, "fs_drive_config.ident moved");
+_Static_assert(offsetof(fs_drive_config, ident.Ts) == 1528u, "fs_drive_config.ident.Ts moved");
+_Static_assert(offsetof(fs_drive_config, ident.delay) == 1532u, "fs_drive_config.ident.delay moved");
+_Static_assert(offsetof(fs_drive_config, ident.pole_pairs) == 1536u, "fs_drive_config.ident.pole_pairs moved");
+_Static_assert(offsetof(fs_drive_config, ident.i_max) == 1540u, "fs_drive_config.ident.i_max moved");
+_Static_assert(offsetof(fs_drive_config, ident.w_spin) == 1544u, "fs_drive_config.ident.w_spin moved");
+_Static_assert(offsetof(fs_drive_config, ident.t_ramp) == 1548u, "fs_drive_config.ident.t_ramp moved");
+_Static_assert(offsetof(fs_drive_config, ident.u_dc_min) == 1552u, "fs_drive_config.ident.u_dc_min moved");
 
 const fs_drive_config fs_config = {
-    .config_size = 1528u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator se...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
+    .config_size = 1556u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator se...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
     .phases = 3,   /* 3, or 5: the fundamental plane of the VSD, nearest-four-vector PWM; machine yang2022: phases */
     .mode = FS_MODE_SPEED,   /* fs_drive_mode; scenario beyond-full-range: [controller] mode */
     .angle_source = FS_ANGLE_BLEND,   /* fs_angle_source; scenario beyond-full-range: [controller] angle */
@@ -339,5 +347,14 @@ const fs_drive_config fs_config = {
             0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
             0.0f, 0.0f, 0.0f, 0.0f,
         },
+    },
+    .ident = {   /* FS_MODE_IDENTIFY (three phases, inverter): Ts, delay, pole_pairs and i_max are taken from above */
+        .Ts = 0.0f,   /* control period, s; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .delay = 0.0f,   /* computation delay, control periods: 0 or 1; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .pole_pairs = 0,   /* 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .i_max = 0.0f,   /* A peak: no test current above it; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .w_spin = 0.0f,   /* el. rad/s: the running steps' speed (lowered to half the voltage limit); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .t_ramp = 0.0f,   /* s: the I/f ramp from 0 to w_spin (the inertia is not known before); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .u_dc_min = 0.0f,   /* V: below this link voltage the sequence does not start (0: 1 V); 0: taken from the drive's fields or designed by fs_drive_init, or off */
     },
 };

@@ -1,4 +1,5 @@
 #include "fs_drive.h"
+#include "fs_drive_ident.h"
 #include "fs_drive_start.h"
 #include "fs_math.h"
 
@@ -105,6 +106,7 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     drv->fail = NULL;
     if (!cfg) REFUSE("config", FS_ERR_NULL);
     if (cfg->config_size != 0u && cfg->config_size != (unsigned int)sizeof(fs_drive_config)) REFUSE("config_size", FS_ERR_PARAM);
+    if (cfg->mode == FS_MODE_IDENTIFY) return fs_drive_ident_init(drv, cfg);   /* knows no machine yet */
     fs_status st = drive_check_fields(cfg, &drv->fail);
     if (st != FS_OK) return st;
     if (cfg->phases != 3 && cfg->phases != 5) REFUSE("phases", FS_ERR_PARAM);
@@ -218,6 +220,10 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
 
 void fs_drive_reset(fs_drive *drv)
 {
+    if (drv->cfg.mode == FS_MODE_IDENTIFY) {
+        fs_ident_reset(&drv->ident);
+        return;
+    }
     fs_current_ctrl_reset(&drv->cc);
     fs_pll_reset(&drv->pll, 0.0f, 0.0f);
     if (drv->cfg.mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
@@ -657,6 +663,10 @@ static void drive_step_halt(const fs_drive *drv, fs_ab i_ab, fs_drive_out *out)
 void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
 {
     const fs_drive_config *c = &drv->cfg;
+    if (c->mode == FS_MODE_IDENTIFY) {
+        fs_drive_ident_step(drv, in, out);
+        return;
+    }
     fs_ab i_ab = drive_clarke(c, in->i_ph);
     if (drv->phase == FS_PHASE_HALT) {
         drive_step_halt(drv, i_ab, out);

@@ -85,6 +85,7 @@
 #include "fs_blend.h"
 #include "fs_fw.h"
 #include "fs_hfi.h"
+#include "fs_ident.h"
 #include "fs_imc.h"
 #include "fs_lock.h"
 #include "fs_monitor.h"
@@ -124,7 +125,8 @@ typedef enum {
     FS_MODE_VOLTAGE_DQ = 1,  /* u_d_ref, u_q_ref in a frame at w_e_ref */
     FS_MODE_VF = 2,          /* |u| = vf_boost + vf_gain |w_e_ref| on the q axis of that frame */
     FS_MODE_CURRENT = 3,     /* i_d_ref, i_q_ref */
-    FS_MODE_SPEED = 4        /* w_m_ref -> torque -> MTPA -> currents */
+    FS_MODE_SPEED = 4,       /* w_m_ref -> torque -> MTPA -> currents */
+    FS_MODE_IDENTIFY = 5     /* self-commissioning (fs_ident.h): the machine's fields are not read */
 } fs_drive_mode;
 
 typedef enum {
@@ -293,6 +295,9 @@ typedef struct {
      * not pointed to, so that the config has no pointer: the same bytes on
      * the host and the target, and an export carries the table */
     fs_mtpa_table mtpa_table;
+    /* FS_MODE_IDENTIFY (three phases, inverter): Ts, delay, pole_pairs and
+     * i_max are taken from above */
+    fs_ident_config ident;
 } fs_drive_config;
 
 typedef struct {
@@ -332,6 +337,7 @@ typedef struct {
     int stage;               /* fs_drive_stage */
     int recoveries;          /* recoveries begun so far */
     int fault;               /* fs_drive_fault: the drive refused to go on (duties 0.5 from then on) */
+    int ident_step;          /* FS_MODE_IDENTIFY: the step it is in (fs_ident_stepid); the result is in fs_drive.ident */
 } fs_drive_out;
 
 typedef struct {
@@ -349,6 +355,7 @@ typedef struct {
     fs_imc_depth depth;      /* matrix converter, PART_2 */
     fs_lock lock;
     fs_monitor mon;          /* the checks that do not trust the estimator (with lock_time > 0) */
+    fs_ident ident;          /* FS_MODE_IDENTIFY */
     float i_hf;              /* the rotating carrier current's peak, A: i_max less it bounds the fundamental */
     float lock_a;            /* the residual's low-pass pole */
     float lock_ri, lock_es, lock_eh;   /* low-passed: SMO current error / delta, SMO PLL error, injection error */

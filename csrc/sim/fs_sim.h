@@ -146,7 +146,7 @@ double fs_sim_time(const fs_sim *sim);
 double fs_sim_stop_time(const fs_sim *sim);
 /* First sample whose current reading saturated at +-adc_range (NaN: none yet). */
 double fs_sim_adc_saturated_at(const fs_sim *sim);
-/* The drive under simulation, to read its state (e.g. the polarity detection's margin). */
+/* The drive under simulation, to read its state (e.g. the polarity detection's margin, the identification's result). */
 const fs_drive *fs_sim_drive(const fs_sim *sim);
 
 #endif /* FS_SIM_H */

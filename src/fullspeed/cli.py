@@ -258,6 +258,20 @@ def _cmd_calibrate(args) -> int:
     return 0
 
 
+def _cmd_identify(args) -> int:
+    from .identify import identify, print_identification, write_identification
+    from .scenario import load_scenario
+
+    sc = load_scenario(args.scenario)
+    res = identify(sc, speed_frac=args.speed_frac, t_ramp=args.t_ramp)
+    paths = write_identification(res, sc, Path(args.out or Path("out") / f"identify-{sc.machine.name}"))
+    print_identification(res)
+    print("wrote " + ", ".join(str(p) for p in paths))
+    for line in res.failures():
+        print(f"fullspeed: identification failed: {line}", file=sys.stderr)
+    return 0 if res.ok else 1
+
+
 def _cmd_export(args) -> int:
     from .export import export
 
@@ -332,6 +346,12 @@ def main(argv: list[str] | None = None) -> int:
     cal.add_argument("--speed-rpm", type=float, help="speed held by the load machine (default: the scenario's speed load, else 100)")
     cal.add_argument("--out", help="TOML file (default out/<machine>-xsat.toml)")
     cal.set_defaults(func=_cmd_calibrate)
+    idf = sub.add_parser("identify", help="self-commissioning on the scenario's machine and bench: identified values beside the truth")
+    idf.add_argument("scenario", help="any scenario: its machine, converter and sensors (a free shaft)")
+    idf.add_argument("--out", help="output folder (default out/identify-<machine>)")
+    idf.add_argument("--speed-frac", type=float, default=0.3, help="the running steps' speed, of rated (default 0.3)")
+    idf.add_argument("--t-ramp", type=float, default=1.0, help="s of the I/f ramp to that speed (default 1)")
+    idf.set_defaults(func=_cmd_identify)
     ex = sub.add_parser("export", help="write the fs_drive_config a scenario's simulation uses as C source for a firmware")
     ex.add_argument("scenario", help="catalog name or TOML file")
     ex.add_argument("--out", required=True, help="output folder: <name>.h and <name>.c are written there")
