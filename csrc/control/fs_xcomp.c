@@ -16,12 +16,16 @@ fs_status fs_xcomp_check(const fs_xcomp_config *c)
 
 bool fs_xcomp_active(const fs_xcomp_config *c)
 {
+    if (!c) return false;
     return c->n >= 2 || c->poly[0] != 0.0f || c->poly[1] != 0.0f || c->poly[2] != 0.0f || c->poly[3] != 0.0f;
 }
 
 float fs_xcomp_eval(const fs_xcomp_config *c, float i_q)
 {
-    if (!isfinite(i_q)) return 0.0f;
+    if (!c || !isfinite(i_q)) return 0.0f;
+    /* a table fs_xcomp_check refuses is not read (its indices would leave delta[]) */
+    if (c->n > FS_XCOMP_MAX || (c->n >= 2 && !(c->di_q > 0.0f && isfinite(c->di_q) && isfinite(c->i_q0))))
+        return 0.0f;
     if (c->n < 2) {
         const float *p = c->poly;
         float d = p[0] + i_q * (p[1] + i_q * (p[2] + i_q * p[3]));   /* Horner */

@@ -28,8 +28,9 @@ typedef struct {
 fs_status fs_xcomp_check(const fs_xcomp_config *c);
 /* A table or a non-zero polynomial is given. */
 bool fs_xcomp_active(const fs_xcomp_config *c);
-/* delta(i_q), rad: 0 for a non-finite i_q; the polynomial's value is held
- * within +-pi/2. */
+/* delta(i_q), rad: 0 for a non-finite i_q, a NULL config or a table that
+ * fs_xcomp_check refuses (n above FS_XCOMP_MAX, a step not > 0); the
+ * polynomial's value is held within +-pi/2. */
 float fs_xcomp_eval(const fs_xcomp_config *c, float i_q);
 
 #endif /* FS_XCOMP_H */

@@ -7,6 +7,7 @@ static double w_grid(const fs_grid_config *c) { return 2.0 * 3.14159265358979323
 
 fs_status fs_grid_check(const fs_grid_config *c)
 {
+    if (!c) return FS_ERR_NULL;
     const double v[5] = {c->V_im, c->f_grid, c->L_f, c->R_f, c->C_f};
     for (int k = 0; k < 5; ++k) {
         if (!(v[k] > 0.0) || !isfinite(v[k])) return FS_ERR_PARAM;

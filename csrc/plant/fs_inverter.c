@@ -41,6 +41,7 @@ void fs_inverter_vsd5(const double v[5], double *alpha, double *beta, double *x,
 
 fs_status fs_inverter_check(const fs_inverter_config *c)
 {
+    if (!c) return FS_ERR_NULL;
     if (c->kind != FS_INV_AVERAGED && c->kind != FS_INV_SWITCHING) return FS_ERR_MODE;
     if (!(c->u_dc > 0.0) || !isfinite(c->u_dc)) return FS_ERR_LIMIT;
     if (!(c->T_pwm > 0.0) || !isfinite(c->T_pwm)) return FS_ERR_TS;

@@ -103,6 +103,7 @@ static int pos(double x) { return x > 0.0 && isfinite(x); }
 
 fs_status fs_mag_init(fs_mag *m, const fs_mag_config *cfg)
 {
+    if (!m || !cfg) return FS_ERR_NULL;
     m->cfg = *cfg;
     m->i_f = 0.0;
     m->hint_d = m->hint_q = 0.0;

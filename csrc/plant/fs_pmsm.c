@@ -80,6 +80,7 @@ static void harm_current(fs_pmsm *m, const double *x, double cs, double sn, doub
 
 fs_status fs_pmsm_init(fs_pmsm *m, const fs_pmsm_config *cfg)
 {
+    if (!m || !cfg) return FS_ERR_NULL;
     m->cfg = *cfg;
     m->R_s0 = cfg->R_s;
     m->psi_f30 = cfg->psi_f3;

@@ -143,6 +143,8 @@ static void thermal_apply(fs_sim *s);
 
 fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
 {
+    if (!err || err_len < 1) err_len = 0;   /* no message buffer: snprintf writes nothing */
+    if (!cfg) { if (err_len) snprintf(err, (size_t)err_len, "config is NULL"); return NULL; }
     fs_sim *s = calloc(1, sizeof(*s));
     if (!s) { snprintf(err, (size_t)err_len, "out of memory"); return NULL; }
     s->cfg = *cfg;
@@ -291,9 +293,9 @@ void fs_sim_destroy(fs_sim *s)
     free(s);
 }
 
-double fs_sim_time(const fs_sim *s) { return (double)s->k * s->Tc; }
-double fs_sim_stop_time(const fs_sim *s) { return s->stop_time; }
-double fs_sim_adc_saturated_at(const fs_sim *s) { return s->adc_sat_time; }
+double fs_sim_time(const fs_sim *s) { return s ? (double)s->k * s->Tc : NAN; }
+double fs_sim_stop_time(const fs_sim *s) { return s ? s->stop_time : NAN; }
+double fs_sim_adc_saturated_at(const fs_sim *s) { return s ? s->adc_sat_time : NAN; }
 
 const fs_drive *fs_sim_drive(const fs_sim *s) { return s ? &s->drive : NULL; }
 
@@ -443,6 +445,7 @@ static void integrate_period_imc(fs_sim *s, double t0)
 
 int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
 {
+    if (!s || !rows || (!trace && max_rows > 0)) return FS_RUN_ERR_NULL;
     *rows = 0;
     if (s->stopped) return s->stopped;
     const fs_sim_config *c = &s->cfg;

@@ -134,18 +134,20 @@ typedef enum {
     FS_STOP_NAN = 2,          /* a state became NaN or infinite */
     FS_STOP_OVERCURRENT = 3,  /* a phase current exceeded i_trip */
     FS_STOP_LOSS_OF_LOCK = 4, /* an estimator lost track of the rotor */
-    FS_STOP_POLARITY = 5      /* the drive could not determine the magnet's polarity and refused to start */
+    FS_STOP_POLARITY = 5,     /* the drive could not determine the magnet's polarity and refused to start */
+    FS_RUN_ERR_NULL = -1      /* sim or rows (or trace, with max_rows > 0) is NULL: nothing run */
 } fs_run_status;
 
 typedef struct fs_sim fs_sim;
 
-/* Creates a simulation; on error returns NULL and writes a message naming
- * the field into err. */
+/* Creates a simulation; on error (cfg NULL included) returns NULL and writes
+ * a message naming the field into err (when err is not NULL). */
 fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len);
 void fs_sim_destroy(fs_sim *sim);
 /* Advances to t_end, writing at most max_rows rows of FS_CH_N doubles into
  * trace; *rows receives the count. Returns an fs_run_status. */
 int fs_sim_run(fs_sim *sim, double t_end, double *trace, int max_rows, int *rows);
+/* Simulated time, s (NaN for a NULL sim, as the two below). */
 double fs_sim_time(const fs_sim *sim);
 /* Time of the stop, for a run that stopped (NaN otherwise). */
 double fs_sim_stop_time(const fs_sim *sim);

@@ -1,14 +1,25 @@
-"""Command line: fullspeed run | list | sweep | reproduce | calibrate | export."""
+"""Command line: fullspeed run | list | sweep | reproduce | calibrate | export.
+
+Exit status: 0 done; 1 a run that stopped (a protection, lost lock, an
+interrupt during the simulation) or a sweep with points not run; 2 bad input
+(ConfigError, found before any work starts) or a configuration the C core
+refuses; 3 an internal error (a bug: please report it); 130 Ctrl-C.
+
+Every output is written to a temporary file in its folder and renamed into
+place (fullspeed.files); a folder named after an input's name stays inside
+out/ or the name is refused.
+"""
 from __future__ import annotations
 
 import argparse
-import json
+import re
 import sys
 from pathlib import Path
 
-import numpy as np
+from .errors import ConfigError, EngineError, SimulationError
+from .files import out_path, write_json, write_npz, write_with
 
-from .errors import ConfigError, SimulationError
+OUT = Path("out")
 
 
 def _set_overrides(pairs: list[str] | None) -> dict:
@@ -75,14 +86,15 @@ def _cmd_run(args) -> int:
     if args.inverter:
         overrides.setdefault("converter", {})["inverter"] = args.inverter
     sc = load_scenario(args.scenario, overrides or None)
+    out = Path(args.out) if args.out else out_path(OUT, sc.name, "name", sc.source)   # before the run, not after
     for w in sc.warnings:
         print(f"fullspeed: warning: {w}", file=sys.stderr)
     res = simulate(sc, progress=not args.quiet)
-    out = Path(args.out or Path("out") / res.scenario.name)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "metrics.json").write_text(json.dumps(json_safe(res.metrics), indent=2))
-    np.savez_compressed(out / "traces.npz", **res.traces)
-    plot_run(res, out / "run.png")
+    # metrics.json last: its presence marks the folder complete (an older one goes first)
+    (out / "metrics.json").unlink(missing_ok=True)
+    write_npz(out / "traces.npz", res.traces)
+    write_with(out / "run.png", lambda tmp: plot_run(res, tmp))
+    write_json(out / "metrics.json", json_safe(res.metrics), indent=2)
     print(f"{res.scenario.name}: {res.sim_time:.3f} s simulated in {res.wall_time:.3f} s wall "
           f"= {res.speed_ratio:.1f} simulated s per wall s ({res.scenario.data['converter']['inverter']} inverter)")
     print("\n".join(summary_lines(res.metrics)))
@@ -157,24 +169,46 @@ def _cmd_sweep(args) -> int:
     from .journal import default_workers
     from .sweep import load_sweep_file, run_sweep
 
+    if args.dask:
+        _check_dask_address(args.dask)
+    if not args.dask_timeout > 0:
+        raise ConfigError("--dask-timeout", args.dask_timeout, "must be > 0 s")
     sw = load_sweep_file(args.file)
     if args.set:
         sw = _with_overrides(sw, _set_overrides(args.set))
     if args.workers is not None and args.workers < 1:
         raise ConfigError("--workers", args.workers, "must be at least 1")
-    out = Path(args.out or Path("out") / "sweeps" / sw.name)
+    out = Path(args.out) if args.out else out_path(OUT / "sweeps", sw.name, "name", args.file)
     n = len(sw.points())
     where = f"on Dask at {args.dask}" if args.dask else f"in {args.workers or default_workers()} worker process(es)"
     print(f"sweep {sw.name}: {n} points {where} -> {out}", file=sys.stderr)
     t0 = time.perf_counter()
-    path, rows = run_sweep(sw, out, workers=args.workers, dask=args.dask, progress=not args.quiet)
+    resume = f"resume with: fullspeed sweep {args.file} --out {out}"
+    try:
+        path, rows = run_sweep(sw, out, workers=args.workers, dask=args.dask, progress=not args.quiet,
+                               dask_timeout=args.dask_timeout)
+    except (KeyboardInterrupt, EngineError):
+        from .journal import JOURNAL, read_journal
+        kept = len(read_journal(out / JOURNAL, n))
+        print(f"fullspeed: sweep stopped: {kept} of {n} points finished and kept in {out / JOURNAL}; {resume}",
+              file=sys.stderr)
+        raise
     wall = time.perf_counter() - t0
     failed = [r for r in rows if r["stop_reason"] != "done"]
     print(f"{len(rows)} of {n} points in {wall:.1f} s wall; {len(failed)} did not finish normally; wrote {path}")
     for r in failed[:10]:
         print(f"  point {r['point']}: {r['stop_reason']}" + (f" ({r['error']})" if r.get("error") else "")
               + (f" at t = {r['stop_time']:.4f} s" if r.get("stop_time") is not None else ""))
+    if len(rows) != n:
+        print(f"fullspeed: {n - len(rows)} points not run; {resume}", file=sys.stderr)
     return 0 if len(rows) == n else 1
+
+
+def _check_dask_address(address: str) -> None:
+    """[scheme://]host:port, before anything runs (Dask's own error is a traceback)."""
+    m = re.fullmatch(r"(?:[a-z][a-z0-9+.-]*://)?(\[[0-9A-Fa-f:.]+\]|[^\s:/\[\]]+):(\d{1,5})/?", address)
+    if m is None or not 0 < int(m.group(2)) < 65536:
+        raise ConfigError("--dask", address, "must be a scheduler address with a port: tcp://HOST:PORT")
 
 
 def _with_overrides(sw, extra: dict):
@@ -201,11 +235,18 @@ def _cmd_reproduce(args) -> int:
 
 
 def _cmd_calibrate(args) -> int:
-    from .calibrate import write_table, xsat_table
-    from .files import file_name
+    import numpy as np
 
+    from .calibrate import write_table, xsat_table
+    from .scenario import load_scenario
+
+    if args.out:
+        target = Path(args.out)
+    else:   # the machine's name makes the file's: checked before the calibration runs
+        sc = load_scenario(args.scenario)
+        target = out_path(OUT, sc.machine.name, "machine.name", sc.source, suffix="-xsat.toml")
     table, sc = xsat_table(args.scenario, i_q_max=args.i_q_max, points=args.points, speed_rpm=args.speed_rpm)
-    path = write_table(table, Path(args.out or Path("out") / f"{file_name(sc.machine.name)}-xsat.toml"))
+    path = write_table(table, target)
     print(f"{sc.machine.name} at {table['speed_rpm']:g} rpm held by the load machine:")
     for i, dlt, s, r in zip(table["i_q"], table["delta_deg"], table["spread_deg"], table["residual_deg"]):
         print(f"  i_q = {i:7.2f} A   delta = {dlt:+8.3f} el.deg   scatter {s:5.2f}   compensated {r:+6.2f}")
@@ -284,7 +325,9 @@ def main(argv: list[str] | None = None) -> int:
     sw = sub.add_parser("sweep", help="run a sweep (catalog name or TOML file): maps and Monte Carlo, resumable")
     sw.add_argument("file")
     sw.add_argument("--workers", type=int, help="local worker processes (default: the cores)")
-    sw.add_argument("--dask", metavar="ADDRESS", help="run on the Dask scheduler at ADDRESS instead")
+    sw.add_argument("--dask", metavar="ADDRESS", help="run on the Dask scheduler at ADDRESS (tcp://HOST:PORT) instead")
+    sw.add_argument("--dask-timeout", type=float, default=60.0, metavar="S",
+                    help="stop with an error when the Dask cluster has had no worker for S seconds (default 60)")
     sw.add_argument("--out", help="output folder (default out/sweeps/<name>); run again to resume")
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
     sw.add_argument("--set", action="append", metavar="KEY=VALUE",
@@ -332,6 +375,11 @@ def main(argv: list[str] | None = None) -> int:
             raise
         print(f"fullspeed: error: {exc}", file=sys.stderr)
         return 2
+    except EngineError as exc:   # the workers or the cluster were lost: what finished is kept
+        if args.debug:
+            raise
+        print(f"fullspeed: error: {exc}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print("fullspeed: interrupted", file=sys.stderr)
         return 130

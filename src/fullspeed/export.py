@@ -24,7 +24,6 @@ version refuses it, drv->fail = "config_size").
 from __future__ import annotations
 
 import math
-import os
 import re
 from functools import lru_cache
 from importlib import resources
@@ -32,6 +31,7 @@ from pathlib import Path
 
 from ._core import ffi
 from .errors import ConfigError
+from .files import write_atomic
 from .scenario import Scenario, load_scenario
 from .schema import parse_toml, read_toml
 
@@ -278,9 +278,7 @@ def render(sc: Scenario, name: str) -> tuple[str, str]:
 
 
 def _write(path: Path, text: str) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
+    write_atomic(path, text)   # a temporary file, fsynced and renamed (fullspeed.files)
 
 
 def export(scenario, out: str | Path, name: str = "fs_config") -> list[Path]:

@@ -70,10 +70,10 @@ def _header(name: str, field: str, source) -> tuple[str, float]:
 
 def read_csv(path: Path, field: str, source=None) -> dict[str, np.ndarray]:
     """The columns of a flux-map CSV, in SI, as flat arrays."""
-    try:
-        lines = [ln for ln in path.read_text(encoding="utf-8").splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(field, str(path), f"cannot be read: {exc}", source) from None
+    from .files import read_text   # a regular file, bounded (a FIFO or /dev/zero is refused)
+
+    text = read_text(path, field, source)
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
     rows = list(csv.reader(lines))
     if len(rows) < 5:
         raise ConfigError(field, str(path), "must hold a header and at least 4 rows (a 2 x 2 grid)", source)

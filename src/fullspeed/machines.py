@@ -11,7 +11,7 @@ from pathlib import Path
 from . import fluxmap
 from .design import design_bench
 from .errors import ConfigError
-from .schema import NOTES, C, F, I, N, NONNEG, POS, S, T, Spec, even_grid, read_toml, validate
+from .schema import NOTES, C, F, I, N, NONNEG, POS, S, T, Spec, even_grid, finite_number, read_toml, validate
 from .units import rpm_to_rad_s
 
 MAGNETIC = {
@@ -96,7 +96,7 @@ INJECTION = {
 # the same names as the scenario's [blending], which overrides them
 BLENDING = {"lower_rpm": NONNEG(None, hi=1e6, doc="default designed"), "upper_rpm": POS(None, hi=1e6, doc="default designed")}
 RENAMED = {"blending.omega_lower_rpm": "blending.lower_rpm", "blending.omega_upper_rpm": "blending.upper_rpm"}
-PAPER_GAINS = {k: NONNEG(None, hi=1e9, doc="optional: as printed, V/A, V/(A s), A s/rad, A/rad") for k in (
+PAPER_GAINS = {k: (POS if k in ("current_kp_d", "current_kp_q", "speed_kp") else NONNEG)(None, hi=1e9, doc="optional: as printed, V/A, V/(A s), A s/rad, A/rad") for k in (   # the PIs need k_p > 0
     "current_kp_d", "current_ki_d", "current_kp_q", "current_ki_q", "speed_kp", "speed_ki", "pll_kp", "pll_ki")}
 BENCH_EXPERIMENT = {k: POS(None, hi=1e6, doc="optional: the experiment's value (SI)") for k in ("u_grid_ll_rms", "f_grid", "u_dc", "u_dc_min", "i_max", "i_lim")}
 
@@ -205,12 +205,14 @@ def machine_from_dict(data: dict, source: str | None = None, prefix: str = "mach
     if b["t_dead"] >= 0.5 / b["f_pwm"]:
         raise ConfigError(f"{prefix}.bench.t_dead", b["t_dead"], f"must be shorter than half the PWM period ({0.5 / b['f_pwm']:g} s)", source)
     th = {"L_d3": 0.0, "L_q3": 0.0, "psi_f3": 0.0}
-    if d["phases"] == 5:
+    if d["phases"] == 5 or d.get("third_harmonic") is not None:   # given: checked whatever the phases
         if not isinstance(d.get("third_harmonic"), dict):
             raise ConfigError(f"{prefix}.third_harmonic", d.get("third_harmonic", "missing"),
-                              "a five-phase machine needs a [third_harmonic] table with L_d3 > 0 (H), "
-                              "L_q3 > 0 (H) and psi_f3 >= 0 (Wb)", source)
-        th = validate(d["third_harmonic"], THIRD_HARMONIC, f"{prefix}.third_harmonic", source)
+                              "must be a [third_harmonic] table with L_d3 > 0 (H), L_q3 > 0 (H) and psi_f3 >= 0 (Wb)"
+                              + (" (a five-phase machine needs one)" if d["phases"] == 5 else ""), source)
+        d["third_harmonic"] = validate(d["third_harmonic"], THIRD_HARMONIC, f"{prefix}.third_harmonic", source)
+        if d["phases"] == 5:
+            th = d["third_harmonic"]
     poly = (d["injection"] or {}).get("xcomp_paper")
     if poly is not None and not 1 <= len(poly) <= 4:
         raise ConfigError(f"{prefix}.injection.xcomp_paper", poly, "must list 1 to 4 coefficients (a cubic in i_q at most)", source)
@@ -250,8 +252,7 @@ def _check_fluxmap(mag: dict, prefix: str, source) -> None:
     grids = {}
     for name in ("i_d", "i_q"):
         g = mag[name]
-        ok = (isinstance(g, list) and 2 <= len(g) <= 1000
-              and all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in g))
+        ok = (isinstance(g, list) and 2 <= len(g) <= 1000 and all(finite_number(x) for x in g))
         if not (ok and even_grid(g)):
             raise ConfigError(f"{prefix}.{name}", g, "must be a rising, evenly spaced list of 2..1000 currents (A)", source)
         grids[name] = g
@@ -260,7 +261,7 @@ def _check_fluxmap(mag: dict, prefix: str, source) -> None:
         tab = mag[name]
         ok = (isinstance(tab, list) and len(tab) == n_d
               and all(isinstance(row, list) and len(row) == n_q for row in tab)
-              and all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) and abs(x) <= 100.0
+              and all(finite_number(x) and abs(x) <= 100.0
                       for row in tab for x in row))
         if not ok:
             raise ConfigError(f"{prefix}.{name}", "table", f"must be a {n_d} x {n_q} table (rows i_d, columns i_q) of finite fluxes within +-100 Wb", source)

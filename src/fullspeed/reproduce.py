@@ -7,13 +7,13 @@ fails) is still listed, with value null and pass false, and the reason.
 """
 from __future__ import annotations
 
-import json
 import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
 from .claims import Claim, claims_for
+from .files import write_atomic, write_json
 from .metrics import json_safe
 
 
@@ -87,9 +87,7 @@ def write_report(rows: list[dict], out: Path, paper: str | None) -> Path:
             lines += [r["note"], ""]
         for fig in r["figures"]:
             lines += [f"![{r['id']}]({fig})", ""]
-    path = out / "report.md"
-    path.write_text("\n".join(lines))
-    return path
+    return write_atomic(out / "report.md", "\n".join(lines))
 
 
 def reproduce(paper: str | None, out: Path, progress: bool = True) -> list[dict]:
@@ -107,7 +105,7 @@ def reproduce(paper: str | None, out: Path, progress: bool = True) -> list[dict]
     for claim in it:
         rows.append(measure(claim, out))
         # written after every claim: an interrupted reproduction keeps what it measured
-        (out / "claims.json").write_text(json.dumps(rows, indent=2))
+        write_json(out / "claims.json", rows, indent=2)
     if bar is not None:
         bar.close()
     write_report(rows, out, paper)

@@ -10,8 +10,9 @@ from pathlib import Path
 from . import _core
 from . import design as dz
 from .errors import ConfigError
+from .files import path_kind
 from .machines import Machine, catalog_data, machine_from_dict
-from .schema import MISSING, B, C, F, I, N, NONNEG, POS, P, S, Spec, T, deep_merge, even_grid, parse_toml, read_toml, validate
+from .schema import MISSING, B, C, F, I, N, NONNEG, POS, P, S, Spec, T, deep_merge, even_grid, finite_number, parse_toml, read_toml, validate
 from .units import rpm_to_rad_s
 
 SCENARIO = {
@@ -210,7 +211,7 @@ def scenario_names() -> list[str]:
 def _machine_of(raw, source) -> Machine:
     if isinstance(raw, str) and raw.endswith(".toml"):   # a machine file, beside the scenario first
         p = Path(raw)
-        if not p.is_absolute() and source and (Path(source).parent / p).is_file():
+        if not p.is_absolute() and source and path_kind(Path(source).parent / p) == "file":
             p = Path(source).parent / p
         return machine_from_dict(read_toml(p, "machine"), str(p))
     if isinstance(raw, str):
@@ -279,19 +280,27 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
             obs[key] = share * band["lower_rpm"].value
             notes[f"observer.{key}"] = dz.Value(obs[key], "rpm", f"{share:g} x the lower blending speed (yang2022: "
                                                 f"{share * 160:g} rpm of 160): trusted inside the band, filtering below it")
+    if ctl["angle"] in ("smo", "blend") and not obs["cutoff_min_rpm"] > 0:   # the SMO's filter needs a floor
+        raise ConfigError("observer.cutoff_min_rpm", obs["cutoff_min_rpm"], "must be > 0 (the default, 1/8 of the "
+                          f"lower blending speed {band['lower_rpm'].value:g} rpm, is 0): set it", source)
     if ctl["angle"] == "smo" and "bw_speed" not in data.get("controller", {}):
         # the speed comes from the observer's PLL: keep its lag (a double pole)
         # small at the speed loop's crossover, as the bench's encoder PLL does
         ctl["bw_speed"] = min(ctl["bw_speed"], obs["bw_pll"] / 6.0)
     if obs["top_speed_rpm"] is None:
         obs["top_speed_rpm"] = 1.5 * m.w_m_rated * 60 / (2 * math.pi)
+        if not obs["top_speed_rpm"] >= 1e-3:
+            raise ConfigError("machine.rated.speed_rpm", m.w_m_rated * 60 / (2 * math.pi), "must be >= 1e-3 rpm "
+                              "(1.5 x it is the observer's top speed; a denormal one divides by zero)", source)
+    if not obs["top_speed_rpm"] >= 1e-3:   # the SMO's gain bound and h_max divide by it
+        raise ConfigError("observer.top_speed_rpm", obs["top_speed_rpm"], "must be >= 1e-3 rpm", source)
     if tim["h_max"] is None:
         # RK4 within a PWM segment: a fifth of the shortest electrical time
         # constant and of the time the rotor turns a radian (el.) at the top
         # speed keeps the local error near (h / tau)^5 / 120 < 3e-6
         tau = min(m.L_d, m.L_q) / m.R_s if m.R_s > 0 else math.inf
         w_top = m.pole_pairs * rpm_to_rad_s(obs["top_speed_rpm"])
-        tim["h_max"] = min(0.2 * tau, 0.2 / w_top, 1e-3)
+        tim["h_max"] = min(0.2 * tau, 0.2 / w_top if w_top > 0 else math.inf, 1e-3)   # w_top underflows to 0 at 5e-324 rpm
         if conv["kind"] == "imc":   # and a fifth of a radian of the input filter's resonance
             tim["h_max"] = min(tim["h_max"], 0.2 * math.sqrt(conv["l_filter"] * conv["c_filter"]))
     if ctl["fw_top_speed_rpm"] is None:
@@ -311,6 +320,9 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
             # a quarter of the torque the start current makes at a 90 deg load angle
             T = 0.25 * 1.5 * m.pole_pairs * m.psi_f * obs["i_start"]
             obs["start_accel_rpm_s"] = T / m.J * 60 / (2 * math.pi)
+        for key, why in (("start_handover_rpm", "twice valid_rpm"), ("start_accel_rpm_s", "from the magnet flux psi_f")):
+            if not obs[key] > 0:   # a default that came out 0: the I/f start would never hand over
+                raise ConfigError(f"observer.{key}", obs[key], f"must be > 0 (the default is {why}): set it", source)
     if ctl["angle"] in ("hfi", "blend"):
         pll_given = "bw_pll" in data.get("observer", {}) or b.get("bw_pll_smo") is not None
         _injection_fields(d, m, source, bw_speed_given="bw_speed" in data.get("controller", {}) or m.design["bw_speed"].given,
@@ -656,19 +668,27 @@ def _hfi_design(inj: dict, Ts: float, L_d: float, L_q: float, source=None):
     return h
 
 
+def _xcomp_path(raw: str, source) -> Path:
+    """A table's file: a relative path against the scenario's own folder
+    first, then the working directory; else a table shipped with the
+    package, by name."""
+    p = Path(raw)
+    here = [Path(source).parent / p] if source and path_kind(source) == "file" and not p.is_absolute() else []
+    for t in here + [p, Path(str(resources.files("fullspeed") / "calibration" / f"{raw}.toml"))]:
+        if path_kind(t) is not None:
+            return t
+    raise ConfigError("injection.xcomp", raw, "file not found (nor a table in fullspeed/calibration)", source)
+
+
 def _xcomp_table(raw, source) -> dict:
     """The cross-saturation table: inline, or the path of a TOML file holding it."""
     where = "injection.xcomp"
     if isinstance(raw, str):
-        p = Path(raw)
-        if not p.exists() and source and not p.is_absolute():
-            p = Path(source).parent / raw
-        if not p.exists():   # a table shipped with the package, by name
-            shipped = resources.files("fullspeed") / "calibration" / f"{raw}.toml"
-            p = Path(str(shipped))
-        if not p.exists():
-            raise ConfigError(where, raw, "file not found (nor a table in fullspeed/calibration)", source)
-        raw = read_toml(p, where, source)
+        p = _xcomp_path(raw, source)
+        try:
+            raw = read_toml(p, where, source)
+        except ConfigError as exc:   # name the field, and the file in it
+            raise ConfigError(where, raw, f"{p}: {exc.allowed}", source) from None
         raw = raw.get("xcomp", raw)
     # what `fullspeed calibrate` writes beside the table (its provenance and quality) is accepted and not used
     if not isinstance(raw, dict) or set(raw) - {"i_q", "delta_deg", "source", "spread_deg", "speed_rpm", "residual_deg"} \
@@ -676,7 +696,7 @@ def _xcomp_table(raw, source) -> dict:
         raise ConfigError(where, raw if not isinstance(raw, dict) else sorted(raw), "must be a table with i_q = [A...] and delta_deg = [el.deg...]", source)
     i_q, delta = raw["i_q"], raw["delta_deg"]
     ok = (isinstance(i_q, list) and isinstance(delta, list) and 2 <= len(i_q) == len(delta) <= 33
-          and all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in i_q + delta))
+          and all(finite_number(x) for x in i_q + delta))
     if not ok:
         raise ConfigError(where, "table", "i_q and delta_deg must be lists of 2..33 finite numbers of the same length", source)
     if not even_grid(i_q):
@@ -690,11 +710,14 @@ def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Sc
     """A catalog scenario by name, or a TOML file by path; overrides are merged
     into the raw data before validation."""
     p = Path(name_or_path)
-    if p.suffix == ".toml" or p.exists():
+    names = scenario_names()
+    # a file by that name wins; a folder by a catalog name (an earlier run's
+    # --out) does not shadow the catalog
+    kind = path_kind(p)
+    if p.suffix == ".toml" or kind == "file" or (str(name_or_path) not in names and kind is not None):
         source = str(p)
         data = read_toml(p, "scenario")
     else:
-        names = scenario_names()
         if str(name_or_path) not in names:
             raise ConfigError("scenario", str(name_or_path), "unknown scenario; `fullspeed list` shows the catalog", None)
         source = f"scenarios/{name_or_path}.toml"

@@ -7,6 +7,7 @@ field, the value and what is allowed, and fills in defaults.
 from __future__ import annotations
 
 import math
+import sys
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -111,6 +112,21 @@ def _is_number(v) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
+FLOAT_MAX = sys.float_info.max
+FLT32_MIN = 1.1754943508222875e-38   # the smallest normal float32: the controllers compute in float32
+MAX_STR = 4096   # characters in a TOML string field: a name or a description, not a document
+
+
+def finite_number(v) -> bool:
+    """An int or float that is a finite double: a TOML integer has no size
+    limit, and math.isfinite of a 401-digit one raises OverflowError."""
+    if not _is_number(v):
+        return False
+    if isinstance(v, int):
+        return -FLOAT_MAX <= v <= FLOAT_MAX   # int-float comparison is exact, never overflows
+    return math.isfinite(v)
+
+
 def check_value(spec: Spec, value, field: str, source: str | None):
     def fail():
         raise ConfigError(field, value, spec.allowed(), source)
@@ -119,9 +135,12 @@ def check_value(spec: Spec, value, field: str, source: str | None):
     if k == "any":
         return value
     if k == "float":
-        if not _is_number(value) or not math.isfinite(value):
+        if not finite_number(value):
             fail()
         v = float(value)
+        if 0.0 < abs(v) < FLT32_MIN:   # 5e-324 would be 0 in the C core (a division by zero, a limit of 0)
+            raise ConfigError(field, value, f"{spec.allowed()}, and 0 or at least {FLT32_MIN:.3g} in magnitude "
+                              "(the controllers compute in float32)", source)
         if spec.lo is not None and (v < spec.lo or (spec.lo_open and v == spec.lo)):
             fail()
         if spec.hi is not None and (v > spec.hi or (spec.hi_open and v == spec.hi)):
@@ -142,6 +161,8 @@ def check_value(spec: Spec, value, field: str, source: str | None):
     if k == "str":
         if not isinstance(value, str):
             fail()
+        if len(value) > MAX_STR:
+            raise ConfigError(field, value, f"must be a string of at most {MAX_STR} characters", source)
         return value
     if k == "choice":
         if value not in spec.choices:
@@ -150,7 +171,7 @@ def check_value(spec: Spec, value, field: str, source: str | None):
     if k == "profile":
         return check_profile(value, field, source, spec)
     if k == "numbers":
-        if not isinstance(value, list) or not all(_is_number(x) and math.isfinite(x) for x in value):
+        if not isinstance(value, list) or not all(finite_number(x) for x in value):
             fail()
         return [float(x) for x in value]
     if k == "notes":
@@ -169,7 +190,7 @@ def check_profile(value, field, source, spec=None):
     spec = spec or P()
     allowed = spec.allowed()
     hi = spec.hi if spec.hi is not None else math.inf
-    if _is_number(value) and math.isfinite(value):
+    if finite_number(value):
         if abs(value) > hi:
             raise ConfigError(field, value, allowed, source)
         return ([0.0], [float(value)])
@@ -178,7 +199,7 @@ def check_profile(value, field, source, spec=None):
     ts, ys = [], []
     for n, pair in enumerate(value):
         if (not isinstance(pair, list) or len(pair) != 2
-                or not all(_is_number(x) and math.isfinite(x) for x in pair)):
+                or not all(finite_number(x) for x in pair)):
             raise ConfigError(f"{field}[{n}]", pair, "must be a pair [time_s, value] of finite numbers", source)
         if ts and pair[0] < ts[-1]:
             raise ConfigError(f"{field}[{n}]", pair, f"time must not be before the previous one ({ts[-1]:g} s)", source)
@@ -241,20 +262,15 @@ def parse_toml(text: str, field: str, source: str | None) -> dict:
         raise ConfigError(field, "unparsable", f"not valid TOML: {exc}", source) from None
     except RecursionError:
         raise ConfigError(field, "nested too deeply", "not valid input: arrays or tables nested beyond the parser's depth", source) from None
+    except ValueError as exc:   # an integer beyond Python's digit limit for conversion (4300)
+        raise ConfigError(field, "unparsable", f"not valid input: {' '.join(str(exc).split())[:120]}", source) from None
 
 
 def read_toml(path: str | Path, field: str, source: str | None = None) -> dict:
-    """A TOML file as a table; a file that is missing, unreadable, not UTF-8
-    or not TOML becomes a ConfigError naming the file."""
+    """A TOML file as a table; a file that is missing, not a regular file,
+    over files.MAX_TOML_BYTES, not UTF-8 or not TOML becomes a ConfigError
+    naming the file."""
+    from .files import read_text
+
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ConfigError(field, str(p), "file not found", source) from None
-    except IsADirectoryError:
-        raise ConfigError(field, str(p), "is a directory, not a TOML file", source) from None
-    except UnicodeDecodeError as exc:
-        raise ConfigError(field, str(p), f"is not UTF-8 text (TOML is UTF-8): byte {exc.start}", source) from None
-    except OSError as exc:
-        raise ConfigError(field, str(p), f"cannot be read: {exc.strerror}", source) from None
-    return parse_toml(text, "toml", str(p))
+    return parse_toml(read_text(p, field, source), "toml", str(p))

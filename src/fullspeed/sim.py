@@ -390,6 +390,9 @@ class Simulation:
         rows = int(scenario.duration / (self._cfg.drive.Ts * self._cfg.decimation)) + 2
         self._buf = np.empty((rows, lib.FS_CH_N))
         self._n = 0
+        # rows the C runner wrote in its last call and that are not in _n yet:
+        # a Ctrl-C raised as fs_sim_run returns leaves them here, not lost
+        self._rows = ffi.new("int *")
         self.status = "running"
         self.stop_time: float | None = None
 
@@ -399,10 +402,11 @@ class Simulation:
 
     def advance(self, t_end: float) -> str:
         """Run to t_end (or a stop). Returns the status: running, done or a stop reason."""
-        rows = ffi.new("int *")
+        rows = self._rows
         Tc = self._cfg.drive.Ts
         dec = self._cfg.decimation
         while True:
+            self._n += rows[0]; rows[0] = 0   # noqa: E702 (no call or jump between the two: no signal handler runs there)
             need = self._n + int((t_end - self.time) / (Tc * dec)) + 2
             if need > len(self._buf):
                 grown = np.empty((max(need, 2 * len(self._buf)), lib.FS_CH_N))
@@ -411,7 +415,7 @@ class Simulation:
             free = len(self._buf) - self._n
             ptr = ffi.cast("double *", self._buf.ctypes.data) + self._n * lib.FS_CH_N
             rc = lib.fs_sim_run(self._sim, t_end, ptr, free, rows)
-            self._n += rows[0]
+            self._n += rows[0]; rows[0] = 0   # noqa: E702
             if rc == lib.FS_RUN_BUFFER_FULL:
                 continue
             if rc != lib.FS_RUN_DONE:
@@ -439,6 +443,7 @@ class Simulation:
 
     def traces(self) -> dict[str, np.ndarray]:
         """Each channel as a view into the buffer (strided, no copy)."""
+        self._n += self._rows[0]; self._rows[0] = 0   # noqa: E702 (rows of a call a Ctrl-C cut off)
         return dict(zip(CHANNELS, self._buf[: self._n].T))
 
 

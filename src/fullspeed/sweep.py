@@ -35,16 +35,18 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ConfigError
-from .journal import run_tasks
+from .files import path_kind, write_json, write_with
+from .journal import DASK_TIMEOUT, run_tasks
 from .metrics import METRIC_NAMES, flat_metrics
 from .scenario import SCENARIO, scenario_names
-from .schema import deep_merge, parse_toml, read_toml
+from .schema import deep_merge, finite_number, parse_toml, read_toml
 
 GRID_KINDS = ("values", "linspace", "range")
 RANDOM_KINDS = ("uniform", "normal", "integers")
 TOP_KEYS = {"name", "description", "base", "seed", "samples", "metrics", "overrides", "axes"}
 RESULT_COLUMNS = ("stop_reason", "stop_time", "error", "wall_s")
-MAX_POINTS = 10**6
+MAX_POINTS = 10**5   # 1.4 h on one core at 0.05 s a point, a day at 1 s: beyond, split the sweep
+CHECKED_VALUES = 64  # an axis's values checked before the start (all of a shorter axis; else its ends and a spread)
 RUN_METRICS = ("stop_reason", "stop_time", "wall_time")   # every row has them (wall_time as wall_s)
 
 
@@ -148,8 +150,8 @@ def _check_field(dotted: str, source: str) -> None:
     raise ConfigError(f"axes.{dotted}", dotted, "names a table; an axis sets one value", source)
 
 
-def _number(x) -> bool:
-    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+_number = finite_number
+INT64 = 2**63   # numpy's random integers are int64
 
 
 def _axis(name: str, raw, source: str) -> Axis:
@@ -173,23 +175,24 @@ def _axis(name: str, raw, source: str) -> Axis:
     if not isinstance(p, list) or len(p) != n or not all(_number(x) for x in p):
         raise ConfigError(f"{key}.{kind}", p, f"must be {want} of finite numbers", source)
     if kind == "linspace":
-        if not (isinstance(p[2], int) and p[2] >= 1):
-            raise ConfigError(f"{key}.linspace", p, "the count must be an integer >= 1", source)
-        return Axis(name, fields, kind, tuple(float(x) for x in np.linspace(p[0], p[1], p[2])))
+        if not (isinstance(p[2], int) and 1 <= p[2] <= MAX_POINTS):
+            raise ConfigError(f"{key}.linspace", p, f"the count must be an integer from 1 to {MAX_POINTS}", source)
+        return Axis(name, fields, kind, tuple(float(x) for x in np.linspace(float(p[0]), float(p[1]), p[2])))
     if kind == "range":
-        start, stop, step = p
-        if step == 0 or (stop - start) / step < 0 or (stop - start) / step > 1e6:
+        start, stop, step = (float(x) for x in p)
+        span = stop - start   # inf for bounds near the largest double
+        if step == 0 or not math.isfinite(span) or span / step < 0 or span / step > MAX_POINTS:
             raise ConfigError(f"{key}.range", p, "the step must be non-zero, point from start to stop, "
-                              "and give at most a million values", source)
+                              f"and give at most {MAX_POINTS} values", source)
         count = int(math.floor((stop - start) / step + 1e-9)) + 1
         return Axis(name, fields, kind, tuple(float(start + k * step) for k in range(count)))
-    if kind == "uniform" and not p[0] < p[1]:
-        raise ConfigError(f"{key}.uniform", p, "must have low < high", source)
-    if kind == "normal" and not p[1] >= 0:
-        raise ConfigError(f"{key}.normal", p, "must have sd >= 0", source)
-    if kind == "integers" and not (all(isinstance(x, int) for x in p) and p[0] <= p[1]):
-        raise ConfigError(f"{key}.integers", p, "must be integers with low <= high", source)
-    return Axis(name, fields, kind, params=tuple(p))
+    if kind == "uniform" and not (p[0] < p[1] and math.isfinite(float(p[1]) - float(p[0]))):
+        raise ConfigError(f"{key}.uniform", p, "must have low < high, high - low a finite double", source)
+    if kind == "normal" and not (p[1] >= 0 and math.isfinite(abs(float(p[0])) + 10 * float(p[1]))):
+        raise ConfigError(f"{key}.normal", p, "must have sd >= 0 and |mean| + 10 sd a finite double", source)
+    if kind == "integers" and not (all(isinstance(x, int) for x in p) and -INT64 <= p[0] <= p[1] < INT64):
+        raise ConfigError(f"{key}.integers", p, "must be integers with low <= high, both in [-2^63, 2^63)", source)
+    return Axis(name, fields, kind, params=tuple(p) if kind == "integers" else tuple(float(x) for x in p))
 
 
 def sweep_names() -> list[str]:
@@ -223,8 +226,8 @@ def sweep_from_dict(d: dict, source: str, here: Path | None = None) -> Sweep:
     seed, samples = d.get("seed", 0), d.get("samples", 1)
     if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**63:
         raise ConfigError("seed", seed, "must be an integer in [0, 2^63)", source)
-    if isinstance(samples, bool) or not isinstance(samples, int) or not 1 <= samples <= 10**6:
-        raise ConfigError("samples", samples, "must be an integer from 1 to 1000000", source)
+    if isinstance(samples, bool) or not isinstance(samples, int) or not 1 <= samples <= MAX_POINTS:
+        raise ConfigError("samples", samples, f"must be an integer from 1 to {MAX_POINTS}", source)
     metrics = d.get("metrics", list(METRIC_NAMES))
     if not isinstance(metrics, list) or not metrics:
         raise ConfigError("metrics", metrics, "must be a non-empty list of metric names", source)
@@ -253,18 +256,32 @@ def sweep_from_dict(d: dict, source: str, here: Path | None = None) -> Sweep:
 def _check_points(base: dict, overrides: dict, axes: list[Axis], source: str) -> None:
     """The base with the overrides, and with each grid value in turn, is a
     valid scenario: a mistake is one line now, not one failed row per point.
-    (Random draws are checked as they are run: a draw the scenario refuses
-    is a row with its error, as a Monte Carlo counts it.)"""
+    A long axis is checked at its first and last values, its extremes and a
+    spread of CHECKED_VALUES in all, so that the start stays quick; a value
+    in between that the scenario refuses is a row with its error, as a
+    random draw the scenario refuses is (draws are checked as they run)."""
     from .scenario import scenario_from_dict
 
     data = deep_merge(base, overrides)
-    checks = [(None, None, data)] + [(a, v, _set_axis(data, a, v)) for a in axes if not a.random for v in a.values]
+    checks = [(None, None, data)] + [(a, v, _set_axis(data, a, v)) for a in axes if not a.random for v in _checked(a.values)]
     for axis, value, d in checks:
         try:
             scenario_from_dict(d, source)
         except ConfigError as exc:
             where = f"axes.{axis.name} = {value!r}" if axis else "the base with its overrides"
             raise ConfigError(exc.field, exc.value, f"{exc.allowed} ({where})", source) from None
+
+
+def _checked(values: tuple) -> list:
+    """All values of a short axis; of a long one, the ends, the extremes and an even spread."""
+    n = len(values)
+    if n <= CHECKED_VALUES:
+        return list(values)
+    picks = {0, n - 1} | {round(k * (n - 1) / (CHECKED_VALUES - 3)) for k in range(CHECKED_VALUES - 3)}
+    nums = [k for k, v in enumerate(values) if finite_number(v)]
+    if nums:
+        picks |= {min(nums, key=lambda k: values[k]), max(nums, key=lambda k: values[k])}
+    return [values[k] for k in sorted(picks)]
 
 
 def _set_axis(data: dict, a: Axis, value) -> dict:
@@ -276,7 +293,9 @@ def _set_axis(data: dict, a: Axis, value) -> dict:
 def load_sweep_file(name_or_path: str | Path) -> Sweep:
     """A sweep by catalog name or TOML path."""
     p = Path(name_or_path)
-    if p.suffix == ".toml" or p.exists():
+    kind = path_kind(p)
+    # a file by that name wins; a folder by a catalog name (an earlier --out) does not shadow the catalog
+    if p.suffix == ".toml" or kind == "file" or (str(name_or_path) not in sweep_names() and kind is not None):
         return sweep_from_dict(read_toml(p, "sweep"), str(p), p.parent)
     if str(name_or_path) in sweep_names():
         source = f"sweeps/{name_or_path}.toml"
@@ -292,6 +311,8 @@ def run_point(task: dict) -> dict:
     from .sim import simulate
 
     res = simulate(scenario_from_dict(task["scenario"], task["source"]))
+    if res.stop_reason == "interrupted":   # Ctrl-C: not a finished point (the sweep stops, the point runs on resume)
+        raise KeyboardInterrupt
     m = flat_metrics(res.metrics)
     out = {k: m[k] for k in task["metrics"]}
     out.update(stop_reason=res.stop_reason, stop_time=res.stop_time, wall_s=res.wall_time)
@@ -330,16 +351,15 @@ def write_table(rows: list[dict], cols: list[str], out: Path) -> Path:
     """results.parquet with pyarrow, else results.csv."""
     arrow = _pyarrow()
     if arrow is None:
-        path = out / "results.csv"
-        with open(path, "w", newline="") as f:
-            w = csv.DictWriter(f, fieldnames=cols)
-            w.writeheader()
-            w.writerows(rows)
-        return path
+        def write_csv(tmp: Path):
+            with open(tmp, "w", newline="") as f:
+                w = csv.DictWriter(f, fieldnames=cols)
+                w.writeheader()
+                w.writerows(rows)
+        return write_with(out / "results.csv", write_csv)
     pa, pq = arrow
-    path = out / "results.parquet"
-    pq.write_table(pa.Table.from_pylist(rows, schema=_schema(rows, cols)), path)
-    return path
+    table = pa.Table.from_pylist(rows, schema=_schema(rows, cols))
+    return write_with(out / "results.parquet", lambda tmp: pq.write_table(table, tmp))
 
 
 def _schema(rows, cols):
@@ -358,22 +378,23 @@ def _schema(rows, cols):
 
 
 def run_sweep(sw: Sweep, out: Path, workers: int | None = None, dask: str | None = None,
-              progress: bool = False, plot: bool = True) -> tuple[Path, list[dict]]:
+              progress: bool = False, plot: bool = True, dask_timeout: float = DASK_TIMEOUT) -> tuple[Path, list[dict]]:
     """Run the missing points of sw into out; write the table (and a figure)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "sweep.json").write_text(json.dumps({
+    write_json(out / "sweep.json", {
         "name": sw.name, "description": sw.description, "base": sw.base_source, "seed": sw.seed,
         "samples": sw.samples, "columns": columns(sw),
         "axes": [{"name": a.name, "fields": a.fields, "kind": a.kind, "values": a.values, "params": a.params}
                  for a in sw.axes],
-        "points": sw.points()}))
-    results = run_tasks(run_point, sw.tasks(), out, workers=workers, dask=dask, progress=progress, desc=sw.name)
+        "points": sw.points()})
+    results = run_tasks(run_point, sw.tasks(), out, workers=workers, dask=dask, progress=progress, desc=sw.name,
+                        dask_timeout=dask_timeout)
     rows = rows_of(sw, results)
     path = write_table(rows, columns(sw), out)
     if plot:
         from .plots import plot_sweep
-        plot_sweep(sw, rows, out / "sweep.png")
+        write_with(out / "sweep.png", lambda tmp: plot_sweep(sw, rows, tmp) is not None)
     return path, rows
 
 
@@ -383,10 +404,12 @@ def load_sweep(folder: str | Path):
     import pandas as pd
 
     folder = Path(folder)
-    if (folder / "results.parquet").exists():
-        return pd.read_parquet(folder / "results.parquet")
-    if (folder / "results.csv").exists():
-        return pd.read_csv(folder / "results.csv")
+    for name, read in (("results.parquet", pd.read_parquet), ("results.csv", pd.read_csv)):
+        if (folder / name).exists():
+            try:
+                return read(folder / name)
+            except Exception:   # torn by an older version's in-place write: the journal holds the rows
+                break
     meta = folder / "sweep.json"
     if not meta.exists():
         raise ConfigError("folder", str(folder), "holds no sweep (no results table, no sweep.json)")
