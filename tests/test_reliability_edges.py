@@ -241,7 +241,7 @@ def test_a_long_axis_is_checked_at_a_bounded_spread_and_a_huge_one_refused(tmp_p
     assert len(checked) <= CHECKED_VALUES + 2 and 0.0 in checked and 20.0 in checked
     f = sweep_file(tmp_path / "s.toml", axes=f'"references.i_q" = {{ linspace = [0.0, 20.0, {MAX_POINTS + 1}] }}')
     one_line_exit_2(capsys, "sweep", str(f), "--quiet", "--out", str(tmp_path / "o"), words=("linspace",))
-    f.write_text(f"samples = {MAX_POINTS}\n" + SWEEP.format(name="mc", duration=0.3, axes='"references.i_q" = [1.0, 2.0]\n'
+    f.write_text(f"samples = {MAX_POINTS}\n" + SWEEP.format(name="mc", duration=0.3, extra="", axes='"references.i_q" = [1.0, 2.0]\n'
                                                         '"controller.R_s_scale" = { uniform = [0.8, 1.2] }'))
     one_line_exit_2(capsys, "sweep", str(f), "--quiet", "--out", str(tmp_path / "o"), words=("at most",))
 
