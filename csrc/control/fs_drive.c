@@ -106,7 +106,10 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     drv->fail = NULL;
     if (!cfg) REFUSE("config", FS_ERR_NULL);
     if (cfg->config_size != 0u && cfg->config_size != (unsigned int)sizeof(fs_drive_config)) REFUSE("config_size", FS_ERR_PARAM);
-    if (cfg->mode == FS_MODE_IDENTIFY) return fs_drive_ident_init(drv, cfg);   /* knows no machine yet */
+    if (cfg->mode == FS_MODE_IDENTIFY) {   /* knows no machine yet */
+        if (!FS_WITH_IDENT) REFUSE("mode", FS_ERR_MODE);
+        return fs_drive_ident_init(drv, cfg);
+    }
     fs_status st = drive_check_fields(cfg, &drv->fail);
     if (st != FS_OK) return st;
     if (cfg->phases != 3 && cfg->phases != 5) REFUSE("phases", FS_ERR_PARAM);
@@ -114,6 +117,8 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     if (!FS_WITH_FIVE_PHASE && cfg->phases == 5) REFUSE("phases", FS_ERR_MODE);
     if (!FS_WITH_SWVI && cfg->angle_source == FS_ANGLE_SWVI) REFUSE("angle_source", FS_ERR_MODE);
     if (!FS_WITH_IMC && cfg->converter == FS_CONV_IMC) REFUSE("converter", FS_ERR_MODE);
+    if (!FS_WITH_ADAPT && cfg->adapt.T_f > 0.0f) REFUSE("adapt", FS_ERR_MODE);
+    if (!FS_WITH_DTCOMP && cfg->dt_predict) REFUSE("dt_predict", FS_ERR_MODE);
     if (cfg->mode < FS_MODE_OFF || cfg->mode > FS_MODE_SPEED) REFUSE("mode", FS_ERR_MODE);
     if (cfg->angle_source < FS_ANGLE_ENCODER || cfg->angle_source > FS_ANGLE_SWVI) REFUSE("angle_source", FS_ERR_MODE);
     if (!(cfg->T_pwm >= cfg->Ts)) REFUSE("T_pwm", FS_ERR_TS);
@@ -150,12 +155,12 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
                                0.1f};   /* 10 % of u_dc: a few times what psi_f3 and the dead time ask */
         SUB("bw_xy", fs_xyctrl_init(&drv->xy, &xc));
     }
-    if (cfg->dt_predict && cfg->t_dead_comp > 0.0f) {
+    if (FS_WITH_DTCOMP && cfg->dt_predict && cfg->t_dead_comp > 0.0f) {
         fs_dtcomp_config dc = {cfg->phases, cfg->T_pwm, cfg->Ts, cfg->delay, cfg->t_dead_comp, cfg->i_dead_band,
                                cfg->L_d, cfg->L_q};
         SUB("dt_predict", fs_dtcomp_init(&drv->dtc, &dc));
     }
-    if (cfg->adapt.T_f > 0.0f) {
+    if (FS_WITH_ADAPT && cfg->adapt.T_f > 0.0f) {
         fs_param_adapt_config ac = cfg->adapt;
         ac.Ts = cfg->Ts;
         ac.R_s = cfg->R_s;
@@ -240,7 +245,7 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
 
 void fs_drive_reset(fs_drive *drv)
 {
-    if (drv->cfg.mode == FS_MODE_IDENTIFY) {
+    if (FS_WITH_IDENT && drv->cfg.mode == FS_MODE_IDENTIFY) {
         fs_ident_reset(&drv->ident);
         return;
     }
@@ -525,7 +530,7 @@ static bool drive_modulate(fs_drive *drv, const fs_drive_in *in, float u_dc, fs_
     bool over = drive_five(c) ? fs_pwm5(u_ref, u_dc, duty, u_f) : fs_svpwm(u_ref, u_dc, duty, u_f);
     if (drive_five(c) && c->bw_xy > 0.0f)   /* x-y current control on top of the nearest four vectors */
         fs_xyctrl_duties(fs_xyctrl_step(&drv->xy, in->i_ph, theta, w_e, u_dc), u_dc, duty);
-    if (c->dt_predict && c->t_dead_comp > 0.0f) fs_dtcomp_step(&drv->dtc, in->i_ph, u_inj, duty);
+    if (FS_WITH_DTCOMP && c->dt_predict && c->t_dead_comp > 0.0f) fs_dtcomp_step(&drv->dtc, in->i_ph, u_inj, duty);
     else dead_time_comp(c, in->i_ph, duty);
     u_f->alpha -= u_inj.alpha;   /* the fundamental part */
     u_f->beta -= u_inj.beta;
@@ -701,7 +706,7 @@ static void drive_step_halt(const fs_drive *drv, fs_ab i_ab, fs_drive_out *out)
 void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
 {
     const fs_drive_config *c = &drv->cfg;
-    if (c->mode == FS_MODE_IDENTIFY) {
+    if (FS_WITH_IDENT && c->mode == FS_MODE_IDENTIFY) {
         fs_drive_ident_step(drv, in, out);
         return;
     }
@@ -762,7 +767,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     drv->u_hist[0] = u_ab;
     fs_dq u_real = fs_park(u_ab, cos_u, sin_u);
     if (closed_loop) fs_current_ctrl_update(&drv->cc, u_real);
-    if (c->adapt.T_f > 0.0f) drive_adapt(drv, in, u_real, i_dq, w_e, closed_loop);
+    if (FS_WITH_ADAPT && c->adapt.T_f > 0.0f) drive_adapt(drv, in, u_real, i_dq, w_e, closed_loop);
     if (drive_weakens(c) && !starting && !polarity && drv->phase != FS_PHASE_RECOVER)
         fs_fw_step(&drv->fw, u_ref.q - u_real.q, w_e);   /* eq. (26): dv_q */
 

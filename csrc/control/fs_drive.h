@@ -112,7 +112,11 @@
  *   FS_WITH_IMC         the indirect matrix converter (fs_imc.h)
  *   FS_WITH_FIVE_PHASE  five phases (fs_vsd.h, fs_pwm5.h)
  *   FS_WITH_SWVI        square-wave injection (fs_swvi.h)
- * A three-phase inverter drive on the blend with flux weakening needs none. */
+ *   FS_WITH_IDENT       the identification mode (fs_ident.h; mode refused)
+ *   FS_WITH_ADAPT       the online R_s and psi_f correction (fs_param_adapt.h; adapt refused)
+ *   FS_WITH_DTCOMP      dead-time compensation on the predicted current (fs_dtcomp.h; dt_predict refused)
+ * A three-phase inverter drive on the blend with flux weakening needs none:
+ * a commissioning build keeps FS_WITH_IDENT, a production build leaves it out. */
 #ifndef FS_WITH_IMC
 #define FS_WITH_IMC 1
 #endif
@@ -121,6 +125,15 @@
 #endif
 #ifndef FS_WITH_SWVI
 #define FS_WITH_SWVI 1
+#endif
+#ifndef FS_WITH_IDENT
+#define FS_WITH_IDENT 1
+#endif
+#ifndef FS_WITH_ADAPT
+#define FS_WITH_ADAPT 1
+#endif
+#ifndef FS_WITH_DTCOMP
+#define FS_WITH_DTCOMP 1
 #endif
 
 typedef enum {
