@@ -114,3 +114,24 @@ def test_campaign_summary_counts_failures():
     assert s["failed_with_reason"] == 1          # machine c failed J without saying why
     assert s["J"]["identified"] == 1 and s["R_s"]["identified"] == 3
     assert s["R_s"]["max"] == 2.0 and set(s["failures"]) == {"b", "c"}
+
+
+def test_identified_scales_put_the_identified_values_in_the_controller():
+    """identify, then run sensorless: the controller's scales make its model
+    the identified one (identified = truth x (1 + error); the inductances'
+    truth is the small-signal one, against the machine file's nominal)."""
+    from fullspeed import zoo
+    from fullspeed.identify import identified_scales, small_signal_inductances
+    from fullspeed.machines import machine_from_dict
+
+    errs = {"R_s": 1.0, "L_d": -2.0, "L_q": 0.5, "psi_f": -1.0, "J": 4.0}
+    row = {"status": {q: "ok" for q in errs}, "errors_pct": errs}
+    for k in (2, 3):   # saturating (small-signal L below nominal), linear (equal)
+        m = machine_from_dict(zoo.machine(k))
+        L_d, L_q = small_signal_inductances(m)
+        s = identified_scales(row, k)
+        assert s["R_s_scale"] == pytest.approx(1.01) and s["psi_f_scale"] == pytest.approx(0.99)
+        assert s["J_scale"] == pytest.approx(1.04)
+        assert m.L_d * s["L_d_scale"] == pytest.approx(0.98 * L_d) and m.L_q * s["L_q_scale"] == pytest.approx(1.005 * L_q)
+        assert (L_d < 0.999 * m.L_d) == (k % 2 == 0)
+    assert identified_scales({**row, "status": {**row["status"], "J": "failed"}}, 2) is None

@@ -369,3 +369,60 @@ def campaign_summary(rows: list[dict]) -> dict:
     out["failed_with_reason"] = sum(all(r["reason"][q] for q in QUANTITIES if r["status"][q] != "ok") for r in failed)
     out["failures"] = {r["machine"]: r["failures"] for r in failed}
     return out
+
+
+def identified_scales(row: dict, k: int, seed: int | None = None) -> dict | None:
+    """The controller's parameter scales (controller.R_s_scale, ...) that put
+    zoo machine k's identified values in the controller, from a campaign row;
+    None if a quantity was not identified. The inductances' truth is the
+    small-signal one the identification measures (identified = truth x (1 +
+    error)), the scale against the machine file's nominal values."""
+    from . import zoo
+    from .machines import machine_from_dict
+
+    if any(row["status"].get(q) != "ok" for q in ("R_s", "L_d", "L_q", "psi_f", "J")):
+        return None
+    m = machine_from_dict(zoo.machine(k, zoo.SEED if seed is None else seed))
+    L_d, L_q = small_signal_inductances(m)
+    e = {q: 1.0 + row["errors_pct"][q] / 100.0 for q in ("R_s", "L_d", "L_q", "psi_f", "J")}
+    return {"R_s_scale": e["R_s"], "L_d_scale": e["L_d"] * L_d / m.L_d, "L_q_scale": e["L_q"] * L_q / m.L_q,
+            "psi_f_scale": e["psi_f"], "J_scale": e["J"]}
+
+
+def _sensorless_task(task: dict) -> dict:
+    """journal.run_tasks' worker: the zoo's sensorless run (scenario
+    beyond-zoo) of machine k with the controller's parameters scaled (the
+    identified ones) or not (the true ones)."""
+    from .sim import simulate
+    from .scenario import load_scenario
+
+    r = simulate(load_scenario("beyond-zoo", {"machine": {"zoo": task["k"]}, "controller": task["scales"]}))
+    m = r.metrics
+    return {"stop_reason": r.stop_reason, "lock_lost_at": m["lock_lost_at"], "true_loss_at": m["true_loss_at"],
+            "sensorless_err_deg_max": m["sensorless_err_deg_max"]}
+
+
+def sensorless_on_identified(rows: list[dict], out: Path, workers: int | None = None) -> dict:
+    """The zoo's saturating machines (the linear ones refuse to start by
+    their polarity detection) run sensorless on their true and on their
+    identified parameters: how often each keeps lock (completed, no loss of
+    lock flagged or seen by the simulation's truth)."""
+    from .journal import run_tasks
+
+    tasks = []
+    for row in rows:
+        k = int(row["k"])
+        if k % 2:   # the zoo's linear machines
+            continue
+        scales = identified_scales(row, k)
+        if scales is not None:
+            tasks += [{"k": k, "scales": {}}, {"k": k, "scales": scales}]
+    res = run_tasks(_sensorless_task, tasks, out, workers=workers, fresh=True, desc="sensorless")
+
+    def kept(r):
+        return r is not None and r.get("stop_reason") == "done" and r.get("lock_lost_at") is None \
+            and r.get("true_loss_at") is None
+    true_kept = sum(kept(r) for t, r in zip(tasks, res) if not t["scales"])
+    ident_kept = sum(kept(r) for t, r in zip(tasks, res) if t["scales"])
+    differ = [t["k"] for t, r, r0 in zip(tasks[1::2], res[1::2], res[0::2]) if kept(r) != kept(r0)]
+    return {"machines": len(tasks) // 2, "kept_true": true_kept, "kept_identified": ident_kept, "differ": differ}
