@@ -20,7 +20,6 @@ from . import _core
 from .errors import ConfigError, SimulationError
 from .scenario import Scenario, load_scenario
 from .sim import build_config
-from .units import rpm_to_rad_s
 
 ffi, lib = _core.ffi, _core.lib
 
