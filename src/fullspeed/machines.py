@@ -181,11 +181,11 @@ def catalog_data(name: str, source: str | None = None) -> dict:
 
 
 def machine_from_dict(data: dict, source: str | None = None, prefix: str = "machine") -> Machine:
-    for table, keys in (("blending", BLENDING), ):
+    for old, new in RENAMED.items():   # a renamed field is refused with its new name
+        table, key = old.split(".")
         given = data.get(table) if isinstance(data, dict) else None
-        for old, new in RENAMED.items():
-            if isinstance(given, dict) and old.split(".")[1] in given:
-                raise ConfigError(f"{prefix}.{old}", given[old.split('.')[1]], f"is now called {prefix}.{new} (one name for one setting, as in a scenario)", source)
+        if isinstance(given, dict) and key in given:
+            raise ConfigError(f"{prefix}.{old}", given[key], f"is now called {prefix}.{new} (one name for one setting, as in a scenario)", source)
     d = validate(data, MACHINE, prefix, source)
     if d["magnetic"]["file"] is not None:
         d["magnetic"] = _magnetic_file(d["magnetic"], f"{prefix}.magnetic", source)
