@@ -381,13 +381,22 @@ def test_sigkill_at_the_writes_of_tasks_json_and_the_table_leaves_a_resumable_sw
 
 # --- 27, 28, 29: Ctrl-C and dead workers on sweeps -------------------------------
 
+def _default_sigint() -> None:
+    """Ctrl-C as a terminal delivers it: a process started with SIGINT
+    ignored (the test runner's may be, by then) keeps it ignored across exec,
+    and Python then installs no KeyboardInterrupt handler (a blocked one stays
+    blocked too)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
 def _start_sweep(tmp_path: Path, workers: int, duration=40.0) -> tuple[subprocess.Popen, Path]:
     # points of about a second and a half of wall time on an idle machine (40 s simulated, traced sparsely):
     # the interrupt must find the sweep in the middle
     f = sweep_file(tmp_path / "s.toml", duration=duration, axes='"references.i_q" = [5.0, 10.0, 15.0, 20.0, 25.0, 30.0]',
                    extra="trace = { decimation = 100 }\n")
     p = subprocess.Popen([*FS, "sweep", str(f), "--workers", str(workers), "--quiet", "--out", str(tmp_path / "o")],
-                         start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
+                         start_new_session=True, preexec_fn=_default_sigint, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
     return p, tmp_path / "o"
 
 
