@@ -454,15 +454,14 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
  * are noisy, a lost estimator's are large for long. With the step's output
  * (NULL for the square wave), the checks that do not trust the estimator
  * (fs_monitor.h) join in. */
-static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_drive_out *out)
+static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_drive_out *out, fs_ab i_ab)
 {
     const fs_drive_config *c = &drv->cfg;
     const bool run = in->sensorless && drv->phase == FS_PHASE_RUN;
     const float g_w = out ? out->g_w : 0.0f;
     float r_mon = 0.0f;
     if (out) {
-        const float ct = cosf(out->theta_e), st = sinf(out->theta_e);
-        const fs_monitor_in mi = {fs_inv_park((fs_dq){out->i_d, out->i_q}, ct, st), drv->u_hist[0], in->u_dc,
+        const fs_monitor_in mi = {i_ab, drv->u_hist[0], in->u_dc,
                                   out->theta_e, out->w_e, drive_torque(c, (fs_dq){out->i_d_ref, out->i_q_ref}),
                                   {out->i_d_ref - out->i_d, out->i_q_ref - out->i_q},
                                   run && (c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED)};
@@ -664,7 +663,7 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     out->i_hf_q = sw->i_h.q;
     /* loss of lock (fs_drive.h), at the loops' rate */
     if (c->lock_time > 0.0f && sw->ff_fresh) {
-        h->lock_resid = drive_lock_residual(drv, in, NULL);
+        h->lock_resid = drive_lock_residual(drv, in, NULL, (fs_ab){0.0f, 0.0f});
         h->lock_lost = fs_lock_step(&drv->lock, h->lock_resid);
     }
     out->lock_resid = h->lock_resid;
@@ -807,7 +806,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     out->lock_resid = 0.0f;
     out->lock_lost = false;
     if (c->lock_time > 0.0f) {
-        out->lock_resid = drive_lock_residual(drv, in, out);
+        out->lock_resid = drive_lock_residual(drv, in, out, i_loop);   /* the current the loops used, as out->i_d, i_q are it in their frame */
         out->lock_lost = fs_lock_step(&drv->lock, out->lock_resid);
         if (out->lock_lost && c->lock_recover && drv->recoveries < c->lock_retries) {
             fs_drive_recover_begin(drv);
