@@ -77,7 +77,7 @@ static fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
     if (!fs_pos(cfg->J)) REFUSE("J", FS_ERR_J);
     SUB("hfi", fs_hfi_init(&drv->hfi, &hc));
     /* the carrier current's peak, I_p + I_n = u_h / (w_h min(L_d, L_q)) */
-    drv->i_hf = hc.u_h / (drv->hfi.cfg.w_h * fminf(hc.L_d, hc.L_q));
+    drv->i_hf = hc.u_h / (drv->hfi.cfg.w_h * fs_minf(hc.L_d, hc.L_q));
     if (!(drv->i_hf < 0.5f * cfg->i_max)) REFUSE("hfi.u_h", FS_ERR_ABOVE_I_MAX);
     if (cfg->angle_source == FS_ANGLE_BLEND) {
         fs_blend_config bc = cfg->blend;
@@ -92,7 +92,7 @@ static fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
         if (pc.i_pulse > cfg->i_max) REFUSE("polarity.i_pulse", FS_ERR_ABOVE_I_MAX);
         if (pc.i_pulse_max > cfg->i_max) REFUSE("polarity.i_pulse_max", FS_ERR_ABOVE_I_MAX);
         /* the retries up to the current limit less the carrier's peak */
-        if (pc.i_pulse_max == 0.0f) pc.i_pulse_max = fmaxf(cfg->i_max - drv->i_hf, pc.i_pulse);
+        if (pc.i_pulse_max == 0.0f) pc.i_pulse_max = fs_maxf(cfg->i_max - drv->i_hf, pc.i_pulse);
         pc.w_filter = drv->hfi.cfg.w_b_p;
         pc.n_carrier = (int)(2.0f * FS_PI / (drv->hfi.cfg.w_h * cfg->Ts) + 0.5f);
         SUB("polarity", fs_polarity_init(&drv->pol, &pc));
@@ -182,7 +182,7 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         if (drive_weakens(cfg)) {
             if (!fs_pos(cfg->fw_gain)) REFUSE("fw_gain", FS_ERR_PARAM);
             float w_c = cfg->fw_cutoff > 0.0f ? cfg->fw_cutoff
-                      : fminf(0.25f * cfg->bw_current, 0.5f * cfg->fw_w_e_max) / cfg->fw_gain;   /* fs_drive.h */
+                      : fs_minf(0.25f * cfg->bw_current, 0.5f * cfg->fw_w_e_max) / cfg->fw_gain;   /* fs_drive.h */
             fs_fw_config fc = {cfg->Ts, cfg->L_d, cfg->fw_w_e_max, cfg->fw_gain, w_c, cfg->i_max};
             st = fs_fw_init(&drv->fw, &fc);
             if (st != FS_OK) REFUSE(st == FS_ERR_BANDWIDTH ? "fw_cutoff" : "fw_w_e_max", st);
@@ -193,9 +193,9 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         SUB("lock_time", fs_lock_init(&drv->lock, &lc));
         drv->lock_a = expf(-4.0f * Tl / cfg->lock_time);
         /* the rating: T_max, or in current mode the torque of i_max on q */
-        const float T_lim = fmaxf(cfg->T_max, fabsf(drive_torque(cfg, (fs_dq){0.0f, cfg->i_max})));
+        const float T_lim = fs_maxf(cfg->T_max, fabsf(drive_torque(cfg, (fs_dq){0.0f, cfg->i_max})));
         fs_monitor_config mc = {Tl, (int)(cfg->delay + 0.5f), cfg->R_s, cfg->L_d, cfg->L_q, cfg->psi_f,
-                                cfg->pole_pairs, fmaxf(cfg->J, 0.0f), cfg->B, T_lim, cfg->i_max,
+                                cfg->pole_pairs, fs_maxf(cfg->J, 0.0f), cfg->B, T_lim, cfg->i_max,
                                 cfg->t_dead_comp / cfg->T_pwm, 0.25f * cfg->lock_time};
         SUB("lock_time", fs_monitor_init(&drv->mon, &mc));
     }
@@ -483,11 +483,11 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
     drv->lock_ri = smo_on ? drv->lock_ri + b * (drv->smo.r_i - drv->lock_ri) : 0.0f;
     drv->lock_es = smo_on ? drv->lock_es + b * (drv->smo.eps - drv->lock_es) : 0.0f;
     drv->lock_eh = inj_on ? drv->lock_eh + b * (eps_inj - drv->lock_eh) : 0.0f;
-    const float r_smo = fmaxf(0.5f * drv->lock_ri, 2.0f * fabsf(drv->lock_es));   /* 2 delta, sin 30 deg */
+    const float r_smo = fs_maxf(0.5f * drv->lock_ri, 2.0f * fabsf(drv->lock_es));   /* 2 delta, sin 30 deg */
     const float r_inj = fabsf(drv->lock_eh) * (square ? 1.9098593f : 3.8197186f); /* 30 or 15 deg */
     float r = 0.0f;
     if (c->angle_source == FS_ANGLE_SMO || (blend && g_w > 0.0f)) r = r_smo;
-    if (c->angle_source == FS_ANGLE_HFI || square || (blend && g_w < 1.0f)) r = fmaxf(r, r_inj);
+    if (c->angle_source == FS_ANGLE_HFI || square || (blend && g_w < 1.0f)) r = fs_maxf(r, r_inj);
     /* an observer on track above the band, whose EMF is as large as its
      * speed says (not a PLL swinging at low speed: at least half of the
      * |w| psi_f / sqrt 2 its filter passes), against the blended angle */
@@ -496,7 +496,7 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
                        && drv->smo.e_mag >= 0.35f * aw * c->psi_f;
     drv->lock_ex = cross ? drv->lock_ex + b * (fabsf(fs_wrap_pi(drv->smo.theta - drv->blend.theta_hat)) - drv->lock_ex)
                          : 0.0f;
-    return fmaxf(fmaxf(r, drv->lock_ex * 1.2732395f), r_mon);                     /* 45 deg = pi/4 rad */
+    return fs_maxf(fs_maxf(r, drv->lock_ex * 1.2732395f), r_mon);                     /* 45 deg = pi/4 rad */
 }
 
 /* The phase currents in the stationary frame (the fundamental plane with
@@ -545,7 +545,7 @@ static float drive_imc_rectify(fs_drive *drv, const fs_drive_in *in, fs_ab *u_re
     const fs_drive_config *c = &drv->cfg;
     fs_ab v = fs_clarke(in->u_in[0], in->u_in[1], in->u_in[2]);
     const float th = c->imc_w_grid * c->Ts * (c->delay + 0.5f);
-    v = fs_inv_park((fs_dq){v.alpha, v.beta}, cosf(th), sinf(th));
+    v = fs_inv_park((fs_dq){v.alpha, v.beta}, fs_cosf(th), fs_sinf(th));
     float u_pred[3];
     fs_inv_clarke(v, u_pred);
     const float V_im = sqrtf(v.alpha * v.alpha + v.beta * v.beta);
@@ -610,12 +610,12 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     }
     fs_drive_out *h = &drv->held;
     if (sw->ff_fresh && c->mode != FS_MODE_OFF) {
-        fs_dq i_dq = fs_park(sw->i_f, cosf(theta), sinf(theta));
+        fs_dq i_dq = fs_park(sw->i_f, fs_cosf(theta), fs_sinf(theta));
         fs_dq i_ref = drive_current_ref(drv, in, sw->i_f, w_e, &h->T_ref);
         fs_dq u_ref = fs_current_ctrl_step(&drv->cc, i_ref, i_dq, w_e);
         /* turned to the middle of the window it acts over */
         const float theta_u = theta + w_e * c->Ts * (float)(2 * d + 1);
-        const float cu = cosf(theta_u), su = sinf(theta_u);
+        const float cu = fs_cosf(theta_u), su = fs_sinf(theta_u);
         fs_ab u = fs_inv_park(u_ref, cu, su);
         /* what the modulator realises beside the carrier (anti-windup) */
         const float u_max = drive_u_lin(c, in->u_dc) - c->swvi.u_h, m = sqrtf(u.alpha * u.alpha + u.beta * u.beta);
@@ -741,7 +741,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
             u_ref.q = fs_signf(in->w_e_ref) * (c->vf_boost + c->vf_gain * fabsf(in->w_e_ref));
         }
     }
-    float cos_t = cosf(theta), sin_t = sinf(theta);
+    float cos_t = fs_cosf(theta), sin_t = fs_sinf(theta);
     fs_dq i_dq = fs_park(i_loop, cos_t, sin_t);
     bool starting = in->sensorless && drv->phase == FS_PHASE_START;
     bool polarity = drv->phase == FS_PHASE_POLARITY;
@@ -754,7 +754,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     /* The voltage acts from the next update instant for one period: rotate it
      * by the angle the rotor turns until the middle of that period. */
     float theta_u = theta + w_e * c->Ts * (c->delay + 0.5f);
-    float cos_u = cosf(theta_u), sin_u = sinf(theta_u);
+    float cos_u = fs_cosf(theta_u), sin_u = fs_sinf(theta_u);
     fs_ab u_ab_ref = fs_inv_park(u_ref, cos_u, sin_u);
     fs_ab u_inj = {0.0f, 0.0f};
     if (drv->injecting && c->mode != FS_MODE_OFF) u_inj = drv->hfi.u;   /* eq. (22) */

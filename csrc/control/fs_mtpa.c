@@ -47,7 +47,7 @@ fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
     for (int k = 0; k < FS_MTPA_N; ++k) {
         float I = cfg->i_max * (float)k / (float)(FS_MTPA_N - 1);
         float id = mtpa_id(cfg, I);
-        float iq = sqrtf(fmaxf(I * I - id * id, 0.0f));
+        float iq = sqrtf(fs_maxf(I * I - id * id, 0.0f));
         m->i_d[k] = id;
         m->i_q[k] = iq;
         m->T[k] = mtpa_k(cfg) * (cfg->psi_f + (cfg->L_d - cfg->L_q) * id) * iq;

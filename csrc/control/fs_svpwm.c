@@ -12,13 +12,13 @@ bool fs_svpwm(fs_ab u_ref, float u_dc, float duty[3], fs_ab *u_real)
      * of radius 2/3 u_dc (beyond it, everything is over-modulation anyway):
      * nothing below can overflow, whatever the finite inputs. */
     float pre = 1.0f;
-    float mag = fmaxf(fabsf(u_ref.alpha), fabsf(u_ref.beta));
+    float mag = fs_maxf(fabsf(u_ref.alpha), fabsf(u_ref.beta));
     if (mag > u_dc) pre = u_dc / mag;
     fs_ab x = {u_ref.alpha * pre / u_dc, u_ref.beta * pre / u_dc};
     float v[3];
     fs_inv_clarke(x, v);
-    float v_max = fmaxf(v[0], fmaxf(v[1], v[2]));
-    float v_min = fminf(v[0], fminf(v[1], v[2]));
+    float v_max = fs_maxf(v[0], fs_maxf(v[1], v[2]));
+    float v_min = fs_minf(v[0], fs_minf(v[1], v[2]));
     float span = v_max - v_min;
     float scale = 1.0f;
     bool over = pre < 1.0f;
