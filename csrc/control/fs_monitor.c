@@ -119,8 +119,8 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
         m->di_mag += b * (sqrtf(da * da + db * db) / c->Ts - m->di_mag);
     }
     const float th = in->theta - 0.5f * in->w * c->Ts;
-    const fs_dq e = fs_park(e_ab, cosf(th), sinf(th));
-    const fs_dq i_dq = fs_park(in->i, cosf(in->theta), sinf(in->theta));
+    const fs_dq e = fs_park(e_ab, fs_cosf(th), fs_sinf(th));
+    const fs_dq i_dq = fs_park(in->i, fs_cosf(in->theta), fs_sinf(in->theta));
     m->e_d += b * (e.d - m->e_d);
     m->e_q += b * (e.q - m->e_q);
     m->w_f += b * (in->w - m->w_f);
@@ -135,8 +135,8 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
 
     const float aw = fabsf(m->w_f);
     const float s = m->w_f < 0.0f ? -1.0f : 1.0f;
-    m->E_hat = fmaxf(aw * (c->psi_f + (c->L_d - c->L_q) * m->id_f), 0.0f);
-    m->E_err = (c->k_dead + FS_MONITOR_U_FLOOR) * in->u_dc + c->R_s * m->i_f + aw * fmaxf(c->L_d, c->L_q) * fabsf(m->id_f);
+    m->E_hat = fs_maxf(aw * (c->psi_f + (c->L_d - c->L_q) * m->id_f), 0.0f);
+    m->E_err = (c->k_dead + FS_MONITOR_U_FLOOR) * in->u_dc + c->R_s * m->i_f + aw * fs_maxf(c->L_d, c->L_q) * fabsf(m->id_f);
     const float pp = (float)c->pole_pairs;
     /* d(w_f)/dt: the low-passed speed's own derivative, s / (tau s + 1) w */
     const float T_L = m->T_f - (c->J / pp) * (m->w_f - w_prev) / c->Ts - (c->B / pp) * m->w_f;
@@ -152,10 +152,10 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
      * beyond the error bound is */
     const bool emf = m->E_hat >= FS_MONITOR_E_USE * m->E_err;
     const float den = m->E_hat + m->E_err;
-    m->r_dir = den > 0.0f ? fmaxf(1.0f + ((emf ? FS_MONITOR_K_DIR * m->E_hat : 0.0f) - m->E_err - p) / den, 0.0f) : 0.0f;
+    m->r_dir = den > 0.0f ? fs_maxf(1.0f + ((emf ? FS_MONITOR_K_DIR * m->E_hat : 0.0f) - m->E_err - p) / den, 0.0f) : 0.0f;
     m->r_mech = emf || !(c->J > 0.0f && c->T_max > 0.0f) ? 0.0f : m->T_L_abs / (FS_MONITOR_K_MECH * c->T_max);
     m->r_cur = m->ierr_f / (FS_MONITOR_K_CUR * c->i_max);
-    const float L = fmaxf(c->L_d, c->L_q);
+    const float L = fs_maxf(c->L_d, c->L_q);
     m->r_mag = m->v_mag / (FS_MONITOR_K_MAG * aw * (c->psi_f + L * m->i_f) + 2.0f * m->E_err + L * m->di_mag);
-    return fmaxf(fmaxf(m->r_dir, m->r_mag), fmaxf(m->r_mech, m->r_cur));
+    return fs_maxf(fs_maxf(m->r_dir, m->r_mag), fs_maxf(m->r_mech, m->r_cur));
 }
