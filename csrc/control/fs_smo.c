@@ -21,7 +21,7 @@ fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
     o->k_bound = 0.5f * E_max;
     if (cfg->k > 0.0f && cfg->k <= o->k_bound) return FS_ERR_SMO_GAIN;
     o->k = cfg->k > 0.0f ? cfg->k : cfg->margin * o->k_bound;
-    o->delta = fmaxf(cfg->delta, o->k * cfg->Ts / cfg->L_d);
+    o->delta = fs_maxf(cfg->delta, o->k * cfg->Ts / cfg->L_d);
     /* a designed gain of 0 (no EMF: psi_f = 0, L_d = L_q) or beyond the float range */
     if (!fs_pos(o->k) || !fs_pos(o->delta)) return FS_ERR_SMO_GAIN;
     o->i_hat_max = 16.0f * cfg->i_max;
@@ -83,8 +83,8 @@ static float smo_emf_angle(const fs_smo *o, fs_ab e, float w, float w_c)
     const float Ts = o->cfg.Ts;
     const float th_e = o->dir > 0.0f ? atan2f(-e.alpha, e.beta) : atan2f(e.alpha, -e.beta);
     const float g = w_c * Ts / (1.0f + w_c * Ts);
-    const float c = fminf(o->k * Ts / (o->cfg.L_d * o->delta), 1.0f);
-    const float zr = cosf(w * Ts), zi = sinf(w * Ts);
+    const float c = fs_minf(o->k * Ts / (o->cfg.L_d * o->delta), 1.0f);
+    const float zr = fs_cosf(w * Ts), zi = fs_sinf(w * Ts);
     /* den = (z - 1 + g)(z - 1 + c) + g c z */
     const float ar = zr - 1.0f + g, br = zr - 1.0f + c;
     const float dr = ar * br - zi * zi + g * c * zr;
@@ -133,22 +133,22 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
     const float e_a = o->i_hat.alpha - i.alpha, e_b = o->i_hat.beta - i.beta;
     o->z.alpha = o->k * sat(e_a, o->delta);
     o->z.beta = o->k * sat(e_b, o->delta);
-    o->r_i = fmaxf(fabsf(e_a), fabsf(e_b)) / o->delta;
+    o->r_i = fs_maxf(fabsf(e_a), fabsf(e_b)) / o->delta;
     /* Fig. 1: adaptive low-pass filter, cutoff at the estimated speed */
-    const float w_c_used = fmaxf(fabsf(w), c->w_c_min);
+    const float w_c_used = fs_maxf(fabsf(w), c->w_c_min);
     fs_ab e = fs_lpf_step(&o->lpf, o->z, w);
     if (track) {
         const float mag = sqrtf(e.alpha * e.alpha + e.beta * e.beta);
         /* no angle without an EMF: the correction and the torque fade below e_valid */
-        const float kappa = o->e_valid > 0.0f ? fminf(mag / o->e_valid, 1.0f) : 1.0f;
+        const float kappa = o->e_valid > 0.0f ? fs_minf(mag / o->e_valid, 1.0f) : 1.0f;
         const float th_prev = o->mo.theta_hat;
         float err = 0.0f;
         if (mag > 1e-6f) err = fs_wrap_pi(smo_emf_angle(o, e, w, w_c_used) - th_prev);
         /* the torque of the period: mean current in the frame at its middle */
         const float th_mid = th_prev + 0.5f * c->Ts * w;
-        const fs_dq i_dq = fs_park(i_m, cosf(th_mid), sinf(th_mid));
+        const fs_dq i_dq = fs_park(i_m, fs_cosf(th_mid), fs_sinf(th_mid));
         const float T = o->k_T * (c->psi_f + (c->L_d - c->L_q) * i_dq.d) * i_dq.q;
-        o->eps = sinf(fs_wrap_pi(err - c->Ts * w));   /* against the prediction, as the PLL's */
+        o->eps = fs_sinf(fs_wrap_pi(err - c->Ts * w));   /* against the prediction, as the PLL's */
         o->e_mag = mag;
         /* the torque only in a frame the EMF has confirmed: at standstill a
          * current in an unknown frame would accelerate the estimate away */
@@ -168,14 +168,14 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
         float eps = 0.0f;
         if (mag > 1e-6f) {
             float th = o->pll.theta;
-            eps = (-e.alpha * cosf(th) - e.beta * sinf(th)) / mag;
+            eps = (-e.alpha * fs_cosf(th) - e.beta * fs_sinf(th)) / mag;
             eps *= o->dir;
         }
         fs_pll_step(&o->pll, eps);
         o->eps = eps;
         o->e_mag = mag;
         o->w = o->pll.w;
-        float w_c = fmaxf(fabsf(o->w), c->w_c_min);
+        float w_c = fs_maxf(fabsf(o->w), c->w_c_min);
         float lag = (c->lag == FS_SMO_LAG_PAPER) ? fs_signf(o->w) * 0.25f * FS_PI
                                                  : atanf(o->w / (2.0f * w_c));
         /* the PLL now predicts the next mid-period; back half a period to the sample */
