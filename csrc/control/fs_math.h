@@ -19,13 +19,15 @@
 #define FS_OUT_OF_LINE static inline
 #endif
 
-/* fs_wrap_pi off its interval, out of line: one copy, not one at every
- * call site. Within a turn of the interval (|x| < 3 pi: an angle and a
- * step, a sum of two wrapped angles) x -+ 2 pi alone lands in it, exactly
- * (Sterbenz: |x| <= 4 pi), with the bits fmodf's path gives; beyond, fmodf
- * (exact) and one correction on either side. */
+/* fs_wrap_pi off (-pi, pi) (+-pi, NaN and infinities included), out of
+ * line: one copy, not one at every call site. Within a turn of the
+ * interval (|x| < 3 pi: an angle and a step, a sum of two wrapped angles)
+ * x -+ 2 pi alone lands in it, exactly (Sterbenz: |x| <= 4 pi), with the
+ * bits fmodf's path gives; beyond, fmodf (exact) and one correction on
+ * either side. */
 FS_OUT_OF_LINE float fs_wrap_far(float x)
 {
+    if (x == FS_PI) return x;
     const float y = x > 0.0f ? x - FS_TWO_PI : x + FS_TWO_PI;
     if (y > -FS_PI && y <= FS_PI && y != 0.0f) return y;   /* 0 is +-2 pi, whose sign fmodf sets */
     x = fmodf(x, FS_TWO_PI);
@@ -40,7 +42,7 @@ FS_OUT_OF_LINE float fs_wrap_far(float x)
 /* Wrap an angle to (-pi, pi]. Valid for any finite input. */
 static inline float fs_wrap_pi(float x)
 {
-    return (x > FS_PI || x <= -FS_PI) ? fs_wrap_far(x) : x;
+    return fabsf(x) < FS_PI ? x : fs_wrap_far(x);   /* one comparison on the common path */
 }
 
 /* Configuration checks for the inits: each fails on NaN and on an infinity
