@@ -276,7 +276,7 @@ void fs_drive_reset(fs_drive *drv)
     drv->held = (fs_drive_out){0};
     drv->est_started = false;
     drv->injecting = drv->inject_on = drive_injects(&drv->cfg);
-    drv->i_ref_prev.d = drv->i_ref_prev.q = 0.0f;
+    drv->T_ff = 0.0f;
     drv->phase = drive_starts(&drv->cfg) ? FS_PHASE_START : FS_PHASE_RUN;
     drv->theta_if = drv->w_if = 0.0f;
     drv->theta_ol = 0.0f;
@@ -297,7 +297,7 @@ static fs_ab drive_u_past(const fs_drive *drv)
 static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
 {
     const fs_drive_config *c = &drv->cfg;
-    const float T_ff = drive_torque(c, drv->i_ref_prev);
+    const float T_ff = drv->T_ff;
     fs_ab i_f = i_ab;
     if (drv->injecting) {
         fs_hfi_step(&drv->hfi, i_ab, T_ff);
@@ -408,7 +408,7 @@ static void dead_time_comp(const fs_drive_config *c, const float i_ph[], float d
 
 /* The current reference of the closed-loop modes: polarity pulses, the I/f
  * start, speed control (MTPA and flux weakening) or the reference input. */
-static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, float w_e, float *T_ref)
+static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, float w_e, bool weakens, float *T_ref)
 {
     const fs_drive_config *c = &drv->cfg;
     fs_dq i_ref = {in->i_d_ref, in->i_q_ref};
@@ -431,7 +431,7 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
          * kept; then held inside the current limit circle, whose radius
          * leaves room for the carrier's peak while injecting */
         const float i_lim = c->i_max - (drv->injecting ? drv->hfi.gain * drv->i_hf : 0.0f);
-        if (drive_weakens(c)) i_ref.d += drv->fw.i_d;
+        if (weakens) i_ref.d += drv->fw.i_d;
         i_ref.d = fs_clampf(i_ref.d, -i_lim, i_lim);
         float iq_max = sqrtf(i_lim * i_lim - i_ref.d * i_ref.d);
         float i_q0 = i_ref.q;
@@ -462,7 +462,7 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
     float r_mon = 0.0f;
     if (out) {
         const fs_monitor_in mi = {i_ab, drv->u_hist[0], in->u_dc,
-                                  out->theta_e, out->w_e, drive_torque(c, (fs_dq){out->i_d_ref, out->i_q_ref}),
+                                  out->theta_e, out->w_e, drv->T_ff,   /* the torque of out's i_d_ref, i_q_ref */
                                   {out->i_d_ref - out->i_d, out->i_q_ref - out->i_q},
                                   run && (c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED)};
         r_mon = fs_monitor_step(&drv->mon, &mi);
@@ -567,14 +567,14 @@ static float drive_imc_rectify(fs_drive *drv, const fs_drive_in *in, fs_ab *u_re
 
 /* The operating stage (fs_drive.h) from the phase, the source and weight,
  * and the flux-weakening current with hysteresis. */
-static int drive_stage(const fs_drive *drv, const fs_drive_in *in, float g_w)
+static int drive_stage(const fs_drive *drv, const fs_drive_in *in, float g_w, bool weakens)
 {
     const fs_drive_config *c = &drv->cfg;
     if (c->mode != FS_MODE_CURRENT && c->mode != FS_MODE_SPEED) return FS_STAGE_OPEN;
     if (drv->phase == FS_PHASE_POLARITY) return FS_STAGE_POLARITY;
     if (drv->phase == FS_PHASE_RECOVER) return FS_STAGE_RECOVERY;
     if (in->sensorless && drv->phase == FS_PHASE_START) return FS_STAGE_START;
-    if (drive_weakens(c)) {
+    if (weakens) {
         const float lim = (drv->stage == FS_STAGE_FLUX_WEAKENING ? -0.01f : -0.02f) * c->i_max;
         if (drv->fw.i_d < lim) return FS_STAGE_FLUX_WEAKENING;
     }
@@ -611,7 +611,7 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     fs_drive_out *h = &drv->held;
     if (sw->ff_fresh && c->mode != FS_MODE_OFF) {
         fs_dq i_dq = fs_park(sw->i_f, fs_cosf(theta), fs_sinf(theta));
-        fs_dq i_ref = drive_current_ref(drv, in, sw->i_f, w_e, &h->T_ref);
+        fs_dq i_ref = drive_current_ref(drv, in, sw->i_f, w_e, drive_weakens(c), &h->T_ref);
         fs_dq u_ref = fs_current_ctrl_step(&drv->cc, i_ref, i_dq, w_e);
         /* turned to the middle of the window it acts over */
         const float theta_u = theta + w_e * c->Ts * (float)(2 * d + 1);
@@ -634,7 +634,6 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
         h->i_q_ref = i_ref.q;
         h->u_d = u_real.d;
         h->u_q = u_real.q;
-        drv->i_ref_prev = i_ref;
     } else if (d == 1 && !sw->ff_fresh) {
         drv->u_ff_hold = drv->u_ff_next;   /* the window (k + 1, k + 3) starts at the next update */
     }
@@ -668,7 +667,7 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     }
     out->lock_resid = h->lock_resid;
     out->lock_lost = h->lock_lost;
-    drv->stage = drive_stage(drv, in, 0.0f);
+    drv->stage = drive_stage(drv, in, 0.0f, drive_weakens(c));
     out->stage = drv->stage;
     out->recoveries = 0;
 }
@@ -714,7 +713,10 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
         drive_step_halt(drv, i_ab, out);
         return;
     }
-    out->rect = (fs_imc_rect){{{0, 0, 0.0f}, {0, 0, 0.0f}}, 0.0f, 0, false};
+    out->rect.iv[0] = out->rect.iv[1] = (fs_imc_interval){0, 0, 0.0f};   /* field by field: a whole struct's literal is a memset call */
+    out->rect.v_pn = 0.0f;
+    out->rect.sector = 0;
+    out->rect.case2 = false;
     out->alpha = 0.0f;
     out->fault = FS_FAULT_NONE;
     if (drive_square(c)) {
@@ -729,6 +731,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     fs_dq i_ref = {0.0f, 0.0f};
     float T_ref = 0.0f;
     bool closed_loop = (c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED);
+    const bool weakens = drive_weakens(c);   /* once: the compiler cannot keep it across the stores below */
 
     if (c->mode == FS_MODE_VOLTAGE_DQ || c->mode == FS_MODE_VF) {
         theta = drv->theta_ol;
@@ -747,7 +750,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     bool polarity = drv->phase == FS_PHASE_POLARITY;
 
     if (closed_loop) {
-        i_ref = drive_current_ref(drv, in, i_ab, w_e, &T_ref);
+        i_ref = drive_current_ref(drv, in, i_ab, w_e, weakens, &T_ref);
         u_ref = fs_current_ctrl_step(&drv->cc, i_ref, i_dq, w_e);
     }
 
@@ -767,7 +770,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     fs_dq u_real = fs_park(u_ab, cos_u, sin_u);
     if (closed_loop) fs_current_ctrl_update(&drv->cc, u_real);
     if (FS_WITH_ADAPT && c->adapt.T_f > 0.0f) drive_adapt(drv, in, u_real, i_dq, w_e, closed_loop);
-    if (drive_weakens(c) && !starting && !polarity && drv->phase != FS_PHASE_RECOVER)
+    if (weakens && !starting && !polarity && drv->phase != FS_PHASE_RECOVER)
         fs_fw_step(&drv->fw, u_ref.q - u_real.q, w_e);   /* eq. (26): dv_q */
 
     out->theta_e = theta;
@@ -779,7 +782,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     out->T_ref = T_ref;
     out->u_d = u_real.d;
     out->u_q = u_real.q;
-    drv->i_ref_prev = i_ref;
+    drv->T_ff = drive_torque(c, i_ref);   /* the monitor's now, the observers' next step */
     out->theta_est = theta;
     out->w_est = w_e;
     out->est_valid = true;
@@ -801,7 +804,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     }
     out->injecting = drv->injecting && c->mode != FS_MODE_OFF;
     out->phase = drv->phase;
-    out->i_d_fw = drive_weakens(c) ? drv->fw.i_d : 0.0f;
+    out->i_d_fw = weakens ? drv->fw.i_d : 0.0f;
     out->i_hf_d = out->i_hf_q = 0.0f;
     out->lock_resid = 0.0f;
     out->lock_lost = false;
@@ -813,7 +816,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
             out->lock_lost = false;
         }
     }
-    drv->stage = drive_stage(drv, in, out->g_w);
+    drv->stage = drive_stage(drv, in, out->g_w, weakens);
     out->stage = drv->stage;
     out->recoveries = drv->recoveries;
 }

@@ -403,7 +403,7 @@ typedef struct {
     bool est_started;        /* the injection estimators have seen their first step */
     bool injecting;          /* the HF voltage is on (fading in or out included) */
     bool inject_on;          /* the injection is wanted (the amplitude's target) */
-    fs_dq i_ref_prev;        /* current reference of the last step (torque feed-forward) */
+    float T_ff;              /* N m: torque of the last step's current reference (the observers' feed-forward) */
     fs_ab u_hist[2];         /* realised fundamental voltage computed 1 and 2 steps ago */
     /* square-wave injection: the fundamental voltage acting over the present
      * window and the one computed for the next; the loops' last outputs */
