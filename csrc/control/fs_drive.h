@@ -66,17 +66,19 @@
  *   fs_drive_reset before stepping again (the sequence starts over).
  * Timing and re-entrancy. fs_drive_step must complete within Ts of its
  *   sampling instant, before the next update event. On a Cortex-M4F at
- *   -O2 a step takes about 1,700-3,000 instructions, 4,400 at most (the
- *   injection and blend stages): bench/pil.py measures it per mode. It
+ *   -O2 a step takes about 1,300-2,700 instructions on average by angle
+ *   source, 3,400 at most (the blend); 2,270 on average and 2,900 at most
+ *   over the blended full-range run in the firmware's build (-flto):
+ *   bench/pil.py measures it per mode. It
  *   touches only *drv, *in and *out (no globals, no heap): instances are
  *   independent, one step may run per instance at a time, and
  *   fs_drive_init, fs_drive_reset and fs_drive_step on one instance must not
  *   interrupt each other. It uses the FPU (lazy stacking keeps an interrupt
  *   that does correct).
- * Memory. sizeof(fs_drive) is about 3.4 KB (bench/pil.py reports the
- *   target's; a 64-bit host's may be 8 B more: one pointer); its stack is
- *   under 600 B (bench/pil.py: the static call graph and the measured
- *   high-water mark).
+ * Memory. sizeof(fs_drive) is about 6.4 KB (bench/pil.py reports the
+ *   target's; a 64-bit host's is up to 16 B more: its pointers); its stack
+ *   is under 800 B (bench/pil.py: 776 B on the static call graph, 248 B the
+ *   measured high-water mark).
  */
 #ifndef FS_DRIVE_H
 #define FS_DRIVE_H
