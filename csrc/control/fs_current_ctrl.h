@@ -28,6 +28,13 @@ typedef struct {
     /* explicit gains of ordinary PIs (k_t = k_p) per axis, V/A and V/(A s),
      * e.g. a paper's; all 0: the 2DOF design from the bandwidth */
     float k_p_d, k_i_d, k_p_q, k_i_q;
+    /* without explicit gains, 1: the internal-model design instead (Harnefors
+     * & Nee 1998, zou2021 ref. [22] and sec. 4.2): an ordinary PI per axis
+     * with k_p = alpha L, k_i = alpha R_s, whose zero sits on the machine's
+     * pole R_s/L, so that u = alpha L (s + R_s/L)/s e gives i/i_ref =
+     * alpha/(s + alpha) (in its sampled form, fs_current_ctrl.c); its
+     * integral rejects a disturbance only at R_s/L */
+    int internal_model;
 } fs_current_ctrl_config;
 
 typedef struct {
@@ -45,5 +52,9 @@ void fs_current_ctrl_reset(fs_current_ctrl *cc);
 fs_dq fs_current_ctrl_step(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, float w_e);
 /* Anti-windup: the voltage actually realised (after the modulator's limit). */
 void fs_current_ctrl_update(fs_current_ctrl *cc, fs_dq u_real);
+/* The same, but the integrals wind back only to u_held (between u_real and
+ * the reference): the excess over u_real they keep is an outer loop's
+ * input (flux weakening, fs_fw_hold); the predictor takes u_real. */
+void fs_current_ctrl_update_held(fs_current_ctrl *cc, fs_dq u_real, fs_dq u_held);
 
 #endif /* FS_CURRENT_CTRL_H */
