@@ -557,8 +557,9 @@ def test_smo_step_stays_finite(cfg, seed):
 def test_current_ctrl_step_stays_finite(Ts, L_d, ratio, R, psi_f, bw, predict, explicit, k_p, k_i, i_max, im, seed):
     cc = ffi.new("fs_current_ctrl *")
     gains = [k_p, k_i, k_p, k_i] if explicit else [0.0] * 4
-    cfg = ffi.new("fs_current_ctrl_config *", [Ts, R, L_d, f32(ratio * L_d), psi_f, f32(bw / Ts), predict, *gains,
-                                               int(im)])
+    cfg = ffi.new("fs_current_ctrl_config *", [Ts, R, L_d, f32(ratio * L_d), psi_f, f32(bw / Ts), predict, *gains])
+    if im and not explicit:
+        lib.fs_current_ctrl_internal_model(cfg)
     _init_or_skip(lib.fs_current_ctrl_init, cc, cfg)
     rng = np.random.default_rng(seed)
     w_top = 1.0 / Ts

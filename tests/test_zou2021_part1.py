@@ -23,14 +23,22 @@ def _sampled_plant(Ts, L, R):
     return a, (1.0 - a) / R
 
 
+def _config(Ts, R, L, alpha, im):
+    """A current controller's config without delay or EMF: the internal-model
+    gains (fs_current_ctrl_internal_model) or the pole placement (gains 0)."""
+    cfg = ffi.new("fs_current_ctrl_config *", [Ts, R, L, L, 0.0, alpha, 0, 0.0, 0.0, 0.0, 0.0])
+    if im:
+        lib.fs_current_ctrl_internal_model(cfg)
+    return cfg
+
+
 def _rl_loop(im: int, ref: float, u_dist: float, n: int) -> np.ndarray:
     """The current PI (no delay, no EMF) on the sampled R-L plant with an
     input voltage disturbance: the current, sample by sample."""
     Ts, R, L, alpha = 2e-4, 0.93, 19.8e-3, 3000.0
     a, b = _sampled_plant(Ts, L, R)
     cc = ffi.new("fs_current_ctrl *")
-    assert lib.fs_current_ctrl_init(cc, ffi.new("fs_current_ctrl_config *",
-                                                [Ts, R, L, L, 0.0, alpha, 0, 0.0, 0.0, 0.0, 0.0, im])) == lib.FS_OK
+    assert lib.fs_current_ctrl_init(cc, _config(Ts, R, L, alpha, im)) == lib.FS_OK
     i, out = 0.0, []
     for _ in range(n):
         u = lib.fs_current_ctrl_step(cc, {"d": 0.0, "q": ref}, {"d": 0.0, "q": i}, 0.0)
@@ -51,7 +59,7 @@ def test_internal_model_regulator_puts_its_zero_on_the_plant_pole():
     k = np.arange(1, 41)
     assert np.max(np.abs(_rl_loop(1, 1.0, 0.0, 40) - (1.0 - math.exp(-alpha * Ts) ** k))) < 1e-4
     cc = ffi.new("fs_current_ctrl *")
-    lib.fs_current_ctrl_init(cc, ffi.new("fs_current_ctrl_config *", [Ts, R, L, L, 0.0, alpha, 0, 0, 0, 0, 0, 1]))
+    assert lib.fs_current_ctrl_init(cc, _config(Ts, R, L, alpha, 1)) == lib.FS_OK
     assert cc.pi_q.cfg.k_t == cc.pi_q.cfg.k_p
     assert cc.pi_q.cfg.k_i * Ts == pytest.approx(cc.pi_q.cfg.k_p * (1.0 - a), rel=1e-4)
     assert cc.pi_q.cfg.k_p == pytest.approx(alpha * L, rel=0.3), "alpha L when alpha Ts is small"

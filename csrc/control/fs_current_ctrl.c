@@ -9,23 +9,30 @@ static void sampled_plant(float Ts, float L, float R, float *a, float *b)
     *b = (R > 0.0f && r > 0.0f) ? r / R : Ts / L;
 }
 
-/* Explicit gains (k_p > 0), the internal-model design or the pole placement
- * from the bandwidth. */
-static fs_status design_axis(fs_pi *pi, float Ts, float L, float R, float alpha, float k_p, float k_i, int im)
+/* Explicit gains (k_p > 0) or the design from the bandwidth. */
+static fs_status design_axis(fs_pi *pi, float Ts, float L, float R, float alpha, float k_p, float k_i)
 {
-    if (k_p == 0.0f && im) {
-        /* fs_current_ctrl.h, sampled: the zero on the sampled plant's pole a
-         * (k_i Ts = k_p (1 - a)) and the loop's pole at exp(-alpha Ts), as
-         * the pole placement's; alpha L and alpha R_s when alpha Ts is small */
-        float a, b;
-        sampled_plant(Ts, L, R, &a, &b);
-        k_p = -expm1f(-alpha * Ts) / b;
-        k_i = k_p * (1.0f - a) / Ts;
-    }
     fs_pi_config c = {Ts, k_p, k_p, k_i, 0.0f};
     /* limited as a vector by the modulator, see fs_current_ctrl_update */
     fs_status st = k_p > 0.0f ? FS_OK : fs_pi_design(&c, Ts, L, R, alpha, 0.0f);
     return st != FS_OK ? st : fs_pi_init(pi, &c);
+}
+
+/* One axis of fs_current_ctrl_internal_model (fs_current_ctrl.h): alpha L
+ * and alpha R_s when alpha Ts is small. */
+static void internal_model_axis(float Ts, float L, float R, float alpha, float *k_p, float *k_i)
+{
+    float a, b;
+    sampled_plant(Ts, L, R, &a, &b);
+    *k_p = -expm1f(-alpha * Ts) / b;
+    *k_i = *k_p * (1.0f - a) / Ts;
+}
+
+void fs_current_ctrl_internal_model(fs_current_ctrl_config *cfg)
+{
+    if (!cfg) return;
+    internal_model_axis(cfg->Ts, cfg->L_d, cfg->R_s, cfg->bandwidth, &cfg->k_p_d, &cfg->k_i_d);
+    internal_model_axis(cfg->Ts, cfg->L_q, cfg->R_s, cfg->bandwidth, &cfg->k_p_q, &cfg->k_i_q);
 }
 
 fs_status fs_current_ctrl_init(fs_current_ctrl *cc, const fs_current_ctrl_config *cfg)
@@ -45,10 +52,9 @@ fs_status fs_current_ctrl_init(fs_current_ctrl *cc, const fs_current_ctrl_config
     cc->cfg = *cfg;
     sampled_plant(cfg->Ts, cfg->L_d, cfg->R_s, &cc->a_d, &cc->b_d);
     sampled_plant(cfg->Ts, cfg->L_q, cfg->R_s, &cc->a_q, &cc->b_q);
-    fs_status st = design_axis(&cc->pi_d, cfg->Ts, cfg->L_d, cfg->R_s, cfg->bandwidth, cfg->k_p_d, cfg->k_i_d,
-                                 cfg->internal_model);
+    fs_status st = design_axis(&cc->pi_d, cfg->Ts, cfg->L_d, cfg->R_s, cfg->bandwidth, cfg->k_p_d, cfg->k_i_d);
     if (st != FS_OK) return st;
-    st = design_axis(&cc->pi_q, cfg->Ts, cfg->L_q, cfg->R_s, cfg->bandwidth, cfg->k_p_q, cfg->k_i_q, cfg->internal_model);
+    st = design_axis(&cc->pi_q, cfg->Ts, cfg->L_q, cfg->R_s, cfg->bandwidth, cfg->k_p_q, cfg->k_i_q);
     if (st != FS_OK) return st;
     fs_current_ctrl_reset(cc);
     return FS_OK;

@@ -28,13 +28,6 @@ typedef struct {
     /* explicit gains of ordinary PIs (k_t = k_p) per axis, V/A and V/(A s),
      * e.g. a paper's; all 0: the 2DOF design from the bandwidth */
     float k_p_d, k_i_d, k_p_q, k_i_q;
-    /* without explicit gains, 1: the internal-model design instead (Harnefors
-     * & Nee 1998, zou2021 ref. [22] and sec. 4.2): an ordinary PI per axis
-     * with k_p = alpha L, k_i = alpha R_s, whose zero sits on the machine's
-     * pole R_s/L, so that u = alpha L (s + R_s/L)/s e gives i/i_ref =
-     * alpha/(s + alpha) (in its sampled form, fs_current_ctrl.c); its
-     * integral rejects a disturbance only at R_s/L */
-    int internal_model;
 } fs_current_ctrl_config;
 
 typedef struct {
@@ -45,6 +38,15 @@ typedef struct {
     float a_d, b_d, a_q, b_q;  /* sampled plant per axis, for the predictor */
 } fs_current_ctrl;
 
+/* The internal-model design (Harnefors & Nee 1998, zou2021 ref. [22] and
+ * sec. 4.2) as explicit gains in cfg, from its Ts, R_s, L_d, L_q and
+ * bandwidth: an ordinary PI per axis with k_p = alpha L, k_i = alpha R_s,
+ * whose zero sits on the machine's pole R_s/L, so that u = alpha L (s +
+ * R_s/L)/s e gives i/i_ref = alpha/(s + alpha); in its sampled form, the
+ * zero on the sampled plant's pole a (k_i Ts = k_p (1 - a)) and the loop's
+ * pole at exp(-alpha Ts), as the pole placement's. Its integral rejects a
+ * disturbance only at R_s/L. fs_current_ctrl_init checks the result. */
+void fs_current_ctrl_internal_model(fs_current_ctrl_config *cfg);
 fs_status fs_current_ctrl_init(fs_current_ctrl *cc, const fs_current_ctrl_config *cfg);
 void fs_current_ctrl_reset(fs_current_ctrl *cc);
 /* Voltage reference (not yet limited) for current reference and measurement

@@ -129,8 +129,9 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     const float Tl = drive_loop_Ts(cfg);
 
     fs_current_ctrl_config ccc = {Tl, cfg->R_s, cfg->L_d, cfg->L_q, cfg->psi_f, cfg->bw_current,
-                                  cfg->delay > 0.5f, cfg->k_p_d, cfg->k_i_d, cfg->k_p_q, cfg->k_i_q,
-                                  cfg->cc_internal_model != 0};
+                                  cfg->delay > 0.5f, cfg->k_p_d, cfg->k_i_d, cfg->k_p_q, cfg->k_i_q};
+    if (cfg->cc_internal_model && ccc.k_p_d == 0.0f && ccc.k_i_d == 0.0f && ccc.k_p_q == 0.0f && ccc.k_i_q == 0.0f)
+        fs_current_ctrl_internal_model(&ccc);   /* fs_drive.h */
     st = fs_current_ctrl_init(&drv->cc, &ccc);
     if (st != FS_OK) REFUSE(st == FS_ERR_BANDWIDTH ? "bw_current" : "k_p_d, k_i_d, k_p_q, k_i_q", st);
 

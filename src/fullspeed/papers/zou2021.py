@@ -646,7 +646,6 @@ def experiment(out: Path) -> Measurement:
             "opens its gate); both strategies rise alike. The end of the approach, where the voltage limits, "
             "runs below I_lim, so PART_2 stays off there too: the two settle alike (their 2 % settling times "
             "differ by where the speed ripple last crosses the band). The prototype is not Table 2's machine "
-            "at 150 V: its Region B (Fig. 18) needs "
-            "flux weakening at 400 rpm and 5 N m, where this machine's linear limit is 486 rpm, so its rise "
-            "meets the voltage limit much earlier.")
+            "at 150 V: its Region B (Fig. 18) needs flux weakening at 400 rpm and 5 N m, where this machine's "
+            f"linear limit is {lim['id0'][0]:.0f} rpm, so its rise meets the voltage limit much earlier.")
     return Measurement(value, ok, note, [fig_name])
