@@ -9,7 +9,7 @@ from pathlib import Path
 
 from . import _core
 from . import design as dz
-from .errors import ConfigError
+from .errors import ConfigError, MissingFields
 from .files import path_kind
 from .machines import Machine, catalog_data, machine_from_dict
 from .schema import MISSING, B, C, F, I, N, NONNEG, POS, P, S, Spec, T, deep_merge, even_grid, finite_number, parse_toml, read_toml, validate
@@ -245,9 +245,15 @@ def _machine_of(raw, source) -> Machine:
 def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
     if not isinstance(data, dict):
         raise ConfigError("scenario", data, "must be a table", source)
-    if "machine" not in data:
-        raise ConfigError("machine", "missing", "is required (a catalog name or a table)", source)
-    d = validate(data, SCENARIO, "", source)
+    missing = []   # the scenario's required fields not given, and its machine's, refused together
+    d = validate(data, SCENARIO, "", source, missing)
+    if missing:
+        if "machine" in d:
+            try:
+                _machine_of(d["machine"], source)
+            except MissingFields as exc:
+                missing += exc.entries
+        raise MissingFields(missing)
     m = _machine_of(d["machine"], source)
     b = m.bench
     _per_unit(d, data, m, source)
