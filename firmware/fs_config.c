@@ -7,7 +7,7 @@
 
 /* The layout this configuration was written for: a header that changed since
  * the export fails here, naming the field. */
-_Static_assert(sizeof(fs_drive_config) == 1616u, "fs_drive_config: size differs from the exported layout");
+_Static_assert(sizeof(fs_drive_config) == 1624u, "fs_drive_config: size differs from the exported layout");
 _Static_assert(offsetof(fs_drive_config, config_size) == 0u, "fs_drive_config.config_size moved");
 _Static_assert(offsetof(fs_drive_config, phases) == 4u, "fs_drive_config.phases moved");
 _Static_assert(offsetof(fs_drive_config, mode) == 8u, "fs_drive_config.mode moved");
@@ -62,112 +62,114 @@ _Static_assert(offsetof(fs_drive_config, smo.dir_external) == 196u, "fs_drive_co
 _Static_assert(offsetof(fs_drive_config, fw_w_e_max) == 200u, "fs_drive_config.fw_w_e_max moved");
 _Static_assert(offsetof(fs_drive_config, fw_gain) == 204u, "fs_drive_config.fw_gain moved");
 _Static_assert(offsetof(fs_drive_config, fw_cutoff) == 208u, "fs_drive_config.fw_cutoff moved");
-_Static_assert(offsetof(fs_drive_config, lock_time) == 212u, "fs_drive_config.lock_time moved");
-_Static_assert(offsetof(fs_drive_config, lock_recover) == 216u, "fs_drive_config.lock_recover moved");
-_Static_assert(offsetof(fs_drive_config, t_recover) == 220u, "fs_drive_config.t_recover moved");
-_Static_assert(offsetof(fs_drive_config, lock_retries) == 224u, "fs_drive_config.lock_retries moved");
-_Static_assert(offsetof(fs_drive_config, i_start) == 228u, "fs_drive_config.i_start moved");
-_Static_assert(offsetof(fs_drive_config, a_start) == 232u, "fs_drive_config.a_start moved");
-_Static_assert(offsetof(fs_drive_config, w_handover) == 236u, "fs_drive_config.w_handover moved");
-_Static_assert(offsetof(fs_drive_config, hfi) == 240u, "fs_drive_config.hfi moved");
-_Static_assert(offsetof(fs_drive_config, hfi.Ts) == 240u, "fs_drive_config.hfi.Ts moved");
-_Static_assert(offsetof(fs_drive_config, hfi.delay) == 244u, "fs_drive_config.hfi.delay moved");
-_Static_assert(offsetof(fs_drive_config, hfi.u_h) == 248u, "fs_drive_config.hfi.u_h moved");
-_Static_assert(offsetof(fs_drive_config, hfi.w_h) == 252u, "fs_drive_config.hfi.w_h moved");
-_Static_assert(offsetof(fs_drive_config, hfi.R_s) == 256u, "fs_drive_config.hfi.R_s moved");
-_Static_assert(offsetof(fs_drive_config, hfi.L_d) == 260u, "fs_drive_config.hfi.L_d moved");
-_Static_assert(offsetof(fs_drive_config, hfi.L_q) == 264u, "fs_drive_config.hfi.L_q moved");
-_Static_assert(offsetof(fs_drive_config, hfi.w_b_p) == 268u, "fs_drive_config.hfi.w_b_p moved");
-_Static_assert(offsetof(fs_drive_config, hfi.w_b_n) == 272u, "fs_drive_config.hfi.w_b_n moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs) == 276u, "fs_drive_config.hfi.obs moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.Ts) == 276u, "fs_drive_config.hfi.obs.Ts moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.J) == 280u, "fs_drive_config.hfi.obs.J moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.B) == 284u, "fs_drive_config.hfi.obs.B moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.pole_pairs) == 288u, "fs_drive_config.hfi.obs.pole_pairs moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.bandwidth) == 292u, "fs_drive_config.hfi.obs.bandwidth moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp) == 296u, "fs_drive_config.hfi.xcomp moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.n) == 296u, "fs_drive_config.hfi.xcomp.n moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.i_q0) == 300u, "fs_drive_config.hfi.xcomp.i_q0 moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.di_q) == 304u, "fs_drive_config.hfi.xcomp.di_q moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.delta) == 308u, "fs_drive_config.hfi.xcomp.delta moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.poly) == 440u, "fs_drive_config.hfi.xcomp.poly moved");
-_Static_assert(offsetof(fs_drive_config, hfi.leak) == 456u, "fs_drive_config.hfi.leak moved");
-_Static_assert(offsetof(fs_drive_config, blend) == 460u, "fs_drive_config.blend moved");
-_Static_assert(offsetof(fs_drive_config, blend.w_lower) == 460u, "fs_drive_config.blend.w_lower moved");
-_Static_assert(offsetof(fs_drive_config, blend.w_upper) == 464u, "fs_drive_config.blend.w_upper moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs) == 468u, "fs_drive_config.blend.obs moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.Ts) == 468u, "fs_drive_config.blend.obs.Ts moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.J) == 472u, "fs_drive_config.blend.obs.J moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.B) == 476u, "fs_drive_config.blend.obs.B moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.pole_pairs) == 480u, "fs_drive_config.blend.obs.pole_pairs moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.bandwidth) == 484u, "fs_drive_config.blend.obs.bandwidth moved");
-_Static_assert(offsetof(fs_drive_config, blend.gate) == 488u, "fs_drive_config.blend.gate moved");
-_Static_assert(offsetof(fs_drive_config, w_inject_max) == 492u, "fs_drive_config.w_inject_max moved");
-_Static_assert(offsetof(fs_drive_config, polarity) == 496u, "fs_drive_config.polarity moved");
-_Static_assert(offsetof(fs_drive_config, polarity.Ts) == 496u, "fs_drive_config.polarity.Ts moved");
-_Static_assert(offsetof(fs_drive_config, polarity.i_pulse) == 500u, "fs_drive_config.polarity.i_pulse moved");
-_Static_assert(offsetof(fs_drive_config, polarity.t_lock) == 504u, "fs_drive_config.polarity.t_lock moved");
-_Static_assert(offsetof(fs_drive_config, polarity.t_pulse) == 508u, "fs_drive_config.polarity.t_pulse moved");
-_Static_assert(offsetof(fs_drive_config, polarity.i_pulse_max) == 512u, "fs_drive_config.polarity.i_pulse_max moved");
-_Static_assert(offsetof(fs_drive_config, polarity.d_min) == 516u, "fs_drive_config.polarity.d_min moved");
-_Static_assert(offsetof(fs_drive_config, polarity.w_filter) == 520u, "fs_drive_config.polarity.w_filter moved");
-_Static_assert(offsetof(fs_drive_config, polarity.n_carrier) == 524u, "fs_drive_config.polarity.n_carrier moved");
-_Static_assert(offsetof(fs_drive_config, polarity.w_max) == 528u, "fs_drive_config.polarity.w_max moved");
-_Static_assert(offsetof(fs_drive_config, swvi) == 532u, "fs_drive_config.swvi moved");
-_Static_assert(offsetof(fs_drive_config, swvi.Ts) == 532u, "fs_drive_config.swvi.Ts moved");
-_Static_assert(offsetof(fs_drive_config, swvi.delay) == 536u, "fs_drive_config.swvi.delay moved");
-_Static_assert(offsetof(fs_drive_config, swvi.u_h) == 540u, "fs_drive_config.swvi.u_h moved");
-_Static_assert(offsetof(fs_drive_config, swvi.L_d) == 544u, "fs_drive_config.swvi.L_d moved");
-_Static_assert(offsetof(fs_drive_config, swvi.L_q) == 548u, "fs_drive_config.swvi.L_q moved");
-_Static_assert(offsetof(fs_drive_config, swvi.bandwidth) == 552u, "fs_drive_config.swvi.bandwidth moved");
-_Static_assert(offsetof(fs_drive_config, swvi.w_max) == 556u, "fs_drive_config.swvi.w_max moved");
-_Static_assert(offsetof(fs_drive_config, swvi.sequence) == 560u, "fs_drive_config.swvi.sequence moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp) == 564u, "fs_drive_config.swvi.xcomp moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.n) == 564u, "fs_drive_config.swvi.xcomp.n moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.i_q0) == 568u, "fs_drive_config.swvi.xcomp.i_q0 moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.di_q) == 572u, "fs_drive_config.swvi.xcomp.di_q moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.delta) == 576u, "fs_drive_config.swvi.xcomp.delta moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.poly) == 708u, "fs_drive_config.swvi.xcomp.poly moved");
-_Static_assert(offsetof(fs_drive_config, swvi.carrier_off) == 724u, "fs_drive_config.swvi.carrier_off moved");
-_Static_assert(offsetof(fs_drive_config, k_p_d) == 728u, "fs_drive_config.k_p_d moved");
-_Static_assert(offsetof(fs_drive_config, k_i_d) == 732u, "fs_drive_config.k_i_d moved");
-_Static_assert(offsetof(fs_drive_config, k_p_q) == 736u, "fs_drive_config.k_p_q moved");
-_Static_assert(offsetof(fs_drive_config, k_i_q) == 740u, "fs_drive_config.k_i_q moved");
-_Static_assert(offsetof(fs_drive_config, k_p_w) == 744u, "fs_drive_config.k_p_w moved");
-_Static_assert(offsetof(fs_drive_config, k_i_w) == 748u, "fs_drive_config.k_i_w moved");
-_Static_assert(offsetof(fs_drive_config, converter) == 752u, "fs_drive_config.converter moved");
-_Static_assert(offsetof(fs_drive_config, imc_region) == 756u, "fs_drive_config.imc_region moved");
-_Static_assert(offsetof(fs_drive_config, imc_w_grid) == 760u, "fs_drive_config.imc_w_grid moved");
-_Static_assert(offsetof(fs_drive_config, imc_depth) == 764u, "fs_drive_config.imc_depth moved");
-_Static_assert(offsetof(fs_drive_config, imc_i_lim) == 768u, "fs_drive_config.imc_i_lim moved");
-_Static_assert(offsetof(fs_drive_config, imc_V_im) == 772u, "fs_drive_config.imc_V_im moved");
-_Static_assert(offsetof(fs_drive_config, adapt) == 776u, "fs_drive_config.adapt moved");
-_Static_assert(offsetof(fs_drive_config, adapt.Ts) == 776u, "fs_drive_config.adapt.Ts moved");
-_Static_assert(offsetof(fs_drive_config, adapt.R_s) == 780u, "fs_drive_config.adapt.R_s moved");
-_Static_assert(offsetof(fs_drive_config, adapt.L_d) == 784u, "fs_drive_config.adapt.L_d moved");
-_Static_assert(offsetof(fs_drive_config, adapt.psi_f) == 788u, "fs_drive_config.adapt.psi_f moved");
-_Static_assert(offsetof(fs_drive_config, adapt.i_max) == 792u, "fs_drive_config.adapt.i_max moved");
-_Static_assert(offsetof(fs_drive_config, adapt.w_e_max) == 796u, "fs_drive_config.adapt.w_e_max moved");
-_Static_assert(offsetof(fs_drive_config, adapt.T_f) == 800u, "fs_drive_config.adapt.T_f moved");
-_Static_assert(offsetof(fs_drive_config, adapt.w_lp) == 804u, "fs_drive_config.adapt.w_lp moved");
-_Static_assert(offsetof(fs_drive_config, adapt.min_sep) == 808u, "fs_drive_config.adapt.min_sep moved");
-_Static_assert(offsetof(fs_drive_config, adapt.min_level) == 812u, "fs_drive_config.adapt.min_level moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table) == 816u, "fs_drive_config.mtpa_table moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table.n) == 816u, "fs_drive_config.mtpa_table.n moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table.T) == 820u, "fs_drive_config.mtpa_table.T moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table.i_d) == 1076u, "fs_drive_config.mtpa_table.i_d moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table.i_q) == 1332u, "fs_drive_config.mtpa_table.i_q moved");
-_Static_assert(offsetof(fs_drive_config, ident) == 1588u, "fs_drive_config.ident moved");
-_Static_assert(offsetof(fs_drive_config, ident.Ts) == 1588u, "fs_drive_config.ident.Ts moved");
-_Static_assert(offsetof(fs_drive_config, ident.delay) == 1592u, "fs_drive_config.ident.delay moved");
-_Static_assert(offsetof(fs_drive_config, ident.pole_pairs) == 1596u, "fs_drive_config.ident.pole_pairs moved");
-_Static_assert(offsetof(fs_drive_config, ident.i_max) == 1600u, "fs_drive_config.ident.i_max moved");
-_Static_assert(offsetof(fs_drive_config, ident.w_spin) == 1604u, "fs_drive_config.ident.w_spin moved");
-_Static_assert(offsetof(fs_drive_config, ident.t_ramp) == 1608u, "fs_drive_config.ident.t_ramp moved");
-_Static_assert(offsetof(fs_drive_config, ident.u_dc_min) == 1612u, "fs_drive_config.ident.u_dc_min moved");
+_Static_assert(offsetof(fs_drive_config, fw_hold) == 212u, "fs_drive_config.fw_hold moved");
+_Static_assert(offsetof(fs_drive_config, lock_time) == 216u, "fs_drive_config.lock_time moved");
+_Static_assert(offsetof(fs_drive_config, lock_recover) == 220u, "fs_drive_config.lock_recover moved");
+_Static_assert(offsetof(fs_drive_config, t_recover) == 224u, "fs_drive_config.t_recover moved");
+_Static_assert(offsetof(fs_drive_config, lock_retries) == 228u, "fs_drive_config.lock_retries moved");
+_Static_assert(offsetof(fs_drive_config, i_start) == 232u, "fs_drive_config.i_start moved");
+_Static_assert(offsetof(fs_drive_config, a_start) == 236u, "fs_drive_config.a_start moved");
+_Static_assert(offsetof(fs_drive_config, w_handover) == 240u, "fs_drive_config.w_handover moved");
+_Static_assert(offsetof(fs_drive_config, hfi) == 244u, "fs_drive_config.hfi moved");
+_Static_assert(offsetof(fs_drive_config, hfi.Ts) == 244u, "fs_drive_config.hfi.Ts moved");
+_Static_assert(offsetof(fs_drive_config, hfi.delay) == 248u, "fs_drive_config.hfi.delay moved");
+_Static_assert(offsetof(fs_drive_config, hfi.u_h) == 252u, "fs_drive_config.hfi.u_h moved");
+_Static_assert(offsetof(fs_drive_config, hfi.w_h) == 256u, "fs_drive_config.hfi.w_h moved");
+_Static_assert(offsetof(fs_drive_config, hfi.R_s) == 260u, "fs_drive_config.hfi.R_s moved");
+_Static_assert(offsetof(fs_drive_config, hfi.L_d) == 264u, "fs_drive_config.hfi.L_d moved");
+_Static_assert(offsetof(fs_drive_config, hfi.L_q) == 268u, "fs_drive_config.hfi.L_q moved");
+_Static_assert(offsetof(fs_drive_config, hfi.w_b_p) == 272u, "fs_drive_config.hfi.w_b_p moved");
+_Static_assert(offsetof(fs_drive_config, hfi.w_b_n) == 276u, "fs_drive_config.hfi.w_b_n moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs) == 280u, "fs_drive_config.hfi.obs moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.Ts) == 280u, "fs_drive_config.hfi.obs.Ts moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.J) == 284u, "fs_drive_config.hfi.obs.J moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.B) == 288u, "fs_drive_config.hfi.obs.B moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.pole_pairs) == 292u, "fs_drive_config.hfi.obs.pole_pairs moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.bandwidth) == 296u, "fs_drive_config.hfi.obs.bandwidth moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp) == 300u, "fs_drive_config.hfi.xcomp moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.n) == 300u, "fs_drive_config.hfi.xcomp.n moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.i_q0) == 304u, "fs_drive_config.hfi.xcomp.i_q0 moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.di_q) == 308u, "fs_drive_config.hfi.xcomp.di_q moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.delta) == 312u, "fs_drive_config.hfi.xcomp.delta moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.poly) == 444u, "fs_drive_config.hfi.xcomp.poly moved");
+_Static_assert(offsetof(fs_drive_config, hfi.leak) == 460u, "fs_drive_config.hfi.leak moved");
+_Static_assert(offsetof(fs_drive_config, blend) == 464u, "fs_drive_config.blend moved");
+_Static_assert(offsetof(fs_drive_config, blend.w_lower) == 464u, "fs_drive_config.blend.w_lower moved");
+_Static_assert(offsetof(fs_drive_config, blend.w_upper) == 468u, "fs_drive_config.blend.w_upper moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs) == 472u, "fs_drive_config.blend.obs moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.Ts) == 472u, "fs_drive_config.blend.obs.Ts moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.J) == 476u, "fs_drive_config.blend.obs.J moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.B) == 480u, "fs_drive_config.blend.obs.B moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.pole_pairs) == 484u, "fs_drive_config.blend.obs.pole_pairs moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.bandwidth) == 488u, "fs_drive_config.blend.obs.bandwidth moved");
+_Static_assert(offsetof(fs_drive_config, blend.gate) == 492u, "fs_drive_config.blend.gate moved");
+_Static_assert(offsetof(fs_drive_config, w_inject_max) == 496u, "fs_drive_config.w_inject_max moved");
+_Static_assert(offsetof(fs_drive_config, polarity) == 500u, "fs_drive_config.polarity moved");
+_Static_assert(offsetof(fs_drive_config, polarity.Ts) == 500u, "fs_drive_config.polarity.Ts moved");
+_Static_assert(offsetof(fs_drive_config, polarity.i_pulse) == 504u, "fs_drive_config.polarity.i_pulse moved");
+_Static_assert(offsetof(fs_drive_config, polarity.t_lock) == 508u, "fs_drive_config.polarity.t_lock moved");
+_Static_assert(offsetof(fs_drive_config, polarity.t_pulse) == 512u, "fs_drive_config.polarity.t_pulse moved");
+_Static_assert(offsetof(fs_drive_config, polarity.i_pulse_max) == 516u, "fs_drive_config.polarity.i_pulse_max moved");
+_Static_assert(offsetof(fs_drive_config, polarity.d_min) == 520u, "fs_drive_config.polarity.d_min moved");
+_Static_assert(offsetof(fs_drive_config, polarity.w_filter) == 524u, "fs_drive_config.polarity.w_filter moved");
+_Static_assert(offsetof(fs_drive_config, polarity.n_carrier) == 528u, "fs_drive_config.polarity.n_carrier moved");
+_Static_assert(offsetof(fs_drive_config, polarity.w_max) == 532u, "fs_drive_config.polarity.w_max moved");
+_Static_assert(offsetof(fs_drive_config, swvi) == 536u, "fs_drive_config.swvi moved");
+_Static_assert(offsetof(fs_drive_config, swvi.Ts) == 536u, "fs_drive_config.swvi.Ts moved");
+_Static_assert(offsetof(fs_drive_config, swvi.delay) == 540u, "fs_drive_config.swvi.delay moved");
+_Static_assert(offsetof(fs_drive_config, swvi.u_h) == 544u, "fs_drive_config.swvi.u_h moved");
+_Static_assert(offsetof(fs_drive_config, swvi.L_d) == 548u, "fs_drive_config.swvi.L_d moved");
+_Static_assert(offsetof(fs_drive_config, swvi.L_q) == 552u, "fs_drive_config.swvi.L_q moved");
+_Static_assert(offsetof(fs_drive_config, swvi.bandwidth) == 556u, "fs_drive_config.swvi.bandwidth moved");
+_Static_assert(offsetof(fs_drive_config, swvi.w_max) == 560u, "fs_drive_config.swvi.w_max moved");
+_Static_assert(offsetof(fs_drive_config, swvi.sequence) == 564u, "fs_drive_config.swvi.sequence moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp) == 568u, "fs_drive_config.swvi.xcomp moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.n) == 568u, "fs_drive_config.swvi.xcomp.n moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.i_q0) == 572u, "fs_drive_config.swvi.xcomp.i_q0 moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.di_q) == 576u, "fs_drive_config.swvi.xcomp.di_q moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.delta) == 580u, "fs_drive_config.swvi.xcomp.delta moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.poly) == 712u, "fs_drive_config.swvi.xcomp.poly moved");
+_Static_assert(offsetof(fs_drive_config, swvi.carrier_off) == 728u, "fs_drive_config.swvi.carrier_off moved");
+_Static_assert(offsetof(fs_drive_config, k_p_d) == 732u, "fs_drive_config.k_p_d moved");
+_Static_assert(offsetof(fs_drive_config, k_i_d) == 736u, "fs_drive_config.k_i_d moved");
+_Static_assert(offsetof(fs_drive_config, k_p_q) == 740u, "fs_drive_config.k_p_q moved");
+_Static_assert(offsetof(fs_drive_config, k_i_q) == 744u, "fs_drive_config.k_i_q moved");
+_Static_assert(offsetof(fs_drive_config, k_p_w) == 748u, "fs_drive_config.k_p_w moved");
+_Static_assert(offsetof(fs_drive_config, k_i_w) == 752u, "fs_drive_config.k_i_w moved");
+_Static_assert(offsetof(fs_drive_config, cc_internal_model) == 756u, "fs_drive_config.cc_internal_model moved");
+_Static_assert(offsetof(fs_drive_config, converter) == 760u, "fs_drive_config.converter moved");
+_Static_assert(offsetof(fs_drive_config, imc_region) == 764u, "fs_drive_config.imc_region moved");
+_Static_assert(offsetof(fs_drive_config, imc_w_grid) == 768u, "fs_drive_config.imc_w_grid moved");
+_Static_assert(offsetof(fs_drive_config, imc_depth) == 772u, "fs_drive_config.imc_depth moved");
+_Static_assert(offsetof(fs_drive_config, imc_i_lim) == 776u, "fs_drive_config.imc_i_lim moved");
+_Static_assert(offsetof(fs_drive_config, imc_V_im) == 780u, "fs_drive_config.imc_V_im moved");
+_Static_assert(offsetof(fs_drive_config, adapt) == 784u, "fs_drive_config.adapt moved");
+_Static_assert(offsetof(fs_drive_config, adapt.Ts) == 784u, "fs_drive_config.adapt.Ts moved");
+_Static_assert(offsetof(fs_drive_config, adapt.R_s) == 788u, "fs_drive_config.adapt.R_s moved");
+_Static_assert(offsetof(fs_drive_config, adapt.L_d) == 792u, "fs_drive_config.adapt.L_d moved");
+_Static_assert(offsetof(fs_drive_config, adapt.psi_f) == 796u, "fs_drive_config.adapt.psi_f moved");
+_Static_assert(offsetof(fs_drive_config, adapt.i_max) == 800u, "fs_drive_config.adapt.i_max moved");
+_Static_assert(offsetof(fs_drive_config, adapt.w_e_max) == 804u, "fs_drive_config.adapt.w_e_max moved");
+_Static_assert(offsetof(fs_drive_config, adapt.T_f) == 808u, "fs_drive_config.adapt.T_f moved");
+_Static_assert(offsetof(fs_drive_config, adapt.w_lp) == 812u, "fs_drive_config.adapt.w_lp moved");
+_Static_assert(offsetof(fs_drive_config, adapt.min_sep) == 816u, "fs_drive_config.adapt.min_sep moved");
+_Static_assert(offsetof(fs_drive_config, adapt.min_level) == 820u, "fs_drive_config.adapt.min_level moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table) == 824u, "fs_drive_config.mtpa_table moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table.n) == 824u, "fs_drive_config.mtpa_table.n moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table.T) == 828u, "fs_drive_config.mtpa_table.T moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table.i_d) == 1084u, "fs_drive_config.mtpa_table.i_d moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table.i_q) == 1340u, "fs_drive_config.mtpa_table.i_q moved");
+_Static_assert(offsetof(fs_drive_config, ident) == 1596u, "fs_drive_config.ident moved");
+_Static_assert(offsetof(fs_drive_config, ident.Ts) == 1596u, "fs_drive_config.ident.Ts moved");
+_Static_assert(offsetof(fs_drive_config, ident.delay) == 1600u, "fs_drive_config.ident.delay moved");
+_Static_assert(offsetof(fs_drive_config, ident.pole_pairs) == 1604u, "fs_drive_config.ident.pole_pairs moved");
+_Static_assert(offsetof(fs_drive_config, ident.i_max) == 1608u, "fs_drive_config.ident.i_max moved");
+_Static_assert(offsetof(fs_drive_config, ident.w_spin) == 1612u, "fs_drive_config.ident.w_spin moved");
+_Static_assert(offsetof(fs_drive_config, ident.t_ramp) == 1616u, "fs_drive_config.ident.t_ramp moved");
+_Static_assert(offsetof(fs_drive_config, ident.u_dc_min) == 1620u, "fs_drive_config.ident.u_dc_min moved");
 
 const fs_drive_config fs_config = {
-    .config_size = 1616u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator se...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
+    .config_size = 1624u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator se...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
     .phases = 3,   /* 3, or 5: the fundamental plane of the VSD, nearest-four-vector PWM; machine yang2022: phases */
     .mode = FS_MODE_SPEED,   /* fs_drive_mode; scenario beyond-full-range: [controller] mode */
     .angle_source = FS_ANGLE_BLEND,   /* fs_angle_source; scenario beyond-full-range: [controller] angle */
@@ -220,8 +222,9 @@ const fs_drive_config fs_config = {
         .dir_external = 0,   /* 1: the direction the PLL error assumes is the caller's (fs_smo_set_dir); 0: taken from the drive's fields or designed by fs_drive_init, or off */
     },
     .fw_w_e_max = 2617.9939f,   /* flux weakening in speed mode (zou2021 PART_1, fs_fw.h): the top electrical speed of eq. (31), rad/s (0: off...; default of [controller] fw_top_speed_rpm (fullspeed.scenario) */
-    .fw_gain = 50.0f,   /* flux weakening in speed mode (zou2021 PART_1, fs_fw.h): the top electrical speed of eq. (31), rad/s (0: off...; default of [controller] fw_gain (fullspeed.scenario) */
+    .fw_gain = 0.0f,   /* flux weakening in speed mode (zou2021 PART_1, fs_fw.h): the top electrical speed of eq. (31), rad/s (0: off...; 0: taken from the drive's fields or designed by fs_drive_init, or off (controller.fw_gain) */
     .fw_cutoff = 0.0f,   /* flux weakening in speed mode (zou2021 PART_1, fs_fw.h): the top electrical speed of eq. (31), rad/s (0: off...; 0: taken from the drive's fields or designed by fs_drive_init, or off (controller.fw_cutoff) */
+    .fw_hold = 0,   /* 0: taken from the drive's fields or designed by fs_drive_init, or off (controller.fw_excess) */
     .lock_time = 0.0199999996f,   /* loss-of-lock monitor (fs_lock.h) while the loops run sensorless: the time, s, the estimator in use may spen...; default of [controller] lock_time (fullspeed.scenario) */
     .lock_recover = 1,   /* recovery from a loss of lock (lock_recover = 1; else the monitor latches lock_lost); scenario beyond-full-range: [controller] lock */
     .t_recover = 0.0500000007f,   /* default of [controller] recover_time (fullspeed.scenario) */
@@ -321,6 +324,7 @@ const fs_drive_config fs_config = {
     .k_i_q = 0.0f,   /* explicit PI gains, e.g. a paper's (all 0: designed from bw_current and bw_speed): current loop per axis, V/...; 0: taken from the drive's fields or designed by fs_drive_init, or off (controller.gains) */
     .k_p_w = 0.0f,   /* explicit PI gains, e.g. a paper's (all 0: designed from bw_current and bw_speed): current loop per axis, V/...; 0: taken from the drive's fields or designed by fs_drive_init, or off (controller.gains) */
     .k_i_w = 0.0f,   /* explicit PI gains, e.g. a paper's (all 0: designed from bw_current and bw_speed): current loop per axis, V/...; 0: taken from the drive's fields or designed by fs_drive_init, or off (controller.gains) */
+    .cc_internal_model = 0,   /* without explicit current gains, 1: the current regulators by internal model (fs_current_ctrl.h; zou2021's,...; 0: taken from the drive's fields or designed by fs_drive_init, or off (controller.gains) */
     .converter = FS_CONV_VSI,   /* the converter (fs_converter); default of [converter] kind (fullspeed.scenario) */
     .imc_region = FS_IMC_LINEAR,   /* default of [converter] modulation (fullspeed.scenario) */
     .imc_w_grid = 0.0f,   /* 0: taken from the drive's fields or designed by fs_drive_init, or off (converter.f_grid) */

@@ -301,7 +301,7 @@ DRIVE_FIELDS = {
     "Ts": P, "T_pwm": P, "delay": F, "R_s": N, "L_d": P, "L_q": P, "psi_f": N, "J": F, "B": N, "i_max": P,
     "T_max": F, "bw_current": F, "bw_speed": F, "bw_pll": F, "t_dead_comp": N, "i_dead_band": N, "vf_gain": F,
     "vf_boost": F, "smo.w_e_max": F, "smo.i_max": F, "smo.k": F, "smo.margin": F, "smo.delta": F,
-    "smo.w_c_min": F, "smo.bw_pll": F, "smo.w_valid": F, "fw_w_e_max": N, "fw_gain": F, "fw_cutoff": N,
+    "smo.w_c_min": F, "smo.bw_pll": F, "smo.w_valid": F, "fw_w_e_max": N, "fw_gain": N, "fw_cutoff": N,
     "lock_time": N, "t_recover": F, "i_start": N, "a_start": F, "w_handover": F, "hfi.u_h": F, "hfi.w_h": F,
     "hfi.w_b_p": F, "hfi.w_b_n": F, "hfi.obs.bandwidth": F, "blend.w_lower": F, "blend.w_upper": F,
     "blend.obs.bandwidth": F, "w_inject_max": N, "polarity.i_pulse": F, "polarity.t_lock": F,
@@ -552,11 +552,14 @@ def test_smo_step_stays_finite(cfg, seed):
 
 @STEP_SETTINGS
 @given(Ts=Ts_s, L_d=L_s, ratio=unit(0.3, 3.0), R=R_s_s, psi_f=psi_s, bw=unit(0.01, 1.0), predict=st.booleans(),
-       explicit=st.booleans(), k_p=logu(1e-3, 1e3), k_i=logu(1e-3, 1e6), i_max=i_max_s, seed=seeds)
-def test_current_ctrl_step_stays_finite(Ts, L_d, ratio, R, psi_f, bw, predict, explicit, k_p, k_i, i_max, seed):
+       explicit=st.booleans(), k_p=logu(1e-3, 1e3), k_i=logu(1e-3, 1e6), i_max=i_max_s, im=st.booleans(),
+       seed=seeds)
+def test_current_ctrl_step_stays_finite(Ts, L_d, ratio, R, psi_f, bw, predict, explicit, k_p, k_i, i_max, im, seed):
     cc = ffi.new("fs_current_ctrl *")
     gains = [k_p, k_i, k_p, k_i] if explicit else [0.0] * 4
     cfg = ffi.new("fs_current_ctrl_config *", [Ts, R, L_d, f32(ratio * L_d), psi_f, f32(bw / Ts), predict, *gains])
+    if im and not explicit:
+        lib.fs_current_ctrl_internal_model(cfg)
     _init_or_skip(lib.fs_current_ctrl_init, cc, cfg)
     rng = np.random.default_rng(seed)
     w_top = 1.0 / Ts
@@ -569,7 +572,11 @@ def test_current_ctrl_step_stays_finite(Ts, L_d, ratio, R, psi_f, bw, predict, e
         out.d, out.q = u.d, u.q
         m = math.hypot(u.d, u.q)
         s = min(1.0, u_lim[k] / m) if m > 0 else 1.0
-        lib.fs_current_ctrl_update(cc, {"d": f32(u.d * s), "q": f32(u.q * s)})
+        u_real = {"d": f32(u.d * s), "q": f32(u.q * s)}
+        if k % 2:   # an outer loop keeps half the excess (fs_fw_hold)
+            lib.fs_current_ctrl_update_held(cc, u_real, {"d": f32(u.d * (1 + s) / 2), "q": f32(u.q * (1 + s) / 2)})
+        else:
+            lib.fs_current_ctrl_update(cc, u_real)
     run_steps("current_ctrl", [cc, out], step)
 
 
@@ -613,7 +620,20 @@ def test_fw_step_stays_finite(Ts, L, w_top, gain, bw, i_max, seed):
     _init_or_skip(lib.fs_fw_init, fw, ffi.new("fs_fw_config *", [Ts, L, w_top, gain, f32(bw / Ts), i_max]))
     rng = np.random.default_rng(seed)
     dv, w = sym(rng, N_STEPS, 1e3), sym(rng, N_STEPS, 2 * w_top)
-    run_steps("fw", [fw], lambda k: lib.fs_fw_step(fw, dv[k], w[k]))
+    u_real = sym(rng, (N_STEPS, 2), 1e3)
+    out = ffi.new("fs_dq *")
+
+    def step(k):
+        lib.fs_fw_step(fw, dv[k], w[k])
+        real = {"d": f32(u_real[k, 0]), "q": f32(u_real[k, 1])}
+        ref = {"d": f32(real["d"] + 0.3 * dv[k]), "q": f32(real["q"] + dv[k])}
+        h = lib.fs_fw_hold(fw, ref, real, w[k])
+        out.d, out.q = h.d, h.q
+        for ax in ("d", "q"):   # between the realised voltage and the reference: a share of the excess
+            lo, hi = sorted((real[ax], ref[ax]))
+            tol = 1e-6 * max(abs(lo), abs(hi), 1.0)
+            assert lo - tol <= getattr(h, ax) <= hi + tol
+    run_steps("fw", [fw, out], step)
 
 
 @STEP_SETTINGS

@@ -72,9 +72,10 @@ def test_each_region_saturates_at_its_transfer_ratio(modulation, q_max):
 
 def test_flux_weakening_and_rectifier_over_modulation_end_when_the_speed_falls_back():
     """The low-pass of eq. (30) in place of the integrator: back at 1000 rpm
-    the d-current returns to 0 and alpha to 0 by themselves."""
+    the d-current returns to 0 and alpha to 0 by themselves. I_lim at 10.5 A
+    (12 in Region C) so that PART_2 holds a deep alpha at 1750 rpm first."""
     r = fs.simulate("zou2021-region-c", overrides={
-        "duration": 1.0, "references": {"speed_rpm": [[0.0, 1500.0], [0.2, 1500.0], [0.2, 1750.0],
+        "duration": 1.0, "controller": {"i_lim": 10.5}, "references": {"speed_rpm": [[0.0, 1500.0], [0.2, 1500.0], [0.2, 1750.0],
                                                       [0.5, 1750.0], [0.5, 1000.0], [1.0, 1000.0]]},
         "load": {"torque": [[0.0, 0.0], [0.1, 0.0], [0.1, 10.0], [1.0, 10.0]]}})
     t = r["t"]

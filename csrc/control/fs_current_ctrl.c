@@ -18,6 +18,23 @@ static fs_status design_axis(fs_pi *pi, float Ts, float L, float R, float alpha,
     return st != FS_OK ? st : fs_pi_init(pi, &c);
 }
 
+/* One axis of fs_current_ctrl_internal_model (fs_current_ctrl.h): alpha L
+ * and alpha R_s when alpha Ts is small. */
+static void internal_model_axis(float Ts, float L, float R, float alpha, float *k_p, float *k_i)
+{
+    float a, b;
+    sampled_plant(Ts, L, R, &a, &b);
+    *k_p = -expm1f(-alpha * Ts) / b;
+    *k_i = *k_p * (1.0f - a) / Ts;
+}
+
+void fs_current_ctrl_internal_model(fs_current_ctrl_config *cfg)
+{
+    if (!cfg) return;
+    internal_model_axis(cfg->Ts, cfg->L_d, cfg->R_s, cfg->bandwidth, &cfg->k_p_d, &cfg->k_i_d);
+    internal_model_axis(cfg->Ts, cfg->L_q, cfg->R_s, cfg->bandwidth, &cfg->k_p_q, &cfg->k_i_q);
+}
+
 fs_status fs_current_ctrl_init(fs_current_ctrl *cc, const fs_current_ctrl_config *cfg)
 {
     if (!cc || !cfg) return FS_ERR_NULL;
@@ -79,7 +96,12 @@ fs_dq fs_current_ctrl_step(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, float w_e)
 
 void fs_current_ctrl_update(fs_current_ctrl *cc, fs_dq u_real)
 {
-    fs_pi_update(&cc->pi_d, cc->ref.d, cc->meas.d, cc->u.d, u_real.d);
-    fs_pi_update(&cc->pi_q, cc->ref.q, cc->meas.q, cc->u.q, u_real.q);
+    fs_current_ctrl_update_held(cc, u_real, u_real);
+}
+
+void fs_current_ctrl_update_held(fs_current_ctrl *cc, fs_dq u_real, fs_dq u_held)
+{
+    fs_pi_update(&cc->pi_d, cc->ref.d, cc->meas.d, cc->u.d, u_held.d);
+    fs_pi_update(&cc->pi_q, cc->ref.q, cc->meas.q, cc->u.q, u_held.q);
     cc->u_prev = u_real;
 }

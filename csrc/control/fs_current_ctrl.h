@@ -38,6 +38,15 @@ typedef struct {
     float a_d, b_d, a_q, b_q;  /* sampled plant per axis, for the predictor */
 } fs_current_ctrl;
 
+/* The internal-model design (Harnefors & Nee 1998, zou2021 ref. [22] and
+ * sec. 4.2) as explicit gains in cfg, from its Ts, R_s, L_d, L_q and
+ * bandwidth: an ordinary PI per axis with k_p = alpha L, k_i = alpha R_s,
+ * whose zero sits on the machine's pole R_s/L, so that u = alpha L (s +
+ * R_s/L)/s e gives i/i_ref = alpha/(s + alpha); in its sampled form, the
+ * zero on the sampled plant's pole a (k_i Ts = k_p (1 - a)) and the loop's
+ * pole at exp(-alpha Ts), as the pole placement's. Its integral rejects a
+ * disturbance only at R_s/L. fs_current_ctrl_init checks the result. */
+void fs_current_ctrl_internal_model(fs_current_ctrl_config *cfg);
 fs_status fs_current_ctrl_init(fs_current_ctrl *cc, const fs_current_ctrl_config *cfg);
 void fs_current_ctrl_reset(fs_current_ctrl *cc);
 /* Voltage reference (not yet limited) for current reference and measurement
@@ -45,5 +54,9 @@ void fs_current_ctrl_reset(fs_current_ctrl *cc);
 fs_dq fs_current_ctrl_step(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, float w_e);
 /* Anti-windup: the voltage actually realised (after the modulator's limit). */
 void fs_current_ctrl_update(fs_current_ctrl *cc, fs_dq u_real);
+/* The same, but the integrals wind back only to u_held (between u_real and
+ * the reference): the excess over u_real they keep is an outer loop's
+ * input (flux weakening, fs_fw_hold); the predictor takes u_real. */
+void fs_current_ctrl_update_held(fs_current_ctrl *cc, fs_dq u_real, fs_dq u_held);
 
 #endif /* FS_CURRENT_CTRL_H */

@@ -23,7 +23,7 @@ enum { F = 0, N = 1, P = 2 };
     X(vf_boost, F, FS_ERR_PARAM) X(smo.w_e_max, F, FS_ERR_LIMIT) X(smo.i_max, F, FS_ERR_LIMIT) \
     X(smo.k, F, FS_ERR_SMO_GAIN) X(smo.margin, F, FS_ERR_LIMIT) X(smo.delta, F, FS_ERR_PARAM) \
     X(smo.w_c_min, F, FS_ERR_BANDWIDTH) X(smo.bw_pll, F, FS_ERR_BANDWIDTH) X(smo.w_valid, F, FS_ERR_PARAM) \
-    X(fw_w_e_max, N, FS_ERR_LIMIT) X(fw_gain, F, FS_ERR_PARAM) X(fw_cutoff, N, FS_ERR_BANDWIDTH) \
+    X(fw_w_e_max, N, FS_ERR_LIMIT) X(fw_gain, N, FS_ERR_PARAM) X(fw_cutoff, N, FS_ERR_BANDWIDTH) \
     X(lock_time, N, FS_ERR_LIMIT) X(t_recover, F, FS_ERR_PARAM) X(i_start, N, FS_ERR_I_MAX) \
     X(a_start, F, FS_ERR_PARAM) X(w_handover, F, FS_ERR_PARAM) X(hfi.u_h, F, FS_ERR_PARAM) \
     X(hfi.w_h, F, FS_ERR_BANDWIDTH) X(hfi.w_b_p, F, FS_ERR_BANDWIDTH) X(hfi.w_b_n, F, FS_ERR_BANDWIDTH) \
@@ -130,6 +130,8 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
 
     fs_current_ctrl_config ccc = {Tl, cfg->R_s, cfg->L_d, cfg->L_q, cfg->psi_f, cfg->bw_current,
                                   cfg->delay > 0.5f, cfg->k_p_d, cfg->k_i_d, cfg->k_p_q, cfg->k_i_q};
+    if (cfg->cc_internal_model && ccc.k_p_d == 0.0f && ccc.k_i_d == 0.0f && ccc.k_p_q == 0.0f && ccc.k_i_q == 0.0f)
+        fs_current_ctrl_internal_model(&ccc);   /* fs_drive.h */
     st = fs_current_ctrl_init(&drv->cc, &ccc);
     if (st != FS_OK) REFUSE(st == FS_ERR_BANDWIDTH ? "bw_current" : "k_p_d, k_i_d, k_p_q, k_i_q", st);
 
@@ -180,10 +182,9 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         st = fs_mtpa_init(&drv->mtpa, &mc);
         if (st != FS_OK) REFUSE(st == FS_ERR_LQ ? "L_q" : "mtpa (psi_f, L_d, L_q, i_max)", st);
         if (drive_weakens(cfg)) {
-            if (!fs_pos(cfg->fw_gain)) REFUSE("fw_gain", FS_ERR_PARAM);
-            float w_c = cfg->fw_cutoff > 0.0f ? cfg->fw_cutoff
-                      : fs_minf(0.25f * cfg->bw_current, 0.5f * cfg->fw_w_e_max) / cfg->fw_gain;   /* fs_drive.h */
-            fs_fw_config fc = {cfg->Ts, cfg->L_d, cfg->fw_w_e_max, cfg->fw_gain, w_c, cfg->i_max};
+            if (!(cfg->fw_gain >= 0.0f)) REFUSE("fw_gain", FS_ERR_PARAM);
+            fs_fw_config fc = {cfg->Ts, cfg->L_d, cfg->fw_w_e_max, cfg->fw_gain, cfg->fw_cutoff, cfg->i_max};
+            fs_fw_design(&fc, cfg->bw_current, cfg->fw_hold != 0);   /* gain or cutoff 0: fs_drive.h */
             st = fs_fw_init(&drv->fw, &fc);
             if (st != FS_OK) REFUSE(st == FS_ERR_BANDWIDTH ? "fw_cutoff" : "fw_w_e_max", st);
         }
@@ -768,9 +769,12 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     drv->u_hist[1] = drv->u_hist[0];
     drv->u_hist[0] = u_ab;
     fs_dq u_real = fs_park(u_ab, cos_u, sin_u);
-    if (closed_loop) fs_current_ctrl_update(&drv->cc, u_real);
+    const bool weakening = weakens && !starting && !polarity && drv->phase != FS_PHASE_RECOVER;
+    if (closed_loop)   /* anti-windup; held: the regulators keep PART_1's input (fs_fw.h) */
+        fs_current_ctrl_update_held(&drv->cc, u_real,
+                                    weakening && c->fw_hold ? fs_fw_hold(&drv->fw, u_ref, u_real, w_e) : u_real);
     if (FS_WITH_ADAPT && c->adapt.T_f > 0.0f) drive_adapt(drv, in, u_real, i_dq, w_e, closed_loop);
-    if (weakens && !starting && !polarity && drv->phase != FS_PHASE_RECOVER)
+    if (weakening)
         fs_fw_step(&drv->fw, u_ref.q - u_real.q, w_e);   /* eq. (26): dv_q */
 
     out->theta_e = theta;

@@ -238,8 +238,12 @@ typedef struct {
     fs_smo_config smo;
     /* flux weakening in speed mode (zou2021 PART_1, fs_fw.h): the top
      * electrical speed of eq. (31), rad/s (0: off), the gain on its beta (the
-     * loop's dc gain at the top speed; the paper: 1), and the low-pass cutoff
-     * of eq. (30), rad/s. Cutoff 0: designed as
+     * loop's dc gain at the top speed; the paper: 1), the low-pass cutoff of
+     * eq. (30), rad/s, and what the current regulators do with the over-
+     * modulation excess: fw_hold 0 wind it back to the realised voltage (their
+     * anti-windup), 1 keep it (fs_fw_hold, the paper's eq. (26); use the
+     * internal-model regulators, cc_internal_model, fs_fw.h says why).
+     * Wound back, gain 0 is 50 and cutoff 0 is designed as
      *   gain x cutoff = min(bw_current / 4, w_e,max / 2).
      * The first bound keeps the loop below the current loop. The second
      * bounds a fast path eq. (26) leaves out: a step in i_d* kicks u_d* by
@@ -247,9 +251,21 @@ typedef struct {
      * the kick) and dv_q grows, which deepens i_d* again. That positive loop
      * peaks at gain x cutoff x |u_d|/u_max / w_e,max and must stay below 1;
      * on zou2021's 150 V bench (w_e,max 126 rad/s) a cutoff of 750 rad/s
-     * limit-cycled at 20-30 Hz. The paper sets the cutoff to bw_current;
-     * with its gain of 1 half the voltage excess is left. */
+     * limit-cycled at 20-30 Hz. With gain 50 the standing current error this
+     * variant leaves (fs_fw.h) is a fiftieth of the paper's gain's.
+     * Held, the loop's integral gain at the top speed is K = gain bw_current
+     * (fs_fw.h); gain 0 is designed as K = min(bw_current / 4, 1.5 w_e,max)
+     * and cutoff 0 as K (gain x bw_current), the paper's own pairing (w_c =
+     * K = bw_current at gain 1), zeta 0.5. The first bound keeps the loop
+     * below the current loop: at the paper's gain 1 it crosses over at the
+     * current loop's bandwidth and, with the period of delay, oscillates
+     * (zou2021: i_d 7-10 A peak to peak at 1500-1750 rpm, 1750 rpm at
+     * 10 N m not held). The second keeps its natural frequency K a quarter
+     * of the over-modulation's first harmonic in the rotor frame, 6 w_e: on
+     * the 150 V bench (w_e,max 126 rad/s) K = 750 rad/s met it at 120 Hz and
+     * i_d swung 5 A peak to peak (0.3 A at K = 188). */
     float fw_w_e_max, fw_gain, fw_cutoff;
+    int fw_hold;
     /* loss-of-lock monitor (fs_lock.h) while the loops run sensorless: the
      * time, s, the estimator in use may spend off track, net, before lock
      * counts as lost (0: no monitor). The residual: the sliding-mode
@@ -303,6 +319,10 @@ typedef struct {
      * bw_speed): current loop per axis, V/A and V/(A s); speed loop,
      * N m s/rad and N m/rad */
     float k_p_d, k_i_d, k_p_q, k_i_q, k_p_w, k_i_w;
+    /* without explicit current gains, 1: the current regulators by internal
+     * model (fs_current_ctrl.h; zou2021's, its sec. 4.2 and 5.1); 0: by pole
+     * placement */
+    int cc_internal_model;
     /* the converter (fs_converter). An indirect matrix converter takes the
      * highest modulation region it may use (fs_imc_region), the input
      * frequency (rad/s: the sampled input voltage is turned to the middle of

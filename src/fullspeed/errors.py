@@ -23,6 +23,38 @@ class ConfigError(ValueError):
         super().__init__(text.replace("\r", "\\r").replace("\n", "\\n"))
 
 
+class MissingFields(ConfigError):
+    """Required fields not given, or left "?" as `fullspeed new-machine`'s
+    template writes them: every one at once, in one line, grouped by the
+    file they belong in ("my.toml: missing required fields: machine.rated.torque
+    (N m; > 0 and <= 1e+06), ...; left \"?\": machine.kind (...)").
+
+    `entries` are (source, field, hint, placeholder) tuples: hint the unit
+    and range of the field, placeholder true where it was "?". `field` and
+    `source` are the first entry's, as a one-field ConfigError has them."""
+
+    def __init__(self, entries: list[tuple[str | None, str, str, bool]], note: str = ""):
+        self.entries = list(entries)
+        self.note = note
+        source, field = self.entries[0][0], self.entries[0][1]
+        groups: dict = {}
+        for src, f, hint, placeholder in self.entries:
+            groups.setdefault(src, ([], []))[placeholder].append(f"{_clip(f, 200)} ({hint})" if hint else _clip(f, 200))
+        parts = []
+        for src, (absent, left) in groups.items():
+            said = ([f"missing required fields: {', '.join(absent)}"] if absent else []) \
+                + ([f'required fields left "?": {", ".join(left)}'] if left else [])
+            parts.append((f"{src}: " if src else "") + "; ".join(said))
+        text = "; ".join(parts) + (f" ({note})" if note else "")
+        self.field, self.value, self.source = field, "missing", source
+        self.allowed = text[len(f"{source}: "):] if source and text.startswith(f"{source}: ") else text
+        ValueError.__init__(self, text.replace("\r", "\\r").replace("\n", "\\n"))
+
+    def noted(self, note: str) -> "MissingFields":
+        """The same fields, with where they were found appended."""
+        return MissingFields(self.entries, note)
+
+
 def _repr(value) -> str:
     """repr, bounded in depth and length: a 5,000-deep table or a 5,000-digit
     integer from the input must not raise while its error is being made."""

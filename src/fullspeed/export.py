@@ -57,6 +57,7 @@ KEYS = {
     "smo.margin": "observer.margin", "smo.delta": "observer.delta", "smo.w_c_min": "observer.cutoff_min_rpm",
     "smo.bw_pll": "observer.bw_pll", "smo.w_valid": "observer.valid_rpm", "smo.lag": "observer.lag",
     "fw_w_e_max": "controller.fw_top_speed_rpm", "fw_gain": "controller.fw_gain", "fw_cutoff": "controller.fw_cutoff",
+    "fw_hold": "controller.fw_excess", "cc_internal_model": "controller.gains",
     "lock_time": "controller.lock_time", "lock_recover": "controller.lock", "t_recover": "controller.recover_time",
     "lock_retries": "controller.lock_retries",
     "i_start": "observer.i_start", "a_start": "observer.start_accel_rpm_s", "w_handover": "observer.start_handover_rpm",

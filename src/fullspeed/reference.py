@@ -3,13 +3,10 @@ tables of scenario.py and machines.py): docs/reference.md, `fullspeed
 schema [SECTION]`, and the machine template of `fullspeed new-machine`."""
 from __future__ import annotations
 
-import re
 from collections.abc import Iterator
 
-from .schema import MISSING, Spec
+from .schema import MISSING, Spec, range_text, unit_and_meaning
 
-# units a field's doc may start or end with ("V; ...", "..., s")
-UNITS = ("kg m^2", "N m s/rad", "N m", "rad/s", "el.deg", "ohm", "rpm", "Hz", "Wb", "V", "A", "s", "H", "F", "W", "J")
 KIND = {"float": "number", "int": "integer", "bool": "true/false", "str": "string", "choice": "choice",
         "profile": "number or [[t_s, value], ...]", "numbers": "list of numbers", "notes": "table of strings",
         "table": "table", "any": "see meaning"}
@@ -20,25 +17,6 @@ def _roots() -> dict[str, dict]:
     from .machines import MACHINE
     from .scenario import SCENARIO
     return {"scenario": SCENARIO, "machine": MACHINE}
-
-
-def unit_and_meaning(key: str, spec: Spec) -> tuple[str, str]:
-    """The unit a doc starts or ends with (or a key's _rpm / _deg), and the rest."""
-    doc = spec.doc.strip()
-    for u in UNITS:
-        if doc == u:
-            return u, ""
-        m = re.fullmatch(re.escape(u) + r"\s*[;,:]\s*(.*)", doc, re.S)
-        if m:
-            return u, m.group(1)
-        m = re.fullmatch(r"(.*?),\s*" + re.escape(u), doc, re.S)
-        if m:
-            return u, m.group(1)
-    if key.endswith("_rpm"):
-        return "rpm", doc
-    if key.endswith("_deg"):
-        return "el.deg", doc
-    return "", doc
 
 
 def _default(spec: Spec) -> str:
@@ -55,17 +33,6 @@ def _default(spec: Spec) -> str:
     if isinstance(spec.default, (list, dict)) and not spec.default:
         return "empty"
     return f"{spec.default:g}" if isinstance(spec.default, float) else str(spec.default)
-
-
-def _range(spec: Spec) -> str:
-    if spec.kind == "choice":
-        return ", ".join(f'"{c}"' if isinstance(c, str) else str(c) for c in spec.choices)
-    parts = []
-    if spec.lo is not None:
-        parts.append(f"{'>' if spec.lo_open else '>='} {spec.lo:g}")
-    if spec.hi is not None:
-        parts.append(f"{'<' if spec.hi_open else '<='} {spec.hi:g}" if spec.kind != "profile" else f"within +-{spec.hi:g}")
-    return " and ".join(parts)
 
 
 def sections() -> Iterator[tuple[str, dict[str, Spec], str]]:
@@ -90,7 +57,7 @@ def section_text(name: str, table: dict[str, Spec], doc: str) -> str:
                         f"see `{name}.{k}` below |")
             continue
         unit, meaning = unit_and_meaning(k, s)
-        rows.append(f"| `{k}` | {KIND[s.kind]} | {unit} | {_default(s)} | {_range(s)} | {meaning.replace('|', '/')} |")
+        rows.append(f"| `{k}` | {KIND[s.kind]} | {unit} | {_default(s)} | {range_text(s)} | {meaning.replace('|', '/')} |")
     return "\n".join(out) + "\n" + HEAD + "\n".join(rows) + "\n"
 
 
@@ -149,7 +116,7 @@ def machine_template(name: str) -> str:
 
     def field_line(k, s):
         unit, meaning = unit_and_meaning(k, s)
-        rng = _range(s)
+        rng = range_text(s)
         note = "; ".join(x for x in (unit, rng, meaning) if x)
         value = f'"{name}"' if k == "name" else '"?"'
         return f"{k} = {value}" + (f"    # {note}" if note else "")

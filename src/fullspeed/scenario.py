@@ -9,7 +9,7 @@ from pathlib import Path
 
 from . import _core
 from . import design as dz
-from .errors import ConfigError
+from .errors import ConfigError, MissingFields
 from .files import path_kind
 from .machines import Machine, catalog_data, machine_from_dict
 from .schema import MISSING, B, C, F, I, N, NONNEG, POS, P, S, Spec, T, deep_merge, even_grid, finite_number, parse_toml, read_toml, validate
@@ -49,8 +49,9 @@ SCENARIO = {
         "mode": C("off", "voltage", "vf", "current", "speed", doc="what the drive controls: nothing, dq voltages, V/f, currents or speed (the references below)"),
         "angle": C("encoder", "true", "smo", "hfi", "blend", "swvi", default="encoder",
                    doc="the loops' angle: encoder, the true angle, the sliding-mode observer, rotating HF injection, their blend, or square-wave injection"),
-        "gains": C("designed", "paper", default="designed",
-                   doc="PI gains: designed from the bandwidths, or the machine's [paper_gains]"),
+        "gains": C("designed", "internal_model", "paper", default="designed",
+                   doc="PI gains: designed from the bandwidths (the current PIs by pole placement, or internal_model: "
+                       "k_p = bw_current L, k_i = bw_current R_s, zou2021's), or the machine's [paper_gains]"),
         "bw_current": POS(None, hi=1e6, doc="rad/s, current loop; default the machine's bench (designed)"),
         "bw_speed": POS(None, hi=1e6, doc="rad/s, speed loop; default the machine's bench (designed)"),
         "bw_pll": POS(None, hi=1e6, doc="rad/s, the encoder's speed PLL; default the machine's bench (designed)"),
@@ -70,8 +71,12 @@ SCENARIO = {
         # zou2021 PART_1 voltage-error-feedback flux weakening on top of MTPA
         "flux_weakening": B(False, doc="speed mode: voltage-error-feedback flux weakening above the base speed (zou2021 PART_1)"),
         "fw_top_speed_rpm": POS(None, hi=1e6, doc="w_r,max of eq. (31); default the observer's top speed"),
-        "fw_gain": POS(50.0, hi=1e6, doc="multiplies beta of eq. (31): the loop's dc gain at the top speed (the paper: 1)"),
+        "fw_gain": POS(None, hi=1e6, doc="multiplies beta of eq. (31): the loop's dc gain at the top speed (the paper: 1); default designed in the drive's init (fs_drive.h: 50 wound back, 1/4 held)"),
         "fw_cutoff": POS(None, hi=1e6, doc="rad/s, the low-pass of eq. (30); default designed in the drive's init (fs_drive.h; the paper: bw_current)"),
+        "fw_excess": C("wound_back", "held", default="wound_back",
+                       doc="the over-modulation excess flux weakening feeds on: wound back by the current PIs' anti-windup "
+                           "(eq. (30) then holds i_d on a standing current error), or held in their integrals as zou2021's "
+                           "eq. (26) reads (with gains = \"internal_model\"; fs_fw.h)"),
         # zou2021 PART_2: the matrix converter's rectifier modulation-depth controller
         "depth_control": B(False, doc="imc, speed mode with flux weakening and modulation om2: alpha from eq. (33); else from the demanded VTR"),
         "i_lim": POS(None, hi=1e5, doc="A, I_lim of eq. (33); default the machine's bench i_lim"),
@@ -240,9 +245,15 @@ def _machine_of(raw, source) -> Machine:
 def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
     if not isinstance(data, dict):
         raise ConfigError("scenario", data, "must be a table", source)
-    if "machine" not in data:
-        raise ConfigError("machine", "missing", "is required (a catalog name or a table)", source)
-    d = validate(data, SCENARIO, "", source)
+    missing = []   # the scenario's required fields not given, and its machine's, refused together
+    d = validate(data, SCENARIO, "", source, missing)
+    if missing:
+        if "machine" in d:
+            try:
+                _machine_of(d["machine"], source)
+            except MissingFields as exc:
+                missing += exc.entries
+        raise MissingFields(missing)
     m = _machine_of(d["machine"], source)
     b = m.bench
     _per_unit(d, data, m, source)

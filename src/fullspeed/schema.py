@@ -7,13 +7,14 @@ field, the value and what is allowed, and fills in defaults.
 from __future__ import annotations
 
 import math
+import re
 import sys
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from .errors import ConfigError
+from .errors import ConfigError, MissingFields
 
 MISSING = object()
 
@@ -106,6 +107,58 @@ def T(table: dict, default=MISSING, doc=""):
 
 
 ANY = Spec("any", None)
+
+
+# units a field's doc may start or end with ("V; ...", "..., s")
+UNITS = ("kg m^2", "N m s/rad", "N m", "rad/s", "el.deg", "ohm", "rpm", "Hz", "Wb", "V", "A", "s", "H", "F", "W", "J")
+
+
+def unit_and_meaning(key: str, spec: Spec) -> tuple[str, str]:
+    """The unit a doc starts or ends with (or a key's _rpm / _deg), and the rest."""
+    doc = spec.doc.strip()
+    for u in UNITS:
+        if doc == u:
+            return u, ""
+        m = re.fullmatch(re.escape(u) + r"\s*[;,:]\s*(.*)", doc, re.S)
+        if m:
+            return u, m.group(1)
+        m = re.fullmatch(r"(.*?),\s*" + re.escape(u), doc, re.S)
+        if m:
+            return u, m.group(1)
+    if key.endswith("_rpm"):
+        return "rpm", doc
+    if key.endswith("_deg"):
+        return "el.deg", doc
+    return "", doc
+
+
+def range_text(spec: Spec) -> str:
+    """A field's range as the reference page gives it (">= 0 and <= 1000")."""
+    if spec.kind == "choice":
+        return ", ".join(f'"{c}"' if isinstance(c, str) else str(c) for c in spec.choices)
+    parts = []
+    if spec.lo is not None:
+        parts.append(f"{'>' if spec.lo_open else '>='} {spec.lo:g}")
+    if spec.hi is not None:
+        parts.append(f"{'<' if spec.hi_open else '<='} {spec.hi:g}" if spec.kind != "profile" else f"within +-{spec.hi:g}")
+    return " and ".join(parts)
+
+
+def field_hint(key: str, spec: Spec) -> str:
+    """What a missing field takes, in a few words: its unit and range
+    ("ohm; >= 0 and <= 1000"), its choices, or what its doc says first."""
+    if spec.kind == "choice":
+        return " or ".join(f'"{c}"' if isinstance(c, str) else str(c) for c in spec.choices)
+    unit, meaning = unit_and_meaning(key, spec)
+    if spec.kind in ("float", "int", "profile"):
+        return "; ".join(x for x in (unit, range_text(spec) or ("an integer" if spec.kind == "int" else "")) if x)
+    return re.split(r"[;:]", meaning, maxsplit=1)[0].strip() if meaning else {"bool": "true or false", "str": "text", "table": "a table"}.get(spec.kind, "")
+
+
+def unfilled(spec: Spec, value) -> bool:
+    """The template's placeholder "?" (`fullspeed new-machine`), in any
+    field but free text, where "?" could be the text."""
+    return value == "?" and spec.kind not in ("str", "notes")
 
 
 def _is_number(v) -> bool:
@@ -212,27 +265,43 @@ def check_profile(value, field, source, spec=None):
     return (ts, ys)
 
 
-def validate(data: dict, table: dict[str, Spec], prefix: str, source: str | None) -> dict:
-    """Validate one table: unknown keys refused, defaults filled in."""
+def validate(data: dict, table: dict[str, Spec], prefix: str, source: str | None, missing: list | None = None) -> dict:
+    """Validate one table: unknown keys and bad values refused (the first,
+    with its own message), defaults filled in. Required fields not given or
+    left "?" are gathered into `missing` (MissingFields entries), through
+    the nested tables; without that list, all of them are refused at once
+    here, as one MissingFields. A gathered field is absent from the result."""
+    top = missing is None
+    missing = [] if top else missing
     out = {}
     for key, value in data.items():
         field = f"{prefix}.{key}" if prefix else key
         if key not in table:
             allowed = ", ".join(sorted(table)) or "none"
             raise ConfigError(field, value, f"unknown key; allowed here: {allowed}", source)
-        out[key] = check_value(table[key], value, field, source)
+        spec = table[key]
+        if unfilled(spec, value):
+            missing.append((source, field, field_hint(key, spec), True))
+        elif spec.kind == "table" and isinstance(value, dict):
+            out[key] = validate(value, spec.table, field, source, missing)
+        else:
+            out[key] = check_value(spec, value, field, source)
     for key, spec in table.items():
-        if key in out:
+        if key in data:
             continue
         field = f"{prefix}.{key}" if prefix else key
-        if spec.default is MISSING:
-            raise ConfigError(field, "missing", "is required", source)
-        if spec.kind == "table" and isinstance(spec.default, dict):
-            out[key] = validate(spec.default, spec.table, field, source)
+        if spec.default is MISSING and spec.kind == "table":   # a required table: the fields it requires
+            out[key] = validate({}, spec.table, field, source, missing)
+        elif spec.default is MISSING:
+            missing.append((source, field, field_hint(key, spec), False))
+        elif spec.kind == "table" and isinstance(spec.default, dict):
+            out[key] = validate(spec.default, spec.table, field, source, missing)
         elif spec.kind == "profile":
             out[key] = None if spec.default is None else check_profile(spec.default, field, source, spec)
         else:
             out[key] = spec.default
+    if top and missing:
+        raise MissingFields(missing)
     return out
 
 

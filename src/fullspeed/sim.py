@@ -221,6 +221,7 @@ def build_config(sc: Scenario):
     dc.J, dc.B = (m.J + (load["J_load"] if load["kind"] == "speed_pi" else 0.0)) * ctl["J_scale"], m.B
     dc.i_max, dc.T_max = ctl["i_max"], ctl["T_max"]
     dc.bw_current, dc.bw_speed, dc.bw_pll = ctl["bw_current"], ctl["bw_speed"], ctl["bw_pll"]
+    dc.cc_internal_model = 1 if ctl["gains"] == "internal_model" else 0
     dc.t_dead_comp = conv["t_dead"] if ctl["dead_time_comp"] else 0.0
     dc.i_dead_band = ctl["i_dead_band"]
     dc.dt_predict = 1 if ctl["dead_time_predict"] else 0
@@ -229,8 +230,9 @@ def build_config(sc: Scenario):
     dc.vf_gain, dc.vf_boost = ctl["vf_gain"], ctl["vf_boost"]
     if ctl["flux_weakening"]:
         dc.fw_w_e_max = m.pole_pairs * rpm_to_rad_s(ctl["fw_top_speed_rpm"])
-        dc.fw_gain = ctl["fw_gain"]
+        dc.fw_gain = ctl["fw_gain"] or 0.0       # 0: designed in fs_drive_init
         dc.fw_cutoff = ctl["fw_cutoff"] or 0.0   # 0: designed in fs_drive_init
+        dc.fw_hold = 1 if ctl["fw_excess"] == "held" else 0
     if ctl["param_adapt"]:
         dc.adapt.T_f = ctl["adapt_time"]
     dc.lock_time = ctl["lock_time"] if ctl["lock"] != "off" else 0.0

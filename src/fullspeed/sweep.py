@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ConfigError
+from .errors import ConfigError, MissingFields
 from .files import path_kind, write_json, write_with
 from .journal import DASK_TIMEOUT, run_tasks
 from .metrics import METRIC_NAMES, flat_metrics
@@ -217,9 +217,10 @@ def sweep_from_dict(d: dict, source: str, here: Path | None = None) -> Sweep:
     for k in d:
         if k not in TOP_KEYS:
             raise ConfigError(k, d[k], "unknown key; allowed: " + ", ".join(sorted(TOP_KEYS)), source)
-    for k in ("name", "base", "axes"):
-        if k not in d:
-            raise ConfigError(k, "missing", "is required", source)
+    absent = [(source, k, hint, False) for k, hint in (("name", "text"), ("base", "a catalog scenario or a .toml file"),
+                                                       ("axes", "a table of scenario fields and their values")) if k not in d]
+    if absent:
+        raise MissingFields(absent)
     if not isinstance(d["name"], str) or not d["name"]:
         raise ConfigError("name", d["name"], "must be a non-empty string", source)
     base, base_src = _base_data(d["base"], here, source)
@@ -269,6 +270,8 @@ def _check_points(base: dict, overrides: dict, axes: list[Axis], source: str) ->
             scenario_from_dict(d, source)
         except ConfigError as exc:
             where = f"axes.{axis.name} = {value!r}" if axis else "the base with its overrides"
+            if isinstance(exc, MissingFields):
+                raise exc.noted(where) from None
             raise ConfigError(exc.field, exc.value, f"{exc.allowed} ({where})", source) from None
 
 
