@@ -16,7 +16,7 @@
 
 /* yang2022's machine, bench and limits */
 static const fs_monitor_config CFG = {1e-4f, 0, 0.036f, 65e-6f, 65e-6f, 0.007f, 5, 1.87e-3f, 0.0f,
-                                      3.2f, 60.0f, 0.01f, 5e-3f};
+                                      3.2f, 60.0f, 0.01f, 5e-3f, 20e-3f, 0.0f};
 #define U_DC 24.0f
 
 /* The current j i_q e^{j phi} on the loops' q axis (phi = k_th w t + off). */
@@ -47,8 +47,10 @@ static float run_emf(double w, double k_th, double off, fs_monitor *m)
     float r_max = 0.0f;
     for (int k = 0; k < 1000; ++k) {
         const double t = k * Ts;
+        const double th = k_th * w * t + off;
         fs_monitor_in in = {current(t, w, k_th, off, i_q), model_u(t, w, k_th, off, i_q), U_DC,
-                            (float)fs_test_wrap(k_th * w * t + off), (float)(k_th * w), 2.0f, {0.0f, 0.0f}, true};
+                            (float)fs_test_wrap(th), (float)(k_th * w), (float)cos(th), (float)sin(th),
+                            {0.0f, (float)i_q}, 2.0f, {0.0f, 0.0f}, true};
         float r = fs_monitor_step(m, &in);
         if (k >= 500 && r > r_max) r_max = r;
     }
@@ -64,7 +66,9 @@ static float run_mech(float T_ref, double a, fs_monitor *m)
     FS_CHECK(fs_monitor_init(m, &CFG) == FS_OK, "init");
     for (int k = 0; k < 500; ++k) {   /* 50 ms: 10 tau */
         const double t = k * CFG.Ts;
-        fs_monitor_in in = {{0.0f, 5.0f}, {0.0f, 0.0f}, 100.0f, (float)fs_test_wrap(0.5 * a * t * t), (float)(a * t),
+        const double th = 0.5 * a * t * t;
+        fs_monitor_in in = {{0.0f, 5.0f}, {0.0f, 0.0f}, 100.0f, (float)fs_test_wrap(th), (float)(a * t),
+                            (float)cos(th), (float)sin(th), {(float)(5.0 * sin(th)), (float)(5.0 * cos(th))},
                             T_ref, {0.0f, 0.0f}, true};
         fs_monitor_step(m, &in);
     }
@@ -102,7 +106,7 @@ int main(void)
 
     /* the current loops' error */
     FS_CHECK(fs_monitor_init(&m, &CFG) == FS_OK, "init");
-    fs_monitor_in in = {{0.0f, 0.0f}, {0.0f, 0.0f}, U_DC, 0.0f, 0.0f, 0.0f, {0.0f, 0.3f * CFG.i_max}, true};
+    fs_monitor_in in = {{0.0f, 0.0f}, {0.0f, 0.0f}, U_DC, 0.0f, 0.0f, 1.0f, 0.0f, {0.0f, 0.0f}, 0.0f, {0.0f, 0.3f * CFG.i_max}, true};
     for (int k = 0; k < 300; ++k) r = fs_monitor_step(&m, &in);
     FS_CHECK(r > 0.7f && r < 0.76f, "0.3 i_max of error: r_cur %g", r);
     in.i_err.q = 0.5f * CFG.i_max;
