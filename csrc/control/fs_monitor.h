@@ -111,6 +111,7 @@ typedef struct {
     float a_j;                /* the jump's leak per period, exp(-2 Ts / t_lost) */
     /* state */
     bool started;             /* the filters hold a value (on since the last reset) */
+    bool jumped;              /* latched: |jump| went past pi/2 (4.) */
     int k;                    /* steps since started */
     fs_ab i_prev;             /* the last sample's current */
     fs_ab u_q1, u_q2;         /* the voltages computed 1 and 2 steps ago */
@@ -121,7 +122,6 @@ typedef struct {
     float w_f, T_f, id_f, i_f;    /* low-passed: speed, torque reference, d current, |i| */
     float ierr_f;             /* low-passed |i_ref - i| */
     float jump;               /* rad, the loops' angle's turn beyond their speed (4.), leaky */
-    bool jumped;              /* latched: |jump| went past pi/2 */
     /* the last step's residuals (<= 1 on track) */
     float r_dir, r_slip, r_mech, r_cur;
     float E_hat, E_err;       /* V, the last step's expected EMF and error bound */
