@@ -197,7 +197,8 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         const float T_lim = fs_maxf(cfg->T_max, fabsf(drive_torque(cfg, (fs_dq){0.0f, cfg->i_max})));
         fs_monitor_config mc = {Tl, (int)(cfg->delay + 0.5f), cfg->R_s, cfg->L_d, cfg->L_q, cfg->psi_f,
                                 cfg->pole_pairs, fs_maxf(cfg->J, 0.0f), cfg->B, T_lim, cfg->i_max,
-                                cfg->t_dead_comp / cfg->T_pwm, 0.25f * cfg->lock_time};
+                                cfg->t_dead_comp / cfg->T_pwm, 0.25f * cfg->lock_time, cfg->lock_time,
+                                drive_injects(cfg) ? cfg->hfi.w_h : 0.0f};
         SUB("lock_time", fs_monitor_init(&drv->mon, &mc));
     }
     if (cfg->lock_recover != 0 && cfg->lock_recover != 1) REFUSE("lock_recover", FS_ERR_PARAM);
@@ -455,18 +456,20 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
  * are noisy, a lost estimator's are large for long. With the step's output
  * (NULL for the square wave), the checks that do not trust the estimator
  * (fs_monitor.h) join in. */
-static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_drive_out *out, fs_ab i_ab)
+static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_drive_out *out, fs_ab i_ab,
+                                 float cos_t, float sin_t)
 {
     const fs_drive_config *c = &drv->cfg;
     const bool run = in->sensorless && drv->phase == FS_PHASE_RUN;
     const float g_w = out ? out->g_w : 0.0f;
     float r_mon = 0.0f;
     if (out) {
-        const fs_monitor_in mi = {i_ab, drv->u_hist[0], in->u_dc,
-                                  out->theta_e, out->w_e, drv->T_ff,   /* the torque of out's i_d_ref, i_q_ref */
+        const fs_monitor_in mi = {i_ab, drv->u_hist[0], in->u_dc, out->theta_e, out->w_e, cos_t, sin_t,
+                                  {out->i_d, out->i_q}, drv->T_ff,   /* the torque of out->i_d_ref, i_q_ref */
                                   {out->i_d_ref - out->i_d, out->i_q_ref - out->i_q},
                                   run && (c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED)};
         r_mon = fs_monitor_step(&drv->mon, &mi);
+        if (drv->mon.jumped) fs_lock_latch(&drv->lock);
     }
     const bool blend = c->angle_source == FS_ANGLE_BLEND;
     const float b = 1.0f - drv->lock_a;
@@ -663,7 +666,7 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     out->i_hf_q = sw->i_h.q;
     /* loss of lock (fs_drive.h), at the loops' rate */
     if (c->lock_time > 0.0f && sw->ff_fresh) {
-        h->lock_resid = drive_lock_residual(drv, in, NULL, (fs_ab){0.0f, 0.0f});
+        h->lock_resid = drive_lock_residual(drv, in, NULL, (fs_ab){0.0f, 0.0f}, 1.0f, 0.0f);
         h->lock_lost = fs_lock_step(&drv->lock, h->lock_resid);
     }
     out->lock_resid = h->lock_resid;
@@ -813,7 +816,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     out->lock_resid = 0.0f;
     out->lock_lost = false;
     if (c->lock_time > 0.0f) {
-        out->lock_resid = drive_lock_residual(drv, in, out, i_loop);   /* the current the loops used, as out->i_d, i_q are it in their frame */
+        out->lock_resid = drive_lock_residual(drv, in, out, i_loop, cos_t, sin_t);   /* the current the loops used, as out->i_d, i_q are it in their frame */
         out->lock_lost = fs_lock_step(&drv->lock, out->lock_resid);
         if (out->lock_lost && c->lock_recover && drv->recoveries < c->lock_retries) {
             fs_drive_recover_begin(drv);

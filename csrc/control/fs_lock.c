@@ -25,3 +25,8 @@ bool fs_lock_step(fs_lock *lk, float r)
     if (lk->t_over >= lk->cfg.t_lost) lk->lost = true;
     return lk->lost;
 }
+
+void fs_lock_latch(fs_lock *lk)
+{
+    lk->lost = true;
+}

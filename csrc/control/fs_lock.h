@@ -29,5 +29,7 @@ fs_status fs_lock_init(fs_lock *lk, const fs_lock_config *cfg);
 void fs_lock_reset(fs_lock *lk);
 /* One step with the residual; returns whether lock is lost (latched). */
 bool fs_lock_step(fs_lock *lk, float r);
+/* Evidence that needs no time: lock is lost now (latched). */
+void fs_lock_latch(fs_lock *lk);
 
 #endif /* FS_LOCK_H */

@@ -3,9 +3,10 @@
  * measures, against the angle and speed the loops use. Each is <= 1 while
  * the loops' angle is within about 75 el.deg of the rotor's and grows past 1
  * when it is not; the drive takes the largest with the estimator's own
- * residuals and feeds it to fs_lock.
+ * residuals and feeds it to fs_lock. One check is an event instead (4.):
+ * it latches fs_lock at once.
  *
- * 1. Back-EMF (at speed). The extended EMF of the voltage model,
+ * 1. Back-EMF direction (at speed). The extended EMF of the voltage model,
  *      e = u - R i - L_d di/dt - w (L_d - L_q) [i_b, -i_a]        (alpha-beta)
  *    equals E_ext j e^{j theta} with E_ext = w psi_f + (L_d - L_q)(w i_d
  *    - di_q/dt); turned into the loops' frame it is E_ext j e^{j(theta -
@@ -17,31 +18,58 @@
  *    -E_ext, an estimate that slips or spins against the rotor averages e_q
  *    to about 0. The k_dir term only where E_hat >= 3 E_err (an EMF that
  *    should stand out); below, r_dir > 1 only for an EMF that points
- *    backwards beyond the error bound. E_err bounds the q-axis voltage the model leaves out: the dead time's
- *    (k_dead u_dc), a resistance off by up to 100 % (R |i|), inductances off
- *    by up to 100 % acting through the d current (|w_hat| max(L_d, L_q) |i_d|;
- *    for the q current they turn e along d, not q), and a floor of 1 % of the
- *    dc link.
- *    And an estimate stuck at low speed while the rotor turns fast leaves
- *    a voltage far beyond what its speed asks (the EMF it rotates through
- *    averages out of e in its frame, not out of the magnitude):
- *      r_mag = <|u - R i|> / (k_mag |w_hat| (psi_f + L |i|) + 2 E_err + L <|di/dt|>)
- *    with L = max(L_d, L_q) and <> the low-pass of the magnitude.
- * 2. Mechanics (where the back-EMF is too small to judge: E_hat below
+ *    backwards beyond the error bound. E_err bounds the q-axis voltage the
+ *    model leaves out: the dead time's (k_dead u_dc), a resistance off by up
+ *    to 100 % (R |i|), inductances off by up to 100 % acting through the d
+ *    current (|w_hat| max(L_d, L_q) |i_d|; for the q current they turn e
+ *    along d, not q), and a floor of 1 % of the dc link.
+ * 2. Back-EMF slip (wherever the EMF measured stands out, whatever the
+ *    loops' speed says). While the loops track, the EMF stands still in
+ *    their frame; an estimate stuck or slipping while the rotor turns sees
+ *    it turn at the slip, w - dtheta_hat/dt. Its turn per period, from the
+ *    cross and dot products of e (in the loops' frame, through a two-pole
+ *    pre-filter) with the last period's, low-passed:
+ *      tan(slip Ts) = <e_{k-1} x e_k> / <e_{k-1} . e_k>
+ *      r_slip = |slip| / (pi / t_lost)      where <e_{k-1} . e_k> >= E_err^2
+ *    A slip of pi / t_lost turns the angle error by half a turn within the
+ *    lock counter's time: from anywhere within 90 el.deg it passes 90. The
+ *    model's errors (R, dead time, a carrier's leak) stand still in the
+ *    loops' frame while they hold their current, or pulsate along an axis
+ *    (no net turn), and weigh less than the EMF where it is judged; noise
+ *    has no mean turn. The pre-filter (two poles at a quarter of the
+ *    carrier's frequency, or of the Nyquist frequency without injection)
+ *    keeps the carrier's leak out (17 times in amplitude); a turn's rate
+ *    passes a filter unchanged.
+ * 3. Mechanics (where the back-EMF is too small to judge: E_hat below
  *    3 E_err). The load the loops' motion implies,
  *      T_L_hat = T_ref - (J/p) dw_hat/dt - (B/p) w_hat   (low-passed twice)
  *    is within what a drive rated T_max can hold while the estimate tracks;
  *    a pi-off estimate reverses the torque the loops command, and their
- *    speed loop, seeing the rotor run the wrong way, saturates it: T_L_hat
- *    then reaches 2 T_ref + T_L, about 2 T_max:
- *      r_mech = <|T_L_hat|> / (k_mech T_max)     (its size low-passed once more)
- * 3. The current loops' error |i_ref - i| low-passed against k_cur i_max:
+ *    speed loop, seeing the rotor run the wrong way, raises it: T_L_hat
+ *    then is 2 T_ref + T_L, about 2 T_max once it saturates:
+ *      r_mech = |T_L_hat| / (k_mech T_max)
+ *    (an estimate whose speed swings both ways implies loads of both signs:
+ *    the net count of fs_lock sees |T_L_hat| above the bound more than half
+ *    the time once its amplitude passes 1.4 times the bound).
+ * 4. The loops' angle jumping (an event). Their angle's turn beyond what
+ *    their speed accounts for, summed with a leak over t_lost / 2:
+ *      jump = sum a^(k-n) (wrap(theta_hat_n - theta_hat_{n-1}) - w_hat Ts),
+ *      a = exp(-2 Ts / t_lost)
+ *    past pi/2 latches `jumped`. A tracking estimate corrects its angle by a
+ *    few el.deg against its speed; one that finds the rotor again after it
+ *    had lost it (an EMF observer taking over from an injection estimate
+ *    that ran pi off: the saliency it tracks is the same at theta + pi)
+ *    turns the loops' angle by the loss at once. A speed state off by dw
+ *    adds dw t_lost / 2: past pi/2 only for dw > pi / t_lost, far beyond
+ *    what a tracking estimate's speed is off by.
+ * 5. The current loops' error |i_ref - i| low-passed against k_cur i_max:
  *    an estimate that spins against the rotor leaves the loops a rotating
  *    back-EMF they cannot follow.
  *
  * Every low-pass has the time constant tau (the drive: lock_time / 4, as for
  * its other residuals); each starts afresh when the checks are switched on.
- * Float32, no heap.
+ * Per step it uses the loops' Park transform (cos, sin) and current as the
+ * step has them: no trigonometric call. Float32, no heap.
  */
 #ifndef FS_MONITOR_H
 #define FS_MONITOR_H
@@ -59,6 +87,8 @@ typedef struct {
     float i_max;              /* A, its current limit */
     float k_dead;             /* the dead-time voltage left, per volt of the dc link (t_dead / T_pwm) */
     float tau;                /* s, the low-passes' time constant */
+    float t_lost;             /* s, the lock counter's net time off track (fs_lock): the slip's and the jump's scale */
+    float w_h;                /* rad/s, the injection's carrier (0: none) */
 } fs_monitor_config;
 
 typedef struct {
@@ -66,6 +96,8 @@ typedef struct {
     fs_ab u_next;             /* the fundamental voltage just computed (acts after `delay`), V */
     float u_dc;               /* V */
     float theta, w;           /* the loops' angle, rad (at this sample), and electrical speed, rad/s */
+    float cos_t, sin_t;       /* cos and sin of theta, as the loops' Park transform has them */
+    fs_dq i_dq;               /* the loops' current in their frame, A */
     float T_ref;              /* N m, the torque the current reference commands */
     fs_dq i_err;              /* i_ref - i, A, in the loops' frame */
     bool on;                  /* the loops run sensorless: check; else the filters rest */
@@ -74,22 +106,26 @@ typedef struct {
 typedef struct {
     fs_monitor_config cfg;
     float b;                  /* the low-passes' step, 1 - exp(-Ts / tau) */
-    float E_use;              /* V: below it (E_hat and |e|) the back-EMF is not judged, the mechanics are */
+    float a_s;                /* the slip's pre-filter step */
+    float x_max;              /* tan(pi Ts / t_lost): the slip bound's turn per period */
+    float a_j;                /* the jump's leak per period, exp(-2 Ts / t_lost) */
     /* state */
     bool started;             /* the filters hold a value (on since the last reset) */
+    bool jumped;              /* latched: |jump| went past pi/2 (4.) */
     int k;                    /* steps since started */
     fs_ab i_prev;             /* the last sample's current */
     fs_ab u_q1, u_q2;         /* the voltages computed 1 and 2 steps ago */
+    float th_prev, w_prev;    /* the loops' angle and speed at the last sample */
     float e_d, e_q;           /* low-passed EMF in the loops' frame, V */
-    float v_mag;              /* low-passed |u - R i|, V */
-    float di_mag;             /* low-passed |di/dt|, A/s */
+    fs_dq e_s1, e_s2;         /* the EMF in the loops' frame through the pre-filter's two poles, V */
+    float x_f, p_f;           /* low-passed cross and dot products of e_s2 with the last period's, V^2 */
     float w_f, T_f, id_f, i_f;    /* low-passed: speed, torque reference, d current, |i| */
     float ierr_f;             /* low-passed |i_ref - i| */
+    float jump;               /* rad, the loops' angle's turn beyond their speed (4.), leaky */
     /* the last step's residuals (<= 1 on track) */
-    float r_dir, r_mag, r_mech, r_cur;
+    float r_dir, r_slip, r_mech, r_cur;
     float E_hat, E_err;       /* V, the last step's expected EMF and error bound */
     float T_L_hat;            /* N m */
-    float T_L_abs;            /* N m, |T_L_hat| low-passed: what r_mech compares */
 } fs_monitor;
 
 /* The design constants (see above; reasons in fs_monitor.c). */
@@ -99,7 +135,8 @@ typedef struct {
 
 fs_status fs_monitor_init(fs_monitor *m, const fs_monitor_config *cfg);
 void fs_monitor_reset(fs_monitor *m);
-/* One step at the loops' rate; returns the largest residual (0 while off). */
+/* One step at the loops' rate; returns the largest residual (0 while off)
+ * and sets `jumped` when the loops' angle jumped (fs_lock_latch). */
 float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in);
 
 #endif /* FS_MONITOR_H */

@@ -5,9 +5,15 @@
  * rpm with 20 A on the loops' q axis gives the voltage and current of its
  * model; the loops' angle and speed are the rotor's (on track), 30 or 100
  * el.deg off, pi off, spinning the other way, or three times too fast: only
- * the first two keep the back-EMF residual below 1. At standstill the mechanics judge: an estimate
- * whose motion implies a load of 2 T_max is off, a load of half T_max is
- * not. The current loops' error, switching off, and the refusals.
+ * the first two keep the back-EMF residual below 1. The slip: an estimate
+ * stuck at standstill, or turning at 0.9 and 0.5 of the rotor's speed, is
+ * measured at the slip it has (flagged past pi / t_lost, not below); a
+ * carrier's leak turning at its frequency stays out of it. The jump: the
+ * loops' angle stepping 120 el.deg latches, 30 el.deg does not; a speed
+ * state off by 100 el. rad/s while the angle tracks does not, 250 does. At
+ * standstill the mechanics judge: an estimate whose motion implies a load of
+ * 2 T_max is off, a load of half T_max is not. The current loops' error,
+ * switching off, and the refusals.
  */
 #include <math.h>
 
@@ -16,7 +22,7 @@
 
 /* yang2022's machine, bench and limits */
 static const fs_monitor_config CFG = {1e-4f, 0, 0.036f, 65e-6f, 65e-6f, 0.007f, 5, 1.87e-3f, 0.0f,
-                                      3.2f, 60.0f, 0.01f, 5e-3f};
+                                      3.2f, 60.0f, 0.01f, 5e-3f, 20e-3f, 0.0f};
 #define U_DC 24.0f
 
 /* The current j i_q e^{j phi} on the loops' q axis (phi = k_th w t + off). */
@@ -39,20 +45,59 @@ static fs_ab model_u(double t0, double w, double k_th, double off, double i_q)
 }
 
 /* Runs 0.1 s with the loops' angle theta_hat(t) = k_th w t + off and speed
- * k_th w; returns the largest residual over the last half. */
-static float run_emf(double w, double k_th, double off, fs_monitor *m)
+ * k_th w, a voltage u_leak e^{j w_h t} added in the loops' frame (a
+ * carrier's leak turning at the carrier's frequency, cfg.w_h = w_h);
+ * returns the largest residual over the last half, and the largest r_slip
+ * in *slip_max. */
+static float run_emf_leak(double w, double k_th, double off, double u_leak, double w_h, fs_monitor *m, float *slip_max)
 {
-    FS_CHECK(fs_monitor_init(m, &CFG) == FS_OK, "init");
+    fs_monitor_config cfg = CFG;
+    cfg.w_h = (float)w_h;
+    FS_CHECK(fs_monitor_init(m, &cfg) == FS_OK, "init");
     const double Ts = CFG.Ts, i_q = 20.0;
     float r_max = 0.0f;
+    *slip_max = 0.0f;
     for (int k = 0; k < 1000; ++k) {
         const double t = k * Ts;
-        fs_monitor_in in = {current(t, w, k_th, off, i_q), model_u(t, w, k_th, off, i_q), U_DC,
-                            (float)fs_test_wrap(k_th * w * t + off), (float)(k_th * w), 2.0f, {0.0f, 0.0f}, true};
+        const double th = k_th * w * t + off;
+        fs_ab u = model_u(t, w, k_th, off, i_q);
+        const double ph = th + 0.5 * k_th * w * Ts + w_h * (t + 0.5 * Ts);
+        u.alpha += (float)(u_leak * cos(ph));
+        u.beta += (float)(u_leak * sin(ph));
+        fs_monitor_in in = {current(t, w, k_th, off, i_q), u, U_DC,
+                            (float)fs_test_wrap(th), (float)(k_th * w), (float)cos(th), (float)sin(th),
+                            {0.0f, (float)i_q}, 2.0f, {0.0f, 0.0f}, true};
         float r = fs_monitor_step(m, &in);
         if (k >= 500 && r > r_max) r_max = r;
+        if (k >= 500 && m->r_slip > *slip_max) *slip_max = m->r_slip;
     }
     return r_max;
+}
+
+static float run_emf(double w, double k_th, double off, fs_monitor *m)
+{
+    float slip;
+    return run_emf_leak(w, k_th, off, 0.0, 0.0, m, &slip);
+}
+
+/* The loops on track at w (their angle w t), from 50 ms on their angle
+ * stepped by `step` and their speed state off by dw while the angle keeps
+ * tracking; returns whether the monitor latched `jumped` in 0.1 s, and the
+ * largest |jump| in *peak. */
+static bool run_jump(double w, double step, double dw, fs_monitor *m, float *peak)
+{
+    FS_CHECK(fs_monitor_init(m, &CFG) == FS_OK, "init");
+    *peak = 0.0f;
+    const double Ts = CFG.Ts, i_q = 20.0;
+    for (int k = 0; k < 1000; ++k) {
+        const double t = k * Ts, th = w * t + (k >= 500 ? step : 0.0);
+        fs_monitor_in in = {current(t, w, 1.0, 0.0, i_q), model_u(t, w, 1.0, 0.0, i_q), U_DC,
+                            (float)fs_test_wrap(th), (float)(w + (k >= 500 ? dw : 0.0)), (float)cos(th), (float)sin(th),
+                            {0.0f, (float)i_q}, 2.0f, {0.0f, 0.0f}, true};
+        fs_monitor_step(m, &in);
+        if (fabsf(m->jump) > *peak) *peak = fabsf(m->jump);
+    }
+    return m->jumped;
 }
 
 /* Standstill-ish: the loops' speed accelerates at a (el. rad/s^2) from 0
@@ -64,7 +109,9 @@ static float run_mech(float T_ref, double a, fs_monitor *m)
     FS_CHECK(fs_monitor_init(m, &CFG) == FS_OK, "init");
     for (int k = 0; k < 500; ++k) {   /* 50 ms: 10 tau */
         const double t = k * CFG.Ts;
-        fs_monitor_in in = {{0.0f, 5.0f}, {0.0f, 0.0f}, 100.0f, (float)fs_test_wrap(0.5 * a * t * t), (float)(a * t),
+        const double th = 0.5 * a * t * t;
+        fs_monitor_in in = {{0.0f, 5.0f}, {0.0f, 0.0f}, 100.0f, (float)fs_test_wrap(th), (float)(a * t),
+                            (float)cos(th), (float)sin(th), {(float)(5.0 * sin(th)), (float)(5.0 * cos(th))},
                             T_ref, {0.0f, 0.0f}, true};
         fs_monitor_step(m, &in);
     }
@@ -90,11 +137,39 @@ int main(void)
     r = run_emf(w, 3.0, 0.0, &m);
     FS_CHECK(r > 1.0f, "an estimate three times too fast: residual %g", r);
 
+    /* the slip: the EMF's turn in the loops' frame against pi / t_lost */
+    const double slip_bound = FS_TEST_PI / CFG.t_lost;
+    float slip;
+    run_emf_leak(w, 1.0, 0.0, 0.0, 0.0, &m, &slip);
+    FS_CHECK(slip < 0.05f, "on track the EMF stands still in the loops' frame: r_slip %g", slip);
+    r = run_emf_leak(w, 0.0, 0.3, 0.0, 0.0, &m, &slip);
+    FS_CHECK(slip > 5.0f && r >= slip, "an estimate stuck at standstill, the rotor at 2000 rpm: r_slip %g", slip);
+    FS_CHECK_REL(slip, w / slip_bound, 0.05, 0.0, "measured at the slip it has (w)");
+    run_emf_leak(w, 0.5, 0.0, 0.0, 0.0, &m, &slip);
+    FS_CHECK_REL(slip, 0.5 * w / slip_bound, 0.05, 0.0, "at half the rotor's speed: r_slip at the slip 0.5 w");
+    run_emf_leak(w, 1.0 - 0.8 * slip_bound / w, 0.0, 0.0, 0.0, &m, &slip);
+    FS_CHECK(slip > 0.7f && slip < 0.9f, "a slip of 0.8 pi / t_lost is not flagged: r_slip %g", slip);
+    /* a carrier's leak of 1.5 times the EMF turning at 1 kHz in the loops'
+     * frame: the pre-filter keeps it out of the turn measured (without it
+     * the leak's turn would weigh 2.25 times the EMF's: r_slip about 28) */
+    r = run_emf_leak(w, 1.0, 0.0, 1.5 * w * CFG.psi_f, 2.0 * FS_TEST_PI * 1000.0, &m, &slip);
+    FS_CHECK(slip < 0.5f && r < 1.0f, "a turning leak: r_slip %g, residual %g", slip, r);
+
+    /* the jump: the loops' angle turning beyond their speed */
+    float peak;
+    FS_CHECK(run_jump(w, 2.0 * FS_TEST_PI / 3.0, 0.0, &m, &peak), "an angle step of 120 el.deg latches: peak %g", peak);
+    FS_CHECK(!run_jump(w, FS_TEST_PI / 6.0, 0.0, &m, &peak), "30 el.deg does not: peak %g", peak);
+    FS_CHECK_NEAR(peak, FS_TEST_PI / 6.0, 0.01, "the step itself");
+    FS_CHECK_NEAR(m.jump, FS_TEST_PI / 6.0 * exp(-2.0 * 0.05 / CFG.t_lost), 0.002, "leaked over t_lost / 2 since");
+    FS_CHECK(!run_jump(w, 0.0, -100.0, &m, &peak), "a speed state 100 el. rad/s off while the angle tracks: peak %g", peak);
+    FS_CHECK_NEAR(peak, 100.0 * 0.5 * CFG.t_lost, 0.05, "its turn settles at dw t_lost / 2");
+    FS_CHECK(run_jump(w, 0.0, -250.0, &m, &peak), "250 el. rad/s off (beyond pi / t_lost): peak %g", peak);
+
     /* mechanics: the drive pushes T_max, the loops' speed runs the other way
      * as fast as T_max can turn it: an implied load of 2 T_max */
     const double a_T = CFG.T_max * CFG.pole_pairs / CFG.J;   /* el. rad/s^2 per T_max */
     r = run_mech(CFG.T_max, -a_T, &m);
-    FS_CHECK(r > 1.2f, "reversed torque: r_mech %g, T_L_hat %g", r, m.T_L_hat);
+    FS_CHECK(r > 1.2f && !m.jumped, "reversed torque: r_mech %g, T_L_hat %g", r, m.T_L_hat);
     FS_CHECK_REL(m.T_L_hat, 2.0f * CFG.T_max, 0.05, 0.0, "the implied load");
     r = run_mech(CFG.T_max, 0.5 * a_T, &m);
     FS_CHECK(r < 0.5f, "half of T_max accelerates, half is load: r_mech %g", r);
@@ -102,7 +177,7 @@ int main(void)
 
     /* the current loops' error */
     FS_CHECK(fs_monitor_init(&m, &CFG) == FS_OK, "init");
-    fs_monitor_in in = {{0.0f, 0.0f}, {0.0f, 0.0f}, U_DC, 0.0f, 0.0f, 0.0f, {0.0f, 0.3f * CFG.i_max}, true};
+    fs_monitor_in in = {{0.0f, 0.0f}, {0.0f, 0.0f}, U_DC, 0.0f, 0.0f, 1.0f, 0.0f, {0.0f, 0.0f}, 0.0f, {0.0f, 0.3f * CFG.i_max}, true};
     for (int k = 0; k < 300; ++k) r = fs_monitor_step(&m, &in);
     FS_CHECK(r > 0.7f && r < 0.76f, "0.3 i_max of error: r_cur %g", r);
     in.i_err.q = 0.5f * CFG.i_max;
@@ -129,6 +204,12 @@ int main(void)
     c = CFG;
     c.i_max = NAN;
     FS_CHECK_EQ_INT(fs_monitor_init(&m, &c), FS_ERR_I_MAX, "i_max NaN");
+    c = CFG;
+    c.t_lost = 2.0f * CFG.Ts;
+    FS_CHECK_EQ_INT(fs_monitor_init(&m, &c), FS_ERR_LIMIT, "t_lost below 4 Ts");
+    c = CFG;
+    c.w_h = -1.0f;
+    FS_CHECK_EQ_INT(fs_monitor_init(&m, &c), FS_ERR_BANDWIDTH, "w_h negative");
     FS_CHECK_EQ_INT(fs_monitor_init(NULL, &CFG), FS_ERR_NULL, "null");
     return fs_test_summary("test_monitor");
 }

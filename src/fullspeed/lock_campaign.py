@@ -22,6 +22,18 @@ machine zoo with its designed defaults (`zoo_bases`):
 - polarity: polarity detection off and the rotor 180 el.deg from the
   estimate (injection and blend: the drive starts pi off).
 
+These are the `original` set (358 runs). The `added` set probes the checks
+fs_monitor.h gained with them (the back-EMF's slip, the loops' angle
+jumping) and makes the healthy runs harder: the yang2022 full range
+(beyond-full-range: standstill under rated load to 4400 rpm in flux
+weakening and back through zero) as a base of its own, every kind; on the
+zoo sample, starts pi off from 150 and 210 el.deg (the saliency estimator
+settles on the axis nearest its estimate: pi off) and a load impact of
+2.5 T_max at standstill, on injection; and ZOO_ADDED further zoo machines,
+each with HEALTHY_ADDED_ZOO healthy runs, the three pi-off starts and the
+impact at standstill. `cases(added=False)` is the original campaign alone,
+with the same seeds; `summary` reports both sets beside the whole.
+
 `run_campaign(out)` runs them through the journal (parallel, resumable) and
 returns the rows; `summary(rows)` gives the table by kind. Command:
 `python -m fullspeed.lock_campaign OUT` prints it.
@@ -39,12 +51,16 @@ from .metrics import SENSORLESS_STAGES, true_loss_at
 from .schema import deep_merge
 
 KINDS = ("healthy", "param", "impact", "reversal", "polarity")
-DESCRIPTION = ("per base (SMO, rotating injection and the blend on yang2022 and motulator-2kw-ipmsm; the blend on the "
-               "first six machines of the zoo whose scenario loads, designed defaults, 0 -> half rated speed under half "
-               "rated torque): healthy runs "
-               "with R_s, L_d, L_q, psi_f each x U(0.85, 1.15) and fresh sensor noise; the controller's R_s, L_d, "
-               "L_q, psi_f, J at x0.5 and x2; load steps to 1.5 and 2.5 T_max; the speed reference stepped to its "
-               "negative; with injection, polarity detection off and the rotor 180 el.deg from the estimate.")
+SETS = ("original", "added")
+DESCRIPTION = ("original set, per base (SMO, rotating injection and the blend on yang2022 and motulator-2kw-ipmsm; "
+               "the blend on the first six machines of the zoo whose scenario loads, designed defaults, 0 -> half "
+               "rated speed under half rated torque): healthy runs with R_s, L_d, L_q, psi_f each x U(0.85, 1.15) "
+               "and fresh sensor noise; the controller's R_s, L_d, L_q, psi_f, J at x0.5 and x2; load steps to 1.5 "
+               "and 2.5 T_max; the speed reference stepped to its negative; with injection, polarity detection off "
+               "and the rotor 180 el.deg from the estimate. Added set: the yang2022 full range (standstill under "
+               "rated load to 4400 rpm in flux weakening and back through zero) as a base with every kind; on the "
+               "zoo sample, pi-off starts from 150 and 210 el.deg and a load of 2.5 T_max at standstill; twelve "
+               "further zoo machines with four healthy runs, the three pi-off starts and the standstill impact each.")
 SEED = 2111
 HEALTHY_PER_BASE = 16
 PARAMS = ("R_s", "L_d", "L_q", "psi_f", "J")
@@ -83,6 +99,17 @@ BASES: dict[str, tuple[str, dict, str, float, float, float]] = {
 }
 
 
+# The added set's catalog base: the yang2022 full range (B-FULLRANGE's
+# scenario), its impact and reversal at the top speed, in flux weakening.
+ADDED_BASES: dict[str, tuple[str, dict, str, float, float, float]] = {
+    "yang2022-fullrange": ("beyond-full-range", {}, "blend", 3.3, 4400.0, 7.0),
+}
+PI_OFF_DEG = (150.0, 210.0)   # initial errors from which the saliency estimator settles pi off
+T_STANDSTILL = 0.15           # s: the added impact, at standstill on injection (the zoo's start)
+ZOO_ADDED = 12                # further zoo machines in the added set
+HEALTHY_ADDED_ZOO = 4         # healthy runs on each of them
+
+
 # A sample of the machine zoo (fullspeed.zoo), blended sensorless with the
 # designed defaults only: the first ZOO_N machines of its seed. Each runs 0 ->
 # half its rated speed from standstill under half its rated torque; machines
@@ -106,15 +133,17 @@ def zoo_scenario(k: int) -> dict:
     return d
 
 
-def zoo_bases(n: int = ZOO_N) -> dict:
-    """The first n zoo machines whose campaign scenario loads (a refused one,
-    with its reason, is in ZOO_REFUSED after the call)."""
+def zoo_bases(n: int = ZOO_N, start: int = 0) -> dict:
+    """The first n zoo machines from number `start` whose campaign scenario
+    loads (a refused one, with its reason, is in ZOO_REFUSED after the
+    call)."""
     from . import zoo
     from .errors import ConfigError
 
-    out, k = {}, 0
-    ZOO_REFUSED.clear()
-    while len(out) < n and k < 10 * n:
+    out, k = {}, start
+    if start == 0:
+        ZOO_REFUSED.clear()
+    while len(out) < n and k < start + 10 * n:
         try:
             _load(f"zoo:{k}", {})
             out[f"zoo-{k}"] = (f"zoo:{k}", {}, "blend", 0.9, 0.5 * zoo.machine(k)["rated"]["speed_rpm"], 1.2)
@@ -136,35 +165,69 @@ def _load(scen: str, overrides: dict):
     return load_scenario(scen, overrides)
 
 
-def cases(healthy: int = HEALTHY_PER_BASE, bases: dict | None = None, seed: int = SEED) -> list[dict]:
-    """Every case: its kind, base, a label, and the scenario overrides."""
-    bases = bases if bases is not None else {**BASES, **zoo_bases()}
-    rng = np.random.default_rng(seed)
+def _base_cases(name: str, spec: tuple, rng: np.random.Generator, healthy: int, kinds=KINDS,
+                pi_off=(180.0,), standstill: bool = False) -> list[dict]:
+    """One base's cases of the given kinds (the original campaign: all kinds,
+    a pi-off start from 180 el.deg)."""
+    scen, ov, est, t_x, w_x, t_end = spec
+    ov = deep_merge(ov, {"controller": {"lock": "detect"}})
     out = []
-    for name, (scen, ov, est, t_x, w_x, t_end) in bases.items():
-        ov = deep_merge(ov, {"controller": {"lock": "detect"}})
 
-        def add(kind, label, extra):
-            out.append({"kind": kind, "base": name, "estimator": est, "label": label,
-                        "scenario": scen, "overrides": deep_merge(ov, extra)})
+    def add(kind, label, extra):
+        out.append({"kind": kind, "base": name, "estimator": est, "label": label,
+                    "scenario": scen, "overrides": deep_merge(ov, extra)})
+    if "healthy" in kinds:
         for k in range(healthy):
             sc = {f"{p}_scale": float(rng.uniform(0.85, 1.15)) for p in PARAMS[:4]}
             add("healthy", f"healthy {k}", {"controller": sc, "sensors": {"seed": int(rng.integers(1, 10**6))}})
+    if "param" in kinds:
         for label, scales in PARAM_ERRORS:
             add("param", label, {"controller": {f"{p}_scale": v for p, v in scales.items()}})
-        base = _load(scen, ov).data
-        T_max = base["controller"]["T_max"]
+    base = _load(scen, ov).data
+    T_max = base["controller"]["T_max"]
+    if "impact" in kinds:
         for k in IMPACTS:
             prof = [[0.0, 0.0], [t_x, 0.0], [t_x + 0.002, k * T_max], [t_end, k * T_max]]
             add("impact", f"load {k:g} T_max", {"load": {"torque": prof}})
+    if standstill:
+        k = IMPACTS[-1]
+        prof = [[0.0, 0.0], [T_STANDSTILL, 0.0], [T_STANDSTILL + 0.002, k * T_max], [t_end, k * T_max]]
+        add("impact", f"load {k:g} T_max at standstill", {"load": {"torque": prof}})
+    if "reversal" in kinds:
         # the reference (a profile: times, values) up to t_x, then stepped to its negative
         times, values = base["references"]["speed_rpm"]
         head = [[t, v] for t, v in zip(times, values) if t < t_x]
         add("reversal", f"step {w_x:g} -> {-w_x:g} rpm",
             {"references": {"speed_rpm": head + [[t_x, w_x], [t_x, -w_x], [t_end, -w_x]]}})
-        if est != "smo":
-            add("polarity", "polarity off, 180 el.deg", {"polarity": {"enabled": False}, "initial": {"theta_e_deg": 180.0}})
+    if "polarity" in kinds and est != "smo":
+        for deg in pi_off:
+            add("polarity", f"polarity off, {deg:g} el.deg", {"polarity": {"enabled": False}, "initial": {"theta_e_deg": deg}})
     return out
+
+
+def cases(healthy: int = HEALTHY_PER_BASE, bases: dict | None = None, seed: int = SEED,
+          added: bool | None = None) -> list[dict]:
+    """Every case: its set, kind, base, a label, and the scenario overrides.
+    The original set on `bases` (default: BASES and the zoo sample); the
+    added set (module docstring) when `added` (default: with the default
+    bases only)."""
+    added = bases is None if added is None else added
+    bases = bases if bases is not None else {**BASES, **zoo_bases()}
+    rng = np.random.default_rng(seed)
+    out = [dict(c, set="original") for name, spec in bases.items() for c in _base_cases(name, spec, rng, healthy)]
+    if not added:
+        return out
+    rng = np.random.default_rng(seed + 1)   # the original set's draws stay as they were
+    more = []
+    for name, spec in ADDED_BASES.items():
+        more += _base_cases(name, spec, rng, healthy)
+    for name, spec in bases.items():
+        if name.startswith("zoo-"):
+            more += _base_cases(name, spec, rng, healthy, kinds=("polarity",), pi_off=PI_OFF_DEG, standstill=True)
+    for name, spec in zoo_bases(ZOO_ADDED, start=max([int(n[4:]) for n in bases if n.startswith("zoo-")] + [-1]) + 1).items():
+        more += _base_cases(name, spec, rng, HEALTHY_ADDED_ZOO, kinds=("healthy", "polarity"),
+                            pi_off=(180.0,) + PI_OFF_DEG, standstill=True)
+    return out + [dict(c, set="added") for c in more]
 
 
 def run_case(task: dict) -> dict:
@@ -183,13 +246,13 @@ def run_case(task: dict) -> dict:
 
 
 def run_campaign(out: Path, workers: int | None = None, healthy: int = HEALTHY_PER_BASE,
-                 bases: dict | None = None, progress: bool = False) -> list[dict]:
+                 bases: dict | None = None, progress: bool = False, added: bool | None = None) -> list[dict]:
     """Every case run (resuming from out's journal), as rows: case and result."""
-    tasks = cases(healthy, bases)
+    tasks = cases(healthy, bases, added=added)
     results = run_tasks(run_case, tasks, Path(out), workers=workers, progress=progress, desc="B-LOCK")
     rows = []
     for task, r in zip(tasks, results):
-        row = {k: task[k] for k in ("kind", "base", "estimator", "label")}
+        row = {k: task[k] for k in ("set", "kind", "base", "estimator", "label")}
         row.update(r or {"stop_reason": "error", "error": "not run"})
         rows.append(row)
     return rows
@@ -206,27 +269,33 @@ def judge(row: dict) -> dict:
 
 
 def summary(rows: list[dict]) -> dict:
-    """Counts and delays by kind and over all: runs, true losses, detected,
-    false alarms among the runs that never truly lost, median and worst delay."""
+    """Counts and delays by kind, by estimator, by set (when both are there)
+    and over all: runs, true losses, detected (and %), false alarms among
+    the runs that never truly lost (and %), median and worst delay."""
     def stats(rs):
         v = [judge(r) for r in rs]
         lost = [x for x in v if x["lost"]]
         healthy = [x for x in v if not x["lost"] and not x["error"]]
         d = sorted(x["delay"] for x in lost if x["delay"] is not None)
+        detected, false_alarms = sum(x["flagged"] for x in lost), sum(x["false_alarm"] for x in healthy)
         return {"runs": len(rs), "errors": sum(x["error"] for x in v), "true_losses": len(lost),
-                "detected": sum(x["flagged"] for x in lost), "not_lost": len(healthy),
-                "false_alarms": sum(x["false_alarm"] for x in healthy),
+                "detected": detected, "not_lost": len(healthy), "false_alarms": false_alarms,
                 "slipping_flags": sum(x["false_alarm"] and x["slipping"] for x in healthy),
                 "delay_median_ms": 1e3 * float(np.median(d)) if d else None,
-                "delay_worst_ms": 1e3 * d[-1] if d else None}
+                "delay_worst_ms": 1e3 * d[-1] if d else None,
+                "detection_pct": 100.0 * detected / len(lost) if lost else None,
+                "false_alarm_pct": 100.0 * false_alarms / len(healthy) if healthy else None}
     kinds = [k for k in KINDS if any(r["kind"] == k for r in rows)]
     out = {k: stats([r for r in rows if r["kind"] == k]) for k in kinds}
     for est in sorted(set(r["estimator"] for r in rows)):
         out[f"on {est}"] = stats([r for r in rows if r["estimator"] == est])
+    sets = [k for k in SETS if any(r.get("set", "original") == k for r in rows)]
+    if len(sets) > 1:
+        for k in sets:
+            rs = [r for r in rows if r.get("set", "original") == k]
+            out[f"{k} set"] = stats(rs)
+            out[f"{k} set, healthy"] = stats([r for r in rs if r["kind"] == "healthy"])
     out["all"] = stats(rows)
-    a = out["all"]
-    a["detection_pct"] = 100.0 * a["detected"] / a["true_losses"] if a["true_losses"] else None
-    a["false_alarm_pct"] = 100.0 * a["false_alarms"] / a["not_lost"] if a["not_lost"] else None
     return out
 
 
