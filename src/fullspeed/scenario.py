@@ -119,7 +119,9 @@ SCENARIO = {
         "f_h": POS(None, hi=1e5, doc="Hz; default the machine's [injection]; at most a quarter of the sampling rate"),
         "bw_filter_p": POS(None, hi=1e6, doc="rad/s, SRFF at +w_h; default w_h / 20 (fs_hfi.h)"),
         "bw_filter_n": POS(None, hi=1e6, doc="rad/s, SRFF at -w_h + 2 w_r; default w_h / 20"),
-        "bw_observer": POS(None, hi=1e6, doc="rad/s, motion observer; default bw_filter_n / 5"),
+        "bw_observer": POS(None, hi=1e6, doc="rad/s, motion observer; default bw_filter_n / 5 (tracking = \"lag\": bw_filter_n)"),
+        "tracking": C("paper", "lag", default="paper",
+                      doc="hfi/blend: lag designs the motion observer with the negative-sequence filter's lag in its loop (fs_motion_obs.h; a faster observer, less error under a load it does not know); paper: Fig. 5 on the error as it is"),
         "leak": C("keep", "remove", default="keep",
                   doc="hfi/blend: remove takes the fundamental's leak out of the negative carrier (fs_hfi_filter.h; no load-proportional bias); keep: the paper's filter"),
         "xcomp": Spec("any", None, doc="cross-saturation table {i_q = [A...], delta_deg = [...]} on an even grid, or a TOML file holding it, or (swvi) \"paper\": the machine's fitted error polynomial"),
@@ -138,7 +140,7 @@ SCENARIO = {
     "blending": T({
         "lower_rpm": NONNEG(None, hi=1e6, doc="eq. (28), the injection alone below; default the machine's [blending], else designed"),
         "upper_rpm": POS(None, hi=1e6, doc="eq. (28), the back-EMF observer alone above; default the machine's [blending], else designed"),
-        "bw_observer": POS(None, hi=1e6, doc="rad/s, the motion observer after the blend (Fig. 6); default that of the injection's"),
+        "bw_observer": POS(None, hi=1e6, doc="rad/s, the motion observer after the blend (Fig. 6); default that of the injection's (with injection.tracking = \"lag\": the paper's rule, bw_filter_n / 5)"),
         "gate": B(False, doc="the SMO's weight only once it has converged, the injection stopped only then (fs_blend.h); false: eq. (28) alone"),
     }, default={}),
     "load": T({
@@ -510,7 +512,7 @@ def _injection_fields(d: dict, m: Machine, source, bw_speed_given: bool = True, 
         if inj[key] is not None and inj[key] * Ts > 0.5:
             raise ConfigError(f"injection.{key}", inj[key], f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s", source)
     h = _hfi_design(inj, Ts, L_d, L_q, source)   # the bandwidths and the held amplitude as the estimator designs them
-    w_o = d["blending"]["bw_observer"] or h.cfg.obs.bandwidth
+    w_o = d["blending"]["bw_observer"] or (h.w_o_blend if ctl["angle"] == "blend" else h.cfg.obs.bandwidth)
     if not bw_speed_given and ctl["bw_speed"] > 0.5 * w_o:
         # the speed comes from the injection's (or the blend's) motion observer: the speed loop at half
         # its bandwidth keeps the observer's lag small (on the machine zoo: 28 of 50 saturating machines
@@ -670,7 +672,8 @@ def _hfi_design(inj: dict, Ts: float, L_d: float, L_q: float, source=None):
 
     cfg = ffi.new("fs_hfi_config *", {"Ts": Ts, "delay": 1.0, "u_h": inj["u_h"], "w_h": 2 * math.pi * inj["f_h"],
                                       "L_d": L_d, "L_q": L_q,
-                                      "w_b_p": inj["bw_filter_p"] or 0.0, "w_b_n": inj["bw_filter_n"] or 0.0})
+                                      "w_b_p": inj["bw_filter_p"] or 0.0, "w_b_n": inj["bw_filter_n"] or 0.0,
+                                      "leak": inj["leak"] == "remove", "lag": inj["tracking"] == "lag"})
     cfg.obs.J, cfg.obs.pole_pairs, cfg.obs.bandwidth = 1.0, 1, inj["bw_observer"] or 0.0
     h = ffi.new("fs_hfi *")
     st = lib.fs_hfi_init(h, cfg)
