@@ -379,8 +379,10 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         if f"injection.{key}" not in notes and d["injection"][key] is not None and ctl["angle"] in ("hfi", "blend", "swvi"):
             notes[f"injection.{key}"] = dz.Value(d["injection"][key], "", "given in the machine file or the scenario", True)
     notes.update(d.pop("_notes", {}))
+    from .calibrate import check_table_settings
     from .checks import warnings_of
-    return Scenario(name=d["name"], machine=m, data=d, source=source, design=notes, warnings=warnings_of(d, m))
+    warnings = warnings_of(d, m) + check_table_settings(d, m.name, source)
+    return Scenario(name=d["name"], machine=m, data=d, source=source, design=notes, warnings=warnings)
 
 
 def _per_unit(d: dict, data: dict, m: Machine, source) -> None:
@@ -690,8 +692,9 @@ def _xcomp_table(raw, source) -> dict:
         except ConfigError as exc:   # name the field, and the file in it
             raise ConfigError(where, raw, f"{p}: {exc.allowed}", source) from None
         raw = raw.get("xcomp", raw)
-    # what `fullspeed calibrate` writes beside the table (its provenance and quality) is accepted and not used
-    if not isinstance(raw, dict) or set(raw) - {"i_q", "delta_deg", "source", "spread_deg", "speed_rpm", "residual_deg"} \
+    # what `fullspeed calibrate` writes beside the table (its provenance and quality) is accepted and not used;
+    # the settings it was measured with are kept for calibrate.check_table_settings
+    if not isinstance(raw, dict) or set(raw) - {"i_q", "delta_deg", "source", "spread_deg", "speed_rpm", "residual_deg", "settings"} \
             or not {"i_q", "delta_deg"} <= set(raw):
         raise ConfigError(where, raw if not isinstance(raw, dict) else sorted(raw), "must be a table with i_q = [A...] and delta_deg = [el.deg...]", source)
     i_q, delta = raw["i_q"], raw["delta_deg"]
@@ -703,7 +706,13 @@ def _xcomp_table(raw, source) -> dict:
         raise ConfigError(f"{where}.i_q", i_q, "must rise in even steps", source)
     if not all(abs(x) < 90.0 for x in delta):
         raise ConfigError(f"{where}.delta_deg", delta, "must lie within +-90 el.deg", source)
-    return {"i_q": [float(x) for x in i_q], "delta_deg": [float(x) for x in delta]}
+    out = {"i_q": [float(x) for x in i_q], "delta_deg": [float(x) for x in delta]}
+    if "settings" in raw:
+        st = raw["settings"]
+        if not isinstance(st, dict) or not all(isinstance(v, (str, int, float)) and not isinstance(v, bool) for v in st.values()):
+            raise ConfigError(f"{where}.settings", st, "must be a table of the settings it was measured with (names and numbers)", source)
+        out["settings"] = {k: float(v) if isinstance(v, int) else v for k, v in st.items()}
+    return out
 
 
 def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Scenario:
