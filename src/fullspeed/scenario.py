@@ -97,9 +97,9 @@ SCENARIO = {
         "valid_rpm": NONNEG(None, hi=1e6, doc="the observer's estimate is trusted above this speed; default 5/8 of the lower blending speed (yang2022: 100 rpm)"),
         "top_speed_rpm": POS(None, hi=1e6, doc="for the gain bound; default 1.5 x rated"),
         "lag": C("exact", "paper", default="exact", doc="form = \"paper\": the adaptive filter's phase lag compensated exactly, or by pi/4 as the paper writes it"),
-        "form": C("paper", "tracking", default="paper",
-                  doc="paper: the SMO and PLL of yang2022 sec. 2; tracking: fullspeed's, exact in discrete time, "
-                      "with a motion observer on the measured torque (fs_smo.h)"),
+        "form": C("paper", "tracking", default="tracking",
+                  doc="tracking: fullspeed's, exact in discrete time, with a motion observer on the measured torque whose "
+                      "bandwidth follows the EMF (fs_smo.h); paper: the SMO and PLL of yang2022 sec. 2 (its scenarios pin it)"),
         # how the sensorless drive starts: on the encoder until `handover`, or
         # sensorless from standstill with an I/f start
         "start": C("encoder", "if", default="encoder", doc="sensorless start: on the encoder until handover, or I/f from standstill"),
@@ -116,7 +116,9 @@ SCENARIO = {
         "bw_filter_n": POS(None, hi=1e6, doc="rad/s, SRFF at -w_h + 2 w_r; default w_h / 20"),
         "bw_observer": POS(None, hi=1e6, doc="rad/s, motion observer; default bw_filter_n / 5"),
         "leak": C("keep", "remove", default="keep",
-                  doc="hfi/blend: remove takes the fundamental's leak out of the negative carrier (fs_hfi_filter.h; no load-proportional bias); keep: the paper's filter"),
+                  doc="hfi/blend: keep: the paper's filter; remove takes the fundamental's leak out of the negative carrier "
+                      "(fs_hfi_filter.h; no load-proportional bias), not the default: on the yang2022 machine at rated load "
+                      "at standstill it makes the injection's loop limit-cycle (beyond-full-range 50.9 el.deg)"),
         "xcomp": Spec("any", None, doc="cross-saturation table {i_q = [A...], delta_deg = [...]} on an even grid, or a TOML file holding it, or (swvi) \"paper\": the machine's fitted error polynomial"),
         "stop_rpm": POS(None, hi=1e6, doc="blend: the injection stops above this speed (resumes below 0.9 of it); default 1.2 x the upper blending speed"),
         "sequence": C("optimized", "conventional", default="optimized", doc="swvi: the time sequence of yu2022 sec. 3.2"),
@@ -134,7 +136,7 @@ SCENARIO = {
         "lower_rpm": NONNEG(None, hi=1e6, doc="eq. (28), the injection alone below; default the machine's [blending], else designed"),
         "upper_rpm": POS(None, hi=1e6, doc="eq. (28), the back-EMF observer alone above; default the machine's [blending], else designed"),
         "bw_observer": POS(None, hi=1e6, doc="rad/s, the motion observer after the blend (Fig. 6); default that of the injection's"),
-        "gate": B(False, doc="the SMO's weight only once it has converged, the injection stopped only then (fs_blend.h); false: eq. (28) alone"),
+        "gate": B(True, doc="the SMO's weight only once it has converged, the injection stopped only then (fs_blend.h); false: eq. (28) alone (the paper's)"),
     }, default={}),
     "load": T({
         "kind": C("torque", "speed", "speed_pi", "brake", default="torque",
