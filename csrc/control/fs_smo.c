@@ -192,11 +192,15 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
     fs_ab e = fs_lpf_step(&o->lpf, o->z, w_c);
     if (track) {
         /* the period's EMF as the model sees it, from the observer's own
-         * recursion (inside the boundary layer, z_n = z_{n-1} +
-         * c (e_n - e_hat_{n-1} - z_{n-1})): its magnitude sets the schedule */
-        const float en_a = e_hat.alpha + z_prev.alpha + (o->z.alpha - z_prev.alpha) / o->c_bl;
-        const float en_b = e_hat.beta + z_prev.beta + (o->z.beta - z_prev.beta) / o->c_bl;
-        o->e_raw += o->a_emf * (sqrtf(en_a * en_a + en_b * en_b) - o->e_raw);
+         * recursion inside the boundary layer, z_n = z_{n-1} +
+         * c (e_n - e_hat_{n-1} - z_{n-1}): its magnitude sets the schedule.
+         * Outside it (a current step the model did not predict, z
+         * saturated) the recursion does not hold: the magnitude is kept. */
+        if (o->r_i <= 1.0f) {
+            const float en_a = e_hat.alpha + z_prev.alpha + (o->z.alpha - z_prev.alpha) / o->c_bl;
+            const float en_b = e_hat.beta + z_prev.beta + (o->z.beta - z_prev.beta) / o->c_bl;
+            o->e_raw += o->a_emf * (sqrtf(en_a * en_a + en_b * en_b) - o->e_raw);
+        }
         const float mag = sqrtf(e.alpha * e.alpha + e.beta * e.beta);
         /* no angle without an EMF: the correction and the torque fade below e_valid */
         const float kappa = o->e_valid > 0.0f ? fminf(mag / o->e_valid, 1.0f) : 1.0f;
