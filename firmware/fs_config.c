@@ -215,7 +215,7 @@ const fs_drive_config fs_config = {
         .bw_pll = 250.0f,   /* PLL double pole, rad/s; default of [observer] bw_pll (fullspeed.scenario) */
         .w_valid = 52.3598785f,   /* |w_hat| below this: not valid, rad/s (el.); default of [observer] valid_rpm (fullspeed.scenario) */
         .lag = FS_SMO_LAG_EXACT,   /* fs_smo_lag (FS_SMO_FORM_PAPER); default of [observer] lag (fullspeed.scenario) */
-        .form = 0,   /* fs_smo_form; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .form = 1,   /* fs_smo_form; set by fullspeed.sim.build_config */
         .J = 0.0f,   /* FS_SMO_FORM_TRACKING: inertia kg m^2 (> 0), viscous friction N m s; 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .B = 0.0f,   /* FS_SMO_FORM_TRACKING: inertia kg m^2 (> 0), viscous friction N m s; 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .pole_pairs = 0,   /* FS_SMO_FORM_TRACKING: >= 1; 0: taken from the drive's fields or designed by fs_drive_init, or off */
@@ -255,9 +255,9 @@ const fs_drive_config fs_config = {
             .i_q0 = -40.0f,   /* grid: first current, step (> 0), A; scenario beyond-full-range: [injection] xcomp */
             .di_q = 5.0f,   /* grid: first current, step (> 0), A; scenario beyond-full-range: [injection] xcomp */
             .delta = {   /* lead of the saliency axis, theta_hat - theta_r, rad (|.| < pi/2); scenario beyond-full-range: [injection] xcomp */
-                -0.680514336f, -0.617818654f, -0.569165826f, -0.486178905f, -0.373690695f, -0.241721123f,
-                -0.126470044f, -0.0444081575f, -0.011995648f, 0.00962374546f, 0.0444099046f, 0.120022804f,
-                0.226491377f, 0.336145192f, 0.426546246f, 0.487128377f, 0.521698117f, 0.0f,
+                -0.680486441f, -0.617771506f, -0.568760931f, -0.486100376f, -0.37356329f, -0.24148725f,
+                -0.126473546f, -0.0443296172f, -0.0119450334f, 0.00947015639f, 0.0444081575f, 0.120143227f,
+                0.226543739f, 0.335963666f, 0.426666677f, 0.4871144f, 0.521649241f, 0.0f,
                 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
                 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
                 0.0f, 0.0f, 0.0f,
@@ -279,7 +279,7 @@ const fs_drive_config fs_config = {
             .pole_pairs = 0,   /* p (>= 1); 0: taken from the drive's fields or designed by fs_drive_init, or off */
             .bandwidth = 0.0f,   /* w_o, triple pole at -w_o, rad/s; w_o Ts <= 0.5; 0: taken from the drive's fields or designed by fs_drive_init, or off (blending.bw_observer) */
         },
-        .gate = 0,   /* 1: the caller gates the SMO's weight (header, fs_blend_step_gated); 0: eq. (28) alone; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .gate = 1,   /* 1: the caller gates the SMO's weight (header, fs_blend_step_gated); 0: eq. (28) alone; set by fullspeed.sim.build_config */
     },
     .w_inject_max = 163.362823f,   /* default of [injection] stop_rpm (fullspeed.scenario) */
     .polarity = {   /* polarity detection when sensorless from the first step (i_pulse 0: none; Ts taken from above; i_pulse_max 0... */

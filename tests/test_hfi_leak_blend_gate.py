@@ -129,5 +129,11 @@ def test_blend_keeps_the_rotor_for_bands_between_5_and_25_percent(band):
 
 
 def test_blend_without_the_gate_loses_the_rotor_in_a_low_band():
+    """The gate is what holds this band: without it the blend hunts in it
+    (its speed estimate swinging 110..240 rpm about a rotor at 130..170 rpm,
+    the weight flipping 0 <-> 1 between the two angles), its frame runs away
+    from the rotor while the observer is still within 1 el.deg, and the
+    current that follows throws the observer off too. With the gate the same
+    band holds (test above, 7.5 el.deg)."""
     _, t, e = _run("bench-motulator-2kw-blend", blending={"lower_rpm": 120.0, "upper_rpm": 195.0, "gate": False})
     assert np.abs(e[t >= 0.2]).max() > 90.0

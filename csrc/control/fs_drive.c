@@ -313,9 +313,12 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
         const float w_dir = own ? drv->smo.w : drv->blend.w_hat;
         const float w_min = own ? drv->smo.cfg.w_valid : 0.5f * drv->blend.cfg.w_lower;
         if (fabsf(w_dir) > w_min) fs_smo_set_dir(&drv->smo, w_dir);
+        /* below its validity the observer starts from the blended estimate
+         * (fs_smo_follow; the tracking form only) */
+        if (!own) fs_smo_follow(&drv->smo, drv->blend.theta_hat, drv->blend.w_hat, drv->blend.obs.T_d_hat);
         fs_smo_step(&drv->smo, i_f, drive_u_past(drv));
         fs_blend_step_gated(&drv->blend, drv->smo.theta, drv->hfi.theta, T_ff,   /* Fig. 6 */
-                            drv->smo.converged || !c->blend.gate, drv->injecting);
+                            drv->smo.converged || !c->blend.gate, drv->injecting && drv->hfi.gain >= 1.0f);
         /* Above w_inject_max the injection stops (g_w = 1 there: the HFI
          * angle is not read); below 0.9 w_inject_max it resumes from the
          * blended estimate. */
