@@ -47,7 +47,7 @@ RPM = 30.0 / np.pi
 # polarity detection off (the rotor starts at the estimate, as in motulator's
 # example); band at 10 % / 20 % of rated speed (fs_blend.h)
 _BLEND_A = {"controller": {"angle": "blend"}, "observer": {"start": "encoder", "form": "tracking"},
-            "injection": {"u_h": 250.0, "f_h": 1600.0, "bw_filter_p": 1005.3, "bw_filter_n": 1005.3, "bw_observer": 251.3, "leak": "remove"},
+            "injection": {"u_h": 250.0, "f_h": 1600.0, "tracking": "lag", "leak": "remove"},
             "blending": {"lower_rpm": 150.0, "upper_rpm": 300.0, "bw_observer": 251.3, "gate": True},
             "polarity": {"enabled": False}}
 _AVG = {"converter": {"inverter": "averaged"}}

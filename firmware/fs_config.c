@@ -7,7 +7,7 @@
 
 /* The layout this configuration was written for: a header that changed since
  * the export fails here, naming the field. */
-_Static_assert(sizeof(fs_drive_config) == 1624u, "fs_drive_config: size differs from the exported layout");
+_Static_assert(sizeof(fs_drive_config) == 1628u, "fs_drive_config: size differs from the exported layout");
 _Static_assert(offsetof(fs_drive_config, config_size) == 0u, "fs_drive_config.config_size moved");
 _Static_assert(offsetof(fs_drive_config, phases) == 4u, "fs_drive_config.phases moved");
 _Static_assert(offsetof(fs_drive_config, mode) == 8u, "fs_drive_config.mode moved");
@@ -93,83 +93,84 @@ _Static_assert(offsetof(fs_drive_config, hfi.xcomp.di_q) == 308u, "fs_drive_conf
 _Static_assert(offsetof(fs_drive_config, hfi.xcomp.delta) == 312u, "fs_drive_config.hfi.xcomp.delta moved");
 _Static_assert(offsetof(fs_drive_config, hfi.xcomp.poly) == 444u, "fs_drive_config.hfi.xcomp.poly moved");
 _Static_assert(offsetof(fs_drive_config, hfi.leak) == 460u, "fs_drive_config.hfi.leak moved");
-_Static_assert(offsetof(fs_drive_config, blend) == 464u, "fs_drive_config.blend moved");
-_Static_assert(offsetof(fs_drive_config, blend.w_lower) == 464u, "fs_drive_config.blend.w_lower moved");
-_Static_assert(offsetof(fs_drive_config, blend.w_upper) == 468u, "fs_drive_config.blend.w_upper moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs) == 472u, "fs_drive_config.blend.obs moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.Ts) == 472u, "fs_drive_config.blend.obs.Ts moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.J) == 476u, "fs_drive_config.blend.obs.J moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.B) == 480u, "fs_drive_config.blend.obs.B moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.pole_pairs) == 484u, "fs_drive_config.blend.obs.pole_pairs moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.bandwidth) == 488u, "fs_drive_config.blend.obs.bandwidth moved");
-_Static_assert(offsetof(fs_drive_config, blend.gate) == 492u, "fs_drive_config.blend.gate moved");
-_Static_assert(offsetof(fs_drive_config, w_inject_max) == 496u, "fs_drive_config.w_inject_max moved");
-_Static_assert(offsetof(fs_drive_config, polarity) == 500u, "fs_drive_config.polarity moved");
-_Static_assert(offsetof(fs_drive_config, polarity.Ts) == 500u, "fs_drive_config.polarity.Ts moved");
-_Static_assert(offsetof(fs_drive_config, polarity.i_pulse) == 504u, "fs_drive_config.polarity.i_pulse moved");
-_Static_assert(offsetof(fs_drive_config, polarity.t_lock) == 508u, "fs_drive_config.polarity.t_lock moved");
-_Static_assert(offsetof(fs_drive_config, polarity.t_pulse) == 512u, "fs_drive_config.polarity.t_pulse moved");
-_Static_assert(offsetof(fs_drive_config, polarity.i_pulse_max) == 516u, "fs_drive_config.polarity.i_pulse_max moved");
-_Static_assert(offsetof(fs_drive_config, polarity.d_min) == 520u, "fs_drive_config.polarity.d_min moved");
-_Static_assert(offsetof(fs_drive_config, polarity.w_filter) == 524u, "fs_drive_config.polarity.w_filter moved");
-_Static_assert(offsetof(fs_drive_config, polarity.n_carrier) == 528u, "fs_drive_config.polarity.n_carrier moved");
-_Static_assert(offsetof(fs_drive_config, polarity.w_max) == 532u, "fs_drive_config.polarity.w_max moved");
-_Static_assert(offsetof(fs_drive_config, swvi) == 536u, "fs_drive_config.swvi moved");
-_Static_assert(offsetof(fs_drive_config, swvi.Ts) == 536u, "fs_drive_config.swvi.Ts moved");
-_Static_assert(offsetof(fs_drive_config, swvi.delay) == 540u, "fs_drive_config.swvi.delay moved");
-_Static_assert(offsetof(fs_drive_config, swvi.u_h) == 544u, "fs_drive_config.swvi.u_h moved");
-_Static_assert(offsetof(fs_drive_config, swvi.L_d) == 548u, "fs_drive_config.swvi.L_d moved");
-_Static_assert(offsetof(fs_drive_config, swvi.L_q) == 552u, "fs_drive_config.swvi.L_q moved");
-_Static_assert(offsetof(fs_drive_config, swvi.bandwidth) == 556u, "fs_drive_config.swvi.bandwidth moved");
-_Static_assert(offsetof(fs_drive_config, swvi.w_max) == 560u, "fs_drive_config.swvi.w_max moved");
-_Static_assert(offsetof(fs_drive_config, swvi.sequence) == 564u, "fs_drive_config.swvi.sequence moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp) == 568u, "fs_drive_config.swvi.xcomp moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.n) == 568u, "fs_drive_config.swvi.xcomp.n moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.i_q0) == 572u, "fs_drive_config.swvi.xcomp.i_q0 moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.di_q) == 576u, "fs_drive_config.swvi.xcomp.di_q moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.delta) == 580u, "fs_drive_config.swvi.xcomp.delta moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.poly) == 712u, "fs_drive_config.swvi.xcomp.poly moved");
-_Static_assert(offsetof(fs_drive_config, swvi.carrier_off) == 728u, "fs_drive_config.swvi.carrier_off moved");
-_Static_assert(offsetof(fs_drive_config, k_p_d) == 732u, "fs_drive_config.k_p_d moved");
-_Static_assert(offsetof(fs_drive_config, k_i_d) == 736u, "fs_drive_config.k_i_d moved");
-_Static_assert(offsetof(fs_drive_config, k_p_q) == 740u, "fs_drive_config.k_p_q moved");
-_Static_assert(offsetof(fs_drive_config, k_i_q) == 744u, "fs_drive_config.k_i_q moved");
-_Static_assert(offsetof(fs_drive_config, k_p_w) == 748u, "fs_drive_config.k_p_w moved");
-_Static_assert(offsetof(fs_drive_config, k_i_w) == 752u, "fs_drive_config.k_i_w moved");
-_Static_assert(offsetof(fs_drive_config, cc_internal_model) == 756u, "fs_drive_config.cc_internal_model moved");
-_Static_assert(offsetof(fs_drive_config, converter) == 760u, "fs_drive_config.converter moved");
-_Static_assert(offsetof(fs_drive_config, imc_region) == 764u, "fs_drive_config.imc_region moved");
-_Static_assert(offsetof(fs_drive_config, imc_w_grid) == 768u, "fs_drive_config.imc_w_grid moved");
-_Static_assert(offsetof(fs_drive_config, imc_depth) == 772u, "fs_drive_config.imc_depth moved");
-_Static_assert(offsetof(fs_drive_config, imc_i_lim) == 776u, "fs_drive_config.imc_i_lim moved");
-_Static_assert(offsetof(fs_drive_config, imc_V_im) == 780u, "fs_drive_config.imc_V_im moved");
-_Static_assert(offsetof(fs_drive_config, adapt) == 784u, "fs_drive_config.adapt moved");
-_Static_assert(offsetof(fs_drive_config, adapt.Ts) == 784u, "fs_drive_config.adapt.Ts moved");
-_Static_assert(offsetof(fs_drive_config, adapt.R_s) == 788u, "fs_drive_config.adapt.R_s moved");
-_Static_assert(offsetof(fs_drive_config, adapt.L_d) == 792u, "fs_drive_config.adapt.L_d moved");
-_Static_assert(offsetof(fs_drive_config, adapt.psi_f) == 796u, "fs_drive_config.adapt.psi_f moved");
-_Static_assert(offsetof(fs_drive_config, adapt.i_max) == 800u, "fs_drive_config.adapt.i_max moved");
-_Static_assert(offsetof(fs_drive_config, adapt.w_e_max) == 804u, "fs_drive_config.adapt.w_e_max moved");
-_Static_assert(offsetof(fs_drive_config, adapt.T_f) == 808u, "fs_drive_config.adapt.T_f moved");
-_Static_assert(offsetof(fs_drive_config, adapt.w_lp) == 812u, "fs_drive_config.adapt.w_lp moved");
-_Static_assert(offsetof(fs_drive_config, adapt.min_sep) == 816u, "fs_drive_config.adapt.min_sep moved");
-_Static_assert(offsetof(fs_drive_config, adapt.min_level) == 820u, "fs_drive_config.adapt.min_level moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table) == 824u, "fs_drive_config.mtpa_table moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table.n) == 824u, "fs_drive_config.mtpa_table.n moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table.T) == 828u, "fs_drive_config.mtpa_table.T moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table.i_d) == 1084u, "fs_drive_config.mtpa_table.i_d moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table.i_q) == 1340u, "fs_drive_config.mtpa_table.i_q moved");
-_Static_assert(offsetof(fs_drive_config, ident) == 1596u, "fs_drive_config.ident moved");
-_Static_assert(offsetof(fs_drive_config, ident.Ts) == 1596u, "fs_drive_config.ident.Ts moved");
-_Static_assert(offsetof(fs_drive_config, ident.delay) == 1600u, "fs_drive_config.ident.delay moved");
-_Static_assert(offsetof(fs_drive_config, ident.pole_pairs) == 1604u, "fs_drive_config.ident.pole_pairs moved");
-_Static_assert(offsetof(fs_drive_config, ident.i_max) == 1608u, "fs_drive_config.ident.i_max moved");
-_Static_assert(offsetof(fs_drive_config, ident.w_spin) == 1612u, "fs_drive_config.ident.w_spin moved");
-_Static_assert(offsetof(fs_drive_config, ident.t_ramp) == 1616u, "fs_drive_config.ident.t_ramp moved");
-_Static_assert(offsetof(fs_drive_config, ident.u_dc_min) == 1620u, "fs_drive_config.ident.u_dc_min moved");
+_Static_assert(offsetof(fs_drive_config, hfi.lag) == 464u, "fs_drive_config.hfi.lag moved");
+_Static_assert(offsetof(fs_drive_config, blend) == 468u, "fs_drive_config.blend moved");
+_Static_assert(offsetof(fs_drive_config, blend.w_lower) == 468u, "fs_drive_config.blend.w_lower moved");
+_Static_assert(offsetof(fs_drive_config, blend.w_upper) == 472u, "fs_drive_config.blend.w_upper moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs) == 476u, "fs_drive_config.blend.obs moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.Ts) == 476u, "fs_drive_config.blend.obs.Ts moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.J) == 480u, "fs_drive_config.blend.obs.J moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.B) == 484u, "fs_drive_config.blend.obs.B moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.pole_pairs) == 488u, "fs_drive_config.blend.obs.pole_pairs moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.bandwidth) == 492u, "fs_drive_config.blend.obs.bandwidth moved");
+_Static_assert(offsetof(fs_drive_config, blend.gate) == 496u, "fs_drive_config.blend.gate moved");
+_Static_assert(offsetof(fs_drive_config, w_inject_max) == 500u, "fs_drive_config.w_inject_max moved");
+_Static_assert(offsetof(fs_drive_config, polarity) == 504u, "fs_drive_config.polarity moved");
+_Static_assert(offsetof(fs_drive_config, polarity.Ts) == 504u, "fs_drive_config.polarity.Ts moved");
+_Static_assert(offsetof(fs_drive_config, polarity.i_pulse) == 508u, "fs_drive_config.polarity.i_pulse moved");
+_Static_assert(offsetof(fs_drive_config, polarity.t_lock) == 512u, "fs_drive_config.polarity.t_lock moved");
+_Static_assert(offsetof(fs_drive_config, polarity.t_pulse) == 516u, "fs_drive_config.polarity.t_pulse moved");
+_Static_assert(offsetof(fs_drive_config, polarity.i_pulse_max) == 520u, "fs_drive_config.polarity.i_pulse_max moved");
+_Static_assert(offsetof(fs_drive_config, polarity.d_min) == 524u, "fs_drive_config.polarity.d_min moved");
+_Static_assert(offsetof(fs_drive_config, polarity.w_filter) == 528u, "fs_drive_config.polarity.w_filter moved");
+_Static_assert(offsetof(fs_drive_config, polarity.n_carrier) == 532u, "fs_drive_config.polarity.n_carrier moved");
+_Static_assert(offsetof(fs_drive_config, polarity.w_max) == 536u, "fs_drive_config.polarity.w_max moved");
+_Static_assert(offsetof(fs_drive_config, swvi) == 540u, "fs_drive_config.swvi moved");
+_Static_assert(offsetof(fs_drive_config, swvi.Ts) == 540u, "fs_drive_config.swvi.Ts moved");
+_Static_assert(offsetof(fs_drive_config, swvi.delay) == 544u, "fs_drive_config.swvi.delay moved");
+_Static_assert(offsetof(fs_drive_config, swvi.u_h) == 548u, "fs_drive_config.swvi.u_h moved");
+_Static_assert(offsetof(fs_drive_config, swvi.L_d) == 552u, "fs_drive_config.swvi.L_d moved");
+_Static_assert(offsetof(fs_drive_config, swvi.L_q) == 556u, "fs_drive_config.swvi.L_q moved");
+_Static_assert(offsetof(fs_drive_config, swvi.bandwidth) == 560u, "fs_drive_config.swvi.bandwidth moved");
+_Static_assert(offsetof(fs_drive_config, swvi.w_max) == 564u, "fs_drive_config.swvi.w_max moved");
+_Static_assert(offsetof(fs_drive_config, swvi.sequence) == 568u, "fs_drive_config.swvi.sequence moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp) == 572u, "fs_drive_config.swvi.xcomp moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.n) == 572u, "fs_drive_config.swvi.xcomp.n moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.i_q0) == 576u, "fs_drive_config.swvi.xcomp.i_q0 moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.di_q) == 580u, "fs_drive_config.swvi.xcomp.di_q moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.delta) == 584u, "fs_drive_config.swvi.xcomp.delta moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.poly) == 716u, "fs_drive_config.swvi.xcomp.poly moved");
+_Static_assert(offsetof(fs_drive_config, swvi.carrier_off) == 732u, "fs_drive_config.swvi.carrier_off moved");
+_Static_assert(offsetof(fs_drive_config, k_p_d) == 736u, "fs_drive_config.k_p_d moved");
+_Static_assert(offsetof(fs_drive_config, k_i_d) == 740u, "fs_drive_config.k_i_d moved");
+_Static_assert(offsetof(fs_drive_config, k_p_q) == 744u, "fs_drive_config.k_p_q moved");
+_Static_assert(offsetof(fs_drive_config, k_i_q) == 748u, "fs_drive_config.k_i_q moved");
+_Static_assert(offsetof(fs_drive_config, k_p_w) == 752u, "fs_drive_config.k_p_w moved");
+_Static_assert(offsetof(fs_drive_config, k_i_w) == 756u, "fs_drive_config.k_i_w moved");
+_Static_assert(offsetof(fs_drive_config, cc_internal_model) == 760u, "fs_drive_config.cc_internal_model moved");
+_Static_assert(offsetof(fs_drive_config, converter) == 764u, "fs_drive_config.converter moved");
+_Static_assert(offsetof(fs_drive_config, imc_region) == 768u, "fs_drive_config.imc_region moved");
+_Static_assert(offsetof(fs_drive_config, imc_w_grid) == 772u, "fs_drive_config.imc_w_grid moved");
+_Static_assert(offsetof(fs_drive_config, imc_depth) == 776u, "fs_drive_config.imc_depth moved");
+_Static_assert(offsetof(fs_drive_config, imc_i_lim) == 780u, "fs_drive_config.imc_i_lim moved");
+_Static_assert(offsetof(fs_drive_config, imc_V_im) == 784u, "fs_drive_config.imc_V_im moved");
+_Static_assert(offsetof(fs_drive_config, adapt) == 788u, "fs_drive_config.adapt moved");
+_Static_assert(offsetof(fs_drive_config, adapt.Ts) == 788u, "fs_drive_config.adapt.Ts moved");
+_Static_assert(offsetof(fs_drive_config, adapt.R_s) == 792u, "fs_drive_config.adapt.R_s moved");
+_Static_assert(offsetof(fs_drive_config, adapt.L_d) == 796u, "fs_drive_config.adapt.L_d moved");
+_Static_assert(offsetof(fs_drive_config, adapt.psi_f) == 800u, "fs_drive_config.adapt.psi_f moved");
+_Static_assert(offsetof(fs_drive_config, adapt.i_max) == 804u, "fs_drive_config.adapt.i_max moved");
+_Static_assert(offsetof(fs_drive_config, adapt.w_e_max) == 808u, "fs_drive_config.adapt.w_e_max moved");
+_Static_assert(offsetof(fs_drive_config, adapt.T_f) == 812u, "fs_drive_config.adapt.T_f moved");
+_Static_assert(offsetof(fs_drive_config, adapt.w_lp) == 816u, "fs_drive_config.adapt.w_lp moved");
+_Static_assert(offsetof(fs_drive_config, adapt.min_sep) == 820u, "fs_drive_config.adapt.min_sep moved");
+_Static_assert(offsetof(fs_drive_config, adapt.min_level) == 824u, "fs_drive_config.adapt.min_level moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table) == 828u, "fs_drive_config.mtpa_table moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table.n) == 828u, "fs_drive_config.mtpa_table.n moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table.T) == 832u, "fs_drive_config.mtpa_table.T moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table.i_d) == 1088u, "fs_drive_config.mtpa_table.i_d moved");
+_Static_assert(offsetof(fs_drive_config, mtpa_table.i_q) == 1344u, "fs_drive_config.mtpa_table.i_q moved");
+_Static_assert(offsetof(fs_drive_config, ident) == 1600u, "fs_drive_config.ident moved");
+_Static_assert(offsetof(fs_drive_config, ident.Ts) == 1600u, "fs_drive_config.ident.Ts moved");
+_Static_assert(offsetof(fs_drive_config, ident.delay) == 1604u, "fs_drive_config.ident.delay moved");
+_Static_assert(offsetof(fs_drive_config, ident.pole_pairs) == 1608u, "fs_drive_config.ident.pole_pairs moved");
+_Static_assert(offsetof(fs_drive_config, ident.i_max) == 1612u, "fs_drive_config.ident.i_max moved");
+_Static_assert(offsetof(fs_drive_config, ident.w_spin) == 1616u, "fs_drive_config.ident.w_spin moved");
+_Static_assert(offsetof(fs_drive_config, ident.t_ramp) == 1620u, "fs_drive_config.ident.t_ramp moved");
+_Static_assert(offsetof(fs_drive_config, ident.u_dc_min) == 1624u, "fs_drive_config.ident.u_dc_min moved");
 
 const fs_drive_config fs_config = {
-    .config_size = 1624u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator se...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
+    .config_size = 1628u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator se...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
     .phases = 3,   /* 3, or 5: the fundamental plane of the VSD, nearest-four-vector PWM; machine yang2022: phases */
     .mode = FS_MODE_SPEED,   /* fs_drive_mode; scenario beyond-full-range: [controller] mode */
     .angle_source = FS_ANGLE_BLEND,   /* fs_angle_source; scenario beyond-full-range: [controller] angle */
@@ -214,7 +215,7 @@ const fs_drive_config fs_config = {
         .bw_pll = 250.0f,   /* PLL double pole, rad/s; default of [observer] bw_pll (fullspeed.scenario) */
         .w_valid = 52.3598785f,   /* |w_hat| below this: not valid, rad/s (el.); default of [observer] valid_rpm (fullspeed.scenario) */
         .lag = FS_SMO_LAG_EXACT,   /* fs_smo_lag (FS_SMO_FORM_PAPER); default of [observer] lag (fullspeed.scenario) */
-        .form = 0,   /* fs_smo_form; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .form = 1,   /* fs_smo_form; set by fullspeed.sim.build_config */
         .J = 0.0f,   /* FS_SMO_FORM_TRACKING: inertia kg m^2 (> 0), viscous friction N m s; 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .B = 0.0f,   /* FS_SMO_FORM_TRACKING: inertia kg m^2 (> 0), viscous friction N m s; 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .pole_pairs = 0,   /* FS_SMO_FORM_TRACKING: >= 1; 0: taken from the drive's fields or designed by fs_drive_init, or off */
@@ -242,7 +243,7 @@ const fs_drive_config fs_config = {
         .L_q = 0.0f,   /* the controller's inductances: saliency needed, |L_q - L_d| > 1 %; 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .w_b_p = 0.0f,   /* filter bandwidths, rad/s (0: w_h / 20 each); w_b Ts <= 0.5, w_b_n Ts >= 1e-4; 0: taken from the drive's fields or designed by fs_drive_init, or off (injection.bw_filter_p) */
         .w_b_n = 0.0f,   /* filter bandwidths, rad/s (0: w_h / 20 each); w_b Ts <= 0.5, w_b_n Ts >= 1e-4; 0: taken from the drive's fields or designed by fs_drive_init, or off (injection.bw_filter_n) */
-        .obs = {   /* Ts is taken from above; bandwidth 0: w_b_n / 5 */
+        .obs = {   /* Ts is taken from above; bandwidth 0: w_b_n / 5, with lag FS_HFI_OBS_PER_FILTER_LAG w_b_n */
             .Ts = 0.0f,   /* sampling period, s; 0: taken from the drive's fields or designed by fs_drive_init, or off */
             .J = 0.0f,   /* model inertia J_hat, kg m^2 (> 0); 0: taken from the drive's fields or designed by fs_drive_init, or off */
             .B = 0.0f,   /* model viscous friction, N m s (>= 0; 0: none); 0: taken from the drive's fields or designed by fs_drive_init, or off */
@@ -254,9 +255,9 @@ const fs_drive_config fs_config = {
             .i_q0 = -40.0f,   /* grid: first current, step (> 0), A; scenario beyond-full-range: [injection] xcomp */
             .di_q = 5.0f,   /* grid: first current, step (> 0), A; scenario beyond-full-range: [injection] xcomp */
             .delta = {   /* lead of the saliency axis, theta_hat - theta_r, rad (|.| < pi/2); scenario beyond-full-range: [injection] xcomp */
-                -0.680514336f, -0.617818654f, -0.569165826f, -0.486178905f, -0.373690695f, -0.241721123f,
-                -0.126470044f, -0.0444081575f, -0.011995648f, 0.00962374546f, 0.0444099046f, 0.120022804f,
-                0.226491377f, 0.336145192f, 0.426546246f, 0.487128377f, 0.521698117f, 0.0f,
+                -0.680486441f, -0.617771506f, -0.568760931f, -0.486100376f, -0.37356329f, -0.24148725f,
+                -0.126473546f, -0.0443296172f, -0.0119450334f, 0.00947015639f, 0.0444081575f, 0.120143227f,
+                0.226543739f, 0.335963666f, 0.426666677f, 0.4871144f, 0.521649241f, 0.0f,
                 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
                 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
                 0.0f, 0.0f, 0.0f,
@@ -265,7 +266,8 @@ const fs_drive_config fs_config = {
                 0.0f, 0.0f, 0.0f, 0.0f,
             },
         },
-        .leak = 0,   /* 1: the fundamental's leak taken out of i_hn (fs_hfi_filter_step_nl); 0: the paper's filter; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .leak = 0,   /* 1: the fundamental's leak taken out of i_hn (fs_hfi_filter_step_nl); 0: the paper's filter; 0: taken from the drive's fields or designed by fs_drive_init, or off (injection.leak) */
+        .lag = 0,   /* 1: the motion observer designed with the second SRFF's lag in its loop (header); 0: the paper's; 0: taken from the drive's fields or designed by fs_drive_init, or off (injection.tracking) */
     },
     .blend = {   /* FS_ANGLE_BLEND: the band (w_lower, w_upper) and the filtering observer's bandwidth (the rest as for hfi.obs... */
         .w_lower = 83.7758026f,   /* g_w = 0 at and below, rad/s (el.), >= 0; default of [blending] lower_rpm (fullspeed.scenario) */
@@ -277,7 +279,7 @@ const fs_drive_config fs_config = {
             .pole_pairs = 0,   /* p (>= 1); 0: taken from the drive's fields or designed by fs_drive_init, or off */
             .bandwidth = 0.0f,   /* w_o, triple pole at -w_o, rad/s; w_o Ts <= 0.5; 0: taken from the drive's fields or designed by fs_drive_init, or off (blending.bw_observer) */
         },
-        .gate = 0,   /* 1: the caller gates the SMO's weight (header, fs_blend_step_gated); 0: eq. (28) alone; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .gate = 1,   /* 1: the caller gates the SMO's weight (header, fs_blend_step_gated); 0: eq. (28) alone; set by fullspeed.sim.build_config */
     },
     .w_inject_max = 163.362823f,   /* default of [injection] stop_rpm (fullspeed.scenario) */
     .polarity = {   /* polarity detection when sensorless from the first step (i_pulse 0: none; Ts taken from above; i_pulse_max 0... */

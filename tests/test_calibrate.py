@@ -10,7 +10,8 @@ import pytest
 
 from fullspeed.calibrate import CalibrationError, circular_mean_deg, circular_std_deg, write_table, xsat_table
 from fullspeed.files import file_name
-from fullspeed.scenario import _xcomp_table
+from fullspeed.errors import ConfigError
+from fullspeed.scenario import _xcomp_table, load_scenario
 
 HFI_100 = '''name = "{name}"
 duration = 1.0
@@ -100,3 +101,46 @@ def test_written_table_reads_back_with_any_name_and_stays_in_its_folder(tmp_path
     assert back == {"i_q": table["i_q"], "delta_deg": table["delta_deg"]}
     import tomllib
     assert tomllib.loads(path.read_text(encoding="utf-8"))["xcomp"]["source"] == table["source"]
+
+
+def _table_file(tmp_path, **settings):
+    from fullspeed.calibrate import table_settings
+    sc = load_scenario("beyond-xcomp-3ph")
+    rec = {**table_settings(sc.data, sc.machine.name), **settings}
+    table = {"i_q": [-40.0, 0.0, 40.0], "delta_deg": [-30.0, 0.0, 30.0], "source": "test", "settings": rec}
+    return write_table(table, tmp_path / "t.toml")
+
+
+def test_a_table_records_its_settings_and_refuses_a_scenario_that_differs(tmp_path):
+    """The table holds the estimator's own bias at its settings (the leak's,
+    about 3 el.deg at 40 A on yang2022): used with another leak or estimator
+    it is refused naming the field; with another carrier it is warned."""
+    path = str(_table_file(tmp_path))
+    assert _xcomp_table(path, None)["settings"]["leak"] == "keep"
+    ok = load_scenario("beyond-xcomp-3ph", {"injection": {"xcomp": path}})
+    assert not [w for w in ok.warnings if "xcomp" in w]
+    with pytest.raises(ConfigError) as err:
+        load_scenario("beyond-xcomp-3ph", {"injection": {"xcomp": path, "leak": "remove"}})
+    assert err.value.field == "injection.leak" and "measured with leak = 'keep'" in str(err.value)
+    with pytest.raises(ConfigError) as err:
+        load_scenario("beyond-swvi-3ph", {"injection": {"xcomp": path}})
+    assert err.value.field == "controller.angle"
+    warned = load_scenario("beyond-xcomp-3ph", {"injection": {"xcomp": path, "u_h": 4.0}})
+    assert [w for w in warned.warnings if w.startswith("injection.u_h = 4.0:") and "measured with u_h = 5.0" in w]
+    # an inline table without settings (the user's own) is taken as it is
+    plain = load_scenario("beyond-xcomp-3ph", {"injection": {"xcomp": {"i_q": [-40.0, 40.0], "delta_deg": [-30.0, 30.0]},
+                                                             "leak": "remove"}})
+    assert plain.data["injection"]["xcomp"] == {"i_q": [-40.0, 40.0], "delta_deg": [-30.0, 30.0]}
+
+
+def test_the_shipped_tables_were_measured_with_the_settings_their_scenarios_use():
+    """yang2022-xsat with the default leak (kept: the catalog's beyond
+    scenarios use it so), yang2022-swvi-xsat with the optimized sequence."""
+    for name, scenarios in (("yang2022-xsat", ("beyond-full-range", "beyond-xcomp-3ph", "beyond-robust", "beyond-thermal")),
+                            ("yang2022-swvi-xsat", ("beyond-swvi-3ph", "beyond-swvi-3ph-100rpm"))):
+        rec = _xcomp_table(name, None)["settings"]
+        for sc in scenarios:
+            s = load_scenario(sc)
+            assert not [w for w in s.warnings if "injection.xcomp" in w], sc
+            key = "leak" if rec["estimator"] == "rotating" else "sequence"
+            assert s.data["injection"][key] == rec[key]

@@ -176,11 +176,14 @@ def test_the_zoo_is_seeded_and_plausible():
         assert not [w for w in sc.warnings if not w.startswith("polarity.")], sc.warnings
 
 
-@pytest.mark.parametrize("k, outcome", [(1, "refused"), (4, "success")])
+@pytest.mark.parametrize("k, outcome", [(1, "refused"), (4, "success"), (92, "success"), (24, "success")])
 def test_zoo_sample(k, outcome):
-    """Two of the zoo's runs (the whole zoo is claim B-ZOO): a linear machine
-    is refused by the polarity detection, a saturating one runs the whole
-    profile within 15 el.deg."""
+    """Some of the zoo's runs (the whole zoo is claim B-ZOO): a linear machine
+    is refused by the polarity detection, saturating ones run the whole
+    profile within 15 el.deg: 4; 92 (12 pole pairs, 8 kHz: the start under
+    half rated load tripped on the paper's injection observer, which lagged
+    the load ramp); 24 (the dead time's voltage 0.8 of the carrier's: with
+    the usual compensation the estimate wandered 25 el.deg at standstill)."""
     from fullspeed.papers.zoo import classify
     r = simulate("beyond-zoo", overrides={"machine": {"zoo": k}})
     if outcome == "refused":

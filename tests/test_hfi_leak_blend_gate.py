@@ -5,7 +5,8 @@ What could be wrong: a leak removal that takes the carrier out with the
 fundamental (then the angle is lost) or leaves the leak in; a gate that
 never opens (the SMO never blended in) or lets an unconverged SMO in; and
 the closed-loop claims of the issue: on motulator's 2.2 kW IPMSM at rated
-load, the injection's bias gone with filters wide enough to hold the load
+load, the injection (its observer designed with the filters' lag,
+injection.tracking = "lag") within 5 el.deg and unbiased through the load
 steps, and the blend holding the rotor for every band between 5 % and 25 %
 of rated speed. The closed-loop runs are 4 s simulated, ~0.04 s each.
 """
@@ -100,17 +101,22 @@ def _run(name, **ov):
     return res, t, e
 
 
-def test_injection_without_the_leak_holds_rated_load_unbiased():
-    """bench-motulator-2kw-hfi (1.6 kHz, w_h / 10 filters, observer 251 rad/s):
-    with the leak removed the estimate holds the rated-load steps with no
-    bias at standstill under rated load (issue 27: 4.1 el.deg, the leak's);
-    with the paper's filter the same wide settings lose the rotor."""
+def test_injection_holds_the_rated_load_steps_within_issue_27s_goal():
+    """bench-motulator-2kw-hfi (1.6 kHz, w_h / 20 filters, leak removed, the
+    motion observer designed with the filters' lag in its loop at their
+    bandwidth): issue 27's item 3, max <= 5 el.deg over the run (the load
+    release is the worst) and |mean| <= 1 el.deg at standstill under rated
+    load. The paper's observer on the same filters (w_b_n / 5) lags the
+    release by more than twice that; the fast observer with the paper's
+    filter (the fundamental's leak kept) loses the rotor."""
     res, t, e = _run("bench-motulator-2kw-hfi")
-    assert res.stop_reason == "done"
-    assert np.abs(e[t >= 0.2]).max() < 10.0
-    assert abs(e[(t >= 0.8) & (t < 1.0)].mean()) < 0.5
-    _, t, e = _run("bench-motulator-2kw-hfi", injection={"leak": "keep"})
-    assert np.abs(e[t >= 0.2]).max() > 90.0
+    assert res.stop_reason == "done" and res.metrics["lock_lost_at"] is None
+    assert np.abs(e[t >= 0.2]).max() <= 5.0
+    assert abs(e[(t >= 0.8) & (t < 1.0)].mean()) <= 1.0
+    _, t, e = _run("bench-motulator-2kw-hfi", injection={"tracking": "paper"})
+    assert np.abs(e[t >= 3.5]).max() > 10.0
+    res, t, e = _run("bench-motulator-2kw-hfi", injection={"leak": "keep"})
+    assert res.stop_reason != "done" or np.abs(e[t >= 0.2]).max() > 90.0
 
 
 @pytest.mark.parametrize("band", [(75.0, 150.0), (120.0, 195.0), (200.0, 375.0), (75.0, 375.0)])
@@ -123,5 +129,11 @@ def test_blend_keeps_the_rotor_for_bands_between_5_and_25_percent(band):
 
 
 def test_blend_without_the_gate_loses_the_rotor_in_a_low_band():
+    """The gate is what holds this band: without it the blend hunts in it
+    (its speed estimate swinging 110..240 rpm about a rotor at 130..170 rpm,
+    the weight flipping 0 <-> 1 between the two angles), its frame runs away
+    from the rotor while the observer is still within 1 el.deg, and the
+    current that follows throws the observer off too. With the gate the same
+    band holds (test above, 7.5 el.deg)."""
     _, t, e = _run("bench-motulator-2kw-blend", blending={"lower_rpm": 120.0, "upper_rpm": 195.0, "gate": False})
     assert np.abs(e[t >= 0.2]).max() > 90.0

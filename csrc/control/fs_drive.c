@@ -81,7 +81,7 @@ static fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
     if (!(drv->i_hf < 0.5f * cfg->i_max)) REFUSE("hfi.u_h", FS_ERR_ABOVE_I_MAX);
     if (cfg->angle_source == FS_ANGLE_BLEND) {
         fs_blend_config bc = cfg->blend;
-        mo.bandwidth = bc.obs.bandwidth > 0.0f ? bc.obs.bandwidth : drv->hfi.cfg.obs.bandwidth;
+        mo.bandwidth = bc.obs.bandwidth > 0.0f ? bc.obs.bandwidth : drv->hfi.w_o_blend;   /* fs_hfi.h */
         bc.obs = mo;
         SUB("blend", fs_blend_init(&drv->blend, &bc));
         if (cfg->w_inject_max > 0.0f && !(0.9f * cfg->w_inject_max >= bc.w_upper)) REFUSE("w_inject_max", FS_ERR_LIMIT);
@@ -313,9 +313,12 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
         const float w_dir = own ? drv->smo.w : drv->blend.w_hat;
         const float w_min = own ? drv->smo.cfg.w_valid : 0.5f * drv->blend.cfg.w_lower;
         if (fabsf(w_dir) > w_min) fs_smo_set_dir(&drv->smo, w_dir);
+        /* below its validity the observer starts from the blended estimate
+         * (fs_smo_follow; the tracking form only) */
+        if (!own) fs_smo_follow(&drv->smo, drv->blend.theta_hat, drv->blend.w_hat, drv->blend.obs.T_d_hat);
         fs_smo_step(&drv->smo, i_f, drive_u_past(drv));
         fs_blend_step_gated(&drv->blend, drv->smo.theta, drv->hfi.theta, T_ff,   /* Fig. 6 */
-                            drv->smo.converged || !c->blend.gate, drv->injecting);
+                            drv->smo.converged || !c->blend.gate, drv->injecting && drv->hfi.gain >= 1.0f);
         /* Above w_inject_max the injection stops (g_w = 1 there: the HFI
          * angle is not read); below 0.9 w_inject_max it resumes from the
          * blended estimate. */
@@ -326,11 +329,16 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
             drv->inject_on = false;
         } else if (c->w_inject_max > 0.0f && !drv->inject_on && aw < 0.9f * c->w_inject_max) {
             drv->inject_on = true;
-            /* the filters kept the carriers as they faded out (fs_hfi.h) */
-            if (!drv->injecting) {
+            /* the filters kept the carriers as they faded out (fs_hfi.h); the
+             * observer with its filter's lag starts afresh, settling first: its
+             * fast gains would take the stale carriers' angle */
+            if (!drv->injecting && c->hfi.lag) {
+                fs_hfi_reset(&drv->hfi, drv->blend.theta_hat, drv->blend.w_hat);
+                drv->hfi.gain = drv->hfi.gain_prev = 0.0f;   /* fades in */
+            } else if (!drv->injecting) {
                 fs_hfi_set_angle(&drv->hfi, drv->blend.theta_hat, drv->blend.w_hat);
-                drv->hfi.obs.T_d_hat = drv->blend.obs.T_d_hat;   /* the load it carries */
             }
+            if (!drv->injecting) drv->hfi.obs.T_d_hat = drv->blend.obs.T_d_hat;   /* the load it carries */
         }
     }
     /* The amplitude fades in and out over the filters' settling time, so
@@ -363,6 +371,19 @@ static void drive_sensor_angle(fs_drive *drv, const fs_drive_in *in, float *thet
     *w = drv->pll.w;
 }
 
+/* The blend's angle for the loops. With the injection's observer designed
+ * with its filter's lag (fs_hfi.h, cfg.lag), the injection's own angle
+ * where the blend weighs it (1 - g_w, while it is on and settled): the
+ * blend's observer, at the paper's bandwidth for the back-EMF observer,
+ * would lag it again under a load it does not know; its speed, smoother
+ * than the injection's, stays the speed loop's. */
+static float drv_blend_theta(const fs_drive *drv)
+{
+    const fs_hfi *h = &drv->hfi;
+    if (!drv->cfg.hfi.lag || !drv->inject_on || h->gain < 1.0f || h->k_settle > 0) return drv->blend.theta_hat;
+    return fs_blend_angle(drv->blend.theta_hat, h->theta, drv->blend.g_w);
+}
+
 /* Angle and speed from the configured source; *i_ab becomes the current the
  * loops use (the fundamental when injecting). */
 static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float *theta, float *w)
@@ -382,7 +403,7 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float
         *i_ab = drive_injection_step(drv, *i_ab);
         if (in->sensorless) {
             bool blend = c->angle_source == FS_ANGLE_BLEND;
-            *theta = blend ? drv->blend.theta_hat : drv->hfi.theta;
+            *theta = blend ? drv_blend_theta(drv) : drv->hfi.theta;
             *w = blend ? drv->blend.w_hat : drv->hfi.w;
             return;
         }

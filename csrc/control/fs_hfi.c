@@ -48,6 +48,7 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
     if (!(c.delay >= 0.0f && c.delay <= 2.0f)) return FS_ERR_PARAM;
     if (!fs_pos(c.u_h)) return FS_ERR_PARAM;
     if (c.leak != 0 && c.leak != 1) return FS_ERR_PARAM;
+    if (c.lag != 0 && c.lag != 1) return FS_ERR_PARAM;
     if (!(c.w_h > 0.0f) || !(c.w_h <= fs_hfi_w_h_max(c.Ts))) return FS_ERR_BANDWIDTH;
     if (!fs_nonneg(c.w_b_p) || !fs_nonneg(c.w_b_n)) return FS_ERR_BANDWIDTH;
     if (!fs_nonneg(c.R_s)) return FS_ERR_RS;
@@ -58,13 +59,15 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
     if (c.w_b_n == 0.0f) c.w_b_n = 0.05f * c.w_h;
     /* the settling count 3 / (w_b_n Ts) must stay an int */
     if (!(c.w_b_n * c.Ts >= 1e-4f)) return FS_ERR_BANDWIDTH;
-    if (c.obs.bandwidth == 0.0f) c.obs.bandwidth = 0.2f * c.w_b_n;
+    if (c.obs.bandwidth == 0.0f) c.obs.bandwidth = (c.lag ? FS_HFI_OBS_PER_FILTER_LAG : FS_HFI_OBS_PER_FILTER) * c.w_b_n;
     c.obs.Ts = c.Ts;
+
     if (fs_xcomp_check(&c.xcomp) != FS_OK) return FS_ERR_PARAM;
     fs_hfi_filter_config fc = {c.Ts, c.w_b_p, c.w_b_n};
     fs_status st = fs_hfi_filter_init(&h->filt, &fc);
     if (st != FS_OK) return st;
-    st = fs_motion_obs_init(&h->obs, &c.obs);
+    /* with lag: eq. (26)'s error comes through the second SRFF's low-pass, twice with the leak's removal */
+    st = fs_motion_obs_init_lag(&h->obs, &c.obs, c.lag ? 1 + c.leak : 0, c.lag ? c.w_b_n : 0.0f);
     if (st != FS_OK) return st;
     h->cfg = c;
 
@@ -76,8 +79,9 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
     if (!fs_pos(h->i_n_design) || !fs_fin(h->u_amp)) return FS_ERR_PARAM;   /* beyond the float range */
     h->k_avg = -expm1f(-0.25f * c.w_b_n * c.Ts);
     h->n_settle = (int)ceilf(3.0f / (c.w_b_n * c.Ts));
-    h->rot_u.alpha = fs_cosf(h->theta_u);
-    h->rot_u.beta = fs_sinf(h->theta_u);
+    h->w_o_blend = c.lag ? FS_HFI_OBS_PER_FILTER * c.w_b_n : c.obs.bandwidth;
+    h->rot_u.alpha = cosf(h->theta_u);
+    h->rot_u.beta = sinf(h->theta_u);
     fs_hfi_reset(h, 0.0f, 0.0f);
     return FS_OK;
 }
@@ -159,15 +163,18 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
     if (h->delta != 0.0f) ref = fs_inv_park((fs_dq){ref.alpha, ref.beta}, fs_cosf(2.0f * h->delta), fs_sinf(2.0f * h->delta));
     const float c = ref.alpha, s = ref.beta;
     float eps_n = 0.0f;
-    if (h->k_settle > 0) {
+    const bool settling = h->k_settle > 0;
+    if (settling) {
         --h->k_settle;
     } else if (h->i_n_avg > 0.0f) {
         eps_n = fs_clampf((c * h->i_hn.beta - s * h->i_hn.alpha) / h->i_n_avg, -1.0f, 1.0f);
     }
     h->eps = 0.5f * eps_n;   /* sin(2 dtheta) / 2 ~ dtheta */
 
-    /* Fig. 5 */
-    fs_motion_obs_step(&h->obs, h->eps, T_ff);
+    /* Fig. 5; with the filter's lag in the loop, nothing to take while the
+     * filters settle (its image of the angle stays at the estimate) */
+    if (h->cfg.lag && settling) fs_motion_obs_predict(&h->obs, T_ff);
+    else fs_motion_obs_step(&h->obs, h->eps, T_ff);
     h->theta = h->obs.theta_hat;
     h->w = h->obs.w_hat;
 

@@ -94,7 +94,12 @@ void fs_hfi_filter_step_cs(fs_hfi_filter *f, fs_ab i, fs_ab e_h, fs_ab e_n, fs_a
  * (w_b / w_h)^2 smaller. i_f is unchanged, so i_f + i_hn' is no longer y
  * exactly. Cost: the noise i_f carries near the carrier is taken out of
  * i_hn once more (on yang2022's noisy bench the ripple grows, so fs_hfi
- * uses it only when asked: cfg.leak). */
+ * uses it only when asked: cfg.leak). The carrier's own dynamics change:
+ * i_f holds the part of a carrier change the SRFF has not yet removed, and
+ * the prediction takes it out again through the same band-pass, so a change
+ * of the carrier reaches i_hn' through the low-pass twice (a double pole at
+ * w_b_n, fs_motion_obs.h's lag = 2) instead of once; the steady carrier is
+ * the same. */
 void fs_hfi_filter_step_nl(fs_hfi_filter *f, fs_ab i, fs_ab e_h, fs_ab e_n, fs_ab *i_f, fs_ab *i_hn);
 
 #endif /* FS_HFI_FILTER_H */

@@ -1,7 +1,48 @@
 #include "fs_motion_obs.h"
 #include "fs_math.h"
 
+/* The gains with the error read through the filter (header): the triple
+ * pole (c = 1 - z_o) and the filter's own, once or twice; g = 1 - E, m3 the
+ * disturbance's predictor gain (the same as without). */
+static void lag_gains(fs_motion_obs *obs, float c, float g, float m3)
+{
+    const float Ts = obs->cfg.Ts, f1 = obs->f1, f2 = obs->f2;
+    const float b = -expm1f(-obs->w_lag * Ts), a = 1.0f - b, h = 1.0f - 0.5f * b;
+    const float c2 = c * c, c3 = c2 * c;
+    float m1, m2, m4, m5 = 0.0f;
+    if (obs->lag == 1) {
+        m1 = (3.0f * c2 - 0.5f * c3 + b * (3.0f * c - g - 1.5f * c2 + 0.25f * c3) - g * (3.0f * c - g))
+             / (b * (1.0f - 0.5f * g));
+        m4 = (3.0f * c - g - 0.5f * b * m1) / h;
+        m2 = (c3 + 3.0f * b * c2 - b * g * m1 - b * (0.5f * Ts * f1 + f2) * m3) / (b * f1);
+        obs->c_theta = 0.5f * b;
+        obs->c_f1 = h;
+    } else {
+        const float P = c3 * g - 4.0f * c3 + 12.0f * c2 - 12.0f * c * g + 4.0f * g * g;
+        const float Q = c3 * g - 3.0f * c3 - 3.0f * c2 * g + 12.0f * c2 - 12.0f * c + 4.0f * g;
+        const float k = (2.0f - g) * (2.0f - g), cg = c - g;
+        m1 = (4.0f * cg * cg * cg + 2.0f * b * P - b * b * Q) / (b * b * k);
+        m4 = (P - b * Q) / (b * k);
+        m5 = (2.0f - b) * P / (2.0f * b * k);
+        m2 = (3.0f * b * c2 + 2.0f * c3 - b * g * m1 - b * (Ts * f1 + f2) * m3) / (b * f1);
+        obs->c_theta = 0.25f * b * b;
+        obs->c_f1 = h * (1.0f + 0.5f * b);
+        obs->c_f2 = -h;
+    }
+    obs->l_a = m3;
+    obs->l_w = (m2 - f1 * m3) / obs->E;
+    obs->l_theta = m1 - f1 * obs->l_w - f2 * obs->l_a;
+    obs->l_f1 = (m4 - b * obs->l_theta) / a;
+    obs->l_f2 = (m5 - b * h * (obs->l_theta - obs->l_f1)) / a;
+    obs->a_lag = a;
+}
+
 fs_status fs_motion_obs_init(fs_motion_obs *obs, const fs_motion_obs_config *cfg)
+{
+    return fs_motion_obs_init_lag(obs, cfg, 0, 0.0f);
+}
+
+fs_status fs_motion_obs_init_lag(fs_motion_obs *obs, const fs_motion_obs_config *cfg, int lag, float w_lag)
 {
     if (!obs || !cfg) return FS_ERR_NULL;
     if (!(cfg->Ts > 0.0f) || !isfinite(cfg->Ts)) return FS_ERR_TS;
@@ -9,7 +50,11 @@ fs_status fs_motion_obs_init(fs_motion_obs *obs, const fs_motion_obs_config *cfg
     if (!(cfg->B >= 0.0f) || !isfinite(cfg->B)) return FS_ERR_PARAM;
     if (cfg->pole_pairs < 1) return FS_ERR_POLE_PAIRS;
     if (!(cfg->bandwidth > 0.0f) || !(cfg->bandwidth * cfg->Ts <= 0.5f)) return FS_ERR_BANDWIDTH;
+    if (lag < 0 || lag > 2) return FS_ERR_PARAM;
+    if (lag > 0 && (!(w_lag > 0.0f) || !(w_lag * cfg->Ts <= 0.5f))) return FS_ERR_BANDWIDTH;
     obs->cfg = *cfg;
+    obs->lag = lag;
+    obs->w_lag = lag > 0 ? w_lag : 0.0f;
     const float Ts = cfg->Ts, J = cfg->J, B = cfg->B, w_o = cfg->bandwidth;
     const float p = (float)cfg->pole_pairs;
     obs->k_u = p / J;
@@ -42,6 +87,9 @@ fs_status fs_motion_obs_init(fs_motion_obs *obs, const fs_motion_obs_config *cfg
     obs->l_a = m3;
     obs->l_w = (m2 - f1 * m3) / obs->E;
     obs->l_theta = m1 - f1 * obs->l_w - f2 * obs->l_a;
+    obs->a_lag = 1.0f;
+    obs->c_theta = obs->c_f1 = obs->c_f2 = obs->l_f1 = obs->l_f2 = 0.0f;
+    if (lag > 0) lag_gains(obs, c, g, m3);
     obs->l_T = obs->l_a / obs->k_u;
 
     /* continuous-time equivalents, on the electrical error (divided by p) */
@@ -60,6 +108,7 @@ void fs_motion_obs_reset(fs_motion_obs *obs, float theta, float w)
     obs->theta_hat = fs_wrap_pi(theta);
     obs->w_hat = w;
     obs->T_d_hat = 0.0f;
+    obs->r1 = obs->r2 = 0.0f;
 }
 
 float fs_motion_obs_step(fs_motion_obs *obs, float eps, float T_ff)
@@ -68,11 +117,30 @@ float fs_motion_obs_step(fs_motion_obs *obs, float eps, float T_ff)
     const float acc = obs->k_u * (T_ff + obs->T_d_hat);
     const float d_theta = obs->f1 * obs->w_hat + obs->f2 * acc;
     const float w_pred = obs->E * obs->w_hat + obs->f1 * acc;
-    /* innovation: eps is against the previous theta_hat, the prediction moved on */
-    const float innov = fs_wrap_pi(eps - d_theta);
+    /* innovation: eps is against the previous theta_hat, the prediction moved on
+     * (through the filter: against the filter's images, header) */
+    float innov;
+    if (obs->lag > 0) {
+        const float a = obs->a_lag, b = 1.0f - a;
+        innov = fs_wrap_pi(eps - obs->c_theta * d_theta + obs->c_f1 * obs->r1 + obs->c_f2 * obs->r2);
+        const float moved = d_theta + obs->l_theta * innov, r1 = obs->r1 - obs->l_f1 * innov;
+        obs->r2 = a * (obs->r2 - obs->l_f2 * innov) - b * (1.0f - 0.5f * b) * (moved + r1);
+        obs->r1 = a * r1 - b * moved;
+    } else {
+        innov = fs_wrap_pi(eps - d_theta);
+    }
     /* correct: the PID of Fig. 5 in sampled form */
     obs->theta_hat = fs_wrap_pi(obs->theta_hat + d_theta + obs->l_theta * innov);
     obs->w_hat = w_pred + obs->l_w * innov;
     obs->T_d_hat += obs->l_T * innov;
+    return obs->theta_hat;
+}
+
+float fs_motion_obs_predict(fs_motion_obs *obs, float T_ff)
+{
+    const float acc = obs->k_u * (T_ff + obs->T_d_hat);
+    obs->theta_hat = fs_wrap_pi(obs->theta_hat + obs->f1 * obs->w_hat + obs->f2 * acc);
+    obs->w_hat = obs->E * obs->w_hat + obs->f1 * acc;
+    obs->r1 = obs->r2 = 0.0f;
     return obs->theta_hat;
 }

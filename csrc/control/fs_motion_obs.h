@@ -57,7 +57,57 @@
  * bandwidth (the speed estimate then adds little phase lag to that loop) and
  * well below the bandwidths of the angle sources (the SMO's PLL, the HFI
  * carrier and its SRFF). Limits: w_o Ts <= 0.5.
- */
+ *
+ * The error through a filter (fs_motion_obs_init_lag, beyond the paper). The injection's
+ * error eq. (26) is read from the negative-sequence SRFF (fs_srff.h), whose
+ * low-pass in the carrier's frame delays it. With a = exp(-w_lag Ts),
+ * b = 1 - a, h = 1 - b/2 and x_k = theta_k - theta_het,k (theta_het the
+ * angle the heterodyne used: theta_hat of the step before), the SRFF gives
+ *   lp1_{k+1} = a lp1_k + b x_k,   eps_k = (b/2) x_k + h lp1_k      (lag = 1),
+ * its mid-period reading (fs_srff.h). With the fundamental's leak taken out
+ * (fs_hfi_filter_step_nl, lag = 2) the carrier passes the low-pass twice:
+ * the leak is predicted from the fundamental, which holds the carrier's
+ * residue x - lp1 the SRFF has not yet removed, and that residue comes back
+ * through the same band-pass,
+ *   lp2_{k+1} = a lp2_k + b h (x_k - lp1_k),
+ *   eps_k = (b/2)^2 x_k + h (1 + b/2) lp1_k - h lp2_k.
+ * Taken as the error of theta_hat, as above, the filter's poles sit inside
+ * the loop unaccounted for: with lag = 1 and w_o = w_lag / 5 the error's
+ * slowest poles are damped at 0.59 only, and above about w_lag / 2 they ring
+ * (zeta < 0.2); the double pole of lag = 2 lags twice as long. So the
+ * observer knows the filter: one or two more states, the filter's images
+ * f1, f2 of theta (the recursions above with theta for x), measured as
+ *   m_k = eps_k + (the filter's images of theta_het) = C [theta, w, acc, f1, f2],
+ *   C = [b/2, 0, 0, h] (lag 1),  [(b/2)^2, 0, 0, h (1 + b/2), -h] (lag 2),
+ * and the gains put the error's poles at the triple z_o above and at a, the
+ * filter's own, once or twice (they are not moved: moving them would only
+ * amplify what the filter took out). With c, g, f1, f2 as above (f1, f2
+ * here the model's), q = z - 1, and the predictor gain m = Phi l from the
+ * characteristic polynomial of Phi - m C matched to (q + b)^lag (q + c)^3:
+ *  lag 1:  m_1 = (3c^2 - c^3/2 + b (3c - g - 3c^2/2 + c^3/4) - g (3c - g)) / (b (1 - g/2)),
+ *          m_4 = (3c - g - b m_1 / 2) / h,
+ *          m_2 = (c^3 + 3 b c^2 - b g m_1 - b (Ts f1 / 2 + f2) m_3) / (b f1);
+ *  lag 2:  with P = c^3 g - 4c^3 + 12c^2 - 12 c g + 4g^2,
+ *          Q = c^3 g - 3c^3 - 3c^2 g + 12c^2 - 12c + 4g, k = (2 - g)^2:
+ *          m_1 = (4 (c - g)^3 + 2 b P - b^2 Q) / (b^2 k),
+ *          m_4 = (P - b Q) / (b k),  m_5 = (2 - b) P / (2 b k),
+ *          m_2 = (3 b c^2 + 2c^3 - b g m_1 - b (Ts f1 + f2) m_3) / (b f1);
+ *  both:   m_3 = c^3 / (Ts f1), and the filter gains l = Phi^-1 m:
+ *          l_a = m_3, l_w = (m_2 - f1 m_3) / E, l_theta = m_1 - f1 l_w - f2 l_a,
+ *          l_f1 = (m_4 - b l_theta) / a,  l_f2 = (m_5 - b h (l_theta - l_f1)) / a.
+ * The filter's states are kept relative, without angles to wrap: r_i = the
+ * filter's image of theta_het less that of the estimate (the prediction);
+ * with d the predicted motion of the step,
+ *   nu = eps - C_theta d + C_f1 r1 + C_f2 r2,
+ *   r1' = a (r1 - l_f1 nu) - b (d + l_theta nu),
+ *   r2' = a (r2 - l_f2 nu) - b h (d + l_theta nu + r1 - l_f1 nu).
+ * A load ramp missing from T_ff leaves the steady error (continuous design,
+ * r = w_o / w_lag) p (dT/dt / J) (1 + 3 r) / w_o^3 with lag 1, and
+ * p (dT/dt / J) (1 + 6 r + 3 r^2) / w_o^3 with lag 2; w_o can come up to the
+ * filter's bandwidth, where the plain observer could not: at w_o = w_lag
+ * 4 / w_lag^3 and 10 / w_lag^3 per unit of p (dT/dt / J), against 125 / w_lag^3
+ * for the plain observer at w_lag / 5. Limits: w_lag Ts <= 0.5, as the
+ * SRFF's. */
 #ifndef FS_MOTION_OBS_H
 #define FS_MOTION_OBS_H
 
@@ -73,6 +123,8 @@ typedef struct {
 
 typedef struct {
     fs_motion_obs_config cfg;
+    int lag;          /* the error's filter (header): 0 none, 1 the SRFF's low-pass, 2 that twice (the leak's removal) */
+    float w_lag;      /* its bandwidth, rad/s (lag > 0) */
     /* designed in init */
     float k_u;        /* p / J: electrical acceleration per N m */
     float E, f1, f2;  /* sampled model (see above) */
@@ -81,6 +133,9 @@ typedef struct {
     float l_w;        /* speed (1/s), */
     float l_a;        /* disturbance acceleration (1/s^2), */
     float l_T;        /* the same as torque, l_a / k_u (N m/rad) */
+    float a_lag;      /* exp(-w_lag Ts): the error filter's pole (lag > 0) */
+    float c_theta, c_f1, c_f2;   /* the measurement C of the filter's images (header) */
+    float l_f1, l_f2; /* correction of the filter's images */
     float K_d, K_p, K_i;  /* continuous-time equivalents on the electrical
                              error: N m s/rad, N m/rad, N m/(rad s); informative */
     /* state */
@@ -88,14 +143,24 @@ typedef struct {
     float w_hat;      /* electrical speed, rad/s */
     float T_d_hat;    /* disturbance torque, N m (minus the load torque; the
                          integral of the PID) */
+    float r1, r2;     /* lag > 0: the filter's images of the angles the error was taken against,
+                         less those of the estimate (rad, header) */
 } fs_motion_obs;
 
 fs_status fs_motion_obs_init(fs_motion_obs *obs, const fs_motion_obs_config *cfg);
-/* Angle (wrapped), electrical speed; the disturbance torque is cleared. */
+/* The same with the error read through the injection's filter (header):
+ * lag 0, 1 or 2 (else FS_ERR_PARAM), w_lag > 0 and w_lag Ts <= 0.5 with
+ * lag > 0 (else FS_ERR_BANDWIDTH). */
+fs_status fs_motion_obs_init_lag(fs_motion_obs *obs, const fs_motion_obs_config *cfg, int lag, float w_lag);
+/* Angle (wrapped), electrical speed; the disturbance torque is cleared
+ * (and the filter's image put at the estimate). */
 void fs_motion_obs_reset(fs_motion_obs *obs, float theta, float w);
 /* One step with the position error of theta_hat against the angle sampled
  * now (el. rad) and the torque of the period that just ended (N m). Returns
  * the new theta_hat. */
 float fs_motion_obs_step(fs_motion_obs *obs, float eps, float T_ff);
+/* The model alone for one step (no error to take: the caller's filters are
+ * settling); with w_lag the filter's image stays at the estimate. */
+float fs_motion_obs_predict(fs_motion_obs *obs, float T_ff);
 
 #endif /* FS_MOTION_OBS_H */

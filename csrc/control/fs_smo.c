@@ -1,6 +1,26 @@
 #include "fs_smo.h"
 #include "fs_math.h"
 
+/* The tracking form's bandwidths (fs_smo.h, change 3) for the speed the
+ * EMF's magnitude gives: the tracker at FS_SMO_BW_PER_W of it, within
+ * [that at w_sched_min, bw_pll], re-designed (fs_motion_obs_init, its state
+ * kept) when it moves by more than a tenth; the filter's cutoff is set in
+ * the step from it. */
+static void smo_schedule(fs_smo *o)
+{
+    const float w_emf = o->e_raw / o->cfg.psi_f;
+    const float want = fminf(FS_SMO_BW_PER_W * fmaxf(w_emf, o->w_sched_min), o->cfg.bw_pll);
+    const float now = o->mo.cfg.bandwidth;
+    if (fabsf(want - now) <= 0.1f * now) return;
+    const float theta = o->mo.theta_hat, w_hat = o->mo.w_hat, T_d = o->mo.T_d_hat;
+    fs_motion_obs_config mc = o->mo.cfg;
+    mc.bandwidth = want;
+    (void)fs_motion_obs_init(&o->mo, &mc);   /* J, B, p checked in fs_smo_init; 0 < want <= bw_pll */
+    fs_motion_obs_reset(&o->mo, theta, w_hat);
+    o->mo.T_d_hat = T_d;
+    o->n_settle = (int)ceilf(4.0f / (want * o->cfg.Ts));
+}
+
 fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
 {
     if (!o || !cfg) return FS_ERR_NULL;
@@ -31,18 +51,28 @@ fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
     fs_pll_config pc = {cfg->Ts, cfg->bw_pll, 1.5f * cfg->w_e_max};
     st = fs_pll_init(&o->pll, &pc);
     if (st != FS_OK) return st;
-    if (cfg->form == FS_SMO_FORM_TRACKING) {
-        if (cfg->phases != 3 && cfg->phases != 5) return FS_ERR_PARAM;
-        fs_motion_obs_config mc = {cfg->Ts, cfg->J, cfg->B, cfg->pole_pairs, cfg->bw_pll};
-        st = fs_motion_obs_init(&o->mo, &mc);
-        if (st != FS_OK) return st;
-        o->k_T = 0.5f * (float)cfg->phases * (float)cfg->pole_pairs;
-    }
+    /* the boundary layer's correction per step, k Ts / (L_d delta) <= 1 */
+    o->c_bl = fminf(o->k * cfg->Ts / (cfg->L_d * o->delta), 1.0f);
     /* 0.4 w_valid psi_f: the filtered EMF at w_valid (the loop passes
      * 1 / sqrt 5 of it at w_c = w) */
     o->e_valid = 0.4f * cfg->w_valid * cfg->psi_f;
     /* converged: 4 time constants of the tracker without a break */
     o->n_settle = (int)ceilf(4.0f / (cfg->bw_pll * cfg->Ts));
+    if (cfg->form == FS_SMO_FORM_TRACKING) {
+        if (cfg->phases != 3 && cfg->phases != 5) return FS_ERR_PARAM;
+        if (!fs_pos(cfg->psi_f)) return FS_ERR_PSI_F;   /* the schedule's speed is the EMF over psi_f */
+        /* checked at the top bandwidth: the schedule only lowers it */
+        fs_motion_obs_config mc = {cfg->Ts, cfg->J, cfg->B, cfg->pole_pairs, cfg->bw_pll};
+        st = fs_motion_obs_init(&o->mo, &mc);
+        if (st != FS_OK) return st;
+        o->k_T = 0.5f * (float)cfg->phases * (float)cfg->pole_pairs;
+        o->w_sched_min = fmaxf(cfg->w_valid, cfg->w_c_min);
+        o->a_emf = -expm1f(-cfg->bw_pll * cfg->Ts);
+        /* the filtered EMF at w_valid behind the filter at FS_SMO_WC_PER_BW
+         * times the tracker's bandwidth there: r / sqrt(4 r^2 + 1) of it */
+        const float r = FS_SMO_WC_PER_BW * FS_SMO_BW_PER_W;
+        o->e_valid = r / sqrtf(4.0f * r * r + 1.0f) * cfg->w_valid * cfg->psi_f;
+    }
     fs_smo_reset(o, 0.0f, 0.0f);
     return FS_OK;
 }
@@ -53,7 +83,11 @@ void fs_smo_reset(fs_smo *o, float theta, float w)
     o->z = o->i_hat;
     fs_lpf_reset(&o->lpf);
     fs_pll_reset(&o->pll, theta, w);
-    if (o->cfg.form == FS_SMO_FORM_TRACKING) fs_motion_obs_reset(&o->mo, theta, w);
+    if (o->cfg.form == FS_SMO_FORM_TRACKING) {
+        fs_motion_obs_reset(&o->mo, theta, w);
+        o->e_raw = fabsf(w) * o->cfg.psi_f;
+        smo_schedule(o);
+    }
     o->i_prev = o->i_hat;
     o->have_prev = false;
     o->k_settled = 0;
@@ -63,6 +97,21 @@ void fs_smo_reset(fs_smo *o, float theta, float w)
     o->dir = w < 0.0f ? -1.0f : 1.0f;
     o->valid = false;
     o->r_i = o->eps = o->e_mag = 0.0f;
+}
+
+void fs_smo_follow(fs_smo *o, float theta, float w, float T_d)
+{
+    /* only while its own EMF says the rotor is below w_valid: a caller's
+     * estimate that has slipped (the injection's, thrown out of its range)
+     * would otherwise hold the observer on itself, never valid, never
+     * converged, and the two could not be told apart */
+    if (o->cfg.form != FS_SMO_FORM_TRACKING || o->valid || o->e_raw >= o->cfg.w_valid * o->cfg.psi_f) return;
+    fs_motion_obs_reset(&o->mo, theta, w);
+    o->mo.T_d_hat = T_d;
+    o->theta = o->mo.theta_hat;
+    o->w = o->mo.w_hat;
+    o->k_settled = 0;
+    o->converged = false;
 }
 
 void fs_smo_set_dir(fs_smo *o, float w)
@@ -83,8 +132,8 @@ static float smo_emf_angle(const fs_smo *o, fs_ab e, float w, float w_c)
     const float Ts = o->cfg.Ts;
     const float th_e = o->dir > 0.0f ? atan2f(-e.alpha, e.beta) : atan2f(e.alpha, -e.beta);
     const float g = w_c * Ts / (1.0f + w_c * Ts);
-    const float c = fs_minf(o->k * Ts / (o->cfg.L_d * o->delta), 1.0f);
-    const float zr = fs_cosf(w * Ts), zi = fs_sinf(w * Ts);
+    const float c = o->c_bl;
+    const float zr = cosf(w * Ts), zi = sinf(w * Ts);
     /* den = (z - 1 + g)(z - 1 + c) + g c z */
     const float ar = zr - 1.0f + g, br = zr - 1.0f + c;
     const float dr = ar * br - zi * zi + g * c * zr;
@@ -131,13 +180,27 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
     o->i_hat.beta = fs_clampf(o->i_hat.beta + c->Ts * di_b, -lim, lim);
     /* eqs. (5)-(7): switching function on the current error */
     const float e_a = o->i_hat.alpha - i.alpha, e_b = o->i_hat.beta - i.beta;
+    const fs_ab z_prev = o->z;
     o->z.alpha = o->k * sat(e_a, o->delta);
     o->z.beta = o->k * sat(e_b, o->delta);
-    o->r_i = fs_maxf(fabsf(e_a), fabsf(e_b)) / o->delta;
-    /* Fig. 1: adaptive low-pass filter, cutoff at the estimated speed */
-    const float w_c_used = fs_maxf(fabsf(w), c->w_c_min);
-    fs_ab e = fs_lpf_step(&o->lpf, o->z, w);
+    o->r_i = fmaxf(fabsf(e_a), fabsf(e_b)) / o->delta;
+    /* Fig. 1: adaptive low-pass filter, cutoff at the estimated speed; the
+     * tracking form's at least FS_SMO_WC_PER_BW times its tracker's
+     * bandwidth (fs_smo.h, change 3) */
+    const float w_c = track ? fmaxf(fabsf(w), FS_SMO_WC_PER_BW * o->mo.cfg.bandwidth) : w;
+    const float w_c_used = fmaxf(fabsf(w_c), c->w_c_min);
+    fs_ab e = fs_lpf_step(&o->lpf, o->z, w_c);
     if (track) {
+        /* the period's EMF as the model sees it, from the observer's own
+         * recursion inside the boundary layer, z_n = z_{n-1} +
+         * c (e_n - e_hat_{n-1} - z_{n-1}): its magnitude sets the schedule.
+         * Outside it (a current step the model did not predict, z
+         * saturated) the recursion does not hold: the magnitude is kept. */
+        if (o->r_i <= 1.0f) {
+            const float en_a = e_hat.alpha + z_prev.alpha + (o->z.alpha - z_prev.alpha) / o->c_bl;
+            const float en_b = e_hat.beta + z_prev.beta + (o->z.beta - z_prev.beta) / o->c_bl;
+            o->e_raw += o->a_emf * (sqrtf(en_a * en_a + en_b * en_b) - o->e_raw);
+        }
         const float mag = sqrtf(e.alpha * e.alpha + e.beta * e.beta);
         /* no angle without an EMF: the correction and the torque fade below e_valid */
         const float kappa = o->e_valid > 0.0f ? fs_minf(mag / o->e_valid, 1.0f) : 1.0f;
@@ -148,11 +211,20 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
         const float th_mid = th_prev + 0.5f * c->Ts * w;
         const fs_dq i_dq = fs_park(i_m, fs_cosf(th_mid), fs_sinf(th_mid));
         const float T = o->k_T * (c->psi_f + (c->L_d - c->L_q) * i_dq.d) * i_dq.q;
-        o->eps = fs_sinf(fs_wrap_pi(err - c->Ts * w));   /* against the prediction, as the PLL's */
+        /* against the prediction, as the PLL's, low-passed at the tracker's
+         * bandwidth: the angle error it is working off, not one sample's
+         * (the injection's fade-in steps the fundamental current) */
+        const float a_eps = 1.0f - o->mo.z_o;
+        o->eps += a_eps * (sinf(fs_wrap_pi(err - c->Ts * w)) - o->eps);
         o->e_mag = mag;
-        /* the torque only in a frame the EMF has confirmed: at standstill a
-         * current in an unknown frame would accelerate the estimate away */
-        fs_motion_obs_step(&o->mo, kappa * err, o->valid ? kappa * T : 0.0f);
+        /* the model's net torque T + T_d fades with the EMF as the
+         * correction does, and the current's torque counts only in a frame
+         * the EMF has confirmed: at standstill neither a current in an
+         * unknown frame nor a load learnt at speed (T_d held) accelerates
+         * the estimate */
+        const float T_net = o->valid ? kappa * T - (1.0f - kappa) * o->mo.T_d_hat : -o->mo.T_d_hat;
+        fs_motion_obs_step(&o->mo, kappa * err, T_net);
+        smo_schedule(o);
         o->w = o->mo.w_hat;
         o->theta = o->mo.theta_hat;
         o->i_prev = i;

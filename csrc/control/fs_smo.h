@@ -43,18 +43,51 @@
  *        sampling instant is arg(e_hat) - 1.5 w Ts + arg(den(e^{j w Ts}))
  *        (the continuous atan(w / 2 w_c) and the half period are this
  *        formula's limits for w Ts -> 0);
- *     3. a motion observer (fs_motion_obs, triple pole at bw_pll) replaces
- *        the PLL: it integrates the torque of the measured current in the
- *        estimated frame, (phases / 2) p (psi_f + (L_d - L_q) i_d) i_q, so
- *        an acceleration is followed without lag (the PLL, type 2, lags
- *        a / bw_pll^2); its load estimate takes the rest. Below the EMF of
- *        w_valid the correction and the torque are scaled down with the EMF
- *        (no angle is measured at standstill: the estimate holds instead of
- *        chasing noise).
+ *     3. a motion observer (fs_motion_obs) replaces the PLL: it integrates
+ *        the torque of the measured current in the estimated frame,
+ *        (phases / 2) p (psi_f + (L_d - L_q) i_d) i_q, so an acceleration
+ *        is followed without lag (the PLL, type 2, lags a / bw_pll^2); its
+ *        load estimate takes the rest. Its bandwidths are scheduled with
+ *        the speed: the filter's cutoff follows the estimated speed, so its
+ *        lag, compensated for that speed, grows when the estimate is slow
+ *        and shrinks when it is fast (d lag / d w_hat = -0.4 / |w| at
+ *        w_c = |w|): in the tracker's loop a right-half-plane zero at
+ *        2.5 |w|. With a fixed triple pole at bw_pll that loop's damping
+ *        falls with speed (250 rad/s on yang2022: 0.46 at 300 rad/s el.,
+ *        0.21 at 157, 0.03 at 84, unstable below; the paper's type-2 PLL,
+ *        0.58 at 157): on yang2022 at 300 rpm under rated load the tracker
+ *        oscillated at 35 Hz, +-40 el.deg (beyond-full-range after its
+ *        reversal). The damping depends only on w_o / |w| and w_c / |w|;
+ *        with the tracker at FS_SMO_BW_PER_W |w| and the cutoff at least
+ *        FS_SMO_WC_PER_BW times the tracker's bandwidth it is 0.70 or more at every
+ *        speed (above bw_pll / FS_SMO_BW_PER_W the tracker stays at bw_pll
+ *        and the cutoff at max(|w|, 3 bw_pll): 0.73 and more). The
+ *        schedule's speed is the EMF's magnitude over psi_f, not the
+ *        estimate's own speed (an estimate that has not yet caught a rotor
+ *        would keep itself slow): the period's EMF, as the model sees it,
+ *        follows exactly from the observer's recursion inside the boundary
+ *        layer, e_n = e_hat_{n-1} + z_{n-1} + (z_n - z_{n-1}) / c, low-passed
+ *        in magnitude at bw_pll; below w_valid the schedule holds the
+ *        bandwidths of w_valid.
+ *     Below the EMF of w_valid the correction is scaled down with the EMF
+ *     (no angle is measured at standstill: the estimate holds instead of
+ *     chasing noise), and so is the model's net torque T + T_d: the
+ *     current's torque counts only once valid (a current in an unknown frame
+ *     would accelerate the estimate away), and a load learnt at speed, held
+ *     in T_d while the torque was dropped, accelerated the estimate at
+ *     T_d / J (1070 rad/s^2, mechanical, on yang2022 at rated load) through every zero
+ *     crossing. While not valid and its own EMF below that of w_valid, a
+ *     caller that trusts another estimate (the blend: the injection's)
+ *     hands it over (fs_smo_follow), so that the tracker leaves standstill
+ *     on the rotor's angle, speed and load.
  *
  * Convergence (both forms, for a hand-over): `converged` is set once the
  * current error stays in the boundary layer (r_i <= 1) and |eps| below
- * sin 5 deg for 4 / bw_pll without a break.
+ * sin 5 deg for 4 time constants of the tracker without a break (4 /
+ * bw_pll; the tracking form's at its scheduled bandwidth). The tracking
+ * form's eps is its innovation low-passed at its bandwidth: the angle error
+ * it is working off, not one sample's (the injection's fade-in steps the
+ * fundamental current it sees).
  */
 #ifndef FS_SMO_H
 #define FS_SMO_H
@@ -66,6 +99,11 @@
 #include "fs_types.h"
 
 typedef enum { FS_SMO_LAG_EXACT = 0, FS_SMO_LAG_PAPER = 1 } fs_smo_lag;
+/* The tracking form's schedule (header, change 3): its tracker at this
+ * fraction of the speed the EMF gives, its filter's cutoff at least this
+ * multiple of the tracker's bandwidth: damping >= 0.70 at every speed */
+#define FS_SMO_BW_PER_W 2.0f
+#define FS_SMO_WC_PER_BW 3.0f
 typedef enum { FS_SMO_FORM_PAPER = 0, FS_SMO_FORM_TRACKING = 1 } fs_smo_form;
 
 typedef struct {
@@ -101,6 +139,10 @@ typedef struct {
     bool have_prev;
     float k_T;           /* (phases / 2) p, N m per (V s A) */
     float e_valid;       /* |e_hat| at w_valid: below it the tracker's correction fades */
+    float c_bl;          /* the boundary layer's correction per step, k Ts / (L_d delta) <= 1 */
+    float w_sched_min;   /* FS_SMO_FORM_TRACKING: the schedule's speed floor, rad/s (el.) */
+    float a_emf;         /* FS_SMO_FORM_TRACKING: the EMF magnitude's low-pass per step, at bw_pll */
+    float e_raw;         /* FS_SMO_FORM_TRACKING: |the period's EMF|, low-passed, V */
     int n_settle, k_settled;  /* converged after n_settle steps in a row */
     bool converged;
     float theta;         /* estimated angle at the sampling instant, rad */
@@ -119,6 +161,13 @@ void fs_smo_reset(fs_smo *o, float theta, float w);
  * injection side knows the direction long before the back-EMF does, and an
  * observer that took it from its own speed at standstill could lock pi off. */
 void fs_smo_set_dir(fs_smo *o, float w);
+/* FS_SMO_FORM_TRACKING, while not valid and its own EMF (e_raw) below that
+ * of w_valid: the tracker takes an estimate the caller trusts (angle,
+ * electrical speed, and T_d the load torque as fs_motion_obs has it, N m),
+ * so that it runs on its own EMF from the right state once the EMF is
+ * there. No effect on the paper form, once valid, or with an EMF that says
+ * the rotor turns faster (the caller's estimate may have slipped). */
+void fs_smo_follow(fs_smo *o, float theta, float w, float T_d);
 /* One step: i is the current sampled now, u the stationary voltage that
  * acted during the period that ended now. Returns the angle. */
 float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u);

@@ -312,6 +312,37 @@ int main(void)
         }
         FS_CHECK(cabs(four - U_H) < 2e-5, "fundamental of the held voltage %.6f%+.6fj, not u_h", creal(four), cimag(four));
     }
+    /* ---- 7. the observer with the filters' lag in its loop (cfg.lag) ----
+     * The defaults: the triple pole at w_b_n, the filter once (paper's
+     * filter) or twice (the leak's removal), the blend's default the paper's
+     * rule. The static compensations do not depend on the observer: the
+     * same locks as in 1. and 3., to the same 0.01 deg. */
+    for (int leak = 0; leak <= 1; ++leak) {
+        c = c0; c.lag = 1; c.leak = leak;
+        FS_CHECK_EQ_INT(fs_hfi_init(&h, &c), FS_OK, "init with lag");
+        FS_CHECK_NEAR(h.obs.cfg.bandwidth, h.cfg.w_b_n * FS_HFI_OBS_PER_FILTER_LAG, 1e-3, "lag: default observer bandwidth");
+        FS_CHECK_EQ_INT(h.obs.lag, 1 + leak, "lag: the filter once, twice with the leak's removal");
+        FS_CHECK(h.obs.w_lag == h.cfg.w_b_n, "lag: at w_b_n");
+        FS_CHECK_NEAR(h.w_o_blend, h.cfg.w_b_n / 5.0, 1e-3, "lag: the blend's default is the paper's rule");
+        s = s0;
+        run(leak ? "lag, leak removed: standstill from -60 deg" : "lag: standstill from -60 deg", &s, &c, &r);
+        FS_CHECK_NEAR(r.mean, hold_bias, 0.01 * DEG, "lag: standstill lock");
+        FS_CHECK_NEAR(r.max, 0.0, 0.2 * DEG, "lag: standstill |error|");
+        FS_CHECK_EQ_INT(r.k_first_eps, (int)ceil(3.0 / (w_b_n * TS)), "lag: error used after 3 / (w_b_n Ts) steps");
+        s.w_r = 2.0 * FS_TEST_PI * 100.0 / 60.0 * 5.0; s.th_start = th;
+        const double shift = 0.5 * (carrier(s.w_r, w_b_p, NULL, NULL) - carrier(0.0, w_b_p, NULL, NULL));
+        run("lag: turning", &s, &c, &r);
+        FS_CHECK_NEAR(r.mean, hold_bias + shift, 0.01 * DEG, "lag at speed: hold residual + carrier shift");
+        FS_CHECK_NEAR(r.w, s.w_r, 0.01 * fabs(s.w_r), "lag: speed estimate within 1 %");
+    }
+    REFUSE(c0, lag, 2, FS_ERR_PARAM); REFUSE(c0, lag, -1, FS_ERR_PARAM);
+    c = c0; c.lag = 1; c.obs.bandwidth = 40.0f;
+    FS_CHECK_EQ_INT(fs_hfi_init(&h, &c), FS_OK, "lag with an explicit bandwidth");
+    FS_CHECK(h.obs.cfg.bandwidth == 40.0f && h.w_o_blend == h.cfg.w_b_n / 5.0f, "lag: explicit bandwidth kept, the blend's still the rule");
+    c = c0; c.obs.bandwidth = 40.0f;
+    fs_hfi_init(&h, &c);
+    FS_CHECK(h.w_o_blend == 40.0f, "paper: the blend's default is the injection's");
+
     fs_hfi_reset(&h, 0.0f, 0.0f);
     FS_CHECK(h.gain == 1.0f, "reset: gain 1");
     for (int k = 1; k >= 0; --k) {   /* gain 0.5, then 0 */

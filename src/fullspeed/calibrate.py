@@ -20,10 +20,19 @@ angles are averaged on the circle; each point's scatter (circular standard
 deviation) is reported with the table, and the table is checked by running
 the same steps again with it in the estimator: the compensated estimate's
 mean error at each point (`residual_deg`).
+
+A table holds the estimator's own bias at the settings it was measured with
+as well as the machine's cross-saturation (the rotating injection's leak,
+issue 27: about 3 el.deg at 40 A on yang2022, of either sign; the square
+wave's lead of its sequence at the held speed), so it records them
+(`settings`) and a scenario that uses it with others is refused (the
+estimator, the leak, the sequence: a known bias) or warned, one line naming
+the field (the machine, the carrier, the filters): check_table_settings.
 """
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -55,6 +64,61 @@ SPEED_FLOOR_RPM = 2.0  # ... and never a band narrower than 2 rpm (a held stands
 
 class CalibrationError(ConfigError):
     """A calibration whose table cannot be trusted: the reason, no table."""
+
+
+# The settings a table records, each with the field that sets it; those whose
+# change moves the estimator's own bias by a known amount refuse the table,
+# the rest warn (a different machine or carrier: a table to check, perhaps
+# still the right one).
+SETTING_FIELDS = {"estimator": "controller.angle", "leak": "injection.leak", "sequence": "injection.sequence",
+                  "machine": "machine", "u_h": "injection.u_h", "f_h": "injection.f_h",
+                  "bw_filter_p": "injection.bw_filter_p", "bw_filter_n": "injection.bw_filter_n"}
+SETTINGS_REFUSED = ("estimator", "leak", "sequence")
+
+
+def table_settings(d: dict, machine_name: str) -> dict:
+    """What a cross-saturation table measured (or used) in a scenario
+    depends on beside the machine's magnetics: the estimator, its bias-moving
+    settings, the machine and the carrier (filters left to fs_hfi_init:
+    "designed")."""
+    inj = d["injection"]
+    square = d["controller"]["angle"] == "swvi"
+    out = {"estimator": "square" if square else "rotating", "machine": machine_name,
+           "u_h": float(inj["u_h"]), "f_h": float(inj["f_h"])}
+    if square:
+        out["sequence"] = inj["sequence"]
+    else:
+        out["leak"] = inj["leak"]
+        for key in ("bw_filter_p", "bw_filter_n"):
+            out[key] = "designed" if inj[key] is None else float(inj[key])
+    return out
+
+
+def check_table_settings(d: dict, machine_name: str, source=None) -> list[str]:
+    """The scenario's injection.xcomp table against the settings it was
+    measured with: ConfigError on a refused difference, one warning line per
+    other difference; nothing for a table that records none (an inline
+    table the user wrote) or the square wave's fitted polynomial."""
+    xc = d["injection"].get("xcomp")
+    rec = xc.get("settings") if isinstance(xc, dict) else None
+    if not rec or d["controller"]["angle"] not in ("hfi", "blend", "swvi"):   # no injection: the table is not read
+        return []
+    now = table_settings(d, machine_name)
+    warnings = []
+    for key, field in SETTING_FIELDS.items():
+        if key not in rec or key not in now:
+            continue
+        a, b = rec[key], now[key]
+        same = (math.isclose(a, b, rel_tol=1e-6) if isinstance(a, float) and isinstance(b, float) else a == b)
+        if same:
+            continue
+        why = (f"the cross-saturation table (injection.xcomp) was measured with {key} = {a!r}, and the estimator's "
+               f"own bias at that setting is in it")
+        if key in SETTINGS_REFUSED:
+            raise ConfigError(field, b, f"must be {a!r} with this table: {why}; calibrate one with this setting "
+                                        "(fullspeed calibrate SCENARIO)", source)
+        warnings.append(f"{field} = {b!r}: {why}; with {b!r} it may hold a different bias (fullspeed calibrate to check)")
+    return warnings
 
 
 def circular_mean_deg(a_rad: np.ndarray) -> float:
@@ -169,9 +233,10 @@ def xsat_table(scenario: str | Path, i_q_max: float = 40.0, points: int = 17,
              "source": f"fullspeed calibrate on {sc.name} ({sc.machine.name}): encoder in the loop, {held:g} rpm held by "
                        f"the load machine, i_q held {t_hold:g} s per point, circular mean of theta_hat - theta over the "
                        f"last {t_avg:g} s",
-             "spread_deg": [round(s, 4) for s, _ in spread], "speed_rpm": held}
+             "spread_deg": [round(s, 4) for s, _ in spread], "speed_rpm": held,
+             "settings": table_settings(sc.data, sc.machine.name)}
     if verify:
-        again = simulate(load_scenario(scenario, {**over, "injection": {"xcomp": {k: table[k] for k in ("i_q", "delta_deg")}}}))
+        again = simulate(load_scenario(scenario, {**over, "injection": {"xcomp": {k: table[k] for k in ("i_q", "delta_deg", "settings")}}}))
         if again.stop_reason != "done":
             raise CalibrationError("scenario", sc.name, f"the check with the table stopped: {again.stop_reason}; no table written", sc.source)
         table["residual_deg"] = [round(d, 4) for d in _points(again, t_steps, t_hold, t_avg)[0]]
@@ -194,6 +259,10 @@ def _toml_str(s: str) -> str:
     return json.dumps(s, ensure_ascii=False)
 
 
+def _toml_value(v) -> str:
+    return _toml_str(v) if isinstance(v, str) else f"{v:.9g}"
+
+
 def write_table(table: dict, path: Path) -> Path:
     """The table as TOML ([xcomp] with i_q, delta_deg and source, readable
     by injection.xcomp; [calibration] with the scatter, the held speed and
@@ -205,6 +274,10 @@ def write_table(table: dict, path: Path) -> Path:
             f"source = {_toml_str(table['source'])}\n"
             + f"i_q = {arr(table['i_q'])}              # A\n"
             f"delta_deg = {arr(table['delta_deg'])}    # el.deg, theta_hat - theta_r uncompensated\n")
+    if table.get("settings"):
+        text += ("\n# what it was measured with: a scenario that differs is refused (estimator, leak, sequence) or warned\n"
+                 "[xcomp.settings]\n"
+                 + "".join(f"{k} = {_toml_value(v)}\n" for k, v in table["settings"].items()))
     if "spread_deg" in table:
         text += ("\n# how far the table can be trusted (not read by the estimator)\n[calibration]\n"
                  f"speed_rpm = {table['speed_rpm']:g}            # held by the load machine\n"

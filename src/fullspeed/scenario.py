@@ -102,9 +102,9 @@ SCENARIO = {
         "valid_rpm": NONNEG(None, hi=1e6, doc="the observer's estimate is trusted above this speed; default 5/8 of the lower blending speed (yang2022: 100 rpm)"),
         "top_speed_rpm": POS(None, hi=1e6, doc="for the gain bound; default 1.5 x rated"),
         "lag": C("exact", "paper", default="exact", doc="form = \"paper\": the adaptive filter's phase lag compensated exactly, or by pi/4 as the paper writes it"),
-        "form": C("paper", "tracking", default="paper",
-                  doc="paper: the SMO and PLL of yang2022 sec. 2; tracking: fullspeed's, exact in discrete time, "
-                      "with a motion observer on the measured torque (fs_smo.h)"),
+        "form": C("paper", "tracking", default="tracking",
+                  doc="tracking: fullspeed's, exact in discrete time, with a motion observer on the measured torque whose "
+                      "bandwidth follows the EMF (fs_smo.h); paper: the SMO and PLL of yang2022 sec. 2 (its scenarios pin it)"),
         # how the sensorless drive starts: on the encoder until `handover`, or
         # sensorless from standstill with an I/f start
         "start": C("encoder", "if", default="encoder", doc="sensorless start: on the encoder until handover, or I/f from standstill"),
@@ -119,9 +119,13 @@ SCENARIO = {
         "f_h": POS(None, hi=1e5, doc="Hz; default the machine's [injection]; at most a quarter of the sampling rate"),
         "bw_filter_p": POS(None, hi=1e6, doc="rad/s, SRFF at +w_h; default w_h / 20 (fs_hfi.h)"),
         "bw_filter_n": POS(None, hi=1e6, doc="rad/s, SRFF at -w_h + 2 w_r; default w_h / 20"),
-        "bw_observer": POS(None, hi=1e6, doc="rad/s, motion observer; default bw_filter_n / 5"),
+        "bw_observer": POS(None, hi=1e6, doc="rad/s, motion observer; default bw_filter_n / 5 (tracking = \"lag\": bw_filter_n)"),
+        "tracking": C("paper", "lag", default="paper",
+                      doc="hfi/blend: lag designs the motion observer with the negative-sequence filter's lag in its loop (fs_motion_obs.h; a faster observer, less error under a load it does not know); paper: Fig. 5 on the error as it is"),
         "leak": C("keep", "remove", default="keep",
-                  doc="hfi/blend: remove takes the fundamental's leak out of the negative carrier (fs_hfi_filter.h; no load-proportional bias); keep: the paper's filter"),
+                  doc="hfi/blend: keep: the paper's filter; remove takes the fundamental's leak out of the negative carrier "
+                      "(fs_hfi_filter.h; no load-proportional bias), not the default: on the yang2022 machine at rated load "
+                      "at standstill it makes the injection's loop limit-cycle (beyond-full-range 50.9 el.deg)"),
         "xcomp": Spec("any", None, doc="cross-saturation table {i_q = [A...], delta_deg = [...]} on an even grid, or a TOML file holding it, or (swvi) \"paper\": the machine's fitted error polynomial"),
         "stop_rpm": POS(None, hi=1e6, doc="blend: the injection stops above this speed (resumes below 0.9 of it); default 1.2 x the upper blending speed"),
         "sequence": C("optimized", "conventional", default="optimized", doc="swvi: the time sequence of yu2022 sec. 3.2"),
@@ -138,8 +142,8 @@ SCENARIO = {
     "blending": T({
         "lower_rpm": NONNEG(None, hi=1e6, doc="eq. (28), the injection alone below; default the machine's [blending], else designed"),
         "upper_rpm": POS(None, hi=1e6, doc="eq. (28), the back-EMF observer alone above; default the machine's [blending], else designed"),
-        "bw_observer": POS(None, hi=1e6, doc="rad/s, the motion observer after the blend (Fig. 6); default that of the injection's"),
-        "gate": B(False, doc="the SMO's weight only once it has converged, the injection stopped only then (fs_blend.h); false: eq. (28) alone"),
+        "bw_observer": POS(None, hi=1e6, doc="rad/s, the motion observer after the blend (Fig. 6); default that of the injection's (with injection.tracking = \"lag\": the paper's rule, bw_filter_n / 5)"),
+        "gate": B(True, doc="the SMO's weight only once it has converged, the injection stopped only then (fs_blend.h); false: eq. (28) alone (the paper's)"),
     }, default={}),
     "load": T({
         "kind": C("torque", "speed", "speed_pi", "brake", default="torque",
@@ -390,8 +394,10 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         if f"injection.{key}" not in notes and d["injection"][key] is not None and ctl["angle"] in ("hfi", "blend", "swvi"):
             notes[f"injection.{key}"] = dz.Value(d["injection"][key], "", "given in the machine file or the scenario", True)
     notes.update(d.pop("_notes", {}))
+    from .calibrate import check_table_settings
     from .checks import warnings_of
-    return Scenario(name=d["name"], machine=m, data=d, source=source, design=notes, warnings=warnings_of(d, m))
+    warnings = warnings_of(d, m) + check_table_settings(d, m.name, source)
+    return Scenario(name=d["name"], machine=m, data=d, source=source, design=notes, warnings=warnings)
 
 
 def _per_unit(d: dict, data: dict, m: Machine, source) -> None:
@@ -510,7 +516,7 @@ def _injection_fields(d: dict, m: Machine, source, bw_speed_given: bool = True, 
         if inj[key] is not None and inj[key] * Ts > 0.5:
             raise ConfigError(f"injection.{key}", inj[key], f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s", source)
     h = _hfi_design(inj, Ts, L_d, L_q, source)   # the bandwidths and the held amplitude as the estimator designs them
-    w_o = d["blending"]["bw_observer"] or h.cfg.obs.bandwidth
+    w_o = d["blending"]["bw_observer"] or (h.w_o_blend if ctl["angle"] == "blend" else h.cfg.obs.bandwidth)
     if not bw_speed_given and ctl["bw_speed"] > 0.5 * w_o:
         # the speed comes from the injection's (or the blend's) motion observer: the speed loop at half
         # its bandwidth keeps the observer's lag small (on the machine zoo: 28 of 50 saturating machines
@@ -670,7 +676,8 @@ def _hfi_design(inj: dict, Ts: float, L_d: float, L_q: float, source=None):
 
     cfg = ffi.new("fs_hfi_config *", {"Ts": Ts, "delay": 1.0, "u_h": inj["u_h"], "w_h": 2 * math.pi * inj["f_h"],
                                       "L_d": L_d, "L_q": L_q,
-                                      "w_b_p": inj["bw_filter_p"] or 0.0, "w_b_n": inj["bw_filter_n"] or 0.0})
+                                      "w_b_p": inj["bw_filter_p"] or 0.0, "w_b_n": inj["bw_filter_n"] or 0.0,
+                                      "leak": inj["leak"] == "remove", "lag": inj["tracking"] == "lag"})
     cfg.obs.J, cfg.obs.pole_pairs, cfg.obs.bandwidth = 1.0, 1, inj["bw_observer"] or 0.0
     h = ffi.new("fs_hfi *")
     st = lib.fs_hfi_init(h, cfg)
@@ -701,8 +708,9 @@ def _xcomp_table(raw, source) -> dict:
         except ConfigError as exc:   # name the field, and the file in it
             raise ConfigError(where, raw, f"{p}: {exc.allowed}", source) from None
         raw = raw.get("xcomp", raw)
-    # what `fullspeed calibrate` writes beside the table (its provenance and quality) is accepted and not used
-    if not isinstance(raw, dict) or set(raw) - {"i_q", "delta_deg", "source", "spread_deg", "speed_rpm", "residual_deg"} \
+    # what `fullspeed calibrate` writes beside the table (its provenance and quality) is accepted and not used;
+    # the settings it was measured with are kept for calibrate.check_table_settings
+    if not isinstance(raw, dict) or set(raw) - {"i_q", "delta_deg", "source", "spread_deg", "speed_rpm", "residual_deg", "settings"} \
             or not {"i_q", "delta_deg"} <= set(raw):
         raise ConfigError(where, raw if not isinstance(raw, dict) else sorted(raw), "must be a table with i_q = [A...] and delta_deg = [el.deg...]", source)
     i_q, delta = raw["i_q"], raw["delta_deg"]
@@ -714,7 +722,13 @@ def _xcomp_table(raw, source) -> dict:
         raise ConfigError(f"{where}.i_q", i_q, "must rise in even steps", source)
     if not all(abs(x) < 90.0 for x in delta):
         raise ConfigError(f"{where}.delta_deg", delta, "must lie within +-90 el.deg", source)
-    return {"i_q": [float(x) for x in i_q], "delta_deg": [float(x) for x in delta]}
+    out = {"i_q": [float(x) for x in i_q], "delta_deg": [float(x) for x in delta]}
+    if "settings" in raw:
+        st = raw["settings"]
+        if not isinstance(st, dict) or not all(isinstance(v, (str, int, float)) and not isinstance(v, bool) for v in st.values()):
+            raise ConfigError(f"{where}.settings", st, "must be a table of the settings it was measured with (names and numbers)", source)
+        out["settings"] = {k: float(v) if isinstance(v, int) else v for k, v in st.items()}
+    return out
 
 
 def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Scenario:

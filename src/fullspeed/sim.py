@@ -325,6 +325,7 @@ def _set_injection(dc, d: dict, p: int) -> None:
     hc.w_b_n = inj["bw_filter_n"] or 0.0
     hc.obs.bandwidth = inj["bw_observer"] or 0.0
     hc.leak = inj["leak"] == "remove"
+    hc.lag = inj["tracking"] == "lag"
     xc = inj["xcomp"]
     if xc is not None:
         _set_xcomp(hc.xcomp, xc)
