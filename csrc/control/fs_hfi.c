@@ -80,8 +80,8 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
     h->k_avg = -expm1f(-0.25f * c.w_b_n * c.Ts);
     h->n_settle = (int)ceilf(3.0f / (c.w_b_n * c.Ts));
     h->w_o_blend = c.lag ? FS_HFI_OBS_PER_FILTER * c.w_b_n : c.obs.bandwidth;
-    h->rot_u.alpha = cosf(h->theta_u);
-    h->rot_u.beta = sinf(h->theta_u);
+    h->rot_u.alpha = fs_cosf(h->theta_u);
+    h->rot_u.beta = fs_sinf(h->theta_u);
     fs_hfi_reset(h, 0.0f, 0.0f);
     return FS_OK;
 }
