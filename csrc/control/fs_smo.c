@@ -9,7 +9,7 @@
 static void smo_schedule(fs_smo *o)
 {
     const float w_emf = o->e_raw / o->cfg.psi_f;
-    const float want = fminf(FS_SMO_BW_PER_W * fmaxf(w_emf, o->w_sched_min), o->cfg.bw_pll);
+    const float want = fs_minf(FS_SMO_BW_PER_W * fs_maxf(w_emf, o->w_sched_min), o->cfg.bw_pll);
     const float now = o->mo.cfg.bandwidth;
     if (fabsf(want - now) <= 0.1f * now) return;
     const float theta = o->mo.theta_hat, w_hat = o->mo.w_hat, T_d = o->mo.T_d_hat;
@@ -52,7 +52,7 @@ fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
     st = fs_pll_init(&o->pll, &pc);
     if (st != FS_OK) return st;
     /* the boundary layer's correction per step, k Ts / (L_d delta) <= 1 */
-    o->c_bl = fminf(o->k * cfg->Ts / (cfg->L_d * o->delta), 1.0f);
+    o->c_bl = fs_minf(o->k * cfg->Ts / (cfg->L_d * o->delta), 1.0f);
     /* 0.4 w_valid psi_f: the filtered EMF at w_valid (the loop passes
      * 1 / sqrt 5 of it at w_c = w) */
     o->e_valid = 0.4f * cfg->w_valid * cfg->psi_f;
@@ -66,7 +66,7 @@ fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
         st = fs_motion_obs_init(&o->mo, &mc);
         if (st != FS_OK) return st;
         o->k_T = 0.5f * (float)cfg->phases * (float)cfg->pole_pairs;
-        o->w_sched_min = fmaxf(cfg->w_valid, cfg->w_c_min);
+        o->w_sched_min = fs_maxf(cfg->w_valid, cfg->w_c_min);
         o->a_emf = -expm1f(-cfg->bw_pll * cfg->Ts);
         /* the filtered EMF at w_valid behind the filter at FS_SMO_WC_PER_BW
          * times the tracker's bandwidth there: r / sqrt(4 r^2 + 1) of it */
@@ -133,7 +133,7 @@ static float smo_emf_angle(const fs_smo *o, fs_ab e, float w, float w_c)
     const float th_e = o->dir > 0.0f ? atan2f(-e.alpha, e.beta) : atan2f(e.alpha, -e.beta);
     const float g = w_c * Ts / (1.0f + w_c * Ts);
     const float c = o->c_bl;
-    const float zr = cosf(w * Ts), zi = sinf(w * Ts);
+    const float zr = fs_cosf(w * Ts), zi = fs_sinf(w * Ts);
     /* den = (z - 1 + g)(z - 1 + c) + g c z */
     const float ar = zr - 1.0f + g, br = zr - 1.0f + c;
     const float dr = ar * br - zi * zi + g * c * zr;
@@ -183,12 +183,12 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
     const fs_ab z_prev = o->z;
     o->z.alpha = o->k * sat(e_a, o->delta);
     o->z.beta = o->k * sat(e_b, o->delta);
-    o->r_i = fmaxf(fabsf(e_a), fabsf(e_b)) / o->delta;
+    o->r_i = fs_maxf(fabsf(e_a), fabsf(e_b)) / o->delta;
     /* Fig. 1: adaptive low-pass filter, cutoff at the estimated speed; the
      * tracking form's at least FS_SMO_WC_PER_BW times its tracker's
      * bandwidth (fs_smo.h, change 3) */
-    const float w_c = track ? fmaxf(fabsf(w), FS_SMO_WC_PER_BW * o->mo.cfg.bandwidth) : w;
-    const float w_c_used = fmaxf(fabsf(w_c), c->w_c_min);
+    const float w_c = track ? fs_maxf(fabsf(w), FS_SMO_WC_PER_BW * o->mo.cfg.bandwidth) : w;
+    const float w_c_used = fs_maxf(fabsf(w_c), c->w_c_min);
     fs_ab e = fs_lpf_step(&o->lpf, o->z, w_c);
     if (track) {
         /* the period's EMF as the model sees it, from the observer's own
@@ -215,7 +215,7 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
          * bandwidth: the angle error it is working off, not one sample's
          * (the injection's fade-in steps the fundamental current) */
         const float a_eps = 1.0f - o->mo.z_o;
-        o->eps += a_eps * (sinf(fs_wrap_pi(err - c->Ts * w)) - o->eps);
+        o->eps += a_eps * (fs_sinf(fs_wrap_pi(err - c->Ts * w)) - o->eps);
         o->e_mag = mag;
         /* the model's net torque T + T_d fades with the EMF as the
          * correction does, and the current's torque counts only in a frame
