@@ -4,8 +4,11 @@
  * the double-precision libm on every float of |x| < 8 (with a stride) and
  * on the arguments a drive gives it (uniform angles): within 1 ulp of the
  * exact values, correctly rounded on most; zero, NaN, infinities and large
- * arguments; fs_tanf; fs_maxf and fs_minf as fmaxf and fminf are specified
- * (NaN ignored); fs_wrap_far against the fmodf path it shortens.
+ * arguments; fs_tanf; fs_atan2f on vectors of every direction and of
+ * magnitudes from 1e-30 to 1e38 (within 1.6 ulp), and on the special
+ * values as C99 Annex F has atan2; fs_maxf and fs_minf as fmaxf and fminf
+ * are specified (NaN ignored); fs_wrap_far against the fmodf path it
+ * shortens.
  */
 #include <float.h>
 #include <stdint.h>
@@ -107,6 +110,46 @@ int main(void)
         if (e > worst_t) worst_t = e;
     }
     FS_CHECK(worst_t < 3.0, "fs_tanf: %.3f ulp", worst_t);
+
+    /* fs_atan2f: vectors of every direction and magnitude */
+    double worst_a = 0.0;
+    long over1 = 0, n_a = 0, rounded_a = 0;
+    for (int k = 0; k < 2000000; ++k) {
+        r = r * 1664525u + 1013904223u;
+        const double ang = -FS_TEST_PI + 2.0 * FS_TEST_PI * (double)(r >> 8) / 16777216.0;
+        r = r * 1664525u + 1013904223u;
+        const double mag = pow(10.0, -30.0 + 68.0 * (double)(r >> 8) / 16777216.0);
+        const float y = (float)(mag * sin(ang)), x = (float)(mag * cos(ang));
+        const double exact = atan2((double)y, (double)x);
+        const float a = fs_atan2f(y, x);
+        const double e = ulps(a, exact);
+        if (e > worst_a) worst_a = e;
+        over1 += e > 1.0;
+        rounded_a += a == (float)exact;
+        ++n_a;
+        FS_CHECK(e < 1.6, "fs_atan2f(%.9g, %.9g) = %.9g: %.3f ulp from %.17g", y, x, a, e, exact);
+    }
+    printf("fs_atan2f: worst %.3f ulp, over 1 ulp on %.3f %%, correctly rounded on %.2f %%\n",
+           worst_a, 100.0 * (double)over1 / (double)n_a, 100.0 * (double)rounded_a / (double)n_a);
+    FS_CHECK((double)over1 / (double)n_a < 1e-3 && (double)rounded_a / (double)n_a > 0.85, "fs_atan2f's rounding");
+    /* C99 Annex F: zeros by their sign, infinities, NaN; and atan(x) = atan2(x, 1) */
+    const float spec[][3] = {
+        {0.0f, 1.0f, 0.0f}, {-0.0f, 1.0f, -0.0f}, {0.0f, -1.0f, FS_PI}, {-0.0f, -1.0f, -FS_PI},
+        {0.0f, 0.0f, 0.0f}, {-0.0f, 0.0f, -0.0f}, {0.0f, -0.0f, FS_PI}, {-0.0f, -0.0f, -FS_PI},
+        {1.0f, 0.0f, 0.5f * FS_PI}, {-1.0f, -0.0f, -0.5f * FS_PI}, {INFINITY, 1.0f, 0.5f * FS_PI},
+        {-INFINITY, -1.0f, -0.5f * FS_PI}, {1.0f, INFINITY, 0.0f}, {-1.0f, INFINITY, -0.0f},
+        {1.0f, -INFINITY, FS_PI}, {-1.0f, -INFINITY, -FS_PI}, {INFINITY, INFINITY, 0.25f * FS_PI},
+        {-INFINITY, -INFINITY, -0.75f * FS_PI}, {FLT_MAX, FLT_MAX, 0.25f * FS_PI}, {FLT_MAX, -FLT_MAX, 0.75f * FS_PI}};
+    for (size_t k = 0; k < sizeof spec / sizeof spec[0]; ++k) {
+        const float a = fs_atan2f(spec[k][0], spec[k][1]);
+        FS_CHECK(same_bits(a, spec[k][2]) || fabsf(a - spec[k][2]) <= 2e-7f * fabsf(spec[k][2]),
+                 "fs_atan2f(%g, %g) = %.9g, want %.9g", spec[k][0], spec[k][1], a, spec[k][2]);
+    }
+    FS_CHECK(isnan(fs_atan2f(NAN, 1.0f)) && isnan(fs_atan2f(1.0f, NAN)), "fs_atan2f with NaN");
+    for (int k = -1000; k <= 1000; ++k) {
+        const float x = (float)k * 0.01f;
+        FS_CHECK(ulps(fs_atanf(x), atan((double)x)) < 1.6, "fs_atanf(%g)", x);
+    }
 
     /* fs_maxf, fs_minf: the larger (smaller), the number beside a NaN, the
      * first where equal. */
