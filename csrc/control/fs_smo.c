@@ -130,7 +130,7 @@ static float sat(float x, float delta)  /* eq. (6) */
 static float smo_emf_angle(const fs_smo *o, fs_ab e, float w, float w_c)
 {
     const float Ts = o->cfg.Ts;
-    const float th_e = o->dir > 0.0f ? atan2f(-e.alpha, e.beta) : atan2f(e.alpha, -e.beta);
+    const float th_e = o->dir > 0.0f ? fs_atan2f(-e.alpha, e.beta) : fs_atan2f(e.alpha, -e.beta);
     const float g = w_c * Ts / (1.0f + w_c * Ts);
     const float c = o->c_bl;
     const float zr = fs_cosf(w * Ts), zi = fs_sinf(w * Ts);
@@ -138,7 +138,7 @@ static float smo_emf_angle(const fs_smo *o, fs_ab e, float w, float w_c)
     const float ar = zr - 1.0f + g, br = zr - 1.0f + c;
     const float dr = ar * br - zi * zi + g * c * zr;
     const float di = ar * zi + zi * br + g * c * zi;
-    return fs_wrap_pi(th_e - 1.5f * w * Ts + atan2f(di, dr));
+    return fs_wrap_pi(th_e - 1.5f * w * Ts + fs_atan2f(di, dr));
 }
 
 static void smo_settle(fs_smo *o)
@@ -249,7 +249,7 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
         o->w = o->pll.w;
         float w_c = fs_maxf(fabsf(o->w), c->w_c_min);
         float lag = (c->lag == FS_SMO_LAG_PAPER) ? fs_signf(o->w) * 0.25f * FS_PI
-                                                 : atanf(o->w / (2.0f * w_c));
+                                                 : fs_atanf(o->w / (2.0f * w_c));
         /* the PLL now predicts the next mid-period; back half a period to the sample */
         o->theta = fs_wrap_pi(o->pll.theta - 0.5f * c->Ts * o->w + lag);
     }
