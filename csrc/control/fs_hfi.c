@@ -11,13 +11,13 @@ static void carrier_phase(fs_hfi *h, float R_s)
      * band (the bilinear images of fs_srff.h) */
     const float w_b = (2.0f / c.Ts) * tanhf(0.5f * c.w_b_p * c.Ts);
     const float v = (2.0f / c.Ts) * fs_tanf(c.w_h * c.Ts);
-    const float phi_p = atanf(w_b / v);
+    const float phi_p = fs_atanf(w_b / v);
     /* the resistance's phase on the negative carrier, with the held
      * voltage's R x cot x (header) */
     const float sl = 0.5f * (c.L_d + c.L_q), dl = 0.5f * (c.L_d - c.L_q);
     const float R = R_s * x / fs_tanf(x), w = c.w_h;
     const float D_re = w * w * (sl * sl - dl * dl) - R * R, D_im = 2.0f * R * w * sl;
-    const float phi_r = atan2f(D_im, D_re);
+    const float phi_r = fs_atan2f(D_im, D_re);
     h->phi_ref = 0.5f * FS_PI - phi_p - phi_r;
     if (dl > 0.0f) h->phi_ref -= FS_PI;   /* L_d > L_q: the carrier of eq. (24) changes sign */
     /* the negative carrier's amplitude, |B| of the header, at the samples */
