@@ -611,7 +611,7 @@ static fs_dq frame_emf(const fs_ident *id, fs_ab i_ab)
 static float frame_pll(fs_ident *id, fs_ab i_ab)
 {
     const fs_dq e = frame_emf(id, i_ab);
-    const float phi = atan2f(-e.d, e.q) * (id->w >= 0.0f ? 1.0f : -1.0f);
+    const float phi = fs_atan2f(-e.d, e.q) * (id->w >= 0.0f ? 1.0f : -1.0f);
     const float kp = 2.0f * id->bw_pll, ki = id->bw_pll * id->bw_pll;   /* double pole at bw_pll */
     id->w0 += ki * phi * id->cfg.Ts;                                       /* w0: the integral, the speed */
     id->w = id->w0 + kp * phi;
