@@ -101,12 +101,12 @@ float fs_atan2f(float y, float x)
     const float PI4_HI = 7.85398185e-01f, PI4_LO = -2.18556941e-08f;   /* pi/4 = HI + LO */
     const float PI2_HI = 1.57079637e+00f, PI2_LO = -4.37113883e-08f;
     const float PI_HI = 3.14159274e+00f, PI_LO = -8.74227766e-08f;
-    if (x != x || y != y) return x + y;   /* NaN */
     const float ax = fabsf(x), ay = fabsf(y);
     const bool swap = ay > ax;
-    float num = swap ? ax : ay, den = swap ? ay : ax;   /* num <= den */
+    float num = swap ? ax : ay, den = swap ? ay : ax;   /* num <= den (or a NaN) */
     float u, hi, lo;
-    if (!(num > 0.0f && den < 1e38f)) {   /* zeros, infinities; num + den could overflow */
+    if (!(num > 0.0f && den < 1e38f)) {   /* zeros, infinities, NaN; num + den could overflow */
+        if (num != num || den != den) return x + y;
         if (den == INFINITY) {
             num = num == INFINITY ? 1.0f : 0.0f;
             den = 1.0f;
