@@ -58,11 +58,13 @@ void pil_hook_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
 }
 
 /* The library's trigonometry on the host, for the libm probe (fs_cis
- * returns a complex float, which cffi cannot take from a call). */
-void pil_cis(const float *x, float *cs, long n)
+ * returns a complex float, which cffi cannot take from a call): per (x, y)
+ * pair, cos x, sin x and atan2(y, x). */
+void pil_trig(const float *xy, float *out, long n)
 {
     for (long k = 0; k < n; ++k) {
-        cs[2 * k] = fs_cosf(x[k]);
-        cs[2 * k + 1] = fs_sinf(x[k]);
+        out[3 * k] = fs_cosf(xy[2 * k]);
+        out[3 * k + 1] = fs_sinf(xy[2 * k]);
+        out[3 * k + 2] = fs_atan2f(xy[2 * k + 1], xy[2 * k]);
     }
 }

@@ -77,8 +77,8 @@ def pil(out: Path) -> Measurement:
             f"outputs (tolerance: duty {mod.TOLERANCE['duty']:g}, angle {mod.TOLERANCE['theta_e']:g} rad, speed "
             f"{mod.TOLERANCE['w_e_rel']:g} relative, stage exact). The arithmetic is IEEE binary32 on both, "
             "csrc/control has no fused multiply-add (ISO C, -ffp-contract=off) and its trigonometry is its own "
-            "(fs_cis: the same bits on both); the outputs part at the first libm result that differs by an ulp "
-            "(newlib's atanf and atan2f differ from glibc's on a few arguments in a thousand) and stay within "
+            "(fs_cis, fs_atan2f: the same bits on both); the outputs part only where a libm result differs by an "
+            "ulp (newlib's logf in the matrix converter's step; expf and expm1f in the inits) and stay within "
             "about 1e-6. Where the loops run on the sliding-mode observer (smo from its "
             "0.6 s handover, the blend from 0.6 s) an open-loop replay stops being a comparison: the observer "
             "integrates the drive's own voltage against recorded currents that do not respond to it, so an ulp "
@@ -90,6 +90,6 @@ def pil(out: Path) -> Measurement:
             "optimisation) in the closed loop; the goal is read on the mean over the run (the processor's load), "
             "and blend_insns_max, the largest step, is the interrupt's deadline: blend_max_of_budget_20k is its "
             "share of 8,400 cycles (168 MHz, 20 kHz). blend_insns_by_what splits the mean between the library's "
-            "trigonometry (fs_cis), newlib's sinf/cosf and fmaxf/fminf (0: csrc/control no longer calls them), the "
+            "trigonometry (fs_cis, fs_atan2f), newlib's sinf/cosf and fmaxf/fminf (0: csrc/control no longer calls them), the "
             "rest of libm and the drive's own code. " + ("All met." if ok else "Not met: " + "; ".join(fails) + "."))
     return Measurement(value, bool(ok), note)
