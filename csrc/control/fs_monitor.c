@@ -70,7 +70,7 @@ fs_status fs_monitor_init(fs_monitor *m, const fs_monitor_config *cfg)
     m->cfg = *cfg;
     m->b = 1.0f - expf(-cfg->Ts / cfg->tau);
     m->a_s = 1.0f - expf(-FS_MONITOR_PRE * (cfg->w_h > 0.0f ? cfg->w_h : FS_PI / cfg->Ts) * cfg->Ts);
-    m->x_max = tanf(FS_PI * cfg->Ts / cfg->t_lost);
+    m->x_max = fs_tanf(FS_PI * cfg->Ts / cfg->t_lost);
     m->a_j = expf(-2.0f * cfg->Ts / cfg->t_lost);
     fs_monitor_reset(m);
     return FS_OK;
@@ -163,8 +163,8 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
 
     const float aw = fabsf(m->w_f);
     const float s = m->w_f < 0.0f ? -1.0f : 1.0f;
-    m->E_hat = fmaxf(aw * (c->psi_f + (c->L_d - c->L_q) * m->id_f), 0.0f);
-    m->E_err = (c->k_dead + FS_MONITOR_U_FLOOR) * in->u_dc + c->R_s * m->i_f + aw * fmaxf(c->L_d, c->L_q) * fabsf(m->id_f);
+    m->E_hat = fs_maxf(aw * (c->psi_f + (c->L_d - c->L_q) * m->id_f), 0.0f);
+    m->E_err = (c->k_dead + FS_MONITOR_U_FLOOR) * in->u_dc + c->R_s * m->i_f + aw * fs_maxf(c->L_d, c->L_q) * fabsf(m->id_f);
     const float pp = (float)c->pole_pairs;
     /* d(w_f)/dt: the low-passed speed's own derivative, s / (tau s + 1) w */
     const float T_L = m->T_f - (c->J / pp) * (m->w_f - w_f_prev) / c->Ts - (c->B / pp) * m->w_f;
@@ -178,12 +178,12 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
      * beyond the error bound is */
     const bool emf = m->E_hat >= FS_MONITOR_E_USE * m->E_err;
     const float den = m->E_hat + m->E_err;
-    m->r_dir = den > 0.0f ? fmaxf(1.0f + ((emf ? FS_MONITOR_K_DIR * m->E_hat : 0.0f) - m->E_err - p) / den, 0.0f) : 0.0f;
+    m->r_dir = den > 0.0f ? fs_maxf(1.0f + ((emf ? FS_MONITOR_K_DIR * m->E_hat : 0.0f) - m->E_err - p) / den, 0.0f) : 0.0f;
     m->r_mech = emf || !(c->J > 0.0f && c->T_max > 0.0f) ? 0.0f : fabsf(m->T_L_hat) / (FS_MONITOR_K_MECH * c->T_max);
     m->r_cur = m->ierr_f / (FS_MONITOR_K_CUR * c->i_max);
     /* the EMF's turn in the loops' frame, judged where the EMF measured
      * (its power p_f, whatever the loops' speed says) reaches the bound */
     const float E_g = FS_MONITOR_E_SLIP * m->E_err;
     m->r_slip = m->p_f > E_g * E_g ? fabsf(m->x_f) / (m->x_max * m->p_f) : 0.0f;
-    return fmaxf(fmaxf(m->r_dir, m->r_slip), fmaxf(m->r_mech, m->r_cur));
+    return fs_maxf(fs_maxf(m->r_dir, m->r_slip), fs_maxf(m->r_mech, m->r_cur));
 }
