@@ -39,6 +39,10 @@
  * JUMP pi/2 over t_lost / 2: the truth's 90 el.deg (header, 4.); the leak
  *   over half the lock time holds a hand-over's turn (a blend crosses its
  *   band in a few ms) and forgets a speed state's slow errors.
+ * E_LIM 1e18 V: the EMF the slip's products take is clamped there, so that
+ *   their squares stay finite in float32 (3.4e38) whatever a diverged
+ *   speed estimate puts into the model's rotation term; any EMF beyond
+ *   the link's voltage already makes the residual large.
  * WARM 2 tau: the low-passes start from 0 when the checks come on; before
  *   two time constants (86 % of a step) no residual is reported.
  * The constants were set from these bounds, then checked on the campaign
@@ -49,6 +53,7 @@
 #define FS_MONITOR_PRE 0.25f
 #define FS_MONITOR_U_FLOOR 0.01f
 #define FS_MONITOR_WARM 2.0f
+#define FS_MONITOR_E_LIM 1e18f
 
 fs_status fs_monitor_init(fs_monitor *m, const fs_monitor_config *cfg)
 {
@@ -130,7 +135,8 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
      * transform turned back by dl = w Ts / 2 (second order in dl) */
     const fs_dq e0 = fs_park(monitor_emf(m, in), in->cos_t, in->sin_t);
     const float dl = 0.5f * in->w * c->Ts, cl = 1.0f - 0.5f * dl * dl;
-    const fs_dq e = {cl * e0.d - dl * e0.q, cl * e0.q + dl * e0.d};
+    const fs_dq e = {fs_clampf(cl * e0.d - dl * e0.q, -FS_MONITOR_E_LIM, FS_MONITOR_E_LIM),
+                     fs_clampf(cl * e0.q + dl * e0.d, -FS_MONITOR_E_LIM, FS_MONITOR_E_LIM)};
     /* its turn over one period in that frame: cross and dot products with
      * the last period's, low-passed: x_f / p_f = tan(slip Ts) */
     const float a = m->a_s;
