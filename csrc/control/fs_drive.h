@@ -277,10 +277,11 @@ typedef struct {
      * with the blended angle over 45 deg (an injection estimate that
      * slipped while the rotor was thrown beyond the injection's speed
      * range); and, except with the square wave, the checks that do not
-     * trust the estimator (fs_monitor.h: the back-EMF against the loops'
-     * angle and speed, the voltage against what their speed asks, the load
-     * their motion implies, the current loops' error), low-passed over
-     * lock_time / 4 as well. */
+     * trust the estimator (fs_monitor.h: the back-EMF's direction and its
+     * turn in the loops' frame, the load their motion implies and the sign
+     * of its answer to the torque they command, the current loops' error;
+     * their angle jumping beyond their speed latches at once), low-passed
+     * over lock_time / 4 as well. */
     float lock_time;
     /* recovery from a loss of lock (lock_recover = 1; else the monitor
      * latches lock_lost). The currents are held at zero for t_recover, s,

@@ -43,11 +43,21 @@
  *   their squares stay finite in float32 (3.4e38) whatever a diverged
  *   speed estimate puts into the model's rotation term; any EMF beyond
  *   the link's voltage already makes the residual large.
+ * K_EXC 0.1: the torque's sign is judged where the torque commanded moved
+ *   by a tenth of T_max within t_lost (its rate's rms times t_lost): the
+ *   answer looked for is then 0.1 T_max / J of acceleration, which the
+ *   estimate's speed noise through the second derivative and the small
+ *   variations of a load do not reverse over t_lost (an unknown load's
+ *   steps are the sign test's and the EMF gate's, header 6.).
  * WARM 2 tau: the low-passes start from 0 when the checks come on; before
  *   two time constants (86 % of a step) no residual is reported.
  * The constants were set from these bounds, then checked on the campaign
- * (fullspeed.lock_campaign): on its healthy runs the largest r_dir, r_slip,
- * r_mech, r_cur were 0.6, 0.42, 0.84, 0.65 and |jump| 0.38 rad. */
+ * (fullspeed.lock_campaign): on its 236 healthy runs that kept lock the
+ * largest r_dir, r_mech, r_cur were 0.73, 0.60, 0.65 and |jump| 0.52 rad;
+ * r_slip and r_sign went past 1 for a few ms (1.32 and 1.45 at the most,
+ * zoo machine 16 starting under load), and the lock counter reached 7.4 ms
+ * of its 20 (two runs on zoo machine 11, which came within 79 and 88
+ * el.deg of losing the rotor before an overcurrent stop, were flagged). */
 #define FS_MONITOR_E_USE 3.0f
 #define FS_MONITOR_E_SLIP 1.0f
 #define FS_MONITOR_PRE 0.25f
@@ -77,6 +87,10 @@ fs_status fs_monitor_init(fs_monitor *m, const fs_monitor_config *cfg)
     m->a_s = 1.0f - expf(-FS_MONITOR_PRE * (cfg->w_h > 0.0f ? cfg->w_h : FS_PI / cfg->Ts) * cfg->Ts);
     m->x_max = fs_tanf(FS_PI * cfg->Ts / cfg->t_lost);
     m->a_j = expf(-2.0f * cfg->Ts / cfg->t_lost);
+    m->b_c = 1.0f - expf(-cfg->Ts / cfg->t_lost);
+    m->k_y = cfg->J / ((float)cfg->pole_pairs * cfg->tau);
+    const float x_exc = FS_MONITOR_K_EXC * cfg->T_max * cfg->tau / cfg->t_lost;
+    m->c_exc = x_exc * x_exc;
     fs_monitor_reset(m);
     return FS_OK;
 }
@@ -90,9 +104,10 @@ void fs_monitor_reset(fs_monitor *m)
     m->e_s1.d = m->e_s1.q = m->e_s2.d = m->e_s2.q = 0.0f;
     m->e_d = m->e_q = m->x_f = m->p_f = 0.0f;
     m->w_f = m->T_f = m->id_f = m->i_f = m->ierr_f = 0.0f;
+    m->w_f2 = m->w_f3 = m->T_f2 = m->T_f3 = m->c_xy = m->c_xx = 0.0f;
     m->th_prev = m->w_prev = m->jump = 0.0f;
     m->jumped = false;
-    m->r_dir = m->r_slip = m->r_mech = m->r_cur = 0.0f;
+    m->r_dir = m->r_slip = m->r_mech = m->r_cur = m->r_sign = 0.0f;
     m->E_hat = m->E_err = m->T_L_hat = 0.0f;
 }
 
@@ -123,10 +138,10 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
         /* the speed and torque filters start where they are: no false
          * acceleration; the EMF needs one period of history first */
         m->started = true;
-        m->w_f = in->w;
+        m->w_f = m->w_f2 = m->w_f3 = in->w;
         m->th_prev = in->theta;
         m->w_prev = in->w;
-        m->T_f = in->T_ref;
+        m->T_f = m->T_f2 = m->T_f3 = in->T_ref;
         m->i_prev = in->i;
         m->u_q1 = m->u_q2 = in->u_next;
         return 0.0f;
@@ -159,6 +174,16 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
     m->w_prev = in->w;
     m->w_f += b * (in->w - m->w_f);
     m->T_f += b * (in->T_ref - m->T_f);
+    /* the torque's sign (6.): its rate against the inertial torque's, both
+     * through three low-passes */
+    m->w_f2 += b * (m->w_f - m->w_f2);
+    m->w_f3 += b * (m->w_f2 - m->w_f3);
+    m->T_f2 += b * (m->T_f - m->T_f2);
+    m->T_f3 += b * (m->T_f2 - m->T_f3);
+    const float x = m->T_f2 - m->T_f3;
+    const float y = m->k_y * (m->w_f - 2.0f * m->w_f2 + m->w_f3);
+    m->c_xy += m->b_c * (x * y - m->c_xy);
+    m->c_xx += m->b_c * (x * x - m->c_xx);
     m->id_f += b * (i_dq.d - m->id_f);
     m->i_f += b * (sqrtf(i_dq.d * i_dq.d + i_dq.q * i_dq.q) - m->i_f);
     m->ierr_f += b * (sqrtf(in->i_err.d * in->i_err.d + in->i_err.q * in->i_err.q) - m->ierr_f);
@@ -185,11 +210,13 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
     const bool emf = m->E_hat >= FS_MONITOR_E_USE * m->E_err;
     const float den = m->E_hat + m->E_err;
     m->r_dir = den > 0.0f ? fs_maxf(1.0f + ((emf ? FS_MONITOR_K_DIR * m->E_hat : 0.0f) - m->E_err - p) / den, 0.0f) : 0.0f;
-    m->r_mech = emf || !(c->J > 0.0f && c->T_max > 0.0f) ? 0.0f : fabsf(m->T_L_hat) / (FS_MONITOR_K_MECH * c->T_max);
+    const bool mech = !emf && c->J > 0.0f && c->T_max > 0.0f;
+    m->r_mech = mech ? fabsf(m->T_L_hat) / (FS_MONITOR_K_MECH * c->T_max) : 0.0f;
+    m->r_sign = mech && p < 0.0f && m->c_xx >= m->c_exc ? 1.0f - m->c_xy / m->c_xx : 0.0f;
     m->r_cur = m->ierr_f / (FS_MONITOR_K_CUR * c->i_max);
     /* the EMF's turn in the loops' frame, judged where the EMF measured
      * (its power p_f, whatever the loops' speed says) reaches the bound */
     const float E_g = FS_MONITOR_E_SLIP * m->E_err;
     m->r_slip = m->p_f > E_g * E_g ? fabsf(m->x_f) / (m->x_max * m->p_f) : 0.0f;
-    return fs_maxf(fs_maxf(m->r_dir, m->r_slip), fs_maxf(m->r_mech, m->r_cur));
+    return fs_maxf(fs_maxf(fs_maxf(m->r_dir, m->r_slip), fs_maxf(m->r_mech, m->r_cur)), m->r_sign);
 }
