@@ -73,3 +73,9 @@ void fs_dtcomp_step(fs_dtcomp *d, const float i_ph[], fs_ab u_inj, float duty[])
     d->u_inj_now = u_inj;
     ++d->k;
 }
+
+void fs_dtcomp_idle(fs_dtcomp *d)
+{
+    d->u_inj_now.alpha = d->u_inj_now.beta = 0.0f;
+    ++d->k;
+}

@@ -62,5 +62,9 @@ void fs_dtcomp_reset(fs_dtcomp *d);
  * compensated in place, from the currents i_ph sampled now and the
  * injection voltage u_inj (stationary frame) they carry. */
 void fs_dtcomp_step(fs_dtcomp *d, const float i_ph[], fs_ab u_inj, float duty[]);
+/* A step without a carrier, for a caller that compensated it the usual way
+ * (without a carrier and with one update a period the same, and cheaper):
+ * the halves stay counted, the carrier's voltage until the next update is 0. */
+void fs_dtcomp_idle(fs_dtcomp *d);
 
 #endif /* FS_DTCOMP_H */
