@@ -554,10 +554,8 @@ static bool drive_modulate(fs_drive *drv, const fs_drive_in *in, float u_dc, fs_
     bool over = drive_five(c) ? fs_pwm5(u_ref, u_dc, duty, u_f) : fs_svpwm(u_ref, u_dc, duty, u_f);
     if (drive_five(c) && c->bw_xy > 0.0f)   /* x-y current control on top of the nearest four vectors */
         fs_xyctrl_duties(fs_xyctrl_step(&drv->xy, in->i_ph, theta, w_e, u_dc), u_dc, duty);
-    const bool predict = FS_WITH_DTCOMP && c->dt_predict && c->t_dead_comp > 0.0f;
-    if (predict && drv->injecting) fs_dtcomp_step(&drv->dtc, in->i_ph, u_inj, duty);
-    else dead_time_comp(c, in->i_ph, duty);   /* without a carrier the prediction's sign is the sample's */
-    if (predict && !drv->injecting) fs_dtcomp_idle(&drv->dtc);
+    if (FS_WITH_DTCOMP && c->dt_predict && c->t_dead_comp > 0.0f) fs_dtcomp_step(&drv->dtc, in->i_ph, u_inj, duty);
+    else dead_time_comp(c, in->i_ph, duty);
     u_f->alpha -= u_inj.alpha;   /* the fundamental part */
     u_f->beta -= u_inj.beta;
     return over;

@@ -117,8 +117,8 @@
  *   FS_WITH_DTCOMP      dead-time compensation on the predicted current (fs_dtcomp.h; dt_predict refused)
  * A three-phase inverter drive on the blend with flux weakening needs only
  * FS_WITH_DTCOMP (the scenarios' default while the drive injects: the
- * carrier's current crosses zero within the period; without a carrier the
- * drive compensates the usual way, which is then the same): a commissioning
+ * carrier's current crosses zero within the period; without a carrier
+ * fs_dtcomp_step computes the usual compensation, which is then the same): a commissioning
  * build keeps FS_WITH_IDENT, a production build leaves it out. */
 #ifndef FS_WITH_IMC
 #define FS_WITH_IMC 1

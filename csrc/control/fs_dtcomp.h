@@ -26,7 +26,11 @@
  *   and the second): t_dead/(T_pwm/2) pos(i(tau_rise)) in the first half,
  *     -t_dead/(T_pwm/2) neg(i(tau_fall)) in the second,
  * with pos(i) = clamp(i / i_band, 0, 1), neg(i) = clamp(-i / i_band, 0, 1).
- * With a constant current this is the usual compensation exactly. The
+ * With a constant current this is the usual compensation exactly; without a
+ * carrier (none acting until the interval, none in it) and with one update a
+ * period it is computed as the usual one, each edge's current the sample's
+ * (half the work: a drive that stops injecting above a speed, fs_blend.h,
+ * spends nothing on it there). The
  * halves are counted from the first step, which is taken at the carrier's
  * peak (as the runner and the PWM unit's interrupt do).
  */
@@ -62,9 +66,5 @@ void fs_dtcomp_reset(fs_dtcomp *d);
  * compensated in place, from the currents i_ph sampled now and the
  * injection voltage u_inj (stationary frame) they carry. */
 void fs_dtcomp_step(fs_dtcomp *d, const float i_ph[], fs_ab u_inj, float duty[]);
-/* A step without a carrier, for a caller that compensated it the usual way
- * (without a carrier and with one update a period the same, and cheaper):
- * the halves stay counted, the carrier's voltage until the next update is 0. */
-void fs_dtcomp_idle(fs_dtcomp *d);
 
 #endif /* FS_DTCOMP_H */
