@@ -63,7 +63,7 @@ def main(argv: list[str] | None = None) -> int:
             rep = instructions.instructions_report(steps=a.steps)
             text = instructions.format_report(rep)
         elif part == "firmware":
-            rep = firmware.firmware_report()
+            rep = firmware.firmware_report(os_size=True)
             text = firmware.format_report(rep)
         else:
             rep = pil.pil_report()

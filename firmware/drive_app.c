@@ -53,11 +53,12 @@ void app_pwm_isr(drive_app *app)
     float i_peak = 0.0f;
     for (int k = 0; k < n; ++k) {
         app->in.i_ph[k] = ((float)s.i_ph[k] - c->i_zero[k]) * c->i_gain;
-        i_peak = fmaxf(i_peak, fabsf(app->in.i_ph[k]));
+        const float a = fabsf(app->in.i_ph[k]);
+        if (a > i_peak) i_peak = a;   /* not fmaxf: a call on a Cortex-M4F (no max instruction) */
     }
     app->in.u_dc = (float)s.u_dc * c->u_gain;
-    float th = (float)s.enc * (6.2831853f / c->enc_counts) - c->enc_offset;
-    app->in.theta_m_enc = th - 6.2831853f * floorf((th + 3.1415927f) * 0.15915494f);   /* wrapped to [-pi, pi) */
+    /* any range will do (fs_drive.h): the drive wraps p theta_m_enc itself */
+    app->in.theta_m_enc = (float)s.enc * (6.2831853f / c->enc_counts) - c->enc_offset;
     app->in.w_m_ref = app->w_m_ref;
     app->in.sensorless = app->sensorless;
     if (app->state != APP_RUN) return;

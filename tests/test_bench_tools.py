@@ -111,11 +111,16 @@ def test_the_library_builds_without_doubles(firmware):
 
 
 def test_the_image_keeps_the_drive_step_and_its_libm(firmware):
-    rep, _ = firmware
+    rep, work = firmware
     im = rep["image"]
-    # the step is linked (not garbage-collected) with the trigonometry it calls
+    # the step is linked (not garbage-collected) with the trigonometry it calls: the library's own
+    # (fs_cis, fs_atan2f), not newlib's, whose sinf/cosf/tanf/atan2f/atanf and fmaxf/fminf the drive
+    # no longer calls
     assert im["text"] > rep["library"]["objects"]["fs_drive.o"]["text"]
-    assert {"sinf", "cosf"} <= set(im["libm"])
+    nm = fw._run([fw.toolchain()["nm"], str(work / "firmware.elf")], "nm")
+    assert {"fs_cis", "fs_atan2f"} <= {ln.split()[-1] for ln in nm.splitlines()}
+    assert "sqrtf" in im["libm"]
+    assert not {"sinf", "cosf", "tanf", "atan2f", "atanf", "fmaxf", "fminf"} & set(im["libm"])
     assert not set(im["libm"]) & fw.DOUBLE_LIBM
     assert im["bss"] > 0  # the fs_drive instance
 

@@ -96,4 +96,15 @@ def test_libm_is_where_target_and_host_part(builds):
     lm = pil.libm_probe(TOOLS, builds, n=4000)
     assert lm["x*y+y"]["differ_pct"] == 0.0 and lm["sqrtf"]["differ_pct"] == 0.0   # IEEE arithmetic: identical
     assert lm["sinf"]["differ_pct"] > 0.0 and all(v["max_ulp"] <= 2 for v in lm.values())
+    # the drive's trigonometry is its own: the same bits on both
+    assert lm["fs_cosf"]["differ_pct"] == lm["fs_sinf"]["differ_pct"] == lm["fs_atan2f"]["differ_pct"] == 0.0
     assert not [f for f in pil.fused_in_image(TOOLS, builds) if f.startswith("fs_") or f.startswith("drive_")]
+
+
+def test_the_goal_is_read_on_the_mean_and_the_largest_step_against_the_budget():
+    """Issue 23's <= 2,500 instructions: the mean over the blended run; the
+    largest step is held against 8,400 cycles (168 MHz, 20 kHz)."""
+    g = pil.blend_goal({"mean": 2400.0, "max": 4200, "per_stage": {}}, "closed loop")
+    assert g["met"] and g["max_of_budget_20k"] == pytest.approx(0.5) and g["cpi_left_20k"] == pytest.approx(2.0)
+    assert not pil.blend_goal({"mean": 2501.0, "max": 2600, "per_stage": {}}, "closed loop")["met"]
+    assert pil.blend_goal({"mean": 2500.0, "max": 9000, "per_stage": {}}, "closed loop")["met"]   # a slow step: the budget says it

@@ -1,13 +1,16 @@
-/* The float libm functions the drive calls, on the target: reads n argument
- * pairs (x, y) from probe_in.bin, writes each function's result per pair to
- * probe_out.bin, for bench/pil.py to hold against the host's libm. */
+/* The float libm functions the drive calls (and the trigonometry it calls
+ * instead of libm's, fs_cis and fs_atan2f), on the target: reads n argument pairs (x, y)
+ * from probe_in.bin, writes each function's result per pair to
+ * probe_out.bin, for bench/pil.py to hold against the host's. */
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
 
+#include "fs_math.h"
+
 int sh_call(int op, void *arg);
 
-#define N_FUN 12
+#define N_FUN 15
 static float xy[2 * 1024], res[N_FUN * 1024];
 
 static int sh_open(const char *name, int mode)
@@ -34,6 +37,7 @@ int main(void)
             r[0] = sinf(x), r[1] = cosf(x), r[2] = atan2f(y, x), r[3] = expf(y), r[4] = expm1f(y);
             r[5] = logf(fabsf(x) + 1e-3f), r[6] = sqrtf(fabsf(x)), r[7] = tanhf(y), r[8] = atanf(x);
             r[9] = fmodf(x, 6.2831853f), r[10] = tanf(0.4f * x), r[11] = x * y + y;
+            r[12] = fs_cosf(x), r[13] = fs_sinf(x), r[14] = fs_atan2f(y, x);
         }
         if (sh_io(0x05, fo, res, got * N_FUN * sizeof(float)) != got * N_FUN * sizeof(float)) return 1;
         if (got < 1024) break;

@@ -7,6 +7,7 @@
 #include <string.h>
 #include <unistd.h>
 #include "control/fs_drive.h"
+#include "control/fs_math.h"
 
 static fs_drive_in *rec_in;
 static fs_drive_out *rec_out;
@@ -53,5 +54,17 @@ void pil_hook_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
         rec_in[rec_n] = *in;
         rec_out[rec_n] = *out;
         ++rec_n;
+    }
+}
+
+/* The library's trigonometry on the host, for the libm probe (fs_cis
+ * returns a complex float, which cffi cannot take from a call): per (x, y)
+ * pair, cos x, sin x and atan2(y, x). */
+void pil_trig(const float *xy, float *out, long n)
+{
+    for (long k = 0; k < n; ++k) {
+        out[3 * k] = fs_cosf(xy[2 * k]);
+        out[3 * k + 1] = fs_sinf(xy[2 * k]);
+        out[3 * k + 2] = fs_atan2f(xy[2 * k + 1], xy[2 * k]);
     }
 }

@@ -55,7 +55,7 @@ float fs_blend_step_gated(fs_blend *b, float theta_smo, float theta_hfi, float T
     /* the gate (header): the trust in the SMO falls at once and comes back
      * over 4 / w_o, so that a gate that opens and closes cannot make the
      * weight chatter through the band */
-    if (hfi_live) b->trust = smo_ok ? fminf(b->trust + b->d_trust, 1.0f) : 0.0f;
+    if (hfi_live) b->trust = smo_ok ? fs_minf(b->trust + b->d_trust, 1.0f) : 0.0f;
     else b->trust = 1.0f;
     b->g_w *= b->trust;
     b->theta_blnd = fs_blend_angle(theta_smo, theta_hfi, b->g_w);  /* eq. (27) */

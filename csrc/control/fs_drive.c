@@ -77,7 +77,7 @@ static fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
     if (!fs_pos(cfg->J)) REFUSE("J", FS_ERR_J);
     SUB("hfi", fs_hfi_init(&drv->hfi, &hc));
     /* the carrier current's peak, I_p + I_n = u_h / (w_h min(L_d, L_q)) */
-    drv->i_hf = hc.u_h / (drv->hfi.cfg.w_h * fminf(hc.L_d, hc.L_q));
+    drv->i_hf = hc.u_h / (drv->hfi.cfg.w_h * fs_minf(hc.L_d, hc.L_q));
     if (!(drv->i_hf < 0.5f * cfg->i_max)) REFUSE("hfi.u_h", FS_ERR_ABOVE_I_MAX);
     if (cfg->angle_source == FS_ANGLE_BLEND) {
         fs_blend_config bc = cfg->blend;
@@ -92,7 +92,7 @@ static fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
         if (pc.i_pulse > cfg->i_max) REFUSE("polarity.i_pulse", FS_ERR_ABOVE_I_MAX);
         if (pc.i_pulse_max > cfg->i_max) REFUSE("polarity.i_pulse_max", FS_ERR_ABOVE_I_MAX);
         /* the retries up to the current limit less the carrier's peak */
-        if (pc.i_pulse_max == 0.0f) pc.i_pulse_max = fmaxf(cfg->i_max - drv->i_hf, pc.i_pulse);
+        if (pc.i_pulse_max == 0.0f) pc.i_pulse_max = fs_maxf(cfg->i_max - drv->i_hf, pc.i_pulse);
         pc.w_filter = drv->hfi.cfg.w_b_p;
         pc.n_carrier = (int)(2.0f * FS_PI / (drv->hfi.cfg.w_h * cfg->Ts) + 0.5f);
         SUB("polarity", fs_polarity_init(&drv->pol, &pc));
@@ -194,9 +194,9 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         SUB("lock_time", fs_lock_init(&drv->lock, &lc));
         drv->lock_a = expf(-4.0f * Tl / cfg->lock_time);
         /* the rating: T_max, or in current mode the torque of i_max on q */
-        const float T_lim = fmaxf(cfg->T_max, fabsf(drive_torque(cfg, (fs_dq){0.0f, cfg->i_max})));
+        const float T_lim = fs_maxf(cfg->T_max, fabsf(drive_torque(cfg, (fs_dq){0.0f, cfg->i_max})));
         fs_monitor_config mc = {Tl, (int)(cfg->delay + 0.5f), cfg->R_s, cfg->L_d, cfg->L_q, cfg->psi_f,
-                                cfg->pole_pairs, fmaxf(cfg->J, 0.0f), cfg->B, T_lim, cfg->i_max,
+                                cfg->pole_pairs, fs_maxf(cfg->J, 0.0f), cfg->B, T_lim, cfg->i_max,
                                 cfg->t_dead_comp / cfg->T_pwm, 0.25f * cfg->lock_time, cfg->lock_time,
                                 drive_injects(cfg) ? cfg->hfi.w_h : 0.0f};
         SUB("lock_time", fs_monitor_init(&drv->mon, &mc));
@@ -278,7 +278,7 @@ void fs_drive_reset(fs_drive *drv)
     drv->held = (fs_drive_out){0};
     drv->est_started = false;
     drv->injecting = drv->inject_on = drive_injects(&drv->cfg);
-    drv->i_ref_prev.d = drv->i_ref_prev.q = 0.0f;
+    drv->T_ff = 0.0f;
     drv->phase = drive_starts(&drv->cfg) ? FS_PHASE_START : FS_PHASE_RUN;
     drv->theta_if = drv->w_if = 0.0f;
     drv->theta_ol = 0.0f;
@@ -299,7 +299,7 @@ static fs_ab drive_u_past(const fs_drive *drv)
 static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
 {
     const fs_drive_config *c = &drv->cfg;
-    const float T_ff = drive_torque(c, drv->i_ref_prev);
+    const float T_ff = drv->T_ff;
     fs_ab i_f = i_ab;
     if (drv->injecting) {
         fs_hfi_step(&drv->hfi, i_ab, T_ff);
@@ -431,7 +431,7 @@ static void dead_time_comp(const fs_drive_config *c, const float i_ph[], float d
 
 /* The current reference of the closed-loop modes: polarity pulses, the I/f
  * start, speed control (MTPA and flux weakening) or the reference input. */
-static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, float w_e, float *T_ref)
+static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, float w_e, bool weakens, float *T_ref)
 {
     const fs_drive_config *c = &drv->cfg;
     fs_dq i_ref = {in->i_d_ref, in->i_q_ref};
@@ -454,7 +454,7 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
          * kept; then held inside the current limit circle, whose radius
          * leaves room for the carrier's peak while injecting */
         const float i_lim = c->i_max - (drv->injecting ? drv->hfi.gain * drv->i_hf : 0.0f);
-        if (drive_weakens(c)) i_ref.d += drv->fw.i_d;
+        if (weakens) i_ref.d += drv->fw.i_d;
         i_ref.d = fs_clampf(i_ref.d, -i_lim, i_lim);
         float iq_max = sqrtf(i_lim * i_lim - i_ref.d * i_ref.d);
         float i_q0 = i_ref.q;
@@ -486,7 +486,7 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
     float r_mon = 0.0f;
     if (out) {
         const fs_monitor_in mi = {i_ab, drv->u_hist[0], in->u_dc, out->theta_e, out->w_e, cos_t, sin_t,
-                                  {out->i_d, out->i_q}, drive_torque(c, (fs_dq){out->i_d_ref, out->i_q_ref}),
+                                  {out->i_d, out->i_q}, drv->T_ff,   /* the torque of out->i_d_ref, i_q_ref */
                                   {out->i_d_ref - out->i_d, out->i_q_ref - out->i_q},
                                   run && (c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED)};
         r_mon = fs_monitor_step(&drv->mon, &mi);
@@ -508,11 +508,11 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
     drv->lock_ri = smo_on ? drv->lock_ri + b * (drv->smo.r_i - drv->lock_ri) : 0.0f;
     drv->lock_es = smo_on ? drv->lock_es + b * (drv->smo.eps - drv->lock_es) : 0.0f;
     drv->lock_eh = inj_on ? drv->lock_eh + b * (eps_inj - drv->lock_eh) : 0.0f;
-    const float r_smo = fmaxf(0.5f * drv->lock_ri, 2.0f * fabsf(drv->lock_es));   /* 2 delta, sin 30 deg */
+    const float r_smo = fs_maxf(0.5f * drv->lock_ri, 2.0f * fabsf(drv->lock_es));   /* 2 delta, sin 30 deg */
     const float r_inj = fabsf(drv->lock_eh) * (square ? 1.9098593f : 3.8197186f); /* 30 or 15 deg */
     float r = 0.0f;
     if (c->angle_source == FS_ANGLE_SMO || (blend && g_w > 0.0f)) r = r_smo;
-    if (c->angle_source == FS_ANGLE_HFI || square || (blend && g_w < 1.0f)) r = fmaxf(r, r_inj);
+    if (c->angle_source == FS_ANGLE_HFI || square || (blend && g_w < 1.0f)) r = fs_maxf(r, r_inj);
     /* an observer on track above the band, whose EMF is as large as its
      * speed says (not a PLL swinging at low speed: at least half of the
      * |w| psi_f / sqrt 2 its filter passes), against the blended angle */
@@ -521,7 +521,7 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
                        && drv->smo.e_mag >= 0.35f * aw * c->psi_f;
     drv->lock_ex = cross ? drv->lock_ex + b * (fabsf(fs_wrap_pi(drv->smo.theta - drv->blend.theta_hat)) - drv->lock_ex)
                          : 0.0f;
-    return fmaxf(fmaxf(r, drv->lock_ex * 1.2732395f), r_mon);                     /* 45 deg = pi/4 rad */
+    return fs_maxf(fs_maxf(r, drv->lock_ex * 1.2732395f), r_mon);                     /* 45 deg = pi/4 rad */
 }
 
 /* The phase currents in the stationary frame (the fundamental plane with
@@ -570,7 +570,7 @@ static float drive_imc_rectify(fs_drive *drv, const fs_drive_in *in, fs_ab *u_re
     const fs_drive_config *c = &drv->cfg;
     fs_ab v = fs_clarke(in->u_in[0], in->u_in[1], in->u_in[2]);
     const float th = c->imc_w_grid * c->Ts * (c->delay + 0.5f);
-    v = fs_inv_park((fs_dq){v.alpha, v.beta}, cosf(th), sinf(th));
+    v = fs_inv_park((fs_dq){v.alpha, v.beta}, fs_cosf(th), fs_sinf(th));
     float u_pred[3];
     fs_inv_clarke(v, u_pred);
     const float V_im = sqrtf(v.alpha * v.alpha + v.beta * v.beta);
@@ -592,14 +592,14 @@ static float drive_imc_rectify(fs_drive *drv, const fs_drive_in *in, fs_ab *u_re
 
 /* The operating stage (fs_drive.h) from the phase, the source and weight,
  * and the flux-weakening current with hysteresis. */
-static int drive_stage(const fs_drive *drv, const fs_drive_in *in, float g_w)
+static int drive_stage(const fs_drive *drv, const fs_drive_in *in, float g_w, bool weakens)
 {
     const fs_drive_config *c = &drv->cfg;
     if (c->mode != FS_MODE_CURRENT && c->mode != FS_MODE_SPEED) return FS_STAGE_OPEN;
     if (drv->phase == FS_PHASE_POLARITY) return FS_STAGE_POLARITY;
     if (drv->phase == FS_PHASE_RECOVER) return FS_STAGE_RECOVERY;
     if (in->sensorless && drv->phase == FS_PHASE_START) return FS_STAGE_START;
-    if (drive_weakens(c)) {
+    if (weakens) {
         const float lim = (drv->stage == FS_STAGE_FLUX_WEAKENING ? -0.01f : -0.02f) * c->i_max;
         if (drv->fw.i_d < lim) return FS_STAGE_FLUX_WEAKENING;
     }
@@ -635,12 +635,12 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     }
     fs_drive_out *h = &drv->held;
     if (sw->ff_fresh && c->mode != FS_MODE_OFF) {
-        fs_dq i_dq = fs_park(sw->i_f, cosf(theta), sinf(theta));
-        fs_dq i_ref = drive_current_ref(drv, in, sw->i_f, w_e, &h->T_ref);
+        fs_dq i_dq = fs_park(sw->i_f, fs_cosf(theta), fs_sinf(theta));
+        fs_dq i_ref = drive_current_ref(drv, in, sw->i_f, w_e, drive_weakens(c), &h->T_ref);
         fs_dq u_ref = fs_current_ctrl_step(&drv->cc, i_ref, i_dq, w_e);
         /* turned to the middle of the window it acts over */
         const float theta_u = theta + w_e * c->Ts * (float)(2 * d + 1);
-        const float cu = cosf(theta_u), su = sinf(theta_u);
+        const float cu = fs_cosf(theta_u), su = fs_sinf(theta_u);
         fs_ab u = fs_inv_park(u_ref, cu, su);
         /* what the modulator realises beside the carrier (anti-windup) */
         const float u_max = drive_u_lin(c, in->u_dc) - c->swvi.u_h, m = sqrtf(u.alpha * u.alpha + u.beta * u.beta);
@@ -659,7 +659,6 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
         h->i_q_ref = i_ref.q;
         h->u_d = u_real.d;
         h->u_q = u_real.q;
-        drv->i_ref_prev = i_ref;
     } else if (d == 1 && !sw->ff_fresh) {
         drv->u_ff_hold = drv->u_ff_next;   /* the window (k + 1, k + 3) starts at the next update */
     }
@@ -693,7 +692,7 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     }
     out->lock_resid = h->lock_resid;
     out->lock_lost = h->lock_lost;
-    drv->stage = drive_stage(drv, in, 0.0f);
+    drv->stage = drive_stage(drv, in, 0.0f, drive_weakens(c));
     out->stage = drv->stage;
     out->recoveries = 0;
 }
@@ -739,7 +738,10 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
         drive_step_halt(drv, i_ab, out);
         return;
     }
-    out->rect = (fs_imc_rect){{{0, 0, 0.0f}, {0, 0, 0.0f}}, 0.0f, 0, false};
+    out->rect.iv[0] = out->rect.iv[1] = (fs_imc_interval){0, 0, 0.0f};   /* field by field: a whole struct's literal is a memset call */
+    out->rect.v_pn = 0.0f;
+    out->rect.sector = 0;
+    out->rect.case2 = false;
     out->alpha = 0.0f;
     out->fault = FS_FAULT_NONE;
     if (drive_square(c)) {
@@ -754,6 +756,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     fs_dq i_ref = {0.0f, 0.0f};
     float T_ref = 0.0f;
     bool closed_loop = (c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED);
+    const bool weakens = drive_weakens(c);   /* once: the compiler cannot keep it across the stores below */
 
     if (c->mode == FS_MODE_VOLTAGE_DQ || c->mode == FS_MODE_VF) {
         theta = drv->theta_ol;
@@ -766,20 +769,20 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
             u_ref.q = fs_signf(in->w_e_ref) * (c->vf_boost + c->vf_gain * fabsf(in->w_e_ref));
         }
     }
-    float cos_t = cosf(theta), sin_t = sinf(theta);
+    float cos_t = fs_cosf(theta), sin_t = fs_sinf(theta);
     fs_dq i_dq = fs_park(i_loop, cos_t, sin_t);
     bool starting = in->sensorless && drv->phase == FS_PHASE_START;
     bool polarity = drv->phase == FS_PHASE_POLARITY;
 
     if (closed_loop) {
-        i_ref = drive_current_ref(drv, in, i_ab, w_e, &T_ref);
+        i_ref = drive_current_ref(drv, in, i_ab, w_e, weakens, &T_ref);
         u_ref = fs_current_ctrl_step(&drv->cc, i_ref, i_dq, w_e);
     }
 
     /* The voltage acts from the next update instant for one period: rotate it
      * by the angle the rotor turns until the middle of that period. */
     float theta_u = theta + w_e * c->Ts * (c->delay + 0.5f);
-    float cos_u = cosf(theta_u), sin_u = sinf(theta_u);
+    float cos_u = fs_cosf(theta_u), sin_u = fs_sinf(theta_u);
     fs_ab u_ab_ref = fs_inv_park(u_ref, cos_u, sin_u);
     fs_ab u_inj = {0.0f, 0.0f};
     if (drv->injecting && c->mode != FS_MODE_OFF) u_inj = drv->hfi.u;   /* eq. (22) */
@@ -790,7 +793,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     drv->u_hist[1] = drv->u_hist[0];
     drv->u_hist[0] = u_ab;
     fs_dq u_real = fs_park(u_ab, cos_u, sin_u);
-    const bool weakening = drive_weakens(c) && !starting && !polarity && drv->phase != FS_PHASE_RECOVER;
+    const bool weakening = weakens && !starting && !polarity && drv->phase != FS_PHASE_RECOVER;
     if (closed_loop)   /* anti-windup; held: the regulators keep PART_1's input (fs_fw.h) */
         fs_current_ctrl_update_held(&drv->cc, u_real,
                                     weakening && c->fw_hold ? fs_fw_hold(&drv->fw, u_ref, u_real, w_e) : u_real);
@@ -807,7 +810,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     out->T_ref = T_ref;
     out->u_d = u_real.d;
     out->u_q = u_real.q;
-    drv->i_ref_prev = i_ref;
+    drv->T_ff = drive_torque(c, i_ref);   /* the monitor's now, the observers' next step */
     out->theta_est = theta;
     out->w_est = w_e;
     out->est_valid = true;
@@ -829,7 +832,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     }
     out->injecting = drv->injecting && c->mode != FS_MODE_OFF;
     out->phase = drv->phase;
-    out->i_d_fw = drive_weakens(c) ? drv->fw.i_d : 0.0f;
+    out->i_d_fw = weakens ? drv->fw.i_d : 0.0f;
     out->i_hf_d = out->i_hf_q = 0.0f;
     out->lock_resid = 0.0f;
     out->lock_lost = false;
@@ -841,7 +844,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
             out->lock_lost = false;
         }
     }
-    drv->stage = drive_stage(drv, in, out->g_w);
+    drv->stage = drive_stage(drv, in, out->g_w, weakens);
     out->stage = drv->stage;
     out->recoveries = drv->recoveries;
 }

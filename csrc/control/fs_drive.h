@@ -66,17 +66,19 @@
  *   fs_drive_reset before stepping again (the sequence starts over).
  * Timing and re-entrancy. fs_drive_step must complete within Ts of its
  *   sampling instant, before the next update event. On a Cortex-M4F at
- *   -O2 a step takes about 1,700-3,000 instructions, 4,400 at most (the
- *   injection and blend stages): bench/pil.py measures it per mode. It
+ *   -O2 a step takes about 1,300-3,000 instructions on average by angle
+ *   source, 4,000 at most (the blend); 2,660 on average and 3,550 at most
+ *   over the blended full-range run in the firmware's build (-flto):
+ *   bench/pil.py measures it per mode. It
  *   touches only *drv, *in and *out (no globals, no heap): instances are
  *   independent, one step may run per instance at a time, and
  *   fs_drive_init, fs_drive_reset and fs_drive_step on one instance must not
  *   interrupt each other. It uses the FPU (lazy stacking keeps an interrupt
  *   that does correct).
- * Memory. sizeof(fs_drive) is about 3.4 KB (bench/pil.py reports the
- *   target's; a 64-bit host's may be 8 B more: one pointer); its stack is
- *   under 600 B (bench/pil.py: the static call graph and the measured
- *   high-water mark).
+ * Memory. sizeof(fs_drive) is about 6.6 KB (bench/pil.py reports the
+ *   target's; a 64-bit host's is up to 16 B more: its pointers); its stack
+ *   is under 800 B (bench/pil.py: 792 B on the static call graph, 312 B the
+ *   measured high-water mark).
  */
 #ifndef FS_DRIVE_H
 #define FS_DRIVE_H
@@ -278,10 +280,11 @@ typedef struct {
      * with the blended angle over 45 deg (an injection estimate that
      * slipped while the rotor was thrown beyond the injection's speed
      * range); and, except with the square wave, the checks that do not
-     * trust the estimator (fs_monitor.h: the back-EMF against the loops'
-     * angle and speed, the voltage against what their speed asks, the load
-     * their motion implies, the current loops' error), low-passed over
-     * lock_time / 4 as well. */
+     * trust the estimator (fs_monitor.h: the back-EMF's direction and its
+     * turn in the loops' frame, the load their motion implies and the sign
+     * of its answer to the torque they command, the current loops' error;
+     * their angle jumping beyond their speed latches at once), low-passed
+     * over lock_time / 4 as well. */
     float lock_time;
     /* recovery from a loss of lock (lock_recover = 1; else the monitor
      * latches lock_lost). The currents are held at zero for t_recover, s,
@@ -426,7 +429,7 @@ typedef struct {
     bool est_started;        /* the injection estimators have seen their first step */
     bool injecting;          /* the HF voltage is on (fading in or out included) */
     bool inject_on;          /* the injection is wanted (the amplitude's target) */
-    fs_dq i_ref_prev;        /* current reference of the last step (torque feed-forward) */
+    float T_ff;              /* N m: torque of the last step's current reference (the observers' feed-forward) */
     fs_ab u_hist[2];         /* realised fundamental voltage computed 1 and 2 steps ago */
     /* square-wave injection: the fundamental voltage acting over the present
      * window and the one computed for the next; the loops' last outputs */

@@ -30,7 +30,7 @@ void fs_drive_ident_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out
     *out = none;
     fs_ab u_real;
     out->over_modulation = fs_svpwm(u, in->u_dc, out->duty, &u_real);
-    const float ct = cosf(id->theta), st = sinf(id->theta);
+    const float ct = fs_cosf(id->theta), st = fs_sinf(id->theta);
     const fs_dq i = fs_park(i_ab, ct, st), v = fs_park(u_real, ct, st);
     out->theta_e = out->theta_est = id->theta;
     out->w_e = out->w_est = id->w;

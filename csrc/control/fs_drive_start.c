@@ -63,7 +63,7 @@ fs_dq fs_drive_if_step(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab)
     const bool fast = fabsf(drv->w_if) >= c->w_handover * 0.999f;
     const bool agree = drv->smo.w * drv->w_if > 0.0f && fabsf(drv->smo.w - drv->w_if) <= 0.25f * fabsf(drv->w_if);
     if (fast && drv->smo.valid && drv->smo.converged && agree) {
-        fs_dq i_o = fs_park(i_ab, cosf(drv->smo.theta), sinf(drv->smo.theta));
+        fs_dq i_o = fs_park(i_ab, fs_cosf(drv->smo.theta), fs_sinf(drv->smo.theta));
         fs_speed_ctrl_preset(&drv->sc, drv->smo.w / (float)c->pole_pairs, drive_torque(c, i_o));
         drv->phase = FS_PHASE_RUN;
     }

@@ -21,11 +21,11 @@ fs_status fs_fw_init(fs_fw *fw, const fs_fw_config *cfg)
 
 void fs_fw_design(fs_fw_config *cfg, float bw_current, bool hold)
 {
-    const float K = fminf(0.25f * bw_current, 1.5f * cfg->w_e_max);   /* held: fs_drive.h */
+    const float K = fs_minf(0.25f * bw_current, 1.5f * cfg->w_e_max);   /* held: fs_drive.h */
     if (!(cfg->gain > 0.0f)) cfg->gain = hold ? K / bw_current : 50.0f;
     if (!(cfg->bandwidth > 0.0f))
         cfg->bandwidth = hold ? cfg->gain * bw_current
-                              : fminf(0.25f * bw_current, 0.5f * cfg->w_e_max) / cfg->gain;
+                              : fs_minf(0.25f * bw_current, 0.5f * cfg->w_e_max) / cfg->gain;
 }
 
 void fs_fw_reset(fs_fw *fw) { fw->i_d = 0.0f; }
@@ -44,6 +44,6 @@ fs_dq fs_fw_hold(const fs_fw *fw, fs_dq u_ref, fs_dq u_real, float w_e)
     const fs_dq dv = {u_ref.d - u_real.d, u_ref.q - u_real.q};
     const float use = fw->beta * w_e * fw->cfg.L * dv.q;   /* eq. (30)'s input, A: > 0 weakens */
     float s = 0.0f;
-    if (use > 0.0f) s = fw->i_d > -fw->cfg.i_max ? 1.0f : fminf(1.0f, fw->cfg.i_max / use);
+    if (use > 0.0f) s = fw->i_d > -fw->cfg.i_max ? 1.0f : fs_minf(1.0f, fw->cfg.i_max / use);
     return (fs_dq){u_real.d + s * dv.d, u_real.q + s * dv.q};
 }

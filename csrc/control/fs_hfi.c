@@ -6,24 +6,24 @@
 static void carrier_phase(fs_hfi *h, float R_s)
 {
     const fs_hfi_config c = h->cfg;
-    const float x = 0.5f * c.w_h * c.Ts, sinc = sinf(x) / x;
+    const float x = 0.5f * c.w_h * c.Ts, sinc = fs_sinf(x) / x;
     /* the first SRFF's phase on the negative carrier, 2 w_h below its stop
      * band (the bilinear images of fs_srff.h) */
     const float w_b = (2.0f / c.Ts) * tanhf(0.5f * c.w_b_p * c.Ts);
-    const float v = (2.0f / c.Ts) * tanf(c.w_h * c.Ts);
-    const float phi_p = atanf(w_b / v);
+    const float v = (2.0f / c.Ts) * fs_tanf(c.w_h * c.Ts);
+    const float phi_p = fs_atanf(w_b / v);
     /* the resistance's phase on the negative carrier, with the held
      * voltage's R x cot x (header) */
     const float sl = 0.5f * (c.L_d + c.L_q), dl = 0.5f * (c.L_d - c.L_q);
-    const float R = R_s * x / tanf(x), w = c.w_h;
+    const float R = R_s * x / fs_tanf(x), w = c.w_h;
     const float D_re = w * w * (sl * sl - dl * dl) - R * R, D_im = 2.0f * R * w * sl;
-    const float phi_r = atan2f(D_im, D_re);
+    const float phi_r = fs_atan2f(D_im, D_re);
     h->phi_ref = 0.5f * FS_PI - phi_p - phi_r;
     if (dl > 0.0f) h->phi_ref -= FS_PI;   /* L_d > L_q: the carrier of eq. (24) changes sign */
     /* the negative carrier's amplitude, |B| of the header, at the samples */
     h->i_n_design = c.u_h * w * fabsf(dl) / sqrtf(D_re * D_re + D_im * D_im) / (sinc * sinc);
-    h->rot_ref.alpha = cosf(h->phi_ref);
-    h->rot_ref.beta = sinf(h->phi_ref);
+    h->rot_ref.alpha = fs_cosf(h->phi_ref);
+    h->rot_ref.beta = fs_sinf(h->phi_ref);
     h->cfg.R_s = R_s;
 }
 
@@ -71,7 +71,7 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
     if (st != FS_OK) return st;
     h->cfg = c;
 
-    const float x = 0.5f * c.w_h * c.Ts, sinc = sinf(x) / x;
+    const float x = 0.5f * c.w_h * c.Ts, sinc = fs_sinf(x) / x;
     h->dtheta_h = c.w_h * c.Ts;
     h->theta_u = c.w_h * c.Ts * (c.delay + 0.5f);
     h->u_amp = c.u_h / sinc;                        /* the held staircase's component at w_h is eq. (22) */
@@ -91,8 +91,8 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
         st = fs_motion_obs_init(&h->obs_w, &ow);
         if (st != FS_OK) return st;
     }
-    h->rot_u.alpha = cosf(h->theta_u);
-    h->rot_u.beta = sinf(h->theta_u);
+    h->rot_u.alpha = fs_cosf(h->theta_u);
+    h->rot_u.beta = fs_sinf(h->theta_u);
     fs_hfi_reset(h, 0.0f, 0.0f);
     return FS_OK;
 }
@@ -160,7 +160,7 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
      * afresh once a period so that its rounding does not accumulate) */
     h->delta = 0.0f;
     if (fs_xcomp_active(&h->cfg.xcomp)) {
-        const float i_q = -h->i_f.alpha * sinf(theta_hat) + h->i_f.beta * cosf(theta_hat);
+        const float i_q = -h->i_f.alpha * fs_sinf(theta_hat) + h->i_f.beta * fs_cosf(theta_hat);
         h->iq_sum += i_q - h->iq_buf[h->k_iq];
         h->iq_buf[h->k_iq] = i_q;
         if (++h->k_iq == h->n_iq) {
@@ -174,7 +174,7 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
     /* the carrier's frame and the negative carrier's, once per step: the
      * latter where the negative carrier is expected */
     const float theta_n = fs_wrap_pi(2.0f * (theta_hat + h->delta) - theta_h);
-    const fs_ab e_h = {cosf(theta_h), sinf(theta_h)}, e_n = {cosf(theta_n), sinf(theta_n)};
+    const fs_ab e_h = {fs_cosf(theta_h), fs_sinf(theta_h)}, e_n = {fs_cosf(theta_n), fs_sinf(theta_n)};
     /* Fig. 4b: fundamental and negative-sequence carrier; with cfg.leak the
      * fundamental's leak taken out of the latter (fs_hfi_filter_step_nl) */
     if (h->cfg.leak) fs_hfi_filter_step_nl(&h->filt, i, e_h, e_n, &h->i_f, &h->i_hn);

@@ -29,7 +29,7 @@ void fs_hfi_filter_step(fs_hfi_filter *f, fs_ab i, float theta_h, float theta_r_
                         fs_ab *i_f, fs_ab *i_hn)
 {
     const float theta_n = fs_wrap_pi(2.0f * theta_r_hat - theta_h);
-    const fs_ab e_h = {cosf(theta_h), sinf(theta_h)}, e_n = {cosf(theta_n), sinf(theta_n)};
+    const fs_ab e_h = {fs_cosf(theta_h), fs_sinf(theta_h)}, e_n = {fs_cosf(theta_n), fs_sinf(theta_n)};
     fs_hfi_filter_step_cs(f, i, e_h, e_n, i_f, i_hn);
 }
 

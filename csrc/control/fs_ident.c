@@ -207,7 +207,7 @@ static fs_ab step_probe(fs_ident *id, fs_ab i)
     const fs_ident_config *c = &id->cfg;
     const int n_cycle = 4 * id->n_p + 4;
     if (id->k == 0 && id->sub == 0) id->u_p = 0.01f * id->u_max;   /* the smallest pulse: 1 % of the link */
-    id->i_peak = fmaxf(id->i_peak, fabsf(i.alpha));
+    id->i_peak = fs_maxf(id->i_peak, fabsf(i.alpha));
     fs_ab u = {0.0f, 0.0f};
     if (id->k < id->n_p) u.alpha = id->u_p;
     else if (id->k < 2 * id->n_p) u.alpha = -id->u_p;
@@ -252,7 +252,7 @@ static fs_ab dc_on_alpha(fs_ident *id, fs_ab i, float i_ref)
 /* the same in a frame at angle th (the alignment's first direction) */
 static fs_ab dc_in_frame(fs_ident *id, fs_ab i_ab, float i_ref, float th)
 {
-    const float ct = cosf(th), st = sinf(th);
+    const float ct = fs_cosf(th), st = fs_sinf(th);
     const fs_dq i = fs_park(i_ab, ct, st);
     const fs_ab u = dc_on_alpha(id, (fs_ab){i.d, i.q}, i_ref);
     return fs_inv_park((fs_dq){u.alpha, u.beta}, ct, st);
@@ -276,7 +276,7 @@ static void acc_add(fs_ident *id, float u, fs_ab i)
 static float acc_std(float s, float ss, int n)
 {
     const float m = s / (float)n;
-    return sqrtf(fmaxf(ss / (float)n - m * m, 0.0f));
+    return sqrtf(fs_maxf(ss / (float)n - m * m, 0.0f));
 }
 
 /* ---- ALIGN: ramp to half the top level over 0.2 s, hold until the rotor is still ----
@@ -290,7 +290,7 @@ static fs_ab step_align(fs_ident *id, fs_ab i)
     const float I_top = 0.5f * LEV_FRAC[0] * c->i_max;
     const int n_ramp = (int)(0.2f / c->Ts) + 1;
     const int n_win = (int)(0.02f / c->Ts) + 1;   /* 20 ms windows: several swings of a small rotor */
-    const float i_ref = I_top * fminf((float)id->k / (float)n_ramp, 1.0f);
+    const float i_ref = I_top * fs_minf((float)id->k / (float)n_ramp, 1.0f);
     /* first on beta, then turned to alpha over the next ramp time: a rotor
      * that sits where the current points the other way (no torque, an
      * unstable rest) is pulled off it by the first direction */
@@ -380,7 +380,7 @@ static fs_ab step_levels(fs_ident *id, fs_ab i)
         return u;
     }
     if (j < 3) {   /* the noise of a level's mean voltage, from the top levels */
-        id->sigma_i = fmaxf(id->sigma_i, s_a);
+        id->sigma_i = fs_maxf(id->sigma_i, s_a);
         float prev = 0.0f, sb = 0.0f, sbb = 0.0f;
         for (int b = 0; b < FS_IDENT_NBATCH; ++b) {
             const float m = (id->batch[b] - prev) / (float)(n_meas / FS_IDENT_NBATCH);
@@ -389,7 +389,7 @@ static fs_ab step_levels(fs_ident *id, fs_ab i)
             sbb += m * m;
         }
         const float s_mean = acc_std(sb, sbb, FS_IDENT_NBATCH) / sqrtf((float)(FS_IDENT_NBATCH - 1));
-        r->snr_rs = fmaxf(r->snr_rs, fmaxf(s_mean, s_u / (float)n));   /* held here as that noise, V */
+        r->snr_rs = fs_maxf(r->snr_rs, fs_maxf(s_mean, s_u / (float)n));   /* held here as that noise, V */
     }
     id->k = 0;
     acc_clear(id);
@@ -409,8 +409,8 @@ static fs_ab step_levels(fs_ident *id, fs_ab i)
     const float span = r->R_s * (r->I_lev[0] - r->I_lev[2]);
     const float mid = r->U_lev[1] - (mu + r->R_s * (r->I_lev[1] - mi));
     const float noise = r->snr_rs;
-    r->r_fit_rs = fabsf(mid) / fmaxf(fabsf(span), 1e-30f);
-    r->snr_rs = fabsf(span) / fmaxf(noise, 1e-30f);
+    r->r_fit_rs = fabsf(mid) / fs_maxf(fabsf(span), 1e-30f);
+    r->snr_rs = fabsf(span) / fs_maxf(noise, 1e-30f);
     float E[FS_IDENT_NLEV];
     for (int k = 0; k < FS_IDENT_NLEV; ++k) E[k] = r->U_lev[k] - r->R_s * r->I_lev[k];
     const float resid = fit_leg_error(id, E);
@@ -444,11 +444,11 @@ static float hf_inductance(const fs_ident *id, float Ur, float Ui, float Ir, flo
     const float den = Ir * Ir + Ii * Ii;
     if (!(den > 0.0f)) return NAN;
     const float Yr = (Ur * Ir + Ui * Ii) / den, Yi = (Ui * Ir - Ur * Ii) / den;
-    const float cd = cosf(wt * d), sd = sinf(wt * d);
+    const float cd = fs_cosf(wt * d), sd = fs_sinf(wt * d);
     const float Wr = Yr * cd + Yi * sd, Wi = Yi * cd - Yr * sd;   /* W = Y e^{-j w Ts d} */
     if (!(Wi > 0.0f)) return NAN;
-    const float b = sinf(wt) / Wi;
-    const float a = cosf(wt) - b * Wr;
+    const float b = fs_sinf(wt) / Wi;
+    const float a = fs_cosf(wt) - b * Wr;
     if (a > 0.0f && a < 0.999f) return (1.0f - a) * Ts / (-logf(a) * b);   /* L = R Ts / x, R = (1 - a)/b, x = -ln a */
     return Ts / b;
 }
@@ -488,7 +488,7 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i)
     if (id->k == 0) {
         id->w_h = FS_TWO_PI / ((float)N_HF * c->Ts);
         const float R = id->res.R_s, X = id->w_h * id->L0;
-        id->U_h = fminf((axis ? I_HF : I_HF_D) * c->i_max * sqrtf(R * R + X * X), 0.5f * id->u_max);
+        id->U_h = fs_minf((axis ? I_HF : I_HF_D) * c->i_max * sqrtf(R * R + X * X), 0.5f * id->u_max);
     }
     fs_ab u = dc_on_alpha(id, i, I_b);   /* the bias on d, q shorted */
     if (id->k < n_set) {   /* each injection starts from a settled bias */
@@ -498,7 +498,7 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i)
     const int kh = id->k - n_set;
     const int kk = kh % N_HF;
     const float ph = FS_TWO_PI * (float)kk / (float)N_HF;
-    const float cu = cosf(ph), su = sinf(ph);
+    const float cu = fs_cosf(ph), su = fs_sinf(ph);
     const float uh = id->U_h * cu;   /* a cosine voltage: the inductive current starts at its own zero */
     if (axis == 0) u.alpha += uh; else u.beta += uh;
     const float ua = axis == 0 ? u.alpha : u.beta;   /* all of the axis' voltage: the bias loop answers the carrier too */
@@ -520,8 +520,8 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i)
     const float L = hf_inductance(id, id->hf_u[0], id->hf_u[1], Iax[0], Iax[1]);
     /* amplitude 2|I|/n against the noise sigma sqrt(2/n) of that estimate */
     const float amp = 2.0f * sqrtf(Iax[0] * Iax[0] + Iax[1] * Iax[1]) / (float)n;
-    const float snr = amp / fmaxf(id->sigma_i * sqrtf(2.0f / (float)n), 1e-6f * c->i_max);
-    r->snr_l = id->sub == 0 ? snr : fminf(r->snr_l, snr);
+    const float snr = amp / fs_maxf(id->sigma_i * sqrtf(2.0f / (float)n), 1e-6f * c->i_max);
+    r->snr_l = id->sub == 0 ? snr : fs_minf(r->snr_l, snr);
     const int q = axis == 0 ? FS_IDQ_LD : FS_IDQ_LQ;
     if (!(L > 0.0f) || !fs_fin(L)) {
         ident_fail(id, q, FS_IDR_FIT);
@@ -578,7 +578,7 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i)
 static fs_ab frame_current(fs_ident *id, fs_ab i_ab, fs_dq i_ref)
 {
     const fs_ident_result *r = &id->res;
-    const float ct = cosf(id->theta), st = sinf(id->theta);
+    const float ct = fs_cosf(id->theta), st = fs_sinf(id->theta);
     const fs_dq i = fs_park(i_ab, ct, st);
     const float ff_d = -id->w * r->L_q * i.q, ff_q = id->w * r->L_d * i.d;
     const float vd = pi_out(&id->pi_d, i_ref.d, i.d), vq = pi_out(&id->pi_q, i_ref.q, i.q);
@@ -592,7 +592,7 @@ static fs_ab frame_current(fs_ident *id, fs_ab i_ab, fs_dq i_ref)
     fs_pi_update(&id->pi_q, i_ref.q, i.q, vq, uq - ff_q);
     id->u_dq = (fs_dq){ud, uq};
     const float th = id->theta + id->w * id->cfg.Ts * (id->cfg.delay + 0.5f);
-    return fs_inv_park(id->u_dq, cosf(th), sinf(th));
+    return fs_inv_park(id->u_dq, fs_cosf(th), fs_sinf(th));
 }
 
 /* The back-EMF in the frame from the voltage equation in steady state,
@@ -600,7 +600,7 @@ static fs_ab frame_current(fs_ident *id, fs_ab i_ab, fs_dq i_ref)
 static fs_dq frame_emf(const fs_ident *id, fs_ab i_ab)
 {
     const fs_ident_result *r = &id->res;
-    const float ct = cosf(id->theta), st = sinf(id->theta);
+    const float ct = fs_cosf(id->theta), st = fs_sinf(id->theta);
     const fs_dq i = fs_park(i_ab, ct, st);
     const fs_dq ue = fs_park(ident_inv_error(id, i_ab), ct, st);
     return (fs_dq){id->u_dq.d - ue.d - r->R_s * i.d + id->w * r->L_q * i.q,
@@ -611,7 +611,7 @@ static fs_dq frame_emf(const fs_ident *id, fs_ab i_ab)
 static float frame_pll(fs_ident *id, fs_ab i_ab)
 {
     const fs_dq e = frame_emf(id, i_ab);
-    const float phi = atan2f(-e.d, e.q) * (id->w >= 0.0f ? 1.0f : -1.0f);
+    const float phi = fs_atan2f(-e.d, e.q) * (id->w >= 0.0f ? 1.0f : -1.0f);
     const float kp = 2.0f * id->bw_pll, ki = id->bw_pll * id->bw_pll;   /* double pole at bw_pll */
     id->w0 += ki * phi * id->cfg.Ts;                                       /* w0: the integral, the speed */
     id->w = id->w0 + kp * phi;
@@ -624,7 +624,7 @@ static fs_ab step_spin(fs_ident *id, fs_ab i)
 {
     const fs_ident_config *c = &id->cfg;
     const int n_in = (int)(0.02f / c->Ts) + 1;
-    const float i_d = id->i_if * fminf((float)id->k / (float)n_in, 1.0f);
+    const float i_d = id->i_if * fs_minf((float)id->k / (float)n_in, 1.0f);
     fs_ab u = frame_current(id, i, (fs_dq){i_d, 0.0f});
     id->k++;
     if (id->k > n_in) {
@@ -638,7 +638,7 @@ static fs_ab step_spin(fs_ident *id, fs_ab i)
                 id->w += c->w_spin / c->t_ramp * c->Ts;
             }
         } else if (++id->n_acc > (int)(0.05f / c->Ts)) {   /* 50 ms at speed */
-            id->bw_pll = fminf(0.1f * id->w_c, 0.5f * id->w_target);   /* below the current loop, and a few turns to settle */
+            id->bw_pll = fs_minf(0.1f * id->w_c, 0.5f * id->w_target);   /* below the current loop, and a few turns to settle */
             id->w0 = id->w;
             ident_goto(id, FS_IDENT_FLUX);
         }
@@ -667,7 +667,7 @@ static fs_ab step_flux(fs_ident *id, fs_ab i)
      * decelerating rotor by 2 a / bw_pll: 6 % on a machine whose friction
      * halves its speed in the window): its mean is the frame's turn over
      * the window, which is the rotor's */
-    const float ratio = em / fmaxf(fabsf(id->w), 1e-6f);
+    const float ratio = em / fs_maxf(fabsf(id->w), 1e-6f);
     if (id->n_acc == 0) id->u0 = ratio;
     id->e_abs += em;
     id->w_abs += fabsf(id->w);
@@ -688,7 +688,7 @@ static fs_ab step_flux(fs_ident *id, fs_ab i)
         return u;
     }
     r->psi_f = id->e_abs / id->w_abs;
-    r->snr_psi = r->psi_f / fmaxf(acc_std(id->s_u, id->s_uu, n) / sqrtf((float)n), 1e-30f);
+    r->snr_psi = r->psi_f / fs_maxf(acc_std(id->s_u, id->s_uu, n) / sqrtf((float)n), 1e-30f);
     if (r->snr_psi < 50.0f) {
         ident_fail(id, FS_IDQ_PSI_F, FS_IDR_LOW_SIGNAL);
         return u;
@@ -749,7 +749,7 @@ static fs_ab step_coast(fs_ident *id, fs_ab i)
     const float t = (float)id->k * c->Ts;
     rec_push(id, t, id->w0);
     id->k++;
-    const float t_max = fmaxf(4.0f * id->t_acc, 20.0f / id->bw_pll);
+    const float t_max = fs_maxf(4.0f * id->t_acc, 20.0f / id->bw_pll);
     if (id->w0 > id->w_target && t < t_max) return u;
     fs_ident_result *r = &id->res;
     if (id->w0 < 0.2f * id->w_target) {
@@ -796,7 +796,7 @@ static fs_ab step_coast(fs_ident *id, fs_ab i)
     r->J = T * p / da;   /* a_e = p a_m */
     ident_ok(id, FS_IDQ_J);
     /* a_e = -(B/J) w_e - p T_c / J */
-    r->B = fmaxf(-slope * r->J, 0.0f);
+    r->B = fs_maxf(-slope * r->J, 0.0f);
     r->T_c = -(a1 - slope * w1) * r->J / p;
     if (!(slope < 0.0f)) {   /* one speed, or friction falling with speed: all of it as Coulomb at the mean speed */
         r->B = 0.0f;
@@ -810,7 +810,7 @@ static fs_ab step_coast(fs_ident *id, fs_ab i)
 fs_ab fs_ident_step(fs_ident *id, fs_ab i_ab, float u_dc)
 {
     const fs_ident_config *c = &id->cfg;
-    id->u_max = fmaxf(u_dc, 0.0f) * FS_INV_SQRT3;
+    id->u_max = fs_maxf(u_dc, 0.0f) * FS_INV_SQRT3;
     const float i_mag = sqrtf(i_ab.alpha * i_ab.alpha + i_ab.beta * i_ab.beta);
     fs_ab u = {0.0f, 0.0f};
     if (id->step != FS_IDENT_FAILED && id->step != FS_IDENT_DONE && i_mag > 1.1f * c->i_max) {
@@ -821,7 +821,7 @@ fs_ab fs_ident_step(fs_ident *id, fs_ab i_ab, float u_dc)
     }
     switch (id->step) {
     case FS_IDENT_START:
-        if (u_dc > fmaxf(c->u_dc_min, 1.0f)) ident_goto(id, FS_IDENT_PROBE);
+        if (u_dc > fs_maxf(c->u_dc_min, 1.0f)) ident_goto(id, FS_IDENT_PROBE);
         break;
     case FS_IDENT_PROBE: u = step_probe(id, i_ab); break;
     case FS_IDENT_ALIGN: u = step_align(id, i_ab); break;

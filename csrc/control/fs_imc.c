@@ -8,7 +8,7 @@ float fs_imc_vpn(float alpha)
 {
     float a = fs_clampf(alpha, 0.0f, ALPHA_MAX);
     /* eq. (12) */
-    return 9.0f / FS_PI * (logf(tanf(FS_PI / 3.0f - 0.5f * a)) + 2.0f * FS_INV_SQRT3 * sinf(a));
+    return 9.0f / FS_PI * (logf(fs_tanf(FS_PI / 3.0f - 0.5f * a)) + 2.0f * FS_INV_SQRT3 * fs_sinf(a));
 }
 
 float fs_imc_vtr_max(int region, float alpha)
@@ -75,7 +75,7 @@ void fs_imc_rectifier(const float u_in[3], float alpha, fs_imc_rect *r)
 
     /* CASE 2 within alpha of the middle phase's zero crossing (eq. (11)):
      * |u_mid| < V_im sin(alpha), squared, with V_im^2 = 2/3 sum(u^2) */
-    const float s = sinf(fs_clampf(alpha, 0.0f, ALPHA_MAX));
+    const float s = fs_sinf(fs_clampf(alpha, 0.0f, ALPHA_MAX));
     const float sum2 = u_in[0] * u_in[0] + u_in[1] * u_in[1] + u_in[2] * u_in[2];
     r->case2 = u_in[mid] * u_in[mid] < s * s * (2.0f / 3.0f) * sum2 || fabsf(ux) < 1e-6f;
     r->iv[0].p = hi;

@@ -21,7 +21,7 @@ bool fs_lock_step(fs_lock *lk, float r)
 {
     /* a NaN residual counts as above */
     bool over = !(r <= 1.0f);
-    lk->t_over = over ? lk->t_over + lk->cfg.Ts : fmaxf(lk->t_over - lk->cfg.Ts, 0.0f);
+    lk->t_over = over ? lk->t_over + lk->cfg.Ts : fs_maxf(lk->t_over - lk->cfg.Ts, 0.0f);
     if (lk->t_over >= lk->cfg.t_lost) lk->lost = true;
     return lk->lost;
 }

@@ -15,7 +15,7 @@ void fs_lpf_reset(fs_lpf *f) { f->y.alpha = f->y.beta = 0.0f; }
 
 fs_ab fs_lpf_step(fs_lpf *f, fs_ab x, float w_c)
 {
-    float wc = fmaxf(fabsf(w_c), f->cfg.w_c_min);
+    float wc = fs_maxf(fabsf(w_c), f->cfg.w_c_min);
     float g = wc * f->cfg.Ts / (1.0f + wc * f->cfg.Ts);
     f->y.alpha += g * (x.alpha - f->y.alpha);
     f->y.beta += g * (x.beta - f->y.beta);

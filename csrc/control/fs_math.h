@@ -1,4 +1,5 @@
-/* Inline helpers shared by the control modules (not part of the cdef). */
+/* Inline helpers shared by the control modules, and the declaration of the
+ * trigonometry they share (not part of the cdef). */
 #ifndef FS_MATH_H
 #define FS_MATH_H
 
@@ -10,19 +11,38 @@
 #define FS_SQRT3 1.73205080756887729353f
 #define FS_INV_SQRT3 0.57735026918962576451f
 
-/* Wrap an angle to (-pi, pi]. Valid for any finite input: fmodf is exact,
- * and one correction on either side lands in the interval. */
-static inline float fs_wrap_pi(float x)
+#if defined(__GNUC__)
+#define FS_CONST __attribute__((const))
+#define FS_OUT_OF_LINE static __attribute__((noinline, unused))
+#else
+#define FS_CONST
+#define FS_OUT_OF_LINE static inline
+#endif
+
+/* fs_wrap_pi off (-pi, pi) (+-pi, NaN and infinities included), out of
+ * line: one copy, not one at every call site. Within a turn of the
+ * interval (|x| < 3 pi: an angle and a step, a sum of two wrapped angles)
+ * x -+ 2 pi alone lands in it, exactly (Sterbenz: |x| <= 4 pi), with the
+ * bits fmodf's path gives; beyond, fmodf (exact) and one correction on
+ * either side. */
+FS_OUT_OF_LINE float fs_wrap_far(float x)
 {
-    if (x > FS_PI || x <= -FS_PI) {
-        x = fmodf(x, FS_TWO_PI);
-        if (x > FS_PI) {
-            x -= FS_TWO_PI;
-        } else if (x <= -FS_PI) {
-            x += FS_TWO_PI;
-        }
+    if (x == FS_PI) return x;
+    const float y = x > 0.0f ? x - FS_TWO_PI : x + FS_TWO_PI;
+    if (y > -FS_PI && y <= FS_PI && y != 0.0f) return y;   /* 0 is +-2 pi, whose sign fmodf sets */
+    x = fmodf(x, FS_TWO_PI);
+    if (x > FS_PI) {
+        x -= FS_TWO_PI;
+    } else if (x <= -FS_PI) {
+        x += FS_TWO_PI;
     }
     return x;
+}
+
+/* Wrap an angle to (-pi, pi]. Valid for any finite input. */
+static inline float fs_wrap_pi(float x)
+{
+    return fabsf(x) < FS_PI ? x : fs_wrap_far(x);   /* one comparison on the common path */
 }
 
 /* Configuration checks for the inits: each fails on NaN and on an infinity
@@ -30,6 +50,43 @@ static inline float fs_wrap_pi(float x)
 static inline bool fs_fin(float x) { return fabsf(x) < INFINITY; }
 static inline bool fs_pos(float x) { return x > 0.0f && x < INFINITY; }
 static inline bool fs_nonneg(float x) { return x >= 0.0f && x < INFINITY; }
+
+/* e^{j theta} = cos theta + j sin theta, both from one argument reduction
+ * (fs_transforms.c): within 1 ulp of the exact values for |theta| < 199
+ * rad (beyond, those at fs_wrap_pi(theta)), and the same float32 on every
+ * platform (not the platform's libm: csrc/control calls no sinf, cosf or
+ * tanf, but fs_cosf, fs_sinf and fs_tanf). A complex float is laid out as
+ * float[2] (C99 6.2.5): cos, then sin. It depends on theta alone: to GCC
+ * and clang, fs_cosf(t) and fs_sinf(t) of one angle are one call (a
+ * function returning a struct would be called twice). */
+float _Complex fs_cis(float theta) FS_CONST;
+
+static inline float fs_cosf(float x)
+{
+    const float _Complex e = fs_cis(x);
+    return ((const float *)&e)[0];
+}
+
+static inline float fs_sinf(float x)
+{
+    const float _Complex e = fs_cis(x);
+    return ((const float *)&e)[1];
+}
+
+/* within 3 ulp where the inits use it (|x| < 1.5: test_trig.c) */
+static inline float fs_tanf(float x) { return fs_sinf(x) / fs_cosf(x); }
+
+/* atan2f and atanf, the same float32 on every platform (fs_transforms.c):
+ * within 1.6 ulp of the exact value, 89 % of results correctly rounded */
+float fs_atan2f(float y, float x) FS_CONST;
+static inline float fs_atanf(float x) { return fs_atan2f(x, 1.0f); }
+
+/* fmaxf and fminf, inline: the larger (smaller) of two, the number where
+ * one is NaN, a where they are equal (as glibc's: -0 and +0 are equal). A
+ * Cortex-M4F's FPU has no max instruction, and newlib's fmaxf is a call
+ * that classifies both arguments: some 25 instructions against 5. */
+static inline float fs_maxf(float a, float b) { return (a >= b || b != b) ? a : b; }
+static inline float fs_minf(float a, float b) { return (a <= b || b != b) ? a : b; }
 
 static inline float fs_clampf(float x, float lo, float hi)
 {

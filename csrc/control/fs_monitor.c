@@ -39,16 +39,31 @@
  * JUMP pi/2 over t_lost / 2: the truth's 90 el.deg (header, 4.); the leak
  *   over half the lock time holds a hand-over's turn (a blend crosses its
  *   band in a few ms) and forgets a speed state's slow errors.
+ * E_LIM 1e18 V: the EMF the slip's products take is clamped there, so that
+ *   their squares stay finite in float32 (3.4e38) whatever a diverged
+ *   speed estimate puts into the model's rotation term; any EMF beyond
+ *   the link's voltage already makes the residual large.
+ * K_EXC 0.1: the torque's sign is judged where the torque commanded moved
+ *   by a tenth of T_max within t_lost (its rate's rms times t_lost): the
+ *   answer looked for is then 0.1 T_max / J of acceleration, which the
+ *   estimate's speed noise through the second derivative and the small
+ *   variations of a load do not reverse over t_lost (an unknown load's
+ *   steps are the sign test's and the EMF gate's, header 6.).
  * WARM 2 tau: the low-passes start from 0 when the checks come on; before
  *   two time constants (86 % of a step) no residual is reported.
  * The constants were set from these bounds, then checked on the campaign
- * (fullspeed.lock_campaign): on its healthy runs the largest r_dir, r_slip,
- * r_mech, r_cur were 0.6, 0.42, 0.84, 0.65 and |jump| 0.38 rad. */
+ * (fullspeed.lock_campaign): on its 236 healthy runs that kept lock the
+ * largest r_dir, r_mech, r_cur were 0.73, 0.60, 0.65 and |jump| 0.52 rad;
+ * r_slip and r_sign went past 1 for a few ms (1.32 and 1.45 at the most,
+ * zoo machine 16 starting under load), and the lock counter reached 7.4 ms
+ * of its 20 (two runs on zoo machine 11, which came within 79 and 88
+ * el.deg of losing the rotor before an overcurrent stop, were flagged). */
 #define FS_MONITOR_E_USE 3.0f
 #define FS_MONITOR_E_SLIP 1.0f
 #define FS_MONITOR_PRE 0.25f
 #define FS_MONITOR_U_FLOOR 0.01f
 #define FS_MONITOR_WARM 2.0f
+#define FS_MONITOR_E_LIM 1e18f
 
 fs_status fs_monitor_init(fs_monitor *m, const fs_monitor_config *cfg)
 {
@@ -70,8 +85,12 @@ fs_status fs_monitor_init(fs_monitor *m, const fs_monitor_config *cfg)
     m->cfg = *cfg;
     m->b = 1.0f - expf(-cfg->Ts / cfg->tau);
     m->a_s = 1.0f - expf(-FS_MONITOR_PRE * (cfg->w_h > 0.0f ? cfg->w_h : FS_PI / cfg->Ts) * cfg->Ts);
-    m->x_max = tanf(FS_PI * cfg->Ts / cfg->t_lost);
+    m->x_max = fs_tanf(FS_PI * cfg->Ts / cfg->t_lost);
     m->a_j = expf(-2.0f * cfg->Ts / cfg->t_lost);
+    m->b_c = 1.0f - expf(-cfg->Ts / cfg->t_lost);
+    m->k_y = cfg->J / ((float)cfg->pole_pairs * cfg->tau);
+    const float x_exc = FS_MONITOR_K_EXC * cfg->T_max * cfg->tau / cfg->t_lost;
+    m->c_exc = x_exc * x_exc;
     fs_monitor_reset(m);
     return FS_OK;
 }
@@ -85,9 +104,10 @@ void fs_monitor_reset(fs_monitor *m)
     m->e_s1.d = m->e_s1.q = m->e_s2.d = m->e_s2.q = 0.0f;
     m->e_d = m->e_q = m->x_f = m->p_f = 0.0f;
     m->w_f = m->T_f = m->id_f = m->i_f = m->ierr_f = 0.0f;
+    m->w_f2 = m->w_f3 = m->T_f2 = m->T_f3 = m->c_xy = m->c_xx = 0.0f;
     m->th_prev = m->w_prev = m->jump = 0.0f;
     m->jumped = false;
-    m->r_dir = m->r_slip = m->r_mech = m->r_cur = 0.0f;
+    m->r_dir = m->r_slip = m->r_mech = m->r_cur = m->r_sign = 0.0f;
     m->E_hat = m->E_err = m->T_L_hat = 0.0f;
 }
 
@@ -118,10 +138,10 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
         /* the speed and torque filters start where they are: no false
          * acceleration; the EMF needs one period of history first */
         m->started = true;
-        m->w_f = in->w;
+        m->w_f = m->w_f2 = m->w_f3 = in->w;
         m->th_prev = in->theta;
         m->w_prev = in->w;
-        m->T_f = in->T_ref;
+        m->T_f = m->T_f2 = m->T_f3 = in->T_ref;
         m->i_prev = in->i;
         m->u_q1 = m->u_q2 = in->u_next;
         return 0.0f;
@@ -130,7 +150,8 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
      * transform turned back by dl = w Ts / 2 (second order in dl) */
     const fs_dq e0 = fs_park(monitor_emf(m, in), in->cos_t, in->sin_t);
     const float dl = 0.5f * in->w * c->Ts, cl = 1.0f - 0.5f * dl * dl;
-    const fs_dq e = {cl * e0.d - dl * e0.q, cl * e0.q + dl * e0.d};
+    const fs_dq e = {fs_clampf(cl * e0.d - dl * e0.q, -FS_MONITOR_E_LIM, FS_MONITOR_E_LIM),
+                     fs_clampf(cl * e0.q + dl * e0.d, -FS_MONITOR_E_LIM, FS_MONITOR_E_LIM)};
     /* its turn over one period in that frame: cross and dot products with
      * the last period's, low-passed: x_f / p_f = tan(slip Ts) */
     const float a = m->a_s;
@@ -153,6 +174,16 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
     m->w_prev = in->w;
     m->w_f += b * (in->w - m->w_f);
     m->T_f += b * (in->T_ref - m->T_f);
+    /* the torque's sign (6.): its rate against the inertial torque's, both
+     * through three low-passes */
+    m->w_f2 += b * (m->w_f - m->w_f2);
+    m->w_f3 += b * (m->w_f2 - m->w_f3);
+    m->T_f2 += b * (m->T_f - m->T_f2);
+    m->T_f3 += b * (m->T_f2 - m->T_f3);
+    const float x = m->T_f2 - m->T_f3;
+    const float y = m->k_y * (m->w_f - 2.0f * m->w_f2 + m->w_f3);
+    m->c_xy += m->b_c * (x * y - m->c_xy);
+    m->c_xx += m->b_c * (x * x - m->c_xx);
     m->id_f += b * (i_dq.d - m->id_f);
     m->i_f += b * (sqrtf(i_dq.d * i_dq.d + i_dq.q * i_dq.q) - m->i_f);
     m->ierr_f += b * (sqrtf(in->i_err.d * in->i_err.d + in->i_err.q * in->i_err.q) - m->ierr_f);
@@ -163,8 +194,8 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
 
     const float aw = fabsf(m->w_f);
     const float s = m->w_f < 0.0f ? -1.0f : 1.0f;
-    m->E_hat = fmaxf(aw * (c->psi_f + (c->L_d - c->L_q) * m->id_f), 0.0f);
-    m->E_err = (c->k_dead + FS_MONITOR_U_FLOOR) * in->u_dc + c->R_s * m->i_f + aw * fmaxf(c->L_d, c->L_q) * fabsf(m->id_f);
+    m->E_hat = fs_maxf(aw * (c->psi_f + (c->L_d - c->L_q) * m->id_f), 0.0f);
+    m->E_err = (c->k_dead + FS_MONITOR_U_FLOOR) * in->u_dc + c->R_s * m->i_f + aw * fs_maxf(c->L_d, c->L_q) * fabsf(m->id_f);
     const float pp = (float)c->pole_pairs;
     /* d(w_f)/dt: the low-passed speed's own derivative, s / (tau s + 1) w */
     const float T_L = m->T_f - (c->J / pp) * (m->w_f - w_f_prev) / c->Ts - (c->B / pp) * m->w_f;
@@ -178,12 +209,14 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
      * beyond the error bound is */
     const bool emf = m->E_hat >= FS_MONITOR_E_USE * m->E_err;
     const float den = m->E_hat + m->E_err;
-    m->r_dir = den > 0.0f ? fmaxf(1.0f + ((emf ? FS_MONITOR_K_DIR * m->E_hat : 0.0f) - m->E_err - p) / den, 0.0f) : 0.0f;
-    m->r_mech = emf || !(c->J > 0.0f && c->T_max > 0.0f) ? 0.0f : fabsf(m->T_L_hat) / (FS_MONITOR_K_MECH * c->T_max);
+    m->r_dir = den > 0.0f ? fs_maxf(1.0f + ((emf ? FS_MONITOR_K_DIR * m->E_hat : 0.0f) - m->E_err - p) / den, 0.0f) : 0.0f;
+    const bool mech = !emf && c->J > 0.0f && c->T_max > 0.0f;
+    m->r_mech = mech ? fabsf(m->T_L_hat) / (FS_MONITOR_K_MECH * c->T_max) : 0.0f;
+    m->r_sign = mech && p < 0.0f && m->c_xx >= m->c_exc ? 1.0f - m->c_xy / m->c_xx : 0.0f;
     m->r_cur = m->ierr_f / (FS_MONITOR_K_CUR * c->i_max);
     /* the EMF's turn in the loops' frame, judged where the EMF measured
      * (its power p_f, whatever the loops' speed says) reaches the bound */
     const float E_g = FS_MONITOR_E_SLIP * m->E_err;
     m->r_slip = m->p_f > E_g * E_g ? fabsf(m->x_f) / (m->x_max * m->p_f) : 0.0f;
-    return fmaxf(fmaxf(m->r_dir, m->r_slip), fmaxf(m->r_mech, m->r_cur));
+    return fs_maxf(fs_maxf(fs_maxf(m->r_dir, m->r_slip), fs_maxf(m->r_mech, m->r_cur)), m->r_sign);
 }

@@ -65,9 +65,35 @@
  * 5. The current loops' error |i_ref - i| low-passed against k_cur i_max:
  *    an estimate that spins against the rotor leaves the loops a rotating
  *    back-EMF they cannot follow.
- *
+ * 6. The torque's sign (where the mechanics are judged). Inertia is
+ *    positive: a change of the torque the loops command changes the
+ *    rotor's acceleration, and that of an estimate following its motion,
+ *    the same way, J da/dt = dT_e/dt - dT_L/dt; a reversed torque changes
+ *    it the other way, whatever the load's level, the inertia's error or
+ *    the voltage model's. Both sides through the same three low-passes
+ *    (tau), so that neither leads:
+ *      x = tau d(T_3)/dt = T_2 - T_3
+ *      y = (J/p) tau d^2(w_3)/dt^2 = (J/p) (w_1 - 2 w_2 + w_3) / tau
+ *    (T_k, w_k the k-th low-pass of T_ref and of the loops' speed), their
+ *    products low-passed over t_lost:
+ *      r_sign = 1 - <x y> / <x x>   where <x x> >= (k_exc T_max tau / t_lost)^2
+ *                                   and the EMF measured points back, p < 0
+ *    <x y> / <x x> is the acceleration's answer per unit of torque: J_hat /
+ *    J on track less the load's share, about -c f with the torque reversed
+ *    (c the fraction the angle error leaves, f the share of the rotor's
+ *    motion the estimate follows): r_sign > 1 where it is negative. The
+ *    sign decides, not a bound. Judged where the torque moved by k_exc T_max
+ *    within t_lost, and where the EMF in the loops' frame has a component
+ *    against their direction of rotation (1.'s p below 0: the reversed
+ *    torque's second symptom, also a sign). A load step answers the other
+ *    way round: the rotor slows first and the torque rises after it, which
+ *    turns <x y> negative while the two meet in the filters, and for as
+ *    long as an estimate's speed lags the rotor's (an injection observer
+ *    at standstill: 20 ms behind under a step of 0.8 T_max); its EMF,
+ *    where it stands out of the errors, points forward meanwhile.
  * Every low-pass has the time constant tau (the drive: lock_time / 4, as for
- * its other residuals); each starts afresh when the checks are switched on.
+ * its other residuals) but 2.'s pre-filter and 6.'s products (t_lost); each
+ * starts afresh when the checks are switched on.
  * Per step it uses the loops' Park transform (cos, sin) and current as the
  * step has them: no trigonometric call. Float32, no heap.
  */
@@ -121,9 +147,14 @@ typedef struct {
     float x_f, p_f;           /* low-passed cross and dot products of e_s2 with the last period's, V^2 */
     float w_f, T_f, id_f, i_f;    /* low-passed: speed, torque reference, d current, |i| */
     float ierr_f;             /* low-passed |i_ref - i| */
+    float w_f2, w_f3, T_f2, T_f3; /* the second and third low-passes of the speed (w_f the first) and of the torque (T_f) (6.) */
+    float c_xy, c_xx;         /* the torque's sign (6.): low-passed products over t_lost, N^2 m^2 */
+    float b_c;                /* their step, 1 - exp(-Ts / t_lost) */
+    float k_y;                /* J / (p tau), N m s per el. rad */
+    float c_exc;              /* <x x> judged from, (k_exc T_max tau / t_lost)^2 */
     float jump;               /* rad, the loops' angle's turn beyond their speed (4.), leaky */
     /* the last step's residuals (<= 1 on track) */
-    float r_dir, r_slip, r_mech, r_cur;
+    float r_dir, r_slip, r_mech, r_cur, r_sign;
     float E_hat, E_err;       /* V, the last step's expected EMF and error bound */
     float T_L_hat;            /* N m */
 } fs_monitor;
@@ -132,6 +163,7 @@ typedef struct {
 #define FS_MONITOR_K_DIR 0.25f
 #define FS_MONITOR_K_MECH 1.2f
 #define FS_MONITOR_K_CUR 0.4f
+#define FS_MONITOR_K_EXC 0.1f
 
 fs_status fs_monitor_init(fs_monitor *m, const fs_monitor_config *cfg);
 void fs_monitor_reset(fs_monitor *m);

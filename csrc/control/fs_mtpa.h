@@ -42,10 +42,12 @@ typedef struct {
     float i_d[FS_MTPA_N];  /* A */
     float i_q[FS_MTPA_N];  /* A */
     int tabulated;         /* 1: the table was given (step interpolates it) */
+    float k_T;             /* (phases / 2) p: torque per (flux x current) */
+    int seg;               /* the table segment of the last step (where step looks first) */
 } fs_mtpa;
 
 fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg);
 /* The MTPA current for torque T_ref (either sign), limited to i_max. */
-fs_dq fs_mtpa_step(const fs_mtpa *m, float T_ref);
+fs_dq fs_mtpa_step(fs_mtpa *m, float T_ref);
 
 #endif /* FS_MTPA_H */

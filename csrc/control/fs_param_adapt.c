@@ -14,7 +14,7 @@ fs_status fs_param_adapt_init(fs_param_adapt *a, const fs_param_adapt_config *cf
     a->cfg = *cfg;
     /* 1 ms between updates: the window is seconds long, and the float sums
      * lose less to rounding with lambda further from 1 */
-    a->decim = (int)fmaxf(1.0f, roundf(1e-3f / cfg->Ts));
+    a->decim = (int)fs_maxf(1.0f, roundf(1e-3f / cfg->Ts));
     const float T_u = (float)a->decim * cfg->Ts;
     if (!fs_pos(cfg->T_f) || !(cfg->T_f >= 20.0f * T_u) || !(cfg->T_f <= 1e7f * T_u)) return FS_ERR_PARAM;
     a->lambda = expf(-T_u / cfg->T_f);

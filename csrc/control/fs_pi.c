@@ -24,7 +24,7 @@ fs_status fs_pi_design(fs_pi_config *cfg, float Ts, float L, float R, float alph
     float b = (R > 0.0f && r > 0.0f) ? r / R : Ts / L;
     cfg->Ts = Ts;
     cfg->k_t = q / b;
-    cfg->k_p = fmaxf((2.0f * q - r) / b, 0.0f);  /* (1 + a - 2p) / b */
+    cfg->k_p = fs_maxf((2.0f * q - r) / b, 0.0f);  /* (1 + a - 2p) / b */
     cfg->k_i = q * q / (b * Ts);
     cfg->u_max = u_max;
     /* gains beyond the float range (L / Ts or R / (1 - a) too large) */

@@ -60,14 +60,14 @@ static void polarity_decide(fs_polarity *p)
      * every period, is not in it; noise and drift are */
     const float n = (float)(p->n_avg / p->n_per);
     const float mean = 0.5f * (p->i_p_pos + p->i_p_neg);
-    const float var_pos = fmaxf(p->sq_pos / n - (p->i_p_pos - p->ref_pos) * (p->i_p_pos - p->ref_pos), 0.0f);
-    const float var_neg = fmaxf(p->sq_neg / n - (p->i_p_neg - p->ref_neg) * (p->i_p_neg - p->ref_neg), 0.0f);
+    const float var_pos = fs_maxf(p->sq_pos / n - (p->i_p_pos - p->ref_pos) * (p->i_p_pos - p->ref_pos), 0.0f);
+    const float var_neg = fs_maxf(p->sq_neg / n - (p->i_p_neg - p->ref_neg) * (p->i_p_neg - p->ref_neg), 0.0f);
     /* independent ones among them: at most n, about 2 per 1 / w_filter */
     const float T_per = (float)p->n_per * p->cfg.Ts;
     const float n_eff = p->cfg.w_filter > 0.0f ? fs_clampf(0.5f * n * T_per * p->cfg.w_filter, 1.0f, n) : n;
     const float sigma_d = mean > 0.0f ? sqrtf((var_pos + var_neg) / n_eff) / mean : 0.0f;
     p->d = mean > 0.0f ? (p->i_p_pos - p->i_p_neg) / mean : 0.0f;
-    p->margin = fabsf(p->d) / fmaxf(p->cfg.d_min, 3.0f * sigma_d);
+    p->margin = fabsf(p->d) / fs_maxf(p->cfg.d_min, 3.0f * sigma_d);
     p->attempts += 1;
     p->moved = p->cfg.w_max > 0.0f && p->w_peak > p->cfg.w_max;
     if (p->moved) {
@@ -77,7 +77,7 @@ static void polarity_decide(fs_polarity *p)
         p->flip = p->d < 0.0f;
         p->stage = FS_POLARITY_DONE;
     } else if (p->i_now < p->cfg.i_pulse_max) {
-        p->i_now = fminf(1.5f * p->i_now, p->cfg.i_pulse_max);
+        p->i_now = fs_minf(1.5f * p->i_now, p->cfg.i_pulse_max);
         polarity_pulses(p);
     } else {
         p->stage = FS_POLARITY_UNDETERMINED;
@@ -111,7 +111,7 @@ float fs_polarity_step(fs_polarity *p, float i_p, float w)
         const int half = p->n_pulse / 2;
         if (p->k + 1 == half || p->k + 1 == p->n_pulse) {
             const float mean = p->w_sum / (float)(p->k + 1 == half ? half : p->n_pulse - half);
-            if (p->halves > 0) p->w_peak = fmaxf(p->w_peak, fabsf(mean - p->w_prev));
+            if (p->halves > 0) p->w_peak = fs_maxf(p->w_peak, fabsf(mean - p->w_prev));
             p->w_prev = mean;
             p->halves += 1;
             p->w_sum = 0.0f;

@@ -17,7 +17,7 @@ bool fs_pwm5(fs_ab u_ref, float u_dc, float duty[5], fs_ab *u_real)
     /* Work in units of u_dc, with a reference first brought within u_dc per
      * component (beyond the limit anyway): nothing below can overflow. */
     float pre = 1.0f;
-    float big = fmaxf(fabsf(u_ref.alpha), fabsf(u_ref.beta));
+    float big = fs_maxf(fabsf(u_ref.alpha), fabsf(u_ref.beta));
     if (big > u_dc) pre = u_dc / big;
     fs_vsd5 v = {{u_ref.alpha * pre / u_dc, u_ref.beta * pre / u_dc}, {0.0f, 0.0f}, 0.0f};
     float mag = sqrtf(v.ab.alpha * v.ab.alpha + v.ab.beta * v.ab.beta);
@@ -32,8 +32,8 @@ bool fs_pwm5(fs_ab u_ref, float u_dc, float duty[5], fs_ab *u_real)
     fs_vsd5_inverse(&v, ph);  /* phase references, x-y and zero sequence nil */
     float v_max = ph[0], v_min = ph[0];
     for (int k = 1; k < 5; ++k) {
-        v_max = fmaxf(v_max, ph[k]);
-        v_min = fminf(v_min, ph[k]);
+        v_max = fs_maxf(v_max, ph[k]);
+        v_min = fs_minf(v_min, ph[k]);
     }
     /* Min-max injection: equal zero-vector time at both ends of the period. */
     float offset = 0.5f - 0.5f * (v_max + v_min);

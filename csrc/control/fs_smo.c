@@ -9,7 +9,7 @@
 static void smo_schedule(fs_smo *o)
 {
     const float w_emf = o->e_raw / o->cfg.psi_f;
-    const float want = fminf(FS_SMO_BW_PER_W * fmaxf(w_emf, o->w_sched_min), o->cfg.bw_pll);
+    const float want = fs_minf(FS_SMO_BW_PER_W * fs_maxf(w_emf, o->w_sched_min), o->cfg.bw_pll);
     const float now = o->mo.cfg.bandwidth;
     if (fabsf(want - now) <= 0.1f * now) return;
     const float theta = o->mo.theta_hat, w_hat = o->mo.w_hat, T_d = o->mo.T_d_hat;
@@ -41,7 +41,7 @@ fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
     o->k_bound = 0.5f * E_max;
     if (cfg->k > 0.0f && cfg->k <= o->k_bound) return FS_ERR_SMO_GAIN;
     o->k = cfg->k > 0.0f ? cfg->k : cfg->margin * o->k_bound;
-    o->delta = fmaxf(cfg->delta, o->k * cfg->Ts / cfg->L_d);
+    o->delta = fs_maxf(cfg->delta, o->k * cfg->Ts / cfg->L_d);
     /* a designed gain of 0 (no EMF: psi_f = 0, L_d = L_q) or beyond the float range */
     if (!fs_pos(o->k) || !fs_pos(o->delta)) return FS_ERR_SMO_GAIN;
     o->i_hat_max = 16.0f * cfg->i_max;
@@ -52,7 +52,7 @@ fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
     st = fs_pll_init(&o->pll, &pc);
     if (st != FS_OK) return st;
     /* the boundary layer's correction per step, k Ts / (L_d delta) <= 1 */
-    o->c_bl = fminf(o->k * cfg->Ts / (cfg->L_d * o->delta), 1.0f);
+    o->c_bl = fs_minf(o->k * cfg->Ts / (cfg->L_d * o->delta), 1.0f);
     /* 0.4 w_valid psi_f: the filtered EMF at w_valid (the loop passes
      * 1 / sqrt 5 of it at w_c = w) */
     o->e_valid = 0.4f * cfg->w_valid * cfg->psi_f;
@@ -66,7 +66,7 @@ fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
         st = fs_motion_obs_init(&o->mo, &mc);
         if (st != FS_OK) return st;
         o->k_T = 0.5f * (float)cfg->phases * (float)cfg->pole_pairs;
-        o->w_sched_min = fmaxf(cfg->w_valid, cfg->w_c_min);
+        o->w_sched_min = fs_maxf(cfg->w_valid, cfg->w_c_min);
         o->a_emf = -expm1f(-cfg->bw_pll * cfg->Ts);
         /* the filtered EMF at w_valid behind the filter at FS_SMO_WC_PER_BW
          * times the tracker's bandwidth there: r / sqrt(4 r^2 + 1) of it */
@@ -130,15 +130,15 @@ static float sat(float x, float delta)  /* eq. (6) */
 static float smo_emf_angle(const fs_smo *o, fs_ab e, float w, float w_c)
 {
     const float Ts = o->cfg.Ts;
-    const float th_e = o->dir > 0.0f ? atan2f(-e.alpha, e.beta) : atan2f(e.alpha, -e.beta);
+    const float th_e = o->dir > 0.0f ? fs_atan2f(-e.alpha, e.beta) : fs_atan2f(e.alpha, -e.beta);
     const float g = w_c * Ts / (1.0f + w_c * Ts);
     const float c = o->c_bl;
-    const float zr = cosf(w * Ts), zi = sinf(w * Ts);
+    const float zr = fs_cosf(w * Ts), zi = fs_sinf(w * Ts);
     /* den = (z - 1 + g)(z - 1 + c) + g c z */
     const float ar = zr - 1.0f + g, br = zr - 1.0f + c;
     const float dr = ar * br - zi * zi + g * c * zr;
     const float di = ar * zi + zi * br + g * c * zi;
-    return fs_wrap_pi(th_e - 1.5f * w * Ts + atan2f(di, dr));
+    return fs_wrap_pi(th_e - 1.5f * w * Ts + fs_atan2f(di, dr));
 }
 
 static void smo_settle(fs_smo *o)
@@ -183,12 +183,12 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
     const fs_ab z_prev = o->z;
     o->z.alpha = o->k * sat(e_a, o->delta);
     o->z.beta = o->k * sat(e_b, o->delta);
-    o->r_i = fmaxf(fabsf(e_a), fabsf(e_b)) / o->delta;
+    o->r_i = fs_maxf(fabsf(e_a), fabsf(e_b)) / o->delta;
     /* Fig. 1: adaptive low-pass filter, cutoff at the estimated speed; the
      * tracking form's at least FS_SMO_WC_PER_BW times its tracker's
      * bandwidth (fs_smo.h, change 3) */
-    const float w_c = track ? fmaxf(fabsf(w), FS_SMO_WC_PER_BW * o->mo.cfg.bandwidth) : w;
-    const float w_c_used = fmaxf(fabsf(w_c), c->w_c_min);
+    const float w_c = track ? fs_maxf(fabsf(w), FS_SMO_WC_PER_BW * o->mo.cfg.bandwidth) : w;
+    const float w_c_used = fs_maxf(fabsf(w_c), c->w_c_min);
     fs_ab e = fs_lpf_step(&o->lpf, o->z, w_c);
     if (track) {
         /* the period's EMF as the model sees it, from the observer's own
@@ -203,19 +203,19 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
         }
         const float mag = sqrtf(e.alpha * e.alpha + e.beta * e.beta);
         /* no angle without an EMF: the correction and the torque fade below e_valid */
-        const float kappa = o->e_valid > 0.0f ? fminf(mag / o->e_valid, 1.0f) : 1.0f;
+        const float kappa = o->e_valid > 0.0f ? fs_minf(mag / o->e_valid, 1.0f) : 1.0f;
         const float th_prev = o->mo.theta_hat;
         float err = 0.0f;
         if (mag > 1e-6f) err = fs_wrap_pi(smo_emf_angle(o, e, w, w_c_used) - th_prev);
         /* the torque of the period: mean current in the frame at its middle */
         const float th_mid = th_prev + 0.5f * c->Ts * w;
-        const fs_dq i_dq = fs_park(i_m, cosf(th_mid), sinf(th_mid));
+        const fs_dq i_dq = fs_park(i_m, fs_cosf(th_mid), fs_sinf(th_mid));
         const float T = o->k_T * (c->psi_f + (c->L_d - c->L_q) * i_dq.d) * i_dq.q;
         /* against the prediction, as the PLL's, low-passed at the tracker's
          * bandwidth: the angle error it is working off, not one sample's
          * (the injection's fade-in steps the fundamental current) */
         const float a_eps = 1.0f - o->mo.z_o;
-        o->eps += a_eps * (sinf(fs_wrap_pi(err - c->Ts * w)) - o->eps);
+        o->eps += a_eps * (fs_sinf(fs_wrap_pi(err - c->Ts * w)) - o->eps);
         o->e_mag = mag;
         /* the model's net torque T + T_d fades with the EMF as the
          * correction does, and the current's torque counts only in a frame
@@ -240,16 +240,16 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
         float eps = 0.0f;
         if (mag > 1e-6f) {
             float th = o->pll.theta;
-            eps = (-e.alpha * cosf(th) - e.beta * sinf(th)) / mag;
+            eps = (-e.alpha * fs_cosf(th) - e.beta * fs_sinf(th)) / mag;
             eps *= o->dir;
         }
         fs_pll_step(&o->pll, eps);
         o->eps = eps;
         o->e_mag = mag;
         o->w = o->pll.w;
-        float w_c = fmaxf(fabsf(o->w), c->w_c_min);
+        float w_c = fs_maxf(fabsf(o->w), c->w_c_min);
         float lag = (c->lag == FS_SMO_LAG_PAPER) ? fs_signf(o->w) * 0.25f * FS_PI
-                                                 : atanf(o->w / (2.0f * w_c));
+                                                 : fs_atanf(o->w / (2.0f * w_c));
         /* the PLL now predicts the next mid-period; back half a period to the sample */
         o->theta = fs_wrap_pi(o->pll.theta - 0.5f * c->Ts * o->w + lag);
     }

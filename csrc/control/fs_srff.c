@@ -18,7 +18,7 @@ void fs_srff_reset(fs_srff *f) { f->lp.d = f->lp.q = 0.0f; }
 
 fs_ab fs_srff_step(fs_srff *f, fs_ab x, float theta_x)
 {
-    return fs_srff_step_cs(f, x, cosf(theta_x), sinf(theta_x));
+    return fs_srff_step_cs(f, x, fs_cosf(theta_x), fs_sinf(theta_x));
 }
 
 fs_ab fs_srff_step_cs(fs_srff *f, fs_ab x, float c, float s)

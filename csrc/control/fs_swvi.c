@@ -52,7 +52,7 @@ float fs_swvi_step(fs_swvi *s, fs_ab i)
     const int n = (int)(s->k & 3);
     const float th_prev = s->pll.theta;   /* theta_{k-1} */
     s->i_ab[n] = i;
-    if (c->sequence == FS_SWVI_CONVENTIONAL) s->i_dq[n] = fs_park(i, cosf(th_prev), sinf(th_prev));
+    if (c->sequence == FS_SWVI_CONVENTIONAL) s->i_dq[n] = fs_park(i, fs_cosf(th_prev), fs_sinf(th_prev));
 
     /* eq. (8) at the zero crossings (even samples); the first window with
      * the carrier in both its intervals ends at sample 4 */
@@ -66,7 +66,7 @@ float fs_swvi_step(fs_swvi *s, fs_ab i)
                 fs_ab hab = {s->i_ab[n1].alpha - 0.5f * (s->i_ab[n2].alpha + i.alpha),
                              s->i_ab[n1].beta - 0.5f * (s->i_ab[n2].beta + i.beta)};
                 const float phi = mid_angle(s->theta_u[n2], s->theta_u[n1]);   /* eq. (16) */
-                h = fs_park(hab, cosf(phi), sinf(phi));
+                h = fs_park(hab, fs_cosf(phi), fs_sinf(phi));
             } else {
                 h.d = s->i_dq[n1].d - 0.5f * (s->i_dq[n2].d + s->i_dq[n].d);
                 h.q = s->i_dq[n1].q - 0.5f * (s->i_dq[n2].q + s->i_dq[n].q);
@@ -85,7 +85,7 @@ float fs_swvi_step(fs_swvi *s, fs_ab i)
      * output frame of the last step */
     s->delta = 0.0f;
     if (fs_xcomp_active(&c->xcomp)) {
-        const float i_q = -s->i_f.alpha * sinf(s->theta) + s->i_f.beta * cosf(s->theta);
+        const float i_q = -s->i_f.alpha * fs_sinf(s->theta) + s->i_f.beta * fs_cosf(s->theta);
         s->delta = fs_xcomp_eval(&c->xcomp, i_q);
     }
     s->theta = fs_wrap_pi(th - s->delta);
@@ -98,8 +98,8 @@ float fs_swvi_step(fs_swvi *s, fs_ab i)
     const int m = (int)(j & 3);
     s->theta_u[m] = th;
     const float u = (j < 2 || c->carrier_off) ? 0.0f : ((m == 3 || m == 0) ? c->u_h : -c->u_h);
-    s->u.alpha = u * cosf(th);
-    s->u.beta = u * sinf(th);
+    s->u.alpha = u * fs_cosf(th);
+    s->u.beta = u * fs_sinf(th);
     ++s->k;
     return s->theta;
 }

@@ -41,7 +41,7 @@ fs_ab fs_xyctrl_step(fs_xyctrl *x, const float i_ph[5], float theta_e, float w_e
     const fs_xyctrl_config *c = &x->cfg;
     const fs_vsd5 v = fs_vsd5_forward(i_ph);
     const float th3 = 3.0f * theta_e, w3 = 3.0f * w_e;
-    const fs_dq i3 = fs_park(v.xy, cosf(th3), sinf(th3));
+    const fs_dq i3 = fs_park(v.xy, fs_cosf(th3), fs_sinf(th3));
     x->i3 = i3;
     /* the d3-q3 model's coupling and EMF fed forward */
     const fs_dq ff = {-w3 * c->L_q3 * i3.q, w3 * (c->L_d3 * i3.d + c->psi_f3)};
@@ -57,7 +57,7 @@ fs_ab fs_xyctrl_step(fs_xyctrl *x, const float i_ph[5], float theta_e, float w_e
     fs_pi_update(&x->pi_q3, 0.0f, i3.q, u.q - ff.q, u_real.q - ff.q);
     /* acting from the next update for a period: turned to its middle */
     const float th_u = th3 + w3 * c->Ts * (c->delay + 0.5f);
-    x->u_xy = fs_inv_park(u_real, cosf(th_u), sinf(th_u));
+    x->u_xy = fs_inv_park(u_real, fs_cosf(th_u), fs_sinf(th_u));
     return x->u_xy;
 }
 

@@ -12,7 +12,11 @@
  * loops' angle stepping 120 el.deg latches, 30 el.deg does not; a speed
  * state off by 100 el. rad/s while the angle tracks does not, 250 does. At
  * standstill the mechanics judge: an estimate whose motion implies a load of
- * 2 T_max is off, a load of half T_max is not. The current loops' error,
+ * 2 T_max is off, a load of half T_max is not. The torque's sign: a torque
+ * rising to half T_max that the loops' speed answers the other way (0.15 of
+ * it, an implied load the mechanics' bound does not reach) with the EMF
+ * pointing back is flagged; answered the right way, or with the EMF
+ * forward, or too slow a change, it is not. The current loops' error,
  * switching off, and the refusals.
  */
 #include <math.h>
@@ -118,6 +122,39 @@ static float run_mech(float T_ref, double a, fs_monitor *m)
     return m->r_mech;
 }
 
+/* Near standstill, no current: T_ref ramps from 0 to T_peak over 60 ms and
+ * holds; the loops' speed answers it with the acceleration k_T T_ref p / J
+ * (k_T = 1: the torque moves the rotor; -0.15: a reversed torque, weakened
+ * by the angle error) from 20 el. rad/s the way it pushes (no reversal of
+ * the speed within the run); the voltage is the EMF of that
+ * speed, in the loops' frame along their direction of rotation times
+ * emf_dir (-1: pointing back). A 100 V link keeps the EMF unjudged (E_hat
+ * below 3 E_err). Returns the largest r_sign over 0.1 s and the largest of
+ * the other residuals in *r_other. */
+static float run_sign(double k_T, double emf_dir, double T_peak, fs_monitor *m, float *r_other)
+{
+    FS_CHECK(fs_monitor_init(m, &CFG) == FS_OK, "init");
+    const double Ts = CFG.Ts, k_a = CFG.pole_pairs / CFG.J;
+    double w = k_T < 0.0 ? -20.0 : 20.0, th = 0.0;
+    float r_max = 0.0f;
+    *r_other = 0.0f;
+    for (int k = 0; k < 1000; ++k) {
+        const double t = k * Ts;
+        const double T_ref = T_peak * fmin(t / 0.06, 1.0);
+        const double s = w < 0.0 ? -1.0 : 1.0, E = emf_dir * s * fabs(w) * CFG.psi_f;
+        const double th_n = th + w * Ts;   /* the EMF acting over the next period, along q */
+        fs_monitor_in in = {{0.0f, 0.0f}, {(float)(-E * sin(th_n)), (float)(E * cos(th_n))}, 100.0f,
+                            (float)fs_test_wrap(th), (float)w, (float)cos(th), (float)sin(th), {0.0f, 0.0f},
+                            (float)T_ref, {0.0f, 0.0f}, true};
+        fs_monitor_step(m, &in);
+        r_max = fmaxf(r_max, m->r_sign);
+        *r_other = fmaxf(*r_other, fmaxf(fmaxf(m->r_dir, m->r_slip), fmaxf(m->r_mech, m->r_cur)));
+        th += w * Ts;
+        w += k_T * T_ref * k_a * Ts;
+    }
+    return r_max;
+}
+
 int main(void)
 {
     fs_monitor m;
@@ -174,6 +211,18 @@ int main(void)
     r = run_mech(CFG.T_max, 0.5 * a_T, &m);
     FS_CHECK(r < 0.5f, "half of T_max accelerates, half is load: r_mech %g", r);
     FS_CHECK(m.r_dir < 1.0f && m.E_hat < 3.0f * m.E_err, "no EMF judged near standstill");
+
+    /* the torque's sign: the acceleration's answer per unit torque is k_T */
+    float other;
+    r = run_sign(-0.15, -1.0, 0.5 * CFG.T_max, &m, &other);
+    FS_CHECK(r > 1.1f && other < 1.0f, "a reversed torque, EMF pointing back: r_sign %g, the others %g", r, other);
+    FS_CHECK_NEAR(r, 1.15f, 0.03f, "1 - k_T: the answer is -0.15 of the torque");
+    r = run_sign(1.0, -1.0, 0.5 * CFG.T_max, &m, &other);
+    FS_CHECK(r < 0.3f, "the torque moving the rotor, EMF pointing back: r_sign %g", r);
+    r = run_sign(-0.15, 1.0, 0.5 * CFG.T_max, &m, &other);
+    FS_CHECK(r == 0.0f, "a reversed answer but the EMF forward: not judged, r_sign %g", r);
+    r = run_sign(-0.15, -1.0, 0.05 * CFG.T_max, &m, &other);
+    FS_CHECK(r == 0.0f, "a torque change under k_exc T_max in t_lost: not judged, r_sign %g", r);
 
     /* the current loops' error */
     FS_CHECK(fs_monitor_init(&m, &CFG) == FS_OK, "init");

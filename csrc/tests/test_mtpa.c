@@ -4,8 +4,12 @@
  * salient machines: the returned current gives the reference torque within 1 %,
  * and is the maximum-torque-per-ampere current (at the same magnitude a current
  * angle 2 degrees either way gives less torque); negative torque mirrors i_q;
- * beyond the limit the current magnitude is i_max.
+ * beyond the limit the current magnitude is i_max; the segment the last step
+ * found (where step looks first) changes no result.
  */
+#include <stdint.h>
+#include <string.h>
+
 #include "control/fs_mtpa.h"
 #include "tests/fs_test.h"
 
@@ -79,6 +83,31 @@ static void salient(fs_mtpa_config c, const char *name)
     }
 }
 
+/* One instance stepped through a sequence of torques (small moves, jumps,
+ * both signs, the limit, NaN) gives the bits of a fresh instance at each. */
+static void order_free(fs_mtpa_config c, const char *name)
+{
+    fs_mtpa run, fresh;
+    FS_CHECK(fs_mtpa_init(&run, &c) == FS_OK, "%s: init", name);
+    const float T_top = run.T[FS_MTPA_N - 1];
+    uint32_t r = 7u;
+    int moved = 0;
+    for (int k = 0; k < 4000; ++k) {
+        r = r * 1664525u + 1013904223u;
+        const float u = (float)(r >> 8) / 16777216.0f;
+        const float T = k % 500 == 499 ? NAN : k % 7 == 0 ? (2.4f * u - 1.2f) * T_top
+                                                          : T_top * (0.3f + 0.01f * u) * (k % 2 ? 1.0f : -1.0f);
+        const int seg = run.seg;
+        const fs_dq a = fs_mtpa_step(&run, T);
+        fs_mtpa_init(&fresh, &c);
+        const fs_dq b = fs_mtpa_step(&fresh, T);
+        moved += run.seg != seg;
+        FS_CHECK(memcmp(&a, &b, sizeof a) == 0, "%s: step %d (T %g): (%.9g, %.9g) after others, (%.9g, %.9g) fresh",
+                 name, k, T, a.d, a.q, b.d, b.q);
+    }
+    FS_CHECK(moved > 100, "%s: the segment moved %d times: the sequence did not exercise it", name, moved);
+}
+
 int main(void)
 {
     fs_mtpa m;
@@ -117,6 +146,8 @@ int main(void)
     salient(synrm, "SynRM");
     fs_mtpa_config five = c; five.phases = 5;
     salient(five, "IPM 2/6 mH, five phases");
+    order_free(c, "IPM 2/6 mH");
+    order_free(synrm, "SynRM");
     /* the locus does not depend on the phases: a torque 5/3 larger on five
      * phases asks for the same currents */
     fs_mtpa m5;

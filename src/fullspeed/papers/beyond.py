@@ -360,6 +360,7 @@ def lock(out: Path) -> Measurement:
     stopped = sum(r["stop_reason"] not in ("done", "error") for r in flagged)
     wrong = [r for r in lock_campaign.misses(rows) if r.get("set") == "added"
              and (lock_campaign.judge(r)["lost"] or r["kind"] == "healthy")]
+    pol = [r["flag_at"] for r in rows if r["kind"] == "polarity" and r.get("flag_at") is not None]
     fig = _figure_lock(rows, out / "B-LOCK.png", f"B-LOCK: {a['runs']} runs, {a['true_losses']} true losses")
     note = (f"Campaign fullspeed.lock_campaign (seed {lock_campaign.SEED}), monitor in detect mode so that every run "
             "goes on to its end: " + lock_campaign.DESCRIPTION + " Truth: metrics.true_loss_at (the loops' angle "
@@ -369,8 +370,10 @@ def lock(out: Path) -> Measurement:
             f"slip and jump checks, the full range, more pi-off starts) gives detection {value['added_detection_pct']:.1f} % "
             f"of {value['added_true_losses']}, {value['added_false_alarms_healthy']} false alarms in "
             f"{value['added_healthy_runs']} healthy runs, median delay {value['added_delay_median_ms']:.0f} ms (its true "
-            "losses are mostly pi-off starts, found when the runaway's implied load or the back-EMF observer's "
-            "hand-over shows them, 10-290 ms after the start); wrong there: "
+            "losses are mostly pi-off starts, found when the acceleration answers the rising torque the other way "
+            "(the torque's sign), the runaway's implied load passes the rating or the back-EMF shows them"
+            + (f", {1e3 * min(pol):.0f}-{1e3 * max(pol):.0f} ms after the start, median {1e3 * float(np.median(pol)):.0f} ms"
+               if pol else "") + "); wrong there: "
             + "; ".join(f"{r['base']} {r['label']} ({'missed' if lock_campaign.judge(r)['lost'] else 'flagged'}, "
                         f"{r['stop_reason']}, max error {r['max_err_deg']:.0f} el.deg)" for r in wrong)
             + ". Beside them, "
