@@ -193,7 +193,7 @@ const fs_drive_config fs_config = {
     .bw_pll = 628.0f,   /* design bandwidths, rad/s; machine yang2022: bench.bw_pll (scenario default) */
     .t_dead_comp = 9.99999997e-07f,   /* dead-time compensation: the dead time to compensate (0: off; below T_pwm / 2) and the current below which t...; machine yang2022: bench.t_dead (scenario default) */
     .i_dead_band = 0.600000024f,   /* dead-time compensation: the dead time to compensate (0: off; below T_pwm / 2) and the current below which t...; default of [controller] i_dead_band (fullspeed.scenario) */
-    .dt_predict = 0,   /* 1: the dead-time compensation takes each edge's sign from the current predicted there (fs_dtcomp.h); 0: fro...; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+    .dt_predict = 1,   /* 1: the dead-time compensation takes each edge's sign from the current predicted there (fs_dtcomp.h); 0: fro...; default of [controller] dead_time_predict (fullspeed.scenario) */
     .bw_xy = 0.0f,   /* five phases: x-y current control (fs_xyctrl.h) at this bandwidth, rad/s, with the third-harmonic plane's L_...; 0: taken from the drive's fields or designed by fs_drive_init, or off */
     .L_d3 = 0.0f,   /* five phases: x-y current control (fs_xyctrl.h) at this bandwidth, rad/s, with the third-harmonic plane's L_...; 0: taken from the drive's fields or designed by fs_drive_init, or off */
     .L_q3 = 0.0f,   /* five phases: x-y current control (fs_xyctrl.h) at this bandwidth, rad/s, with the third-harmonic plane's L_...; 0: taken from the drive's fields or designed by fs_drive_init, or off */
@@ -255,9 +255,9 @@ const fs_drive_config fs_config = {
             .i_q0 = -40.0f,   /* grid: first current, step (> 0), A; scenario beyond-full-range: [injection] xcomp */
             .di_q = 5.0f,   /* grid: first current, step (> 0), A; scenario beyond-full-range: [injection] xcomp */
             .delta = {   /* lead of the saliency axis, theta_hat - theta_r, rad (|.| < pi/2); scenario beyond-full-range: [injection] xcomp */
-                -0.680486441f, -0.617771506f, -0.568760931f, -0.486100376f, -0.37356329f, -0.24148725f,
-                -0.126473546f, -0.0443296172f, -0.0119450334f, 0.00947015639f, 0.0444081575f, 0.120143227f,
-                0.226543739f, 0.335963666f, 0.426666677f, 0.4871144f, 0.521649241f, 0.0f,
+                -0.589830518f, -0.553773761f, -0.495652556f, -0.404443413f, -0.2931647f, -0.177674517f,
+                -0.0956527665f, -0.0352713577f, -0.00408232491f, 0.0184341669f, 0.066912435f, 0.160139188f,
+                0.270559192f, 0.378092408f, 0.463559449f, 0.520052254f, 0.552265823f, 0.0f,
                 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
                 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
                 0.0f, 0.0f, 0.0f,
@@ -266,8 +266,8 @@ const fs_drive_config fs_config = {
                 0.0f, 0.0f, 0.0f, 0.0f,
             },
         },
-        .leak = 0,   /* 1: the fundamental's leak taken out of i_hn (fs_hfi_filter_step_nl); 0: the paper's filter; 0: taken from the drive's fields or designed by fs_drive_init, or off (injection.leak) */
-        .lag = 0,   /* 1: the motion observer designed with the second SRFF's lag in its loop (header); 0: the paper's; 0: taken from the drive's fields or designed by fs_drive_init, or off (injection.tracking) */
+        .leak = 1,   /* 1: the fundamental's leak taken out of i_hn (fs_hfi_filter_step_nl); 0: the paper's filter; default of [injection] leak (fullspeed.scenario) */
+        .lag = 1,   /* 1: the motion observer designed with the second SRFF's lag in its loop (header); 0: the paper's; default of [injection] tracking (fullspeed.scenario) */
     },
     .blend = {   /* FS_ANGLE_BLEND: the band (w_lower, w_upper) and the filtering observer's bandwidth (the rest as for hfi.obs... */
         .w_lower = 83.7758026f,   /* g_w = 0 at and below, rad/s (el.), >= 0; default of [blending] lower_rpm (fullspeed.scenario) */

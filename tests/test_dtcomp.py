@@ -55,3 +55,16 @@ def test_no_edge_no_compensation_and_refusals():
     for field, value, st in (("Ts", 0.3 * T_PWM, lib.FS_ERR_TS), ("t_dead", 0.0, lib.FS_ERR_PARAM),
                              ("phases", 4, lib.FS_ERR_PARAM), ("L_q", 0.0, lib.FS_ERR_LQ), ("delay", 0.5, lib.FS_ERR_PARAM)):
         assert lib.fs_dtcomp_init(d, ffi.new("fs_dtcomp_config *", {**base, field: value})) == st, field
+
+
+def test_a_carrier_that_stopped_acts_until_the_update_then_the_usual():
+    """Without a carrier (none acting, none coming) the step is the usual
+    compensation, computed as such (the ramp within +-i_band included); the
+    step right after the carrier stops still predicts from the carrier that
+    acts until the interval: phase a sampled at +0.1 A, -10 A of carrier
+    current added by then, both edges negative."""
+    dd = T_DEAD / T_PWM
+    d = unit(band=0.4)
+    step(d, (0.1, -0.05, -0.05), u_inj=(-100.0, 0.0))
+    assert step(d, (0.1, -0.05, -0.05))[0] == pytest.approx(0.5 - dd, abs=1e-7)     # the carrier acting until then
+    assert step(d, (0.1, -0.05, -0.05))[0] == pytest.approx(0.5 + 0.25 * dd, abs=1e-7)   # 0.1 / 0.4 of the ramp

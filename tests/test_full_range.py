@@ -78,12 +78,14 @@ def test_the_fundamental_leaves_room_for_the_carrier_while_injecting(full):
     assert np.max(i_ph) <= 1.03 * full.scenario.data["controller"]["i_max"]
 
 
-IMPACT = {"load": {"torque": [[0.0, 0.0], [0.5, 0.0], [0.501, 3.0], [0.55, 3.0], [0.551, 0.2]]}}
+# 5 N m: the injection's observer designed with its filters' lag (the
+# default) holds 3 N m, the impact these runs had before (36 el.deg at most)
+IMPACT = {"load": {"torque": [[0.0, 0.0], [0.5, 0.0], [0.501, 5.0], [0.55, 5.0], [0.551, 0.2]]}}
 
 
 def impact_run(lock: str):
-    """Blended speed control at 100 rpm; a 3 N m load impact for 50 ms throws
-    the rotor back to -500 rpm, out of the injection's range, and the
+    """Blended speed control at 100 rpm; a 5 N m load impact for 50 ms throws
+    the rotor back to -700 rpm, out of the injection's range, and the
     injection estimate slips."""
     base = load_scenario("beyond-robust", {
         "duration": 1.2, "references": {"speed_rpm": [[0.0, 0.0], [0.15, 0.0], [0.35, 100.0]]},
@@ -97,9 +99,10 @@ def test_a_slipped_injection_estimate_is_detected_with_its_time():
     t_truth = t[np.argmax(err > 45.0)]
     assert r.stop_reason == "loss_of_lock"
     assert t_truth < r.stop_time < t_truth + 0.06
-    detect = impact_run("detect")     # runs on, flagged, and truly lost to the end
+    detect = impact_run("detect")     # runs on, flagged, the flag latched to the end
     assert detect.stop_reason == "done" and detect["lock_lost"][-1] == 1.0
-    assert np.degrees(abs(detect["est_err"][-1])) > 30.0
+    e = np.degrees(np.abs(detect["est_err"]))
+    assert e.max() > 45.0             # (the drive finds the rotor again: the back-EMF observer in the blend)
 
 
 def test_recovery_catches_the_rotor_on_the_observer_and_returns_to_the_reference():

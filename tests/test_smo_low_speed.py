@@ -134,25 +134,32 @@ def test_a_load_learnt_at_speed_does_not_turn_an_estimate_without_emf():
 
 
 def test_the_paper_scenarios_pin_the_paper_estimators():
-    """The defaults are fullspeed's (tracking observer, gated blend; the leak
-    kept, see docs/reference.md); every yang2022 scenario runs what the paper
-    describes whatever the defaults: the SMO and PLL, the filter of Fig. 4b,
-    eq. (28) alone."""
+    """The defaults are fullspeed's (tracking observer, gated blend, the
+    injection's leak removed with its observer designed for the filter's lag,
+    each edge's dead time from the predicted current; docs/reference.md);
+    every yang2022 scenario runs what the paper describes whatever the
+    defaults: the SMO and PLL, the filter of Fig. 4b and the observer of
+    Fig. 5, eq. (28) alone, and the dead-time compensation the machine's
+    cross-saturation was calibrated with."""
     d = load_scenario("beyond-full-range").data
-    assert (d["observer"]["form"], d["injection"]["leak"], d["blending"]["gate"]) == ("tracking", "keep", True)
+    assert (d["observer"]["form"], d["injection"]["leak"], d["injection"]["tracking"], d["blending"]["gate"],
+            d["controller"]["dead_time_predict"]) == ("tracking", "remove", "lag", True, True)
     for name in (n for n in scenario_names() if n.startswith("yang2022-")):
         sc = load_scenario(name).data
         angle = sc["controller"]["angle"]
         if angle in ("smo", "blend"):
             assert sc["observer"]["form"] == "paper", name
         if angle in ("hfi", "blend"):
-            assert sc["injection"]["leak"] == "keep", name
+            assert (sc["injection"]["leak"], sc["injection"]["tracking"]) == ("keep", "paper"), name
+            assert sc["controller"]["dead_time_predict"] is False, name
         if angle == "blend":
             assert sc["blending"]["gate"] is False, name
 
 
 def test_the_zoo_runs_the_defaults():
-    """B-ZOO measures designed defaults only: its scenario sets no estimator form."""
+    """B-ZOO measures designed defaults only: its scenario sets no estimator
+    setting (the back-EMF observer's form, the blend's gate, the injection's
+    filter and observer, the dead-time compensation's edges)."""
     text = (resources.files("fullspeed") / "scenarios" / "beyond-zoo.toml").read_text()
-    for key in ("form =", "leak =", "gate ="):
+    for key in ("form =", "leak =", "gate =", "tracking =", "dead_time_predict ="):
         assert key not in text

@@ -338,7 +338,7 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
             } else if (!drv->injecting) {
                 fs_hfi_set_angle(&drv->hfi, drv->blend.theta_hat, drv->blend.w_hat);
             }
-            if (!drv->injecting) drv->hfi.obs.T_d_hat = drv->blend.obs.T_d_hat;   /* the load it carries */
+            if (!drv->injecting) fs_hfi_set_load(&drv->hfi, drv->blend.obs.T_d_hat);   /* the load it carries */
         }
     }
     /* The amplitude fades in and out over the filters' settling time, so

@@ -66,8 +66,8 @@
  *   fs_drive_reset before stepping again (the sequence starts over).
  * Timing and re-entrancy. fs_drive_step must complete within Ts of its
  *   sampling instant, before the next update event. On a Cortex-M4F at
- *   -O2 a step takes about 1,300-3,000 instructions on average by angle
- *   source, 4,000 at most (the blend); 2,660 on average and 3,550 at most
+ *   -O2 a step takes about 1,300-3,200 instructions on average by angle
+ *   source, 4,500 at most (the blend); 2,870 on average and 3,970 at most
  *   over the blended full-range run in the firmware's build (-flto):
  *   bench/pil.py measures it per mode. It
  *   touches only *drv, *in and *out (no globals, no heap): instances are
@@ -75,9 +75,9 @@
  *   fs_drive_init, fs_drive_reset and fs_drive_step on one instance must not
  *   interrupt each other. It uses the FPU (lazy stacking keeps an interrupt
  *   that does correct).
- * Memory. sizeof(fs_drive) is about 6.6 KB (bench/pil.py reports the
+ * Memory. sizeof(fs_drive) is about 7.0 KB (bench/pil.py reports the
  *   target's; a 64-bit host's is up to 16 B more: its pointers); its stack
- *   is under 800 B (bench/pil.py: 792 B on the static call graph, 312 B the
+ *   is under 800 B (bench/pil.py: 792 B on the static call graph, 336 B the
  *   measured high-water mark).
  */
 #ifndef FS_DRIVE_H
@@ -117,8 +117,11 @@
  *   FS_WITH_IDENT       the identification mode (fs_ident.h; mode refused)
  *   FS_WITH_ADAPT       the online R_s and psi_f correction (fs_param_adapt.h; adapt refused)
  *   FS_WITH_DTCOMP      dead-time compensation on the predicted current (fs_dtcomp.h; dt_predict refused)
- * A three-phase inverter drive on the blend with flux weakening needs none:
- * a commissioning build keeps FS_WITH_IDENT, a production build leaves it out. */
+ * A three-phase inverter drive on the blend with flux weakening needs only
+ * FS_WITH_DTCOMP (the scenarios' default while the drive injects: the
+ * carrier's current crosses zero within the period; without a carrier
+ * fs_dtcomp_step computes the usual compensation, which is then the same): a commissioning
+ * build keeps FS_WITH_IDENT, a production build leaves it out. */
 #ifndef FS_WITH_IMC
 #define FS_WITH_IMC 1
 #endif

@@ -27,7 +27,7 @@ void fs_drive_polarity_done(fs_drive *drv)
     if (drv->pol.flip) {
         const float theta = fs_wrap_pi(drv->hfi.theta + FS_PI), T_d = drv->hfi.obs.T_d_hat;
         fs_hfi_set_angle(&drv->hfi, theta, drv->hfi.w);
-        drv->hfi.obs.T_d_hat = T_d;   /* the load does not turn with the estimate */
+        fs_hfi_set_load(&drv->hfi, T_d);   /* the load does not turn with the estimate */
         if (drv->cfg.angle_source == FS_ANGLE_BLEND) {
             fs_blend_reset(&drv->blend, theta, drv->hfi.w);
             drv->blend.obs.T_d_hat = T_d;

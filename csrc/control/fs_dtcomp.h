@@ -26,7 +26,11 @@
  *   and the second): t_dead/(T_pwm/2) pos(i(tau_rise)) in the first half,
  *     -t_dead/(T_pwm/2) neg(i(tau_fall)) in the second,
  * with pos(i) = clamp(i / i_band, 0, 1), neg(i) = clamp(-i / i_band, 0, 1).
- * With a constant current this is the usual compensation exactly. The
+ * With a constant current this is the usual compensation exactly; without a
+ * carrier (none acting until the interval, none in it) and with one update a
+ * period it is computed as the usual one, each edge's current the sample's
+ * (half the work: a drive that stops injecting above a speed, fs_blend.h,
+ * spends nothing on it there). The
  * halves are counted from the first step, which is taken at the carrier's
  * peak (as the runner and the PWM unit's interrupt do).
  */

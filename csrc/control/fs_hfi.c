@@ -80,6 +80,17 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
     h->k_avg = -expm1f(-0.25f * c.w_b_n * c.Ts);
     h->n_settle = (int)ceilf(3.0f / (c.w_b_n * c.Ts));
     h->w_o_blend = c.lag ? FS_HFI_OBS_PER_FILTER * c.w_b_n : c.obs.bandwidth;
+    {   /* the table's i_q over a carrier period (header) */
+        const int n = (int)(2.0f * FS_PI / (c.w_h * c.Ts) + 0.5f);
+        h->n_iq = n < FS_HFI_IQ_MAX ? n : FS_HFI_IQ_MAX;
+        h->inv_n_iq = 1.0f / (float)h->n_iq;
+    }
+    if (c.lag) {
+        fs_motion_obs_config ow = c.obs;
+        ow.bandwidth = h->w_o_blend;
+        st = fs_motion_obs_init(&h->obs_w, &ow);
+        if (st != FS_OK) return st;
+    }
     h->rot_u.alpha = fs_cosf(h->theta_u);
     h->rot_u.beta = fs_sinf(h->theta_u);
     fs_hfi_reset(h, 0.0f, 0.0f);
@@ -90,6 +101,7 @@ void fs_hfi_reset(fs_hfi *h, float theta, float w)
 {
     fs_hfi_filter_reset(&h->filt);
     fs_motion_obs_reset(&h->obs, theta, w);
+    if (h->cfg.lag) fs_motion_obs_reset(&h->obs_w, theta, w);
     h->theta_h = 0.0f;
     h->k_settle = h->n_settle;
     h->gain = h->gain_prev = 1.0f;
@@ -99,17 +111,26 @@ void fs_hfi_reset(fs_hfi *h, float theta, float w)
     h->i_hn = h->i_f;
     h->i_p = h->i_n = 0.0f;
     h->i_n_avg = h->i_n_design;
-    h->eps = h->delta = 0.0f;
+    h->eps = h->delta = h->i_q = h->iq_sum = 0.0f;
+    for (int k = 0; k < FS_HFI_IQ_MAX; ++k) h->iq_buf[k] = 0.0f;
+    h->k_iq = 0;
     h->theta = h->obs.theta_hat;
-    h->w = h->obs.w_hat;
+    h->w = h->cfg.lag ? h->obs_w.w_hat : h->obs.w_hat;
     h->u.alpha = h->u.beta = 0.0f;
 }
 
 void fs_hfi_set_angle(fs_hfi *h, float theta, float w)
 {
     fs_motion_obs_reset(&h->obs, theta, w);
+    if (h->cfg.lag) fs_motion_obs_reset(&h->obs_w, theta, w);
     h->theta = h->obs.theta_hat;
-    h->w = h->obs.w_hat;
+    h->w = h->cfg.lag ? h->obs_w.w_hat : h->obs.w_hat;
+}
+
+void fs_hfi_set_load(fs_hfi *h, float T_d)
+{
+    h->obs.T_d_hat = T_d;
+    if (h->cfg.lag) h->obs_w.T_d_hat = T_d;
 }
 
 float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
@@ -133,8 +154,26 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
     }
     const float theta_h = h->theta_h;
     const float theta_hat = h->obs.theta_hat;
-    /* the carrier's frame and the negative carrier's, once per step */
-    const float theta_n = fs_wrap_pi(2.0f * theta_hat - theta_h);
+    /* cross-saturation compensation (header): the saliency axis expected at
+     * theta_hat + delta(i_q), i_q the fundamental's q current in the
+     * estimated frame over the last carrier period (a running sum, summed
+     * afresh once a period so that its rounding does not accumulate) */
+    h->delta = 0.0f;
+    if (fs_xcomp_active(&h->cfg.xcomp)) {
+        const float i_q = -h->i_f.alpha * fs_sinf(theta_hat) + h->i_f.beta * fs_cosf(theta_hat);
+        h->iq_sum += i_q - h->iq_buf[h->k_iq];
+        h->iq_buf[h->k_iq] = i_q;
+        if (++h->k_iq == h->n_iq) {
+            h->k_iq = 0;
+            h->iq_sum = 0.0f;
+            for (int k = 0; k < h->n_iq; ++k) h->iq_sum += h->iq_buf[k];
+        }
+        h->i_q = h->iq_sum * h->inv_n_iq;
+        h->delta = fs_xcomp_eval(&h->cfg.xcomp, h->i_q);
+    }
+    /* the carrier's frame and the negative carrier's, once per step: the
+     * latter where the negative carrier is expected */
+    const float theta_n = fs_wrap_pi(2.0f * (theta_hat + h->delta) - theta_h);
     const fs_ab e_h = {fs_cosf(theta_h), fs_sinf(theta_h)}, e_n = {fs_cosf(theta_n), fs_sinf(theta_n)};
     /* Fig. 4b: fundamental and negative-sequence carrier; with cfg.leak the
      * fundamental's leak taken out of the latter (fs_hfi_filter_step_nl) */
@@ -149,18 +188,10 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
     h->i_n = sqrtf(lp_n.d * lp_n.d + lp_n.q * lp_n.q);
     h->i_n_avg += h->k_avg * (h->i_n - h->i_n_avg);
 
-    /* cross-saturation compensation on the fundamental's q current */
-    h->delta = 0.0f;
-    if (fs_xcomp_active(&h->cfg.xcomp)) {
-        float i_q = -h->i_f.alpha * fs_sinf(theta_hat) + h->i_f.beta * fs_cosf(theta_hat);
-        h->delta = fs_xcomp_eval(&h->cfg.xcomp, i_q);
-    }
-
     /* eq. (26): the cross product of the expected carrier direction
      * e^{j(-theta_h + 2 (theta_hat + delta) + phi_ref)} with i_hn: e_n turned
      * by phi_ref (and by 2 delta with a table) */
-    fs_ab ref = fs_inv_park((fs_dq){e_n.alpha, e_n.beta}, h->rot_ref.alpha, h->rot_ref.beta);
-    if (h->delta != 0.0f) ref = fs_inv_park((fs_dq){ref.alpha, ref.beta}, fs_cosf(2.0f * h->delta), fs_sinf(2.0f * h->delta));
+    const fs_ab ref = fs_inv_park((fs_dq){e_n.alpha, e_n.beta}, h->rot_ref.alpha, h->rot_ref.beta);
     const float c = ref.alpha, s = ref.beta;
     float eps_n = 0.0f;
     const bool settling = h->k_settle > 0;
@@ -177,6 +208,10 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
     else fs_motion_obs_step(&h->obs, h->eps, T_ff);
     h->theta = h->obs.theta_hat;
     h->w = h->obs.w_hat;
+    if (h->cfg.lag) {   /* the speed's observer on that angle (header) */
+        fs_motion_obs_step(&h->obs_w, fs_wrap_pi(h->theta - h->obs_w.theta_hat), T_ff);
+        h->w = h->obs_w.w_hat;
+    }
 
     /* eq. (22), for the interval the voltage computed now acts over */
     const fs_ab e_v = fs_inv_park((fs_dq){e_h.alpha, e_h.beta}, h->rot_u.alpha, h->rot_u.beta);

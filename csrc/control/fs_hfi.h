@@ -52,9 +52,41 @@
  * Cross-saturation compensation (beyond the paper): a cross-saturated machine
  * has its HF saliency axis at theta_r + delta(i_q), and the estimator locks
  * there. Given delta against i_q (fs_xcomp.h: a table measured offline, e.g.
- * with the encoder in the loop, or a fitted cubic), the reference angle
- * becomes 2 (theta_hat + delta(i_q)) and theta_hat converges to theta_r. i_q
- * is the fundamental current's q component in the estimated frame.
+ * with the encoder in the loop, or a fitted cubic), the negative carrier is
+ * expected at 2 (theta_hat + delta(i_q)) - theta_h: the second SRFF's frame
+ * is put there (the heterodyne's reference with it), and theta_hat converges
+ * to theta_r. Where delta enters matters. The axis turns with the current at
+ * once, and the negative carrier reports the turn through the second SRFF's
+ * low-pass at w_b_n, twice with cfg.leak (fs_hfi_filter.h); delta in that
+ * SRFF's frame passes the same low-pass, so that the two cancel at every
+ * instant, not only in steady state. Turning the heterodyne's reference
+ * alone, after the filter (as before), led the reported axis by 1 / w_b_n
+ * (2 / w_b_n with cfg.leak): every change of i_q drove the observer with an
+ * error of delta' di_q that decays with the filter, and in speed control the
+ * loop's own i_q closed a loop through it. On the yang2022 machine holding
+ * rated torque at standstill with the leak removed and a table measured so,
+ * that loop limit-cycled at 35 Hz: +-15 el.deg, i_q 13..63 A, the rotor
+ * rolling back to -42 rpm (blended: +-29 el.deg, -89 rpm), at the paper's
+ * observer's resonance with the double lag it does not model (|T| 2.7 near
+ * 20 Hz, 171 deg of lag at 35 Hz; with the paper's filter 1.55 at most,
+ * which is why keeping the leak hid it). With delta in the frame the same
+ * run holds within +-2.3 el.deg; blended, where the blend's observer
+ * filters that observer's angle again, it still rings at +-12: the paper's
+ * observer and the leak's removal do not go together (scenario.py defaults
+ * the removal with cfg.lag, whose observer is designed for the double lag:
+ * +-0.8 el.deg either way, checks.py warns of the pair). test_hfi.c's i_q
+ * step (20 A, the axis turning 10 deg with it) moved the estimate 6.8, 12.1
+ * and 27.6 el.deg beyond the step's own transient (paper's filter and
+ * observer, leak removed, and with cfg.lag); now 1.0, 0.9 and 1.8. i_q is
+ * the fundamental current's q component in the estimated frame averaged
+ * over the last carrier period (FS_HFI_IQ_MAX samples at most): a saturating
+ * machine's current carries harmonics of the carrier (the iron's response
+ * to it; 0.9 A at 2 w_h on the yang2022 machine at 38 A), which would turn
+ * the frame at those frequencies and mix the positive carrier, six times
+ * the negative, into the negative's band (with cfg.lag at 38 A: the error
+ * 1.7 el.deg rms, 0.2 with the average). The average takes out every
+ * harmonic of the carrier at standstill and delays delta by half a carrier
+ * period (the 1.0-1.8 el.deg above).
  *
  * Design rules (see fs_hfi_filter.h and fs_motion_obs.h): w_b_p = w_b_n =
  * w_h / 20. Equal, so that their phase shifts on the fundamental cancel
@@ -89,6 +121,30 @@
  * observer passes and the heterodyne rectifies). Resumed after a stop
  * (fs_drive.c) it starts afresh: its gains would take the stale carriers'
  * angle.
+ *
+ * The speed, with cfg.lag, comes from a second motion observer (obs_w) at
+ * the paper's rule, w_o_blend = w_b_n / 5, on the first one's angle, with
+ * the same torque feed-forward: theta is the fast observer's, w the slow
+ * one's. The fast observer passes the angle the carrier reports up to w_b_n
+ * (its |T| 1.9 at 35-50 Hz on the defaults): the speed it implies is that
+ * angle's every move times its frequency. On a cross-saturated machine the
+ * reported angle moves with the current, faster than the table can say (the
+ * cross inductance's rate of change adds a carrier response about 90 deg
+ * ahead: on the yang2022 machine at 38 A 0.44 el.deg/A at 10 Hz and 0.75
+ * at 70 Hz, against the table's 0.37 static; with the table 0.12 and 0.74), so
+ * a speed loop on the fast speed closes a loop through the machine, i_q ->
+ * reported angle -> speed -> i_q, of gain K_p D w |T(jw)| / p: 5 at 70 Hz
+ * with that machine's bw_speed of 100 rad/s, 1.6 still at 30 rad/s.
+ * Holding rated torque at standstill with its table, on the fast speed the
+ * rotor ran away (-277 rpm; at 30 rad/s it held, ringing +-3.5 el.deg), and
+ * yang2022-hfi-ramp's error went from the paper observer's 1.9 to 23.2
+ * el.deg; on the slow observer's speed +-0.8 el.deg and 2.9 el.deg, as
+ * blended (whose speed is the blend's observer's, at the same rule). The
+ * magnet polarity detection reads that speed too (fs_polarity.h: the
+ * rotor's motion under the pulses): on the fast one, yang2022-blend-iqstep's
+ * (200 rpm, held) took the pulses' turn of the axis for motion and refused,
+ * or not, by a millisecond of t_lock (0.060 s refused, 0.061 s decided);
+ * on the slow one both decide, margin 3.3.
  */
 #ifndef FS_HFI_H
 #define FS_HFI_H
@@ -103,6 +159,7 @@
  * filter's lag in the loop (header). */
 #define FS_HFI_OBS_PER_FILTER 0.2f
 #define FS_HFI_OBS_PER_FILTER_LAG 1.0f
+#define FS_HFI_IQ_MAX 40
 
 typedef struct {
     float Ts;                  /* sampling period, s */
@@ -122,6 +179,7 @@ typedef struct {
     fs_hfi_config cfg;         /* with the defaults filled in */
     fs_hfi_filter filt;
     fs_motion_obs obs;
+    fs_motion_obs obs_w;       /* with cfg.lag: the speed's observer (header), at w_o_blend on the angle of obs */
     float dtheta_h;            /* w_h Ts */
     float theta_u;             /* w_h Ts (delay + 1/2): voltage angle ahead of the sample */
     float u_amp;               /* u_h / sinc(w_h Ts / 2) */
@@ -130,9 +188,10 @@ typedef struct {
     float i_n_design;          /* the negative carrier's amplitude from the parameters, A */
     float k_avg;               /* 1 - exp(-w_b_n Ts / 4): the amplitude's averaging */
     int n_settle;              /* steps the filters take to settle, 3 / (w_b_n Ts) */
-    float w_o_blend;           /* the blend's observer bandwidth by default, rad/s: cfg.obs.bandwidth, with lag
-                                  the paper's rule (it filters the back-EMF observer's angle in the band, where a
-                                  faster one passes that angle's noise to the speed loop; fs_drive.c) */
+    float w_o_blend;           /* the bandwidth of the observer the speed comes from, rad/s: cfg.obs.bandwidth, with
+                                  lag the paper's rule (obs_w's, and the blend's by default: it filters the back-EMF
+                                  observer's angle in the band, where a faster one passes that angle's noise to the
+                                  speed loop; fs_drive.c) */
     /* state */
     int k_settle;              /* steps left before the error is used (after reset) */
     float gain;                /* the caller's scale on the injected amplitude, 0..1 (reset: 1);
@@ -150,7 +209,12 @@ typedef struct {
     float i_n_avg;             /* the averaged negative amplitude eq. (26) divides by, A */
     float eps;                 /* eps_n / 2, rad: the angle error seen */
     float delta;               /* the compensation used, rad */
-    float theta, w;            /* the observer's angle (rad) and electrical speed (rad/s) */
+    float i_q;                 /* the fundamental's q current it is taken at: over the last carrier period (header), A */
+    float iq_sum;              /* the running sum over that period */
+    float iq_buf[FS_HFI_IQ_MAX];
+    int n_iq, k_iq;            /* samples a carrier period (at most FS_HFI_IQ_MAX); the buffer's next slot */
+    float inv_n_iq;            /* 1 / n_iq */
+    float theta, w;            /* the observer's angle (rad) and electrical speed (rad/s; with lag obs_w's) */
     fs_ab u;                   /* injection voltage for the next update, V */
 } fs_hfi;
 
@@ -174,6 +238,9 @@ void fs_hfi_reset(fs_hfi *h, float theta, float w);
 void fs_hfi_set_resistance(fs_hfi *h, float R_s);
 /* Move the observer only (polarity flip, re-sync), keeping filters and carrier. */
 void fs_hfi_set_angle(fs_hfi *h, float theta, float w);
+/* The load both observers carry (N m; fs_motion_obs.h's T_d_hat): set_angle
+ * and reset clear it. */
+void fs_hfi_set_load(fs_hfi *h, float T_d);
 /* One step on the sampled current with the torque that acted over the
  * period that just ended (N m). Returns the estimated angle. */
 float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff);

@@ -63,7 +63,7 @@ KEYS = {
     "i_start": "observer.i_start", "a_start": "observer.start_accel_rpm_s", "w_handover": "observer.start_handover_rpm",
     "hfi.u_h": "injection.u_h", "hfi.w_h": "injection.f_h", "hfi.w_b_p": "injection.bw_filter_p",
     "hfi.w_b_n": "injection.bw_filter_n", "hfi.obs.bandwidth": "injection.bw_observer", "hfi.xcomp": "injection.xcomp",
-    "hfi.leak": "injection.leak", "hfi.lag": "injection.tracking",
+    "hfi.leak": "injection.leak", "hfi.lag": "injection.tracking", "dt_predict": "controller.dead_time_predict",
     "blend.w_lower": "blending.lower_rpm", "blend.w_upper": "blending.upper_rpm",
     "blend.obs.bandwidth": "blending.bw_observer", "w_inject_max": "injection.stop_rpm",
     "polarity.i_pulse": "polarity.i_pulse", "polarity.t_lock": "polarity.t_lock", "polarity.t_pulse": "polarity.t_pulse",

@@ -59,7 +59,9 @@ SCENARIO = {
         "T_max": POS(None, hi=1e6, doc="N m, torque limit; default the MTPA torque at i_max"),
         "dead_time_comp": B(True, doc="compensate the converter's dead time"),
         "i_dead_band": NONNEG(None, hi=1e5, doc="A, below this the dead-time compensation ramps to zero; default 1 % of i_max"),
-        "dead_time_predict": B(False, doc="the compensation takes each edge's sign from the current predicted there (fs_dtcomp.h)"),
+        "dead_time_predict": B(None, doc="the compensation takes each edge's sign from the current predicted there "
+                                         "(fs_dtcomp.h); default true where the drive injects (angle hfi or blend): the "
+                                         "carrier's current crosses zero within the period at standstill"),
         "xy_control": B(False, doc="five phases: PI control of the x-y current in the d3-q3 frame at bw_current (fs_xyctrl.h)"),
         "vf_gain": NONNEG(0.0, hi=1e3, doc="V per electrical rad/s"), "vf_boost": NONNEG(0.0, hi=1e5, doc="V, V/f boost at zero frequency"),
         # the controller's parameters relative to the true machine's
@@ -119,13 +121,17 @@ SCENARIO = {
         "f_h": POS(None, hi=1e5, doc="Hz; default the machine's [injection]; at most a quarter of the sampling rate"),
         "bw_filter_p": POS(None, hi=1e6, doc="rad/s, SRFF at +w_h; default w_h / 20 (fs_hfi.h)"),
         "bw_filter_n": POS(None, hi=1e6, doc="rad/s, SRFF at -w_h + 2 w_r; default w_h / 20"),
-        "bw_observer": POS(None, hi=1e6, doc="rad/s, motion observer; default bw_filter_n / 5 (tracking = \"lag\": bw_filter_n)"),
-        "tracking": C("paper", "lag", default="paper",
-                      doc="hfi/blend: lag designs the motion observer with the negative-sequence filter's lag in its loop (fs_motion_obs.h; a faster observer, less error under a load it does not know); paper: Fig. 5 on the error as it is"),
-        "leak": C("keep", "remove", default="keep",
-                  doc="hfi/blend: keep: the paper's filter; remove takes the fundamental's leak out of the negative carrier "
-                      "(fs_hfi_filter.h; no load-proportional bias), not the default: on the yang2022 machine at rated load "
-                      "at standstill it makes the injection's loop limit-cycle (beyond-full-range 50.9 el.deg)"),
+        "bw_observer": POS(None, hi=1e6, doc="rad/s, motion observer; default bw_filter_n (tracking = \"paper\": bw_filter_n / 5)"),
+        "tracking": C("paper", "lag", default="lag",
+                      doc="hfi/blend: lag designs the motion observer with the negative-sequence filter's lag in its loop "
+                          "(fs_motion_obs.h: five times faster, less error under a load it does not know), the loops' "
+                          "speed from a second observer at the paper's rule on its angle (fs_hfi.h); paper: Fig. 5 on "
+                          "the error as it is (the yang2022 scenarios pin it)"),
+        "leak": C("keep", "remove", default=None,
+                  doc="hfi/blend: remove takes the fundamental's leak out of the negative carrier (fs_hfi_filter.h: no "
+                      "load-proportional bias); keep: the paper's filter; default remove with tracking = \"lag\" (whose "
+                      "observer is designed for the double lag it makes), keep with \"paper\" (whose observer, blind to "
+                      "that lag, rings with it)"),
         "xcomp": Spec("any", None, doc="cross-saturation table {i_q = [A...], delta_deg = [...]} on an even grid, or a TOML file holding it, or (swvi) \"paper\": the machine's fitted error polynomial"),
         "stop_rpm": POS(None, hi=1e6, doc="blend: the injection stops above this speed (resumes below 0.9 of it); default 1.2 x the upper blending speed"),
         "sequence": C("optimized", "conventional", default="optimized", doc="swvi: the time sequence of yu2022 sec. 3.2"),
@@ -135,7 +141,7 @@ SCENARIO = {
     "polarity": T({
         "enabled": B(True, doc="detect the magnet polarity before starting sensorless on injection"),
         "i_pulse": POS(None, hi=1e5, doc="A, d-current pulses; default half of controller.i_max"),
-        "t_lock": NONNEG(None, hi=10.0, doc="s, the estimator settles first: >= 6 / w_b_n + 2 / w_o (fade-in, filters, observer); default 0.06 s or that bound x 1.2, the longer"),
+        "t_lock": NONNEG(None, hi=10.0, doc="s, the estimator settles first: >= 6 / w_b_n + 2 / w_o (fade-in, filters, observer; w_o the slower observer's, with tracking = \"lag\" the speed's); default 0.06 s or that bound x 1.2, the longer"),
         "t_pulse": POS(None, hi=10.0, doc="s, each pulse: >= 6 / w_b_p (the carrier amplitude settles in the first half); default 0.02 s or that bound x 1.2, the longer"),
         "i_pulse_max": POS(None, hi=1e5, doc="A, the largest pulse of the retries when the first pair decides nothing; default controller.i_max less the carrier's peak"),
     }, default={}),
@@ -338,6 +344,8 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         for key, why in (("start_handover_rpm", "twice valid_rpm"), ("start_accel_rpm_s", "from the magnet flux psi_f")):
             if not obs[key] > 0:   # a default that came out 0: the I/f start would never hand over
                 raise ConfigError(f"observer.{key}", obs[key], f"must be > 0 (the default is {why}): set it", source)
+    if d["injection"]["leak"] is None:   # the filter the observer is designed for (fs_hfi.h)
+        d["injection"]["leak"] = "remove" if d["injection"]["tracking"] == "lag" else "keep"
     if ctl["angle"] in ("hfi", "blend"):
         pll_given = "bw_pll" in data.get("observer", {}) or b.get("bw_pll_smo") is not None
         _injection_fields(d, m, source, bw_speed_given="bw_speed" in data.get("controller", {}) or m.design["bw_speed"].given,
@@ -358,6 +366,8 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
             ctl["T_max"] = 1.0
     if ctl["i_dead_band"] is None:
         ctl["i_dead_band"] = 0.01 * ctl["i_max"]
+    if ctl["dead_time_predict"] is None:   # the carrier's current crosses zero within the period (fs_dtcomp.h)
+        ctl["dead_time_predict"] = ctl["angle"] in ("hfi", "blend")
     # consistency between fields
     T_pwm, Ts = 1.0 / conv["f_pwm"], _control_period(d)
     if conv["t_dead"] >= 0.5 * T_pwm:
@@ -516,20 +526,21 @@ def _injection_fields(d: dict, m: Machine, source, bw_speed_given: bool = True, 
         if inj[key] is not None and inj[key] * Ts > 0.5:
             raise ConfigError(f"injection.{key}", inj[key], f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s", source)
     h = _hfi_design(inj, Ts, L_d, L_q, source)   # the bandwidths and the held amplitude as the estimator designs them
-    w_o = d["blending"]["bw_observer"] or (h.w_o_blend if ctl["angle"] == "blend" else h.cfg.obs.bandwidth)
+    # the observer whose speed the loops take: the blend's, or the injection's speed observer (fs_hfi.h: with
+    # tracking = "lag" not the fast one, whose speed carries the angle's response to the loop's own current)
+    w_o = (bl["bw_observer"] if ctl["angle"] == "blend" else None) or h.w_o_blend
     if not bw_speed_given and ctl["bw_speed"] > 0.5 * w_o:
-        # the speed comes from the injection's (or the blend's) motion observer: the speed loop at half
-        # its bandwidth keeps the observer's lag small (on the machine zoo: 28 of 50 saturating machines
-        # within 15 el.deg instead of 18 at bw_current / 30)
+        # the speed loop at half its bandwidth keeps the observer's lag small (on the machine zoo: 28 of 50
+        # saturating machines within 15 el.deg instead of 18 at bw_current / 30)
         ctl["bw_speed"] = 0.5 * w_o
         notes = d.setdefault("_notes", {})
         notes["controller.bw_speed"] = dz.Value(ctl["bw_speed"], "rad/s", (
-            f"half the injection's motion observer ({w_o:.4g} rad/s), whose speed the loop uses: its lag stays small "
+            f"half the observer whose speed the loop uses ({w_o:.4g} rad/s): its lag stays small "
             "(bw_current / 30 would be faster than the observer)"))
         if designed_pll is not None:   # the back-EMF observer's PLL, designed against the speed loop, follows it
             d["observer"]["bw_pll"] = designed_pll(ctl["bw_speed"]).value
             notes["observer.bw_pll"] = designed_pll(ctl["bw_speed"])
-    w_b_p, w_b_n, w_o = h.cfg.w_b_p, h.cfg.w_b_n, h.cfg.obs.bandwidth
+    w_b_p, w_b_n, w_o, w_o_speed = h.cfg.w_b_p, h.cfg.w_b_n, h.cfg.obs.bandwidth, min(h.cfg.obs.bandwidth, h.w_o_blend)
     for key, w in (("bw_filter_p", w_b_p), ("bw_filter_n", w_b_n), ("bw_observer", w_o)):
         if w * Ts > 0.5:   # a default derived from the carrier
             raise ConfigError(f"injection.{key}", w, f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s (default from f_h; set it)", source)
@@ -542,14 +553,14 @@ def _injection_fields(d: dict, m: Machine, source, bw_speed_given: bool = True, 
     if bl["bw_observer"] is not None and bl["bw_observer"] * Ts > 0.5:
         raise ConfigError("blending.bw_observer", bl["bw_observer"], f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s", source)
     if pol["enabled"]:
-        t_lock_min, t_pulse_min = 6.0 / w_b_n + 2.0 / w_o, 6.0 / w_b_p
+        t_lock_min, t_pulse_min = 6.0 / w_b_n + 2.0 / w_o_speed, 6.0 / w_b_p   # the slower observer settles too
         for key, t_min, t_default in (("t_lock", t_lock_min, 0.06), ("t_pulse", t_pulse_min, 0.02)):
             if pol[key] is None:   # 20 % above the settling bound: noise and the rounding to samples
                 pol[key] = max(t_default, 1.2 * t_min)
                 d.setdefault("_notes", {})[f"polarity.{key}"] = dz.Value(
                     pol[key], "s", f"{t_default:g} s (yang2022's bench) or 1.2 x the settling bound {t_min:.3g} s, the longer")
         if pol["t_lock"] < t_lock_min:
-            raise ConfigError("polarity.t_lock", pol["t_lock"], f"must be >= {t_lock_min:.3g} s: 6 / w_b_n + 2 / w_o, the fade-in, the filters and the observer settle first", source)
+            raise ConfigError("polarity.t_lock", pol["t_lock"], f"must be >= {t_lock_min:.3g} s: 6 / w_b_n + 2 / w_o, the fade-in, the filters and the observers settle first", source)
         if pol["t_pulse"] < t_pulse_min:
             raise ConfigError("polarity.t_pulse", pol["t_pulse"], f"must be >= {t_pulse_min:.3g} s: 6 / w_b_p, the carrier amplitude settles in each pulse's first half", source)
     if inj["xcomp"] is not None:

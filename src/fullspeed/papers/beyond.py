@@ -39,7 +39,7 @@ def _calibrated(scenario: str, shipped: str, i_q_max: float, out: Path) -> tuple
 
 @register("B-XCOMP-3PH")
 def xcomp_3ph(out: Path) -> Measurement:
-    fresh, drift = _calibrated("yang2022-hfi-steady-100rpm", "yang2022-xsat", 40.0, out / "B-XCOMP-3PH-table.toml")
+    fresh, drift = _calibrated("beyond-xcomp-3ph", "yang2022-xsat", 40.0, out / "B-XCOMP-3PH-table.toml")
     comp = run("beyond-xcomp-3ph", {"injection": {"xcomp": fresh}})
     plain = run("beyond-xcomp-3ph", {"injection": {"xcomp": None}})
     sc, su = error_stats(comp, 0.5, 1.0), error_stats(plain, 0.5, 1.0)
@@ -50,8 +50,10 @@ def xcomp_3ph(out: Path) -> Measurement:
                        out / "B-XCOMP-3PH.png", "Rotating HFI at 100 rpm, 25 A: cross-saturation compensation")
     note = ("Offline calibration (fullspeed calibrate, this run): current control with the encoder in "
             "the loop and the estimator alongside at 100 rpm, i_q stepped -40..40 A in 17 points, the "
-            "estimate's lead theta_hat - theta measured at each (written to B-XCOMP-3PH-table.toml). "
-            "Online, the estimator heterodynes against 2 (theta_hat + delta(i_q)) (fs_hfi.h). The "
+            "estimate's lead theta_hat - theta measured at each (written to B-XCOMP-3PH-table.toml), with "
+            "the scenario's estimator (the defaults: the leak removed, the table then the machine's HF axis). "
+            "Online, the estimator expects the negative carrier at 2 (theta_hat + delta(i_q)), in its "
+            "filter's frame (fs_hfi.h). The "
             "scenario file uses the table shipped in fullspeed/calibration/yang2022-xsat.toml; "
             "table_vs_shipped_max_diff is how far this run's calibration is from it.")
     return Measurement(value, ok, note, [fig])
