@@ -133,9 +133,13 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
     }
     const float theta_h = h->theta_h;
     const float theta_hat = h->obs.theta_hat;
-    /* the carrier's frame and the negative carrier's, once per step */
-    const float theta_n = fs_wrap_pi(2.0f * theta_hat - theta_h);
-    const fs_ab e_h = {fs_cosf(theta_h), fs_sinf(theta_h)}, e_n = {fs_cosf(theta_n), fs_sinf(theta_n)};
+    /* the carrier's frame and the negative carrier's, once per step: the
+     * latter e^{j(2 theta_hat - theta_h)} = (e^{j theta_hat})^2 conj(e_h),
+     * products rather than a second angle's cosine and sine */
+    const float ct = fs_cosf(theta_hat), st = fs_sinf(theta_hat);
+    const float c2 = ct * ct - st * st, s2 = 2.0f * ct * st;
+    const fs_ab e_h = {fs_cosf(theta_h), fs_sinf(theta_h)};
+    const fs_ab e_n = {c2 * e_h.alpha + s2 * e_h.beta, s2 * e_h.alpha - c2 * e_h.beta};
     /* Fig. 4b: fundamental and negative-sequence carrier; with cfg.leak the
      * fundamental's leak taken out of the latter (fs_hfi_filter_step_nl) */
     if (h->cfg.leak) fs_hfi_filter_step_nl(&h->filt, i, e_h, e_n, &h->i_f, &h->i_hn);
@@ -152,7 +156,7 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
     /* cross-saturation compensation on the fundamental's q current */
     h->delta = 0.0f;
     if (fs_xcomp_active(&h->cfg.xcomp)) {
-        float i_q = -h->i_f.alpha * fs_sinf(theta_hat) + h->i_f.beta * fs_cosf(theta_hat);
+        float i_q = -h->i_f.alpha * st + h->i_f.beta * ct;
         h->delta = fs_xcomp_eval(&h->cfg.xcomp, i_q);
     }
 
@@ -160,7 +164,10 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
      * e^{j(-theta_h + 2 (theta_hat + delta) + phi_ref)} with i_hn: e_n turned
      * by phi_ref (and by 2 delta with a table) */
     fs_ab ref = fs_inv_park((fs_dq){e_n.alpha, e_n.beta}, h->rot_ref.alpha, h->rot_ref.beta);
-    if (h->delta != 0.0f) ref = fs_inv_park((fs_dq){ref.alpha, ref.beta}, fs_cosf(2.0f * h->delta), fs_sinf(2.0f * h->delta));
+    if (h->delta != 0.0f) {   /* a few degrees: the short path */
+        const float _Complex r2 = fs_cis_small(2.0f * h->delta);
+        ref = fs_inv_park((fs_dq){ref.alpha, ref.beta}, ((const float *)&r2)[0], ((const float *)&r2)[1]);
+    }
     const float c = ref.alpha, s = ref.beta;
     float eps_n = 0.0f;
     const bool settling = h->k_settle > 0;
