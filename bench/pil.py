@@ -123,7 +123,7 @@ def _run(cmd, what: str, **kw) -> subprocess.CompletedProcess:
     res = subprocess.run(cmd, capture_output=True, text=True, **kw)
     if res.returncode != 0:
         err = (res.stderr or res.stdout).strip().splitlines()
-        first = next((ln for ln in err if "error" in ln.lower()), err[0] if err else f"exit {res.returncode}")
+        first = next((ln for ln in err if "error" in ln.lower()), err[0] if err else f"exit {res.returncode}, no output")
         raise PilError(f"{what} failed: {first.strip()}")
     return res
 
@@ -176,43 +176,81 @@ def layout_header() -> str:
     return "\n".join(lines) + "\n"
 
 
+# A build's directory is shared by every run with the same sources and flags
+# (the work directory defaults to one under the system's temp, and engineers
+# run from worktrees at the same commit): a run that found it incomplete used
+# to compile and link into it while another run read it, and a linker that
+# has just opened pil.elf leaves it empty until it finishes; nm on the empty
+# file exits 1 without a word ("nm failed: exit 1" in a full reproduction
+# run beside another). Each run now builds in a directory of its own and
+# renames it into place whole, with COMPLETE written last: a directory under
+# the key's name is finished, and one without the mark (an older layout, a
+# build that was killed) is set aside, not read.
+COMPLETE = "COMPLETE"
+
+
+def _publish(stage: Path, d: Path) -> None:
+    """Rename the finished stage to d; if another run published d first, keep
+    theirs (the same sources and flags) and drop the stage."""
+    (stage / COMPLETE).write_text("")
+    if d.exists() and not (d / COMPLETE).is_file():   # incomplete: set aside, whoever reads it already failed
+        aside = Path(tempfile.mkdtemp(prefix=d.name + ".stale-", dir=d.parent))
+        try:
+            os.rename(d, aside / d.name)
+        except FileNotFoundError:
+            pass
+        shutil.rmtree(aside, ignore_errors=True)
+    try:
+        os.rename(stage, d)
+    except OSError:
+        if not (d / COMPLETE).is_file():
+            raise
+        shutil.rmtree(stage, ignore_errors=True)
+
+
 def build(t: dict, work: Path, extra_flags: list[str] = ()) -> Builds:
     """Build the target image, the plugin and the recording host simulator into work
-    (reused when the sources are unchanged)."""
+    (reused when the sources are unchanged; see COMPLETE)."""
     work.mkdir(parents=True, exist_ok=True)
     control = sorted((CSRC / "control").glob("*.c"))
     host_srcs = control + sorted((CSRC / "plant").glob("*.c")) + sorted((CSRC / "sim").glob("*.c"))
     headers = sorted(CSRC.glob("*/*.h"))
     key = _digest([*host_srcs, *headers, *HERE.iterdir()], " ".join([*fw.CFLAGS, *extra_flags]))
     d = work / key
-    tgt, plug, host = d / "pil.elf", d / "insn_count.so", d / "host_sim.so"
-    if not (tgt.is_file() and plug.is_file() and host.is_file()):
-        d.mkdir(parents=True, exist_ok=True)
-        (d / "pil_layout.h").write_text(layout_header())
-        flags = [*fw.CFLAGS, *extra_flags, "-fstack-usage", f"-I{CSRC / 'control'}", f"-I{d}"]
-        jobs, objs = [], []
-        for src in [*control, HERE / "startup.c", HERE / "pil_target.c"]:
-            o = d / "arm" / (src.stem + ".o")
-            o.parent.mkdir(exist_ok=True)
-            jobs.append(([t["gcc"], *flags, "-c", str(src), "-o", str(o)], f"compiling {src.name} for the target"))
-            objs.append(o)
-        hobjs = []
-        for src in [*host_srcs, HERE / "pil_hook.c"]:
-            o = d / "host" / (src.stem + ".o")
-            o.parent.mkdir(exist_ok=True)
-            hook = ["-Dfs_drive_step=pil_hook_step"] if src.name == "fs_sim.c" else []
-            jobs.append(([t["cc"], *CFLAGS_HOST, *hook, f"-I{CSRC}", "-c", str(src), "-o", str(o)], f"compiling {src.name} for the host"))
-            hobjs.append(o)
-        jobs.append(([t["cc"], "-O2", "-shared", "-fPIC", str(HERE / "insn_count.c"), "-o", str(plug)], "building the QEMU plugin"))
-        _parallel(jobs)
-        _run([t["gcc"], *fw.CPU_FLAGS, "-O2", "-nostartfiles", "--specs=nano.specs", "--specs=nosys.specs",
-              "-Wl,--gc-sections", f"-T{HERE / 'mps2_an386.ld'}", *map(str, objs), "-lm", "-o", str(tgt)], "linking the PIL image")
-        _run([t["cc"], "-shared", *map(str, hobjs), "-lm", "-o", str(host)], "linking the host simulator")
-    nm = _run([t["nm"], str(tgt)], "nm").stdout
+    if not (d / COMPLETE).is_file():
+        st = Path(tempfile.mkdtemp(prefix=key + ".build-", dir=work))
+        try:
+            (st / "pil_layout.h").write_text(layout_header())
+            flags = [*fw.CFLAGS, *extra_flags, "-fstack-usage", f"-I{CSRC / 'control'}", f"-I{st}"]
+            jobs, objs = [], []
+            for src in [*control, HERE / "startup.c", HERE / "pil_target.c"]:
+                o = st / "arm" / (src.stem + ".o")
+                o.parent.mkdir(exist_ok=True)
+                jobs.append(([t["gcc"], *flags, "-c", str(src), "-o", str(o)], f"compiling {src.name} for the target"))
+                objs.append(o)
+            hobjs = []
+            for src in [*host_srcs, HERE / "pil_hook.c"]:
+                o = st / "host" / (src.stem + ".o")
+                o.parent.mkdir(exist_ok=True)
+                hook = ["-Dfs_drive_step=pil_hook_step"] if src.name == "fs_sim.c" else []
+                jobs.append(([t["cc"], *CFLAGS_HOST, *hook, f"-I{CSRC}", "-c", str(src), "-o", str(o)], f"compiling {src.name} for the host"))
+                hobjs.append(o)
+            jobs.append(([t["cc"], "-O2", "-shared", "-fPIC", str(HERE / "insn_count.c"), "-o", str(st / "insn_count.so")],
+                         "building the QEMU plugin"))
+            _parallel(jobs)
+            _run([t["gcc"], *fw.CPU_FLAGS, "-O2", "-nostartfiles", "--specs=nano.specs", "--specs=nosys.specs",
+                  "-Wl,--gc-sections", f"-T{HERE / 'mps2_an386.ld'}", *map(str, objs), "-lm", "-o", str(st / "pil.elf")],
+                 "linking the PIL image")
+            _run([t["cc"], "-shared", *map(str, hobjs), "-lm", "-o", str(st / "host_sim.so")], "linking the host simulator")
+            _publish(st, d)
+        finally:
+            shutil.rmtree(st, ignore_errors=True)   # gone if published
+    tgt = d / "pil.elf"
+    nm = _run([t["nm"], str(tgt)], f"nm {tgt}").stdout
     mark = next((int(ln.split()[0], 16) & ~1 for ln in nm.splitlines() if ln.split()[-1] == "pil_mark"), None)
     if mark is None:
         raise PilError("pil_mark not found in the PIL image")
-    return Builds(tgt, mark, plug, host, d, stack_usage(d / "arm"))
+    return Builds(tgt, mark, d / "insn_count.so", d / "host_sim.so", d, stack_usage(d / "arm"))
 
 
 def stack_usage(objdir: Path) -> dict[str, tuple[int, str]]:
@@ -408,7 +446,7 @@ def _profile(t: dict, b: Builds, hist: np.ndarray, steps: int) -> dict[str, floa
     """Instructions per step by function (its own instructions, not its callees'), largest first."""
     out = {}
     harness = {"main", "sh_call", "sh_exit", "pil_mark", "stack_paint", "stack_used", "Reset_Handler", "Default_Handler"}
-    for ln in _run([t["nm"], "-S", "--defined-only", str(b.target)], "nm").stdout.splitlines():
+    for ln in _run([t["nm"], "-S", "--defined-only", str(b.target)], f"nm {b.target}").stdout.splitlines():
         p = ln.split()
         if len(p) == 4 and p[2] in "tTwW" and p[3].split(".")[0] not in harness:
             a, n = int(p[0], 16) & ~1, int(p[1], 16)
@@ -653,14 +691,17 @@ def libm_probe(t: dict, b: Builds, n: int = 20000, seed: int = 1) -> dict:
     rng = np.random.default_rng(seed)
     xy = rng.uniform(-4.0, 4.0, size=(n, 2)).astype(np.float32)
     elf = b.work / "libm_probe.elf"
-    if not elf.is_file():
-        objs = []
-        for src in (HERE / "startup.c", HERE / "libm_probe.c", CSRC / "control" / "fs_transforms.c"):
-            o = b.work / "arm" / (src.stem + ".probe.o")
-            _run([t["gcc"], *fw.CFLAGS, f"-I{CSRC / 'control'}", "-c", str(src), "-o", str(o)], f"compiling {src.name}")
-            objs.append(o)
-        _run([t["gcc"], *fw.CPU_FLAGS, "-O2", "-nostartfiles", "--specs=nano.specs", "--specs=nosys.specs",
-              "-Wl,--gc-sections", f"-T{HERE / 'mps2_an386.ld'}", *map(str, objs), "-lm", "-o", str(elf)], "linking the libm probe")
+    if not elf.is_file():   # built aside and renamed into place: b.work is shared (COMPLETE)
+        with tempfile.TemporaryDirectory(prefix="probe-", dir=b.work) as st:
+            objs = []
+            for src in (HERE / "startup.c", HERE / "libm_probe.c", CSRC / "control" / "fs_transforms.c"):
+                o = Path(st) / (src.stem + ".probe.o")
+                _run([t["gcc"], *fw.CFLAGS, f"-I{CSRC / 'control'}", "-c", str(src), "-o", str(o)], f"compiling {src.name}")
+                objs.append(o)
+            _run([t["gcc"], *fw.CPU_FLAGS, "-O2", "-nostartfiles", "--specs=nano.specs", "--specs=nosys.specs",
+                  "-Wl,--gc-sections", f"-T{HERE / 'mps2_an386.ld'}", *map(str, objs), "-lm", "-o", f"{st}/probe.elf"],
+                 "linking the libm probe")
+            os.replace(f"{st}/probe.elf", elf)
     with tempfile.TemporaryDirectory(prefix="fs-pil-probe-") as tmp:
         (Path(tmp) / "probe_in.bin").write_bytes(xy.tobytes())
         cmd = [t["qemu"], "-M", "mps2-an386", "-display", "none", "-monitor", "none", "-serial", "none",

@@ -108,3 +108,28 @@ def test_the_goal_is_read_on_the_mean_and_the_largest_step_against_the_budget():
     assert g["met"] and g["max_of_budget_20k"] == pytest.approx(0.5) and g["cpi_left_20k"] == pytest.approx(2.0)
     assert not pil.blend_goal({"mean": 2501.0, "max": 2600, "per_stage": {}}, "closed loop")["met"]
     assert pil.blend_goal({"mean": 2500.0, "max": 9000, "per_stage": {}}, "closed loop")["met"]   # a slow step: the budget says it
+
+
+def test_a_build_directory_is_read_only_when_complete(builds, tmp_path):
+    """Runs with the same sources share a build directory. One left as a
+    concurrent linker leaves it (pil.elf opened, still empty; the rest there)
+    is not read: it is rebuilt (nm on it failed with "exit 1" before)."""
+    key = builds.work.name
+    half = tmp_path / key
+    half.mkdir()
+    for f in ("pil.elf", "insn_count.so", "host_sim.so"):
+        (half / f).write_bytes(b"")
+    b = pil.build(TOOLS, tmp_path)
+    assert b.work == half and (half / pil.COMPLETE).is_file() and b.mark == builds.mark
+    assert b.target.stat().st_size == builds.target.stat().st_size
+    assert [p.name for p in tmp_path.iterdir()] == [key]   # no stage nor stale copy left behind
+
+
+def test_a_second_publisher_keeps_the_first_build(tmp_path):
+    d = tmp_path / "key"
+    for who in ("first", "second"):
+        st = tmp_path / f"stage-{who}"
+        st.mkdir()
+        (st / "who").write_text(who)
+        pil._publish(st, d)
+    assert (d / "who").read_text() == "first" and sorted(p.name for p in tmp_path.iterdir()) == ["key"]

@@ -158,9 +158,10 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
      * theta_hat + delta(i_q), i_q the fundamental's q current in the
      * estimated frame over the last carrier period (a running sum, summed
      * afresh once a period so that its rounding does not accumulate) */
+    const float ct = fs_cosf(theta_hat), st = fs_sinf(theta_hat);
     h->delta = 0.0f;
     if (fs_xcomp_active(&h->cfg.xcomp)) {
-        const float i_q = -h->i_f.alpha * fs_sinf(theta_hat) + h->i_f.beta * fs_cosf(theta_hat);
+        const float i_q = -h->i_f.alpha * st + h->i_f.beta * ct;
         h->iq_sum += i_q - h->iq_buf[h->k_iq];
         h->iq_buf[h->k_iq] = i_q;
         if (++h->k_iq == h->n_iq) {
@@ -171,10 +172,17 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
         h->i_q = h->iq_sum * h->inv_n_iq;
         h->delta = fs_xcomp_eval(&h->cfg.xcomp, h->i_q);
     }
-    /* the carrier's frame and the negative carrier's, once per step: the
-     * latter where the negative carrier is expected */
-    const float theta_n = fs_wrap_pi(2.0f * (theta_hat + h->delta) - theta_h);
-    const fs_ab e_h = {fs_cosf(theta_h), fs_sinf(theta_h)}, e_n = {fs_cosf(theta_n), fs_sinf(theta_n)};
+    /* the carrier's frame and the negative carrier's, once per step, the
+     * latter where the negative carrier is expected:
+     * e^{j(2 (theta_hat + delta) - theta_h)} = (e^{j theta_hat})^2 conj(e_h)
+     * e^{j 2 delta}, products rather than a second angle's cosine and sine */
+    const float c2 = ct * ct - st * st, s2 = 2.0f * ct * st;
+    const fs_ab e_h = {fs_cosf(theta_h), fs_sinf(theta_h)};
+    fs_ab e_n = {c2 * e_h.alpha + s2 * e_h.beta, s2 * e_h.alpha - c2 * e_h.beta};
+    if (h->delta != 0.0f) {   /* a few degrees: the short path */
+        const float _Complex r2 = fs_cis_small(2.0f * h->delta);
+        e_n = fs_inv_park((fs_dq){e_n.alpha, e_n.beta}, ((const float *)&r2)[0], ((const float *)&r2)[1]);
+    }
     /* Fig. 4b: fundamental and negative-sequence carrier; with cfg.leak the
      * fundamental's leak taken out of the latter (fs_hfi_filter_step_nl) */
     if (h->cfg.leak) fs_hfi_filter_step_nl(&h->filt, i, e_h, e_n, &h->i_f, &h->i_hn);

@@ -91,6 +91,15 @@ fs_status fs_monitor_init(fs_monitor *m, const fs_monitor_config *cfg)
     m->k_y = cfg->J / ((float)cfg->pole_pairs * cfg->tau);
     const float x_exc = FS_MONITOR_K_EXC * cfg->T_max * cfg->tau / cfg->t_lost;
     m->c_exc = x_exc * x_exc;
+    m->k_L = cfg->L_d / cfg->Ts;
+    m->L_dq = cfg->L_d - cfg->L_q;
+    m->L_max = fs_maxf(cfg->L_d, cfg->L_q);
+    m->J_p = cfg->J / (float)cfg->pole_pairs;
+    m->B_p = cfg->B / (float)cfg->pole_pairs;
+    m->u_err = cfg->k_dead + FS_MONITOR_U_FLOOR;
+    m->k_warm = FS_MONITOR_WARM * cfg->tau / cfg->Ts;
+    m->T_mech = FS_MONITOR_K_MECH * cfg->T_max;
+    m->i_cur = FS_MONITOR_K_CUR * cfg->i_max;
     fs_monitor_reset(m);
     return FS_OK;
 }
@@ -118,7 +127,7 @@ static fs_ab monitor_emf(const fs_monitor *m, const fs_monitor_in *in)
     /* the voltage that acted over it was computed `delay` + 1 steps ago */
     const fs_ab u = c->delay == 0 ? m->u_q1 : m->u_q2;
     const fs_ab im = {0.5f * (in->i.alpha + m->i_prev.alpha), 0.5f * (in->i.beta + m->i_prev.beta)};
-    const float kL = c->L_d / c->Ts, kx = in->w * (c->L_d - c->L_q);
+    const float kL = m->k_L, kx = in->w * m->L_dq;
     fs_ab e;
     e.alpha = u.alpha - c->R_s * im.alpha - kL * (in->i.alpha - m->i_prev.alpha) - kx * im.beta;
     e.beta = u.beta - c->R_s * im.beta - kL * (in->i.beta - m->i_prev.beta) + kx * im.alpha;
@@ -194,13 +203,12 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
 
     const float aw = fabsf(m->w_f);
     const float s = m->w_f < 0.0f ? -1.0f : 1.0f;
-    m->E_hat = fs_maxf(aw * (c->psi_f + (c->L_d - c->L_q) * m->id_f), 0.0f);
-    m->E_err = (c->k_dead + FS_MONITOR_U_FLOOR) * in->u_dc + c->R_s * m->i_f + aw * fs_maxf(c->L_d, c->L_q) * fabsf(m->id_f);
-    const float pp = (float)c->pole_pairs;
+    m->E_hat = fs_maxf(aw * (c->psi_f + m->L_dq * m->id_f), 0.0f);
+    m->E_err = m->u_err * in->u_dc + c->R_s * m->i_f + aw * m->L_max * fabsf(m->id_f);
     /* d(w_f)/dt: the low-passed speed's own derivative, s / (tau s + 1) w */
-    const float T_L = m->T_f - (c->J / pp) * (m->w_f - w_f_prev) / c->Ts - (c->B / pp) * m->w_f;
+    const float T_L = m->T_f - m->J_p * (m->w_f - w_f_prev) / c->Ts - m->B_p * m->w_f;
     m->T_L_hat += b * (T_L - m->T_L_hat);   /* a second pole: the speed's noise differentiated */
-    if ((float)m->k < FS_MONITOR_WARM * c->tau / c->Ts) return 0.0f;
+    if ((float)m->k < m->k_warm) return 0.0f;
     m->jumped = m->jumped || fabsf(m->jump) > 0.5f * FS_PI;
 
     const float p = s * m->e_q;
@@ -211,9 +219,9 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
     const float den = m->E_hat + m->E_err;
     m->r_dir = den > 0.0f ? fs_maxf(1.0f + ((emf ? FS_MONITOR_K_DIR * m->E_hat : 0.0f) - m->E_err - p) / den, 0.0f) : 0.0f;
     const bool mech = !emf && c->J > 0.0f && c->T_max > 0.0f;
-    m->r_mech = mech ? fabsf(m->T_L_hat) / (FS_MONITOR_K_MECH * c->T_max) : 0.0f;
+    m->r_mech = mech ? fabsf(m->T_L_hat) / m->T_mech : 0.0f;
     m->r_sign = mech && p < 0.0f && m->c_xx >= m->c_exc ? 1.0f - m->c_xy / m->c_xx : 0.0f;
-    m->r_cur = m->ierr_f / (FS_MONITOR_K_CUR * c->i_max);
+    m->r_cur = m->ierr_f / m->i_cur;
     /* the EMF's turn in the loops' frame, judged where the EMF measured
      * (its power p_f, whatever the loops' speed says) reaches the bound */
     const float E_g = FS_MONITOR_E_SLIP * m->E_err;

@@ -135,6 +135,12 @@ typedef struct {
     float a_s;                /* the slip's pre-filter step */
     float x_max;              /* tan(pi Ts / t_lost): the slip bound's turn per period */
     float a_j;                /* the jump's leak per period, exp(-2 Ts / t_lost) */
+    /* the step's constants, formed once as it formed them (the same bits) */
+    float k_L, L_dq, L_max;   /* L_d / Ts, L_d - L_q, max(L_d, L_q) */
+    float J_p, B_p;           /* J / p, B / p */
+    float u_err;              /* k_dead + FS_MONITOR_U_FLOOR: the voltage error per volt of u_dc */
+    float k_warm;             /* FS_MONITOR_WARM tau / Ts: the steps before a judgement */
+    float T_mech, i_cur;      /* FS_MONITOR_K_MECH T_max, FS_MONITOR_K_CUR i_max */
     /* state */
     bool started;             /* the filters hold a value (on since the last reset) */
     bool jumped;              /* latched: |jump| went past pi/2 (4.) */

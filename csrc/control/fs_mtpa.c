@@ -45,6 +45,11 @@ fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
     m->tabulated = cfg->table != NULL;
     m->k_T = mtpa_k(cfg);
     m->seg = 0;
+    m->dL = cfg->L_q - cfg->L_d;
+    m->dL2 = 2.0f * m->dL;
+    m->dL4 = 4.0f * m->dL * m->dL;
+    m->psi2 = cfg->psi_f * cfg->psi_f;
+    m->salient = m->dL > 1e-9f * cfg->L_q;
     if (cfg->table) return mtpa_copy(m, cfg->table);
     for (int k = 0; k < FS_MTPA_N; ++k) {
         float I = cfg->i_max * (float)k / (float)(FS_MTPA_N - 1);
@@ -62,23 +67,22 @@ fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
 
 /* The MTPA locus as i_d(i_q): psi_f i_d + (L_d - L_q)(i_d^2 - i_q^2) = 0,
  * written without the cancellation of psi_f - sqrt(...) at small currents
- * (i_d = -i_q without a magnet); the torque there and its slope d T / d i_q. */
-static float mtpa_on_locus(const fs_mtpa *m, float iq, float *T, float *dT)
+ * (i_d = -i_q without a magnet). */
+static float mtpa_locus_id(const fs_mtpa *m, float iq)
 {
-    const fs_mtpa_config *c = &m->cfg;
-    const float dL = c->L_q - c->L_d, k = m->k_T;
-    float id = 0.0f, did = 0.0f;
-    if (c->psi_f <= 0.0f) {
-        id = -iq;
-        did = -1.0f;
-    } else if (dL > 1e-9f * c->L_q) {
-        id = -2.0f * dL * iq * iq / (c->psi_f + sqrtf(c->psi_f * c->psi_f + 4.0f * dL * dL * iq * iq));
-        did = 2.0f * dL * iq / (2.0f * dL * id - c->psi_f);
-    }
-    const float flux = c->psi_f - dL * id;
-    *T = k * flux * iq;
-    *dT = k * (flux - dL * did * iq);
-    return id;
+    if (m->cfg.psi_f <= 0.0f) return -iq;
+    if (!m->salient) return 0.0f;
+    return -m->dL2 * iq * iq / (m->cfg.psi_f + sqrtf(m->psi2 + m->dL4 * iq * iq));
+}
+
+/* The torque on the locus at (id, iq) and its slope d T / d i_q (the
+ * second pass of a step needs i_d alone: apart, it skips this). */
+static float mtpa_locus_torque(const fs_mtpa *m, float iq, float id, float *dT)
+{
+    const float did = m->cfg.psi_f <= 0.0f ? -1.0f : (m->salient ? m->dL2 * iq / (m->dL2 * id - m->cfg.psi_f) : 0.0f);
+    const float flux = m->cfg.psi_f - m->dL * id;
+    *dT = m->k_T * (flux - m->dL * did * iq);
+    return m->k_T * flux * iq;
 }
 
 fs_dq fs_mtpa_step(fs_mtpa *m, float T_ref)
@@ -118,11 +122,11 @@ fs_dq fs_mtpa_step(fs_mtpa *m, float T_ref)
         if (m->cfg.psi_f <= 0.0f) {   /* reluctance only: T = 1.5 p (L_q - L_d) i_q^2 exactly */
             iq = sqrtf(T / (m->k_T * (m->cfg.L_q - m->cfg.L_d)));
         } else {
-            mtpa_on_locus(m, iq, &T0, &dT);
+            T0 = mtpa_locus_torque(m, iq, mtpa_locus_id(m, iq), &dT);
             if (dT > 0.0f) iq = fs_clampf(iq + (T - T0) / dT, m->i_q[lo], m->i_q[hi]);
         }
         out.q = iq;
-        out.d = mtpa_on_locus(m, iq, &T0, &dT);
+        out.d = mtpa_locus_id(m, iq);
     }
     if (T_ref < 0.0f) out.q = -out.q;
     return out;

@@ -44,6 +44,10 @@ typedef struct {
     int tabulated;         /* 1: the table was given (step interpolates it) */
     float k_T;             /* (phases / 2) p: torque per (flux x current) */
     int seg;               /* the table segment of the last step (where step looks first) */
+    /* the locus' constants, formed once as the step formed them: L_q - L_d,
+     * 2 (L_q - L_d), 4 (L_q - L_d)^2, psi_f^2; salient: L_q - L_d > 1e-9 L_q */
+    float dL, dL2, dL4, psi2;
+    int salient;
 } fs_mtpa;
 
 fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg);

@@ -68,9 +68,8 @@ float _Complex fs_cis(float theta)
     const float t = x - k * P1;                              /* exact */
     const float r = t - k * P2;
     const float r_lo = ((t - r) - k * P2) - k * P34;         /* what r lost */
-    const float z = r * r, hz = 0.5f * z, w = 1.0f - hz;
-    const float s = r + (r * z * (-0.16666655f + z * (0.00833216f + z * -0.00019515282f)) + r_lo * w);
-    const float c = w + (((1.0f - w) - hz) + (z * z * (0.041666646f + z * (-0.0013887316f + z * 2.4433157e-05f)) - r * r_lo));
+    const float _Complex e = fs_cis_poly(r, r_lo);
+    const float c = ((const float *)&e)[0], s = ((const float *)&e)[1];
     switch ((int)k & 3) {
     case 0: return cis(c, s != 0.0f ? s : x);   /* sin(-0) = -0 */
     case 1: return cis(-s, c);

@@ -6,7 +6,7 @@
  * exact values, correctly rounded on most; zero, NaN, infinities and large
  * arguments; fs_tanf; fs_atan2f on vectors of every direction and of
  * magnitudes from 1e-30 to 1e38 (within 1.6 ulp), and on the special
- * values as C99 Annex F has atan2; fs_maxf and fs_minf as fmaxf and fminf
+ * values as C99 Annex F has atan2; fs_cis_small as fs_cis bit for bit; fs_maxf and fs_minf as fmaxf and fminf
  * are specified (NaN ignored); fs_wrap_far against the fmodf path it
  * shortens.
  */
@@ -171,5 +171,23 @@ int main(void)
         differ += !same_bits(fs_wrap_pi(x), wrap_fmod(x)) + !same_bits(fs_wrap_pi(-x), wrap_fmod(-x));
     }
     FS_CHECK(differ == 0, "fs_wrap_pi differs from the fmodf path on %ld arguments", differ);
+
+    /* fs_cis_small is fs_cis bit for bit: every float of |x| < 1 (its inline
+     * path below 0.78, the call beyond; a stride), both signs, and the ends. */
+    long small_differ = 0;
+    for (uint32_t bits = 0; bits <= 0x3f800000u; bits += 7) {
+        float x;
+        memcpy(&x, &bits, sizeof x);
+        for (int sg = 0; sg < 2; ++sg, x = -x) {
+            const float _Complex a = fs_cis_small(x), b = fs_cis(x);
+            small_differ += memcmp(&a, &b, sizeof a) != 0;
+        }
+    }
+    const float ends[] = {0.78f, -0.78f, nextafterf(0.78f, 0.0f), -nextafterf(0.78f, 0.0f), 3.0f, -200.0f, NAN, INFINITY};
+    for (size_t k = 0; k < sizeof ends / sizeof ends[0]; ++k) {
+        const float _Complex a = fs_cis_small(ends[k]), b = fs_cis(ends[k]);
+        small_differ += memcmp(&a, &b, sizeof a) != 0;
+    }
+    FS_CHECK(small_differ == 0, "fs_cis_small differs from fs_cis on %ld arguments", small_differ);
     return fs_test_summary("test_trig");
 }
