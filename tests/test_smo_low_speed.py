@@ -159,24 +159,24 @@ def test_the_zoo_runs_the_defaults():
         assert key not in text
 
 
-def test_the_tracker_holds_a_high_saliency_machine_slowing_while_generating():
+@pytest.mark.parametrize("T_L", [2.0, 3.0])
+def test_the_tracker_holds_a_high_saliency_machine_slowing_while_generating(T_L):
     """examples/own-machine's my48v (L_q / L_d = 2.7) on the back-EMF
-    observer alone, from -2000 to -600 rpm in 0.8 s under an active 2 N m
-    (2/3 of rated torque): generating throughout, braking harder while it
-    slows. With the tracker's own speed in eq. (4)'s cross-coupling the
-    loop's g reached the instability of fs_smo.h's change 4 near 1400 rpm
-    and the rotor was lost (180 el.deg). The bound, 5 el.deg: the error
-    held at -2000 rpm is -1.7 el.deg (the constant-inductance model on the
-    saturating flux map, as with the encoder's loops), the slowing adds
-    under 1; an unstable loop grows past any bound.
-    Not covered: at rated torque (3 N m) the same run still loses the rotor
-    at -600 rpm (fs_smo.h, change 4)."""
+    observer alone, from -2000 to -600 rpm in 0.8 s under an active load of
+    2/3 of rated torque and of rated torque: generating throughout, braking
+    harder while it slows. With the tracker's own speed in eq. (4)'s
+    cross-coupling the loop's g reached the instability of fs_smo.h's
+    change 4 and the rotor was lost (2 N m: 180 el.deg from 1400 rpm on).
+    The bound, 5 el.deg: the error held at -2000 rpm is -1.7 el.deg at
+    2 N m (the constant-inductance model on the saturating flux map, as
+    with the encoder's loops), the slowing adds under 1; an unstable loop
+    grows past any bound."""
     ex = Path(__file__).resolve().parents[1] / "examples" / "own-machine" / "my48v-full-range.toml"
     ov = {"duration": 1.6, "controller": {"angle": "smo", "flux_weakening": False},
           "observer": {"form": "tracking", "start": "encoder", "handover": 0.2},
           "initial": {"speed_rpm": -2000.0},
           "references": {"speed_rpm": [[0.0, -2000.0], [0.4, -2000.0], [1.2, -600.0], [1.6, -600.0]]},
-          "load": {"kind": "torque", "torque": 2.0}}
+          "load": {"kind": "torque", "torque": T_L}}
     res = simulate(load_scenario(ex, ov))
     m, tr = res.metrics, res.traces
     assert m["stop_reason"] == "done" and m["lock_lost_at"] is None and m["true_loss_at"] is None

@@ -68,11 +68,6 @@ fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
         if (st != FS_OK) return st;
         o->k_T = 0.5f * (float)cfg->phases * (float)cfg->pole_pairs;
         o->w_sched_min = fs_maxf(cfg->w_valid, cfg->w_c_min);
-        /* change 4: the speed path's bandwidth a = FS_SMO_ROT_GAIN / G_max,
-         * G_max = |L_d - L_q| i_max / (|w| psi_f), per step and per rad/s;
-         * without saliency there is no term to feed back */
-        const float dLi = fabsf(cfg->L_d - cfg->L_q) * cfg->i_max;
-        o->k_rot = dLi > 0.0f ? FS_SMO_ROT_GAIN * cfg->Ts * cfg->psi_f / dLi : 1.0f / cfg->Ts;
         /* the filtered EMF at w_valid behind the filter at FS_SMO_WC_PER_BW
          * times the tracker's bandwidth there: r / sqrt(4 r^2 + 1) of it */
         const float r = FS_SMO_WC_PER_BW * FS_SMO_BW_PER_W;
@@ -91,7 +86,7 @@ void fs_smo_reset(fs_smo *o, float theta, float w)
     o->e_raw = fabsf(w) * o->cfg.psi_f;
     o->psi_x = o->cfg.psi_f;   /* at no current */
     o->w_emf = o->w_emf_lp = w;
-    o->w_rot = 0.0f;
+    o->gen = false;
     if (o->cfg.form == FS_SMO_FORM_TRACKING) {
         fs_motion_obs_reset(&o->mo, theta, w);
         smo_schedule(o);
@@ -184,9 +179,10 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
     const float w = track ? o->mo.w_hat : o->pll.w;
     /* eq. (4) over the period that just ended, with the voltage that acted in
      * it; the tracking form takes the measured currents' mean in the
-     * resistive and cross-coupling terms (fs_smo.h, change 1) and the
-     * speed of the EMF's magnitude in the cross-coupling (change 4) */
-    const float wdL = (track ? o->w_emf + o->w_rot : w) * (c->L_d - c->L_q);
+     * resistive and cross-coupling terms (fs_smo.h, change 1) and, where
+     * the tracker's speed would turn the angle against the error (G > 0),
+     * the speed of the EMF's magnitude in the cross-coupling (change 4) */
+    const float wdL = (track && o->gen ? o->w_emf : w) * (c->L_d - c->L_q);
     fs_ab i_m = o->i_hat;
     if (track) {
         const fs_ab i0 = o->have_prev ? o->i_prev : i;
@@ -237,10 +233,10 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
         const fs_dq i_dq = fs_park(i_m, fs_cosf(th_mid), fs_sinf(th_mid));
         o->psi_x = smo_psi_x(c, i_dq.d);
         const float T = o->k_T * o->psi_x * i_dq.q;
-        /* change 4: the EMF's speed for the next step's model, and its
-         * offset from the tracker's, low-passed at a_rot |w| */
+        /* change 4: the EMF's speed for the next step's model, and whether
+         * it is needed there (G = (L_d - L_q) i_q / (w psi_f) > 0) */
         o->w_emf = o->dir * mag * h_inv / o->psi_x;
-        o->w_rot += fs_minf(o->k_rot * fabsf(w), 1.0f) * (w - o->w_emf - o->w_rot);
+        o->gen = (c->L_d - c->L_q) * i_dq.q * w > 0.0f;
         /* against the prediction, as the PLL's, low-passed at the tracker's
          * bandwidth: the angle error it is working off, not one sample's
          * (the injection's fade-in steps the fundamental current) */

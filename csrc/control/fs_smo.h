@@ -70,48 +70,43 @@
  *        layer, e_n = e_hat_{n-1} + z_{n-1} + (z_n - z_{n-1}) / c, low-passed
  *        in magnitude at bw_pll; below w_valid the schedule holds the
  *        bandwidths of w_valid.
- *     4. the cross-coupling term of eq. (4), w (L_d - L_q) J i, takes the
- *        speed the EMF's magnitude gives, w_emf, not the tracker's. With
- *        the tracker's w + dw the model puts dw (L_d - L_q) J i into the
- *        EMF it estimates: for the q current, dw (L_q - L_d) i_q across
- *        the EMF, which turns the measured angle by G dw,
- *        G = (L_d - L_q) i_q / (w psi_f), positive when generating on a
- *        machine with L_q > L_d. The tracker's triple pole (s + w_o)^3
- *        becomes s^3 + 3 w_o (1 - g) s^2 + w_o^2 (3 - g) s + w_o^3,
- *        g = G w_o: damped more when motoring (g < 0), less when
- *        generating, unstable from g = 0.845 (Routh), earlier with the
- *        filter in the loop. Below bw_pll / 2 the schedule puts w_o at
- *        2 |w|, so g = 2 (L_q - L_d) |i_q| / psi_f whatever the speed: on
+ *     4. where G (below) is positive, the cross-coupling term of eq. (4),
+ *        w (L_d - L_q) J i, takes the speed the EMF's magnitude gives,
+ *        w_emf, not the tracker's. With the tracker's w + dw the model
+ *        puts dw (L_d - L_q) J i into the EMF it estimates: for the q
+ *        current, dw (L_q - L_d) i_q across the EMF, which turns the
+ *        measured angle by G dw, G = (L_d - L_q) i_q / (w psi_f),
+ *        positive when generating on a machine with L_q > L_d. The
+ *        tracker's triple pole (s + w_o)^3 becomes
+ *        s^3 + 3 w_o (1 - g) s^2 + w_o^2 (3 - g) s + w_o^3, g = G w_o:
+ *        damped more when motoring (g < 0), less when generating,
+ *        unstable from g = 0.845 (Routh), earlier with the filter in the
+ *        loop. Below bw_pll / 2 the schedule puts w_o at 2 |w|, so
+ *        g = 2 (L_q - L_d) |i_q| / psi_f whatever the speed: on
  *        examples/own-machine's my48v (L_q - L_d = 0.38 mH, psi_f =
- *        13.9 mWb) 1.1 at 2 N m (20 A), and generating at 500 rpm the
- *        tracker swung -26..+38 el.deg (g = 0.98 with w_o at bw_pll held:
- *        0.49 at 1000 rpm). The EMF's magnitude does not depend on the
- *        angle: in steady state |e| = |w psi_f + w_emf (L_d - L_q) i_d|
- *        (the q current's part is across it), so w_emf = dir |e| /
+ *        13.9 mWb) 1.1 at 2 N m (20 A); generating at 500 rpm the tracker
+ *        swung -26..+38 el.deg, and slowing from -2000 rpm under 2 N m it
+ *        lost the rotor at 1400 rpm. The EMF's magnitude does not depend
+ *        on the angle: in steady state |e| = |w psi_f + w_emf (L_d - L_q)
+ *        i_d| (the q current's part is across it), so w_emf = dir |e| /
  *        (psi_f + (L_d - L_q) i_d) is w, and the loop left is static, of
  *        gain (L_d - L_q) i_d / (psi_f + (L_d - L_q) i_d) < 1 (0.2 on
  *        my48v at 25 A). |e| is the filtered EMF's magnitude over the
  *        sampled loop's gain |H| at the estimated speed (change 2's H):
- *        no lag beyond the filter's (the period's EMF low-passed at
- *        bw_pll lagged motulator's acceleration by 15 rad/s, 1 el.deg).
- *        The cost: psi_f enters the angle. psi_f off by a fraction f
- *        moves w_emf by f w and the angle by f (L_q - L_d) i_q / psi_f
- *        (3.9 el.deg per 10 % on my48v at 25 A, 0.8 on yang2022 at
- *        rated current); and a current step inside the boundary layer,
- *        -(L_d - L_q) di_q/dt along the EMF, moves |e| for a filter time
- *        constant (motulator's I/f hand-over, 6.7 A in 1 ms at 240 rpm:
- *        4.8 el.deg against 0.5 with the tracker's speed). The tracker's
- *        offset from w_emf, w - w_emf, is added back low-passed at
- *        a = FS_SMO_ROT_GAIN |w| psi_f / (|L_d - L_q| i_max), so that in
- *        steady state the term takes the tracker's speed (no psi_f error
- *        in it) while the fast path is w_emf's. Measured on my48v slowing
- *        from -2000 to -600 rpm while generating: held within 2.5 el.deg
- *        at 2 N m (the tracker's speed: lost at 1400 rpm); at rated
- *        torque (3 N m) still lost at -600 rpm with the loops closed on
- *        the estimate (the observer alone beside the encoder's loops
- *        holds 1 el.deg there). FS_SMO_ROT_GAIN 0 or 0.05 holds that run
- *        (1.2 el.deg) but B-LOCK misses a loss at 0 and B-ZOO falls to 45
- *        of 50 at 0.05: open.
+ *        no lag beyond the filter's. The cost: psi_f enters the angle.
+ *        psi_f off by a fraction f moves w_emf by f w and the angle by
+ *        f (L_q - L_d) i_q / psi_f (3.9 el.deg per 10 % on my48v at
+ *        25 A, 0.8 on yang2022 at rated current); and a current step
+ *        inside the boundary layer, -(L_d - L_q) di_q/dt along the EMF,
+ *        moves |e| for a filter time constant, and w_emf is noisier than
+ *        the tracker's speed at low speed. Where G <= 0 (motoring, or no
+ *        saliency) the tracker's speed only adds damping, and the term
+ *        keeps it: with w_emf everywhere B-ZOO lost 2 of 50 machines
+ *        (16, 96, handed over at 150-200 rpm motoring) and B-LOCK missed
+ *        a loss. A low-passed offset of the tracker's speed added to
+ *        w_emf (steady state on the tracker's speed) destabilized the
+ *        slowing my48v at rated torque (3 N m, lost at -600 rpm) and cost
+ *        B-ZOO 5 machines at a slow low-pass: not kept.
  *     Below the EMF of w_valid the correction is scaled down with the EMF
  *     (no angle is measured at standstill: the estimate holds instead of
  *     chasing noise), and so is the model's net torque T + T_d: the
@@ -160,9 +155,6 @@ typedef enum { FS_SMO_LAG_EXACT = 0, FS_SMO_LAG_PAPER = 1 } fs_smo_lag;
 /* `converged` needs the EMF's speed within this fraction of the estimate's
  * (at least of w_valid): psi_f off by 20 % (B-ROBUST's range) moves it 25 % */
 #define FS_SMO_AGREE 0.4f
-/* change 4: the cross-coupling's speed follows the tracker's at a
- * bandwidth a with a G <= this (the loop's g r, stable below 0.85) */
-#define FS_SMO_ROT_GAIN 0.25f
 typedef enum { FS_SMO_FORM_PAPER = 0, FS_SMO_FORM_TRACKING = 1 } fs_smo_form;
 
 typedef struct {
@@ -204,8 +196,7 @@ typedef struct {
     float e_raw;         /* |the period's EMF|, low-passed, V */
     float psi_x;         /* psi_f + (L_d - L_q) i_d at the last step (the EMF over the speed), Wb */
     float w_emf;         /* FS_SMO_FORM_TRACKING: the speed the filtered EMF's magnitude gives, signed dir (change 4), rad/s */
-    float w_rot;         /* FS_SMO_FORM_TRACKING: the tracker's speed less w_emf, low-passed at a (change 4), rad/s */
-    float k_rot;         /* FS_SMO_FORM_TRACKING: a Ts per rad/s of |w| (change 4) */
+    bool gen;            /* FS_SMO_FORM_TRACKING: G > 0 at the last step (generating with saliency): the cross-coupling on w_emf (change 4) */
     float w_emf_lp;      /* FS_SMO_FORM_TRACKING: w_emf low-passed at the tracker's bandwidth, as eps (`converged`) */
     int n_settle, k_settled;  /* converged after n_settle steps in a row */
     bool converged;
