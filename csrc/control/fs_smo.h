@@ -102,11 +102,13 @@
  *        the tracker's speed at low speed. Where G <= 0 (motoring, or no
  *        saliency) the tracker's speed only adds damping, and the term
  *        keeps it: with w_emf everywhere B-ZOO lost 2 of 50 machines
- *        (16, 96, handed over at 150-200 rpm motoring) and B-LOCK missed
- *        a loss. A low-passed offset of the tracker's speed added to
+ *        (16, 96, handed over at 150-200 rpm motoring). A low-passed offset of the tracker's speed added to
  *        w_emf (steady state on the tracker's speed) destabilized the
  *        slowing my48v at rated torque (3 N m, lost at -600 rpm) and cost
- *        B-ZOO 5 machines at a slow low-pass: not kept.
+ *        B-ZOO 5 machines at a slow low-pass: not kept. With this form
+ *        motulator's SMO through a 3000 -> -3000 rpm step still loses the
+ *        rotor at zero speed but is back within 50 ms (115 before), short
+ *        of what the lock monitor flags (B-LOCK: 50 of 51).
  *     Below the EMF of w_valid the correction is scaled down with the EMF
  *     (no angle is measured at standstill: the estimate holds instead of
  *     chasing noise), and so is the model's net torque T + T_d: the
