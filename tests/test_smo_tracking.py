@@ -105,3 +105,43 @@ def test_converged_needs_a_settled_error():
     # a current the model did not predict: out of the boundary layer
     lib.fs_smo_step(o, {"alpha": 50.0, "beta": 0.0}, {"alpha": 0.0, "beta": 0.0})
     assert o.r_i > 1.0 and not o.converged
+
+
+def _spin(o, theta0: float, w: float, n: int):
+    """n steps of a rotor at w (rad/s el.) from theta0 with no current: the
+    voltage that acted in each period is its EMF's mean over it,
+    psi_f (cos, sin) difference over Ts. Returns the estimate's largest
+    |error| over the last half (rad) and whether `converged` was set at any
+    step of it."""
+    Ts, psi = o.cfg.Ts, o.cfg.psi_f
+    err, conv = 0.0, False
+    for k in range(1, n + 1):
+        th0, th1 = theta0 + w * Ts * (k - 1), theta0 + w * Ts * k
+        u = {"alpha": psi * (np.cos(th1) - np.cos(th0)) / Ts, "beta": psi * (np.sin(th1) - np.sin(th0)) / Ts}
+        lib.fs_smo_step(o, {"alpha": 0.0, "beta": 0.0}, u)
+        if k > n // 2:
+            err = max(err, abs(np.remainder(th1 - o.theta + np.pi, 2 * np.pi) - np.pi))
+            conv |= bool(o.converged)
+    return err, conv
+
+
+def test_converged_is_not_set_on_an_estimate_pi_off():
+    """A tracker pi off with the direction the wrong way (the caller's, as
+    the blend hands it over) is self-consistent: the EMF's angle read with
+    the wrong direction is the rotor's plus pi, turning at the rotor's speed,
+    so the innovation is nil and the current error slides. Only the EMF's
+    own speed, -w against the estimate's +w, tells: `converged` stays unset
+    for the whole 0.2 s while the estimate stays pi off. The same tracker
+    started right converges (fs_smo.h, convergence)."""
+    w = 300.0   # rad/s el., about 1000 rpm on the motulator machine
+    o, st = _smo(lib.FS_SMO_FORM_TRACKING, dir_external=1)
+    assert st == lib.FS_OK
+    lib.fs_smo_reset(o, np.pi, w)
+    lib.fs_smo_set_dir(o, -w)
+    err, conv = _spin(o, 0.0, w, int(0.2 / o.cfg.Ts))
+    assert err > np.radians(170.0) and not conv
+    o, _ = _smo(lib.FS_SMO_FORM_TRACKING, dir_external=1)
+    lib.fs_smo_reset(o, 0.0, w)
+    lib.fs_smo_set_dir(o, w)
+    err, conv = _spin(o, 0.0, w, int(0.2 / o.cfg.Ts))
+    assert err < np.radians(2.0) and conv

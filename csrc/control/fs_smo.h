@@ -27,8 +27,9 @@
  *   FS_SMO_FORM_PAPER: the above as the paper gives it (forward Euler on
  *     i_hat, the PLL of eqs. (12)-(13), lag as cfg.lag); kept for yang2022.
  *   FS_SMO_FORM_TRACKING (fullspeed's): the same sliding-mode current
- *     observer and adaptive filter, with three changes that remove its
- *     errors at speed, under load and in acceleration:
+ *     observer and adaptive filter, with four changes that remove its
+ *     errors at speed, under load and in acceleration, and its instability
+ *     when generating:
  *     1. the resistive and cross-coupling terms of eq. (4) take the mean of
  *        the measured currents at both ends of the period (trapezoid)
  *        instead of i_hat at its start: forward Euler leaves
@@ -69,6 +70,45 @@
  *        layer, e_n = e_hat_{n-1} + z_{n-1} + (z_n - z_{n-1}) / c, low-passed
  *        in magnitude at bw_pll; below w_valid the schedule holds the
  *        bandwidths of w_valid.
+ *     4. where G (below) is positive, the cross-coupling term of eq. (4),
+ *        w (L_d - L_q) J i, takes the speed the EMF's magnitude gives,
+ *        w_emf, not the tracker's. With the tracker's w + dw the model
+ *        puts dw (L_d - L_q) J i into the EMF it estimates: for the q
+ *        current, dw (L_q - L_d) i_q across the EMF, which turns the
+ *        measured angle by G dw, G = (L_d - L_q) i_q / (w psi_f),
+ *        positive when generating on a machine with L_q > L_d. The
+ *        tracker's triple pole (s + w_o)^3 becomes
+ *        s^3 + 3 w_o (1 - g) s^2 + w_o^2 (3 - g) s + w_o^3, g = G w_o:
+ *        damped more when motoring (g < 0), less when generating,
+ *        unstable from g = 0.845 (Routh), earlier with the filter in the
+ *        loop. Below bw_pll / 2 the schedule puts w_o at 2 |w|, so
+ *        g = 2 (L_q - L_d) |i_q| / psi_f whatever the speed: on
+ *        examples/own-machine's my48v (L_q - L_d = 0.38 mH, psi_f =
+ *        13.9 mWb) 1.1 at 2 N m (20 A); generating at 500 rpm the tracker
+ *        swung -26..+38 el.deg, and slowing from -2000 rpm under 2 N m it
+ *        lost the rotor at 1400 rpm. The EMF's magnitude does not depend
+ *        on the angle: in steady state |e| = |w psi_f + w_emf (L_d - L_q)
+ *        i_d| (the q current's part is across it), so w_emf = dir |e| /
+ *        (psi_f + (L_d - L_q) i_d) is w, and the loop left is static, of
+ *        gain (L_d - L_q) i_d / (psi_f + (L_d - L_q) i_d) < 1 (0.2 on
+ *        my48v at 25 A). |e| is the filtered EMF's magnitude over the
+ *        sampled loop's gain |H| at the estimated speed (change 2's H):
+ *        no lag beyond the filter's. The cost: psi_f enters the angle.
+ *        psi_f off by a fraction f moves w_emf by f w and the angle by
+ *        f (L_q - L_d) i_q / psi_f (3.9 el.deg per 10 % on my48v at
+ *        25 A, 0.8 on yang2022 at rated current); and a current step
+ *        inside the boundary layer, -(L_d - L_q) di_q/dt along the EMF,
+ *        moves |e| for a filter time constant, and w_emf is noisier than
+ *        the tracker's speed at low speed. Where G <= 0 (motoring, or no
+ *        saliency) the tracker's speed only adds damping, and the term
+ *        keeps it: with w_emf everywhere B-ZOO lost 2 of 50 machines
+ *        (16, 96, handed over at 150-200 rpm motoring). A low-passed offset of the tracker's speed added to
+ *        w_emf (steady state on the tracker's speed) destabilized the
+ *        slowing my48v at rated torque (3 N m, lost at -600 rpm) and cost
+ *        B-ZOO 5 machines at a slow low-pass: not kept. With this form
+ *        motulator's SMO through a 3000 -> -3000 rpm step still loses the
+ *        rotor at zero speed but is back within 50 ms (115 before), short
+ *        of what the lock monitor flags (B-LOCK: 50 of 51).
  *     Below the EMF of w_valid the correction is scaled down with the EMF
  *     (no angle is measured at standstill: the estimate holds instead of
  *     chasing noise), and so is the model's net torque T + T_d: the
@@ -76,18 +116,28 @@
  *     would accelerate the estimate away), and a load learnt at speed, held
  *     in T_d while the torque was dropped, accelerated the estimate at
  *     T_d / J (1070 rad/s^2, mechanical, on yang2022 at rated load) through every zero
- *     crossing. While not valid and its own EMF below that of w_valid, a
+ *     crossing. On becoming valid T_d starts at -T, so that the model's
+ *     acceleration, nil until then, stays continuous. While not valid and its own EMF below that of w_valid, a
  *     caller that trusts another estimate (the blend: the injection's)
  *     hands it over (fs_smo_follow), so that the tracker leaves standstill
  *     on the rotor's angle, speed and load.
  *
  * Convergence (both forms, for a hand-over): `converged` is set once the
- * current error stays in the boundary layer (r_i <= 1) and |eps| below
- * sin 5 deg for 4 time constants of the tracker without a break (4 /
- * bw_pll; the tracking form's at its scheduled bandwidth). The tracking
- * form's eps is its innovation low-passed at its bandwidth: the angle error
- * it is working off, not one sample's (the injection's fade-in steps the
- * fundamental current it sees).
+ * current error stays in the boundary layer (r_i <= 1), |eps| below
+ * sin 5 deg and the EMF's own speed within FS_SMO_AGREE of the estimate's
+ * (at least of w_valid) for 4 time constants of the tracker without a
+ * break (4 / bw_pll; the tracking form's at its scheduled bandwidth). The
+ * tracking form's eps is its innovation low-passed at its bandwidth: the
+ * angle error it is working off, not one sample's (the injection's fade-in
+ * steps the fundamental current it sees); its EMF speed is w_emf (change
+ * 4) low-passed the same way. The paper form's is dir e_raw / (psi_f +
+ * (L_d - L_q) i_d). The residuals alone said converged on an estimate that
+ * was consistently wrong: the paper form on my48v generating at the
+ * reversal, 45-70 el.deg off with its PLL speed beside the rotor's (an
+ * extended EMF turned by a speed error, eq. (4), is an EMF the PLL locks
+ * onto), and a tracker locked pi off with the direction the wrong way
+ * (started at standstill below w_valid: its speed and its EMF's then
+ * have opposite signs).
  */
 #ifndef FS_SMO_H
 #define FS_SMO_H
@@ -104,6 +154,9 @@ typedef enum { FS_SMO_LAG_EXACT = 0, FS_SMO_LAG_PAPER = 1 } fs_smo_lag;
  * multiple of the tracker's bandwidth: damping >= 0.70 at every speed */
 #define FS_SMO_BW_PER_W 2.0f
 #define FS_SMO_WC_PER_BW 3.0f
+/* `converged` needs the EMF's speed within this fraction of the estimate's
+ * (at least of w_valid): psi_f off by 20 % (B-ROBUST's range) moves it 25 % */
+#define FS_SMO_AGREE 0.4f
 typedef enum { FS_SMO_FORM_PAPER = 0, FS_SMO_FORM_TRACKING = 1 } fs_smo_form;
 
 typedef struct {
@@ -141,8 +194,12 @@ typedef struct {
     float e_valid;       /* |e_hat| at w_valid: below it the tracker's correction fades */
     float c_bl;          /* the boundary layer's correction per step, k Ts / (L_d delta) <= 1 */
     float w_sched_min;   /* FS_SMO_FORM_TRACKING: the schedule's speed floor, rad/s (el.) */
-    float a_emf;         /* FS_SMO_FORM_TRACKING: the EMF magnitude's low-pass per step, at bw_pll */
-    float e_raw;         /* FS_SMO_FORM_TRACKING: |the period's EMF|, low-passed, V */
+    float a_emf;         /* the EMF magnitude's low-pass per step, at bw_pll */
+    float e_raw;         /* |the period's EMF|, low-passed, V */
+    float psi_x;         /* psi_f + (L_d - L_q) i_d at the last step (the EMF over the speed), Wb */
+    float w_emf;         /* FS_SMO_FORM_TRACKING: the speed the filtered EMF's magnitude gives, signed dir (change 4), rad/s */
+    bool gen;            /* FS_SMO_FORM_TRACKING: G > 0 at the last step (generating with saliency): the cross-coupling on w_emf (change 4) */
+    float w_emf_lp;      /* FS_SMO_FORM_TRACKING: w_emf low-passed at the tracker's bandwidth, as eps (`converged`) */
     int n_settle, k_settled;  /* converged after n_settle steps in a row */
     bool converged;
     float theta;         /* estimated angle at the sampling instant, rad */
