@@ -134,16 +134,19 @@ static float sat(float x, float delta)  /* eq. (6) */
 static float smo_emf_angle(const fs_smo *o, fs_ab e, float w, float w_c, float *h_inv)
 {
     const float Ts = o->cfg.Ts;
-    const float th_e = o->dir > 0.0f ? fs_atan2f(-e.alpha, e.beta) : fs_atan2f(e.alpha, -e.beta);
+    /* the EMF's direction turned by -pi/2 (by +pi/2 running backwards) */
+    const float xr = o->dir > 0.0f ? e.beta : -e.beta, xi = o->dir > 0.0f ? -e.alpha : e.alpha;
     const float g = w_c * Ts / (1.0f + w_c * Ts);
     const float c = o->c_bl;
-    const float zr = fs_cosf(w * Ts), zi = fs_sinf(w * Ts);
+    const float _Complex z = fs_cis_small(w * Ts);   /* a step's turn: small */
+    const float zr = ((const float *)&z)[0], zi = ((const float *)&z)[1];
     /* den = (z - 1 + g)(z - 1 + c) + g c z */
     const float ar = zr - 1.0f + g, br = zr - 1.0f + c;
     const float dr = ar * br - zi * zi + g * c * zr;
     const float di = ar * zi + zi * br + g * c * zi;
     *h_inv = sqrtf(dr * dr + di * di) / (g * c);
-    return fs_wrap_pi(th_e - 1.5f * w * Ts + fs_atan2f(di, dr));
+    /* arg(x) + arg(den) = arg(x den): one arctangent instead of two */
+    return fs_wrap_pi(fs_atan2f(xr * di + xi * dr, xr * dr - xi * di) - 1.5f * w * Ts);
 }
 
 /* The flux the EMF's magnitude is the speed times: psi_f + (L_d - L_q) i_d
@@ -241,7 +244,8 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
          * bandwidth: the angle error it is working off, not one sample's
          * (the injection's fade-in steps the fundamental current) */
         const float a_eps = 1.0f - o->mo.z_o;
-        o->eps += a_eps * (fs_sinf(fs_wrap_pi(err - c->Ts * w)) - o->eps);
+        const float _Complex ee = fs_cis_small(fs_wrap_pi(err - c->Ts * w));   /* small once converged */
+        o->eps += a_eps * (((const float *)&ee)[1] - o->eps);
         o->w_emf_lp += a_eps * (o->w_emf - o->w_emf_lp);
         o->e_mag = mag;
         /* the model's net torque T + T_d fades with the EMF as the
