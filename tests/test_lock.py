@@ -22,17 +22,22 @@ def monitor(Ts=1e-3, t_lost=0.01):
 
 def test_monitor_latches_after_the_net_time_off_track_and_resets():
     lk = monitor()
-    # 9 ms above, 5 ms below, 5 ms above: the net time is 9 - 5 + 5 = 9 ms < 10 ms
-    seq = [2.0] * 9 + [0.5] * 5 + [2.0] * 5
+    # each step above 1 counts r steps' time: 6 x 1.25 = 7.5 ms, 2 ms below
+    # leak 2 of it, 3 x 1.25 more: 9.25 ms < 10 ms
+    seq = [1.25] * 6 + [0.5] * 2 + [1.25] * 3
     assert not any(lib.fs_lock_step(lk, r) for r in seq)
-    assert lib.fs_lock_step(lk, 2.0)                # the 10th net millisecond
+    assert lib.fs_lock_step(lk, 1.25)               # 10.5 ms net
     assert lib.fs_lock_step(lk, 0.0)                # latched
     lib.fs_lock_reset(lk)
     assert not lib.fs_lock_step(lk, 0.0)
+    # far over counts twice the time at most (FS_LOCK_R_MAX), and the leak
+    # stops at zero: 4 x 2 ms after a long time on track is 8 ms < 10
+    assert not any(lib.fs_lock_step(lk, r) for r in [0.0] * 50 + [50.0] * 4)
+    assert lib.fs_lock_step(lk, 50.0)
 
 
 def test_monitor_counts_nan_as_off_track_and_refuses_bad_configs():
-    lk = monitor(t_lost=0.003)
+    lk = monitor(t_lost=0.006)   # a NaN counts as far over as anything: 2 ms a step
     assert [lib.fs_lock_step(lk, math.nan) for _ in range(3)] == [False, False, True]
     bad = ffi.new("fs_lock *")
     assert lib.fs_lock_init(bad, ffi.new("fs_lock_config *", {"Ts": 1e-3, "t_lost": 1e-4})) == lib.FS_ERR_LIMIT

@@ -19,9 +19,11 @@ void fs_lock_reset(fs_lock *lk)
 
 bool fs_lock_step(fs_lock *lk, float r)
 {
-    /* a NaN residual counts as above */
+    /* a NaN residual counts as above, at the most; above 1 each step
+     * counts as far as r is over, up to twice (FS_LOCK_R_MAX) */
     bool over = !(r <= 1.0f);
-    lk->t_over = over ? lk->t_over + lk->cfg.Ts : fs_maxf(lk->t_over - lk->cfg.Ts, 0.0f);
+    const float wgt = r < FS_LOCK_R_MAX ? r : FS_LOCK_R_MAX;
+    lk->t_over = over ? lk->t_over + wgt * lk->cfg.Ts : fs_maxf(lk->t_over - lk->cfg.Ts, 0.0f);
     if (lk->t_over >= lk->cfg.t_lost) lk->lost = true;
     return lk->lost;
 }

@@ -87,7 +87,7 @@ SCENARIO = {
                   doc="detect: traced (lock_resid, lock_lost); stop: the run ends with stop reason loss_of_lock; "
                       "recover: zero current, then the observer's estimate or the start sequence again (fs_drive.h), "
                       "and the stop once lock_retries are spent"),
-        "lock_time": POS(0.02, hi=10.0, doc="s off track, net, before lock counts as lost"),
+        "lock_time": POS(0.02, hi=10.0, doc="s off track, net (each step weighted by how far over, up to twice: fs_lock.h), before lock counts as lost"),
         "recover_time": POS(0.05, hi=10.0, doc="s of zero current before a recovery re-acquires"),
         "lock_retries": I(3, 0, 1000, doc="recoveries before a loss of lock stops the run"),
         "param_adapt": B(False, doc="online correction of R_s and psi_f while sensorless (fs_param_adapt.h)"),
