@@ -374,8 +374,8 @@ def lock(out: Path) -> Measurement:
             "(the torque's sign), the runaway's implied load passes the rating or the back-EMF shows them"
             + (f", {1e3 * min(pol):.0f}-{1e3 * max(pol):.0f} ms after the start, median {1e3 * float(np.median(pol)):.0f} ms"
                if pol else "") + "); wrong there: "
-            + "; ".join(f"{r['base']} {r['label']} ({'missed' if lock_campaign.judge(r)['lost'] else 'flagged'}, "
-                        f"{r['stop_reason']}, max error {r['max_err_deg']:.0f} el.deg)" for r in wrong)
+            + ("; ".join(f"{r['base']} {r['label']} ({'missed' if lock_campaign.judge(r)['lost'] else 'flagged'}, "
+                         f"{r['stop_reason']}, max error {r['max_err_deg']:.0f} el.deg)" for r in wrong) or "none")
             + ". Beside them, "
             f"{value['flagged_without_true_loss']} runs of the original set were flagged without a true loss; "
             f"{value['of_them_slipping']} of these had the error past 90 el.deg for 20 ms or more in all (an estimate "
