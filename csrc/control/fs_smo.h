@@ -107,8 +107,9 @@
  *        slowing my48v at rated torque (3 N m, lost at -600 rpm) and cost
  *        B-ZOO 5 machines at a slow low-pass: not kept. With this form
  *        motulator's SMO through a 3000 -> -3000 rpm step still loses the
- *        rotor at zero speed but is back within 50 ms (115 before), short
- *        of what the lock monitor flags (B-LOCK: 50 of 51).
+ *        rotor at zero speed but is back within 50 ms (115 before); the
+ *        lock monitor flags it since it weighs each step by how far its
+ *        residual is over (fs_lock.h).
  *     Below the EMF of w_valid the correction is scaled down with the EMF
  *     (no angle is measured at standstill: the estimate holds instead of
  *     chasing noise), and so is the model's net torque T + T_d: the
