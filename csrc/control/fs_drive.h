@@ -420,6 +420,7 @@ typedef struct {
     bool injecting;          /* the HF voltage is on (fading in or out included) */
     bool inject_on;          /* the injection is wanted (the amplitude's target) */
     float T_ff;              /* N m: torque of the last step's current reference (the observers' feed-forward) */
+    float k_T;               /* N m/A: the torque constant phases/2 p (drive_torque_k) */
     fs_ab u_hist[2];         /* realised fundamental voltage computed 1 and 2 steps ago */
     fs_smo smo;
     fs_blend blend;
