@@ -184,9 +184,10 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
     const float c2 = ct * ct - st * st, s2 = 2.0f * ct * st;
     const fs_ab e_h = h->e_h;
     fs_ab e_n = {c2 * e_h.alpha + s2 * e_h.beta, s2 * e_h.alpha - c2 * e_h.beta};
-    if (h->delta != 0.0f) {   /* a few degrees: the short path */
-        const float _Complex r2 = fs_cis_small(2.0f * h->delta);
-        e_n = fs_inv_park((fs_dq){e_n.alpha, e_n.beta}, ((const float *)&r2)[0], ((const float *)&r2)[1]);
+    if (h->delta != 0.0f) {   /* e^{j 2 delta} = (e^{j delta})^2: delta is a few degrees (fs_cis_small's short path), 2 delta often not */
+        const float _Complex r = fs_cis_small(h->delta);
+        const float rc = ((const float *)&r)[0], rs = ((const float *)&r)[1];
+        e_n = fs_inv_park((fs_dq){e_n.alpha, e_n.beta}, rc * rc - rs * rs, 2.0f * rc * rs);
     }
     /* Fig. 4b: fundamental and negative-sequence carrier; with cfg.leak the
      * fundamental's leak taken out of the latter (fs_hfi_filter_step_nl) */
