@@ -126,6 +126,7 @@ fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     if (cfg->pole_pairs < 1) REFUSE("pole_pairs", FS_ERR_POLE_PAIRS);
     if (!(cfg->t_dead_comp < 0.5f * cfg->T_pwm)) REFUSE("t_dead_comp", FS_ERR_PARAM);
     drv->cfg = *cfg;
+    drv->k_T = drive_torque_k(cfg);
     const float Tl = drive_loop_Ts(cfg);
 
     fs_current_ctrl_config ccc = {Tl, cfg->R_s, cfg->L_d, cfg->L_q, cfg->psi_f, cfg->bw_current,
@@ -811,7 +812,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     out->T_ref = T_ref;
     out->u_d = u_real.d;
     out->u_q = u_real.q;
-    drv->T_ff = drive_torque(c, i_ref);   /* the monitor's now, the observers' next step */
+    drv->T_ff = drive_torque_at(c, drv->k_T, i_ref);   /* the monitor's now, the observers' next step */
     out->theta_est = theta;
     out->w_est = w_e;
     out->est_valid = true;

@@ -45,10 +45,17 @@ static inline bool drive_has_smo(const fs_drive_config *c)
 }
 
 /* The controller's torque at a current (the motion observers' feed-forward). */
-static inline float drive_torque(const fs_drive_config *c, fs_dq i)
+/* The torque of a dq current on the model, k_T (psi_f + (L_d - L_q) i_d) i_q
+ * with k_T = phases/2 p; the step takes k_T formed once in init (fs_drive.k_T),
+ * the same bits as formed here. */
+static inline float drive_torque_k(const fs_drive_config *c) { return 0.5f * (float)c->phases * (float)c->pole_pairs; }
+
+static inline float drive_torque_at(const fs_drive_config *c, float k_T, fs_dq i)
 {
-    return 0.5f * (float)c->phases * (float)c->pole_pairs * (c->psi_f + (c->L_d - c->L_q) * i.d) * i.q;
+    return k_T * (c->psi_f + (c->L_d - c->L_q) * i.d) * i.q;
 }
+
+static inline float drive_torque(const fs_drive_config *c, fs_dq i) { return drive_torque_at(c, drive_torque_k(c), i); }
 
 /* The injection estimators' first step (polarity detection first when
  * sensorless, else their angle from the encoder). */

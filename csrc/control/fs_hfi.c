@@ -93,6 +93,8 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
     }
     h->rot_u.alpha = fs_cosf(h->theta_u);
     h->rot_u.beta = fs_sinf(h->theta_u);
+    h->rot_h.alpha = fs_cosf(h->dtheta_h);
+    h->rot_h.beta = fs_sinf(h->dtheta_h);
     fs_hfi_reset(h, 0.0f, 0.0f);
     return FS_OK;
 }
@@ -103,6 +105,9 @@ void fs_hfi_reset(fs_hfi *h, float theta, float w)
     fs_motion_obs_reset(&h->obs, theta, w);
     if (h->cfg.lag) fs_motion_obs_reset(&h->obs_w, theta, w);
     h->theta_h = 0.0f;
+    h->e_h.alpha = 1.0f;
+    h->e_h.beta = 0.0f;
+    h->k_h = 0;
     h->k_settle = h->n_settle;
     h->gain = h->gain_prev = 1.0f;
     h->unit_p.d = h->unit_p.q = 0.0f;
@@ -177,11 +182,12 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
      * e^{j(2 (theta_hat + delta) - theta_h)} = (e^{j theta_hat})^2 conj(e_h)
      * e^{j 2 delta}, products rather than a second angle's cosine and sine */
     const float c2 = ct * ct - st * st, s2 = 2.0f * ct * st;
-    const fs_ab e_h = {fs_cosf(theta_h), fs_sinf(theta_h)};
+    const fs_ab e_h = h->e_h;
     fs_ab e_n = {c2 * e_h.alpha + s2 * e_h.beta, s2 * e_h.alpha - c2 * e_h.beta};
-    if (h->delta != 0.0f) {   /* a few degrees: the short path */
-        const float _Complex r2 = fs_cis_small(2.0f * h->delta);
-        e_n = fs_inv_park((fs_dq){e_n.alpha, e_n.beta}, ((const float *)&r2)[0], ((const float *)&r2)[1]);
+    if (h->delta != 0.0f) {   /* e^{j 2 delta} = (e^{j delta})^2: delta is a few degrees (fs_cis_small's short path), 2 delta often not */
+        const float _Complex r = fs_cis_small(h->delta);
+        const float rc = ((const float *)&r)[0], rs = ((const float *)&r)[1];
+        e_n = fs_inv_park((fs_dq){e_n.alpha, e_n.beta}, rc * rc - rs * rs, 2.0f * rc * rs);
     }
     /* Fig. 4b: fundamental and negative-sequence carrier; with cfg.leak the
      * fundamental's leak taken out of the latter (fs_hfi_filter_step_nl) */
@@ -226,5 +232,17 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
     h->u.alpha = h->gain * h->u_amp * e_v.alpha;
     h->u.beta = h->gain * h->u_amp * e_v.beta;
     h->theta_h = fs_wrap_pi(theta_h + h->dtheta_h);
+    /* the carrier's phasor for the next step: this one turned by w_h Ts (a
+     * complex product, not a cosine and sine), formed afresh from theta_h
+     * once a carrier period so that the products' rounding (an ulp or two
+     * a period, on the amplitude and the angle) does not accumulate */
+    if (++h->k_h >= h->n_iq) {
+        h->k_h = 0;
+        h->e_h.alpha = fs_cosf(h->theta_h);
+        h->e_h.beta = fs_sinf(h->theta_h);
+    } else {
+        h->e_h.alpha = e_h.alpha * h->rot_h.alpha - e_h.beta * h->rot_h.beta;
+        h->e_h.beta = e_h.beta * h->rot_h.alpha + e_h.alpha * h->rot_h.beta;
+    }
     return h->theta;
 }

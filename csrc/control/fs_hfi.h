@@ -185,6 +185,7 @@ typedef struct {
     float u_amp;               /* u_h / sinc(w_h Ts / 2) */
     float phi_ref;             /* pi/2 - phi_p - phi_r: the heterodyne reference's fixed rotation */
     fs_ab rot_u, rot_ref;      /* e^{j theta_u}, e^{j phi_ref}: the carrier phasor turned by them */
+    fs_ab rot_h;               /* e^{j w_h Ts}: the carrier's turn in a step */
     float i_n_design;          /* the negative carrier's amplitude from the parameters, A */
     float k_avg;               /* 1 - exp(-w_b_n Ts / 4): the amplitude's averaging */
     int n_settle;              /* steps the filters take to settle, 3 / (w_b_n Ts) */
@@ -202,6 +203,8 @@ typedef struct {
                                   as it left them, carrier angle included */
     fs_dq unit_p, unit_n;      /* the carriers' states at gain 1 (0 until it has run at gain 1) */
     float theta_h;             /* carrier angle at the next sampling instant, (-pi, pi] */
+    fs_ab e_h;                 /* e^{j theta_h}: turned by rot_h each step, from fs_cis once per n_iq steps */
+    int k_h;                   /* steps since e_h was formed from theta_h */
     /* outputs of the last step */
     fs_ab i_f;                 /* fundamental current, A */
     fs_ab i_hn;                /* negative-sequence carrier current, A */

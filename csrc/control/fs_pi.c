@@ -8,6 +8,7 @@ fs_status fs_pi_init(fs_pi *pi, const fs_pi_config *cfg)
     if (!fs_nonneg(cfg->k_p) || !fs_nonneg(cfg->k_i) || !fs_nonneg(cfg->k_t) || !fs_fin(cfg->u_max))
         return FS_ERR_PARAM;
     pi->cfg = *cfg;
+    pi->k_i_Ts = cfg->Ts * cfg->k_i;
     fs_pi_reset(pi);
     return FS_OK;
 }
@@ -40,7 +41,7 @@ float fs_pi_output(const fs_pi *pi, float ref, float meas)
 
 void fs_pi_update(fs_pi *pi, float ref, float meas, float u, float u_real)
 {
-    pi->integ += pi->cfg.Ts * pi->cfg.k_i * (ref - meas) + (u_real - u);
+    pi->integ += pi->k_i_Ts * (ref - meas) + (u_real - u);
 }
 
 float fs_pi_step(fs_pi *pi, float ref, float meas)

@@ -21,6 +21,7 @@ typedef struct {
 
 typedef struct {
     fs_pi_config cfg;
+    float k_i_Ts; /* Ts k_i, formed once in init as the update formed it */
     float integ;  /* integral state I */
 } fs_pi;
 

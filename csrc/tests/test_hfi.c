@@ -295,6 +295,19 @@ int main(void)
     /* ---- 5. init: defaults (the header: w_b_p = w_b_n = w_h / 20, observer w_b_n / 5), refusals ---- */
     fs_hfi h;
     FS_CHECK_EQ_INT(fs_hfi_init(&h, &c0), FS_OK, "init");
+    {   /* the carrier's phasor, turned by a product each step and formed
+         * afresh once a period: e^{j theta_h} within a few ulp throughout */
+        double err = 0.0, dth = 0.0;
+        for (int k = 0; k < 5000; ++k) {
+            err = fmax(err, cabs((double)h.e_h.alpha + I * (double)h.e_h.beta - cexp(I * (double)h.theta_h)));
+            const float th0 = h.theta_h;
+            fs_hfi_step(&h, (fs_ab){0.0f, 0.0f}, 0.0f);
+            dth = fmax(dth, fabs(remainder((double)h.theta_h - th0 - W_H * TS, 2.0 * FS_TEST_PI)));
+        }
+        FS_CHECK(err < 4e-7, "e_h = e^{j theta_h}: off by %.2e", err);
+        FS_CHECK(dth < 1e-6, "theta_h turns by w_h Ts a step: off by %.2e", dth);
+        FS_CHECK_EQ_INT(fs_hfi_init(&h, &c0), FS_OK, "init again");
+    }
     FS_CHECK_NEAR(h.cfg.w_b_p, W_H / 20.0, 1e-3, "default w_b_p");
     FS_CHECK_NEAR(h.cfg.w_b_n, W_H / 20.0, 1e-3, "default w_b_n");
     FS_CHECK_NEAR(h.obs.cfg.bandwidth, h.cfg.w_b_n / 5.0, 1e-3, "default observer bandwidth");

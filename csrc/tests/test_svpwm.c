@@ -8,6 +8,7 @@
  * (max minus min pole voltage = u_dc), is no longer than the reference, and
  * u_real reports it; u_dc <= 0 gives 0.5 duties.
  */
+#include <float.h>
 #include "control/fs_svpwm.h"
 #include "tests/fs_test.h"
 
@@ -58,6 +59,20 @@ static void one(double mag, double th, float u_dc)
 
 int main(void)
 {
+    {   /* an infinity or a NaN anywhere: 0.5 on every leg; the largest finite values are modulated */
+        const float bad[] = {INFINITY, -INFINITY, NAN};
+        for (int b = 0; b < 3; ++b) {
+            for (int where = 0; where < 3; ++where) {
+                fs_ab ref = {where == 0 ? bad[b] : 10.0f, where == 1 ? bad[b] : -10.0f};
+                float duty[3] = {-1.0f, -1.0f, -1.0f};
+                fs_svpwm(ref, where == 2 ? bad[b] : 48.0f, duty, NULL);
+                FS_CHECK(duty[0] == 0.5f && duty[1] == 0.5f && duty[2] == 0.5f, "non-finite input %d at %d: 0.5", b, where);
+            }
+        }
+        float duty[3] = {-1.0f, -1.0f, -1.0f};
+        fs_svpwm((fs_ab){FLT_MAX, -FLT_MAX}, FLT_MAX, duty, NULL);
+        FS_CHECK(duty[0] > 0.99f && duty[1] < 0.01f, "FLT_MAX is finite: modulated (%g %g)", duty[0], duty[1]);
+    }
     const float dcs[] = {600.0f, 48.0f, 1.0f};
     const double fr[] = {0.0, 1e-6, 0.01, 0.1, 0.5, 0.9, 0.99, 0.9999, 1.0,
                          1.0001, 1.01, 1.1, 1.1547, 1.2, 1.5, 2.0, 10.0, 1e4};
