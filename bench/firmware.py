@@ -60,8 +60,11 @@ OPTIONS = ["-DFS_WITH_IMC=0", "-DFS_WITH_FIVE_PHASE=0", "-DFS_WITH_SWVI=0", "-DF
 LTO = ["-flto"]
 
 CPU_FLAGS = ["-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16", "-mfloat-abi=hard"]
-CFLAGS = [*CPU_FLAGS, "-O2", "-std=c11", "-Wall", "-Wextra", "-Wdouble-promotion", "-Werror=double-promotion",
-          "-ffunction-sections", "-fdata-sections", "-g"]
+# -fno-math-errno as the host's core is built (src/fullspeed/_build.py): the
+# drive never reads errno, and without it each sqrtf carries a test and a
+# branch to a libm call for a negative argument (VSQRT alone gives its NaN)
+CFLAGS = [*CPU_FLAGS, "-O2", "-std=c11", "-fno-math-errno", "-Wall", "-Wextra", "-Wdouble-promotion",
+          "-Werror=double-promotion", "-ffunction-sections", "-fdata-sections", "-g"]
 LDFLAGS = [*CPU_FLAGS, "-O2", "--specs=nano.specs", "--specs=nosys.specs", "-Wl,--gc-sections"]
 
 # Double-precision soft-float helpers: the ARM EABI names (__aeabi_dmul,

@@ -838,7 +838,7 @@ def format_report(rep: dict) -> str:
     if "modes" not in rep:
         return f"PIL FAIL: {rep['reason']}"
     im = rep["image"]
-    lines = [f"PIL: fs_drive_step on QEMU mps2-an386 (Cortex-M4F), arm-none-eabi-gcc {' '.join(fw.CFLAGS[:6])}; "
+    lines = [f"PIL: fs_drive_step on QEMU mps2-an386 (Cortex-M4F), arm-none-eabi-gcc {' '.join(fw.CFLAGS[:7])}; "
              f"image text {im['text']} B, data {im['data']} B, bss {im['bss']} B",
              f"  instructions per step counted by a TCG plugin (exact; not cycles). Budget at {F_CPU / 1e6:.0f} MHz: "
              + ", ".join(f"{F_CPU / f:.0f} cycles at {f / 1e3:.0f} kHz" for f in F_ISR),

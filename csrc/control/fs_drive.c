@@ -100,7 +100,7 @@ static fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
     return FS_OK;
 }
 
-fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
+FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
 {
     if (!drv) return FS_ERR_NULL;
     drv->fail = NULL;

@@ -11,12 +11,19 @@
 #define FS_SQRT3 1.73205080756887729353f
 #define FS_INV_SQRT3 0.57735026918962576451f
 
+/* FS_COLD: run once, at start-up (the inits and their designs): GCC
+ * optimizes such a function for size and keeps it apart from the step's
+ * code. The arithmetic is the same (no reassociation, no contraction, as
+ * at any level without -ffast-math), so are the results: only the
+ * production image's flash shrinks */
 #if defined(__GNUC__)
 #define FS_CONST __attribute__((const))
 #define FS_OUT_OF_LINE static __attribute__((noinline, unused))
+#define FS_COLD __attribute__((cold))
 #else
 #define FS_CONST
 #define FS_OUT_OF_LINE static inline
+#define FS_COLD
 #endif
 
 /* fs_wrap_pi off (-pi, pi) (+-pi, NaN and infinities included), out of
@@ -73,6 +80,11 @@ static inline float fs_sinf(float x)
     return ((const float *)&e)[1];
 }
 
+/* fs_cis's polynomials' tails (fs_transforms.c says how they were fitted):
+ * cos r = 1 - r^2/2 + r^4 qc(r^2), sin r = r + r^3 qs(r^2) */
+static inline float fs_cis_qc(float z) { return 0.041666646f + z * (-0.0013887316f + z * 2.4433157e-05f); }
+static inline float fs_cis_qs(float z) { return -0.16666655f + z * (0.00833216f + z * -0.00019515282f); }
+
 /* fs_cis's polynomials on its reduced argument r (|r| <= pi/4) and the
  * tail r_lo that reduction lost (fs_transforms.c says how they were fitted):
  * cos r + j sin r. */
@@ -80,8 +92,8 @@ static inline float _Complex fs_cis_poly(float r, float r_lo)
 {
     const float z = r * r, hz = 0.5f * z, w = 1.0f - hz;
     float _Complex e;
-    ((float *)&e)[0] = w + (((1.0f - w) - hz) + (z * z * (0.041666646f + z * (-0.0013887316f + z * 2.4433157e-05f)) - r * r_lo));
-    ((float *)&e)[1] = r + (r * z * (-0.16666655f + z * (0.00833216f + z * -0.00019515282f)) + r_lo * w);
+    ((float *)&e)[0] = w + (((1.0f - w) - hz) + (z * z * fs_cis_qc(z) - r * r_lo));
+    ((float *)&e)[1] = r + (r * z * fs_cis_qs(z) + r_lo * w);
     return e;
 }
 
@@ -93,7 +105,13 @@ static inline float _Complex fs_cis_poly(float r, float r_lo)
 static inline float _Complex fs_cis_small(float x)
 {
     if (!(fabsf(x) < 0.78f)) return fs_cis(x);
-    float _Complex e = fs_cis_poly(x, 0.0f);
+    /* fs_cis_poly(x, +0) without the tail's terms: x +0 and +0 w are
+     * zeros the compiler must keep (x could be a NaN, a sum -0), and
+     * adding them changes no result here (a zero sine is x's, below) */
+    const float z = x * x, hz = 0.5f * z, w = 1.0f - hz;
+    float _Complex e;
+    ((float *)&e)[0] = w + (((1.0f - w) - hz) + z * z * fs_cis_qc(z));
+    ((float *)&e)[1] = x + x * z * fs_cis_qs(z);
     if (((float *)&e)[1] == 0.0f) ((float *)&e)[1] = x;   /* sin(-0) = -0, as fs_cis */
     return e;
 }
