@@ -66,8 +66,8 @@
  *   fs_drive_reset before stepping again (the sequence starts over).
  * Timing and re-entrancy. fs_drive_step must complete within Ts of its
  *   sampling instant, before the next update event. On a Cortex-M4F at
- *   -O2 a step takes about 1,300-3,200 instructions on average by angle
- *   source, 4,500 at most (the blend); 2,870 on average and 3,970 at most
+ *   -O2 a step takes about 1,300-2,950 instructions on average by angle
+ *   source, 4,150 at most (the blend); 2,540 on average and 3,560 at most
  *   over the blended full-range run in the firmware's build (-flto):
  *   bench/pil.py measures it per mode. It
  *   touches only *drv, *in and *out (no globals, no heap): instances are
