@@ -783,7 +783,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     /* The voltage acts from the next update instant for one period: rotate it
      * by the angle the rotor turns until the middle of that period. */
     const float _Complex turn = fs_cis_small(w_e * c->Ts * (c->delay + 0.5f));   /* e^{j theta_u} = e^{j theta} e^{j turn} */
-    const float tc = ((const float *)&turn)[0], ts = ((const float *)&turn)[1];
+    const float tc = fs_cre(turn), ts = fs_cim(turn);
     const float cos_u = cos_t * tc - sin_t * ts, sin_u = sin_t * tc + cos_t * ts;
     fs_ab u_ab_ref = fs_inv_park(u_ref, cos_u, sin_u);
     fs_ab u_inj = {0.0f, 0.0f};

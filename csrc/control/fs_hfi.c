@@ -186,7 +186,7 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
     fs_ab e_n = {c2 * e_h.alpha + s2 * e_h.beta, s2 * e_h.alpha - c2 * e_h.beta};
     if (h->delta != 0.0f) {   /* e^{j 2 delta} = (e^{j delta})^2: delta is a few degrees (fs_cis_small's short path), 2 delta often not */
         const float _Complex r = fs_cis_small(h->delta);
-        const float rc = ((const float *)&r)[0], rs = ((const float *)&r)[1];
+        const float rc = fs_cre(r), rs = fs_cim(r);
         e_n = fs_inv_park((fs_dq){e_n.alpha, e_n.beta}, rc * rc - rs * rs, 2.0f * rc * rs);
     }
     /* Fig. 4b: fundamental and negative-sequence carrier; with cfg.leak the

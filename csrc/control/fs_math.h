@@ -68,17 +68,14 @@ static inline bool fs_nonneg(float x) { return x >= 0.0f && x < INFINITY; }
  * function returning a struct would be called twice). */
 float _Complex fs_cis(float theta) FS_CONST;
 
-static inline float fs_cosf(float x)
-{
-    const float _Complex e = fs_cis(x);
-    return ((const float *)&e)[0];
-}
+/* A complex float's parts (laid out as float[2], C99 6.2.5: real first):
+ * read without <complex.h>'s crealf and cimagf, which a freestanding
+ * build need not have */
+static inline float fs_cre(float _Complex e) { return ((const float *)&e)[0]; }
+static inline float fs_cim(float _Complex e) { return ((const float *)&e)[1]; }
 
-static inline float fs_sinf(float x)
-{
-    const float _Complex e = fs_cis(x);
-    return ((const float *)&e)[1];
-}
+static inline float fs_cosf(float x) { return fs_cre(fs_cis(x)); }
+static inline float fs_sinf(float x) { return fs_cim(fs_cis(x)); }
 
 /* fs_cis's polynomials' tails (fs_transforms.c says how they were fitted):
  * cos r = 1 - r^2/2 + r^4 qc(r^2), sin r = r + r^3 qs(r^2) */

@@ -139,7 +139,7 @@ static float smo_emf_angle(const fs_smo *o, fs_ab e, float w, float w_c, float *
     const float g = w_c * Ts / (1.0f + w_c * Ts);
     const float c = o->c_bl;
     const float _Complex z = fs_cis_small(w * Ts);   /* a step's turn: small */
-    const float zr = ((const float *)&z)[0], zi = ((const float *)&z)[1];
+    const float zr = fs_cre(z), zi = fs_cim(z);
     /* den = (z - 1 + g)(z - 1 + c) + g c z */
     const float ar = zr - 1.0f + g, br = zr - 1.0f + c;
     const float dr = ar * br - zi * zi + g * c * zr;
@@ -245,7 +245,7 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
          * (the injection's fade-in steps the fundamental current) */
         const float a_eps = 1.0f - o->mo.z_o;
         const float _Complex ee = fs_cis_small(fs_wrap_pi(err - c->Ts * w));   /* small once converged */
-        o->eps += a_eps * (((const float *)&ee)[1] - o->eps);
+        o->eps += a_eps * (fs_cim(ee) - o->eps);
         o->w_emf_lp += a_eps * (o->w_emf - o->w_emf_lp);
         o->e_mag = mag;
         /* the model's net torque T + T_d fades with the EMF as the

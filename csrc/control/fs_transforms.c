@@ -69,7 +69,7 @@ float _Complex fs_cis(float theta)
     const float r = t - k * P2;
     const float r_lo = ((t - r) - k * P2) - k * P34;         /* what r lost */
     const float _Complex e = fs_cis_poly(r, r_lo);
-    const float c = ((const float *)&e)[0], s = ((const float *)&e)[1];
+    const float c = fs_cre(e), s = fs_cim(e);
     switch ((int)k & 3) {
     case 0: return cis(c, s != 0.0f ? s : x);   /* sin(-0) = -0 */
     case 1: return cis(-s, c);
