@@ -412,24 +412,6 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float
     drive_sensor_angle(drv, in, theta, w);
 }
 
-
-/* Dead-time compensation: the average pole-voltage loss is
- * sign(i) t_dead / T_pwm u_dc, added back on the duty. */
-static void dead_time_comp(const fs_drive_config *c, const float i_ph[], float duty[])
-{
-    if (c->t_dead_comp <= 0.0f) return;
-    float dd = c->t_dead_comp / c->T_pwm;
-    for (int k = 0; k < c->phases; ++k) {
-        float s = (c->i_dead_band > 0.0f) ? fs_clampf(i_ph[k] / c->i_dead_band, -1.0f, 1.0f)
-                                          : fs_signf(i_ph[k]);
-        duty[k] = fs_clampf(duty[k] + s * dd, 0.0f, 1.0f);
-    }
-}
-
-
-
-
-
 /* The current reference of the closed-loop modes: polarity pulses, the I/f
  * start, speed control (MTPA and flux weakening) or the reference input. */
 static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, float w_e, bool weakens, float *T_ref)
@@ -556,7 +538,7 @@ static bool drive_modulate(fs_drive *drv, const fs_drive_in *in, float u_dc, fs_
     if (drive_five(c) && c->bw_xy > 0.0f)   /* x-y current control on top of the nearest four vectors */
         fs_xyctrl_duties(fs_xyctrl_step(&drv->xy, in->i_ph, theta, w_e, u_dc), u_dc, duty);
     if (FS_WITH_DTCOMP && c->dt_predict && c->t_dead_comp > 0.0f) fs_dtcomp_step(&drv->dtc, in->i_ph, u_inj, duty);
-    else dead_time_comp(c, in->i_ph, duty);
+    else if (c->t_dead_comp > 0.0f) fs_dtcomp_sampled(c->phases, in->i_ph, c->t_dead_comp / c->T_pwm, c->i_dead_band, duty);
     u_f->alpha -= u_inj.alpha;   /* the fundamental part */
     u_f->beta -= u_inj.beta;
     return over;

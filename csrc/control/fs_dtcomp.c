@@ -44,18 +44,22 @@ static void phase_values(int phases, fs_ab v, float out[])
     }
 }
 
+void fs_dtcomp_sampled(int phases, const float i_ph[], float dd, float i_band, float duty[])
+{
+    for (int k = 0; k < phases; ++k) {
+        const float dk = duty[k];
+        if (!(dk > 0.0f && dk < 1.0f)) continue;
+        const float s = i_band > 0.0f ? fs_clampf(i_ph[k] / i_band, -1.0f, 1.0f) : fs_signf(i_ph[k]);
+        duty[k] = fs_clampf(dk + s * dd, 0.0f, 1.0f);
+    }
+}
+
 void fs_dtcomp_step(fs_dtcomp *d, const float i_ph[], fs_ab u_inj, float duty[])
 {
     const fs_dtcomp_config *c = &d->cfg;
     const bool carrier = u_inj.alpha != 0.0f || u_inj.beta != 0.0f || d->u_inj_now.alpha != 0.0f || d->u_inj_now.beta != 0.0f;
     if (!carrier && !d->double_update) {   /* both edges at the sample's current (header) */
-        const float dd = c->t_dead / c->T_pwm;
-        for (int k = 0; k < c->phases; ++k) {
-            const float dk = duty[k];
-            if (!(dk > 0.0f && dk < 1.0f)) continue;
-            const float s = c->i_band > 0.0f ? fs_clampf(i_ph[k] / c->i_band, -1.0f, 1.0f) : fs_signf(i_ph[k]);
-            duty[k] = fs_clampf(dk + s * dd, 0.0f, 1.0f);
-        }
+        fs_dtcomp_sampled(c->phases, i_ph, c->t_dead / c->T_pwm, c->i_band, duty);
         ++d->k;
         return;
     }

@@ -66,5 +66,11 @@ void fs_dtcomp_reset(fs_dtcomp *d);
  * compensated in place, from the currents i_ph sampled now and the
  * injection voltage u_inj (stationary frame) they carry. */
 void fs_dtcomp_step(fs_dtcomp *d, const float i_ph[], fs_ab u_inj, float duty[]);
+/* The usual compensation, with no instance (the drive's without
+ * dt_predict, and without FS_WITH_DTCOMP): each switching phase's duty
+ * (0 < duty < 1: a phase held at a rail has no edge and no dead time)
+ * moved by dd = t_dead / T_pwm in the sign of its sampled current, ramped
+ * over +-i_band (a sign where i_band is 0). */
+void fs_dtcomp_sampled(int phases, const float i_ph[], float dd, float i_band, float duty[]);
 
 #endif /* FS_DTCOMP_H */
