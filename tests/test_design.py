@@ -209,3 +209,18 @@ def test_a_flux_map_without_d_asymmetry_is_named(asym, warned):
     m = {**DATASHEET, "magnetic": _fluxmap(asym)}
     sc = scenario(m)
     assert any(w.startswith("polarity.enabled:") and "flux map" in w for w in sc.warnings) == warned, sc.warnings
+
+
+def test_no_voltage_for_a_carrier_is_named_with_its_cause():
+    """L in H for mH under a blended drive: the fundamental alone needs more
+    than the link, the designed carrier comes out at nothing, and the
+    refusal names the carrier's amplitude and why (not its frequency, which
+    is what the estimator's own check would blame)."""
+    from fullspeed.errors import ConfigError
+    m = {**DATASHEET, "electrical": {"R_s": 0.05, "L_d": 0.3, "L_q": 0.8, "psi_f": 0.02}}
+    with pytest.raises(ConfigError) as e:
+        scenario(m)
+    msg = str(e.value)
+    assert "injection.u_h" in msg and "no voltage left for a carrier" in msg and "units" in msg, msg
+    assert "f_h" not in msg, msg
+    assert scenario(DATASHEET).data["injection"]["u_h"] > 0.0

@@ -161,10 +161,15 @@ def design_injection(m, b: dict, i_max: float, w_m_upper: float) -> dict[str, Va
     u_want = i_n / i_n_per_v if i_n_per_v > 0 else math.inf
     # the held carrier (zero-order hold: / sinc) beside the fundamental at the band's top, and its current
     sinc = math.sin(math.pi * f_h * Ts) / (math.pi * f_h * Ts)
-    u_room = (U_H_SHARE * u_linear(b["u_dc"], m["phases"]) - fundamental_voltage(m, w_m_upper, i_max)) * sinc
+    u_share, u_f = U_H_SHARE * u_linear(b["u_dc"], m["phases"]), fundamental_voltage(m, w_m_upper, i_max)
+    u_room = (u_share - u_f) * sinc
     u_cur = I_HF_PER_I_MAX * i_max / i_p_per_v
     u_h = min(u_want, u_room, u_cur)
-    if u_h == u_want:
+    if u_room <= 0.0:   # nothing to inject with: the scenario refuses it, naming this
+        why = (f"no voltage left for a carrier: the fundamental needs {u_f:.4g} V at the upper blending speed "
+               f"({rad_s_to_rpm(w_m_upper):.4g} rpm) and i_max, of the {u_share:.4g} V the link leaves it "
+               "(check R_s, L_q and psi_f, and their units)")
+    elif u_h == u_want:
         why = f"its negative-sequence current I_n = {i_n:.3g} A is {what}, eq. (24)"
     else:
         limit = "the voltage left beside the fundamental at the upper blending speed and i_max" if u_h == u_room \

@@ -519,6 +519,8 @@ def _injection_fields(d: dict, m: Machine, source, bw_speed_given: bool = True, 
     band = _band(d, m)
     designed = dz.design_injection(dz.machine_values(m), _bench_of(d, m), ctl["i_max"], rpm_to_rad_s(band["upper_rpm"].value))
     _machine_injection(inj, m, ("u_h", "f_h"), source, designed)
+    if not inj["u_h"] > 0.0:   # designed as nothing (fs_hfi_init would refuse it, blaming the carrier's frequency)
+        raise ConfigError("injection.u_h", inj["u_h"], f"must be > 0 V: {designed['u_h'].reason}", source)
     d.setdefault("_notes", {}).update(inj.pop("_notes", {}))
     Ts = _control_period(d)
     _check_carrier(inj["f_h"], Ts, source)
