@@ -838,7 +838,9 @@ def format_report(rep: dict) -> str:
     if "modes" not in rep:
         return f"PIL FAIL: {rep['reason']}"
     im = rep["image"]
-    lines = [f"PIL: fs_drive_step on QEMU mps2-an386 (Cortex-M4F), arm-none-eabi-gcc {' '.join(fw.CFLAGS[:7])}; "
+    # the flags that shape the code (not the warnings, the debug info or the sections)
+    flags = " ".join(f for f in fw.CFLAGS if not f.startswith("-W") and f not in ("-g", "-ffunction-sections", "-fdata-sections"))
+    lines = [f"PIL: fs_drive_step on QEMU mps2-an386 (Cortex-M4F), arm-none-eabi-gcc {flags}; "
              f"image text {im['text']} B, data {im['data']} B, bss {im['bss']} B",
              f"  instructions per step counted by a TCG plugin (exact; not cycles). Budget at {F_CPU / 1e6:.0f} MHz: "
              + ", ".join(f"{F_CPU / f:.0f} cycles at {f / 1e3:.0f} kHz" for f in F_ISR),
