@@ -13,7 +13,8 @@ import pytest
 import fullspeed.sim as fs
 from fullspeed._core import ffi, lib
 from fullspeed.metrics import window_mask
-from fullspeed.papers.zou2021 import PART1_ONLY, WOUND_BACK, _held, iq_error, limit_rpm, merge, VTR
+from fullspeed.papers.zou2021 import PART1_ONLY, WOUND_BACK, _held, iq_error, limit_rpm, VTR
+from fullspeed.schema import deep_merge
 from fullspeed.scenario import load_scenario
 from fullspeed.units import rad_s_to_rpm
 
@@ -155,4 +156,4 @@ def test_part1_runs_to_the_machines_voltage_and_current_limits():
     assert _held("zou2021-speed-range", PART1_ONLY, 0.98 * n, 10.0)
     assert not _held("zou2021-speed-range", PART1_ONLY, 1.03 * n, 10.0)
     # wound back, the standing error fills the circle early: not held at 0.98 of the limit
-    assert not _held("zou2021-speed-range", merge(PART1_ONLY, WOUND_BACK), 0.98 * n, 10.0)
+    assert not _held("zou2021-speed-range", deep_merge(PART1_ONLY, WOUND_BACK), 0.98 * n, 10.0)

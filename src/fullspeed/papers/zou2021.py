@@ -36,6 +36,7 @@ from .._core import ffi, lib
 from ..journal import run_tasks
 from ..machines import Machine
 from ..metrics import window_mask
+from ..schema import deep_merge
 from ..reproduce import Measurement
 from ..scenario import load_scenario
 from ..sim import Result
@@ -55,11 +56,6 @@ STRATEGIES = {     # Figs. 9 and 15: curves A, B, C
 PART1_ONLY = STRATEGIES["part1"]
 # not one of the paper's curves: i_d = 0 with the inverter stage allowed to over-modulate (OM-I)
 ID0_OM1 = {"controller": {"flux_weakening": False, "depth_control": False}, "converter": {"modulation": "om1"}}
-
-
-def merge(a: dict, b: dict) -> dict:
-    """Two overrides, section by section (b's keys win)."""
-    return {sec: {**a.get(sec, {}), **b.get(sec, {})} for sec in set(a) | set(b)}
 
 
 # PART_1 as the reproduction first read it: eq. (31)'s gain of 1 on the pole-placement regulators,
@@ -174,7 +170,7 @@ def envelopes(name: str, torques: list[float], extra: dict, lo: float, hi: float
     searches run through the sweep engine, in parallel, into out."""
     tasks = []
     for key, ov in strategies.items():
-        merged = merge(extra, ov)
+        merged = deep_merge(extra, ov)
         tasks += [{"scenario": name, "overrides": merged, "T": T, "lo": lo, "hi": hi} for T in torques]
     res = run_tasks(envelope_point, tasks, out, fresh=True)
     rpm = [r["rpm"] if r.get("rpm") is not None else math.nan for r in res]
@@ -389,7 +385,7 @@ def vtr(out: Path) -> Measurement:
 def _envelopes_sim(out: Path) -> tuple[list[float], dict]:
     torques = [2.5, 5.0, 7.5, 10.0, 12.5, 15.0]
     env = envelopes("zou2021-speed-range", torques, {}, 500.0, 3000.0, sweep_dir(out, "Z-SPEEDRANGE"),
-                    {**STRATEGIES, "id0_om1": ID0_OM1, "part1_wound_back": merge(PART1_ONLY, WOUND_BACK)})
+                    {**STRATEGIES, "id0_om1": ID0_OM1, "part1_wound_back": deep_merge(PART1_ONLY, WOUND_BACK)})
     return torques, env
 
 
