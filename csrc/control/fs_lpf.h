@@ -22,5 +22,10 @@ fs_status fs_lpf_init(fs_lpf *f, const fs_lpf_config *cfg);
 void fs_lpf_reset(fs_lpf *f);
 /* One step with cutoff |w_c| (floored at w_c_min); returns the output. */
 fs_ab fs_lpf_step(fs_lpf *f, fs_ab x, float w_c);
+/* The step's gain g = w Ts / (1 + w Ts) at that cutoff, and the step with
+ * it: for a caller that needs the gain as well (the SMO's lag
+ * compensation), formed once. */
+float fs_lpf_gain(const fs_lpf *f, float w_c);
+fs_ab fs_lpf_step_gain(fs_lpf *f, fs_ab x, float g);
 
 #endif /* FS_LPF_H */

@@ -129,14 +129,14 @@ static float sat(float x, float delta)  /* eq. (6) */
 }
 
 /* The tracking form's angle from the filtered EMF, at the sampling instant
- * (fs_smo.h, change 2), for the speed w the filter and the model used; and
- * 1 / |H| there, the period's EMF over the filtered one (change 4). */
-static float smo_emf_angle(const fs_smo *o, fs_ab e, float w, float w_c, float *h_inv)
+ * (fs_smo.h, change 2), for the speed w the model used and the filter's
+ * gain g; and 1 / |H| there, the period's EMF over the filtered one
+ * (change 4). */
+static float smo_emf_angle(const fs_smo *o, fs_ab e, float w, float g, float *h_inv)
 {
     const float Ts = o->cfg.Ts;
     /* the EMF's direction turned by -pi/2 (by +pi/2 running backwards) */
     const float xr = o->dir > 0.0f ? e.beta : -e.beta, xi = o->dir > 0.0f ? -e.alpha : e.alpha;
-    const float g = w_c * Ts / (1.0f + w_c * Ts);
     const float c = o->c_bl;
     const float _Complex z = fs_cis_small(w * Ts);   /* a step's turn: small */
     const float zr = fs_cre(z), zi = fs_cim(z);
@@ -211,8 +211,8 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
      * tracking form's at least FS_SMO_WC_PER_BW times its tracker's
      * bandwidth (fs_smo.h, change 3) */
     const float w_c = track ? fs_maxf(fabsf(w), FS_SMO_WC_PER_BW * o->mo.cfg.bandwidth) : w;
-    const float w_c_used = fs_maxf(fabsf(w_c), c->w_c_min);
-    fs_ab e = fs_lpf_step(&o->lpf, o->z, w_c);
+    const float g_c = fs_lpf_gain(&o->lpf, w_c);   /* the filter's, at its floored cutoff */
+    fs_ab e = fs_lpf_step_gain(&o->lpf, o->z, g_c);
     /* the period's EMF as the model sees it, from the observer's own
      * recursion inside the boundary layer, z_n = z_{n-1} +
      * c (e_n - e_hat_{n-1} - z_{n-1}): its magnitude sets the schedule and
@@ -230,7 +230,7 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
         const float kappa = o->e_valid > 0.0f ? fs_minf(mag / o->e_valid, 1.0f) : 1.0f;
         const float th_prev = o->mo.theta_hat;
         float err = 0.0f, h_inv = 0.0f;
-        if (mag > 1e-6f) err = fs_wrap_pi(smo_emf_angle(o, e, w, w_c_used, &h_inv) - th_prev);
+        if (mag > 1e-6f) err = fs_wrap_pi(smo_emf_angle(o, e, w, g_c, &h_inv) - th_prev);
         /* the torque of the period: mean current in the frame at its middle */
         const float th_mid = th_prev + 0.5f * c->Ts * w;
         const fs_dq i_dq = fs_park(i_m, fs_cosf(th_mid), fs_sinf(th_mid));
