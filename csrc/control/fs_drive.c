@@ -438,10 +438,10 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
          * leaves room for the carrier's peak while injecting */
         const float i_lim = c->i_max - (drv->injecting ? drv->hfi.gain * drv->i_hf : 0.0f);
         if (weakens) i_ref.d += drv->fw.i_d;
-        i_ref.d = fs_clampf(i_ref.d, -i_lim, i_lim);
+        i_ref.d = fs_clamp_sym(i_ref.d, i_lim);
         float iq_max = sqrtf(i_lim * i_lim - i_ref.d * i_ref.d);
         float i_q0 = i_ref.q;
-        i_ref.q = fs_clampf(i_ref.q, -iq_max, iq_max);
+        i_ref.q = fs_clamp_sym(i_ref.q, iq_max);
         /* the circle took torque away: the speed PI's integral must not wind up */
         if (i_ref.q != i_q0) fs_speed_ctrl_realised(&drv->sc, *T_ref, *T_ref * i_ref.q / i_q0);
         if (drive_imc_depth(c)) {

@@ -54,9 +54,9 @@ void fs_drive_polarity_done(fs_drive *drv)
 fs_dq fs_drive_if_step(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab)
 {
     const fs_drive_config *c = &drv->cfg;
-    float w_target = fs_clampf((float)c->pole_pairs * in->w_m_ref, -c->w_handover, c->w_handover);
+    float w_target = fs_clamp_sym((float)c->pole_pairs * in->w_m_ref, c->w_handover);
     float dw = c->a_start * c->Ts;
-    drv->w_if += fs_clampf(w_target - drv->w_if, -dw, dw);
+    drv->w_if += fs_clamp_sym(w_target - drv->w_if, dw);
     drv->theta_if = fs_wrap_pi(drv->theta_if + c->Ts * drv->w_if);
     fs_smo_set_dir(&drv->smo, drv->w_if);
     fs_dq i_ref = {c->i_start, 0.0f};

@@ -49,7 +49,7 @@ void fs_dtcomp_sampled(int phases, const float i_ph[], float dd, float i_band, f
     for (int k = 0; k < phases; ++k) {
         const float dk = duty[k];
         if (!(dk > 0.0f && dk < 1.0f)) continue;
-        const float s = i_band > 0.0f ? fs_clampf(i_ph[k] / i_band, -1.0f, 1.0f) : fs_signf(i_ph[k]);
+        const float s = i_band > 0.0f ? fs_clamp_sym(i_ph[k] / i_band, 1.0f) : fs_signf(i_ph[k]);
         duty[k] = fs_clampf(dk + s * dd, 0.0f, 1.0f);
     }
 }

@@ -212,7 +212,7 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
     if (settling) {
         --h->k_settle;
     } else if (h->i_n_avg > 0.0f) {
-        eps_n = fs_clampf((c * h->i_hn.beta - s * h->i_hn.alpha) / h->i_n_avg, -1.0f, 1.0f);
+        eps_n = fs_clamp_sym((c * h->i_hn.beta - s * h->i_hn.alpha) / h->i_n_avg, 1.0f);
     }
     h->eps = 0.5f * eps_n;   /* sin(2 dtheta) / 2 ~ dtheta */
 

@@ -245,7 +245,7 @@ static fs_ab dc_on_alpha(fs_ident *id, fs_ab i, float i_ref)
      * proportional gain: a machine whose psi_f / L_q is above i_max
      * (zou2021: 52 A on 15) would otherwise trip while it swings */
     const float lim = I_SHORT * id->cfg.i_max;
-    const float ub = -id->pi_d.cfg.k_p * (i.beta - fs_clampf(i.beta, -lim, lim));
+    const float ub = -id->pi_d.cfg.k_p * (i.beta - fs_clamp_sym(i.beta, lim));
     return (fs_ab){ur, fs_clampf(ub, -0.95f * id->u_max, 0.95f * id->u_max)};
 }
 

@@ -133,6 +133,13 @@ static inline float fs_clampf(float x, float lo, float hi)
     return x < lo ? lo : (x > hi ? hi : x);
 }
 
+/* fs_clampf(x, -L, L), the same result for every x and L, with one
+ * comparison where x is inside (the common case of a limit) */
+static inline float fs_clamp_sym(float x, float L)
+{
+    return fabsf(x) <= L ? x : fs_clampf(x, -L, L);
+}
+
 static inline float fs_signf(float x)
 {
     return (x > 0.0f) ? 1.0f : ((x < 0.0f) ? -1.0f : 0.0f);

@@ -97,7 +97,9 @@ fs_status fs_monitor_init(fs_monitor *m, const fs_monitor_config *cfg)
     m->J_p = cfg->J / (float)cfg->pole_pairs;
     m->B_p = cfg->B / (float)cfg->pole_pairs;
     m->u_err = cfg->k_dead + FS_MONITOR_U_FLOOR;
-    m->k_warm = FS_MONITOR_WARM * cfg->tau / cfg->Ts;
+    /* k < n_warm as (float)k < FS_MONITOR_WARM tau / Ts was; at most 2^30 */
+    const float k_warm = FS_MONITOR_WARM * cfg->tau / cfg->Ts;
+    m->n_warm = k_warm < 1073741824.0f ? (int)ceilf(k_warm) : 1073741824;
     m->T_mech = FS_MONITOR_K_MECH * cfg->T_max;
     m->i_cur = FS_MONITOR_K_CUR * cfg->i_max;
     fs_monitor_reset(m);
@@ -159,8 +161,8 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
      * transform turned back by dl = w Ts / 2 (second order in dl) */
     const fs_dq e0 = fs_park(monitor_emf(m, in), in->cos_t, in->sin_t);
     const float dl = 0.5f * in->w * c->Ts, cl = 1.0f - 0.5f * dl * dl;
-    const fs_dq e = {fs_clampf(cl * e0.d - dl * e0.q, -FS_MONITOR_E_LIM, FS_MONITOR_E_LIM),
-                     fs_clampf(cl * e0.q + dl * e0.d, -FS_MONITOR_E_LIM, FS_MONITOR_E_LIM)};
+    const fs_dq e = {fs_clamp_sym(cl * e0.d - dl * e0.q, FS_MONITOR_E_LIM),
+                     fs_clamp_sym(cl * e0.q + dl * e0.d, FS_MONITOR_E_LIM)};
     /* its turn over one period in that frame: cross and dot products with
      * the last period's, low-passed: x_f / p_f = tan(slip Ts) */
     const float a = m->a_s;
@@ -199,7 +201,7 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
     m->i_prev = in->i;
     m->u_q2 = m->u_q1;
     m->u_q1 = in->u_next;
-    m->k++;
+    if (m->k < m->n_warm) m->k++;
 
     const float aw = fabsf(m->w_f);
     const float s = m->w_f < 0.0f ? -1.0f : 1.0f;
@@ -208,7 +210,7 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
     /* d(w_f)/dt: the low-passed speed's own derivative, s / (tau s + 1) w */
     const float T_L = m->T_f - m->J_p * (m->w_f - w_f_prev) / c->Ts - m->B_p * m->w_f;
     m->T_L_hat += b * (T_L - m->T_L_hat);   /* a second pole: the speed's noise differentiated */
-    if ((float)m->k < m->k_warm) return 0.0f;
+    if (m->k < m->n_warm) return 0.0f;
     m->jumped = m->jumped || fabsf(m->jump) > 0.5f * FS_PI;
 
     const float p = s * m->e_q;

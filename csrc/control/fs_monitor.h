@@ -139,12 +139,13 @@ typedef struct {
     float k_L, L_dq, L_max;   /* L_d / Ts, L_d - L_q, max(L_d, L_q) */
     float J_p, B_p;           /* J / p, B / p */
     float u_err;              /* k_dead + FS_MONITOR_U_FLOOR: the voltage error per volt of u_dc */
-    float k_warm;             /* FS_MONITOR_WARM tau / Ts: the steps before a judgement */
+    int n_warm;               /* FS_MONITOR_WARM tau / Ts, rounded up: the steps before a judgement */
     float T_mech, i_cur;      /* FS_MONITOR_K_MECH T_max, FS_MONITOR_K_CUR i_max */
     /* state */
     bool started;             /* the filters hold a value (on since the last reset) */
     bool jumped;              /* latched: |jump| went past pi/2 (4.) */
-    int k;                    /* steps since started */
+    int k;                    /* steps since started, up to n_warm (a count that grew for ever
+                               * would overflow after 2^31 steps: 30 h at 20 kHz) */
     fs_ab i_prev;             /* the last sample's current */
     fs_ab u_q1, u_q2;         /* the voltages computed 1 and 2 steps ago */
     float th_prev, w_prev;    /* the loops' angle and speed at the last sample */

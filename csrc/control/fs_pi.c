@@ -49,7 +49,7 @@ float fs_pi_step(fs_pi *pi, float ref, float meas)
     float u = fs_pi_output(pi, ref, meas);
     float u_real = u;
     if (pi->cfg.u_max > 0.0f) {
-        u_real = fs_clampf(u, -pi->cfg.u_max, pi->cfg.u_max);
+        u_real = fs_clamp_sym(u, pi->cfg.u_max);
     }
     fs_pi_update(pi, ref, meas, u, u_real);
     return u_real;

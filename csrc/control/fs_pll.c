@@ -25,7 +25,7 @@ float fs_pll_step(fs_pll *pll, float err)
 {
     pll->integ += pll->cfg.Ts * pll->k_i * err;
     if (pll->cfg.w_max > 0.0f) {
-        pll->integ = fs_clampf(pll->integ, -pll->cfg.w_max, pll->cfg.w_max);
+        pll->integ = fs_clamp_sym(pll->integ, pll->cfg.w_max);
     }
     /* The angle moves with k_p err + integral; the speed estimate is the
      * integral alone, which the loop filters (no proportional noise). */

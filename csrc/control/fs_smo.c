@@ -125,7 +125,7 @@ void fs_smo_set_dir(fs_smo *o, float w)
 
 static float sat(float x, float delta)  /* eq. (6) */
 {
-    return fs_clampf(x / delta, -1.0f, 1.0f);
+    return fs_clamp_sym(x / delta, 1.0f);
 }
 
 /* The tracking form's angle from the filtered EMF, at the sampling instant
@@ -199,8 +199,8 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
      * w Ts |L_d - L_q| / L_d comes near 1, faster than the bounded
      * switching term pulls it back. */
     const float lim = o->i_hat_max;
-    o->i_hat.alpha = fs_clampf(o->i_hat.alpha + c->Ts * di_a, -lim, lim);
-    o->i_hat.beta = fs_clampf(o->i_hat.beta + c->Ts * di_b, -lim, lim);
+    o->i_hat.alpha = fs_clamp_sym(o->i_hat.alpha + c->Ts * di_a, lim);
+    o->i_hat.beta = fs_clamp_sym(o->i_hat.beta + c->Ts * di_b, lim);
     /* eqs. (5)-(7): switching function on the current error */
     const float e_a = o->i_hat.alpha - i.alpha, e_b = o->i_hat.beta - i.beta;
     const fs_ab z_prev = o->z;

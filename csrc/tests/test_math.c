@@ -2,7 +2,8 @@
  *
  * fs_math.h: fs_wrap_pi on the inputs a control loop really produces
  * (|x| up to 1000 rad, exactly +-pi, multiples of pi), and its modulo-2pi
- * equality for large inputs; fs_clampf, fs_signf.
+ * equality for large inputs; fs_clampf, fs_signf; fs_clamp_sym as
+ * fs_clampf(x, -L, L) bit for bit, the special values included.
  * The output range for large inputs is in test_math_wrap_range.c.
  */
 #include <float.h>
@@ -99,6 +100,21 @@ int main(void)
     FS_CHECK(fs_clampf(2.0f, -1.0f, 1.0f) == 1.0f, "clamp high");
     FS_CHECK(fs_clampf(-2.0f, -1.0f, 1.0f) == -1.0f, "clamp low");
     FS_CHECK(fs_clampf(0.25f, -1.0f, 1.0f) == 0.25f, "clamp inside");
+
+    /* fs_clamp_sym(x, L) is fs_clampf(x, -L, L) for every pair, the ends,
+     * zeros of both signs, infinities, NaN and a negative L included */
+    const float vals[] = {0.0f, -0.0f, 1e-45f, -1e-45f, 0.25f, -0.25f, 1.0f, -1.0f, nextafterf(1.0f, 2.0f),
+                          -nextafterf(1.0f, 2.0f), 2.0f, -2.0f, 1e18f, -1e18f, 3e38f, -3e38f,
+                          INFINITY, -INFINITY, NAN, -NAN};
+    const size_t n_vals = sizeof vals / sizeof vals[0];
+    int differ = 0;
+    for (size_t i = 0; i < n_vals; ++i) {
+        for (size_t j = 0; j < n_vals; ++j) {
+            const float a = fs_clamp_sym(vals[i], vals[j]), b = fs_clampf(vals[i], -vals[j], vals[j]);
+            differ += memcmp(&a, &b, sizeof a) != 0;
+        }
+    }
+    FS_CHECK(differ == 0, "fs_clamp_sym differs from fs_clampf(x, -L, L) on %d of %zu pairs", differ, n_vals * n_vals);
     FS_CHECK(fs_signf(3.0f) == 1.0f && fs_signf(-0.1f) == -1.0f && fs_signf(0.0f) == 0.0f, "sign");
     return fs_test_summary("test_math");
 }

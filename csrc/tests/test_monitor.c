@@ -17,7 +17,7 @@
  * it, an implied load the mechanics' bound does not reach) with the EMF
  * pointing back is flagged; answered the right way, or with the EMF
  * forward, or too slow a change, it is not. The current loops' error,
- * switching off, and the refusals.
+ * switching off, the warm-up and its count held, and the refusals.
  */
 #include <math.h>
 
@@ -236,6 +236,16 @@ int main(void)
     FS_CHECK(fs_monitor_step(&m, &in) == 0.0f && m.ierr_f == 0.0f && !m.started, "off: 0 and the filters rest");
     in.on = true;
     FS_CHECK(fs_monitor_step(&m, &in) == 0.0f, "back on: nothing before the filters warm up");
+    /* the warm-up lasts two filter time constants (FS_MONITOR_WARM tau),
+     * then the error is judged; the step count stops there however long the
+     * drive runs (an int counting every step overflows after 2^31: 30 h at
+     * 20 kHz) */
+    int quiet = 1;
+    while (quiet < 1000 && fs_monitor_step(&m, &in) == 0.0f) ++quiet;
+    FS_CHECK(fabs(quiet - 2.0 * CFG.tau / CFG.Ts) <= 1.0, "judged after %d steps, 2 tau / Ts = %g", quiet,
+             2.0 * CFG.tau / CFG.Ts);
+    for (int k = 0; k < 10 * quiet; ++k) fs_monitor_step(&m, &in);
+    FS_CHECK(m.k == m.n_warm && fs_monitor_step(&m, &in) > 1.1f, "the count held at %d (k %d), still judged", m.n_warm, m.k);
 
     /* refusals */
     fs_monitor_config c = CFG;
