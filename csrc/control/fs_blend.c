@@ -6,7 +6,7 @@ float fs_blend_weight(float w, float w_lower, float w_upper)
     const float aw = fabsf(w);  /* eq. (28) */
     if (aw <= w_lower) return 0.0f;
     if (aw >= w_upper) return 1.0f;
-    return fs_clampf((aw - w_lower) / (w_upper - w_lower), 0.0f, 1.0f);
+    return fs_clamp01((aw - w_lower) / (w_upper - w_lower));
 }
 
 float fs_blend_angle(float theta_smo, float theta_hfi, float g)

@@ -346,7 +346,7 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
      * that the carrier current leaves no offset and the loops see no step
      * when the fundamental's source changes; the HFI runs until it is 0. */
     const float dg = 1.0f / (float)drv->hfi.n_settle;
-    drv->hfi.gain = fs_clampf(drv->hfi.gain + (drv->inject_on ? dg : -dg), 0.0f, 1.0f);
+    drv->hfi.gain = fs_clampf(drv->hfi.gain + (drv->inject_on ? dg : -dg), 0.0f, 1.0f);   /* mostly at an end */
     drv->injecting = drv->inject_on || drv->hfi.gain > 0.0f;
     return i_f;
 }

@@ -30,7 +30,7 @@ void fs_dtcomp_reset(fs_dtcomp *d)
 /* The part of a current's sign that loses (pos) or gains (neg) dead time. */
 static float pos_part(float i, float band)
 {
-    return band > 0.0f ? fs_clampf(i / band, 0.0f, 1.0f) : (i > 0.0f ? 1.0f : 0.0f);
+    return band > 0.0f ? fs_clampf(i / band, 0.0f, 1.0f) : (i > 0.0f ? 1.0f : 0.0f);   /* mostly outside: both ends */
 }
 
 /* Each phase's share of a stationary vector (the amplitude-invariant inverse). */
@@ -50,7 +50,7 @@ void fs_dtcomp_sampled(int phases, const float i_ph[], float dd, float i_band, f
         const float dk = duty[k];
         if (!(dk > 0.0f && dk < 1.0f)) continue;
         const float s = i_band > 0.0f ? fs_clamp_sym(i_ph[k] / i_band, 1.0f) : fs_signf(i_ph[k]);
-        duty[k] = fs_clampf(dk + s * dd, 0.0f, 1.0f);
+        duty[k] = fs_clamp01(dk + s * dd);
     }
 }
 
@@ -84,7 +84,7 @@ void fs_dtcomp_step(fs_dtcomp *d, const float i_ph[], fs_ab u_inj, float duty[])
             const float tau = (half < 0 ? Th : 0.0f) + dk * Th + 0.5f * c->t_dead;
             dd -= pos_part(-(i0 + tau * rate[k]), c->i_band);
         }
-        duty[k] = fs_clampf(dk + dd * c->t_dead / (half < 0 ? c->T_pwm : Th), 0.0f, 1.0f);
+        duty[k] = fs_clamp01(dk + dd * c->t_dead / (half < 0 ? c->T_pwm : Th));
     }
     d->u_inj_now = u_inj;
     ++d->k;

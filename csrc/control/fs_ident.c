@@ -294,7 +294,7 @@ static fs_ab step_align(fs_ident *id, fs_ab i)
     /* first on beta, then turned to alpha over the next ramp time: a rotor
      * that sits where the current points the other way (no torque, an
      * unstable rest) is pulled off it by the first direction */
-    const float th = 0.5f * FS_PI * fs_clampf((float)(3 * n_ramp - id->k) / (float)n_ramp, 0.0f, 1.0f);
+    const float th = 0.5f * FS_PI * fs_clamp01((float)(3 * n_ramp - id->k) / (float)n_ramp);
     fs_ab u = th > 0.0f ? dc_in_frame(id, i, i_ref, th) : dc_on_alpha(id, i, i_ref);
     id->k++;
     if (id->k <= 3 * n_ramp) return u;

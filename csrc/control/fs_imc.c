@@ -88,7 +88,7 @@ void fs_imc_rectifier(const float u_in[3], float alpha, fs_imc_rect *r)
         return;
     }
     /* eqs. (4)-(6): x on its rail, the other on the far phase, then on mid */
-    const float d_far = fs_clampf(-u_in[x == hi ? lo : hi] / ux, 0.0f, 1.0f);
+    const float d_far = fs_clamp01(-u_in[x == hi ? lo : hi] / ux);
     r->iv[0].d = d_far;
     r->iv[1].p = x == hi ? hi : mid;
     r->iv[1].n = x == hi ? mid : lo;

@@ -5,6 +5,7 @@
 
 #include <math.h>
 #include <stdbool.h>
+#include <stdint.h>
 
 #define FS_PI 3.14159265358979323846f
 #define FS_TWO_PI 6.28318530717958647692f
@@ -138,6 +139,15 @@ static inline float fs_clampf(float x, float lo, float hi)
 static inline float fs_clamp_sym(float x, float L)
 {
     return fabsf(x) <= L ? x : fs_clampf(x, -L, L);
+}
+
+/* fs_clampf(x, 0, 1) (a duty, a weight), the same result for every x, with
+ * one integer comparison where x is inside: the binary32 encodings of +0
+ * to 1 are the integers 0 to 0x3f800000 (-0, negatives and NaN lie above) */
+static inline float fs_clamp01(float x)
+{
+    const union { float f; uint32_t u; } b = {x};
+    return b.u <= 0x3f800000u ? x : fs_clampf(x, 0.0f, 1.0f);
 }
 
 static inline float fs_signf(float x)

@@ -37,7 +37,7 @@ bool fs_pwm5(fs_ab u_ref, float u_dc, float duty[5], fs_ab *u_real)
     }
     /* Min-max injection: equal zero-vector time at both ends of the period. */
     float offset = 0.5f - 0.5f * (v_max + v_min);
-    for (int k = 0; k < 5; ++k) duty[k] = fs_clampf(ph[k] + offset, 0.0f, 1.0f);
+    for (int k = 0; k < 5; ++k) duty[k] = fs_clamp01(ph[k] + offset);
     if (u_real) *u_real = fs_pwm5_voltage(duty, u_dc);
     return over;
 }

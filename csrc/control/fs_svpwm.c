@@ -36,7 +36,7 @@ bool fs_svpwm(fs_ab u_ref, float u_dc, float duty[3], fs_ab *u_real)
     }
     float offset = -0.5f * (v_max + v_min) * scale;  /* min-max injection */
     for (int k = 0; k < 3; ++k) {
-        duty[k] = fs_clampf(0.5f + v[k] * scale + offset, 0.0f, 1.0f);
+        duty[k] = fs_clamp01(0.5f + v[k] * scale + offset);
     }
     if (u_real) {
         u_real->alpha = x.alpha * scale * u_dc;

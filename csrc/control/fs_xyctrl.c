@@ -67,5 +67,5 @@ void fs_xyctrl_duties(fs_ab u_xy, float u_dc, float duty[5])
     float u[5];
     fs_vsd5_inverse(&p, u);
     const float k = u_dc > 0.0f ? 1.0f / u_dc : 0.0f;
-    for (int n = 0; n < 5; ++n) duty[n] = fs_clampf(duty[n] + u[n] * k, 0.0f, 1.0f);
+    for (int n = 0; n < 5; ++n) duty[n] = fs_clamp01(duty[n] + u[n] * k);
 }

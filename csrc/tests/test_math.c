@@ -2,8 +2,9 @@
  *
  * fs_math.h: fs_wrap_pi on the inputs a control loop really produces
  * (|x| up to 1000 rad, exactly +-pi, multiples of pi), and its modulo-2pi
- * equality for large inputs; fs_clampf, fs_signf; fs_clamp_sym as
- * fs_clampf(x, -L, L) bit for bit, the special values included.
+ * equality for large inputs; fs_clampf, fs_signf; fs_clamp_sym and
+ * fs_clamp01 as fs_clampf(x, -L, L) and fs_clampf(x, 0, 1) bit for bit,
+ * the special values included.
  * The output range for large inputs is in test_math_wrap_range.c.
  */
 #include <float.h>
@@ -115,6 +116,23 @@ int main(void)
         }
     }
     FS_CHECK(differ == 0, "fs_clamp_sym differs from fs_clampf(x, -L, L) on %d of %zu pairs", differ, n_vals * n_vals);
+    /* fs_clamp01(x) is fs_clampf(x, 0, 1) for those and for every float
+     * around the ends (a stride through all others) */
+    differ = 0;
+    for (uint64_t u = 0; u <= 0xffffffffu; u += (u < 0x1000u || (u > 0x3f7ff000u && u < 0x3f801000u)
+                                                 || (u > 0x7f7ff000u && u < 0x80001000u) ? 1u : 4099u)) {
+        const uint32_t bits = (uint32_t)u;
+        float x, a, b;
+        memcpy(&x, &bits, sizeof x);
+        a = fs_clamp01(x);
+        b = fs_clampf(x, 0.0f, 1.0f);
+        differ += memcmp(&a, &b, sizeof a) != 0;
+    }
+    for (size_t i = 0; i < n_vals; ++i) {
+        const float a = fs_clamp01(vals[i]), b = fs_clampf(vals[i], 0.0f, 1.0f);
+        differ += memcmp(&a, &b, sizeof a) != 0;
+    }
+    FS_CHECK(differ == 0, "fs_clamp01 differs from fs_clampf(x, 0, 1) on %d arguments", differ);
     FS_CHECK(fs_signf(3.0f) == 1.0f && fs_signf(-0.1f) == -1.0f && fs_signf(0.0f) == 0.0f, "sign");
     return fs_test_summary("test_math");
 }
