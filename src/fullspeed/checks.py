@@ -99,10 +99,8 @@ def warnings_of(d: dict, m) -> list[str]:
     # polarity detection
     pol = d.get("polarity", {})
     if ctl["angle"] in ("hfi", "blend") and pol.get("enabled") and ctl["mode"] in ("current", "speed"):
-        asym = d_asymmetry(m, pol.get("i_pulse") or 0.5 * ctl["i_max"])
-        if m.magnetic["model"] == "linear" or (asym is not None and asym < POLARITY_ASYMMETRY):
-            what = "magnetics are linear" if m.magnetic["model"] == "linear" else \
-                f"flux map's incremental L_d differs by only {asym:.1%} between -i_pulse and +i_pulse"
+        what = polarity_blind(m, pol.get("i_pulse") or 0.5 * ctl["i_max"])
+        if what:
             out.append(f"polarity.enabled: polarity detection measures the d axis's saturation asymmetry, and {m.name}'s "
                        f"{what}: the drive will refuse to start sensorless (stop reason polarity_undetermined); "
                        "give [magnetic] its saturation, or start at a known angle (polarity.enabled = false)")
@@ -131,6 +129,17 @@ def warnings_of(d: dict, m) -> list[str]:
 # the incremental L_d asymmetry below which the detection cannot decide: its
 # 5 % floor on the carrier amplitude (fs_polarity.h) needs about that much
 POLARITY_ASYMMETRY = 0.05
+
+
+def polarity_blind(m, i_pulse: float) -> str | None:
+    """Why polarity detection cannot decide on machine m at pulses of i_pulse
+    (what its magnetics lack, as "<m.name>'s ..." completes it), or None."""
+    if m.magnetic["model"] == "linear":
+        return "magnetics are linear"
+    asym = d_asymmetry(m, i_pulse)
+    if asym is not None and asym < POLARITY_ASYMMETRY:
+        return f"flux map's incremental L_d differs by only {asym:.1%} between -i_pulse and +i_pulse"
+    return None
 
 
 def d_asymmetry(m, i_pulse: float) -> float | None:
