@@ -90,6 +90,28 @@ def test_design_command_prints_each_value_and_its_reason(tmp_path):
     assert "polarity.enabled" in p.stderr and "linear" in p.stderr
 
 
+def test_design_command_shows_the_estimators_forms_and_takes_set(tmp_path):
+    """The forms the estimators run with (the defaults a user would not see
+    in the scenario) are printed with their values; --set changes them, and
+    the leak's default follows the tracking it is designed for."""
+    def forms(*sets):
+        args = [a for kv in sets for a in ("--set", kv)]
+        p = subprocess.run([sys.executable, "-m", "fullspeed", "design", "yang2022", *args],
+                           capture_output=True, text=True, timeout=120)
+        assert p.returncode == 0, p.stderr
+        return {ln.split()[0]: ln.split()[1] for ln in p.stdout.splitlines() if ln.startswith("  ") and len(ln.split()) > 1}
+    d = forms()
+    assert (d["observer.form"], d["injection.tracking"], d["injection.leak"], d["blending.gate"],
+            d["controller.dead_time_predict"]) == ("tracking", "lag", "remove", "true", "true")
+    d = forms("injection.tracking=paper", "blending.gate=false")
+    assert (d["injection.tracking"], d["injection.leak"], d["blending.gate"]) == ("paper", "keep", "false")
+    d = forms("controller.angle=smo")
+    assert "observer.form" in d and "injection.leak" not in d and "controller.dead_time_predict" not in d
+    p = subprocess.run([sys.executable, "-m", "fullspeed", "design", "yang2022", "--set", "injection.tracking=fast"],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2 and "injection.tracking" in p.stderr
+
+
 def json_to_toml(d: dict) -> str:
     top = [f"{k} = {json.dumps(v)}" for k, v in d.items() if not isinstance(v, dict)]
     tables = [f"[{k}]\n" + "\n".join(f"{kk} = {json.dumps(vv)}" for kk, vv in v.items()) for k, v in d.items() if isinstance(v, dict)]

@@ -122,18 +122,19 @@ def _cmd_design(args) -> int:
     from .scenario import load_scenario, scenario_from_dict
 
     target = args.target
+    overrides = _set_overrides(args.set)
     if target.endswith(".toml") or target in _machine_names():
-        from .schema import read_toml
+        from .schema import deep_merge, read_toml
         data = read_toml(target, "machine") if target.endswith(".toml") else None
         if data is not None and "machine" in data:   # a scenario file
-            sc = load_scenario(target)
+            sc = load_scenario(target, overrides)
         else:
-            sc = scenario_from_dict({"name": f"design-{Path(target).stem}", "duration": 1.0,
-                                     "machine": str(Path(target).resolve()) if data is not None else target,
-                                     "controller": {"mode": "speed", "angle": "blend", "flux_weakening": True}},
-                                    target)
+            sc = scenario_from_dict(deep_merge({"name": f"design-{Path(target).stem}", "duration": 1.0,
+                                                "machine": str(Path(target).resolve()) if data is not None else target,
+                                                "controller": {"mode": "speed", "angle": "blend", "flux_weakening": True}},
+                                               overrides), target)
     else:
-        sc = load_scenario(target)
+        sc = load_scenario(target, overrides)
     for w in sc.warnings:
         print(f"fullspeed: warning: {w}", file=sys.stderr)
     print(design_report(sc))
@@ -324,6 +325,8 @@ def main(argv: list[str] | None = None) -> int:
     r.set_defaults(func=_cmd_run)
     dz = sub.add_parser("design", help="print every designed setting of a machine or scenario, with its reason")
     dz.add_argument("target", help="a catalog machine, a machine TOML (datasheet fields), or a scenario (name or TOML)")
+    dz.add_argument("--set", action="append", metavar="KEY=VALUE",
+                    help="as run's: a scenario field, repeatable (controller.angle=hfi, injection.tracking=paper)")
     dz.set_defaults(func=_cmd_design)
     ls = sub.add_parser("list", help="list catalog machines and scenarios")
     ls.set_defaults(func=_cmd_list)

@@ -38,6 +38,7 @@ f_s = 1/Ts):
 from __future__ import annotations
 
 import math
+import textwrap
 from dataclasses import dataclass
 
 from .units import rad_s_to_rpm
@@ -200,6 +201,17 @@ def design_observer_pll(m, w_m_lower: float, bw_speed: float, bw_current: float)
 
 
 
+# The settings that choose an estimator's form, per angle source: `fullspeed
+# design` prints them with their values (fullspeed's defaults unless the
+# scenario set them) and what each does, so that a user sees what runs
+ESTIMATOR_FORMS = {
+    "smo": ("observer.form",),
+    "hfi": ("injection.tracking", "injection.leak", "controller.dead_time_predict"),
+    "blend": ("observer.form", "injection.tracking", "injection.leak", "blending.gate", "controller.dead_time_predict"),
+    "swvi": ("injection.sequence",),
+}
+
+
 def design_report(sc) -> str:
     """The designed (and given) settings of a scenario, one a line with its
     reason: what `fullspeed design` prints."""
@@ -211,5 +223,16 @@ def design_report(sc) -> str:
     lines.append(f"scenario {sc.name}:")
     for k, v in sc.design.items():
         lines.append(f"  {k:<22s} {v.value:12.5g} {v.unit:<6s} {'given' if v.given else 'designed'}: {v.reason}")
+    forms = ESTIMATOR_FORMS.get(sc.data["controller"]["angle"], ())
+    if forms:
+        from .scenario import SCENARIO
+        lines.append(f"estimators (controller.angle = {sc.data['controller']['angle']}; each can be set in the scenario):")
+        for key in forms:
+            sec, name = key.split(".")
+            value = sc.data[sec][name]
+            value = str(value).lower() if isinstance(value, bool) else value
+            doc = textwrap.wrap(SCENARIO[sec].table[name].doc, 96)
+            lines.append(f"  {key:<29s} {value:<9s} {doc[0]}")
+            lines.extend(f"  {'':<39s} {d}" for d in doc[1:])
     lines.append("(the PI, PLL and observer gains are designed from these in fs_drive_init; `fullspeed export` writes them)")
     return "\n".join(lines)
