@@ -176,6 +176,21 @@ def test_a_run_that_failed_exits_1_and_says_why(tmp_path):
     assert m["stop_reason"] == "polarity_undetermined" and m["polarity"]["stage"] == "undetermined"
 
 
+def test_a_load_during_polarity_detection_is_warned_of_where_it_makes_the_detection_refuse():
+    """The pulses make no torque: an active load turns the rotor while they
+    run. Warned where its acceleration uses most of the detection's speed
+    tolerance; the simulation refuses there and decides below."""
+    def run(T):
+        ov = {"load": {"kind": "torque", "torque": T}, "duration": 0.3, "metrics": {"steady": [0.2, 0.3]}}
+        warned = any(w.startswith("load.torque") for w in load_scenario("beyond-full-range", ov).warnings)
+        return warned, simulate("beyond-full-range", overrides=ov).stop_reason
+    assert run(2.0) == (True, "polarity_undetermined")
+    assert run(1.0) == (True, "polarity_undetermined")
+    assert run(0.6) == (False, "done")
+    # the catalog scenario takes its load on after the detection
+    assert not [w for w in load_scenario("beyond-full-range").warnings if w.startswith("load.")]
+
+
 def _linear_polarity(tmp_path):
     f = tmp_path / "lin.toml"
     f.write_text('name = "lin"\nduration = 0.4\nmachine = { catalog = "yang2022", magnetic = { model = "linear" } }\n'

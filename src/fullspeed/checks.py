@@ -11,8 +11,9 @@ hardware.
   against the rated torque, copper losses), which are unit mistakes more
   often than machines (H for mH, kg m^2 for g m^2);
 - polarity detection on a machine without the d-axis saturation asymmetry
-  it measures (linear magnetics), or with a rotor so light that its pulses
-  spin it (fs_polarity.h): the drive will refuse to start sensorless.
+  it measures (linear magnetics), with a rotor so light that its pulses
+  spin it, or under a load that turns the rotor while the pulses make no
+  torque (fs_polarity.h): the drive will refuse to start sensorless.
 """
 from __future__ import annotations
 
@@ -26,6 +27,9 @@ TAU_M = (1e-3, 20.0)     # s, J w_rated / T_rated: the time to rated speed at ra
 EMF_PER_LINK = 2.0       # the back-EMF at rated speed may exceed the link (flux weakening), not by 2x
 K_T = (0.5, 3.0)         # 1.5 p psi_f i_rated / T_rated: reluctance torque and saturation move it, not by 2x
 COPPER = 0.5             # copper losses at rated current, of rated power: small low-voltage machines reach 0.4 (yang2022: 0.41 at its 40 A rms)
+# the share of the detection's speed tolerance a load's acceleration may use: the estimate's
+# own lag and noise take the rest (yang2022's machine refused from 0.94 of it, at 1 N m)
+POLARITY_LOAD = 0.8
 SPIN = 4.0               # growth exponent of the pulses' torque on a rotor a pulse pair may reach (e^4 = 55x)
 
 
@@ -97,7 +101,7 @@ def warnings_of(d: dict, m) -> list[str]:
                            f"at {T:.3g} N m with {0.9 * ctl['i_max']:.4g} A of d current: the speed will not be reached")
 
     # polarity detection
-    pol = d.get("polarity", {})
+    pol, inj = d.get("polarity", {}), d.get("injection", {})
     if ctl["angle"] in ("hfi", "blend") and pol.get("enabled") and ctl["mode"] in ("current", "speed"):
         what = polarity_blind(m, pol.get("i_pulse") or 0.5 * ctl["i_max"])
         if what:
@@ -110,9 +114,22 @@ def warnings_of(d: dict, m) -> list[str]:
                 out.append(f"polarity.t_pulse: the rotor is light for its pulses: {pol['i_pulse']:.3g} A a few degrees off the "
                            f"axis spins it up within {SPIN / lam:.3g} s, shorter than a pulse pair ({2 * pol['t_pulse']:.3g} s); "
                            "the detection will likely refuse (stop reason polarity_undetermined)")
+        if not what and d["load"]["kind"] == "torque" and pol.get("t_lock") is not None and pol.get("t_pulse"):
+            # the pulses make no torque: a load acting before the first pair
+            # ends accelerates the rotor, and a pair whose half-pulse mean
+            # speeds differ by more than w_max (a tenth of the positive
+            # carrier's filter band, fs_polarity.h) decides nothing
+            t_pol = pol["t_lock"] + 2 * pol["t_pulse"]
+            T_pol = _largest_on(d["load"]["torque"], t_pol)
+            dw = m.pole_pairs * max(T_pol - m.T_coulomb, 0.0) / m.J * 0.5 * pol["t_pulse"]
+            w_max = 0.1 * _w_b_p(d, m)   # FS_POLARITY_W_MAX_PER_FILTER of the filter's band
+            if w_max > 0 and dw > POLARITY_LOAD * w_max:
+                out.append(f"load.torque: {T_pol:.3g} N m acts during polarity detection (until t = {t_pol:.3g} s at the "
+                           f"earliest), while the drive makes no torque: it changes the rotor's speed by {dw:.3g} el. rad/s "
+                           f"in half a pulse, {dw / w_max:.2g} x the {w_max:.3g} the detection tolerates, so it may refuse "
+                           "(the pulses spun the rotor); let the load act after that, or hold the rotor (kind = \"speed\")")
 
     # the injection's observer against its filter (fs_hfi.h)
-    inj = d.get("injection", {})
     if ctl["angle"] in ("hfi", "blend") and inj.get("tracking") == "paper" and inj.get("leak") == "remove":
         out.append("injection.leak: \"remove\" with tracking = \"paper\": the leak's removal makes the negative carrier's "
                    "filter a double lag, which the paper's observer does not model (its response to the angle peaks at 2.7 "
@@ -129,6 +146,23 @@ def warnings_of(d: dict, m) -> list[str]:
 # the incremental L_d asymmetry below which the detection cannot decide: its
 # 5 % floor on the carrier amplitude (fs_polarity.h) needs about that much
 POLARITY_ASYMMETRY = 0.05
+
+
+def _w_b_p(d: dict, m) -> float:
+    """The positive carrier's filter band, rad/s, as fs_hfi_init designs it."""
+    from .scenario import _control_period, _hfi_design
+    ctl = d["controller"]
+    h = _hfi_design(d["injection"], _control_period(d), m.L_d * ctl["L_d_scale"], m.L_q * ctl["L_q_scale"])
+    return h.cfg.w_b_p
+
+
+def _largest_on(profile, t_end: float) -> float:
+    """The largest magnitude of a piecewise-linear profile (times, values;
+    held beyond its ends) over [0, t_end]."""
+    import numpy as np
+    t, y = profile
+    ts = [0.0, t_end, *(tk for tk in t if 0.0 < tk < t_end)]
+    return max(abs(float(np.interp(tk, t, y))) for tk in ts) if len(t) else 0.0
 
 
 def polarity_blind(m, i_pulse: float) -> str | None:
