@@ -33,6 +33,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from .._core import ffi, lib
+from ..checks import top_speed
 from ..journal import run_tasks
 from ..machines import Machine
 from ..metrics import window_mask
@@ -183,18 +184,13 @@ def limit_rpm(m: Machine, T: float, V: float, I: float | None = None) -> float:
     (plus its friction) in steady state, eq. (22) with R_s, within the phase
     voltage amplitude V: with i_d = 0 (I None) or with the current on the
     circle of radius I; nan if I cannot make T."""
-    p, R, L, psi = m.pole_pairs, m.R_s, m.L_d, m.psi_f
     w_m = 0.0
     for _ in range(30):   # the friction depends on the speed: a fixed point
-        i_q = (T + m.T_coulomb + m.B * w_m) / (1.5 * p * psi)
+        T_m = T + m.T_coulomb + m.B * w_m
+        i_q = T_m / (1.5 * m.pole_pairs * m.psi_f)   # the surface-magnet machine's: no reluctance torque
         if I is not None and i_q >= I:
             return math.nan
-        i_d = 0.0 if I is None else -math.sqrt(I * I - i_q * i_q)
-        # |(R i_d - w L i_q) + j (R i_q + w (psi + L i_d))| = V, a quadratic in w
-        a = (L * i_q) ** 2 + (psi + L * i_d) ** 2
-        b = 2.0 * (R * i_q * (psi + L * i_d) - R * i_d * L * i_q)
-        c = R * R * (i_d * i_d + i_q * i_q) - V * V
-        w_m = (-b + math.sqrt(b * b - 4.0 * a * c)) / (2.0 * a) / p
+        w_m = top_speed(m, V, T_m, 0.0 if I is None else -math.sqrt(I * I - i_q * i_q))
     return rad_s_to_rpm(w_m)
 
 
