@@ -208,6 +208,12 @@ def _publish(stage: Path, d: Path) -> None:
         shutil.rmtree(stage, ignore_errors=True)
 
 
+def _link_image(t: dict, objs: list[Path], elf: Path, what: str) -> None:
+    """An image for QEMU's mps2-an386: our startup, newlib-nano, its libm."""
+    _run([t["gcc"], *fw.CPU_FLAGS, "-O2", "-nostartfiles", "--specs=nano.specs", "--specs=nosys.specs",
+          "-Wl,--gc-sections", f"-T{HERE / 'mps2_an386.ld'}", *map(str, objs), "-lm", "-o", str(elf)], what)
+
+
 def build(t: dict, work: Path, extra_flags: list[str] = ()) -> Builds:
     """Build the target image, the plugin and the recording host simulator into work
     (reused when the sources are unchanged; see COMPLETE)."""
@@ -238,9 +244,7 @@ def build(t: dict, work: Path, extra_flags: list[str] = ()) -> Builds:
             jobs.append(([t["cc"], "-O2", "-shared", "-fPIC", str(HERE / "insn_count.c"), "-o", str(st / "insn_count.so")],
                          "building the QEMU plugin"))
             _parallel(jobs)
-            _run([t["gcc"], *fw.CPU_FLAGS, "-O2", "-nostartfiles", "--specs=nano.specs", "--specs=nosys.specs",
-                  "-Wl,--gc-sections", f"-T{HERE / 'mps2_an386.ld'}", *map(str, objs), "-lm", "-o", str(st / "pil.elf")],
-                 "linking the PIL image")
+            _link_image(t, objs, st / "pil.elf", "linking the PIL image")
             _run([t["cc"], "-shared", *map(str, hobjs), "-lm", "-o", str(st / "host_sim.so")], "linking the host simulator")
             _publish(st, d)
         finally:
@@ -698,9 +702,7 @@ def libm_probe(t: dict, b: Builds, n: int = 20000, seed: int = 1) -> dict:
                 o = Path(st) / (src.stem + ".probe.o")
                 _run([t["gcc"], *fw.CFLAGS, f"-I{CSRC / 'control'}", "-c", str(src), "-o", str(o)], f"compiling {src.name}")
                 objs.append(o)
-            _run([t["gcc"], *fw.CPU_FLAGS, "-O2", "-nostartfiles", "--specs=nano.specs", "--specs=nosys.specs",
-                  "-Wl,--gc-sections", f"-T{HERE / 'mps2_an386.ld'}", *map(str, objs), "-lm", "-o", f"{st}/probe.elf"],
-                 "linking the libm probe")
+            _link_image(t, objs, Path(st) / "probe.elf", "linking the libm probe")
             os.replace(f"{st}/probe.elf", elf)
     with tempfile.TemporaryDirectory(prefix="fs-pil-probe-") as tmp:
         (Path(tmp) / "probe_in.bin").write_bytes(xy.tobytes())
