@@ -26,7 +26,7 @@ exactly (QEMU does not model the Cortex-M4's pipeline: instructions, not
 cycles; the DWT cycle counter is not emulated). The target paints its stack
 and reports the deepest the steps went.
 
-Usage: python bench/pil.py [--modes blend,smo] [--duration S] [--closed-loop]
+Usage: python bench/pil.py [--modes blend,smo] [--duration S] [--loop MODE] [--loop-duration S] [--out DIR]
 Without the toolchain or QEMU it prints one line saying what to install and
 exits 0.
 """

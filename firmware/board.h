@@ -17,6 +17,12 @@
 #include <stdint.h>
 #include "fs_types.h"
 
+/* The carrier the configuration was designed for: centre-aligned, period
+ * T_pwm (s, fs_drive_config.T_pwm), the update event at its peak (and valley
+ * with double sampling); false, and the PWM left off, where the timer cannot
+ * make it. The drive's model of when its voltage acts is this period. */
+bool board_pwm_init(float T_pwm);
+
 /* The raw conversions of one sampling instant. */
 typedef struct {
     uint16_t i_ph[FS_PHASES_MAX];   /* phase-current ADC codes (the first `phases`) */

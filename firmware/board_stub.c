@@ -9,7 +9,16 @@ static volatile uint16_t adc_u_dc;
 static volatile uint32_t enc_cnt;
 static volatile uint32_t pwm_ccr[FS_PHASES_MAX];
 static volatile uint32_t pwm_moe;
-#define PWM_PERIOD 4200u   /* 168 MHz / (2 x 20 kHz), centre-aligned: a 20 kHz carrier */
+static volatile uint32_t pwm_arr;   /* the timer's auto-reload: half the carrier in clock ticks */
+#define TIMER_CLOCK_HZ 168e6f      /* a 168 MHz timer clock, counting up and down */
+
+bool board_pwm_init(float T_pwm)
+{
+    const float arr = 0.5f * T_pwm * TIMER_CLOCK_HZ;   /* centre-aligned: up and down in one carrier period */
+    if (!(arr >= 100.0f && arr <= 65535.0f)) return false;   /* a 16-bit timer, at least 100 ticks of resolution */
+    pwm_arr = (uint32_t)(arr + 0.5f);
+    return true;
+}
 
 void board_read(board_sample *s)
 {
@@ -20,7 +29,8 @@ void board_read(board_sample *s)
 
 void board_set_duty(const float duty[], int phases)
 {
-    for (int k = 0; k < phases; ++k) pwm_ccr[k] = (uint32_t)(duty[k] * (float)PWM_PERIOD + 0.5f);
+    const float arr = (float)pwm_arr;
+    for (int k = 0; k < phases; ++k) pwm_ccr[k] = (uint32_t)(duty[k] * arr + 0.5f);
 }
 
 void board_pwm(bool on) { pwm_moe = on; }

@@ -11,7 +11,10 @@ int app_init(drive_app *app, const fs_drive_config *cfg, const app_config *board
     app->in = (fs_drive_in){0};
     app->w_m_ref = 0.0f;
     app->sensorless = 0;
-    return (int)fs_drive_init(&app->drive, cfg);
+    const int st = (int)fs_drive_init(&app->drive, cfg);
+    if (st != 0) return st;
+    app->dw_ref = board->ramp > 0.0f ? board->ramp * cfg->Ts : INFINITY;
+    return board_pwm_init(cfg->T_pwm) ? 0 : APP_ERR_PWM;
 }
 
 void app_calibrate(drive_app *app, int n)
@@ -27,9 +30,12 @@ void app_calibrate(drive_app *app, int n)
 
 void app_start(drive_app *app)
 {
+    static const float half[FS_PHASES_MAX] = {0.5f, 0.5f, 0.5f, 0.5f, 0.5f};
     fs_drive_reset(&app->drive);   /* the sequence starts over: polarity detection, injection, ... */
-    app->state = APP_RUN;
+    app->in.w_m_ref = 0.0f;        /* the ramp starts from standstill */
+    board_set_duty(half, app->drive.cfg.phases);   /* the zero vector's mean until the first step's duties */
     board_pwm(true);
+    app->state = APP_RUN;          /* last: no step runs before the PWM is on */
 }
 
 void app_stop(drive_app *app)
@@ -59,9 +65,10 @@ void app_pwm_isr(drive_app *app)
     app->in.u_dc = (float)s.u_dc * c->u_gain;
     /* any range will do (fs_drive.h): the drive wraps p theta_m_enc itself */
     app->in.theta_m_enc = (float)s.enc * (6.2831853f / c->enc_counts) - c->enc_offset;
-    app->in.w_m_ref = app->w_m_ref;
     app->in.sensorless = app->sensorless;
     if (app->state != APP_RUN) return;
+    const float dw = app->w_m_ref - app->in.w_m_ref;   /* the reference, ramped (fs_drive.h, "References") */
+    app->in.w_m_ref += dw > app->dw_ref ? app->dw_ref : (dw < -app->dw_ref ? -app->dw_ref : dw);
     if (i_peak > c->i_trip) {
         app_fault(app, APP_FAULT_OVERCURRENT);
         return;
@@ -71,6 +78,10 @@ void app_pwm_isr(drive_app *app)
         return;
     }
     fs_drive_step(&app->drive, &app->in, &app->out);
+    if (app->out.fault != FS_FAULT_NONE) {   /* the drive halted (polarity undetermined): it will not go on */
+        app_fault(app, APP_FAULT_DRIVE);
+        return;
+    }
     if (app->out.lock_lost) {   /* recovery, when configured, has run out of retries */
         app_fault(app, APP_FAULT_LOCK);
         return;

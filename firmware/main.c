@@ -26,15 +26,16 @@ int main(void)
         .enc_offset = 0.0f,
         .i_trip = 75.0f,           /* the yang2022 bench's i_trip, 25 % above i_max */
         .u_dc_min = 18.0f, .u_dc_max = 30.0f,
+        .ramp = 192.0f,            /* rad/s per s: 0 -> 4400 rpm in 2.4 s, the scenario's ramp */
     };
     if (app_init(&app, &fs_config, &board) != 0) {
-        for (;;) {   /* app.drive.fail names the refused field */
+        for (;;) {   /* app.drive.fail names the refused field; APP_ERR_PWM: the timer cannot make T_pwm */
         }
     }
     app_calibrate(&app, 64);
     app.sensorless = 1;
     app_start(&app);
-    app.w_m_ref = 62.8f;
+    app.w_m_ref = 460.8f;          /* 4400 rpm, reached along the ramp */
     for (;;) {   /* stands in for the interrupt controller calling the handler */
         PWM_IRQHandler();
     }

@@ -40,6 +40,12 @@
  *   PWM off); u_dc, V; theta_m_enc, mechanical rad, any range, 0 when the
  *   rotor's d axis (the magnet's north pole) is on phase a's axis (the
  *   encoder's zero offset is the firmware's to subtract; theta_e = p theta_m).
+ *   Low-side shunts see a phase only while its low-side switch is on: a leg
+ *   whose duty is above 1 - t_min / T_pwm (t_min the ADC's sampling window
+ *   and the shunt's settling) leaves no time, and over-modulation and flux
+ *   weakening take duties to 1 (the hexagon's edge). Take that phase as
+ *   minus the sum of the others (no neutral: i_a + i_b + i_c = 0), or use
+ *   in-line sensors. The simulator samples the currents ideally.
  * Duties. out.duty[k] in [0, 1] is the fraction of the carrier period that
  *   leg k's high-side switch is on (its pole's mean voltage is
  *   (duty - 1/2) u_dc about the link's midpoint); write duty x period to the
@@ -54,7 +60,15 @@
  *   on overcurrent (i_trip lives in the simulator, not here), on dc-link
  *   over- or under-voltage, temperature, or a failed sensor, and does not
  *   check its inputs for NaN: the firmware turns the PWM off on those, and on
- *   lock_lost, within the same interrupt.
+ *   lock_lost, within the same interrupt. Nor does it start where its
+ *   polarity detection could not decide: it halts with out.fault =
+ *   FS_FAULT_POLARITY (duties 1/2 from then on), which the firmware also
+ *   answers by turning the PWM off and reporting it.
+ * References. The loops follow in.w_m_ref (speed mode) or i_d_ref, i_q_ref
+ *   (current mode) as given: a speed step asks for T_max at once and the
+ *   estimators see the fastest change the machine can make. A firmware
+ *   ramps the reference as the scenario it was proven on does (the
+ *   catalog's ramp theirs; firmware/drive_app.c ramps at app_config.ramp).
  * Start-up. fs_drive_init (the PWM off), measure the current offsets, enable
  *   the PWM (bootstrap charged) and call fs_drive_step from the next update
  *   interrupt on, with the drive's state as fs_drive_init (or fs_drive_reset)
@@ -66,8 +80,8 @@
  *   fs_drive_reset before stepping again (the sequence starts over).
  * Timing and re-entrancy. fs_drive_step must complete within Ts of its
  *   sampling instant, before the next update event. On a Cortex-M4F at
- *   -O2 a step takes about 1,300-2,950 instructions on average by angle
- *   source, 4,150 at most (the blend); 2,540 on average and 3,560 at most
+ *   -O2 a step takes about 1,280-2,890 instructions on average by angle
+ *   source, 4,080 at most (the blend); 2,477 on average and 3,492 at most
  *   over the blended full-range run in the firmware's build (-flto):
  *   bench/pil.py measures it per mode. It
  *   touches only *drv, *in and *out (no globals, no heap): instances are
@@ -75,10 +89,10 @@
  *   fs_drive_init, fs_drive_reset and fs_drive_step on one instance must not
  *   interrupt each other. It uses the FPU (lazy stacking keeps an interrupt
  *   that does correct).
- * Memory. sizeof(fs_drive) is about 7.0 KB (bench/pil.py reports the
- *   target's; a 64-bit host's is up to 16 B more: its pointers); its stack
- *   is under 800 B (bench/pil.py: 792 B on the static call graph, 336 B the
- *   measured high-water mark).
+ * Memory. sizeof(fs_drive) is about 7.1 KB (bench/pil.py reports the
+ *   target's, 7,096 B; a 64-bit host's is up to 16 B more: its pointers);
+ *   its stack is under 800 B (bench/pil.py: 728 B on the static call graph,
+ *   328 B the measured high-water mark).
  */
 #ifndef FS_DRIVE_H
 #define FS_DRIVE_H
