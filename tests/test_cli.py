@@ -98,3 +98,17 @@ def test_reproduce_lists_every_claim_measured_or_not(tmp_path, monkeypatch):
             assert r["value"] == {"x": 1.0} and r["pass"] is True
     report = (tmp_path / "report.md").read_text()
     assert all(f"## {c.id} (" in report for c in CLAIMS)
+
+
+@pytest.mark.parametrize("cmd", [["run", "yang2022-encoder-speedstep", "--quiet"], ["export", "beyond-full-range"],
+                                 ["sweep", "beyond-zoo", "--quiet"], ["reproduce", "--paper", "yu2022", "--quiet"]])
+def test_an_output_folder_that_cannot_be_one_is_refused_before_the_work(tmp_path, cmd):
+    """--out on a file, or under one: one line naming --out, exit 2, at once
+    (run simulated first and then failed with exit 3 writing its traces)."""
+    f = tmp_path / "a-file"
+    f.write_text("kept")
+    for out, why in ((f, "is a file, not a folder"), (f / "sub", "cannot be written")):
+        p = fullspeed(*cmd, "--out", str(out))
+        assert p.returncode == 2 and "error: --out = '" in p.stderr and why in p.stderr, (cmd, p.returncode, p.stderr[-500:])
+        assert len(p.stderr.strip().splitlines()) == 1 and "simulated" not in p.stdout
+    assert f.read_text() == "kept"

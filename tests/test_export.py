@@ -152,3 +152,19 @@ def test_exported_configs_initialise_and_options_refuse_what_they_leave_out(tmp_
         return {ln.split()[0]: (int(ln.split()[1]), ln.split()[2]) for ln in out.splitlines()}
     assert run([]) == {"cfg_swvi": (lib.FS_OK, "-"), "cfg_blend": (lib.FS_OK, "-")}
     assert run(["-DFS_WITH_SWVI=0"]) == {"cfg_swvi": (lib.FS_ERR_MODE, "angle_source"), "cfg_blend": (lib.FS_OK, "-")}
+
+
+def test_export_takes_set_and_says_where_each_value_came_from(tmp_path):
+    """--set as run's: the value exported and credited to --set; a value from
+    the scenario's machine table credited there; a block the angle source
+    does not read marked so; a choice's 0 is the choice, not "designed"."""
+    from fullspeed.cli import main
+    assert main(["export", "beyond-full-range", "--out", str(tmp_path), "--set", "controller.bw_current=4000",
+                 "--set", "machine={catalog = \"yang2022\", bench = {f_pwm = 20000.0}}"]) == 0
+    text = (tmp_path / "fs_config.c").read_text()
+    line = lambda field: next(ln for ln in text.splitlines() if ln.strip().startswith(f".{field} ="))
+    assert "4000.0f" in line("bw_current") and "--set controller.bw_current" in line("bw_current")
+    assert "4.99999987e-05f" in line("Ts") and "as the scenario's machine table sets it" in line("Ts")
+    assert "not read with controller.angle = blend" in line("sequence")   # the square wave's block
+    assert "designed by fs_drive_init" not in line("cc_internal_model") and "[controller] gains" in line("cc_internal_model")
+    assert not [ln for ln in text.splitlines() if "..." in ln and not ln.rstrip().endswith("*/")]

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from .checks import polarity_blind
 from .errors import ConfigError, EngineError, SimulationError
-from .files import out_path, write_json, write_npz, write_with
+from .files import out_folder, out_path, path_kind, write_json, write_npz, write_with
 
 OUT = Path("out")
 
@@ -91,7 +91,7 @@ def _cmd_run(args) -> int:
     if args.inverter:
         overrides.setdefault("converter", {})["inverter"] = args.inverter
     sc = load_scenario(args.scenario, overrides or None)
-    out = Path(args.out) if args.out else out_path(OUT, sc.name, "name", sc.source)   # before the run, not after
+    out = out_folder(args.out) if args.out else out_path(OUT, sc.name, "name", sc.source)   # before the run, not after
     for w in sc.warnings:
         print(f"fullspeed: warning: {w}", file=sys.stderr)
     res = simulate(sc, progress=not args.quiet)
@@ -184,7 +184,7 @@ def _cmd_sweep(args) -> int:
         sw = _with_overrides(sw, _set_overrides(args.set))
     if args.workers is not None and args.workers < 1:
         raise ConfigError("--workers", args.workers, "must be at least 1")
-    out = Path(args.out) if args.out else out_path(OUT / "sweeps", sw.name, "name", args.file)
+    out = out_folder(args.out) if args.out else out_path(OUT / "sweeps", sw.name, "name", args.file)
     n = len(sw.points())
     where = f"on Dask at {args.dask}" if args.dask else f"in {args.workers or default_workers()} worker process(es)"
     print(f"sweep {sw.name}: {n} points {where} -> {out}", file=sys.stderr)
@@ -232,7 +232,7 @@ def _with_overrides(sw, extra: dict):
 def _cmd_reproduce(args) -> int:
     from .reproduce import reproduce
 
-    out = Path(args.out)
+    out = out_folder(args.out)
     rows = reproduce(args.paper, out, progress=not args.quiet)
     n_pass = sum(r["pass"] for r in rows)
     n_meas = sum(r["value"] is not None for r in rows)
@@ -248,6 +248,9 @@ def _cmd_calibrate(args) -> int:
 
     if args.out:
         target = Path(args.out)
+        if path_kind(target) == "dir":
+            raise ConfigError("--out", str(target), "is a folder; give the table's file name (a .toml)")
+        out_folder(target.parent)
     else:   # the machine's name makes the file's: checked before the calibration runs
         sc = load_scenario(args.scenario)
         target = out_path(OUT, sc.machine.name, "machine.name", sc.source, suffix="-xsat.toml")
@@ -269,8 +272,9 @@ def _cmd_identify(args) -> int:
     from .scenario import load_scenario
 
     sc = load_scenario(args.scenario)
+    out = out_folder(args.out) if args.out else Path("out") / f"identify-{sc.machine.name}"
     res = identify(sc, speed_frac=args.speed_frac, t_ramp=args.t_ramp)
-    paths = write_identification(res, sc, Path(args.out or Path("out") / f"identify-{sc.machine.name}"))
+    paths = write_identification(res, sc, out)
     print_identification(res)
     print("wrote " + ", ".join(str(p) for p in paths))
     for line in res.failures():
@@ -281,7 +285,7 @@ def _cmd_identify(args) -> int:
 def _cmd_export(args) -> int:
     from .export import export
 
-    paths = export(args.scenario, args.out, args.name)
+    paths = export(args.scenario, args.out, args.name, _set_overrides(args.set))
     print(f"wrote {' and '.join(str(p) for p in paths)}: the fs_drive_config of {args.scenario} "
           f"(compile the .c with csrc/control; fs_drive_init(&drive, &{args.name}))")
     return 0
@@ -364,6 +368,8 @@ def main(argv: list[str] | None = None) -> int:
     ex.add_argument("scenario", help="catalog name or TOML file")
     ex.add_argument("--out", required=True, help="output folder: <name>.h and <name>.c are written there")
     ex.add_argument("--name", default="fs_config", help="the C constant and the files' name (default fs_config)")
+    ex.add_argument("--set", action="append", metavar="KEY=VALUE",
+                    help="as run's: a scenario field, repeatable (controller.bw_current=4000)")
     ex.set_defaults(func=_cmd_export)
     sch = sub.add_parser("schema", help="the scenario and machine fields: unit, default, range, meaning (docs/reference.md)")
     sch.add_argument("section", nargs="?", help="e.g. controller, injection, machine, machine.bench (default: all)")

@@ -31,7 +31,7 @@ from pathlib import Path
 
 from ._core import ffi
 from .errors import ConfigError
-from .files import write_atomic
+from .files import out_folder, write_atomic
 from .scenario import Scenario, load_scenario
 from .schema import parse_toml, read_toml
 
@@ -70,11 +70,17 @@ KEYS = {
     "swvi.u_h": "injection.u_h", "swvi.bandwidth": "injection.bw_pll", "swvi.sequence": "injection.sequence",
     "swvi.carrier_off": "injection.carrier", "swvi.xcomp": "injection.xcomp",
     "k_p_d": "controller.gains", "k_i_d": "controller.gains", "k_p_q": "controller.gains", "k_i_q": "controller.gains",
-    "k_p_w": "controller.gains", "k_i_w": "controller.gains",
+    "k_p_w": "controller.gains", "k_i_w": "controller.gains", "smo.form": "observer.form", "blend.gate": "blending.gate",
     "converter": "converter.kind", "imc_region": "converter.modulation", "imc_w_grid": "converter.f_grid",
     "imc_depth": "controller.depth_control", "imc_i_lim": "controller.i_lim", "imc_V_im": "converter.grid_ll_rms",
 }
 SET_BY_C = "0: taken from the drive's fields or designed by fs_drive_init, or off"
+# Fields whose 0 is a choice like any other (a form, a switch), not "designed"
+CHOICES = {"fw_hold", "cc_internal_model", "lock_recover", "dt_predict", "hfi.leak", "hfi.lag", "smo.form",
+           "blend.gate", "swvi.carrier_off", "imc_depth", "delay"}
+# The blocks only some angle sources or converters read: the others carry their defaults unread
+USED_BY = {"smo.": ("smo", "blend"), "hfi.": ("hfi", "blend"), "blend.": ("blend",), "polarity.": ("hfi", "blend"),
+           "swvi.": ("swvi",)}
 
 
 # -- the header comments: what each field is, with its unit -------------------
@@ -83,10 +89,10 @@ _STRUCT = re.compile(r"typedef\s+struct\s*\{(.*?)\}\s*(\w+)\s*;", re.S)
 _TOKEN = re.compile(r"/\*(.*?)\*/|([^;/]+;)", re.S)
 
 
-def _one_line(text: str, limit: int = 110) -> str:
+def _one_line(text: str, limit: int = 160) -> str:
     text = re.sub(r"\n\s*\*(?!/)", " ", text)   # the " * " that continues a block comment
     text = " ".join(text.replace("*/", "").split())
-    return text if len(text) <= limit else text[: limit - 3].rstrip() + "..."
+    return text if len(text) <= limit else text[: text.rfind(" ", 0, limit - 3)].rstrip(",;:") + " ..."   # at a word
 
 
 @lru_cache(maxsize=1)
@@ -133,8 +139,11 @@ def _raw_data(sc: Scenario) -> dict:
     return {}
 
 
-def _origin(path: str, value, sc: Scenario, raw: dict) -> str:
+def _origin(path: str, value, sc: Scenario, raw: dict, overrides: dict | None = None) -> str:
     m, d = sc.machine, sc.data
+    unused = next((users for p, users in USED_BY.items() if path.startswith(p)), None)
+    if unused is not None and d["controller"]["angle"] not in unused:
+        return f"not read with controller.angle = {d['controller']['angle']}"
     if path == "config_size":
         return "sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's"
     if path in MACHINE:
@@ -148,12 +157,17 @@ def _origin(path: str, value, sc: Scenario, raw: dict) -> str:
     key = KEYS.get(path) or next((k for p, k in KEYS.items() if path.startswith(p + ".")), None)
     if key is None:
         return "set by fullspeed.sim.build_config" if value else SET_BY_C
-    if value == 0 and not isinstance(value, bool) and path not in ENUMS and path != "delay":
+    if value == 0 and not isinstance(value, bool) and path not in ENUMS and path not in CHOICES:
         return f"{SET_BY_C} ({key})"
     sec, name = key.split(".")
+    if name in (overrides or {}).get(sec, {}):
+        return f"--set {sec}.{name}"
     if name in raw.get(sec, {}):
         return f"scenario {sc.name}: [{sec}] {name}"
     if name in m.bench and d[sec].get(name) == m.bench[name]:
+        given = raw.get("machine") if isinstance(raw.get("machine"), dict) else {}
+        if name in given.get("bench", {}) or name in ((overrides or {}).get("machine") or {}).get("bench", {}):
+            return f"machine {m.name}: bench.{name}, as the scenario's machine table sets it"
         return f"machine {m.name}: bench.{name} (scenario default)"
     return f"default of [{sec}] {name} (fullspeed.scenario)"
 
@@ -248,8 +262,9 @@ def drive_config(sc: Scenario):
     return ffi.addressof(cfg, "drive"), (cfg, keep)
 
 
-def render(sc: Scenario, name: str) -> tuple[str, str]:
-    """(header text, source text) of the export of sc as the constant `name`."""
+def render(sc: Scenario, name: str, overrides: dict | None = None) -> tuple[str, str]:
+    """(header text, source text) of the export of sc as the constant `name`
+    (the overrides it was loaded with, to say which values --set gave)."""
     dc, _keep = drive_config(sc)
     comments, raw = field_comments(), _raw_data(sc)
 
@@ -257,7 +272,7 @@ def render(sc: Scenario, name: str) -> tuple[str, str]:
         what = comments.get((struct, field), "")
         if path is None:   # a sub-block: its fields say where they came from
             return what or field
-        origin = _origin(path, value, sc, raw)
+        origin = _origin(path, value, sc, raw, overrides)
         return f"{what}; {origin}" if what else origin
 
     guard = f"{name.upper()}_H"
@@ -283,14 +298,14 @@ def _write(path: Path, text: str) -> None:
     write_atomic(path, text)   # a temporary file, fsynced and renamed (fullspeed.files)
 
 
-def export(scenario, out: str | Path, name: str = "fs_config") -> list[Path]:
-    """Write out/<name>.h and out/<name>.c for a scenario (name, path or Scenario)."""
+def export(scenario, out: str | Path, name: str = "fs_config", overrides: dict | None = None) -> list[Path]:
+    """Write out/<name>.h and out/<name>.c for a scenario (name, path or
+    Scenario; a name or path with the overrides, as `--set` gives them)."""
     if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]{0,62}", name or ""):
         raise ConfigError("--name", name, "must be a C identifier (letters, digits, _; not starting with a digit)", None)
-    sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
-    header, source = render(sc, name)
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario, overrides or None)
+    header, source = render(sc, name, overrides)
+    out = out_folder(out)
     paths = [out / f"{name}.h", out / f"{name}.c"]
     for p, text in zip(paths, (header, source)):
         _write(p, text)

@@ -12,6 +12,8 @@ their folder.
 - out_path: a name taken from the input (a scenario's, a sweep's, a
   machine's) as one path component inside the output folder, or a
   ConfigError naming the field.
+- out_folder: an output folder given by the user, checked before the work
+  (not a file, creatable, writable), or a ConfigError naming the option.
 """
 from __future__ import annotations
 
@@ -124,6 +126,24 @@ def file_name(name: str) -> str:
 def out_path(root: str | Path, name, field: str, source: str | None = None, suffix: str = "") -> Path:
     """root / (name + suffix) with name checked by safe_name: inside root."""
     return Path(root) / (safe_name(name, field, source) + suffix)
+
+
+def out_folder(path: str | Path, field: str = "--out") -> Path:
+    """An output folder made ready before the work: created if missing, and
+    a file can be made in it; else a ConfigError naming the field and why
+    (a file in the way, no permission, a read-only file system)."""
+    path = Path(path)
+    kind = path_kind(path)
+    if kind is not None and kind != "dir":
+        raise ConfigError(field, str(path), "is a file, not a folder; give a folder (created if missing)")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(dir=path, prefix=".fullspeed-probe-")
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        raise ConfigError(field, str(path), f"cannot be written: {e.strerror or e}") from None
+    return path
 
 
 def _fsync_dir(folder: Path) -> None:
