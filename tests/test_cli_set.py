@@ -1,10 +1,13 @@
 """--set key=value on run and sweep: dotted scenario keys, TOML values."""
 import json
+from pathlib import Path
 
 import pytest
 
 from fullspeed.cli import _set_overrides, main
 from fullspeed.errors import ConfigError
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_set_parses_dotted_keys_and_toml_values():
@@ -37,3 +40,21 @@ def test_sweep_with_set_adds_to_its_overrides(tmp_path, capsys):
     assert main(["sweep", str(f), "--quiet", "--workers", "1", "--out", str(tmp_path / "p"),
                  "--set", "controller.bw_speed=-1"]) == 2
     assert "controller.bw_speed" in capsys.readouterr().err
+
+
+def test_set_on_a_named_machines_field_merges_into_that_machine():
+    """--set machine.bench.f_pwm on a scenario whose machine is a catalog
+    name or a machine file: that machine with the one field changed (it
+    replaced the name with a one-field table, which then missed every
+    required field)."""
+    from fullspeed.scenario import load_scenario
+    ov = _set_overrides(["machine.bench.f_pwm=20000"])
+    sc = load_scenario("beyond-full-range", ov)
+    base = load_scenario("beyond-full-range")
+    assert sc.machine.name == "yang2022" and sc.machine.bench["f_pwm"] == 20000.0
+    assert sc.data["converter"]["f_pwm"] == 20000.0 and sc.machine.L_d == base.machine.L_d
+    assert {k: v for k, v in sc.machine.bench.items() if k != "f_pwm"} == \
+        {k: v for k, v in base.machine.bench.items() if k != "f_pwm"}
+    own = ROOT / "examples" / "own-machine" / "my48v-full-range.toml"
+    sc = load_scenario(str(own), ov)   # its flux map beside the machine file, found from the merged table too
+    assert sc.machine.name == "my48v" and sc.machine.bench["f_pwm"] == 20000.0 and sc.machine.magnetic["model"] == "fluxmap"

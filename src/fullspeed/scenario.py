@@ -761,5 +761,28 @@ def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Sc
         source = f"scenarios/{name_or_path}.toml"
         data = parse_toml((resources.files("fullspeed") / "scenarios" / f"{name_or_path}.toml").read_text(), "toml", source)
     if overrides:
+        base = data.get("machine")
+        if isinstance(base, str) and isinstance(overrides.get("machine"), dict) \
+                and not {"catalog", "zoo"} & set(overrides["machine"]):
+            # a field of a named machine (--set machine.bench.f_pwm=20000): merged into that
+            # machine, not replacing the name with a table of the one field
+            data = {**data, "machine": _machine_table(base, source)}
         data = deep_merge(data, overrides)
     return scenario_from_dict(data, source)
+
+
+def _machine_table(raw: str, source) -> dict:
+    """A scenario's machine given by name (a catalog machine, or a machine
+    file beside the scenario) as the table that names it, for merging fields
+    into: {"catalog": name}, or the file's fields."""
+    if not raw.endswith(".toml"):
+        return {"catalog": raw}
+    p = Path(raw)
+    if not p.is_absolute() and source and path_kind(Path(source).parent / p) == "file":
+        p = Path(source).parent / p
+    table = read_toml(p, "machine")
+    mag = table.get("magnetic")
+    if isinstance(mag, dict) and isinstance(mag.get("file"), str) and not Path(mag["file"]).is_absolute():
+        # the flux map lies beside the machine file, which the merged table no longer is
+        table["magnetic"] = {**mag, "file": str(p.parent / mag["file"])}
+    return table
