@@ -30,7 +30,7 @@ enforced; with --os the same image is linked at -Os as well, for the
 flash a size-optimised build needs. Without the toolchain the check is
 skipped (exit 0) with one line saying how to install it.
 
-Usage: python bench/firmware.py [--csrc DIR] [--workdir DIR] [--os]
+Usage: python bench/firmware.py [--csrc DIR] [--workdir DIR] [--os] [--firmware DIR]
 """
 from __future__ import annotations
 
@@ -284,8 +284,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--csrc", type=Path, default=CSRC, help="directory holding control/ (default: the repo's)")
     ap.add_argument("--workdir", type=Path, default=None, help="keep the objects, image and map here")
     ap.add_argument("--os", action="store_true", help="link the image at -Os as well")
+    ap.add_argument("--firmware", type=Path, default=FIRMWARE,
+                    help="the firmware's sources (default: the repo's firmware/): e.g. a copy of it with your "
+                         "`fullspeed export ... --out DIR --name fs_config` in place of fs_config.[ch]")
     a = ap.parse_args(argv)
-    rep = firmware_report(a.csrc, a.workdir, os_size=a.os)
+    if not (a.firmware / "fs_config.c").is_file():
+        print(f"--firmware = {a.firmware}: holds no fs_config.c (fullspeed export SCENARIO --out {a.firmware} "
+              "--name fs_config writes it)", file=sys.stderr)
+        return 2
+    rep = firmware_report(a.csrc, a.workdir, firmware=a.firmware, os_size=a.os)
     print(format_report(rep))
     return 1 if rep["status"] == "fail" else 0
 

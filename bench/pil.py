@@ -26,7 +26,7 @@ exactly (QEMU does not model the Cortex-M4's pipeline: instructions, not
 cycles; the DWT cycle counter is not emulated). The target paints its stack
 and reports the deepest the steps went.
 
-Usage: python bench/pil.py [--modes blend,smo] [--duration S] [--loop MODE] [--loop-duration S] [--out DIR]
+Usage: python bench/pil.py [--modes blend,smo] [--duration S] [--loop MODE] [--loop-duration S] [--scenario NAME_OR_TOML] [--out DIR]
 Without the toolchain or QEMU it prints one line saying what to install and
 exits 0.
 """
@@ -612,13 +612,15 @@ def _host_metrics(sc, trace: np.ndarray, status: str, wall: float) -> dict:
     return compute_metrics(res)
 
 
-def closed_loop(t: dict, b: Builds, mode: str, duration: float | None = None, timeout: float = 600.0) -> dict:
+def closed_loop(t: dict, b: Builds, mode: str, duration: float | None = None, timeout: float = 600.0,
+                scenario: str | None = None) -> dict:
     """The plant on the host, fs_drive_step on the emulated target, one sample per
-    exchange over two FIFOs; the same run with the host's drive step beside it."""
+    exchange over two FIFOs; the same run with the host's drive step beside it.
+    On the mode's catalog scenario, or on `scenario` (a name or a TOML file)."""
     from fullspeed.scenario import load_scenario
     from fullspeed.sim import build_config
     ffi, _ = _core()
-    scenario = MODES[mode][0]
+    scenario = scenario or MODES[mode][0]
     sc = load_scenario(scenario, overrides={"trace": {"decimation": 1}})
     dur = min(duration, sc.duration) if duration else sc.duration   # the whole scenario by default
     cfg, _keep = build_config(sc)
@@ -785,9 +787,23 @@ def loop_verdict(r: dict) -> dict:
     return {"within": all(checks.values()), "checks": checks}
 
 
+def firmware_leaves_out(scenario: str) -> str | None:
+    """What of a scenario the firmware's build (bench/firmware.py's OPTIONS)
+    leaves out, or None: its drive would be refused there at init."""
+    from fullspeed.scenario import load_scenario
+    sc = load_scenario(scenario)
+    d = sc.data
+    out = [what for what, used in (("the matrix converter", d["converter"]["kind"] == "imc"),
+                                   ("five phases", sc.machine.phases == 5),
+                                   ("square-wave injection", d["controller"]["angle"] == "swvi")) if used]
+    return ", ".join(out) or None
+
+
 def pil_report(modes: list[str] | None = None, duration: float | None = None, loop: str | None = "blend",
-               loop_duration: float | None = None, work: Path | None = None) -> dict:
-    """Replay every mode, close the loop for one, probe libm; {"status": ok | fail | skipped, ...}."""
+               loop_duration: float | None = None, work: Path | None = None, scenario: str | None = None) -> dict:
+    """Replay every mode, close the loop for one (on its catalog scenario, or on
+    `scenario`: a user's, which is then also run on the firmware's build when
+    that build keeps what it uses), probe libm; {"status": ok | fail | skipped, ...}."""
     base = {"tolerance": TOLERANCE, "loop_tolerance": LOOP_TOLERANCE, "f_cpu": F_CPU}
     t = tools()
     if t is None:
@@ -799,10 +815,20 @@ def pil_report(modes: list[str] | None = None, duration: float | None = None, lo
                "static_stack_fs_drive_step": static_stack(t, b), "modes": {}}
         for m in modes or list(MODES):
             rep["modes"][m] = run_mode(t, b, m, duration, profile=m == "encoder")
-        if loop:
-            rep["closed_loop"] = closed_loop(t, b, loop, loop_duration)
+        if loop or scenario:
+            rep["closed_loop"] = closed_loop(t, b, loop, loop_duration, scenario=scenario)
             rep["closed_loop"]["verdict"] = loop_verdict(rep["closed_loop"])
-        if loop == "blend":
+        if scenario:
+            left_out = firmware_leaves_out(scenario)
+            if left_out:
+                rep["firmware_build"] = {"skipped": f"the firmware's build leaves out {left_out}, which {scenario} uses"}
+            else:
+                bf = build(t, work, extra_flags=[*fw.LTO, *fw.OPTIONS])
+                lf = closed_loop(t, bf, loop, loop_duration, scenario=scenario)
+                rep["firmware_build"] = {"flags": [*fw.LTO, *fw.OPTIONS], "image": fw.sizes(t, [bf.target])[bf.target.name],
+                                         "insns": lf["insns"], "cost_groups": lf["cost_groups"], "profile": lf["profile"],
+                                         "verdict": loop_verdict(lf)}
+        elif loop == "blend":
             # the cost as the firmware builds it (bench/firmware.py: its options and link-time
             # optimisation, which inlines across files; the painted stack means nothing there)
             bf = build(t, work, extra_flags=[*fw.LTO, *fw.OPTIONS])
@@ -815,15 +841,17 @@ def pil_report(modes: list[str] | None = None, duration: float | None = None, lo
     except (PilError, subprocess.TimeoutExpired, OSError) as e:
         return {**base, "status": "fail", "reason": str(e).splitlines()[0]}
     bad = [m for m, r in rep["modes"].items() if not r["compare"]["within"]]
-    if loop and not rep["closed_loop"]["verdict"]["within"]:
-        bad.append(f"closed loop ({loop})")
+    if "closed_loop" in rep and not rep["closed_loop"]["verdict"]["within"]:
+        bad.append(f"closed loop ({scenario or loop})")
     # the blend's cost from the loop closed through the emulator (every stage, on a true trajectory),
     # judged on the firmware's build where it ran (what ships), else on the PIL image's
-    src, what = ((rep["firmware_build"], "firmware build, closed loop") if "firmware_build" in rep else
+    # (claim B-PIL's goal is on the catalog's blended run: not judged on a user's scenario)
+    src, what = ((None, None) if scenario else
+                 (rep["firmware_build"], "firmware build, closed loop") if "firmware_build" in rep else
                  (rep.get("closed_loop"), "closed loop") if loop == "blend" else (rep["modes"].get("blend"), "replay"))
     if src:
         rep["goal"] = blend_goal(src["insns"], what)
-    if "firmware_build" in rep and not rep["firmware_build"]["verdict"]["within"]:
+    if "verdict" in rep.get("firmware_build", {}) and not rep["firmware_build"]["verdict"]["within"]:
         bad.append("closed loop (firmware build)")
     if bad:
         rep["status"], rep["reason"] = "fail", "outside the stated tolerance: " + ", ".join(bad)
@@ -858,8 +886,9 @@ def format_report(rep: dict) -> str:
     if "goal" in rep:
         per = ", ".join(f"{STAGES.get(k, k)} {v['mean']:.0f}/{v['max']}" for k, v in sorted(rep["goal"]["per_stage"].items()))
         lines.append(f"  blend per stage (mean/max instructions, {rep['goal']['from']}): {per}")
-    for m, r in [*rep["modes"].items(), ("blend (closed loop)", rep.get("closed_loop") or {}),
-                 ("blend (firmware build " + " ".join(rep.get("firmware_build", {}).get("flags", [])) + ")",
+    looped = (rep.get("closed_loop") or {}).get("scenario", "blend")
+    for m, r in [*rep["modes"].items(), (f"{looped} (closed loop)", rep.get("closed_loop") or {}),
+                 (f"{looped} (firmware build " + " ".join(rep.get("firmware_build", {}).get("flags", [])) + ")",
                   rep.get("firmware_build") or {})]:
         if "cost_groups" in r:
             top = ", ".join(f"{k} {v:.0f}" for k, v in list(r["profile"].items())[:8])
@@ -881,6 +910,15 @@ def format_report(rep: dict) -> str:
                      f"mean {g['mean']:.0f}: {'met' if g['met'] else 'NOT met'}; the largest step {g['max']} is "
                      f"{100 * g['max_of_budget_20k']:.0f} % of the {F_CPU / F_ISR[1]:.0f} cycles at {F_ISR[1] / 1e3:.0f} kHz "
                      f"(it fits at up to {g['cpi_left_20k']:.1f} cycles per instruction)")
+    fb = rep.get("firmware_build") or {}
+    if "goal" not in rep and ("insns" in fb or "skipped" in fb):   # a user's scenario: its cost, no claim to judge
+        if "skipped" in fb:
+            lines.append(f"firmware build: not run ({fb['skipped']})")
+        else:
+            i = fb["insns"]
+            lines.append(f"cost on the firmware's build, closed loop on {looped}: mean {i['mean']:.0f}, largest {i['max']} "
+                         f"instructions per step: {100 * i['max'] / (F_CPU / F_ISR[1]):.0f} % of the "
+                         f"{F_CPU / F_ISR[1]:.0f} cycles at {F_ISR[1] / 1e3:.0f} kHz at one cycle per instruction")
     if "closed_loop" in rep:
         r = rep["closed_loop"]
         lines.append(f"closed loop through the emulator: {r['scenario']} {r['duration_s']:g} s, {r['steps_target']} exchanges "
@@ -907,6 +945,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--duration", type=float, help="cap each replay at this many seconds")
     ap.add_argument("--loop", default="blend", help="the mode whose loop is closed through the emulator ('' for none)")
     ap.add_argument("--loop-duration", type=float, help="s (default: the whole scenario)")
+    ap.add_argument("--scenario", help="close the loop on this scenario (a catalog name or your TOML) instead of "
+                                       "the --loop mode's; its cost is also measured on the firmware's build")
     ap.add_argument("--out", type=Path, help="write pil.json here")
     a = ap.parse_args(argv)
     modes = [m for m in a.modes.split(",") if m]
@@ -914,11 +954,19 @@ def main(argv: list[str] | None = None) -> int:
     if bad:
         print(f"--modes/--loop = {','.join(bad)}: must be among {', '.join(MODES)}", file=sys.stderr)
         return 2
-    rep = pil_report(modes, a.duration, a.loop or None, a.loop_duration)
+    if a.scenario:
+        from fullspeed.errors import ConfigError
+        from fullspeed.scenario import load_scenario
+        try:
+            load_scenario(a.scenario)   # refused here, in one line, before anything is built
+        except ConfigError as e:
+            print(f"--scenario: {e}", file=sys.stderr)
+            return 2
+    rep = pil_report(modes, a.duration, a.loop or None, a.loop_duration, scenario=a.scenario)
     print(format_report(rep))
     if a.out:
-        a.out.mkdir(parents=True, exist_ok=True)
-        (a.out / "pil.json").write_text(json.dumps(rep, indent=2, default=str))
+        from fullspeed.files import write_atomic
+        write_atomic(a.out / "pil.json", json.dumps(rep, indent=2, default=str))   # a temporary name, renamed
     return 1 if rep["status"] == "fail" else 0
 
 

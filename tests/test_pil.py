@@ -133,3 +133,19 @@ def test_a_second_publisher_keeps_the_first_build(tmp_path):
         (st / "who").write_text(who)
         pil._publish(st, d)
     assert (d / "who").read_text() == "first" and sorted(p.name for p in tmp_path.iterdir()) == ["key"]
+
+
+def test_a_users_scenario_closes_the_loop_through_the_emulator(builds, tmp_path):
+    """--scenario: a user's scenario (here the blended full-range one at a
+    20 kHz carrier) run with the plant on the host and the drive on the
+    target, the same as the host's drive step; one the firmware's build
+    cannot run is named, not attempted."""
+    f = tmp_path / "my20k.toml"
+    f.write_text('name = "my20k"\nduration = 0.3\nmachine = { catalog = "yang2022", bench = { f_pwm = 20000.0 } }\n'
+                 '[controller]\nmode = "speed"\nangle = "blend"\n[references]\nspeed_rpm = 300.0\n')
+    r = pil.closed_loop(TOOLS, builds, "blend", scenario=str(f))
+    assert r["scenario"] == str(f) and r["steps_target"] == 6000   # 0.3 s at 20 kHz, every step on the target
+    assert pil.loop_verdict(r)["within"] and r["max_theta_err_diff_deg"] == 0.0
+    assert pil.firmware_leaves_out(str(f)) is None
+    assert pil.firmware_leaves_out("beyond-swvi-3ph") == "square-wave injection"
+    assert pil.firmware_leaves_out("zou2021-experiment") == "the matrix converter"
