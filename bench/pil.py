@@ -874,12 +874,14 @@ def format_report(rep: dict) -> str:
              f"image text {im['text']} B, data {im['data']} B, bss {im['bss']} B",
              f"  instructions per step counted by a TCG plugin (exact; not cycles). Budget at {F_CPU / 1e6:.0f} MHz: "
              + ", ".join(f"{F_CPU / f:.0f} cycles at {f / 1e3:.0f} kHz" for f in F_ISR),
-             f"  {'mode':<9}{'steps':>7}{'insn mean':>10}{'max':>6}{'% of 20k':>9}{'stack':>6}{'RAM':>6}"
+             "  (insn mean and max over every replayed step; the differences and `identical` over the compared"
+             " ones, `compared` of them, within the replay window)",
+             f"  {'mode':<9}{'compared':>9}{'insn mean':>10}{'max':>6}{'% of 20k':>9}{'stack':>6}{'RAM':>6}"
              f"{'max |d duty|':>13}{'max |d th|':>11}{'identical':>10}  replay window"]
     for m, r in rep["modes"].items():
         c, i = r["compare"], r["insns"]
         win = f"0-{c['until_s']:g} s (then: duty {c['after']['max_duty']:.2g})" if c.get("until_s") else "whole"
-        lines.append(f"  {m:<9}{c['steps']:>7}{i['mean']:>10.0f}{i['max']:>6}{100 * i['max'] / (F_CPU / F_ISR[1]):>8.0f}%"
+        lines.append(f"  {m:<9}{c['steps']:>9}{i['mean']:>10.0f}{i['max']:>6}{100 * i['max'] / (F_CPU / F_ISR[1]):>8.0f}%"
                      f"{r['stack_used']:>6}{r['sizeof_fs_drive']:>6}{c['max_duty']:>13.2g}{c['max_theta_e']:>11.2g}"
                      f"{100 * c['identical_steps'] / max(c['steps'], 1):>9.0f}%  {win}"
                      + ("" if c["within"] else "  OUTSIDE TOLERANCE"))
