@@ -129,20 +129,26 @@ def out_path(root: str | Path, name, field: str, source: str | None = None, suff
 
 
 def out_folder(path: str | Path, field: str = "--out") -> Path:
-    """An output folder made ready before the work: created if missing, and
-    a file can be made in it; else a ConfigError naming the field and why
-    (a file in the way, no permission, a read-only file system)."""
+    """An output folder checked before the work, left as it is: a folder, or
+    a path one can be made at (its nearest existing ancestor a folder that
+    takes a file); else a ConfigError naming the field and why (a file in
+    the way, no permission, a read-only file system). Nothing is created:
+    a run refused later leaves no folder behind."""
     path = Path(path)
     kind = path_kind(path)
     if kind is not None and kind != "dir":
         raise ConfigError(field, str(path), "is a file, not a folder; give a folder (created if missing)")
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-        fd, probe = tempfile.mkstemp(dir=path, prefix=".fullspeed-probe-")
+    up = path
+    while path_kind(up) is None and up != up.parent:
+        up = up.parent
+    if path_kind(up) != "dir":
+        raise ConfigError(field, str(path), f"cannot be written: {up} is not a folder")
+    try:   # a probe file, removed at once: permissions, read-only mounts and pseudo file systems alike
+        fd, probe = tempfile.mkstemp(dir=up, prefix=".fullspeed-probe-")
         os.close(fd)
         os.unlink(probe)
     except OSError as e:
-        raise ConfigError(field, str(path), f"cannot be written: {e.strerror or e}") from None
+        raise ConfigError(field, str(path), f"cannot be written: {up}: {e.strerror or e}") from None
     return path
 
 
