@@ -118,7 +118,7 @@ SCENARIO = {
     # "blend", square-wave (yu2022 sec. 2) for angle = "swvi"
     "injection": T({
         "u_h": POS(None, hi=1e4, doc="V; default the machine's [injection]"),
-        "f_h": POS(None, hi=1e5, doc="Hz; default the machine's [injection]; at most a quarter of the sampling rate"),
+        "f_h": POS(None, hi=1e5, doc="Hz; default the machine's [injection], else designed: f_s / 10, fewer samples a period where the current loop would act on the carrier's sidebands (fullspeed design); at most a quarter of the sampling rate"),
         "bw_filter_p": POS(None, hi=1e6, doc="rad/s, SRFF at +w_h; default w_h / 20 (fs_hfi.h)"),
         "bw_filter_n": POS(None, hi=1e6, doc="rad/s, SRFF at -w_h + 2 w_r; default w_h / 20"),
         "bw_observer": POS(None, hi=1e6, doc="rad/s, motion observer; default bw_filter_n (tracking = \"paper\": bw_filter_n / 5)"),
