@@ -101,9 +101,16 @@ def machine_params(toml_path: Path = MACHINE_TOML) -> dict[str, float]:
         "smo_w_valid": p * SMO_VALID_RPM * rpm,
         "speed_rpm": SPEED_RPM, "T_load": T_LOAD,
         "noise_i": b.get("noise_i", 0.0), "encoder_bits": b["encoder_bits"],
-        "inj_u_h": m["injection"]["u_h"], "inj_f_h": m["injection"]["f_h"],
+        "inj_u_h": m["injection"]["u_h"], "inj_f_h": m["injection"].get("f_h") or _designed_carrier(el, b),
         "blend_lower_rpm": m["blending"]["lower_rpm"], "blend_upper_rpm": m["blending"]["upper_rpm"],
     }
+
+
+def _designed_carrier(el: dict, b: dict) -> float:
+    """The carrier a scenario designs where the machine leaves f_h out
+    (design.design_carrier, against the bench's current loop), Hz."""
+    from fullspeed.design import design_carrier
+    return design_carrier(el, {"f_pwm": b["f_pwm"], "sampling": b["sampling"]}, b["bw_current"]).value
 
 
 class BenchError(Exception):

@@ -136,6 +136,10 @@ def warnings_of(d: dict, m) -> list[str]:
                    "times near twice its bandwidth): it rings, and on the yang2022 machine blended at rated load it cycles at +-12 el.deg; "
                    "use tracking = \"lag\" (designed for it) or leak = \"keep\"")
 
+    # the current loop against the injection's carrier (design.carrier_loop_action)
+    if ctl["angle"] in ("hfi", "blend") and ctl["gains"] == "designed" and inj.get("f_h"):
+        out += carrier_loop_warning(d, m)
+
     # the saliency an injection estimator locks on, where a flux map gives it
     if ctl["angle"] in ("hfi", "blend") and m.magnetic["model"] == "fluxmap":
         from .fluxmap import saliency_warnings
@@ -154,6 +158,33 @@ def _w_b_p(d: dict, m) -> float:
     ctl = d["controller"]
     h = _hfi_design(d["injection"], _control_period(d), m.L_d * ctl["L_d_scale"], m.L_q * ctl["L_q_scale"])
     return h.cfg.w_b_p
+
+
+def carrier_loop_warning(d: dict, m) -> list[str]:
+    """A line when the current loop acts on the rotating carrier's sidebands
+    beyond design.CARRIER_LOOP_ACTION_MAX (a given f_h or bw_current; the
+    designed carrier keeps within it), with the largest bw_current that does not."""
+    from . import design as dz
+    from .scenario import _control_period
+    ctl, inj = d["controller"], d["injection"]
+    Ts, delay = _control_period(d), d["timing"]["delay"]
+    w_h = 2 * math.pi * inj["f_h"]
+    Ls = (m.L_d * ctl["L_d_scale"], m.L_q * ctl["L_q_scale"])
+    R = m.R_s * ctl["R_s_scale"]
+
+    def action(bw):
+        return max(dz.carrier_loop_action(Ts, delay, bw, w_h, L, R, inj.get("bw_filter_n")) for L in Ls)
+    a = action(ctl["bw_current"])
+    if a <= dz.CARRIER_LOOP_ACTION_MAX:
+        return []
+    lo, hi = 0.0, ctl["bw_current"]
+    for _ in range(30):   # the largest bandwidth within the bound
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if action(mid) <= dz.CARRIER_LOOP_ACTION_MAX else (lo, mid)
+    return [f"controller.bw_current: {ctl['bw_current']:.4g} rad/s acts on the sidebands of the {inj['f_h']:.4g} Hz carrier that "
+            f"carry the angle ({a:.2f} of them, at most {dz.CARRIER_LOOP_ACTION_MAX:g}; {1 / (Ts * inj['f_h']):.3g} "
+            "samples a carrier period: design.carrier_loop_action): the injection's estimate may grow or cycle under load at "
+            f"standstill; keep bw_current <= {lo:.4g} rad/s, or leave injection.f_h to the design (it rises with bw_current)"]
 
 
 def _largest_on(profile, t_end: float) -> float:

@@ -17,7 +17,9 @@ f_s = 1/Ts):
   hold (1.5 Ts) cost 27 deg of phase at crossover, leaving about 63 deg;
 - the carrier f_h = f_s / 10: ten samples a period (the SRFFs need them),
   and twice the current loop's bandwidth, so the loop neither follows the
-  carrier nor puts its own response into the carrier's band;
+  carrier nor puts its own response into the carrier's band; higher where
+  the current loop (a given bw_current) would act on the negative carrier's
+  sidebands, which carry the angle (carrier_loop_action);
 - the blending band from the voltage errors the back-EMF observer cannot
   tell from the EMF (the resistance known to 20 %, at rated current, and
   half the dead time's voltage left by its compensation near zero current):
@@ -37,6 +39,7 @@ f_s = 1/Ts):
 """
 from __future__ import annotations
 
+import cmath
 import math
 import textwrap
 from dataclasses import dataclass
@@ -62,6 +65,13 @@ I_N_PER_I_MAX = 0.02         # and 2 % of i_max (ideal sensors)
 U_H_SHARE = 0.85             # carrier and fundamental within 85 % of the linear limit
 I_HF_PER_I_MAX = 0.2         # the carrier current's peak, I_p + I_n, at most 20 % of i_max
 PLL_PER_W_E_LOWER = 3
+# The current loop's action on the negative carrier's sidebands (carrier_loop_action) at most this: the
+# designed point (bw_current 2 pi f_s / 20 against f_s / 10, 1.5 Ts of delay) gives 0.63..0.66 on the
+# yang2022 machine, whose full range (B-FULLRANGE) keeps 5.9 el.deg there; at 0.85..0.93 (20 kHz with
+# bw_current 3000 rad/s, or 10 kHz with 4000, both against its 1 kHz carrier) the error at standstill
+# under rated load grows to 9..15 el.deg, and from 0.99 up the injection's loop cycles at 35 Hz
+# (20 kHz with 3500 or 4000 rad/s, 40 kHz with 3000, 10 kHz with 5000: +-20..45 el.deg)
+CARRIER_LOOP_ACTION_MAX = 0.8
 
 
 @dataclass(frozen=True)
@@ -148,10 +158,10 @@ def fundamental_voltage(m, w_m: float, i: float) -> float:
     return math.hypot(m["R_s"] * i + w_e * m["psi_f"], w_e * m["L_q"] * i)
 
 
-def design_injection(m, b: dict, i_max: float, w_m_upper: float) -> dict[str, Value]:
-    """The rotating carrier: frequency and amplitude."""
+def design_injection(m, b: dict, i_max: float, w_m_upper: float, carrier: Value) -> dict[str, Value]:
+    """The rotating carrier: frequency (design_carrier's) and amplitude."""
     Ts = sampling_period(b["f_pwm"], b["sampling"])
-    f_h = CARRIER_PER_FS / Ts
+    f_h = carrier.value
     w_h = 2 * math.pi * f_h
     _, i_n_per_v = carrier_currents(1.0, w_h, m["L_d"], m["L_q"])
     i_p_per_v = sum(carrier_currents(1.0, w_h, m["L_d"], m["L_q"]))
@@ -177,8 +187,72 @@ def design_injection(m, b: dict, i_max: float, w_m_upper: float) -> dict[str, Va
             else f"the carrier current's peak at {I_HF_PER_I_MAX:.0%} of i_max"
         why = (f"held by {limit}; I_n = {u_h * i_n_per_v:.3g} A, below the wanted {what} ({i_n:.3g} A): "
                "the injection's angle will be noisier than designed")
-    return {"f_h": Value(f_h, "Hz", f"f_s / {1 / CARRIER_PER_FS:g}: ten samples a carrier period, twice the current loop's bandwidth"),
-            "u_h": Value(max(u_h, 0.0), "V", why)}
+    return {"f_h": carrier, "u_h": Value(max(u_h, 0.0), "V", why)}
+
+
+def carrier_loop_action(Ts: float, delay: bool, bw_current: float, w_h: float, L: float, R: float,
+                        w_b: float | None = None) -> float:
+    """How much the current loop changes the negative carrier's sidebands, the
+    largest |i_closed / i_open - 1| within w_b of -w_h (standstill).
+
+    The angle reaches the estimator as the negative carrier's modulation: its
+    sidebands at -w_h +- Delta, Delta up to the filters' band w_b (w_h / 20,
+    fs_hfi.h), which the injection's observer (as fast as w_b with tracking =
+    "lag") follows. The current loop works on the fundamental the two SRFFs
+    leave (fs_hfi_filter.h), whose stop bands are only w_b wide: at the
+    carrier itself it sees nothing, at Delta = w_b already 0.7 of the
+    sideband, and it answers with its loop gain there, about 2 bw_current /
+    w_h turned by the computation delay. The closed loop's sidebands are the
+    open loop's / (1 + L F); what that changes (gain and phase) enters the
+    injection's loop beside its own filter lag. It grows with bw_current / w_h
+    and with less delay per carrier period (more samples a period: 20 kHz
+    leaves the loop a 1 kHz carrier's sidebands less turned by its delay than
+    10 kHz, and it damps them instead). The sampled loop as fs_drive builds
+    it: the 2DOF PI of fs_pi_design on L di/dt = u - R i, the one-step
+    predictor with the computation delay (fs_current_ctrl.h), the SRFFs'
+    discretisation (fs_srff.h)."""
+    a = math.exp(-R * Ts / L)
+    b = (1.0 - a) / R if R > 0 and a < 1.0 else Ts / L
+    p = math.exp(-bw_current * Ts)
+    k_p, k_i = max((1.0 + a - 2.0 * p) / b, 0.0), (1.0 - p) ** 2 / (b * Ts)
+    w_b = w_h / 20.0 if w_b is None else w_b
+    a_f = math.exp(-w_b * Ts)
+    g = 0.5 * (1.0 + a_f)
+    worst = 0.0
+    for k in range(-20, 21):
+        z = cmath.exp(1j * (-w_h + w_b * k / 20.0) * Ts)
+        F = 1.0
+        for c in (cmath.exp(1j * w_h * Ts), cmath.exp(-1j * w_h * Ts)):   # the SRFFs at +w_h and -w_h
+            F *= g * (z - c) / (z - a_f * c)
+        K = k_p + k_i * Ts / (z - 1.0)
+        # with the delay the voltage acts from the next sample and the PI works on the predicted current
+        loop = K * a * F * b / (z * (1.0 + K * b / z) * (z - a)) if delay else K * F * b / (z - a)
+        worst = max(worst, abs(1.0 / (1.0 + loop) - 1.0))
+    return worst
+
+
+def design_carrier(m, b: dict, bw_current: float | None, delay: bool = True) -> Value:
+    """The rotating carrier's frequency: f_s / 10, or f_s / n with fewer
+    samples a period, n down to 5, where the current loop would act on its
+    sidebands (carrier_loop_action); a whole number of samples a period, as
+    the i_q average over one (fs_hfi.h) takes. bw_current None: gains not
+    designed from it (the paper's, the internal model's), f_s / 10."""
+    f_s = 1.0 / sampling_period(b["f_pwm"], b["sampling"])
+    n0 = round(1 / CARRIER_PER_FS)
+    why = f"f_s / {n0}: ten samples a carrier period, twice the current loop's bandwidth"
+    if bw_current is None:
+        return Value(f_s / n0, "Hz", why)
+
+    def action(n):
+        return max(carrier_loop_action(1 / f_s, delay, bw_current, 2 * math.pi * f_s / n, L, m["R_s"])
+                   for L in (m["L_d"], m["L_q"]))
+    n = n0
+    while n > 5 and action(n) > CARRIER_LOOP_ACTION_MAX:
+        n -= 1
+    if n == n0:
+        return Value(f_s / n0, "Hz", why)
+    return Value(f_s / n, "Hz", f"f_s / {n}: at f_s / {n0} bw_current = {bw_current:.4g} rad/s would act on the carrier's "
+                 f"sidebands by {action(n0):.2f} (at most {CARRIER_LOOP_ACTION_MAX:g}, carrier_loop_action), here {action(n):.2f}")
 
 
 def machine_values(m) -> dict:

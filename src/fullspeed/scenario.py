@@ -118,7 +118,7 @@ SCENARIO = {
     # "blend", square-wave (yu2022 sec. 2) for angle = "swvi"
     "injection": T({
         "u_h": POS(None, hi=1e4, doc="V; default the machine's [injection]"),
-        "f_h": POS(None, hi=1e5, doc="Hz; default the machine's [injection]; at most a quarter of the sampling rate"),
+        "f_h": POS(None, hi=1e5, doc="Hz; default the machine's [injection], else designed: f_s / 10, fewer samples a period where the current loop would act on the carrier's sidebands (fullspeed design); at most a quarter of the sampling rate"),
         "bw_filter_p": POS(None, hi=1e6, doc="rad/s, SRFF at +w_h; default w_h / 20 (fs_hfi.h)"),
         "bw_filter_n": POS(None, hi=1e6, doc="rad/s, SRFF at -w_h + 2 w_r; default w_h / 20"),
         "bw_observer": POS(None, hi=1e6, doc="rad/s, motion observer; default bw_filter_n (tracking = \"paper\": bw_filter_n / 5)"),
@@ -435,11 +435,19 @@ def _band(d: dict, m: Machine) -> dict:
     """The blending band: the machine's [blending], else designed."""
     mb = m.extra.get("blending", {})
     bench = _bench_of(d, m)
-    f_h = d["injection"]["f_h"] or m.extra.get("injection", {}).get("f_h") \
-        or dz.CARRIER_PER_FS / dz.sampling_period(bench["f_pwm"], bench["sampling"])
+    f_h = d["injection"]["f_h"] or m.extra.get("injection", {}).get("f_h") or _carrier(d, m).value
     band = dz.design_band(dz.machine_values(m), bench, f_h)
     return {k: dz.Value(float(mb[k]), "rpm", "given in the machine file", True) if k in mb else band[k]
             for k in ("lower_rpm", "upper_rpm")}
+
+
+def _carrier(d: dict, m: Machine) -> dz.Value:
+    """The rotating carrier's designed frequency, against the current loop
+    as the controller designs it (its model of the machine, its timing)."""
+    ctl = d["controller"]
+    mv = {**dz.machine_values(m), "R_s": m.R_s * ctl["R_s_scale"], "L_d": m.L_d * ctl["L_d_scale"], "L_q": m.L_q * ctl["L_q_scale"]}
+    return dz.design_carrier(mv, _bench_of(d, m), ctl["bw_current"] if ctl["gains"] == "designed" else None,
+                             d["timing"]["delay"])
 
 
 def _thermal_fields(d: dict, m: Machine, source) -> None:
@@ -517,7 +525,8 @@ def _injection_fields(d: dict, m: Machine, source, bw_speed_given: bool = True, 
     L_d, L_q = m.L_d * ctl["L_d_scale"], m.L_q * ctl["L_q_scale"]   # as the controller knows them
     _check_saliency(ctl, m, source)
     band = _band(d, m)
-    designed = dz.design_injection(dz.machine_values(m), _bench_of(d, m), ctl["i_max"], rpm_to_rad_s(band["upper_rpm"].value))
+    designed = dz.design_injection(dz.machine_values(m), _bench_of(d, m), ctl["i_max"], rpm_to_rad_s(band["upper_rpm"].value),
+                                   _carrier(d, m))
     _machine_injection(inj, m, ("u_h", "f_h"), source, designed)
     if not inj["u_h"] > 0.0:   # designed as nothing (fs_hfi_init would refuse it, blaming the carrier's frequency)
         raise ConfigError("injection.u_h", inj["u_h"], f"must be > 0 V: {designed['u_h'].reason}", source)
