@@ -112,13 +112,23 @@ def check_table_settings(d: dict, machine_name: str, source=None) -> list[str]:
         same = (math.isclose(a, b, rel_tol=1e-6) if isinstance(a, float) and isinstance(b, float) else a == b)
         if same:
             continue
-        why = (f"the cross-saturation table (injection.xcomp) was measured with {key} = {a!r}, and the estimator's "
+        a_s, b_s = (_shown(v) for v in (a, b))
+        why = (f"the cross-saturation table (injection.xcomp) was measured with {key} = {a_s}, and the estimator's "
                f"own bias at that setting is in it")
         if key in SETTINGS_REFUSED:
-            raise ConfigError(field, b, f"must be {a!r} with this table: {why}; calibrate one with this setting "
+            raise ConfigError(field, b, f"must be {a_s} with this table: {why}; calibrate one with this setting "
                                         "(fullspeed calibrate SCENARIO)", source)
-        warnings.append(f"{field} = {b!r}: {why}; with {b!r} it may hold a different bias (fullspeed calibrate to check)")
+        warnings.append(f"{field} = {b_s}: {why}; with {b_s} it may hold a different bias (fullspeed calibrate to check)")
     return warnings
+
+
+def _shown(v) -> str:
+    """A setting as a message shows it: a float to 6 digits (1111.11, not
+    1111.111111111111; 5.0 stays 5.0), anything else as its repr."""
+    if not isinstance(v, float):
+        return repr(v)
+    s = f"{v:.6g}"
+    return s + ".0" if s.lstrip("-").isdigit() else s
 
 
 def circular_mean_deg(a_rad: np.ndarray) -> float:
