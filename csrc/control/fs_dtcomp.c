@@ -16,6 +16,7 @@ fs_status fs_dtcomp_init(fs_dtcomp *d, const fs_dtcomp_config *cfg)
     if (!fs_pos(c->L_q)) return FS_ERR_LQ;
     d->cfg = *cfg;
     d->inv_L = 2.0f / (c->L_d + c->L_q);
+    d->dd = c->t_dead / c->T_pwm;
     d->double_update = dbl;
     fs_dtcomp_reset(d);
     return FS_OK;
@@ -59,7 +60,7 @@ void fs_dtcomp_step(fs_dtcomp *d, const float i_ph[], fs_ab u_inj, float duty[])
     const fs_dtcomp_config *c = &d->cfg;
     const bool carrier = u_inj.alpha != 0.0f || u_inj.beta != 0.0f || d->u_inj_now.alpha != 0.0f || d->u_inj_now.beta != 0.0f;
     if (!carrier && !d->double_update) {   /* both edges at the sample's current (header) */
-        fs_dtcomp_sampled(c->phases, i_ph, c->t_dead / c->T_pwm, c->i_band, duty);
+        fs_dtcomp_sampled(c->phases, i_ph, d->dd, c->i_band, duty);
         ++d->k;
         return;
     }

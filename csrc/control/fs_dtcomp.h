@@ -53,6 +53,7 @@ typedef struct {
 typedef struct {
     fs_dtcomp_config cfg;
     float inv_L;         /* 1 / mean inductance */
+    float dd;            /* t_dead / T_pwm: the duty a dead time takes from a period */
     int double_update;
     int k;               /* steps taken: the half the next interval is */
     fs_ab u_inj_now;     /* the injection voltage acting until the next update */

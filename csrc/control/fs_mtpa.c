@@ -120,7 +120,7 @@ fs_dq fs_mtpa_step(fs_mtpa *m, float T_ref)
             return out;
         }
         if (m->cfg.psi_f <= 0.0f) {   /* reluctance only: T = 1.5 p (L_q - L_d) i_q^2 exactly */
-            iq = sqrtf(T / (m->k_T * (m->cfg.L_q - m->cfg.L_d)));
+            iq = sqrtf(T / (m->k_T * m->dL));
         } else {
             T0 = mtpa_locus_torque(m, iq, mtpa_locus_id(m, iq), &dT);
             if (dT > 0.0f) iq = fs_clampf(iq + (T - T0) / dT, m->i_q[lo], m->i_q[hi]);
