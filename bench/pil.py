@@ -818,21 +818,14 @@ def pil_report(modes: list[str] | None = None, duration: float | None = None, lo
         if loop or scenario:
             rep["closed_loop"] = closed_loop(t, b, loop, loop_duration, scenario=scenario)
             rep["closed_loop"]["verdict"] = loop_verdict(rep["closed_loop"])
-        if scenario:
-            left_out = firmware_leaves_out(scenario)
-            if left_out:
-                rep["firmware_build"] = {"skipped": f"the firmware's build leaves out {left_out}, which {scenario} uses"}
-            else:
-                bf = build(t, work, extra_flags=[*fw.LTO, *fw.OPTIONS])
-                lf = closed_loop(t, bf, loop, loop_duration, scenario=scenario)
-                rep["firmware_build"] = {"flags": [*fw.LTO, *fw.OPTIONS], "image": fw.sizes(t, [bf.target])[bf.target.name],
-                                         "insns": lf["insns"], "cost_groups": lf["cost_groups"], "profile": lf["profile"],
-                                         "verdict": loop_verdict(lf)}
-        elif loop == "blend":
+        left_out = firmware_leaves_out(scenario) if scenario else None
+        if left_out:
+            rep["firmware_build"] = {"skipped": f"the firmware's build leaves out {left_out}, which {scenario} uses"}
+        elif scenario or loop == "blend":
             # the cost as the firmware builds it (bench/firmware.py: its options and link-time
             # optimisation, which inlines across files; the painted stack means nothing there)
             bf = build(t, work, extra_flags=[*fw.LTO, *fw.OPTIONS])
-            lf = closed_loop(t, bf, "blend", loop_duration)
+            lf = closed_loop(t, bf, loop, loop_duration, scenario=scenario)
             rep["firmware_build"] = {"flags": [*fw.LTO, *fw.OPTIONS], "image": fw.sizes(t, [bf.target])[bf.target.name],
                                      "insns": lf["insns"], "cost_groups": lf["cost_groups"], "profile": lf["profile"],
                                      "verdict": loop_verdict(lf)}

@@ -223,11 +223,17 @@ def scenario_names() -> list[str]:
     return sorted(p.name[:-5] for p in root.iterdir() if p.name.endswith(".toml"))
 
 
+def _machine_file(raw: str, source) -> Path:
+    """A machine file named by a scenario: beside the scenario first."""
+    p = Path(raw)
+    if not p.is_absolute() and source and path_kind(Path(source).parent / p) == "file":
+        p = Path(source).parent / p
+    return p
+
+
 def _machine_of(raw, source) -> Machine:
-    if isinstance(raw, str) and raw.endswith(".toml"):   # a machine file, beside the scenario first
-        p = Path(raw)
-        if not p.is_absolute() and source and path_kind(Path(source).parent / p) == "file":
-            p = Path(source).parent / p
+    if isinstance(raw, str) and raw.endswith(".toml"):
+        p = _machine_file(raw, source)
         return machine_from_dict(read_toml(p, "machine"), str(p))
     if isinstance(raw, str):
         raw = {"catalog": raw}
@@ -786,9 +792,7 @@ def _machine_table(raw: str, source) -> dict:
     into: {"catalog": name}, or the file's fields."""
     if not raw.endswith(".toml"):
         return {"catalog": raw}
-    p = Path(raw)
-    if not p.is_absolute() and source and path_kind(Path(source).parent / p) == "file":
-        p = Path(source).parent / p
+    p = _machine_file(raw, source)
     table = read_toml(p, "machine")
     mag = table.get("magnetic")
     if isinstance(mag, dict) and isinstance(mag.get("file"), str) and not Path(mag["file"]).is_absolute():
