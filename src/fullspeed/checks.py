@@ -154,9 +154,9 @@ POLARITY_ASYMMETRY = 0.05
 
 def _w_b_p(d: dict, m) -> float:
     """The positive carrier's filter band, rad/s, as fs_hfi_init designs it."""
-    from .scenario import _control_period, _hfi_design
-    ctl = d["controller"]
-    h = _hfi_design(d["injection"], _control_period(d), m.L_d * ctl["L_d_scale"], m.L_q * ctl["L_q_scale"])
+    from .scenario import _control_period, _hfi_design, controller_model
+    cm = controller_model(d["controller"], m)
+    h = _hfi_design(d["injection"], _control_period(d), cm["L_d"], cm["L_q"])
     return h.cfg.w_b_p
 
 
@@ -165,12 +165,12 @@ def carrier_loop_warning(d: dict, m) -> list[str]:
     beyond design.CARRIER_LOOP_ACTION_MAX (a given f_h or bw_current; the
     designed carrier keeps within it), with the largest bw_current that does not."""
     from . import design as dz
-    from .scenario import _control_period
+    from .scenario import _control_period, controller_model
     ctl, inj = d["controller"], d["injection"]
     Ts, delay = _control_period(d), d["timing"]["delay"]
     w_h = 2 * math.pi * inj["f_h"]
-    Ls = (m.L_d * ctl["L_d_scale"], m.L_q * ctl["L_q_scale"])
-    R = m.R_s * ctl["R_s_scale"]
+    cm = controller_model(ctl, m)
+    Ls, R = (cm["L_d"], cm["L_q"]), cm["R_s"]
 
     def action(bw):
         return max(dz.carrier_loop_action(Ts, delay, bw, w_h, L, R, inj.get("bw_filter_n")) for L in Ls)

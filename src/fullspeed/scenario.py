@@ -447,11 +447,17 @@ def _band(d: dict, m: Machine) -> dict:
             for k in ("lower_rpm", "upper_rpm")}
 
 
+def controller_model(ctl: dict, m: Machine) -> dict:
+    """R_s, L_d, L_q as the controller knows them: the machine's times the
+    controller's *_scale (a model error on purpose)."""
+    return {"R_s": m.R_s * ctl["R_s_scale"], "L_d": m.L_d * ctl["L_d_scale"], "L_q": m.L_q * ctl["L_q_scale"]}
+
+
 def _carrier(d: dict, m: Machine) -> dz.Value:
     """The rotating carrier's designed frequency, against the current loop
     as the controller designs it (its model of the machine, its timing)."""
     ctl = d["controller"]
-    mv = {**dz.machine_values(m), "R_s": m.R_s * ctl["R_s_scale"], "L_d": m.L_d * ctl["L_d_scale"], "L_q": m.L_q * ctl["L_q_scale"]}
+    mv = {**dz.machine_values(m), **controller_model(ctl, m)}
     return dz.design_carrier(mv, _bench_of(d, m), ctl["bw_current"] if ctl["gains"] == "designed" else None,
                              d["timing"]["delay"])
 
@@ -528,7 +534,8 @@ def _imc_fields(d: dict, m: Machine, source) -> None:
 def _injection_fields(d: dict, m: Machine, source, bw_speed_given: bool = True, designed_pll=None) -> None:
     """Fill in and check the injection, polarity and blending tables."""
     ctl, inj, pol, bl = d["controller"], d["injection"], d["polarity"], d["blending"]
-    L_d, L_q = m.L_d * ctl["L_d_scale"], m.L_q * ctl["L_q_scale"]   # as the controller knows them
+    cm = controller_model(ctl, m)
+    L_d, L_q = cm["L_d"], cm["L_q"]
     _check_saliency(ctl, m, source)
     band = _band(d, m)
     designed = dz.design_injection(dz.machine_values(m), _bench_of(d, m), ctl["i_max"], rpm_to_rad_s(band["upper_rpm"].value),
@@ -614,7 +621,8 @@ def _check_carrier(f_h: float, Ts: float, source) -> None:
 
 
 def _check_saliency(ctl: dict, m: Machine, source) -> None:
-    L_d, L_q = m.L_d * ctl["L_d_scale"], m.L_q * ctl["L_q_scale"]   # as the controller knows them
+    cm = controller_model(ctl, m)
+    L_d, L_q = cm["L_d"], cm["L_q"]
     if not abs(L_q - L_d) > 0.01 * 0.5 * (L_d + L_q):
         scaled = ctl["L_d_scale"] != 1.0 or ctl["L_q_scale"] != 1.0
         whose = (f"the controller's model of {m.name} (L_d x {ctl['L_d_scale']:g}, L_q x {ctl['L_q_scale']:g}) has"

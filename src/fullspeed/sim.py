@@ -10,7 +10,7 @@ import numpy as np
 
 from . import _core
 from .errors import ConfigError, SimulationError
-from .scenario import Scenario, load_scenario
+from .scenario import Scenario, controller_model, load_scenario
 from .units import hz_to_rad_s, rpm_to_rad_s
 
 ffi, lib = _core.ffi, _core.lib
@@ -214,7 +214,8 @@ def build_config(sc: Scenario):
     dc.phases = m.phases
     dc.mode, dc.angle_source = MODES[ctl["mode"]], ANGLES[ctl["angle"]]
     dc.Ts, dc.T_pwm, dc.delay = Ts, inv.T_pwm, float(cfg.delay)
-    dc.R_s, dc.L_d, dc.L_q = m.R_s * ctl["R_s_scale"], m.L_d * ctl["L_d_scale"], m.L_q * ctl["L_q_scale"]
+    cm = controller_model(ctl, m)
+    dc.R_s, dc.L_d, dc.L_q = cm["R_s"], cm["L_d"], cm["L_q"]
     dc.psi_f, dc.pole_pairs = m.psi_f * ctl["psi_f_scale"], m.pole_pairs
     if mag["model"] == "fluxmap":
         _controller_from_map(dc, m, ctl, keep)
