@@ -127,6 +127,7 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     if (!(cfg->t_dead_comp < 0.5f * cfg->T_pwm)) REFUSE("t_dead_comp", FS_ERR_PARAM);
     drv->cfg = *cfg;
     drv->k_T = drive_torque_k(cfg);
+    drv->dd_dead = cfg->t_dead_comp / cfg->T_pwm;
     const float Tl = drive_loop_Ts(cfg);
 
     fs_current_ctrl_config ccc = {Tl, cfg->R_s, cfg->L_d, cfg->L_q, cfg->psi_f, cfg->bw_current,
@@ -538,7 +539,7 @@ static bool drive_modulate(fs_drive *drv, const fs_drive_in *in, float u_dc, fs_
     if (drive_five(c) && c->bw_xy > 0.0f)   /* x-y current control on top of the nearest four vectors */
         fs_xyctrl_duties(fs_xyctrl_step(&drv->xy, in->i_ph, theta, w_e, u_dc), u_dc, duty);
     if (FS_WITH_DTCOMP && c->dt_predict && c->t_dead_comp > 0.0f) fs_dtcomp_step(&drv->dtc, in->i_ph, u_inj, duty);
-    else if (c->t_dead_comp > 0.0f) fs_dtcomp_sampled(c->phases, in->i_ph, c->t_dead_comp / c->T_pwm, c->i_dead_band, duty);
+    else if (c->t_dead_comp > 0.0f) fs_dtcomp_sampled(c->phases, in->i_ph, drv->dd_dead, c->i_dead_band, duty);
     u_f->alpha -= u_inj.alpha;   /* the fundamental part */
     u_f->beta -= u_inj.beta;
     return over;

@@ -445,6 +445,8 @@ typedef struct {
     fs_fw fw;
     fs_hfi hfi;
     fs_pll pll;              /* speed from the encoder */
+    float dd_dead;           /* t_dead_comp / T_pwm: the duty the dead time takes (the sampled-sign compensation; the
+                                blend's predicted one has its own), past the hot members' 1 KB */
     fs_polarity pol;
     fs_swvi sw;
     fs_imc_depth depth;      /* matrix converter, PART_2 */
