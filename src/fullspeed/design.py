@@ -211,10 +211,13 @@ def carrier_loop_action(Ts: float, delay: bool, bw_current: float, w_h: float, L
     it: the 2DOF PI of fs_pi_design on L di/dt = u - R i, the one-step
     predictor with the computation delay (fs_current_ctrl.h), the SRFFs'
     discretisation (fs_srff.h)."""
+    from ._core import ffi, lib
+    pi = ffi.new("fs_pi_config *")   # the current PI's gains as fs_drive_init designs them (fs_pi_design)
+    if lib.fs_pi_design(pi, Ts, L, R, bw_current, 0.0) != lib.FS_OK:
+        return math.inf   # no such loop (bandwidth beyond 2 / Ts): as far from acceptable as it gets
+    k_p, k_i = pi.k_p, pi.k_i
     a = math.exp(-R * Ts / L)
-    b = (1.0 - a) / R if R > 0 and a < 1.0 else Ts / L
-    p = math.exp(-bw_current * Ts)
-    k_p, k_i = max((1.0 + a - 2.0 * p) / b, 0.0), (1.0 - p) ** 2 / (b * Ts)
+    b = (1.0 - a) / R if R > 0 and a < 1.0 else Ts / L   # the plant's sampled step response
     w_b = w_h / 20.0 if w_b is None else w_b
     a_f = math.exp(-w_b * Ts)
     g = 0.5 * (1.0 + a_f)
