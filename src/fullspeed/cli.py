@@ -64,7 +64,7 @@ def run_verdict(res) -> list[str]:
         why = "the pulses spun the rotor" if p.get("moved") else \
             f"margin {p.get('margin', 0):.2f} < 1 at {p.get('i_pulse', 0):.3g} A (D = {100 * p.get('d', 0):.2f} %)"
         mach = getattr(res.scenario, "machine", None)
-        blind = polarity_blind(mach, p.get("i_pulse") or 0.0) if mach is not None else None
+        blind = polarity_blind(mach, p["i_pulse"]) if mach is not None and p.get("i_pulse") else None
         if blind:   # the cause beneath: larger or slower pulses would not help (the load-time warning said so)
             why += f"; {mach.name}'s {blind}, so the pulses have no saturation asymmetry to decide on"
         out.append(f"stopped at t = {t_stop:.4f} s: polarity undetermined ({why}): the drive refused to start sensorless")
