@@ -90,7 +90,7 @@
  *   interrupt each other. It uses the FPU (lazy stacking keeps an interrupt
  *   that does correct).
  * Memory. sizeof(fs_drive) is about 7.1 KB (bench/pil.py reports the
- *   target's, 7,096 B; a 64-bit host's is up to 16 B more: its pointers);
+ *   target's, 7,104 B; a 64-bit host's is up to 16 B more: its pointers);
  *   its stack is under 800 B (bench/pil.py: 728 B on the static call graph,
  *   328 B the measured high-water mark).
  */
