@@ -81,7 +81,7 @@
  * Timing and re-entrancy. fs_drive_step must complete within Ts of its
  *   sampling instant, before the next update event. On a Cortex-M4F at
  *   -O2 a step takes about 1,280-2,890 instructions on average by angle
- *   source, 4,080 at most (the blend); 2,477 on average and 3,492 at most
+ *   source, 4,080 at most (the blend); 2,475 on average and 3,492 at most
  *   over the blended full-range run in the firmware's build (-flto):
  *   bench/pil.py measures it per mode. It
  *   touches only *drv, *in and *out (no globals, no heap): instances are
