@@ -14,9 +14,9 @@ import json
 
 import numpy as np
 
-from fullspeed.metrics import window_mask
-from fullspeed.papers.common import error_stats, run
-from fullspeed.papers.yu2022 import TS, XSAT, _err
+from fullspeed.sim.metrics import window_mask
+from fullspeed.reproduce.papers.common import error_stats, run
+from fullspeed.reproduce.papers.yu2022 import TS, XSAT, _err
 
 
 def injection_error(pred: bool) -> dict:

@@ -105,7 +105,7 @@ def _wrap(x):
 
 def run_fullspeed(name: str, overrides: dict, windows) -> dict:
     import fullspeed.sim as fs
-    from fullspeed.scenario import load_scenario
+    from fullspeed.design.scenario import load_scenario
     res = fs.simulate(load_scenario(name, overrides))
     t = np.asarray(res["t"])
     err = _wrap(res["theta_err"])

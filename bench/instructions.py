@@ -109,7 +109,7 @@ def machine_params(toml_path: Path = MACHINE_TOML) -> dict[str, float]:
 def _designed_carrier(el: dict, b: dict) -> float:
     """The carrier a scenario designs where the machine leaves f_h out
     (design.design_carrier, against the bench's current loop), Hz."""
-    from fullspeed.design import design_carrier
+    from fullspeed.design.rules import design_carrier
     return design_carrier(el, {"f_pwm": b["f_pwm"], "sampling": b["sampling"]}, b["bw_current"]).value
 
 

@@ -94,7 +94,7 @@ def run_peer(py: str, pwm: int) -> dict:
 def run_fullspeed(inverter: str) -> dict:
     import numpy as np
     import fullspeed.sim as fs
-    from fullspeed.scenario import load_scenario
+    from fullspeed.design.scenario import load_scenario
     sc = load_scenario(SCENARIO, {"converter": {"inverter": inverter}})
     t0 = time.perf_counter()
     res = fs.simulate(sc)

@@ -176,24 +176,24 @@ const fs_drive_config fs_config = {
     .angle_source = FS_ANGLE_BLEND,   /* fs_angle_source; scenario beyond-full-range: [controller] angle */
     .Ts = 9.99999975e-05f,   /* control (sampling) period, s; machine yang2022: bench.f_pwm (scenario default) */
     .T_pwm = 9.99999975e-05f,   /* carrier period, s (Ts or 2 Ts); machine yang2022: bench.f_pwm (scenario default) */
-    .delay = 1.0f,   /* computation delay in control periods: 1 or 0; default of [timing] delay (fullspeed.scenario) */
-    .R_s = 0.0359999985f,   /* the machine as the controller knows it: L_d, L_q, psi_f for the decoupling, the loops' design and the observers; a flux map's (fullspeed.fluxmap): psi_f at ...; machine yang2022: R_s */
-    .L_d = 6.50000002e-05f,   /* the machine as the controller knows it: L_d, L_q, psi_f for the decoupling, the loops' design and the observers; a flux map's (fullspeed.fluxmap): psi_f at ...; machine yang2022: L_d */
-    .L_q = 9.00000014e-05f,   /* the machine as the controller knows it: L_d, L_q, psi_f for the decoupling, the loops' design and the observers; a flux map's (fullspeed.fluxmap): psi_f at ...; machine yang2022: L_q */
-    .psi_f = 0.00700000022f,   /* the machine as the controller knows it: L_d, L_q, psi_f for the decoupling, the loops' design and the observers; a flux map's (fullspeed.fluxmap): psi_f at ...; machine yang2022: psi_f */
+    .delay = 1.0f,   /* computation delay in control periods: 1 or 0; default of [timing] delay (fullspeed.design.scenario) */
+    .R_s = 0.0359999985f,   /* the machine as the controller knows it: L_d, L_q, psi_f for the decoupling, the loops' design and the observers; a flux map's (fullspeed.design.magnetics) ...; machine yang2022: R_s */
+    .L_d = 6.50000002e-05f,   /* the machine as the controller knows it: L_d, L_q, psi_f for the decoupling, the loops' design and the observers; a flux map's (fullspeed.design.magnetics) ...; machine yang2022: L_d */
+    .L_q = 9.00000014e-05f,   /* the machine as the controller knows it: L_d, L_q, psi_f for the decoupling, the loops' design and the observers; a flux map's (fullspeed.design.magnetics) ...; machine yang2022: L_q */
+    .psi_f = 0.00700000022f,   /* the machine as the controller knows it: L_d, L_q, psi_f for the decoupling, the loops' design and the observers; a flux map's (fullspeed.design.magnetics) ...; machine yang2022: psi_f */
     .L_d_hf = 0.0f,   /* the incremental inductances the injection sees (HFI and blend; 0: L_d, L_q above); a flux map's at half the rated current on its MTPA locus; 0: taken from the drive's fields or designed by fs_drive_init, or off */
     .L_q_hf = 0.0f,   /* the incremental inductances the injection sees (HFI and blend; 0: L_d, L_q above); a flux map's at half the rated current on its MTPA locus; 0: taken from the drive's fields or designed by fs_drive_init, or off */
     .pole_pairs = 5,   /* machine yang2022: pole_pairs */
     .J = 0.00187000004f,   /* machine yang2022: J */
     .B = 0.000199999995f,   /* machine yang2022: B */
     .i_max = 60.0f,   /* A peak; machine yang2022: bench.i_max (scenario default) */
-    .T_max = 3.21864104f,   /* N m; default of [controller] T_max (fullspeed.scenario) */
+    .T_max = 3.21864104f,   /* N m; default of [controller] T_max (fullspeed.design.scenario) */
     .bw_current = 3000.0f,   /* design bandwidths, rad/s; machine yang2022: bench.bw_current (scenario default) */
     .bw_speed = 100.0f,   /* design bandwidths, rad/s; machine yang2022: bench.bw_speed (scenario default) */
     .bw_pll = 628.0f,   /* design bandwidths, rad/s; machine yang2022: bench.bw_pll (scenario default) */
     .t_dead_comp = 9.99999997e-07f,   /* dead-time compensation: the dead time to compensate (0: off; below T_pwm / 2) and the current below which the compensation ramps linearly to zero; machine yang2022: bench.t_dead (scenario default) */
-    .i_dead_band = 0.600000024f,   /* dead-time compensation: the dead time to compensate (0: off; below T_pwm / 2) and the current below which the compensation ramps linearly to zero; default of [controller] i_dead_band (fullspeed.scenario) */
-    .dt_predict = 1,   /* 1: the dead-time compensation takes each edge's sign from the current predicted there (fs_dtcomp.h); 0: from the sampled current; default of [controller] dead_time_predict (fullspeed.scenario) */
+    .i_dead_band = 0.600000024f,   /* dead-time compensation: the dead time to compensate (0: off; below T_pwm / 2) and the current below which the compensation ramps linearly to zero; default of [controller] i_dead_band (fullspeed.design.scenario) */
+    .dt_predict = 1,   /* 1: the dead-time compensation takes each edge's sign from the current predicted there (fs_dtcomp.h); 0: from the sampled current; default of [controller] dead_time_predict (fullspeed.design.scenario) */
     .bw_xy = 0.0f,   /* five phases: x-y current control (fs_xyctrl.h) at this bandwidth, rad/s, with the third-harmonic plane's L_d3, L_q3, psi_f3 (0: off, the x-y voltage left at ...; 0: taken from the drive's fields or designed by fs_drive_init, or off */
     .L_d3 = 0.0f,   /* five phases: x-y current control (fs_xyctrl.h) at this bandwidth, rad/s, with the third-harmonic plane's L_d3, L_q3, psi_f3 (0: off, the x-y voltage left at ...; 0: taken from the drive's fields or designed by fs_drive_init, or off */
     .L_q3 = 0.0f,   /* five phases: x-y current control (fs_xyctrl.h) at this bandwidth, rad/s, with the third-harmonic plane's L_d3, L_q3, psi_f3 (0: off, the x-y voltage left at ...; 0: taken from the drive's fields or designed by fs_drive_init, or off */
@@ -209,35 +209,35 @@ const fs_drive_config fs_config = {
         .w_e_max = 2617.9939f,   /* top electrical speed for the gain bound, rad/s; scenario beyond-full-range: [observer] top_speed_rpm */
         .i_max = 60.0f,   /* top current for the gain bound, A; the current estimate is held within 16 i_max; machine yang2022: bench.i_max (scenario default) */
         .k = 0.0f,   /* switching gain, V; 0: designed as margin * bound; 0: taken from the drive's fields or designed by fs_drive_init, or off (observer.k) */
-        .margin = 1.5f,   /* >= 1; default of [observer] margin (fullspeed.scenario) */
+        .margin = 1.5f,   /* >= 1; default of [observer] margin (fullspeed.design.scenario) */
         .delta = 0.0f,   /* boundary layer, A; floored at k Ts / L_d; 0: taken from the drive's fields or designed by fs_drive_init, or off (observer.delta) */
-        .w_c_min = 10.4719753f,   /* filter cutoff floor, rad/s; default of [observer] cutoff_min_rpm (fullspeed.scenario) */
-        .bw_pll = 250.0f,   /* PLL double pole, rad/s; default of [observer] bw_pll (fullspeed.scenario) */
-        .w_valid = 52.3598785f,   /* |w_hat| below this: not valid, rad/s (el.); default of [observer] valid_rpm (fullspeed.scenario) */
-        .lag = FS_SMO_LAG_EXACT,   /* fs_smo_lag (FS_SMO_FORM_PAPER); default of [observer] lag (fullspeed.scenario) */
-        .form = 1,   /* fs_smo_form; default of [observer] form (fullspeed.scenario) */
+        .w_c_min = 10.4719753f,   /* filter cutoff floor, rad/s; default of [observer] cutoff_min_rpm (fullspeed.design.scenario) */
+        .bw_pll = 250.0f,   /* PLL double pole, rad/s; default of [observer] bw_pll (fullspeed.design.scenario) */
+        .w_valid = 52.3598785f,   /* |w_hat| below this: not valid, rad/s (el.); default of [observer] valid_rpm (fullspeed.design.scenario) */
+        .lag = FS_SMO_LAG_EXACT,   /* fs_smo_lag (FS_SMO_FORM_PAPER); default of [observer] lag (fullspeed.design.scenario) */
+        .form = 1,   /* fs_smo_form; default of [observer] form (fullspeed.design.scenario) */
         .J = 0.0f,   /* FS_SMO_FORM_TRACKING: inertia kg m^2 (> 0), viscous friction N m s; 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .B = 0.0f,   /* FS_SMO_FORM_TRACKING: inertia kg m^2 (> 0), viscous friction N m s; 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .pole_pairs = 0,   /* FS_SMO_FORM_TRACKING: >= 1; 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .phases = 0,   /* FS_SMO_FORM_TRACKING: the torque's phases / 2 (3 or 5); 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .dir_external = 0,   /* 1: the direction the PLL error assumes is the caller's (fs_smo_set_dir); 0: taken from the drive's fields or designed by fs_drive_init, or off */
     },
-    .fw_w_e_max = 2617.9939f,   /* flux weakening in speed mode (zou2021 PART_1, fs_fw.h): the top electrical speed of eq. (31), rad/s (0: off), the gain on its beta (the loop's dc gain at ...; default of [controller] fw_top_speed_rpm (fullspeed.scenario) */
+    .fw_w_e_max = 2617.9939f,   /* flux weakening in speed mode (zou2021 PART_1, fs_fw.h): the top electrical speed of eq. (31), rad/s (0: off), the gain on its beta (the loop's dc gain at ...; default of [controller] fw_top_speed_rpm (fullspeed.design.scenario) */
     .fw_gain = 0.0f,   /* flux weakening in speed mode (zou2021 PART_1, fs_fw.h): the top electrical speed of eq. (31), rad/s (0: off), the gain on its beta (the loop's dc gain at ...; 0: taken from the drive's fields or designed by fs_drive_init, or off (controller.fw_gain) */
     .fw_cutoff = 0.0f,   /* flux weakening in speed mode (zou2021 PART_1, fs_fw.h): the top electrical speed of eq. (31), rad/s (0: off), the gain on its beta (the loop's dc gain at ...; 0: taken from the drive's fields or designed by fs_drive_init, or off (controller.fw_cutoff) */
-    .fw_hold = 0,   /* default of [controller] fw_excess (fullspeed.scenario) */
-    .lock_time = 0.0199999996f,   /* loss-of-lock monitor (fs_lock.h) while the loops run sensorless: the time, s, the estimator in use may spend off track, net, before lock counts as lost (0 ...; default of [controller] lock_time (fullspeed.scenario) */
+    .fw_hold = 0,   /* default of [controller] fw_excess (fullspeed.design.scenario) */
+    .lock_time = 0.0199999996f,   /* loss-of-lock monitor (fs_lock.h) while the loops run sensorless: the time, s, the estimator in use may spend off track, net, before lock counts as lost (0 ...; default of [controller] lock_time (fullspeed.design.scenario) */
     .lock_recover = 1,   /* recovery from a loss of lock (lock_recover = 1; else the monitor latches lock_lost); scenario beyond-full-range: [controller] lock */
-    .t_recover = 0.0500000007f,   /* default of [controller] recover_time (fullspeed.scenario) */
-    .lock_retries = 3,   /* default of [controller] lock_retries (fullspeed.scenario) */
+    .t_recover = 0.0500000007f,   /* default of [controller] recover_time (fullspeed.design.scenario) */
+    .lock_retries = 3,   /* default of [controller] lock_retries (fullspeed.design.scenario) */
     .i_start = 0.0f,   /* sensorless start (speed mode, FS_ANGLE_SMO, sensorless from standstill): I/f, a current of i_start on the d axis of a frame accelerated at a_start (el. ...; 0: taken from the drive's fields or designed by fs_drive_init, or off (observer.i_start) */
     .a_start = 0.0f,   /* sensorless start (speed mode, FS_ANGLE_SMO, sensorless from standstill): I/f, a current of i_start on the d axis of a frame accelerated at a_start (el. ...; 0: taken from the drive's fields or designed by fs_drive_init, or off (observer.start_accel_rpm_s) */
     .w_handover = 0.0f,   /* sensorless start (speed mode, FS_ANGLE_SMO, sensorless from standstill): I/f, a current of i_start on the d axis of a frame accelerated at a_start (el. ...; 0: taken from the drive's fields or designed by fs_drive_init, or off (observer.start_handover_rpm) */
     .hfi = {   /* injection (FS_ANGLE_HFI, FS_ANGLE_BLEND): Ts, delay, L_d, L_q and the observer's Ts, J, B, pole_pairs are taken from above */
         .Ts = 0.0f,   /* sampling period, s; 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .delay = 0.0f,   /* computation delay, control periods (0..2); 0: taken from the drive's fields or designed by fs_drive_init, or off */
-        .u_h = 5.0f,   /* injected amplitude, V (> 0), eq. (22); default of [injection] u_h (fullspeed.scenario) */
-        .w_h = 6283.18555f,   /* injected frequency, rad/s; more than 4 samples per period: w_h <= fs_hfi_w_h_max(Ts); default of [injection] f_h (fullspeed.scenario) */
+        .u_h = 5.0f,   /* injected amplitude, V (> 0), eq. (22); default of [injection] u_h (fullspeed.design.scenario) */
+        .w_h = 6283.18555f,   /* injected frequency, rad/s; more than 4 samples per period: w_h <= fs_hfi_w_h_max(Ts); default of [injection] f_h (fullspeed.design.scenario) */
         .R_s = 0.0f,   /* the controller's resistance, ohm (>= 0); 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .L_d = 0.0f,   /* the controller's inductances: saliency needed, |L_q - L_d| > 1 %; 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .L_q = 0.0f,   /* the controller's inductances: saliency needed, |L_q - L_d| > 1 %; 0: taken from the drive's fields or designed by fs_drive_init, or off */
@@ -266,12 +266,12 @@ const fs_drive_config fs_config = {
                 0.0f, 0.0f, 0.0f, 0.0f,
             },
         },
-        .leak = 1,   /* 1: the fundamental's leak taken out of i_hn (fs_hfi_filter_step_nl); 0: the paper's filter; default of [injection] leak (fullspeed.scenario) */
-        .lag = 1,   /* 1: the motion observer designed with the second SRFF's lag in its loop (header); 0: the paper's; default of [injection] tracking (fullspeed.scenario) */
+        .leak = 1,   /* 1: the fundamental's leak taken out of i_hn (fs_hfi_filter_step_nl); 0: the paper's filter; default of [injection] leak (fullspeed.design.scenario) */
+        .lag = 1,   /* 1: the motion observer designed with the second SRFF's lag in its loop (header); 0: the paper's; default of [injection] tracking (fullspeed.design.scenario) */
     },
     .blend = {   /* FS_ANGLE_BLEND: the band (w_lower, w_upper) and the filtering observer's bandwidth (the rest as for hfi.obs); above w_inject_max (el. rad/s; 0: never) the ... */
-        .w_lower = 83.7758026f,   /* g_w = 0 at and below, rad/s (el.), >= 0; default of [blending] lower_rpm (fullspeed.scenario) */
-        .w_upper = 136.135681f,   /* g_w = 1 at and above, rad/s (el.), > w_lower; default of [blending] upper_rpm (fullspeed.scenario) */
+        .w_lower = 83.7758026f,   /* g_w = 0 at and below, rad/s (el.), >= 0; default of [blending] lower_rpm (fullspeed.design.scenario) */
+        .w_upper = 136.135681f,   /* g_w = 1 at and above, rad/s (el.), > w_lower; default of [blending] upper_rpm (fullspeed.design.scenario) */
         .obs = {   /* the filtering observer (Ts, J, B, p, bandwidth) */
             .Ts = 0.0f,   /* sampling period, s; 0: taken from the drive's fields or designed by fs_drive_init, or off */
             .J = 0.0f,   /* model inertia J_hat, kg m^2 (> 0); 0: taken from the drive's fields or designed by fs_drive_init, or off */
@@ -279,14 +279,14 @@ const fs_drive_config fs_config = {
             .pole_pairs = 0,   /* p (>= 1); 0: taken from the drive's fields or designed by fs_drive_init, or off */
             .bandwidth = 0.0f,   /* w_o, triple pole at -w_o, rad/s; w_o Ts <= 0.5; 0: taken from the drive's fields or designed by fs_drive_init, or off (blending.bw_observer) */
         },
-        .gate = 1,   /* 1: the caller gates the SMO's weight (header, fs_blend_step_gated); 0: eq. (28) alone; default of [blending] gate (fullspeed.scenario) */
+        .gate = 1,   /* 1: the caller gates the SMO's weight (header, fs_blend_step_gated); 0: eq. (28) alone; default of [blending] gate (fullspeed.design.scenario) */
     },
-    .w_inject_max = 163.362823f,   /* default of [injection] stop_rpm (fullspeed.scenario) */
+    .w_inject_max = 163.362823f,   /* default of [injection] stop_rpm (fullspeed.design.scenario) */
     .polarity = {   /* polarity detection when sensorless from the first step (i_pulse 0: none; Ts taken from above; i_pulse_max 0: i_max less the carrier's peak; the carrier's ... */
         .Ts = 0.0f,   /* sampling period, s; 0: taken from the drive's fields or designed by fs_drive_init, or off */
-        .i_pulse = 30.0f,   /* d-current pulse amplitude, A (> 0); default of [polarity] i_pulse (fullspeed.scenario) */
-        .t_lock = 0.0611154959f,   /* settling of the estimator before the pulses, s (>= 0); default of [polarity] t_lock (fullspeed.scenario) */
-        .t_pulse = 0.0229183119f,   /* length of each pulse, s (>= 4 Ts; t_lock + t_pulse < 1e3 s and 1e9 Ts); default of [polarity] t_pulse (fullspeed.scenario) */
+        .i_pulse = 30.0f,   /* d-current pulse amplitude, A (> 0); default of [polarity] i_pulse (fullspeed.design.scenario) */
+        .t_lock = 0.0611154959f,   /* settling of the estimator before the pulses, s (>= 0); default of [polarity] t_lock (fullspeed.design.scenario) */
+        .t_pulse = 0.0229183119f,   /* length of each pulse, s (>= 4 Ts; t_lock + t_pulse < 1e3 s and 1e9 Ts); default of [polarity] t_pulse (fullspeed.design.scenario) */
         .i_pulse_max = 0.0f,   /* the largest pulse of the retries, A (0: i_pulse, no retry; else >= i_pulse); 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .d_min = 0.0f,   /* the relative difference's floor (0: FS_POLARITY_D_MIN; else in (0, 1)); 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .w_filter = 0.0f,   /* the carrier amplitude's filter bandwidth, rad/s (0: samples taken as independent); 0: taken from the drive's fields or designed by fs_drive_init, or off */
@@ -326,11 +326,11 @@ const fs_drive_config fs_config = {
     .k_i_q = 0.0f,   /* explicit PI gains, e.g. a paper's (all 0: designed from bw_current and bw_speed): current loop per axis, V/A and V/(A s); speed loop, N m s/rad and N m/rad; 0: taken from the drive's fields or designed by fs_drive_init, or off (controller.gains) */
     .k_p_w = 0.0f,   /* explicit PI gains, e.g. a paper's (all 0: designed from bw_current and bw_speed): current loop per axis, V/A and V/(A s); speed loop, N m s/rad and N m/rad; 0: taken from the drive's fields or designed by fs_drive_init, or off (controller.gains) */
     .k_i_w = 0.0f,   /* explicit PI gains, e.g. a paper's (all 0: designed from bw_current and bw_speed): current loop per axis, V/A and V/(A s); speed loop, N m s/rad and N m/rad; 0: taken from the drive's fields or designed by fs_drive_init, or off (controller.gains) */
-    .cc_internal_model = 0,   /* without explicit current gains, 1: the current regulators by internal model (fs_current_ctrl.h; zou2021's, its sec. 4.2 and 5.1); 0: by pole placement; default of [controller] gains (fullspeed.scenario) */
-    .converter = FS_CONV_VSI,   /* the converter (fs_converter); default of [converter] kind (fullspeed.scenario) */
-    .imc_region = FS_IMC_LINEAR,   /* default of [converter] modulation (fullspeed.scenario) */
+    .cc_internal_model = 0,   /* without explicit current gains, 1: the current regulators by internal model (fs_current_ctrl.h; zou2021's, its sec. 4.2 and 5.1); 0: by pole placement; default of [controller] gains (fullspeed.design.scenario) */
+    .converter = FS_CONV_VSI,   /* the converter (fs_converter); default of [converter] kind (fullspeed.design.scenario) */
+    .imc_region = FS_IMC_LINEAR,   /* default of [converter] modulation (fullspeed.design.scenario) */
     .imc_w_grid = 0.0f,   /* 0: taken from the drive's fields or designed by fs_drive_init, or off (converter.f_grid) */
-    .imc_depth = 0,   /* default of [controller] depth_control (fullspeed.scenario) */
+    .imc_depth = 0,   /* default of [controller] depth_control (fullspeed.design.scenario) */
     .imc_i_lim = 0.0f,   /* 0: taken from the drive's fields or designed by fs_drive_init, or off (controller.i_lim) */
     .imc_V_im = 0.0f,   /* 0: taken from the drive's fields or designed by fs_drive_init, or off (converter.grid_ll_rms) */
     .adapt = {   /* online correction of R_s and psi_f (fs_param_adapt.h), learnt while the loops run sensorless (rotating injection, SMO, blend); the SMO's model and the ... */
@@ -345,7 +345,7 @@ const fs_drive_config fs_config = {
         .min_sep = 0.0f,   /* 1 - rho^2 needed to update; 0: designed, 0.05; 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .min_level = 0.0f,   /* mean |phi|^2 needed; 0: designed, 0.01 (10 % of i_max or w_e_max); 0: taken from the drive's fields or designed by fs_drive_init, or off */
     },
-    .mtpa_table = {   /* the MTPA locus as a table (n = 0: designed from L_d, L_q, psi_f; a flux map's from fullspeed.fluxmap); read at init only */
+    .mtpa_table = {   /* the MTPA locus as a table (n = 0: designed from L_d, L_q, psi_f; a flux map's from fullspeed.design.magnetics); read at init only */
         .n = 0,   /* 0, or FS_MTPA_N points; 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .T = {   /* N m, 0 at k = 0 and rising; 0: taken from the drive's fields or designed by fs_drive_init, or off */
             0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,

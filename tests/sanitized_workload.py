@@ -24,7 +24,8 @@ import numpy as np
 
 import fullspeed._core as core
 from fullspeed._core import ffi, lib
-from fullspeed.scenario import load_scenario, scenario_from_dict, scenario_names
+from fullspeed.design.scenario import load_scenario, scenario_from_dict
+from fullspeed.model.scenario import scenario_names
 from fullspeed.sim import build_config, simulate
 
 FAILED: list[str] = []

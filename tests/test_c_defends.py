@@ -27,7 +27,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from fullspeed._core import ffi, lib
-from fullspeed.scenario import load_scenario
+from fullspeed.design.scenario import load_scenario
 from fullspeed.sim import build_config
 
 INIT_SETTINGS = settings(deadline=None, max_examples=100)
@@ -90,7 +90,7 @@ def _hfi_base():
             "L_q": 90e-6, "w_b_p": 0.0, "w_b_n": 0.0, "obs": {"Ts": 1e-4, "J": 1.87e-3, "B": 0.0, "pole_pairs": 5}}
 
 
-def _xcomp_table():
+def xcomp_table():
     return {"n": 4, "i_q0": -2.0, "di_q": 1.5, "delta": [0.1, -0.2, 0.3, 0.05]}
 
 
@@ -205,7 +205,7 @@ def test_designs_refuse_gains_beyond_the_float_range():
 @INIT_SETTINGS
 @given(data=st.data())
 def test_xcomp_check_refuses_a_bad_table_or_polynomial(data):
-    cfg = ffi.new("fs_xcomp_config *", _xcomp_table())
+    cfg = ffi.new("fs_xcomp_config *", xcomp_table())
     assert lib.fs_xcomp_check(cfg) == lib.FS_OK
     field = data.draw(st.sampled_from(["i_q0", "di_q", "delta[0]", "delta[3]", "poly[0]", "poly[2]", "n"]))
     if field == "n":

@@ -8,10 +8,11 @@ import sys
 import numpy as np
 import pytest
 
-from fullspeed.calibrate import CalibrationError, circular_mean_deg, circular_std_deg, write_table, xsat_table
-from fullspeed.files import file_name
-from fullspeed.errors import ConfigError
-from fullspeed.scenario import _xcomp_table, load_scenario
+from fullspeed.workflows.calibrate import CalibrationError, circular_mean_deg, circular_std_deg, write_table, xsat_table
+from fullspeed.model.files import file_name
+from fullspeed.model.errors import ConfigError
+from fullspeed.design.scenario import load_scenario
+from fullspeed.model.scenario import xcomp_table
 
 HFI_100 = '''name = "{name}"
 duration = 1.0
@@ -51,7 +52,7 @@ def test_catalog_tables_put_the_estimate_within_1_el_deg_of_the_encoder(scenario
     assert np.max(np.abs(table["residual_deg"])) < 1.0
     assert np.max(np.abs(table["delta_deg"])) > 25.0            # there was cross-saturation to take out
     assert np.max(table["spread_deg"]) < 5.0
-    ref = _xcomp_table(shipped, None)
+    ref = xcomp_table(shipped, None)
     assert np.max(np.abs(np.subtract(table["delta_deg"], ref["delta_deg"]))) < 0.5
 
 
@@ -63,7 +64,7 @@ def test_a_torque_load_scenario_is_calibrated_at_a_held_speed(tmp_path):
     f.write_text(HFI_100.format(name="torque-load", mode="speed", u_h=5.0, load='kind = "torque"\ntorque = 2.0'))
     table, sc = xsat_table(f, points=5)
     assert sc.data["load"]["kind"] == "speed_pi" and table["speed_rpm"] == 100.0
-    ref = dict(zip(*(_xcomp_table("yang2022-xsat", None)[k] for k in ("i_q", "delta_deg"))))
+    ref = dict(zip(*(xcomp_table("yang2022-xsat", None)[k] for k in ("i_q", "delta_deg"))))
     assert all(abs(d - ref[i]) < 2.0 for i, d in zip(table["i_q"], table["delta_deg"]))
 
 
@@ -99,14 +100,14 @@ def test_written_table_reads_back_with_any_name_and_stays_in_its_folder(tmp_path
              "spread_deg": [0.5, 0.4, 0.5], "speed_rpm": 100.0, "residual_deg": [0.1, 0.0, -0.1]}
     path = write_table(table, tmp_path / f"{file_name('../../cal_escape')}-xsat.toml")
     assert path.parent == tmp_path and path.name == "_.._cal_escape-xsat.toml"
-    back = _xcomp_table(str(path), None)
+    back = xcomp_table(str(path), None)
     assert back == {"i_q": table["i_q"], "delta_deg": table["delta_deg"]}
     import tomllib
     assert tomllib.loads(path.read_text(encoding="utf-8"))["xcomp"]["source"] == table["source"]
 
 
 def _table_file(tmp_path, **settings):
-    from fullspeed.calibrate import table_settings
+    from fullspeed.design.xcomp import table_settings
     sc = load_scenario("beyond-xcomp-3ph")
     rec = {**table_settings(sc.data, sc.machine.name), **settings}
     table = {"i_q": [-40.0, 0.0, 40.0], "delta_deg": [-30.0, 0.0, 30.0], "source": "test", "settings": rec}
@@ -119,7 +120,7 @@ def test_a_table_records_its_settings_and_refuses_a_scenario_that_differs(tmp_pa
     leak or estimator it is refused naming the field; with another carrier
     it is warned."""
     path = str(_table_file(tmp_path))
-    assert _xcomp_table(path, None)["settings"]["leak"] == "remove"
+    assert xcomp_table(path, None)["settings"]["leak"] == "remove"
     ok = load_scenario("beyond-xcomp-3ph", {"injection": {"xcomp": path}})
     assert not [w for w in ok.warnings if "xcomp" in w]
     with pytest.raises(ConfigError) as err:
@@ -141,7 +142,7 @@ def test_the_shipped_tables_were_measured_with_the_settings_their_scenarios_use(
     scenarios use it so), yang2022-swvi-xsat with the optimized sequence."""
     for name, scenarios in (("yang2022-xsat", ("beyond-full-range", "beyond-xcomp-3ph", "beyond-robust", "beyond-thermal")),
                             ("yang2022-swvi-xsat", ("beyond-swvi-3ph", "beyond-swvi-3ph-100rpm"))):
-        rec = _xcomp_table(name, None)["settings"]
+        rec = xcomp_table(name, None)["settings"]
         for sc in scenarios:
             s = load_scenario(sc)
             assert not [w for w in s.warnings if "injection.xcomp" in w], sc

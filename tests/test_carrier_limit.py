@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from fullspeed._core import ffi, lib
-from fullspeed.errors import ConfigError
-from fullspeed.scenario import load_scenario
+from fullspeed.model.errors import ConfigError
+from fullspeed.design.scenario import load_scenario
 
 
 def hfi_init(w_h: float, Ts: float) -> int:

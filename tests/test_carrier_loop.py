@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from fullspeed import design as dz
-from fullspeed.metrics import stage_changes
-from fullspeed.scenario import load_scenario
+from fullspeed.design import rules as dz
+from fullspeed.sim.metrics import stage_changes
+from fullspeed.design.scenario import load_scenario
 from fullspeed.sim import simulate
 
 # beyond-full-range's first second (polarity, rated load taken on at

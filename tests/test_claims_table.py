@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from fullspeed.claims import CLAIMS, PAPERS, Claim, claims_for
+from fullspeed.reproduce.claims import CLAIMS, PAPERS, Claim, claims_for
 
 REPO = Path(__file__).resolve().parents[1]
 CLAIMS_MD = REPO.parent / "shared" / "CLAIMS.md"
@@ -291,7 +291,7 @@ def test_injection_and_machine_specifics():
     assert 0 < yang["injection"]["u_h"] < yang["bench"]["u_dc"] / math.sqrt(3)
     # the carrier, designed (the machine leaves it out: design.design_carrier), well below Nyquist:
     # at least 5 samples per period
-    from fullspeed.scenario import load_scenario
+    from fullspeed.design.scenario import load_scenario
     assert "f_h" not in yang["injection"]
     assert yang["bench"]["f_pwm"] / load_scenario("yang2022-hfi-ramp").data["injection"]["f_h"] >= 5
     assert yang["blending"]["lower_rpm"] < yang["blending"]["upper_rpm"]

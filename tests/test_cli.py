@@ -71,12 +71,12 @@ def test_reproduce_lists_every_claim_measured_or_not(tmp_path, monkeypatch):
     measured, failing its measurement (value null, the reason), or not yet
     measurable. (The measurements themselves take minutes: the README's
     first command runs them, and each claim's own tests check its pieces.)"""
-    from fullspeed import papers  # noqa: F401  (registers the real measurements)
-    from fullspeed import reproduce as rp
-    from fullspeed.claims import CLAIMS
+    from fullspeed.reproduce import report as rp   # importing it registers the real measurements
+    from fullspeed.reproduce.claims import CLAIMS
+    from fullspeed.reproduce.registry import Measurement
 
     def measured(out):
-        return rp.Measurement({"x": 1.0}, True, "measured")
+        return Measurement({"x": 1.0}, True, "measured")
 
     def broken(out):
         raise RuntimeError("no such run")

@@ -5,7 +5,7 @@ from pathlib import Path
 import pytest
 
 from fullspeed.cli import _set_overrides, main
-from fullspeed.errors import ConfigError
+from fullspeed.model.errors import ConfigError
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -47,7 +47,7 @@ def test_set_on_a_named_machines_field_merges_into_that_machine():
     name or a machine file: that machine with the one field changed (it
     replaced the name with a one-field table, which then missed every
     required field)."""
-    from fullspeed.scenario import load_scenario
+    from fullspeed.design.scenario import load_scenario
     ov = _set_overrides(["machine.bench.f_pwm=20000"])
     sc = load_scenario("beyond-full-range", ov)
     base = load_scenario("beyond-full-range")

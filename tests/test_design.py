@@ -1,5 +1,5 @@
-"""Designed defaults (fullspeed.design), the warnings a scenario says out
-loud (fullspeed.checks), and polarity detection that refuses what it cannot
+"""Designed defaults (fullspeed.design.rules), the warnings a scenario says out
+loud (fullspeed.design.checks), and polarity detection that refuses what it cannot
 tell (issue 21)."""
 import json
 import math
@@ -9,10 +9,10 @@ import sys
 import numpy as np
 import pytest
 
-from fullspeed import design as dz
-from fullspeed import zoo
-from fullspeed.machines import machine_from_dict
-from fullspeed.scenario import load_scenario, scenario_from_dict
+from fullspeed.design import rules as dz
+from fullspeed.model import zoo
+from fullspeed.design.machine import machine_from_dict
+from fullspeed.design.scenario import load_scenario, scenario_from_dict
 from fullspeed.sim import simulate
 
 # a 48 V machine given by its datasheet alone (the new user's trial)
@@ -72,7 +72,7 @@ def test_a_scenario_overrides_the_design():
 
 
 def test_the_old_blending_names_are_refused_with_the_new_one():
-    from fullspeed.errors import ConfigError
+    from fullspeed.model.errors import ConfigError
     with pytest.raises(ConfigError, match="blending.lower_rpm"):
         machine_from_dict({**DATASHEET, "blending": {"omega_lower_rpm": 100.0}})
 
@@ -223,7 +223,7 @@ def test_zoo_sample(k, outcome):
     half rated load tripped on the paper's injection observer, which lagged
     the load ramp); 24 (the dead time's voltage 0.8 of the carrier's: with
     the usual compensation the estimate wandered 25 el.deg at standstill)."""
-    from fullspeed.papers.zoo import classify
+    from fullspeed.reproduce.papers.zoo import classify
     r = simulate("beyond-zoo", overrides={"machine": {"zoo": k}})
     if outcome == "refused":
         assert r.stop_reason == "polarity_undetermined"
@@ -255,7 +255,7 @@ def test_no_voltage_for_a_carrier_is_named_with_its_cause():
     than the link, the designed carrier comes out at nothing, and the
     refusal names the carrier's amplitude and why (not its frequency, which
     is what the estimator's own check would blame)."""
-    from fullspeed.errors import ConfigError
+    from fullspeed.model.errors import ConfigError
     m = {**DATASHEET, "electrical": {"R_s": 0.05, "L_d": 0.3, "L_q": 0.8, "psi_f": 0.02}}
     with pytest.raises(ConfigError) as e:
         scenario(m)

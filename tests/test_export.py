@@ -19,8 +19,8 @@ from pathlib import Path
 import pytest
 
 from fullspeed import cli
-from fullspeed.export import c_float, export
-from fullspeed.scenario import load_scenario
+from fullspeed.workflows.export import c_float, export
+from fullspeed.design.scenario import load_scenario
 from fullspeed.sim import build_config, ffi, lib
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import fullspeed.sim as fs
-from fullspeed.units import rad_s_to_rpm
+from fullspeed.model.units import rad_s_to_rpm
 
 NAME = "bench-motulator-2kw"
 
@@ -49,7 +49,7 @@ def test_without_flux_weakening_top_speed_is_not_reached():
 
 
 def test_a_flux_weakening_cutoff_above_the_sampling_limit_is_a_field_error():
-    from fullspeed.errors import ConfigError
-    from fullspeed.scenario import load_scenario
+    from fullspeed.model.errors import ConfigError
+    from fullspeed.design.scenario import load_scenario
     with pytest.raises(ConfigError, match="controller.fw_cutoff"):
         load_scenario(NAME, {"controller": {"fw_cutoff": 1e5}})

@@ -7,10 +7,10 @@ import warnings
 import numpy as np
 import pytest
 
-from fullspeed.errors import ConfigError
-from fullspeed.fluxmap import FluxMapWarning, load_map, zero_current_values
-from fullspeed.machines import load_machine
-from fullspeed.scenario import scenario_from_dict
+from fullspeed.model.errors import ConfigError
+from fullspeed.model.fluxmap import FluxMapWarning, load_map, zero_current_values
+from fullspeed.design.machine import load_machine
+from fullspeed.design.scenario import scenario_from_dict
 from fullspeed.sim import simulate
 
 PSI_F, L_D, L_Q = 0.0105, 0.30e-3, 0.55e-3        # a 48 V IPMSM of the trial's kind
@@ -145,7 +145,8 @@ def test_the_controller_takes_its_tables_from_the_map(tmp_path):
     psi_f, the secant L_q at the rated MTPA point, the incremental L_q the
     carrier sees at half rated current, and an MTPA locus that gives more
     torque per ampere on the map than the linear model's locus does."""
-    from fullspeed.fluxmap import controller_values, interp, mtpa_locus
+    from fullspeed.design.magnetics import controller_values, mtpa_locus
+    from fullspeed.model.fluxmap import interp
     mag = load_map(write_csv(tmp_path / "map.csv"), "magnetic.file")
     cv = controller_values(mag, 40.0, 28.0, 3, 4)
     assert cv["psi_f"] == pytest.approx(PSI_F) and cv["L_d"] == pytest.approx(L_D, rel=1e-6)
@@ -168,7 +169,7 @@ def test_a_map_whose_saliency_vanishes_under_load_says_how_much_torque_injection
     """The incremental L_q = L_Q / cosh^2(i_q / i_sat) falls to L_D at
     i_q = i_sat acosh(sqrt(L_Q / L_D)): 23.1 A with i_sat = 20 A, where the
     injection has no axis left; with i_sat = 200 A it never gets there."""
-    from fullspeed.fluxmap import saliency_warnings
+    from fullspeed.design.magnetics import saliency_warnings
     i_q = np.array([0.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 45.0])
     mag = load_map(write_csv(tmp_path / "a.csv", i_q=i_q, i_sat=20.0), "magnetic.file")
     (line,) = saliency_warnings(mag, 40.0, 3, 4, 5.0, "m")

@@ -5,12 +5,12 @@ parameter Monte Carlo."""
 import numpy as np
 import pytest
 
-from fullspeed.metrics import stage_changes
-from fullspeed.papers.beyond import FULL_RANGE_STAGES, top_speed_stats
-from fullspeed.scenario import load_scenario
+from fullspeed.sim.metrics import stage_changes
+from fullspeed.reproduce.papers.beyond import FULL_RANGE_STAGES, top_speed_stats
+from fullspeed.design.scenario import load_scenario
 from fullspeed.sim import simulate
-from fullspeed.sweep import run_sweep, sweep_from_dict
-from fullspeed.units import rad_s_to_rpm
+from fullspeed.workflows.sweep import run_sweep, sweep_from_dict
+from fullspeed.model.units import rad_s_to_rpm
 
 FULL = "beyond-full-range"
 TOP = (3.2, 3.5)          # the top speed's plateau in that scenario, s

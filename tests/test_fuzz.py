@@ -27,11 +27,11 @@ from pathlib import Path
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from fullspeed import zoo
+from fullspeed.model import zoo
 from fullspeed.cli import main
-from fullspeed.machines import catalog_data
-from fullspeed.schema import deep_merge
-from fullspeed.scenario import scenario_names
+from fullspeed.model.machines import catalog_data
+from fullspeed.model.schema import deep_merge
+from fullspeed.model.scenario import scenario_names
 from fullspeed.sim import STOP_REASONS
 
 from tomlw import dumps

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from fullspeed._core import ffi, lib
-from fullspeed.scenario import load_scenario
+from fullspeed.design.scenario import load_scenario
 from fullspeed.sim import simulate
 
 TS, W_H = 125e-6, 2 * math.pi * 1000.0

@@ -9,9 +9,9 @@ import tomllib
 import pytest
 
 from fullspeed.cli import main
-from fullspeed.identify import GOALS_PCT, QUANTITIES, identify
-from fullspeed.machines import load_machine
-from fullspeed.scenario import scenario_from_dict
+from fullspeed.workflows.identify import GOALS_PCT, QUANTITIES, identify
+from fullspeed.design.machine import load_machine
+from fullspeed.design.scenario import scenario_from_dict
 
 from tomlw import dumps
 
@@ -90,7 +90,7 @@ def test_bad_input_exits_2(tmp_path, capsys):
 
 
 def test_zoo_campaign_row(tmp_path):
-    from fullspeed.identify import campaign_summary, zoo_campaign
+    from fullspeed.workflows.identify import campaign_summary, zoo_campaign
 
     rows = zoo_campaign([3], tmp_path, workers=1)
     (row,) = rows
@@ -102,7 +102,7 @@ def test_zoo_campaign_row(tmp_path):
 
 
 def test_campaign_summary_counts_failures():
-    from fullspeed.identify import campaign_summary
+    from fullspeed.workflows.identify import campaign_summary
 
     ok = {"machine": "a", "status": {q: "ok" for q in QUANTITIES}, "reason": {q: "" for q in QUANTITIES},
           "errors_pct": {q: 1.0 for q in GOALS_PCT}, "failures": []}
@@ -120,9 +120,9 @@ def test_identified_scales_put_the_identified_values_in_the_controller():
     """identify, then run sensorless: the controller's scales make its model
     the identified one (identified = truth x (1 + error); the inductances'
     truth is the small-signal one, against the machine file's nominal)."""
-    from fullspeed import zoo
-    from fullspeed.identify import identified_scales, small_signal_inductances
-    from fullspeed.machines import machine_from_dict
+    from fullspeed.model import zoo
+    from fullspeed.workflows.identify import identified_scales, small_signal_inductances
+    from fullspeed.design.machine import machine_from_dict
 
     errs = {"R_s": 1.0, "L_d": -2.0, "L_q": 0.5, "psi_f": -1.0, "J": 4.0}
     row = {"status": {q: "ok" for q in errs}, "errors_pct": errs}

@@ -5,9 +5,10 @@ blend's hand-over."""
 import numpy as np
 import pytest
 
-from fullspeed.calibrate import xsat_table
-from fullspeed.errors import ConfigError
-from fullspeed.scenario import _xcomp_table, load_scenario
+from fullspeed.workflows.calibrate import xsat_table
+from fullspeed.model.errors import ConfigError
+from fullspeed.design.scenario import load_scenario
+from fullspeed.model.scenario import xcomp_table
 from fullspeed.sim import simulate
 
 from test_cli import bad, fullspeed, write_scenario
@@ -75,7 +76,7 @@ def test_shipped_cross_saturation_table_is_what_the_calibration_measures():
     machines/yang2022.toml's reason gives as 0.87 and 22.0 el.deg at 5 and
     25 A (the paper's filter adds a load-proportional bias: 15 at 25 A)."""
     fresh, _ = xsat_table("beyond-xcomp-3ph")
-    shipped = _xcomp_table("yang2022-xsat", None)
+    shipped = xcomp_table("yang2022-xsat", None)
     assert fresh["i_q"] == shipped["i_q"]
     assert np.max(np.abs(np.subtract(fresh["delta_deg"], shipped["delta_deg"]))) < 0.5
     d = dict(zip(fresh["i_q"], fresh["delta_deg"]))

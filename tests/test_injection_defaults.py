@@ -17,7 +17,7 @@ Each closed-loop run is 1-3 s simulated, well under a second.
 import numpy as np
 import pytest
 
-from fullspeed.scenario import load_scenario
+from fullspeed.design.scenario import load_scenario
 from fullspeed.sim import simulate
 
 HOLD = {
@@ -30,7 +30,7 @@ HOLD = {
 
 
 def _scenario(data: dict, injection: dict | None = None):
-    from fullspeed.scenario import scenario_from_dict
+    from fullspeed.design.scenario import scenario_from_dict
     d = {**data, "injection": {**data["injection"], **(injection or {})}}
     return scenario_from_dict(d, None)
 

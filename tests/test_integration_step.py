@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import fullspeed.sim as fs
-from fullspeed.scenario import load_scenario
+from fullspeed.design.scenario import load_scenario
 
 
 @pytest.mark.parametrize("inverter", ["averaged", "switching"])

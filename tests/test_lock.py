@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from fullspeed._core import ffi, lib
-from fullspeed.errors import ConfigError
-from fullspeed.scenario import load_scenario
+from fullspeed.model.errors import ConfigError
+from fullspeed.design.scenario import load_scenario
 from fullspeed.sim import build_config, simulate
 
 SS = "yang2022-smo-steady-400rpm"      # current mode on the SMO, speed held by the load machine
@@ -114,9 +114,9 @@ def test_square_wave_cannot_recover_and_says_so():
 
 # --- checks that do not trust the estimator (fs_monitor.h) and the campaign (B-LOCK)
 
-from fullspeed import lock_campaign as lc  # noqa: E402
-from fullspeed.metrics import true_loss_at  # noqa: E402
-from fullspeed.schema import deep_merge  # noqa: E402
+from fullspeed.workflows import lock_campaign as lc  # noqa: E402
+from fullspeed.sim.metrics import true_loss_at  # noqa: E402
+from fullspeed.model.schema import deep_merge  # noqa: E402
 
 
 def case(base: str, kind: str, healthy: int = 1) -> dict:
@@ -196,7 +196,7 @@ def _sample() -> list[dict]:
 
 
 def test_the_campaign_sample_detects_every_true_loss_without_a_false_alarm(tmp_path):
-    from fullspeed.journal import run_tasks
+    from fullspeed.workflows.journal import run_tasks
 
     tasks = _sample()
     results = run_tasks(lc.run_case, tasks, tmp_path, workers=2)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from fullspeed._core import ffi, lib
-from fullspeed.machines import load_machine
+from fullspeed.design.machine import load_machine
 
 EXPONENTS = ("S", "T", "U", "V")
 COEFFS = ("a_dd", "a_qq", "a_dq")
@@ -91,7 +91,7 @@ def test_calibration_target_sensorless_error_at_25A():
     """The calibration (machines/yang2022.toml): the sensorless rotating-HFI
     error at 100 rpm, 25 A is the paper's 15 el.deg (Fig. 12b), and small at
     5 A (Fig. 12a)."""
-    from fullspeed.scenario import load_scenario
+    from fullspeed.design.scenario import load_scenario
     from fullspeed.sim import simulate
 
     err = {}

@@ -5,10 +5,10 @@ import math
 import numpy as np
 import pytest
 
-from fullspeed.metrics import _changes, stage_metrics, step_response, summary_lines
-from fullspeed.scenario import load_scenario
+from fullspeed.sim.metrics import _changes, stage_metrics, step_response, summary_lines
+from fullspeed.design.scenario import load_scenario
 from fullspeed.sim import UNITS, simulate
-from fullspeed.units import rpm_to_rad_s
+from fullspeed.model.units import rpm_to_rad_s
 
 
 def test_changes_merge_a_ramp_drawn_in_pieces_and_keep_steps_apart():

@@ -9,11 +9,13 @@ import tomllib
 
 import pytest
 
-from fullspeed.errors import ConfigError, MissingFields
-from fullspeed.machines import MACHINE, load_machine
-from fullspeed.reference import machine_template
-from fullspeed.scenario import SCENARIO, load_scenario, scenario_from_dict
-from fullspeed.schema import MISSING
+from fullspeed.model.errors import ConfigError, MissingFields
+from fullspeed.design.machine import load_machine
+from fullspeed.model.machines import MACHINE
+from fullspeed.model.reference import machine_template
+from fullspeed.design.scenario import load_scenario, scenario_from_dict
+from fullspeed.model.scenario import SCENARIO
+from fullspeed.model.schema import MISSING
 
 # the 48 V IPMSM of the new-user trial, by dotted field of the machine file
 DATASHEET = {"name": "my48v", "kind": "ipmsm", "pole_pairs": 4, "electrical.R_s": 0.025, "electrical.L_d": 0.30e-3,

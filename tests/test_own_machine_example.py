@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
-from fullspeed.fluxmap import FluxMapWarning
-from fullspeed.machines import load_machine
-from fullspeed.reference import machine_template
+from fullspeed.model.fluxmap import FluxMapWarning
+from fullspeed.design.machine import load_machine
+from fullspeed.model.reference import machine_template
 from fullspeed.sim import simulate
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "own-machine"

@@ -9,11 +9,12 @@ import numpy as np
 import pytest
 
 from fullspeed._core import ffi, lib
-from fullspeed.errors import ConfigError
-from fullspeed.machines import catalog_data, load_machine, machine_from_dict
-from fullspeed.scenario import scenario_from_dict
+from fullspeed.model.errors import ConfigError
+from fullspeed.design.machine import load_machine, machine_from_dict
+from fullspeed.model.machines import catalog_data
+from fullspeed.design.scenario import scenario_from_dict
 from fullspeed.sim import build_config, simulate
-from fullspeed.units import rpm_to_rad_s
+from fullspeed.model.units import rpm_to_rad_s
 
 
 def yu_machine(**third):

@@ -5,9 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from fullspeed.scenario import scenario_from_dict
+from fullspeed.design.scenario import scenario_from_dict
 from fullspeed.sim import simulate
-from fullspeed.units import rpm_to_rad_s
+from fullspeed.model.units import rpm_to_rad_s
 
 from conftest import MACHINE
 

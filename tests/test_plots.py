@@ -1,8 +1,8 @@
 """The run figure: the voltage against its limit, and the figure itself."""
 import numpy as np
 
-from fullspeed.metrics import window_mask
-from fullspeed.plots import modulation_index, plot_run
+from fullspeed.sim.metrics import window_mask
+from fullspeed.sim.plots import modulation_index, plot_run
 from fullspeed.sim import simulate
 
 

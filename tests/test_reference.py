@@ -6,10 +6,12 @@ import sys
 import tomllib
 from pathlib import Path
 
-from fullspeed.machines import MACHINE, machine_from_dict
-from fullspeed.reference import machine_template, reference_text, sections
-from fullspeed.scenario import scenario_from_dict
-from fullspeed.schema import MISSING
+from fullspeed.design.machine import machine_from_dict
+
+from fullspeed.model.machines import MACHINE
+from fullspeed.model.reference import machine_template, reference_text, sections
+from fullspeed.design.scenario import scenario_from_dict
+from fullspeed.model.schema import MISSING
 
 PAGE = Path(__file__).resolve().parents[1] / "docs" / "reference.md"
 
@@ -21,7 +23,7 @@ DATASHEET = {"kind": "ipmsm", "pole_pairs": 4, "electrical.R_s": 0.025, "electri
 
 
 def test_the_page_is_the_schema():
-    """Regenerate with: python -c "from fullspeed.reference import reference_text;
+    """Regenerate with: python -c "from fullspeed.model.reference import reference_text;
     open('docs/reference.md', 'w').write(reference_text())" """
     assert PAGE.read_text(encoding="utf-8") == reference_text()
 
@@ -69,9 +71,9 @@ def test_the_template_asks_for_exactly_the_required_fields_and_is_enough():
 
 
 def test_the_claims_page_is_the_registry_and_reproduce_points_at_it():
-    """Regenerate with: python -c "from fullspeed.claims import claims_markdown;
+    """Regenerate with: python -c "from fullspeed.reproduce.claims import claims_markdown;
     open('docs/CLAIMS.md', 'w').write(claims_markdown())" """
-    from fullspeed.claims import CLAIMS, claims_markdown
+    from fullspeed.reproduce.claims import CLAIMS, claims_markdown
     page = (PAGE.parent / "CLAIMS.md").read_text(encoding="utf-8")
     assert page == claims_markdown()
     assert all(f"| {c.id} |" in page for c in CLAIMS)

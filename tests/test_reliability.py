@@ -18,9 +18,9 @@ import numpy as np
 import pytest
 
 from fullspeed.cli import main
-from fullspeed.errors import ConfigError
-from fullspeed.machines import catalog_data
-from fullspeed.scenario import load_scenario, scenario_from_dict
+from fullspeed.model.errors import ConfigError
+from fullspeed.model.machines import catalog_data
+from fullspeed.design.scenario import load_scenario, scenario_from_dict
 from fullspeed.sim import STOP_REASONS, Simulation, simulate
 
 

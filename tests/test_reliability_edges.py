@@ -18,12 +18,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fullspeed import files
+from fullspeed.model import files
 from fullspeed.cli import main
-from fullspeed.errors import ConfigError, EngineError
+from fullspeed.model.errors import ConfigError, EngineError
 from fullspeed.sim import CHANNELS
-from fullspeed.journal import JOURNAL, TASKS, read_journal, run_tasks
-from fullspeed.scenario import load_scenario
+from fullspeed.workflows.journal import JOURNAL, TASKS, read_journal, run_tasks
+from fullspeed.design.scenario import load_scenario
 
 BASE = ('name = "bad"\nduration = 0.05\nmachine = "yang2022"\n[controller]\nmode = "current"\nangle = "encoder"\n'
         '[references]\ni_q = 5.0\n[load]\nkind = "speed_pi"\nspeed_rpm = 400.0\n')
@@ -225,16 +225,16 @@ def test_dask_address_without_a_port_is_exit_2_at_once(tmp_path, capsys, address
 # --- 20: a long axis starts quickly, an absurd one is refused --------------------------
 
 def test_a_long_axis_is_checked_at_a_bounded_spread_and_a_huge_one_refused(tmp_path, capsys, monkeypatch):
-    import fullspeed.scenario
-    from fullspeed.sweep import CHECKED_VALUES, MAX_POINTS, load_sweep_file
+    import fullspeed.workflows.sweep
+    from fullspeed.workflows.sweep import CHECKED_VALUES, MAX_POINTS, load_sweep_file
 
     calls = []
-    real = fullspeed.scenario.scenario_from_dict
+    real = fullspeed.workflows.sweep.scenario_from_dict
 
     def counted(d, source=None):
         calls.append(d["references"]["i_q"])
         return real(d, source)
-    monkeypatch.setattr(fullspeed.scenario, "scenario_from_dict", counted)
+    monkeypatch.setattr(fullspeed.workflows.sweep, "scenario_from_dict", counted)
     sw = load_sweep_file(sweep_file(tmp_path / "s.toml", axes='"references.i_q" = { linspace = [0.0, 20.0, 100000] }'))
     assert len(sw.points()) == 100_000
     checked = calls[1:]   # the first is the base
@@ -249,7 +249,7 @@ def test_a_long_axis_is_checked_at_a_bounded_spread_and_a_huge_one_refused(tmp_p
 # --- 44, 45: which file a name means ----------------------------------------------
 
 def test_a_folder_named_like_a_catalog_entry_does_not_shadow_it(tmp_path, monkeypatch):
-    from fullspeed.sweep import load_sweep_file
+    from fullspeed.workflows.sweep import load_sweep_file
 
     monkeypatch.chdir(tmp_path)
     (tmp_path / "yang2022-polarity").mkdir()         # an earlier `--out yang2022-polarity`
@@ -286,7 +286,7 @@ def _journal_tasks(folder: Path) -> list[int]:
 
 
 def test_a_torn_results_table_is_read_from_the_journal(tmp_path):
-    from fullspeed.sweep import load_sweep, load_sweep_file, run_sweep
+    from fullspeed.workflows.sweep import load_sweep, load_sweep_file, run_sweep
 
     pytest.importorskip("pyarrow")
     sw = load_sweep_file(sweep_file(tmp_path / "s.toml"))
@@ -353,7 +353,7 @@ def test_sigkill_at_the_writes_of_tasks_json_and_the_table_leaves_a_resumable_sw
     """The probe's strace kills (cases 23, 24): SIGKILL as tasks.json and
     results.parquet are renamed into place, and at writes while the table
     and figure are written, each followed by a load and a resume."""
-    from fullspeed.sweep import load_sweep
+    from fullspeed.workflows.sweep import load_sweep
 
     pytest.importorskip("pyarrow")
     sweep_file(tmp_path / "s.toml", axes='"references.i_q" = [5.0, 15.0]')
@@ -459,7 +459,7 @@ def test_a_killed_worker_s_points_run_again_with_the_reason_printed(tmp_path):
 
 def test_dask_with_no_worker_is_an_error_after_the_stated_timeout(tmp_path):
     distributed = pytest.importorskip("distributed")
-    from fullspeed.sweep import load_sweep_file, run_sweep
+    from fullspeed.workflows.sweep import load_sweep_file, run_sweep
 
     sw = load_sweep_file(sweep_file(tmp_path / "s.toml"))
     with distributed.LocalCluster(n_workers=0, processes=False, dashboard_address=None) as cluster:
@@ -570,10 +570,11 @@ class _InterruptAfterRun:
 
 def test_ctrl_c_as_a_chunk_returns_keeps_that_chunk(monkeypatch):
     import fullspeed.sim as fsim
+    import fullspeed.sim.runner
 
     sc = load_scenario("yang2022-encoder-speedstep", {"duration": 0.2, "metrics": {"steady": None}})
     proxy = _InterruptAfterRun(fsim.lib, 5)
-    monkeypatch.setattr(fsim, "lib", proxy)
+    monkeypatch.setattr(fullspeed.sim.runner, "lib", proxy)   # the runner's binding of the core
     res = fsim.simulate(sc, chunk=0.02)
     assert res.stop_reason == "interrupted"
     Ts = 1.0 / sc.data["converter"]["f_pwm"] / (2 if sc.data["timing"]["sampling"] == "double" else 1)
@@ -585,7 +586,7 @@ def test_ctrl_c_as_a_chunk_returns_keeps_that_chunk(monkeypatch):
 
 @pytest.mark.parametrize("where", ["npz", "plot"])
 def test_ctrl_c_while_writing_leaves_no_torn_file_that_looks_complete(tmp_path, capsys, monkeypatch, where):
-    import fullspeed.plots
+    import fullspeed.sim.plots
 
     out = tmp_path / "o"
     out.mkdir()
@@ -600,7 +601,7 @@ def test_ctrl_c_while_writing_leaves_no_torn_file_that_looks_complete(tmp_path, 
     else:
         def interrupted(*a, **k):
             raise KeyboardInterrupt
-        monkeypatch.setattr(fullspeed.plots, "plot_run", interrupted)
+        monkeypatch.setattr(fullspeed.sim.plots, "plot_run", interrupted)
     rc, err = run_cli(capsys, "run", "yang2022-encoder-speedstep", "--quiet", "--out", str(out))
     assert rc == 130 and "interrupted" in err
     assert not (out / "metrics.json").exists()   # the mark of a complete folder: absent
@@ -641,14 +642,14 @@ def _catalog_raw(name: str) -> dict:
     import tomllib
     from importlib import resources
 
-    from fullspeed.machines import catalog_data
+    from fullspeed.model.machines import catalog_data
 
     d = tomllib.loads((resources.files("fullspeed") / "scenarios" / f"{name}.toml").read_text())
     m = d["machine"]
     if isinstance(m, str):
         d["machine"] = catalog_data(m)
     elif isinstance(m, dict) and "catalog" in m:
-        from fullspeed.schema import deep_merge
+        from fullspeed.model.schema import deep_merge
         extra = {k: v for k, v in m.items() if k != "catalog"}
         d["machine"] = deep_merge(catalog_data(m["catalog"]), extra)
     return d
@@ -677,7 +678,7 @@ def _mutated(d: dict, path, value) -> dict:
 
 
 def campaign_cases() -> list[tuple[str, tuple, object]]:
-    from fullspeed.scenario import scenario_names
+    from fullspeed.model.scenario import scenario_names
 
     cases = []
     for name in scenario_names():
@@ -698,7 +699,7 @@ def _get(d, path):
 
 def run_mutation(name: str, path: tuple, which) -> str:
     """"refused", "ran", or the unexpected exception's one line."""
-    from fullspeed.scenario import scenario_from_dict
+    from fullspeed.design.scenario import scenario_from_dict
     from fullspeed.sim import Simulation
 
     value = "__unknown_key__" if which == "__unknown_key__" else MUTATIONS[which]

@@ -23,7 +23,8 @@ import pytest
 
 import sanitize_core
 import sanitized_workload
-from fullspeed.scenario import load_scenario, scenario_names
+from fullspeed.design.scenario import load_scenario
+from fullspeed.model.scenario import scenario_names
 
 WORKLOAD = Path(sanitized_workload.__file__).resolve()
 REPORTS = ("ERROR: AddressSanitizer", "ERROR: LeakSanitizer", "runtime error:")

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from fullspeed._core import ffi, lib
-from fullspeed.errors import ConfigError
-from fullspeed.metrics import window_mask
-from fullspeed.scenario import load_scenario
+from fullspeed.model.errors import ConfigError
+from fullspeed.sim.metrics import window_mask
+from fullspeed.design.scenario import load_scenario
 from fullspeed.sim import simulate
 
 

@@ -19,7 +19,8 @@ import numpy as np
 import pytest
 
 from fullspeed._core import ffi, lib
-from fullspeed.scenario import load_scenario, scenario_names
+from fullspeed.design.scenario import load_scenario
+from fullspeed.model.scenario import scenario_names
 from fullspeed.sim import Simulation, simulate
 
 P = 5   # yang2022's pole pairs

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from fullspeed._core import ffi, lib
-from fullspeed.scenario import load_scenario
+from fullspeed.design.scenario import load_scenario
 from fullspeed.sim import simulate
 
 AVG = {"converter": {"inverter": "averaged"}}

@@ -13,9 +13,9 @@ from pathlib import Path
 import pytest
 
 from fullspeed.cli import main
-from fullspeed.errors import ConfigError
-from fullspeed.journal import JOURNAL
-from fullspeed.sweep import load_sweep, load_sweep_file, run_sweep, sweep_from_dict
+from fullspeed.model.errors import ConfigError
+from fullspeed.workflows.journal import JOURNAL
+from fullspeed.workflows.sweep import load_sweep, load_sweep_file, run_sweep, sweep_from_dict
 
 pd = pytest.importorskip("pandas")
 
@@ -179,7 +179,7 @@ def test_csv_without_pyarrow_holds_the_same_values(tmp_path, monkeypatch):
     sw = sweep_from_dict(grid_spec(), "t")
     run_sweep(sw, tmp_path / "pq", workers=1, plot=False)
     a = table(tmp_path / "pq")
-    monkeypatch.setattr("fullspeed.sweep._pyarrow", lambda: None)    # as without pyarrow
+    monkeypatch.setattr("fullspeed.workflows.sweep._pyarrow", lambda: None)    # as without pyarrow
     path, _ = run_sweep(sw, tmp_path / "csv", workers=1, plot=False)
     assert path.name == "results.csv"
     b = table(tmp_path / "csv")
@@ -188,7 +188,7 @@ def test_csv_without_pyarrow_holds_the_same_values(tmp_path, monkeypatch):
 
 
 def test_maps_are_drawn_for_one_and_two_grid_axes_only(tmp_path):
-    from fullspeed.plots import plot_sweep
+    from fullspeed.sim.plots import plot_sweep
 
     sw2 = sweep_from_dict(grid_spec(), "t")
     _, rows = run_sweep(sw2, tmp_path / "two", workers=1)

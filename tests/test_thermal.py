@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from fullspeed._core import ffi, lib
-from fullspeed.errors import ConfigError
-from fullspeed.scenario import scenario_from_dict
+from fullspeed.model.errors import ConfigError
+from fullspeed.design.scenario import scenario_from_dict
 from fullspeed.sim import simulate
 
 from conftest import MACHINE

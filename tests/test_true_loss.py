@@ -3,7 +3,7 @@ campaigns hold the drive's own flags against."""
 import numpy as np
 import pytest
 
-from fullspeed.metrics import true_loss_at
+from fullspeed.sim.metrics import true_loss_at
 
 T = np.arange(0.0, 0.2, 1e-4)
 

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from fullspeed._core import ffi, lib
-from fullspeed.machines import catalog_data
-from fullspeed.scenario import scenario_from_dict
-from fullspeed.errors import ConfigError
+from fullspeed.model.machines import catalog_data
+from fullspeed.design.scenario import scenario_from_dict
+from fullspeed.model.errors import ConfigError
 from fullspeed.sim import simulate
 
 

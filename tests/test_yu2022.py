@@ -9,12 +9,13 @@ import math
 import numpy as np
 import pytest
 
-from fullspeed.calibrate import xsat_table
-from fullspeed.errors import ConfigError
-from fullspeed.metrics import window_mask
-from fullspeed.scenario import _xcomp_table, load_scenario, scenario_from_dict
+from fullspeed.workflows.calibrate import xsat_table
+from fullspeed.model.errors import ConfigError
+from fullspeed.sim.metrics import window_mask
+from fullspeed.design.scenario import load_scenario, scenario_from_dict
+from fullspeed.model.scenario import xcomp_table
 from fullspeed.sim import simulate
-from fullspeed.units import rpm_to_rad_s
+from fullspeed.model.units import rpm_to_rad_s
 
 TS = 125e-6
 
@@ -117,7 +118,7 @@ def test_square_wave_on_three_phases_sees_the_same_saliency_shift():
     no_load = window_mask(res["t"], 0.1, 0.2)
     assert float(np.mean(np.abs(res["i_hf_d"][no_load]))) == pytest.approx(inj["u_h"] * Ts / m.L_d, rel=0.05)
     fresh, _ = xsat_table("beyond-swvi-3ph-100rpm", i_q_max=60.0)
-    shipped = _xcomp_table("yang2022-swvi-xsat", None)
+    shipped = xcomp_table("yang2022-swvi-xsat", None)
     assert np.max(np.abs(np.subtract(fresh["delta_deg"], shipped["delta_deg"]))) < 0.5
     d = dict(zip(fresh["i_q"], fresh["delta_deg"]))
     assert abs(d[0.0]) < 1.0 and 10.0 < d[22.5] < 30.0 and d[-22.5] == pytest.approx(-d[22.5], abs=2.0)

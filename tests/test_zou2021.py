@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 import fullspeed.sim as fs
-from fullspeed.errors import ConfigError
-from fullspeed.metrics import window_mask
-from fullspeed.papers.zou2021 import eq12, thd
-from fullspeed.scenario import load_scenario
-from fullspeed.units import rad_s_to_rpm
+from fullspeed.model.errors import ConfigError
+from fullspeed.sim.metrics import window_mask
+from fullspeed.reproduce.papers.zou2021 import eq12, thd
+from fullspeed.design.scenario import load_scenario
+from fullspeed.model.units import rad_s_to_rpm
 
 
 @pytest.fixture(scope="module")

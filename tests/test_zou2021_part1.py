@@ -12,11 +12,11 @@ import pytest
 
 import fullspeed.sim as fs
 from fullspeed._core import ffi, lib
-from fullspeed.metrics import window_mask
-from fullspeed.papers.zou2021 import PART1_ONLY, WOUND_BACK, _held, iq_error, limit_rpm, VTR
-from fullspeed.schema import deep_merge
-from fullspeed.scenario import load_scenario
-from fullspeed.units import rad_s_to_rpm
+from fullspeed.sim.metrics import window_mask
+from fullspeed.reproduce.papers.zou2021 import PART1_ONLY, WOUND_BACK, _held, iq_error, limit_rpm, VTR
+from fullspeed.model.schema import deep_merge
+from fullspeed.design.scenario import load_scenario
+from fullspeed.model.units import rad_s_to_rpm
 
 
 def _sampled_plant(Ts, L, R):

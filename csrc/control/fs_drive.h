@@ -224,7 +224,7 @@ typedef struct {
     float delay;             /* computation delay in control periods: 1 or 0 */
     /* the machine as the controller knows it: L_d, L_q, psi_f for the
      * decoupling, the loops' design and the observers; a flux map's
-     * (fullspeed.fluxmap): psi_f at zero current and the secant inductances
+     * (fullspeed.design.magnetics): psi_f at zero current and the secant inductances
      * at the MTPA point of rated current */
     float R_s, L_d, L_q, psi_f;
     /* the incremental inductances the injection sees (HFI and blend; 0:
@@ -360,7 +360,7 @@ typedef struct {
      * from smo.w_e_max */
     fs_param_adapt_config adapt;
     /* the MTPA locus as a table (n = 0: designed from L_d, L_q, psi_f; a flux
-     * map's from fullspeed.fluxmap); read at init only. Held in the config,
+     * map's from fullspeed.design.magnetics); read at init only. Held in the config,
      * not pointed to, so that the config has no pointer: the same bytes on
      * the host and the target, and an export carries the table */
     fs_mtpa_table mtpa_table;

@@ -113,7 +113,7 @@
  * through (beyond it the observer would undo the filter: its ripple and
  * noise). A load ramp then lags 12.5 times less than with the paper's
  * observer (10 / w_b_n^3 against 125 / w_b_n^3 per unit of p (dT/dt) / J,
- * with the leak's removal; fs_motion_obs.h). On the machine zoo (fullspeed.zoo, scenario beyond-zoo) every
+ * with the leak's removal; fs_motion_obs.h). On the machine zoo (fullspeed.model.zoo, scenario beyond-zoo) every
  * ratio from 0.4 to 1.5 keeps the 50 saturating machines within 15 el.deg;
  * on motulator's 2.2 kW IPMSM the load release's error falls from 10.6
  * el.deg at 0.4 to 3.7 at 1 and 2.3 at 2 while the mean under rated load at

@@ -52,7 +52,7 @@
  * WARM 2 tau: the low-passes start from 0 when the checks come on; before
  *   two time constants (86 % of a step) no residual is reported.
  * The constants were set from these bounds, then checked on the campaign
- * (fullspeed.lock_campaign): on its 236 healthy runs that kept lock the
+ * (fullspeed.workflows.lock_campaign): on its 236 healthy runs that kept lock the
  * largest r_dir, r_mech, r_cur were 0.73, 0.60, 0.65 and |jump| 0.52 rad;
  * r_slip and r_sign went past 1 for a few ms (1.32 and 1.45 at the most,
  * zoo machine 16 starting under load), and the lock counter reached 7.4 ms

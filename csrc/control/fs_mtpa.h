@@ -7,7 +7,7 @@
  * not depend on the number of phases; the torque scales with it.
  *
  * A machine known by its flux map (saturation, cross-saturation) has its
- * locus computed off line from the map (fullspeed.fluxmap.mtpa_table) and
+ * locus computed off line from the map (fullspeed.design.magnetics.mtpa_locus) and
  * given as a table: the torque and currents at |i| = i_max k / (N - 1),
  * k = 0..N-1; step then interpolates it linearly.
  */

@@ -63,7 +63,7 @@ typedef enum {
 } fs_polarity_stage;
 
 /* d_min's default: the smallest relative difference of the carrier
- * amplitude taken as the magnet's. 5 %: on the machine zoo (fullspeed.zoo)
+ * amplitude taken as the magnet's. 5 %: on the machine zoo (fullspeed.model.zoo)
  * the machines with linear magnetics show up to 2.5 % from effects that are
  * not saturation (the rotor's motion under the pulses, the inverter's
  * voltage error), the saturating ones 7 % and more at half their rated

@@ -6,19 +6,35 @@ interrupt during the simulation) or a sweep with points not run; 2 bad input
 refuses; 3 an internal error (a bug: please report it); 130 Ctrl-C.
 
 Every output is written to a temporary file in its folder and renamed into
-place (fullspeed.files); a folder named after an input's name stays inside
+place (model/files.py); a folder named after an input's name stays inside
 out/ or the name is refused.
 """
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import re
 import sys
+import time
+import tomllib
+import warnings
+from importlib import resources
 from pathlib import Path
 
-from .checks import polarity_blind
-from .errors import ConfigError, EngineError, SimulationError
-from .files import out_folder, out_path, path_kind, write_json, write_npz, write_with
+from .design.checks import polarity_blind
+from .design.report import design_report
+from .design.scenario import load_scenario, scenario_from_dict
+from .model.errors import ConfigError, EngineError, SimulationError
+from .model.files import file_name, json_safe, package_names, out_folder, out_path, path_kind, write_atomic, write_json, write_npz, write_with
+from .model.machines import catalog_names
+from .model.reference import machine_template, reference_text, section_names
+from .model.schema import deep_merge, read_toml
+
+# A command imports the layers above design when it runs (the simulator, the
+# workflows, the reproduction): `fullspeed list` or `schema` does not load
+# matplotlib and the papers (0.25 s instead of 0.8). Only the top may import
+# inside a function: nothing imports it, so no circle hides there
+# (tests/test_layers.py).
 
 OUT = Path("out")
 
@@ -27,9 +43,7 @@ def _set_overrides(pairs: list[str] | None) -> dict:
     """--set key=value, repeatable: dotted scenario keys, TOML values
     (`controller.bw_speed=50`, `references.speed_rpm=[[0, 0], [0.1, 1000]]`);
     a value that is not TOML is taken as a string (`controller.angle=blend`)."""
-    import tomllib
 
-    from .schema import deep_merge
 
     out: dict = {}
     for pair in pairs or []:
@@ -82,10 +96,10 @@ def run_verdict(res) -> list[str]:
 
 
 def _cmd_run(args) -> int:
-    from .metrics import json_safe, summary_lines
-    from .plots import plot_run
-    from .scenario import load_scenario
     from .sim import simulate
+    from .sim.metrics import summary_lines
+    from .sim.plots import plot_run
+
 
     overrides = _set_overrides(args.set)
     if args.inverter:
@@ -118,13 +132,10 @@ def _cmd_run(args) -> int:
 
 
 def _cmd_design(args) -> int:
-    from .design import design_report
-    from .scenario import load_scenario, scenario_from_dict
 
     target = args.target
     overrides = _set_overrides(args.set)
-    if target.endswith(".toml") or target in _machine_names():
-        from .schema import deep_merge, read_toml
+    if target.endswith(".toml") or target in catalog_names():
         data = read_toml(target, "machine") if target.endswith(".toml") else None
         if data is not None and "machine" in data:   # a scenario file
             sc = load_scenario(target, overrides)
@@ -141,39 +152,20 @@ def _cmd_design(args) -> int:
     return 0
 
 
-def _machine_names() -> list[str]:
-    from .machines import catalog_names
-    return catalog_names()
-
-
 def _cmd_list(args) -> int:
-    import tomllib
-    from importlib import resources
-
-    from .machines import catalog_names
-    from .scenario import scenario_names
-    from .sweep import sweep_names
-
-    print("machines:")
-    for name in catalog_names():
-        d = tomllib.loads((resources.files("fullspeed") / "machines" / f"{name}.toml").read_text())
-        print(f"  {name:28s} {d.get('description', '')}")
-    print("scenarios:")
-    for name in scenario_names():
-        d = tomllib.loads((resources.files("fullspeed") / "scenarios" / f"{name}.toml").read_text())
-        print(f"  {name:28s} {d.get('description', '')}")
-    print("sweeps:")
-    for name in sweep_names():
-        d = tomllib.loads((resources.files("fullspeed") / "sweeps" / f"{name}.toml").read_text())
-        print(f"  {name:28s} {d.get('description', '')}")
+    for folder in ("machines", "scenarios", "sweeps"):
+        print(f"{folder}:")
+        for name in package_names(folder):
+            d = tomllib.loads((resources.files("fullspeed") / folder / f"{name}.toml").read_text())
+            print(f"  {name:28s} {d.get('description', '')}")
     return 0
 
 
 def _cmd_sweep(args) -> int:
-    import time
+    from .workflows.journal import JOURNAL, default_workers, read_journal
+    from .workflows.sweep import load_sweep_file, run_sweep
 
-    from .journal import default_workers
-    from .sweep import load_sweep_file, run_sweep
+
 
     if args.dask:
         _check_dask_address(args.dask)
@@ -194,7 +186,6 @@ def _cmd_sweep(args) -> int:
         path, rows = run_sweep(sw, out, workers=args.workers, dask=args.dask, progress=not args.quiet,
                                dask_timeout=args.dask_timeout)
     except (KeyboardInterrupt, EngineError):
-        from .journal import JOURNAL, read_journal
         kept = len(read_journal(out / JOURNAL, n))
         print(f"fullspeed: sweep stopped: {kept} of {n} points finished and kept in {out / JOURNAL}; {resume}",
               file=sys.stderr)
@@ -219,18 +210,18 @@ def _check_dask_address(address: str) -> None:
 
 def _with_overrides(sw, extra: dict):
     """The sweep with --set merged into its [overrides] (checked as the file's are)."""
-    import dataclasses
+    from .workflows.sweep import check_points
 
-    from .schema import deep_merge
-    from .sweep import _check_points
+
 
     overrides = deep_merge(sw.overrides, extra)
-    _check_points(sw.base, overrides, sw.axes, sw.base_source)
+    check_points(sw.base, overrides, sw.axes, sw.base_source)
     return dataclasses.replace(sw, overrides=overrides)
 
 
 def _cmd_reproduce(args) -> int:
-    from .reproduce import reproduce
+    from .reproduce.report import reproduce
+
 
     out = out_folder(args.out)
     rows = reproduce(args.paper, out, progress=not args.quiet)
@@ -243,8 +234,9 @@ def _cmd_reproduce(args) -> int:
 def _cmd_calibrate(args) -> int:
     import numpy as np
 
-    from .calibrate import write_table, xsat_table
-    from .scenario import load_scenario
+    from .workflows.calibrate import write_table, xsat_table
+
+
 
     if args.out:
         target = Path(args.out)
@@ -268,8 +260,8 @@ def _cmd_calibrate(args) -> int:
 
 
 def _cmd_identify(args) -> int:
-    from .identify import identify, print_identification, write_identification
-    from .scenario import load_scenario
+    from .workflows.identify import identify, print_identification, write_identification
+
 
     sc = load_scenario(args.scenario)
     out = out_folder(args.out) if args.out else Path("out") / f"identify-{sc.machine.name}"
@@ -283,7 +275,8 @@ def _cmd_identify(args) -> int:
 
 
 def _cmd_export(args) -> int:
-    from .export import export
+    from .workflows.export import export
+
 
     paths = export(args.scenario, args.out, args.name, _set_overrides(args.set))
     print(f"wrote {' and '.join(str(p) for p in paths)}: the fs_drive_config of {args.scenario} "
@@ -292,7 +285,6 @@ def _cmd_export(args) -> int:
 
 
 def _cmd_schema(args) -> int:
-    from .reference import reference_text, section_names
 
     if args.section is not None and not reference_text(args.section):
         raise ConfigError("section", args.section, "unknown; the sections are " + ", ".join(section_names()))
@@ -301,8 +293,6 @@ def _cmd_schema(args) -> int:
 
 
 def _cmd_new_machine(args) -> int:
-    from .files import file_name, write_atomic
-    from .reference import machine_template
 
     path = Path(args.out or f"{file_name(args.name)}.toml")
     if path.exists() and not args.force:
@@ -345,7 +335,7 @@ def main(argv: list[str] | None = None) -> int:
     sw.add_argument("--set", action="append", metavar="KEY=VALUE",
                     help="add to the sweep's [overrides], repeatable: dotted scenario key, TOML value")
     sw.set_defaults(func=_cmd_sweep)
-    about = "measure the claims of docs/CLAIMS.md (generated from src/fullspeed/claims.py)"
+    about = "measure the claims of docs/CLAIMS.md (generated from src/fullspeed/reproduce/claims.py)"
     rp = sub.add_parser("reproduce", help=about, description=about)
     rp.add_argument("--paper", choices=["yang2022", "zou2021", "yu2022", "beyond"])
     rp.add_argument("--out", default="out/reproduce")
@@ -380,7 +370,6 @@ def main(argv: list[str] | None = None) -> int:
     nm.add_argument("--force", action="store_true", help="overwrite an existing file")
     nm.set_defaults(func=_cmd_new_machine)
     args = ap.parse_args(argv)
-    import warnings
     warnings.formatwarning = lambda msg, cat, *a, **k: f"fullspeed: warning: {msg}\n"   # one line, as the errors
     try:
         return args.func(args)

@@ -1,0 +1,234 @@
+"""What a scenario asks, said out loud when it is loaded: one warning line
+per finding, each naming the field. Not errors: the run may be what the
+user wants (a machine at its limit, a test of a refusal); the command line
+prints them before it runs, and the run's summary names the idealised
+hardware.
+
+- feasibility: a speed reference beyond what the link allows at the load
+  (without flux weakening, or beyond what flux weakening can reach);
+- plausibility: parameters far outside what machines have (time constants,
+  the back-EMF against the link and the rated voltage, the torque constant
+  against the rated torque, copper losses), which are unit mistakes more
+  often than machines (H for mH, kg m^2 for g m^2);
+- polarity detection on a machine without the d-axis saturation asymmetry
+  it measures (linear magnetics), with a rotor so light that its pulses
+  spin it, or under a load that turns the rotor while the pulses make no
+  torque (fs_polarity.h): the drive will refuse to start sensorless.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..model.units import rad_s_to_rpm
+from .controller import controller_model, hfi_design
+from .magnetics import saliency_warnings
+from .rules import CARRIER_LOOP_ACTION_MAX, carrier_loop_action, control_period, u_linear
+
+# The bands of plausibility, each with its reason.
+TAU_E = (1e-5, 1.0)      # s, L_d / R_s: 10 us (a few-mH machine with a large R) .. 1 s (large machines reach 0.1 s)
+TAU_M = (1e-3, 20.0)     # s, J w_rated / T_rated: the time to rated speed at rated torque
+EMF_PER_LINK = 2.0       # the back-EMF at rated speed may exceed the link (flux weakening), not by 2x
+K_T = (0.5, 3.0)         # 1.5 p psi_f i_rated / T_rated: reluctance torque and saturation move it, not by 2x
+COPPER = 0.5             # copper losses at rated current, of rated power: small low-voltage machines reach 0.4 (yang2022: 0.41 at its 40 A rms)
+# the share of the detection's speed tolerance a load's acceleration may use: the estimate's
+# own lag and noise take the rest (yang2022's machine refused from 0.94 of it, at 1 N m)
+POLARITY_LOAD = 0.8
+SPIN = 4.0               # growth exponent of the pulses' torque on a rotor a pulse pair may reach (e^4 = 55x)
+
+
+def top_speed(m, u: float, T: float, i_d: float = 0.0) -> float:
+    """The mechanical speed (rad/s) at which the voltage reaches u with the
+    q current for torque T (and i_d), in steady state."""
+    k = 0.5 * m.phases * m.pole_pairs
+    i_q = abs(T) / (k * (m.psi_f + (m.L_d - m.L_q) * i_d)) if m.psi_f + (m.L_d - m.L_q) * i_d > 0 else math.inf
+    if not math.isfinite(i_q):
+        return 0.0
+    # (R i_q + w psi_d)^2 + (w L_q i_q - R i_d)^2 = u^2, psi_d = psi_f + L_d i_d: a quadratic in w
+    psi_d = m.psi_f + m.L_d * i_d
+    a = psi_d ** 2 + (m.L_q * i_q) ** 2
+    b = 2 * (m.R_s * i_q * psi_d - m.L_q * i_q * m.R_s * i_d)
+    c = (m.R_s * i_q) ** 2 + (m.R_s * i_d) ** 2 - u ** 2
+    disc = b * b - 4 * a * c
+    if a <= 0 or disc < 0:
+        return 0.0
+    return max((-b + math.sqrt(disc)) / (2 * a), 0.0) / m.pole_pairs
+
+
+def warnings_of(d: dict, m) -> list[str]:
+    """The warning lines of a validated scenario (data d, machine m)."""
+    out = []
+    ctl = d["controller"]
+    u_lin = u_linear(d["converter"]["u_dc"], m.phases)
+    w_e_rated = m.pole_pairs * m.w_m_rated
+
+    # plausibility
+    if m.R_s > 0 and not TAU_E[0] <= m.L_d / m.R_s <= TAU_E[1]:
+        out.append(f"machine.electrical.L_d: L_d / R_s = {m.L_d / m.R_s:.3g} s is outside {TAU_E[0]:g}..{TAU_E[1]:g} s, "
+                   "unusual for a PMSM: check the units (H, not mH) of L_d, L_q and R_s (ohm)")
+    tau_m = m.J * m.w_m_rated / m.T_rated
+    if not TAU_M[0] <= tau_m <= TAU_M[1]:
+        out.append(f"machine.mechanical.J: J w_rated / T_rated = {tau_m:.3g} s to rated speed at rated torque is outside "
+                   f"{TAU_M[0]:g}..{TAU_M[1]:g} s: check J's unit (kg m^2)")
+    emf = w_e_rated * m.psi_f
+    if emf > EMF_PER_LINK * u_lin:
+        out.append(f"machine.electrical.psi_f: the back-EMF at rated speed, {emf:.4g} V, is {emf / u_lin:.3g} x the "
+                   f"{u_lin:.4g} V the link gives: check psi_f (Wb, peak phase flux linkage) and converter.u_dc")
+    k_t = 0.5 * m.phases * m.pole_pairs * m.psi_f * m.i_rated / m.T_rated
+    if m.psi_f > 0 and not K_T[0] <= k_t <= K_T[1]:
+        out.append(f"machine.rated.current: (phases/2) p psi_f i_rated = {k_t:.3g} x the rated torque, outside "
+                   f"{K_T[0]:g}..{K_T[1]:g}: check psi_f (Wb), the rated current (A peak) and torque (N m)")
+    p_rated = m.T_rated * m.w_m_rated
+    loss = 0.5 * m.phases * m.R_s * m.i_rated ** 2
+    if loss > COPPER * p_rated:
+        out.append(f"machine.electrical.R_s: the copper losses at rated current, {loss:.4g} W, are {loss / p_rated:.0%} "
+                   f"of the rated power: check R_s (ohm, per phase)")
+
+    # feasibility of the speed reference
+    if ctl["mode"] == "speed":
+        w_ref = max((abs(v) for v in d["references"]["speed_rpm"][1]), default=0.0)
+        T_load = max((abs(v) for v in d["load"]["torque"][1]), default=0.0) if d["load"]["kind"] in ("torque", "brake") else 0.0
+        T = T_load + m.B * w_ref * 2 * math.pi / 60 + m.T_coulomb
+        w_top = rad_s_to_rpm(top_speed(m, u_lin, T))
+        if not ctl["flux_weakening"] and w_ref > 1.02 * w_top:
+            out.append(f"references.speed_rpm: {w_ref:.5g} rpm is beyond the {w_top:.5g} rpm the {d['converter']['u_dc']:g} V link "
+                       f"allows at {T:.3g} N m without flux weakening (controller.flux_weakening = false): the speed will not be reached")
+        elif ctl["flux_weakening"]:
+            w_fw = rad_s_to_rpm(top_speed(m, u_lin, T, -ctl["i_max"] * 0.9)) if m.psi_f > m.L_d * ctl["i_max"] * 0.9 else math.inf
+            if w_ref > 1.02 * max(w_fw, w_top):
+                out.append(f"references.speed_rpm: {w_ref:.5g} rpm is beyond the {max(w_fw, w_top):.5g} rpm flux weakening reaches "
+                           f"at {T:.3g} N m with {0.9 * ctl['i_max']:.4g} A of d current: the speed will not be reached")
+
+    # polarity detection
+    pol, inj = d.get("polarity", {}), d.get("injection", {})
+    if ctl["angle"] in ("hfi", "blend") and pol.get("enabled") and ctl["mode"] in ("current", "speed"):
+        what = polarity_blind(m, pol.get("i_pulse") or 0.5 * ctl["i_max"])
+        if what:
+            out.append(f"polarity.enabled: polarity detection measures the d axis's saturation asymmetry, and {m.name}'s "
+                       f"{what}: the drive will refuse to start sensorless (stop reason polarity_undetermined); "
+                       "give [magnetic] its saturation, or start at a known angle (polarity.enabled = false)")
+        elif pol.get("i_pulse") and pol.get("t_pulse") and m.psi_f > 0:
+            lam = math.sqrt(0.5 * m.phases * m.pole_pairs ** 2 * m.psi_f * pol["i_pulse"] / m.J)
+            if lam * 2 * pol["t_pulse"] > SPIN:
+                out.append(f"polarity.t_pulse: the rotor is light for its pulses: {pol['i_pulse']:.3g} A a few degrees off the "
+                           f"axis spins it up within {SPIN / lam:.3g} s, shorter than a pulse pair ({2 * pol['t_pulse']:.3g} s); "
+                           "the detection will likely refuse (stop reason polarity_undetermined)")
+        if not what and d["load"]["kind"] == "torque" and pol.get("t_lock") is not None and pol.get("t_pulse"):
+            # the pulses make no torque: a load acting before the first pair
+            # ends accelerates the rotor, and a pair whose half-pulse mean
+            # speeds differ by more than w_max (a tenth of the positive
+            # carrier's filter band, fs_polarity.h) decides nothing
+            t_pol = pol["t_lock"] + 2 * pol["t_pulse"]
+            T_pol = _largest_on(d["load"]["torque"], t_pol)
+            dw = m.pole_pairs * max(T_pol - m.T_coulomb, 0.0) / m.J * 0.5 * pol["t_pulse"]
+            w_max = 0.1 * _w_b_p(d, m)   # FS_POLARITY_W_MAX_PER_FILTER of the filter's band
+            if w_max > 0 and dw > POLARITY_LOAD * w_max:
+                out.append(f"load.torque: {T_pol:.3g} N m acts during polarity detection (until t = {t_pol:.3g} s at the "
+                           f"earliest), while the drive makes no torque: it changes the rotor's speed by {dw:.3g} el. rad/s "
+                           f"in half a pulse, {dw / w_max:.2g} x the {w_max:.3g} the detection tolerates, so it may refuse "
+                           "(the pulses spun the rotor); let the load act after that, or hold the rotor (kind = \"speed\")")
+
+    # the injection's observer against its filter (fs_hfi.h)
+    if ctl["angle"] in ("hfi", "blend") and inj.get("tracking") == "paper" and inj.get("leak") == "remove":
+        out.append("injection.leak: \"remove\" with tracking = \"paper\": the leak's removal makes the negative carrier's "
+                   "filter a double lag, which the paper's observer does not model (its response to the angle peaks at 2.7 "
+                   "times near twice its bandwidth): it rings, and on the yang2022 machine blended at rated load it cycles at +-12 el.deg; "
+                   "use tracking = \"lag\" (designed for it) or leak = \"keep\"")
+
+    # the current loop against the injection's carrier (rules.carrier_loop_action)
+    if ctl["angle"] in ("hfi", "blend") and ctl["gains"] == "designed" and inj.get("f_h"):
+        out += carrier_loop_warning(d, m)
+
+    # the saliency an injection estimator locks on, where a flux map gives it
+    if ctl["angle"] in ("hfi", "blend") and m.magnetic["model"] == "fluxmap":
+        out += saliency_warnings(m.magnetic, ctl["i_max"], m.phases, m.pole_pairs, m.T_rated, m.name)
+    return out
+
+
+# the incremental L_d asymmetry below which the detection cannot decide: its
+# 5 % floor on the carrier amplitude (fs_polarity.h) needs about that much
+POLARITY_ASYMMETRY = 0.05
+
+
+def _w_b_p(d: dict, m) -> float:
+    """The positive carrier's filter band, rad/s, as fs_hfi_init designs it."""
+    cm = controller_model(d["controller"], m)
+    h = hfi_design(d["injection"], control_period(d), cm["L_d"], cm["L_q"])
+    return h.cfg.w_b_p
+
+
+def carrier_loop_warning(d: dict, m) -> list[str]:
+    """A line when the current loop acts on the rotating carrier's sidebands
+    beyond rules.CARRIER_LOOP_ACTION_MAX (a given f_h or bw_current; the
+    designed carrier keeps within it), with the largest bw_current that does not."""
+    ctl, inj = d["controller"], d["injection"]
+    Ts, delay = control_period(d), d["timing"]["delay"]
+    w_h = 2 * math.pi * inj["f_h"]
+    cm = controller_model(ctl, m)
+    Ls, R = (cm["L_d"], cm["L_q"]), cm["R_s"]
+
+    def action(bw):
+        return max(carrier_loop_action(Ts, delay, bw, w_h, L, R, inj.get("bw_filter_n")) for L in Ls)
+    a = action(ctl["bw_current"])
+    if a <= CARRIER_LOOP_ACTION_MAX:
+        return []
+    lo, hi = 0.0, ctl["bw_current"]
+    for _ in range(30):   # the largest bandwidth within the bound
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if action(mid) <= CARRIER_LOOP_ACTION_MAX else (lo, mid)
+    return [f"controller.bw_current: {ctl['bw_current']:.4g} rad/s acts on the sidebands of the {inj['f_h']:.4g} Hz carrier that "
+            f"carry the angle ({a:.2f} of them, at most {CARRIER_LOOP_ACTION_MAX:g}; {1 / (Ts * inj['f_h']):.3g} "
+            "samples a carrier period: rules.carrier_loop_action): the injection's estimate may grow or cycle under load at "
+            f"standstill; keep bw_current <= {lo:.4g} rad/s, or leave injection.f_h to the design (it rises with bw_current)"]
+
+
+def _largest_on(profile, t_end: float) -> float:
+    """The largest magnitude of a piecewise-linear profile (times, values;
+    held beyond its ends) over [0, t_end]."""
+    t, y = profile
+    ts = [0.0, t_end, *(tk for tk in t if 0.0 < tk < t_end)]
+    return max(abs(float(np.interp(tk, t, y))) for tk in ts) if len(t) else 0.0
+
+
+def polarity_blind(m, i_pulse: float) -> str | None:
+    """Why polarity detection cannot decide on machine m at pulses of i_pulse
+    (what its magnetics lack, as "<m.name>'s ..." completes it), or None."""
+    if m.magnetic["model"] == "linear":
+        return "magnetics are linear"
+    asym = d_asymmetry(m, i_pulse)
+    if asym is not None and asym < POLARITY_ASYMMETRY:
+        return f"flux map's incremental L_d differs by only {asym:.1%} between -i_pulse and +i_pulse"
+    return None
+
+
+def d_asymmetry(m, i_pulse: float) -> float | None:
+    """A flux map's incremental L_d at -i_pulse against +i_pulse (i_q = 0),
+    relative: what polarity detection decides on; None without a map."""
+    if m.magnetic.get("model") != "fluxmap":
+        return None
+    i_d, i_q, psi_d = (np.asarray(m.magnetic[k], float) for k in ("i_d", "i_q", "psi_d"))
+    col = np.array([np.interp(0.0, i_q, row) for row in psi_d])     # psi_d(i_d) at i_q = 0
+    h = 0.25 * i_pulse
+
+    def L(i):   # the incremental L_d at i (the map's range clamps it)
+        return (np.interp(i + h, i_d, col) - np.interp(i - h, i_d, col)) / (2 * h)
+    lo, hi = L(-i_pulse), L(i_pulse)
+    return abs(lo - hi) / max(lo, hi) if max(lo, hi) > 0 else 0.0
+
+
+def ideal_hardware(d: dict) -> list[str]:
+    """What the scenario's hardware leaves out, named in the run's summary."""
+    conv, sen, ctl = d["converter"], d["sensors"], d["controller"]
+    out = []
+    if conv["kind"] == "inverter" and conv["t_dead"] == 0:
+        out.append("no dead time")
+    if conv["inverter"] == "averaged":
+        out.append("averaged inverter (no switching ripple)")
+    if sen["noise_i"] == 0:
+        out.append("no current-sensor noise")
+    if sen["adc_bits"] == 0:
+        out.append("no ADC quantization")
+    if ctl["angle"] == "encoder" and sen["encoder_bits"] == 0:
+        out.append("an ideal encoder")
+    return out

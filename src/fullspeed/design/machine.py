@@ -1,0 +1,54 @@
+"""A machine as the drive is designed for it: the bench's limits and
+bandwidths its file leaves out formed by the rules (design.rules), and
+what depends on them checked (the trip level above the current limit, the
+ADC's range above the trip level, a flux map reaching the current limit).
+Also the MTPA torque a current gives, from the controller's own table."""
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+from .._core import ffi, lib
+from ..model.errors import ConfigError
+from ..model.fluxmap import check_coverage
+from ..model.machines import Machine, machine_data, parse_machine
+from .rules import design_bench
+
+
+def design_machine(m: Machine) -> Machine:
+    """m with its bench complete: each field left out designed, each with
+    its reason in m.design (errors name the file m was read from)."""
+    source, prefix = m.origin, m.prefix
+    b = dict(m.bench)
+    designed = design_bench({"i_rated": m.i_rated}, b)
+    b.update({k: v.value for k, v in designed.items()})
+    if not b["i_trip"] > b["i_max"]:
+        raise ConfigError(f"{prefix}.bench.i_trip", b["i_trip"], f"must be > bench.i_max ({b['i_max']:g})", source)
+    if b["adc_bits"] and not b["adc_range"] >= b["i_trip"]:
+        raise ConfigError(f"{prefix}.bench.adc_range", b["adc_range"], f"must be >= bench.i_trip ({b['i_trip']:g})", source)
+    if m.magnetic["model"] == "fluxmap":
+        check_coverage(m.magnetic, b["i_max"], f"{prefix}.magnetic", source)
+    return dataclasses.replace(m, bench=b, design=designed)
+
+
+def machine_from_dict(data: dict, source: str | None = None, prefix: str = "machine") -> Machine:
+    """A machine table, validated (model.machines.parse_machine) and designed."""
+    return design_machine(parse_machine(data, source, prefix))
+
+
+def load_machine(name_or_path: str | Path) -> Machine:
+    """A catalog machine by name or a machine file, validated and designed."""
+    data, source = machine_data(name_or_path)
+    return machine_from_dict(data, source)
+
+
+def mtpa_torque(m: Machine, i: float) -> float:
+    """Torque on the MTPA locus at current magnitude i (linear model), from
+    the controller's own MTPA table (csrc/control/fs_mtpa.c)."""
+    mt = ffi.new("fs_mtpa *")
+    cfg = ffi.new("fs_mtpa_config *", {"L_d": m.L_d, "L_q": m.L_q, "psi_f": m.psi_f,
+                                       "pole_pairs": m.pole_pairs, "i_max": i,
+                                       "phases": m.phases})
+    if lib.fs_mtpa_init(mt, cfg) != lib.FS_OK:
+        raise ValueError(f"no MTPA torque for {m.name} at {i:g} A")
+    return float(mt.T[lib.FS_MTPA_N - 1])

@@ -1,0 +1,81 @@
+"""What the design takes from a flux map: the MTPA locus searched on the
+map, the incremental saliency an injection estimator sees along it, and the
+values the controller is given (psi_f, secant and incremental inductances,
+the MTPA table). The map itself is read and checked in model.fluxmap."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..model.fluxmap import interp, table_at, zero_current_values
+
+MTPA_N = 64          # csrc/control/fs_mtpa.h FS_MTPA_N
+MTPA_ANGLES = 4001   # current angles searched per magnitude, 90..180 deg: 0.0225 deg apart
+
+
+def mtpa_locus(mag: dict, i_max: float, phases: int, pole_pairs: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The map's MTPA locus at |i| = i_max k / (MTPA_N - 1): per magnitude
+    the current angle of most torque, (phases/2) p (psi_d i_q - psi_q i_d),
+    searched over the second quadrant. Returns T, i_d, i_q."""
+    I = i_max * np.arange(MTPA_N) / (MTPA_N - 1)
+    g = np.linspace(0.5 * np.pi, np.pi, MTPA_ANGLES)
+    i_d, i_q = np.outer(I, np.cos(g)), np.outer(I, np.sin(g))
+    T = 0.5 * phases * pole_pairs * (interp(mag, "psi_d", i_d, i_q) * i_q - interp(mag, "psi_q", i_d, i_q) * i_d)
+    best = np.argmax(T, axis=1)
+    r = np.arange(MTPA_N)
+    T_best, d, q = T[r, best], i_d[r, best], i_q[r, best]
+    d[0] = q[0] = T_best[0] = 0.0
+    return T_best, d, q
+
+
+SALIENCY_FLOOR = 0.05   # (L_q - L_d) / (L_q + L_d) of the incremental inductances below which an injection
+                        # estimator has little to lock on (yang2022's machine: 0.16 unloaded); at 0 it cannot tell the axis
+
+
+def incremental_saliency(mag: dict, i_d, i_q) -> np.ndarray:
+    """(L_max - L_min) / (L_max + L_min) of the incremental inductance matrix
+    d(psi_d, psi_q)/d(i_d, i_q) (its eigenvalues: what a carrier sees), as
+    the plant's bilinear map has it, signed: negative where the q path has
+    saturated below the d path (the axis an injection finds turns by 90 el.deg)."""
+    h = 1e-3 * (mag["i_d"][1] - mag["i_d"][0])
+    L_dd = (interp(mag, "psi_d", i_d + h, i_q) - interp(mag, "psi_d", i_d - h, i_q)) / (2 * h)
+    L_qq = (interp(mag, "psi_q", i_d, i_q + h) - interp(mag, "psi_q", i_d, i_q - h)) / (2 * h)
+    L_dq = 0.5 * ((interp(mag, "psi_d", i_d, i_q + h) - interp(mag, "psi_d", i_d, i_q - h))
+                  + (interp(mag, "psi_q", i_d + h, i_q) - interp(mag, "psi_q", i_d - h, i_q))) / (2 * h)
+    half = np.sqrt((0.5 * (L_qq - L_dd)) ** 2 + L_dq ** 2)
+    return np.sign(L_qq - L_dd) * half / (0.5 * (L_qq + L_dd))
+
+
+def saliency_warnings(mag: dict, i_max: float, phases: int, pole_pairs: int, T_rated: float, name: str) -> list[str]:
+    """One line when the injection's saliency, along the map's MTPA locus,
+    falls below SALIENCY_FLOOR before rated torque: the torque an injection
+    estimator can carry at low speed on this machine."""
+    T, d, q = mtpa_locus(mag, i_max, phases, pole_pairs)
+    sal = incremental_saliency(mag, d, q)
+    low = np.flatnonzero((sal < SALIENCY_FLOOR) & (T <= T_rated))
+    if not low.size:
+        return []
+    k = low[0]
+    return [f"injection: on {name}'s flux map the incremental saliency (L_q - L_d)/(L_q + L_d) falls from {sal[0]:.2f} at "
+            f"no load to {sal[k]:.2f} at {T[k]:.3g} N m ({np.hypot(d[k], q[k]):.3g} A on the MTPA locus), below "
+            f"{SALIENCY_FLOOR:g}: at low speed the injection cannot hold the rotor's angle under more torque than that "
+            f"(rated {T_rated:g} N m)"]
+
+
+def controller_values(mag: dict, i_max: float, i_rated: float, phases: int, pole_pairs: int) -> dict:
+    """What the controller takes from a flux map: psi_f at zero current; the
+    secant inductances at the MTPA point of rated current (the decoupling
+    feeds w psi forward, exact there); the incremental inductances at half
+    the rated current on the locus (what the injection's carrier sees where
+    it runs, loaded); and the MTPA table."""
+    T, d, q = mtpa_locus(mag, i_max, phases, pole_pairs)
+    psi_f = table_at(mag, "psi_d", 0.0, 0.0)
+    I = i_max * np.arange(MTPA_N) / (MTPA_N - 1)
+    i_d_r, i_q_r = float(np.interp(i_rated, I, d)), float(np.interp(i_rated, I, q))
+    L_d = (psi_f - table_at(mag, "psi_d", i_d_r, i_q_r)) / -i_d_r if i_d_r < -1e-9 * i_max else zero_current_values(mag)["L_d"]
+    L_q = table_at(mag, "psi_q", i_d_r, i_q_r) / i_q_r
+    i_d_h, i_q_h = float(np.interp(0.5 * i_rated, I, d)), float(np.interp(0.5 * i_rated, I, q))
+    h_d, h_q = mag["i_d"][1] - mag["i_d"][0], mag["i_q"][1] - mag["i_q"][0]
+    L_d_hf = (table_at(mag, "psi_d", i_d_h + h_d, i_q_h) - table_at(mag, "psi_d", i_d_h - h_d, i_q_h)) / (2 * h_d)
+    L_q_hf = (table_at(mag, "psi_q", i_d_h, i_q_h + h_q) - table_at(mag, "psi_q", i_d_h, i_q_h - h_q)) / (2 * h_q)
+    return {"psi_f": psi_f, "L_d": L_d, "L_q": L_q, "L_d_hf": L_d_hf, "L_q_hf": L_q_hf,
+            "mtpa_T": T, "mtpa_i_d": d, "mtpa_i_q": q}

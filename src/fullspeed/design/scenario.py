@@ -1,0 +1,396 @@
+"""A scenario designed: what it leaves to the design formed from its machine
+(designed as design.machine forms the bench), its converter and sensors,
+each with its reason, and what depends on the design checked: the
+bandwidths, the blending band, the observers, the I/f start, the rotating
+carrier and its amplitude, the polarity pulses, the square wave, the torque
+limit, the integration step and the trace's size. `load_scenario` is the
+whole path from a name or a file to a Scenario a run takes."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from .._core import ffi, lib
+from ..model.errors import ConfigError
+from ..model.machines import Machine
+from ..model.scenario import Scenario, parse_scenario, scenario_data, xcomp_table
+from ..model.units import rpm_to_rad_s
+from .checks import warnings_of
+from .controller import controller_model, hfi_design
+from .machine import design_machine, mtpa_torque
+from .rules import (Value, control_period, design_band, design_carrier, design_injection, design_observer_pll,
+                    machine_values, u_linear)
+from .xcomp import check_table_settings
+
+# The trace is held in memory: one row of doubles per recorded sample.
+TRACE_ROW_BYTES = 8 * lib.FS_CH_N
+TRACE_MAX_BYTES = 2e9
+
+
+def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
+    """A scenario table, validated (model.scenario.parse_scenario) and
+    designed: every setting it leaves to the design formed (each with its
+    reason in Scenario.design), what depends on the design checked, and the
+    warnings of what it asks (design.checks)."""
+    d, m = parse_scenario(data, source)
+    m = design_machine(m)
+    b = m.bench
+    conv, tim, sen, ctl = d["converter"], d["timing"], d["sensors"], d["controller"]
+    if conv["kind"] == "imc":
+        _imc_fields(d, m, source)
+    if conv["inverter"] is None:
+        conv["inverter"] = "switching"
+    for key in ("u_dc", "f_pwm", "t_dead"):
+        if conv[key] is None:
+            conv[key] = b[key]
+    if tim["sampling"] is None:
+        tim["sampling"] = b["sampling"]
+    for key in ("adc_bits", "adc_range", "encoder_bits", "noise_i"):
+        if sen[key] is None:
+            sen[key] = b[key]
+    notes: dict = {}
+    for key in ("bw_current", "bw_speed", "bw_pll", "i_max"):
+        if ctl[key] is None:
+            ctl[key] = b[key]
+            notes[f"controller.{key}"] = m.design[key]
+        else:
+            notes[f"controller.{key}"] = Value(ctl[key], m.design[key].unit, "given in the scenario", True)
+    obs = d["observer"]
+    band = _band(d, m)
+    if obs["bw_pll"] is None:
+        if b.get("bw_pll_smo") is not None:
+            notes["observer.bw_pll"] = Value(b["bw_pll_smo"], "rad/s", "given in the machine file (bench.bw_pll_smo)", True)
+        else:
+            notes["observer.bw_pll"] = design_observer_pll(machine_values(m), rpm_to_rad_s(band["lower_rpm"].value),
+                                                              ctl["bw_speed"], ctl["bw_current"])
+        obs["bw_pll"] = notes["observer.bw_pll"].value
+    for key, share in (("valid_rpm", 0.625), ("cutoff_min_rpm", 0.125)):
+        if obs[key] is None:   # where the observer is trusted, and its filter's floor, against the band it blends in
+            obs[key] = share * band["lower_rpm"].value
+            notes[f"observer.{key}"] = Value(obs[key], "rpm", f"{share:g} x the lower blending speed (yang2022: "
+                                                f"{share * 160:g} rpm of 160): trusted inside the band, filtering below it")
+    if ctl["angle"] in ("smo", "blend") and not obs["cutoff_min_rpm"] > 0:   # the SMO's filter needs a floor
+        raise ConfigError("observer.cutoff_min_rpm", obs["cutoff_min_rpm"], "must be > 0 (the default, 1/8 of the "
+                          f"lower blending speed {band['lower_rpm'].value:g} rpm, is 0): set it", source)
+    if ctl["angle"] == "smo" and "bw_speed" not in data.get("controller", {}):
+        # the speed comes from the observer's PLL: keep its lag (a double pole)
+        # small at the speed loop's crossover, as the bench's encoder PLL does
+        ctl["bw_speed"] = min(ctl["bw_speed"], obs["bw_pll"] / 6.0)
+    if obs["top_speed_rpm"] is None:
+        obs["top_speed_rpm"] = 1.5 * m.w_m_rated * 60 / (2 * math.pi)
+        if not obs["top_speed_rpm"] >= 1e-3:
+            raise ConfigError("machine.rated.speed_rpm", m.w_m_rated * 60 / (2 * math.pi), "must be >= 1e-3 rpm "
+                              "(1.5 x it is the observer's top speed; a denormal one divides by zero)", source)
+    if not obs["top_speed_rpm"] >= 1e-3:   # the SMO's gain bound and h_max divide by it
+        raise ConfigError("observer.top_speed_rpm", obs["top_speed_rpm"], "must be >= 1e-3 rpm", source)
+    if tim["h_max"] is None:
+        # RK4 within a PWM segment: a fifth of the shortest electrical time
+        # constant and of the time the rotor turns a radian (el.) at the top
+        # speed keeps the local error near (h / tau)^5 / 120 < 3e-6
+        tau = min(m.L_d, m.L_q) / m.R_s if m.R_s > 0 else math.inf
+        w_top = m.pole_pairs * rpm_to_rad_s(obs["top_speed_rpm"])
+        tim["h_max"] = min(0.2 * tau, 0.2 / w_top if w_top > 0 else math.inf, 1e-3)   # w_top underflows to 0 at 5e-324 rpm
+        if conv["kind"] == "imc":   # and a fifth of a radian of the input filter's resonance
+            tim["h_max"] = min(tim["h_max"], 0.2 * math.sqrt(conv["l_filter"] * conv["c_filter"]))
+    if ctl["fw_top_speed_rpm"] is None:
+        ctl["fw_top_speed_rpm"] = obs["top_speed_rpm"]
+    if obs["start"] == "if":
+        if ctl["angle"] != "smo" or ctl["mode"] != "speed":
+            raise ConfigError("observer.start", "if", "needs controller.mode = \"speed\" and controller.angle = \"smo\"", source)
+        if obs["handover"] != 0.0:
+            raise ConfigError("observer.handover", obs["handover"], "must be 0 with start = \"if\" (sensorless from t = 0)", source)
+        if obs["i_start"] is None:
+            obs["i_start"] = 0.5 * ctl["i_max"]
+        if obs["i_start"] > ctl["i_max"]:
+            raise ConfigError("observer.i_start", obs["i_start"], f"must be <= controller.i_max ({ctl['i_max']:g} A)", source)
+        if obs["start_handover_rpm"] is None:
+            obs["start_handover_rpm"] = 2.0 * obs["valid_rpm"]
+        if obs["start_accel_rpm_s"] is None:
+            # a quarter of the torque the start current makes at a 90 deg load angle
+            T = 0.25 * 1.5 * m.pole_pairs * m.psi_f * obs["i_start"]
+            obs["start_accel_rpm_s"] = T / m.J * 60 / (2 * math.pi)
+        for key, why in (("start_handover_rpm", "twice valid_rpm"), ("start_accel_rpm_s", "from the magnet flux psi_f")):
+            if not obs[key] > 0:   # a default that came out 0: the I/f start would never hand over
+                raise ConfigError(f"observer.{key}", obs[key], f"must be > 0 (the default is {why}): set it", source)
+    if d["injection"]["leak"] is None:   # the filter the observer is designed for (fs_hfi.h)
+        d["injection"]["leak"] = "remove" if d["injection"]["tracking"] == "lag" else "keep"
+    if ctl["angle"] in ("hfi", "blend"):
+        pll_given = "bw_pll" in data.get("observer", {}) or b.get("bw_pll_smo") is not None
+        _injection_fields(d, m, source, bw_speed_given="bw_speed" in data.get("controller", {}) or m.design["bw_speed"].given,
+                          designed_pll=None if pll_given else lambda bw_speed: design_observer_pll(
+                              machine_values(m), rpm_to_rad_s(band["lower_rpm"].value), bw_speed, ctl["bw_current"]))
+    if ctl["angle"] == "swvi":
+        _swvi_fields(d, m, source, bw_speed_given="bw_speed" in data.get("controller", {}))
+    if ctl["gains"] == "paper":
+        _paper_gains(d, m, source)
+    if obs["handover"] > d["duration"]:
+        raise ConfigError("observer.handover", obs["handover"], f"must be <= duration ({d['duration']:g} s)", source)
+    if ctl["T_max"] is None:
+        try:
+            ctl["T_max"] = mtpa_torque(m, ctl["i_max"])
+        except ValueError:   # a machine that makes no torque (a passive load): only the speed mode needs it
+            if ctl["mode"] == "speed":
+                raise ConfigError("controller.T_max", "missing", f"is required: {m.name} makes no torque by MTPA at {ctl['i_max']:g} A", source) from None
+            ctl["T_max"] = 1.0
+    if ctl["i_dead_band"] is None:
+        ctl["i_dead_band"] = 0.01 * ctl["i_max"]
+    if ctl["dead_time_predict"] is None:   # the carrier's current crosses zero within the period (fs_dtcomp.h)
+        ctl["dead_time_predict"] = ctl["angle"] in ("hfi", "blend")
+    # consistency between fields
+    T_pwm, Ts = 1.0 / conv["f_pwm"], control_period(d)
+    if conv["t_dead"] >= 0.5 * T_pwm:
+        raise ConfigError("converter.t_dead", conv["t_dead"], f"must be shorter than half the PWM period ({0.5 * T_pwm:g} s)"
+                          + (", the control period with double sampling" if tim["sampling"] == "double" else ""), source)
+    if tim["h_max"] < 1e-3 * Ts:   # a run of finite steps: at most a thousand RK4 steps per control period
+        given = "h_max" in data.get("timing", {})
+        raise ConfigError("timing.h_max", tim["h_max"], f"must be >= {1e-3 * Ts:g} s, a thousandth of the control period"
+                          + ("" if given else f" (the default, a fifth of {m.name}'s shortest time constant L/R or "
+                             "of a radian at the top speed, is shorter: check R_s, L_d, L_q and observer.top_speed_rpm)"), source)
+    if ctl["i_max"] >= m.bench["i_trip"]:
+        raise ConfigError("controller.i_max", ctl["i_max"], f"must be below the trip level bench.i_trip ({m.bench['i_trip']:g} A)", source)
+    rows = d["duration"] / (Ts * d["trace"]["decimation"])
+    if rows * TRACE_ROW_BYTES > TRACE_MAX_BYTES:
+        need = math.ceil(d["duration"] / Ts * TRACE_ROW_BYTES / TRACE_MAX_BYTES)
+        raise ConfigError("trace.decimation", d["trace"]["decimation"], f"must be >= {need}: {d['duration']:g} s at Ts = {Ts:g} s "
+                          f"would trace {rows * TRACE_ROW_BYTES / 1e9:.3g} GB, above the {TRACE_MAX_BYTES / 1e9:g} GB limit", source)
+    for sec, key, limit in (("controller", "bw_current", 1.0), ("controller", "fw_cutoff", 1.0), ("controller", "bw_speed", 0.5),
+                            ("controller", "bw_pll", 0.5), ("observer", "bw_pll", 0.5)):
+        if d[sec][key] is not None and d[sec][key] * Ts > limit:   # None: designed in C
+            raise ConfigError(f"{sec}.{key}", d[sec][key], f"must be <= {limit / Ts:g} rad/s for the control period {Ts:g} s", source)
+    for key in ("u_h", "f_h"):
+        if f"injection.{key}" not in notes and d["injection"][key] is not None and ctl["angle"] in ("hfi", "blend", "swvi"):
+            notes[f"injection.{key}"] = Value(d["injection"][key], "", "given in the machine file or the scenario", True)
+    notes.update(d.pop("_notes", {}))
+    warnings = warnings_of(d, m) + check_table_settings(d, m.name, source)
+    return Scenario(name=d["name"], machine=m, data=d, source=source, design=notes, warnings=warnings)
+
+
+def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Scenario:
+    """A catalog scenario by name, or a TOML file by path, designed; overrides
+    are merged into the raw data before validation."""
+    data, source = scenario_data(name_or_path, overrides)
+    return scenario_from_dict(data, source)
+
+
+def _bench_of(d: dict, m: Machine) -> dict:
+    """The machine's bench with the scenario's converter and sensors: what
+    the injection and the band are designed against."""
+    conv, sen = d["converter"], d["sensors"]
+    return {**m.bench, "u_dc": conv["u_dc"], "f_pwm": conv["f_pwm"], "t_dead": conv["t_dead"],
+            "sampling": d["timing"]["sampling"], "adc_bits": sen["adc_bits"], "adc_range": sen["adc_range"],
+            "noise_i": sen["noise_i"]}
+
+
+def _band(d: dict, m: Machine) -> dict:
+    """The blending band: the machine's [blending], else designed."""
+    mb = m.extra.get("blending", {})
+    bench = _bench_of(d, m)
+    f_h = d["injection"]["f_h"] or m.extra.get("injection", {}).get("f_h") or _carrier(d, m).value
+    band = design_band(machine_values(m), bench, f_h)
+    return {k: Value(float(mb[k]), "rpm", "given in the machine file", True) if k in mb else band[k]
+            for k in ("lower_rpm", "upper_rpm")}
+
+
+def _carrier(d: dict, m: Machine) -> Value:
+    """The rotating carrier's designed frequency, against the current loop
+    as the controller designs it (its model of the machine, its timing)."""
+    ctl = d["controller"]
+    mv = {**machine_values(m), **controller_model(ctl, m)}
+    return design_carrier(mv, _bench_of(d, m), ctl["bw_current"] if ctl["gains"] == "designed" else None,
+                             d["timing"]["delay"])
+
+
+def _imc_fields(d: dict, m: Machine, source) -> None:
+    """The indirect matrix converter (zou2021): the grid and filter from the
+    bench, and what the averaged model of fs_sim.h does not have."""
+    conv, ctl, tim, b = d["converter"], d["controller"], d["timing"], m.bench
+    if m.phases != 3:
+        raise ConfigError("converter.kind", "imc", f"drives three phases; {m.name} has {m.phases}", source)
+    for key, bkey in (("grid_ll_rms", "u_grid_ll_rms"), ("f_grid", "f_grid"), ("l_filter", "l_filter"),
+                      ("r_filter", "r_filter"), ("c_filter", "c_filter")):
+        if conv[key] is None:
+            if b.get(bkey) is None:
+                raise ConfigError(f"converter.{key}", "missing", f"is required: {m.name}'s bench has no {bkey}", source)
+            conv[key] = b[bkey]
+    if conv["inverter"] == "switching":
+        raise ConfigError("converter.inverter", "switching", "must be \"averaged\" with kind = \"imc\" (the inverter stage is averaged per rectifier interval)", source)
+    conv["inverter"] = "averaged"
+    for key in ("t_dead", "u_on"):
+        if conv[key]:
+            raise ConfigError(f"converter.{key}", conv[key], "must be 0 with kind = \"imc\" (the model has no dead time or device drops)", source)
+    conv["t_dead"] = 0.0
+    if tim["sampling"] == "double":
+        raise ConfigError("timing.sampling", "double", "must be \"single\" with kind = \"imc\"", source)
+    tim["sampling"] = "single"
+    if ctl["angle"] == "swvi":
+        raise ConfigError("controller.angle", "swvi", "square-wave injection is not available with kind = \"imc\"", source)
+    if ctl["i_lim"] is None:
+        ctl["i_lim"] = b.get("i_lim") or ctl["i_max"] or b["i_max"]
+    i_max = ctl["i_max"] or b["i_max"]
+    if ctl["depth_control"] and ctl["i_lim"] > i_max:
+        raise ConfigError("controller.i_lim", ctl["i_lim"], f"must be <= controller.i_max ({i_max:g} A)", source)
+
+
+def _injection_fields(d: dict, m: Machine, source, bw_speed_given: bool = True, designed_pll=None) -> None:
+    """Fill in and check the injection, polarity and blending tables."""
+    ctl, inj, pol, bl = d["controller"], d["injection"], d["polarity"], d["blending"]
+    cm = controller_model(ctl, m)
+    L_d, L_q = cm["L_d"], cm["L_q"]
+    _check_saliency(ctl, m, source)
+    band = _band(d, m)
+    designed = design_injection(machine_values(m), _bench_of(d, m), ctl["i_max"], rpm_to_rad_s(band["upper_rpm"].value),
+                                   _carrier(d, m))
+    _machine_injection(inj, m, ("u_h", "f_h"), source, designed)
+    if not inj["u_h"] > 0.0:   # designed as nothing (fs_hfi_init would refuse it, blaming the carrier's frequency)
+        raise ConfigError("injection.u_h", inj["u_h"], f"must be > 0 V: {designed['u_h'].reason}", source)
+    d.setdefault("_notes", {}).update(inj.pop("_notes", {}))
+    Ts = control_period(d)
+    _check_carrier(inj["f_h"], Ts, source)
+    for key in ("bw_filter_p", "bw_filter_n", "bw_observer"):
+        if inj[key] is not None and inj[key] * Ts > 0.5:
+            raise ConfigError(f"injection.{key}", inj[key], f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s", source)
+    h = hfi_design(inj, Ts, L_d, L_q, source)   # the bandwidths and the held amplitude as the estimator designs them
+    # the observer whose speed the loops take: the blend's, or the injection's speed observer (fs_hfi.h: with
+    # tracking = "lag" not the fast one, whose speed carries the angle's response to the loop's own current)
+    w_o = (bl["bw_observer"] if ctl["angle"] == "blend" else None) or h.w_o_blend
+    if not bw_speed_given and ctl["bw_speed"] > 0.5 * w_o:
+        # the speed loop at half its bandwidth keeps the observer's lag small (on the machine zoo: 28 of 50
+        # saturating machines within 15 el.deg instead of 18 at bw_current / 30)
+        ctl["bw_speed"] = 0.5 * w_o
+        notes = d.setdefault("_notes", {})
+        notes["controller.bw_speed"] = Value(ctl["bw_speed"], "rad/s", (
+            f"half the observer whose speed the loop uses ({w_o:.4g} rad/s): its lag stays small "
+            "(bw_current / 30 would be faster than the observer)"))
+        if designed_pll is not None:   # the back-EMF observer's PLL, designed against the speed loop, follows it
+            d["observer"]["bw_pll"] = designed_pll(ctl["bw_speed"]).value
+            notes["observer.bw_pll"] = designed_pll(ctl["bw_speed"])
+    w_b_p, w_b_n, w_o, w_o_speed = h.cfg.w_b_p, h.cfg.w_b_n, h.cfg.obs.bandwidth, min(h.cfg.obs.bandwidth, h.w_o_blend)
+    for key, w in (("bw_filter_p", w_b_p), ("bw_filter_n", w_b_n), ("bw_observer", w_o)):
+        if w * Ts > 0.5:   # a default derived from the carrier
+            raise ConfigError(f"injection.{key}", w, f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s (default from f_h; set it)", source)
+    u_lin = u_linear(d["converter"]["u_dc"], m.phases)
+    if h.u_amp >= u_lin:
+        raise ConfigError("injection.u_h", inj["u_h"], f"must be below {u_lin * inj['u_h'] / h.u_amp:.3g} V: the held carrier, u_h / sinc(pi f_h Ts) = {h.u_amp:.3g} V, inside the linear modulation limit u_dc/sqrt3", source)
+    i_hf = inj["u_h"] / (2 * math.pi * inj["f_h"] * min(L_d, L_q))   # the carrier current's peak (fs_drive.c)
+    if not i_hf < 0.5 * ctl["i_max"]:
+        raise ConfigError("injection.u_h", inj["u_h"], f"must be below {inj['u_h'] * 0.5 * ctl['i_max'] / i_hf:.3g} V: the carrier current's peak, u_h / (2 pi f_h min(L_d, L_q)) = {i_hf:.3g} A, must stay below half of controller.i_max ({ctl['i_max']:g} A)", source)
+    if bl["bw_observer"] is not None and bl["bw_observer"] * Ts > 0.5:
+        raise ConfigError("blending.bw_observer", bl["bw_observer"], f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s", source)
+    if pol["enabled"]:
+        t_lock_min, t_pulse_min = 6.0 / w_b_n + 2.0 / w_o_speed, 6.0 / w_b_p   # the slower observer settles too
+        for key, t_min, t_default in (("t_lock", t_lock_min, 0.06), ("t_pulse", t_pulse_min, 0.02)):
+            if pol[key] is None:   # 20 % above the settling bound: noise and the rounding to samples
+                pol[key] = max(t_default, 1.2 * t_min)
+                d.setdefault("_notes", {})[f"polarity.{key}"] = Value(
+                    pol[key], "s", f"{t_default:g} s (yang2022's bench) or 1.2 x the settling bound {t_min:.3g} s, the longer")
+        if pol["t_lock"] < t_lock_min:
+            raise ConfigError("polarity.t_lock", pol["t_lock"], f"must be >= {t_lock_min:.3g} s: 6 / w_b_n + 2 / w_o, the fade-in, the filters and the observers settle first", source)
+        if pol["t_pulse"] < t_pulse_min:
+            raise ConfigError("polarity.t_pulse", pol["t_pulse"], f"must be >= {t_pulse_min:.3g} s: 6 / w_b_p, the carrier amplitude settles in each pulse's first half", source)
+    if inj["xcomp"] is not None:
+        inj["xcomp"] = xcomp_table(inj["xcomp"], source)
+    if pol["i_pulse"] is None:
+        pol["i_pulse"] = 0.5 * ctl["i_max"]
+    if pol["i_pulse"] > ctl["i_max"]:
+        raise ConfigError("polarity.i_pulse", pol["i_pulse"], f"must be <= controller.i_max ({ctl['i_max']:g} A)", source)
+    if pol["i_pulse_max"] is not None and not pol["i_pulse"] <= pol["i_pulse_max"] <= ctl["i_max"]:
+        raise ConfigError("polarity.i_pulse_max", pol["i_pulse_max"], f"must be within polarity.i_pulse ({pol['i_pulse']:g} A) .. controller.i_max ({ctl['i_max']:g} A)", source)
+    if ctl["angle"] == "blend":
+        for key in ("lower_rpm", "upper_rpm"):
+            if bl[key] is None:
+                bl[key] = band[key].value
+                d["_notes"][f"blending.{key}"] = band[key]
+            else:
+                d["_notes"][f"blending.{key}"] = Value(bl[key], "rpm", "given in the scenario", True)
+        if not bl["upper_rpm"] > bl["lower_rpm"]:
+            raise ConfigError("blending.upper_rpm", bl["upper_rpm"], f"must be > blending.lower_rpm ({bl['lower_rpm']:g})", source)
+        if inj["stop_rpm"] is None:
+            inj["stop_rpm"] = 1.2 * bl["upper_rpm"]
+        if not 0.9 * inj["stop_rpm"] >= bl["upper_rpm"]:
+            raise ConfigError("injection.stop_rpm", inj["stop_rpm"], f"must be >= upper_rpm / 0.9 = {bl['upper_rpm'] / 0.9:g} (the injection resumes at 0.9 x stop_rpm)", source)
+
+
+def _check_carrier(f_h: float, Ts: float, source) -> None:
+    """The rotating carrier's limit, fs_hfi_w_h_max's rule (the one C applies):
+    more than 4 samples per carrier period, w_h Ts < pi/2 in float32."""
+    w_max = lib.fs_hfi_w_h_max(Ts)
+    if not float(ffi.cast("float", 2 * math.pi * f_h)) <= w_max:   # w_h as the C config holds it
+        raise ConfigError("injection.f_h", f_h, f"must be at most {w_max / (2 * math.pi):.10g} Hz: more than 4 samples per carrier "
+                          f"period at Ts = {Ts:g} s, w_h Ts below pi/2 in float32 (a quarter of the sampling rate, {0.25 / Ts:g} Hz, "
+                          "is not below it there)", source)
+
+
+def _check_saliency(ctl: dict, m: Machine, source) -> None:
+    cm = controller_model(ctl, m)
+    L_d, L_q = cm["L_d"], cm["L_q"]
+    if not abs(L_q - L_d) > 0.01 * 0.5 * (L_d + L_q):
+        scaled = ctl["L_d_scale"] != 1.0 or ctl["L_q_scale"] != 1.0
+        whose = (f"the controller's model of {m.name} (L_d x {ctl['L_d_scale']:g}, L_q x {ctl['L_q_scale']:g}) has"
+                 if scaled else f"{m.name} has")
+        raise ConfigError("controller.angle", ctl["angle"],
+                          f"injection needs a salient machine model; {whose} L_d = {L_d:g} H within 1 % of L_q = {L_q:g} H "
+                          "(no saliency to design the estimator for)", source)
+
+
+def _machine_injection(inj: dict, m: Machine, keys, source, designed: dict | None = None) -> None:
+    """Fields left out of [injection] from the machine's [injection], else
+    from the design (the rotating carrier's), else required."""
+    mi = m.extra.get("injection", {})
+    for key in keys:
+        if inj[key] is None:
+            if key in mi:
+                inj[key] = float(mi[key])
+            elif designed is not None and key in designed:
+                inj[key] = designed[key].value
+                inj.setdefault("_notes", {})[f"injection.{key}"] = designed[key]
+            else:
+                raise ConfigError(f"injection.{key}", "missing", f"is required: {m.name} has no [injection].{key}", source)
+
+
+def _swvi_fields(d: dict, m: Machine, source, bw_speed_given: bool) -> None:
+    """The square-wave injection (yu2022): carrier at a quarter of the sampling
+    rate, the PLL, the sequence and the cross-saturation compensation."""
+    ctl, inj = d["controller"], d["injection"]
+    _check_saliency(ctl, m, source)
+    if ctl["mode"] not in ("current", "speed"):
+        raise ConfigError("controller.mode", ctl["mode"], "must be \"current\" or \"speed\" with angle = \"swvi\"", source)
+    if ctl["lock"] == "recover":
+        raise ConfigError("controller.lock", "recover", "must be \"off\", \"detect\" or \"stop\" with angle = \"swvi\": "
+                          "the square wave has no restart sequence (no polarity detection)", source)
+    _machine_injection(inj, m, ("u_h", "f_h", "bw_pll"), source)
+    Ts = control_period(d)
+    if not math.isclose(inj["f_h"], 0.25 / Ts, rel_tol=1e-6):
+        raise ConfigError("injection.f_h", inj["f_h"], f"must be 1 / (4 Ts) = {0.25 / Ts:g} Hz: the filterless processing takes four samples per carrier period (yu2022 sec. 2.2)", source)
+    if inj["bw_pll"] * Ts > 0.5:
+        raise ConfigError("injection.bw_pll", inj["bw_pll"], f"must be <= {0.5 / Ts:g} rad/s for the control period {Ts:g} s", source)
+    if not bw_speed_given and ctl["gains"] != "paper":
+        # the speed is the PLL's PI output (fs_swvi.h), whose zero keeps its lag
+        # small up to about half the PLL's bandwidth (yu2022: 31 against 57.5 rad/s)
+        ctl["bw_speed"] = min(ctl["bw_speed"], inj["bw_pll"] / 2.0)
+    u_lin = u_linear(d["converter"]["u_dc"], m.phases)
+    if inj["u_h"] >= u_lin:
+        raise ConfigError("injection.u_h", inj["u_h"], f"must be below the linear modulation limit {u_lin:.4g} V", source)
+    xc = inj["xcomp"]
+    if xc == "paper":
+        poly = m.extra.get("injection", {}).get("xcomp_paper")
+        if poly is None:
+            raise ConfigError("injection.xcomp", xc, f"{m.name} has no [injection].xcomp_paper (a fitted error polynomial)", source)
+        inj["xcomp"] = {"poly_error": [float(x) for x in poly]}
+    elif xc is not None:
+        inj["xcomp"] = xcomp_table(xc, source)
+
+
+def _paper_gains(d: dict, m: Machine, source) -> None:
+    """The machine's [paper_gains]: current PIs in V/A and V/(A s) per axis,
+    the speed PI in A per mechanical rad/s (and per rad), turned into torque
+    with the torque constant (phases / 2) p psi_f."""
+    g = m.extra.get("paper_gains")
+    keys = ("current_kp_d", "current_ki_d", "current_kp_q", "current_ki_q", "speed_kp", "speed_ki")
+    if not g or any(k not in g for k in keys):
+        raise ConfigError("controller.gains", "paper", f"{m.name} has no complete [paper_gains] ({', '.join(keys)})", source)
+    k_T = 0.5 * m.phases * m.pole_pairs * m.psi_f
+    d["controller"]["paper_gains"] = {
+        "k_p_d": g["current_kp_d"], "k_i_d": g["current_ki_d"], "k_p_q": g["current_kp_q"], "k_i_q": g["current_ki_q"],
+        "k_p_w": g["speed_kp"] * k_T, "k_i_w": g["speed_ki"] * k_T,
+    }
+

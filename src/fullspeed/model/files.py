@@ -1,0 +1,238 @@
+"""Files in and out, one way each: bounded reads of input files, atomic
+writes of outputs, and output paths derived from names that stay inside
+their folder.
+
+- read_bounded: what is not a regular file (a FIFO, /dev/zero, a
+  directory) is refused before a byte is read, and a file above the limit is
+  refused instead of filling the memory.
+- write_atomic / write_json / write_npz / write_with: every output goes to a
+  temporary file in the same folder, is fsynced and renamed into place, so a
+  kill or an interrupt at any instant leaves the old file or the new one,
+  never a torn one that looks complete.
+- out_path: a name taken from the input (a scenario's, a sweep's, a
+  machine's) as one path component inside the output folder, or a
+  ConfigError naming the field.
+- out_folder: an output folder given by the user, checked before the work
+  (not a file, creatable, writable), or a ConfigError naming the option.
+- json_safe: what a JSON file holds of a value (NaN and infinities as null,
+  NumPy scalars as numbers).
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import stat
+import tempfile
+from collections.abc import Callable
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from .errors import ConfigError
+
+MAX_TOML_BYTES = 64 * 2**20   # a scenario with a 10^6-pair profile is 20 MB; the parser holds ~10x its text
+MAX_NAME_BYTES = 200          # below the 255-byte file-name limit of common file systems, room for a suffix
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+_MODE = 0o666 & ~_umask()     # what open() would give a new file (mkstemp gives 0600)
+
+
+def path_kind(path: str | Path) -> str | None:
+    """"file", "dir", "other" (a FIFO, a device), or None: nothing there, or
+    a path the system refuses (too long, a NUL)."""
+    try:
+        st = os.stat(path)
+    except (OSError, ValueError):
+        return None
+    return "file" if stat.S_ISREG(st.st_mode) else "dir" if stat.S_ISDIR(st.st_mode) else "other"
+
+
+def read_bounded(path: str | Path, field: str, source: str | None = None, limit: int = MAX_TOML_BYTES) -> bytes:
+    """A regular file's bytes, at most `limit`; anything else a ConfigError."""
+    p = Path(path)
+    try:
+        # O_NONBLOCK: opening a FIFO with no writer returns at once (fstat then refuses it)
+        fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+    except FileNotFoundError:
+        raise ConfigError(field, str(p), "file not found", source) from None
+    except IsADirectoryError:
+        raise ConfigError(field, str(p), "is a directory, not a TOML file", source) from None
+    except (OSError, ValueError) as exc:   # ValueError: a NUL in the path
+        raise ConfigError(field, str(p), f"cannot be opened: {getattr(exc, 'strerror', None) or exc}", source) from None
+    try:
+        st = os.fstat(fd)
+        if stat.S_ISDIR(st.st_mode):
+            raise ConfigError(field, str(p), "is a directory, not a TOML file", source)
+        if not stat.S_ISREG(st.st_mode):
+            raise ConfigError(field, str(p), "is not a regular file (a device, FIFO or socket); give a file", source)
+        if st.st_size > limit:
+            raise ConfigError(field, str(p), f"is {st.st_size} bytes; at most {limit} are read", source)
+        os.set_blocking(fd, True)
+        with os.fdopen(fd, "rb") as f:
+            fd = -1   # closed by f
+            data = f.read(limit + 1)
+    finally:
+        if fd >= 0:
+            os.close(fd)
+    if len(data) > limit:   # it grew while being read
+        raise ConfigError(field, str(p), f"is over {limit} bytes; at most {limit} are read", source)
+    return data
+
+
+def read_text(path: str | Path, field: str, source: str | None = None, limit: int = MAX_TOML_BYTES) -> str:
+    """read_bounded, decoded as UTF-8 (a ConfigError naming the byte otherwise)."""
+    data = read_bounded(path, field, source, limit)
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ConfigError(field, str(path), f"is not UTF-8 text (TOML is UTF-8): byte {exc.start}", source) from None
+
+
+def safe_name(name, field: str, source: str | None = None) -> str:
+    """name as one path component, unchanged, or a ConfigError: no NUL or
+    control characters, no separators, not '.', '..' or empty, at most
+    MAX_NAME_BYTES bytes of UTF-8."""
+    def refuse(why: str):
+        raise ConfigError(field, name, f"cannot name an output: {why} (set another name, or give --out)", source)
+
+    if not isinstance(name, str) or not name:
+        refuse("it must be a non-empty string")
+    if any(ord(c) < 32 or ord(c) == 127 for c in name):
+        refuse("it holds a NUL or control character")
+    if "/" in name or "\\" in name or os.sep in name or (os.altsep and os.altsep in name):
+        refuse("it holds a path separator")
+    if name in (".", ".."):
+        refuse("it is a relative folder")
+    try:
+        size = len(name.encode("utf-8"))
+    except UnicodeEncodeError:   # a lone surrogate
+        refuse("it is not valid Unicode")
+    if size > MAX_NAME_BYTES:
+        refuse(f"it is {size} bytes long; at most {MAX_NAME_BYTES}")
+    return name
+
+
+def file_name(name: str) -> str:
+    """A name typed for a new file (`fullspeed new-machine NAME`) with every
+    character but letters, digits, '.', '-' and '_' replaced by '_' and no
+    leading dot: it stays a file name in its folder. (Names taken from an
+    input file go through safe_name, which refuses rather than rewrites.)"""
+    return re.sub(r"[^\w.-]", "_", name).lstrip(".") or "unnamed"
+
+
+def out_path(root: str | Path, name, field: str, source: str | None = None, suffix: str = "") -> Path:
+    """root / (name + suffix) with name checked by safe_name: inside root."""
+    return Path(root) / (safe_name(name, field, source) + suffix)
+
+
+def out_folder(path: str | Path, field: str = "--out") -> Path:
+    """An output folder checked before the work, left as it is: a folder, or
+    a path one can be made at (its nearest existing ancestor a folder that
+    takes a file); else a ConfigError naming the field and why (a file in
+    the way, no permission, a read-only file system). Nothing is created:
+    a run refused later leaves no folder behind."""
+    path = Path(path)
+    kind = path_kind(path)
+    if kind is not None and kind != "dir":
+        raise ConfigError(field, str(path), "is a file, not a folder; give a folder (created if missing)")
+    up = path
+    while path_kind(up) is None and up != up.parent:
+        up = up.parent
+    if path_kind(up) != "dir":
+        raise ConfigError(field, str(path), f"cannot be written: {up} is not a folder")
+    try:   # a probe file, removed at once: permissions, read-only mounts and pseudo file systems alike
+        fd, probe = tempfile.mkstemp(dir=up, prefix=".fullspeed-probe-")
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        raise ConfigError(field, str(path), f"cannot be written: {up}: {e.strerror or e}") from None
+    return path
+
+
+def _fsync_dir(folder: Path) -> None:
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def write_with(path: str | Path, write: Callable[[Path], object]) -> Path | None:
+    """write(tmp) writes the file at the temporary path tmp (which ends with
+    path's suffix, for writers that choose the format by it: savefig);
+    it is then fsynced and renamed to path. write returning False (nothing
+    to write) leaves path as it was and returns None. On any exception,
+    Ctrl-C included, the temporary file is removed and path is left as it
+    was."""
+    path = Path(path)
+    folder = path.parent
+    folder.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{path.name[:100]}.", suffix=".tmp" + path.suffix)
+    os.close(fd)
+    tmp = Path(tmp)
+    try:
+        if write(tmp) is False:
+            tmp.unlink(missing_ok=True)
+            return None
+        os.chmod(tmp, _MODE)
+        with open(tmp, "rb+") as f:
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    _fsync_dir(folder)
+    return path
+
+
+def write_atomic(path: str | Path, data: str | bytes) -> Path:
+    """Text (UTF-8) or bytes, written atomically."""
+    raw = data.encode("utf-8") if isinstance(data, str) else bytes(data)
+    return write_with(path, lambda tmp: tmp.write_bytes(raw))
+
+
+def write_json(path: str | Path, obj, **kwargs) -> Path:
+    """obj as JSON, written atomically."""
+    return write_atomic(path, json.dumps(obj, **kwargs))
+
+
+def write_npz(path: str | Path, arrays: dict) -> Path:
+    """Arrays as a compressed .npz, written atomically."""
+    def save(tmp: Path):
+        with open(tmp, "wb") as f:   # a file object: savez does not append ".npz" to it
+            np.savez_compressed(f, **arrays)
+    return write_with(path, save)
+
+
+def package_names(folder: str) -> list[str]:
+    """The names of the package's TOML files in one of its data folders
+    (machines, scenarios, sweeps, calibration): its catalog."""
+    root = resources.files("fullspeed") / folder
+    return sorted(p.name[:-5] for p in root.iterdir() if p.name.endswith(".toml"))
+
+
+def json_safe(x):
+    """Metrics as JSON: NaN and infinities become null."""
+    if isinstance(x, dict):
+        return {k: json_safe(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [json_safe(v) for v in x]
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    if isinstance(x, (np.floating, np.integer)):
+        return json_safe(x.item())
+    return x

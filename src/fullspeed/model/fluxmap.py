@@ -1,0 +1,272 @@
+"""Flux maps from files: a CSV (one row per (i_d, i_q)) or the MATLAB .mat
+layout of SyR-e that motulator reads, resampled to the even grid the plant
+interpolates on (fs_magnetic.h), with where the data came from recorded;
+checked against the current limit (coverage) and against [electrical]
+(consistency).
+
+CSV: a header row naming the columns with their units, in brackets or
+parentheses: `i_d [A], i_q [A], psi_d [Wb], psi_q [Wb], T [N m]` (torque
+optional; `id`, `psid`, `torque`, `Vs`, `mWb`, `Nm` are understood too), then
+one row per point of a full grid (every i_d with every i_q; the steps may be
+uneven). Lines starting with # are comments.
+
+.mat (needs scipy): `motorModel.FluxMap_dq` with the matrices Id, Iq, Fd, Fq
+(and T), or the same matrices at the top level (SyR-e's idiq_fdfq files).
+SyR-e puts the magnet on the -q axis; the map is turned to the PMSM
+convention (magnet on +d): i_d = -Iq, i_q = Id, psi_d = -Fq, psi_q = Fd.
+
+A map given for i_q >= 0 only is completed by the machine's symmetry:
+psi_d(i_d, -i_q) = psi_d(i_d, i_q), psi_q(i_d, -i_q) = -psi_q(i_d, i_q).
+"""
+from __future__ import annotations
+
+import csv
+import hashlib
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+
+from .errors import ConfigError
+from .files import read_text   # a regular file, bounded (a FIFO or /dev/zero is refused)
+
+# column name -> the names it may have in a file (lower case, no spaces)
+COLUMNS = {"i_d": ("i_d", "id"), "i_q": ("i_q", "iq"), "psi_d": ("psi_d", "psid", "fd", "flux_d"),
+           "psi_q": ("psi_q", "psiq", "fq", "flux_q"), "torque": ("torque", "t", "t_e", "te")}
+# unit -> factor to SI, by the quantity's SI unit
+UNITS = {"A": {"a": 1.0, "ka": 1e3, "ma": 1e-3},
+         "Wb": {"wb": 1.0, "vs": 1.0, "mwb": 1e-3, "mvs": 1e-3},
+         "N m": {"nm": 1.0, "n.m": 1.0, "n*m": 1.0}}
+SI = {"i_d": "A", "i_q": "A", "psi_d": "Wb", "psi_q": "Wb", "torque": "N m"}
+MAX_POINTS = 1000            # per axis, as the machine file's map (machines._check_fluxmap)
+
+# [electrical] against the map at zero current: the magnet's flux is what a
+# datasheet's back-EMF constant gives, to a few %; the inductances are given
+# at some current the datasheet may not say (saturation moves them 20..40 %)
+PSI_F_TOL = 0.10
+L_TOL = 0.35
+TORQUE_TOL = 0.10            # the file's torque against 1.5 p (psi_d i_q - psi_q i_d), median over the map
+
+
+class FluxMapWarning(UserWarning):
+    """[electrical] and the flux map disagree (one line: the plant follows the map)."""
+
+
+def _header(name: str, field: str, source) -> tuple[str, float]:
+    """'psi_d [mWb]' -> ('psi_d', 1e-3)."""
+    m = re.fullmatch(r"\s*([^\[\(]+?)\s*(?:[\[\(]\s*([^\]\)]*?)\s*[\]\)])?\s*", name)
+    base = m.group(1).lower().replace(" ", "") if m else name
+    col = next((k for k, names in COLUMNS.items() if base in names), None)
+    if col is None:
+        return "", 0.0   # a column this reader does not use
+    unit = (m.group(2) or "").lower().replace(" ", "")
+    if not unit:
+        raise ConfigError(field, name, f"needs its unit in the header, e.g. '{col} [{SI[col]}]'", source)
+    factor = UNITS[SI[col]].get(unit)
+    if factor is None:
+        raise ConfigError(field, name, f"unit must be one of {', '.join(UNITS[SI[col]])} (case-insensitive) for {col}", source)
+    return col, factor
+
+
+def read_csv(path: Path, field: str, source=None) -> dict[str, np.ndarray]:
+    """The columns of a flux-map CSV, in SI, as flat arrays."""
+    text = read_text(path, field, source)
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    rows = list(csv.reader(lines))
+    if len(rows) < 5:
+        raise ConfigError(field, str(path), "must hold a header and at least 4 rows (a 2 x 2 grid)", source)
+    cols = [_header(h, field, source) for h in rows[0]]
+    have = {c for c, _ in cols}
+    missing = [c for c in ("i_d", "i_q", "psi_d", "psi_q") if c not in have]
+    if missing:
+        raise ConfigError(field, str(path), f"has no column {', '.join(missing)} (header: {', '.join(rows[0])})", source)
+    out: dict[str, list] = {c: [] for c in have if c}
+    for n, row in enumerate(rows[1:], start=2):
+        if len(row) != len(cols):
+            raise ConfigError(f"{field} line {n}", row, f"must have {len(cols)} values like the header", source)
+        for (c, f), v in zip(cols, row):
+            if not c:
+                continue
+            try:
+                x = float(v)
+            except ValueError:
+                raise ConfigError(f"{field} line {n}", v, f"{c} must be a number", source) from None
+            if not math.isfinite(x):
+                raise ConfigError(f"{field} line {n}", v, f"{c} must be finite", source)
+            out[c].append(x * f)
+    return {c: np.asarray(v) for c, v in out.items()}
+
+
+def read_mat(path: Path, field: str, source=None) -> dict[str, np.ndarray]:
+    """A SyR-e map (.mat), turned to the PMSM convention, as flat arrays."""
+    try:
+        from scipy.io import loadmat
+    except ImportError:
+        raise ConfigError(field, str(path), "reading a .mat flux map needs scipy (pip install scipy); or give the map as CSV", source) from None
+    try:
+        mat = loadmat(str(path))
+    except Exception as exc:   # scipy raises several kinds for a bad file
+        raise ConfigError(field, str(path), f"is not a MATLAB file scipy can read: {exc}", source) from None
+    if "motorModel" in mat:
+        try:
+            fm = mat["motorModel"][0, 0]["FluxMap_dq"][0, 0]
+            get = lambda k: np.asarray(fm[k], dtype=float)   # noqa: E731
+        except (KeyError, ValueError, IndexError):
+            raise ConfigError(field, str(path), "has a motorModel without FluxMap_dq (Id, Iq, Fd, Fq)", source) from None
+    else:
+        get = lambda k: np.asarray(mat[k], dtype=float)   # noqa: E731
+    try:
+        Id, Iq, Fd, Fq = (get(k) for k in ("Id", "Iq", "Fd", "Fq"))
+    except (KeyError, ValueError):
+        raise ConfigError(field, str(path), "must hold Id, Iq, Fd and Fq (SyR-e's FluxMap_dq or idiq_fdfq layout)", source) from None
+    out = {"i_d": -Iq.ravel(), "i_q": Id.ravel(), "psi_d": -Fq.ravel(), "psi_q": Fd.ravel()}
+    try:
+        out["torque"] = get("T").ravel()
+    except (KeyError, ValueError):
+        pass
+    return out
+
+
+def _grid(cols: dict[str, np.ndarray], field: str, source) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+    """Flat columns of a full grid as axes and tables [k][l] at (i_d[k], i_q[l])."""
+    i_d, i_q = np.unique(cols["i_d"]), np.unique(cols["i_q"])
+    if not (2 <= i_d.size <= MAX_POINTS and 2 <= i_q.size <= MAX_POINTS):
+        raise ConfigError(field, f"{i_d.size} x {i_q.size} currents", f"must be 2..{MAX_POINTS} distinct values per axis", source)
+    if cols["i_d"].size != i_d.size * i_q.size:
+        raise ConfigError(field, f"{cols['i_d'].size} points", f"must be a full grid: every i_d with every i_q "
+                          f"({i_d.size} x {i_q.size} = {i_d.size * i_q.size} points, each once)", source)
+    k, n = np.searchsorted(i_d, cols["i_d"]), np.searchsorted(i_q, cols["i_q"])
+    seen = np.zeros((i_d.size, i_q.size), bool)
+    seen[k, n] = True
+    if not seen.all():
+        raise ConfigError(field, "grid", "must be a full grid: some (i_d, i_q) pair appears twice and another not at all", source)
+    tabs = {}
+    for c in ("psi_d", "psi_q", "torque"):
+        if c in cols:
+            t = np.empty((i_d.size, i_q.size))
+            t[k, n] = cols[c]
+            tabs[c] = t
+    return i_d, i_q, tabs
+
+
+def _mirror_q(i_q: np.ndarray, tabs: dict) -> tuple[np.ndarray, dict]:
+    """Complete a map given for i_q >= 0 by the symmetry about the d axis."""
+    neg = i_q[::-1][:-1] * -1 if i_q[0] == 0.0 else -i_q[::-1]
+    sign = {"psi_d": 1.0, "psi_q": -1.0, "torque": -1.0}
+    cut = 1 if i_q[0] == 0.0 else 0
+    return (np.r_[neg, i_q],
+            {c: np.concatenate([sign[c] * t[:, cut:][:, ::-1], t], axis=1) for c, t in tabs.items()})
+
+
+def _even(axis: np.ndarray) -> np.ndarray:
+    return np.linspace(axis[0], axis[-1], axis.size)
+
+
+def resample(i_d: np.ndarray, i_q: np.ndarray, tabs: dict) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Tables on a rectilinear grid onto the even grid with as many points
+    over the same ranges: bilinear, along i_q within each row, then along
+    i_d within each column (exact where the grid was even already)."""
+    e_d, e_q = _even(i_d), _even(i_q)
+    out = {}
+    for c, t in tabs.items():
+        rows = np.array([np.interp(e_q, i_q, r) for r in t])
+        out[c] = np.array([np.interp(e_d, i_d, col) for col in rows.T]).T
+    return e_d, e_q, out
+
+
+def load_map(path: str | Path, field: str, source=None) -> dict:
+    """A flux-map file as [magnetic] fields: model, i_d, i_q, psi_d, psi_q
+    (even grids, rows in i_d), torque where given, and source."""
+    p = Path(path)
+    if not p.is_file():
+        raise ConfigError(field, str(p), "file not found", source)
+    reader = {".csv": read_csv, ".mat": read_mat}.get(p.suffix.lower())
+    if reader is None:
+        raise ConfigError(field, str(p), "must be a .csv or a .mat (SyR-e) flux map", source)
+    cols = reader(p, field, source)
+    i_d, i_q, tabs = _grid(cols, field, source)
+    notes = [f"{i_d.size} x {i_q.size} points, i_d {i_d[0]:g}..{i_d[-1]:g} A, i_q {i_q[0]:g}..{i_q[-1]:g} A"]
+    if i_q[0] >= 0.0:
+        i_q, tabs = _mirror_q(i_q, tabs)
+        notes.append("negative i_q by symmetry")
+    uneven = not (np.allclose(np.diff(i_d), i_d[1] - i_d[0], rtol=1e-6) and np.allclose(np.diff(i_q), i_q[1] - i_q[0], rtol=1e-6))
+    if uneven:
+        notes.append("resampled bilinearly to an even grid")
+    i_d, i_q, tabs = resample(i_d, i_q, tabs)
+    digest = hashlib.sha256(p.read_bytes()).hexdigest()[:12]
+    out = {"model": "fluxmap", "i_d": i_d.tolist(), "i_q": i_q.tolist(),
+           "psi_d": tabs["psi_d"].tolist(), "psi_q": tabs["psi_q"].tolist(),
+           "source": f"{p.name} (sha256 {digest}): " + "; ".join(notes)}
+    if "torque" in tabs:
+        out["torque"] = tabs["torque"].tolist()
+    return out
+
+
+def interp(mag: dict, name: str, i_d, i_q):
+    """A map's table at currents (arrays or numbers; bilinear on its even
+    grid, held at the edges as the plant's lookup is not: the callers stay
+    inside the map)."""
+    e_d, e_q, t = np.asarray(mag["i_d"]), np.asarray(mag["i_q"]), np.asarray(mag[name])
+    x = np.clip((np.asarray(i_d, float) - e_d[0]) / (e_d[1] - e_d[0]), 0.0, e_d.size - 1.0)
+    y = np.clip((np.asarray(i_q, float) - e_q[0]) / (e_q[1] - e_q[0]), 0.0, e_q.size - 1.0)
+    k, n = np.minimum(x.astype(int), e_d.size - 2), np.minimum(y.astype(int), e_q.size - 2)
+    a, b = x - k, y - n
+    return ((1 - a) * (1 - b) * t[k, n] + a * (1 - b) * t[k + 1, n]
+            + (1 - a) * b * t[k, n + 1] + a * b * t[k + 1, n + 1])
+
+
+def table_at(mag: dict, name: str, i_d: float, i_q: float) -> float:
+    """One value of a map's table (interp at a point)."""
+    return float(interp(mag, name, i_d, i_q))
+
+
+def zero_current_values(mag: dict) -> dict:
+    """psi_f = psi_d(0, 0) and the incremental inductances there
+    (central differences over one grid step): what the injection sees at no
+    load and what [electrical] states."""
+    h_d = mag["i_d"][1] - mag["i_d"][0]
+    h_q = mag["i_q"][1] - mag["i_q"][0]
+    return {"psi_f": table_at(mag, "psi_d", 0.0, 0.0),
+            "L_d": (table_at(mag, "psi_d", h_d, 0.0) - table_at(mag, "psi_d", -h_d, 0.0)) / (2 * h_d),
+            "L_q": (table_at(mag, "psi_q", 0.0, h_q) - table_at(mag, "psi_q", 0.0, -h_q)) / (2 * h_q)}
+
+
+def check_coverage(mag: dict, i_max: float, field: str, source) -> None:
+    """The map must reach the current limit: i_q over +-i_max, i_d from
+    -i_max up to +i_max / 2 (the polarity detection's positive d pulses are
+    half of i_max by default). Outside, the plant would extrapolate."""
+    i_d, i_q = mag["i_d"], mag["i_q"]
+    tol = 1e-9 * i_max
+    if i_q[0] > -i_max + tol or i_q[-1] < i_max - tol:
+        raise ConfigError(f"{field}.i_q", f"{i_q[0]:g}..{i_q[-1]:g} A",
+                          f"must cover +-i_max = +-{i_max:g} A (bench.i_max): the drive may ask for that current", source)
+    if i_d[0] > -i_max + tol or i_d[-1] < 0.5 * i_max - tol:
+        raise ConfigError(f"{field}.i_d", f"{i_d[0]:g}..{i_d[-1]:g} A",
+                          f"must cover -i_max..i_max/2 = {-i_max:g}..{0.5 * i_max:g} A (bench.i_max; flux weakening "
+                          "goes to -i_max, the polarity pulses to +i_max/2)", source)
+
+
+def consistency_warnings(mag: dict, elec: dict, pole_pairs: int, phases: int, name: str) -> list[str]:
+    """Where [electrical] and the map disagree beyond the tolerances above:
+    one line for all of them (empty when they agree)."""
+    z = zero_current_values(mag)
+    off = []
+    if abs(z["psi_f"] - elec["psi_f"]) > PSI_F_TOL * abs(elec["psi_f"]) + 1e-12:
+        off.append(f"psi_f {elec['psi_f']:.4g} Wb, map {z['psi_f']:.4g}")
+    for k in ("L_d", "L_q"):
+        if abs(z[k] - elec[k]) > L_TOL * elec[k]:
+            off.append(f"{k} {elec[k]:.4g} H, map {z[k]:.4g} at zero current")
+    if mag.get("torque") is not None:
+        i_d, i_q = np.meshgrid(mag["i_d"], mag["i_q"], indexing="ij")
+        T_map = np.asarray(mag["torque"])
+        T_flux = 0.5 * phases * pole_pairs * (np.asarray(mag["psi_d"]) * i_q - np.asarray(mag["psi_q"]) * i_d)
+        big = np.abs(T_map) > 0.1 * np.max(np.abs(T_map))
+        if big.any():
+            dev = float(np.median(np.abs(T_flux[big] - T_map[big]) / np.abs(T_map[big])))
+            if dev > TORQUE_TOL:
+                off.append(f"its torque column is {100 * dev:.0f} % from {phases}/2 p (psi_d i_q - psi_q i_d) with p = {pole_pairs}")
+    if not off:
+        return []
+    return [f"{name}: [electrical] and the flux map disagree ({'; '.join(off)}; tolerances psi_f {100 * PSI_F_TOL:g} %, "
+            f"L {100 * L_TOL:g} %, torque {100 * TORQUE_TOL:g} %): the plant follows the map, the controller [electrical]"]

@@ -1,3 +1,0 @@
-"""The measurements behind the claims, one module per paper. Importing this
-package registers them in fullspeed.reproduce.MEASURES."""
-from . import beyond, pil, yang2022, yu2022, zoo, zou2021  # noqa: F401

@@ -1,0 +1,457 @@
+"""Metrics of a run, all measured from its traces."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..design.checks import ideal_hardware
+from ..model.units import rad_s_to_rpm, rpm_to_rad_s
+
+
+# The loop each closed-loop mode follows: its reference channels (name in
+# [references], trace channel, scale to SI, unit) and the bandwidth whose
+# settling the steady window waits out.
+FOLLOWED = {
+    "speed": ([("speed_rpm", "w_m", "w_m_ref", "rpm")], "bw_speed"),
+    "current": ([("i_q", "i_q", "i_q_ref", "A"), ("i_d", "i_d", "i_d_ref", "A")], "bw_current"),
+    "voltage": ([("u_d", None, None, "V"), ("u_q", None, None, "V")], None),
+    "vf": ([("frame_rpm", None, None, "rpm")], None),
+    "off": ([], None),
+}
+SETTLE_TAUS = 5.0        # time constants of the loop's bandwidth: a first-order response is within 0.7 %
+SETTLE_BAND = 0.02       # settling and recovery: within 2 % (of the step; of the reference speed for a load change)
+SPEED_FLOOR = 0.005      # ... but never a band narrower than 0.5 % of rated speed (standstill, sensor noise)
+
+
+def _changes(profile) -> list[tuple[float, float, float, float]]:
+    """The changes of a profile (t, y lists, held after the last point):
+    (t_start, t_end, y_before, y_after), consecutive changing segments in one
+    direction merged (a ramp drawn in several pieces is one change)."""
+    ts, ys = profile
+    out: list[list[float]] = []
+    for k in range(1, len(ts)):
+        dy = ys[k] - ys[k - 1]
+        if dy == 0.0:
+            continue
+        if out and out[-1][1] == ts[k - 1] and (out[-1][3] - out[-1][2]) * dy > 0:
+            out[-1][1], out[-1][3] = ts[k], ys[k]
+        else:
+            out.append([ts[k - 1], ts[k], ys[k - 1], ys[k]])
+    return [tuple(c) for c in out]
+
+
+def _followed_profiles(sc) -> list:
+    """The profiles the run's loops follow, and the load's (a change of
+    either is not steady)."""
+    d = sc.data
+    refs, _ = FOLLOWED[d["controller"]["mode"]]
+    profiles = [d["references"][name] for name, *_ in refs]
+    load = d["load"]
+    profiles.append(load["torque"] if load["kind"] in ("torque", "brake") else load["speed_rpm"])
+    return profiles
+
+
+def _settle_time(sc) -> float | None:
+    """SETTLE_TAUS time constants of the mode's loop; None without one."""
+    key = FOLLOWED[sc.data["controller"]["mode"]][1]
+    bw = sc.data["controller"].get(key) if key else None
+    return SETTLE_TAUS / bw if bw else None
+
+
+def steady_window(res) -> tuple[float, float] | None:
+    """The scenario's [metrics] steady window, else the last flat stretch of
+    what the loops follow (their references and the load) after a settling
+    margin: SETTLE_TAUS time constants of the mode's loop (a fifth of the
+    stretch in the open-loop modes). None when no such stretch is left
+    (the run ends on a ramp or right after a step): steady_basis says why."""
+    return _steady(res)[0]
+
+
+def _steady(res) -> tuple[tuple[float, float] | None, str]:
+    sc = res.scenario
+    w = sc.data["metrics"]["steady"]
+    if w is not None:
+        return (float(w[0]), float(w[1])), "given: [metrics] steady"
+    T = sc.duration
+    t_flat = max((c[1] for p in _followed_profiles(sc) for c in _changes(p)), default=0.0)
+    settle = _settle_time(sc)
+    margin = settle if settle is not None else 0.2 * (T - t_flat)
+    if t_flat + margin >= T - 1e-12:
+        return None, (f"none: the references or the load change until {t_flat:g} s and the loop settles in "
+                      f"{margin:.3g} s, past the end ({T:g} s); set [metrics] steady")
+    return (t_flat + margin, T), (f"the last flat stretch, from {t_flat:g} s, after a settling margin of {margin:.3g} s"
+                                  + (f" ({SETTLE_TAUS:g} / {FOLLOWED[sc.data['controller']['mode']][1]})" if settle else ""))
+
+
+def window_mask(t: np.ndarray, t0: float, t1: float) -> np.ndarray:
+    return (t >= t0 - 1e-12) & (t <= t1 + 1e-12)
+
+
+def angle_error_stats(err_rad: np.ndarray) -> dict:
+    """mean, pp (max - min) and max |.| of an angle error, in el.deg."""
+    if err_rad.size == 0:
+        return {"mean": None, "pp": None, "max": None}
+    e = np.degrees(err_rad)
+    return {"mean": float(np.mean(e)), "pp": float(np.ptp(e)), "max": float(np.max(np.abs(e)))}
+
+
+# The stages in which the loops run on an estimate with current flowing
+# (fs_drive_stage): where a wrong angle is a loss of lock. Polarity detection,
+# the I/f start (its frame lags by design) and the zero-current recovery are not.
+SENSORLESS_STAGES = (4, 5, 6, 7)
+
+
+def true_loss_at(tr, threshold: float = math.pi / 2, t_net: float = 0.02) -> float | None:
+    """When the simulation's truth says lock was lost: the loops' angle more
+    than `threshold` (rad) from the rotor's, in a sensorless stage, for
+    `t_net` s net; None if never. Net as fs_lock.h counts: time off counts
+    up; time back on track (within half the threshold) counts down to no
+    less than 0; time in between holds, so that an estimate slipping round
+    and round (a quarter of its time within 45 deg, half beyond 90) counts
+    as lost and not as on track half the time. The drive cannot know this;
+    the campaigns compare its flags against it."""
+    t = np.asarray(tr["t"])
+    if t.size < 2:
+        return None
+    dt = float(t[1] - t[0])
+    e = np.abs(np.asarray(tr["theta_err"]))
+    sensorless = np.isin(np.asarray(tr["stage"]).astype(int), SENSORLESS_STAGES)
+    state = np.where(sensorless & (e > threshold), 1, np.where(~sensorless | (e < 0.5 * threshold), -1, 0)).astype(np.int8)
+    # segments of equal state: the counter moves linearly within each
+    edges = np.r_[0, np.flatnonzero(np.diff(state)) + 1, state.size]
+    acc = 0.0
+    for a, b in zip(edges[:-1], edges[1:]):
+        if state[a] == 1:
+            if acc + (b - a) * dt >= t_net - 1e-12:
+                return float(t[a + max(0, math.ceil((t_net - acc) / dt - 1e-9) - 1)])
+            acc += (b - a) * dt
+        elif state[a] == -1:
+            acc = max(0.0, acc - (b - a) * dt)
+    return None
+
+
+def _first_cross(t: np.ndarray, x: np.ndarray, level: float) -> float | None:
+    k = np.flatnonzero(x >= level)
+    return float(t[k[0]]) if k.size else None
+
+
+def step_response(t: np.ndarray, y: np.ndarray, t0: float, y0: float, y1: float, band: float) -> dict:
+    """A step from y0 to y1 at t0, the response y over t (from t0 to the next
+    change): overshoot (% of the step), rise time (10 to 90 %), settling time
+    (from t0 until |y - y1| stays within band), and the final value (the
+    mean over the window's last tenth). A time that did not happen
+    within the window is None, with `note` saying which."""
+    dy = y1 - y0
+    x = (y - y0) / dy                      # 0 before, 1 on target, in the step's direction
+    out = {"overshoot_pct": float(max(0.0, 100.0 * (np.max(x) - 1.0))) if x.size else None}
+    t10, t90 = _first_cross(t, x, 0.1), _first_cross(t, x, 0.9)
+    out["rise_time"] = t90 - t10 if t10 is not None and t90 is not None else None
+    out["settling_time"] = _settled_from(t, np.abs(y - y1) > band, t0)
+    out["final"] = float(np.mean(y[-max(1, y.size // 10):])) if y.size else None   # the last tenth's mean
+    notes = [w for w, v in (("did not reach 90 %", t90), ("did not settle", out["settling_time"])) if v is None]
+    if notes:
+        out["note"] = " and ".join(notes) + " before the next change"
+    return out
+
+
+def _settled_from(t: np.ndarray, out_of_band: np.ndarray, t0: float) -> float | None:
+    """Time from t0 until out_of_band stays false to the end of t; None if it is true at the end."""
+    if not out_of_band.size or out_of_band[-1]:
+        return None
+    k = np.flatnonzero(out_of_band)
+    return float(t[k[-1] + 1] - t0) if k.size else 0.0
+
+
+def step_metrics(res) -> list[dict]:
+    """Per reference step (a change completing within the loop's settling
+    time, SETTLE_TAUS / bandwidth) and per load change (any, step or ramp, in
+    speed mode): the step response, or the speed's dip against its reference
+    and its recovery time. Each is measured up to the next change of any
+    reference or the load (or the end of the run)."""
+    sc, tr = res.scenario, res.traces
+    d = sc.data
+    mode = d["controller"]["mode"]
+    refs, _ = FOLLOWED[mode]
+    settle = _settle_time(sc)
+    t = np.asarray(tr["t"])
+    if settle is None or t.size < 2:
+        return []
+    starts = sorted({c[0] for p in _followed_profiles(sc) for c in _changes(p)})
+    t_end = float(t[-1])
+
+    def window(c):
+        """From the change to the next one: an empty mask for a change after the run's end."""
+        nxt = [s for s in starts if s >= c[1] - 1e-12 and s > c[0]]
+        m = window_mask(t, c[0], min(nxt[0], t_end) if nxt else t_end)
+        return m
+
+    w_floor = SPEED_FLOOR * sc.machine.w_m_rated
+    injecting = d["controller"]["angle"] in ("hfi", "blend", "swvi")
+    n_carrier = round(1.0 / (d["injection"]["f_h"] * float(t[1] - t[0]))) if injecting else 0
+    out = []
+    for name, ch, ref_ch, unit in refs:
+        to_si = rpm_to_rad_s(1.0) if unit == "rpm" else 1.0
+        for c in _changes(d["references"][name]):
+            if c[1] - c[0] > settle or c[0] >= t_end:
+                continue   # a ramp, not a step; or after the run's end
+            m = window(c)
+            y0, y1 = c[2] * to_si, c[3] * to_si
+            band = max(SETTLE_BAND * abs(y1 - y0), w_floor if unit == "rpm" else 0.0)
+            r = {"kind": "reference", "signal": ch, "t": c[0], "ramp": c[1] - c[0], "from": c[2], "to": c[3], "unit": unit}
+            y = np.asarray(tr[ch])
+            if unit == "A" and n_carrier > 1:
+                # the carrier's current would read as overshoot: its one-period mean (adds up to a period to the times)
+                y = np.convolve(y, np.full(n_carrier, 1.0 / n_carrier), mode="same")
+                r["averaged_over"] = n_carrier * float(t[1] - t[0])
+            r.update(step_response(t[m], y[m], c[0], y0, y1, band))
+            if r["final"] is not None:
+                r["final"] /= to_si
+            out.append(r)
+    load = d["load"]
+    if mode == "speed" and load["kind"] in ("torque", "brake"):
+        for c in _changes(load["torque"]):
+            if c[0] >= t_end:
+                continue
+            m = window(c)
+            e = np.asarray(tr["w_m"])[m] - np.asarray(tr["w_m_ref"])[m]
+            sign = -1.0 if c[3] > c[2] else 1.0     # more load torque pulls the speed down
+            if load["kind"] == "brake":              # a brake acts against the motion
+                sign *= float(np.sign(np.mean(tr["w_m_ref"][m]))) or 1.0
+            dip = sign * e
+            k = int(np.argmax(dip)) if dip.size else 0
+            band = np.maximum(SETTLE_BAND * np.abs(np.asarray(tr["w_m_ref"])[m]), w_floor)
+            r = {"kind": "load", "signal": "w_m", "t": c[0], "ramp": c[1] - c[0], "from": c[2], "to": c[3], "unit": "N m",
+                 "dip_rpm": rad_s_to_rpm(float(max(dip[k], 0.0))) if dip.size else None,
+                 "t_dip": float(t[m][k]) if dip.size else None,
+                 "recovery_time": _settled_from(t[m], np.abs(e) > band, c[0])}
+            if r["recovery_time"] is None:
+                r["note"] = "the speed did not return within its band before the next change"
+            out.append(r)
+    return sorted(out, key=lambda r: r["t"])
+
+
+def stage_metrics(tr) -> dict:
+    """Per stage the drive passed (by name, in the order first entered): the
+    time spent in it, how often it was entered, and the largest |angle error|
+    (true minus used, el.deg) while in it."""
+    s = np.asarray(tr["stage"]).astype(int)
+    t = np.asarray(tr["t"])
+    if s.size < 2:
+        return {}
+    dt = float(t[1] - t[0])
+    err = np.degrees(np.abs(np.asarray(tr["theta_err"])))
+    entries = np.r_[0, np.flatnonzero(np.diff(s)) + 1]
+    out = {}
+    for code in dict.fromkeys(s[entries]):
+        m = s == code
+        out[STAGES[code]] = {"time": float(np.count_nonzero(m) * dt), "entries": int(np.count_nonzero(s[entries] == code)),
+                             "theta_err_max_deg": float(np.max(err[m]))}
+    return out
+
+
+def step_times(tr, channels=("w_m_ref", "T_L", "i_d_ref", "i_q_ref")) -> list[float]:
+    """The instants a reference or the load jumps (between two samples by
+    more than 5 % of its range): the steps a run's error is forgiven after."""
+    out = []
+    for ch in channels:
+        if ch not in tr:
+            continue
+        y = np.asarray(tr[ch])
+        span = float(np.ptp(y)) if y.size else 0.0
+        if span > 0:
+            out += [float(tr["t"][k + 1]) for k in np.flatnonzero(np.abs(np.diff(y)) > 0.05 * span)]
+    return sorted(out)
+
+
+def sensorless_error_max(tr, after_step: float = 0.05) -> float | None:
+    """The largest |angle error| (el.deg) while the loops run on an estimate
+    (SENSORLESS_STAGES), outside the `after_step` s after each step of a
+    reference or the load and after each entry from a stage without an
+    estimate (polarity detection, the I/f start, a recovery); None if the
+    run never ran sensorless."""
+    t = np.asarray(tr["t"])
+    on = np.isin(np.asarray(tr["stage"]).astype(int), SENSORLESS_STAGES)
+    entries = [float(t[k + 1]) for k in np.flatnonzero(on[1:] & ~on[:-1])]
+    keep = on.copy()
+    for t0 in step_times(tr) + entries:
+        keep &= ~((t >= t0) & (t < t0 + after_step))
+    if not keep.any():
+        return None
+    return float(np.degrees(np.max(np.abs(np.asarray(tr["theta_err"])[keep]))))
+
+
+def compute_metrics(res) -> dict:
+    tr = res.traces
+    t = tr["t"]
+    out: dict = {
+        "stop_reason": res.stop_reason,
+        "stop_time": res.stop_time,
+        "sim_time": res.sim_time,
+        "wall_time": res.wall_time,
+        "speed_ratio": res.speed_ratio,
+    }
+    if t.size == 0:
+        return out
+    win, out["steady_basis"] = _steady(res)
+    out["steady_window"] = list(win) if win else None
+    m = window_mask(t, *win) if win else np.zeros(t.size, bool)
+    out["i_phase_max"] = float(np.max(np.abs(np.stack([tr["i_a"], tr["i_b"], tr["i_c"]]))))
+    lost = np.flatnonzero(tr["lock_lost"] > 0)
+    out["lock_lost_at"] = float(t[lost[0]]) if lost.size else None
+    out["recoveries"] = int(tr["recoveries"][-1])
+    if res.polarity is not None:
+        out["polarity"] = res.polarity
+    out["ideal_hardware"] = ideal_hardware(res.scenario.data)
+    out["warnings"] = list(res.scenario.warnings)
+    out["true_loss_at"] = true_loss_at(tr)
+    out["sensorless_err_deg_max"] = sensorless_error_max(tr)
+    # a loss the simulation's truth sees and nothing in the run flagged
+    out["silent_failure"] = bool(out["true_loss_at"] is not None and res.stop_reason == "done"
+                                 and out["lock_lost_at"] is None)
+    faults = fault_report(res)
+    if faults is not None:
+        out["faults"] = faults
+    out["steps"] = step_metrics(res)
+    out["stages"] = stage_metrics(tr)
+    if not m.any():
+        return out
+    mode = res.scenario.data["controller"]["mode"]
+    if mode == "speed":
+        w_ref = float(np.mean(tr["w_m_ref"][m]))
+        w = float(np.mean(tr["w_m"][m]))
+        out["speed_ref_rpm"] = rad_s_to_rpm(w_ref)
+        out["speed_rpm"] = rad_s_to_rpm(w)
+        out["speed_error_pct"] = 100.0 * (w - w_ref) / abs(w_ref) if w_ref != 0 else None
+    if mode in ("speed", "current"):
+        out["i_d_error_rms"] = float(np.sqrt(np.mean((tr["i_d_ref"][m] - tr["i_d"][m]) ** 2)))
+        out["i_q_error_rms"] = float(np.sqrt(np.mean((tr["i_q_ref"][m] - tr["i_q"][m]) ** 2)))
+    out["T_e_mean"] = float(np.mean(tr["T_e"][m]))
+    out["T_e_pp"] = float(np.ptp(tr["T_e"][m]))
+    out["theta_err_deg"] = angle_error_stats(tr["theta_err"][m])
+    out["est_err_deg"] = angle_error_stats(tr["est_err"][m])
+    return out
+
+
+def summary_lines(metrics: dict) -> list[str]:
+    """The metrics a person reads after a run, a line each: the steady
+    window and what was measured in it, each step, each stage."""
+    lines = []
+    win = metrics.get("steady_window")
+    lines.append(f"steady window: {win[0]:g}..{win[1]:g} s, {metrics['steady_basis']}" if win
+                 else f"steady window: {metrics.get('steady_basis', 'none')}")
+    if metrics.get("speed_error_pct") is not None:
+        lines.append(f"  speed {metrics['speed_rpm']:.2f} rpm against {metrics['speed_ref_rpm']:.2f} rpm: "
+                     f"error {metrics['speed_error_pct']:+.4f} %")
+    if isinstance(metrics.get("theta_err_deg"), dict) and metrics["theta_err_deg"]["mean"] is not None:
+        e = metrics["theta_err_deg"]
+        lines.append(f"  angle error (true - used) mean {e['mean']:+.2f}, peak-to-peak {e['pp']:.2f}, max |.| {e['max']:.2f} el.deg")
+
+    def opt(v, fmt):
+        return "-" if v is None else format(v, fmt)
+
+    for r in metrics.get("steps", []):
+        ramp = f" over {r['ramp'] * 1e3:.3g} ms" if r["ramp"] > 0 else ""
+        head = f"{r['kind']} step at {r['t']:g} s{ramp}, {r['from']:g} -> {r['to']:g} {r['unit']}"
+        if r["kind"] == "reference":
+            body = (f"overshoot {opt(r['overshoot_pct'], '.2f')} %, rise {opt(r['rise_time'] and r['rise_time'] * 1e3, '.1f')} ms, "
+                    f"settling {opt(r['settling_time'] and r['settling_time'] * 1e3, '.1f')} ms")
+        else:
+            body = (f"speed dip {opt(r['dip_rpm'], '.1f')} rpm at {opt(r['t_dip'], '.4g')} s, "
+                    f"recovery {opt(r['recovery_time'] and r['recovery_time'] * 1e3, '.1f')} ms")
+        if r.get("final") is not None:
+            body += f", final {r['final']:.4g} {r['unit']}"
+        lines.append(f"{head}: {body}" + (f" ({r['note']})" if r.get("note") else ""))
+    for name, st in metrics.get("stages", {}).items():
+        lines.append(f"stage {name:15s} {st['time']:8.4f} s in {st['entries']} entr{'y' if st['entries'] == 1 else 'ies'}, "
+                     f"max |angle error| {st['theta_err_max_deg']:.2f} el.deg")
+    return lines
+
+
+def fault_events(res) -> list[tuple[str, float]]:
+    """The faults of the run's [faults] table that acted, with their times."""
+    f, tr = res.scenario.data["faults"], res.traces
+    ev = []
+    if any(f["i_offset"]) or any(f["i_gain"]):
+        ev.append(("current_sensor", f["t_sensor"]))
+    if res.adc_saturated_at is not None:
+        ev.append(("adc_saturation", res.adc_saturated_at))
+    u0 = res.scenario.data["converter"]["u_dc"]
+    moved = np.flatnonzero(np.abs(tr["u_dc"] - u0) > 1e-6 * u0) if res.scenario.data["converter"]["kind"] == "inverter" else []
+    if len(moved):
+        ev.append(("dc_link", float(tr["t"][moved[0]])))
+    if f["open_phase"] != "none":
+        ev.append((f"open_phase_{f['open_phase']}", f["t_open"]))
+    if f["t_encoder_stop"] is not None:
+        ev.append(("encoder_stop", f["t_encoder_stop"]))
+    return [(k, t) for k, t in ev if t <= res.sim_time]
+
+
+def fault_report(res) -> dict | None:
+    """How the drive came out of its faults: tripped (the stop and its time),
+    kept control, or lost it (the time its error first left the band and
+    stayed out until the end). The band: speed within 10 % of the reference
+    or 5 % of the rated speed; current within 10 % of i_max (true currents)."""
+    ev = fault_events(res)
+    if not ev:
+        return None
+    t0 = min(t for _, t in ev)
+    out = {"events": [[k, t] for k, t in sorted(ev, key=lambda e: e[1])]}
+    if res.stop_reason != "done":
+        out.update(outcome=f"tripped: {res.stop_reason}", t_outcome=res.stop_time)
+        return out
+    tr, sc = res.traces, res.scenario
+    mode = sc.data["controller"]["mode"]
+    after = tr["t"] >= t0
+    if mode == "speed":
+        err = np.abs(tr["w_m"] - tr["w_m_ref"])
+        band = np.maximum(0.1 * np.abs(tr["w_m_ref"]), 0.05 * sc.machine.w_m_rated)
+    elif mode == "current":
+        err = np.hypot(tr["i_d"] - tr["i_d_ref"], tr["i_q"] - tr["i_q_ref"])
+        band = np.full_like(err, 0.1 * sc.data["controller"]["i_max"])
+    else:
+        out.update(outcome="reported", t_outcome=None)
+        return out
+    bad = after & (err > band)
+    if not bad[-1]:
+        out.update(outcome="kept control", t_outcome=None)
+    else:
+        good = np.flatnonzero(after & ~bad)
+        k = good[-1] + 1 if good.size else np.flatnonzero(after)[0]
+        out.update(outcome="lost control", t_outcome=float(tr["t"][k]))
+    return out
+
+
+# The scalars of compute_metrics, by flat name ("theta_err_deg.mean"): what a
+# sweep may keep. Those a run's mode does not give are empty for it.
+METRIC_NAMES = (
+    "stop_reason", "stop_time", "sim_time", "wall_time", "speed_ratio", "i_phase_max",
+    "lock_lost_at", "recoveries", "true_loss_at", "silent_failure", "sensorless_err_deg_max",
+    "speed_ref_rpm", "speed_rpm", "speed_error_pct", "i_d_error_rms", "i_q_error_rms",
+    "T_e_mean", "T_e_pp",
+    "theta_err_deg.mean", "theta_err_deg.pp", "theta_err_deg.max",
+    "est_err_deg.mean", "est_err_deg.pp", "est_err_deg.max",
+)
+
+
+def flat_metrics(metrics: dict) -> dict:
+    """compute_metrics' scalars under their flat names (METRIC_NAMES)."""
+    out = {}
+    for k, v in metrics.items():
+        if isinstance(v, dict):
+            out.update({f"{k}.{kk}": vv for kk, vv in v.items()})
+        elif not isinstance(v, (list, tuple)):
+            out[k] = v
+    return {k: out.get(k) for k in METRIC_NAMES}
+
+
+# fs_drive_stage, by value (csrc/control/fs_drive.h)
+STAGES = ("open", "sensor", "polarity", "start", "injection", "blend", "backemf", "flux_weakening", "recovery")
+
+
+def stage_changes(tr) -> list[tuple[float, str]]:
+    """The drive's operating stages in the order it passed them: (time
+    entered, name), the first at the first sample."""
+    s = np.asarray(tr["stage"]).astype(int)
+    k = np.r_[0, np.flatnonzero(np.diff(s)) + 1] if s.size else np.array([], int)
+    return [(float(tr["t"][i]), STAGES[s[i]]) for i in k]

@@ -1,0 +1,201 @@
+"""Running a scenario on the C core: the chunked advance with a progress
+bar, the traces, and the Result (the configuration: sim.config)."""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .._core import ffi, lib
+from ..design.scenario import load_scenario
+from ..model.errors import SimulationError
+from ..model.scenario import Scenario
+from .config import build_config, check_smo_gain
+from .metrics import STAGES, compute_metrics
+
+CHANNELS = [
+    "t", "theta_e", "w_m", "psi_d", "psi_q", "i_d", "i_q", "i_a", "i_b", "i_c",
+    "T_e", "T_L", "u_d", "u_q", "duty_a", "duty_b", "duty_c",
+    "w_m_ref", "i_d_ref", "i_q_ref", "T_ref", "i_d_hat", "i_q_hat", "u_d_ref", "u_q_ref",
+    "theta_hat", "w_m_hat", "theta_err", "overmod", "E_in", "E_cu", "E_airgap", "W_mag",
+    "theta_est", "w_m_est", "est_valid", "est_err", "phase", "i_d_fw",
+    "g_w", "inject", "i_d3", "i_q3", "i_hf_d", "i_hf_q",
+    "i_grid_a", "v_pn", "u_ab", "alpha", "E_grid", "E_rf", "W_filter",
+    "lock_resid", "lock_lost", "stage", "recoveries", "u_dc",
+    "T_winding", "T_magnet", "R_s_true", "psi_f_true", "R_s_hat", "psi_f_hat",
+]
+assert len(CHANNELS) == lib.FS_CH_N, "channel names out of step with fs_sim.h"
+
+# Each channel's unit (SI; angles in electrical rad, speeds mechanical rad/s;
+# "1" for ratios and flags; stage is a name from metrics.STAGES).
+UNITS = {
+    "t": "s", "theta_e": "rad", "w_m": "rad/s", "psi_d": "Wb", "psi_q": "Wb",
+    **dict.fromkeys(("i_d", "i_q", "i_a", "i_b", "i_c", "i_d_ref", "i_q_ref", "i_d_hat", "i_q_hat", "i_d_fw",
+                     "i_d3", "i_q3", "i_hf_d", "i_hf_q", "i_grid_a"), "A"),
+    **dict.fromkeys(("T_e", "T_L", "T_ref"), "N m"),
+    **dict.fromkeys(("u_d", "u_q", "u_d_ref", "u_q_ref", "v_pn", "u_ab", "u_dc"), "V"),
+    **dict.fromkeys(("duty_a", "duty_b", "duty_c", "overmod", "est_valid", "phase", "g_w", "inject", "alpha",
+                     "lock_resid", "lock_lost", "recoveries"), "1"),
+    **dict.fromkeys(("w_m_ref", "w_m_hat", "w_m_est"), "rad/s"),
+    **dict.fromkeys(("theta_hat", "theta_err", "theta_est", "est_err"), "rad"),
+    **dict.fromkeys(("E_in", "E_cu", "E_airgap", "W_mag", "E_grid", "E_rf", "W_filter"), "J"),
+    "stage": "name",
+    "T_winding": "degC", "T_magnet": "degC", "R_s_true": "ohm", "R_s_hat": "ohm", "psi_f_true": "Wb", "psi_f_hat": "Wb",
+}
+assert set(UNITS) == set(CHANNELS), "a channel without a unit"
+
+STOP_REASONS = {
+    lib.FS_RUN_DONE: "done",
+    lib.FS_STOP_NAN: "nan",
+    lib.FS_STOP_OVERCURRENT: "overcurrent",
+    lib.FS_STOP_LOSS_OF_LOCK: "loss_of_lock",
+    lib.FS_STOP_POLARITY: "polarity_undetermined",
+}
+
+@dataclass
+class Result:
+    """Traces (NumPy arrays by channel name, SI units) and metrics of a run."""
+    scenario: Scenario
+    traces: dict[str, np.ndarray]
+    stop_reason: str                 # "done", "nan", "overcurrent", "loss_of_lock", "polarity_undetermined", "interrupted"
+    stop_time: float | None
+    wall_time: float                 # s
+    sim_time: float                  # s simulated
+    metrics: dict = field(default_factory=dict)
+    adc_saturated_at: float | None = None   # s, the first current reading at +-adc_range
+    polarity: dict | None = None     # the polarity detection's outcome (Simulation.polarity)
+
+    @property
+    def speed_ratio(self) -> float:
+        """Simulated seconds per wall-clock second."""
+        return self.sim_time / self.wall_time if self.wall_time > 0 else math.inf
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.traces[name]
+
+    def to_dataframe(self):
+        """The traces as a pandas DataFrame indexed by time (s): one column
+        per channel, `stage` as a categorical of names (metrics.STAGES), and
+        each column's unit in df.attrs["units"] (the scenario's name in
+        df.attrs["scenario"])."""
+        import pandas as pd
+
+        cols = {k: v for k, v in self.traces.items() if k != "t"}
+        cols["stage"] = pd.Categorical.from_codes(np.asarray(cols["stage"]).astype(int), categories=list(STAGES))
+        df = pd.DataFrame(cols, index=pd.Index(self.traces["t"], name="t"))
+        df.attrs["units"] = dict(UNITS)
+        df.attrs["scenario"] = self.scenario.name
+        return df
+
+
+class Simulation:
+    """A simulation object that is advanced in chunks and keeps what it computed."""
+
+    def __init__(self, scenario: Scenario):
+        self.scenario = scenario
+        self._cfg, self._keep = build_config(scenario)
+        if scenario.data["controller"]["angle"] in ("smo", "blend"):
+            check_smo_gain(self._cfg, scenario)
+        err = ffi.new("char[]", 512)
+        ptr = lib.fs_sim_create(self._cfg, err, 512)
+        if ptr == ffi.NULL:
+            raise SimulationError(f"{scenario.source or scenario.name}: {ffi.string(err).decode()}")
+        self._sim = ffi.gc(ptr, lib.fs_sim_destroy)
+        # one row-major buffer the C runner writes into, grown by doubling
+        rows = int(scenario.duration / (self._cfg.drive.Ts * self._cfg.decimation)) + 2
+        self._buf = np.empty((rows, lib.FS_CH_N))
+        self._n = 0
+        # rows the C runner wrote in its last call and that are not in _n yet:
+        # a Ctrl-C raised as fs_sim_run returns leaves them here, not lost
+        self._rows = ffi.new("int *")
+        self.status = "running"
+        self.stop_time: float | None = None
+
+    @property
+    def time(self) -> float:
+        return lib.fs_sim_time(self._sim)
+
+    def advance(self, t_end: float) -> str:
+        """Run to t_end (or a stop). Returns the status: running, done or a stop reason."""
+        rows = self._rows
+        Tc = self._cfg.drive.Ts
+        dec = self._cfg.decimation
+        while True:
+            self._n += rows[0]; rows[0] = 0   # noqa: E702 (no call or jump between the two: no signal handler runs there)
+            need = self._n + int((t_end - self.time) / (Tc * dec)) + 2
+            if need > len(self._buf):
+                grown = np.empty((max(need, 2 * len(self._buf)), lib.FS_CH_N))
+                grown[: self._n] = self._buf[: self._n]
+                self._buf = grown
+            free = len(self._buf) - self._n
+            ptr = ffi.cast("double *", self._buf.ctypes.data) + self._n * lib.FS_CH_N
+            rc = lib.fs_sim_run(self._sim, t_end, ptr, free, rows)
+            self._n += rows[0]; rows[0] = 0   # noqa: E702
+            if rc == lib.FS_RUN_BUFFER_FULL:
+                continue
+            if rc != lib.FS_RUN_DONE:
+                self.status = STOP_REASONS.get(rc, f"stop {rc}")
+                self.stop_time = lib.fs_sim_stop_time(self._sim)
+            return self.status
+
+    @property
+    def adc_saturated_at(self) -> float | None:
+        t = lib.fs_sim_adc_saturated_at(self._sim)
+        return None if math.isnan(t) else t
+
+    def polarity(self) -> dict | None:
+        """The polarity detection's outcome (fs_polarity.h): its stage, the
+        relative difference D of the last pulse pair and its margin (>= 1
+        decides), the pairs run, the last pulse; None without detection."""
+        drv = lib.fs_sim_drive(self._sim)
+        if drv.cfg.polarity.i_pulse <= 0.0 or drv.cfg.angle_source not in (lib.FS_ANGLE_HFI, lib.FS_ANGLE_BLEND):
+            return None
+        p = drv.pol
+        stages = {lib.FS_POLARITY_LOCK: "lock", lib.FS_POLARITY_POS: "pulse", lib.FS_POLARITY_NEG: "pulse",
+                  lib.FS_POLARITY_DONE: "done", lib.FS_POLARITY_UNDETERMINED: "undetermined"}
+        return {"stage": stages.get(p.stage, str(p.stage)), "d": float(p.d), "margin": float(p.margin),
+                "attempts": int(p.attempts), "i_pulse": float(p.i_now), "flip": bool(p.flip), "moved": bool(p.moved)}
+
+    def traces(self) -> dict[str, np.ndarray]:
+        """Each channel as a view into the buffer (strided, no copy)."""
+        self._n += self._rows[0]; self._rows[0] = 0   # noqa: E702 (rows of a call a Ctrl-C cut off)
+        return dict(zip(CHANNELS, self._buf[: self._n].T))
+
+
+def simulate(scenario: Scenario | str, progress: bool = False, chunk: float | None = None,
+             overrides: dict | None = None) -> Result:
+    """Run a scenario (object, catalog name or TOML path) to its end or to a stop.
+
+    An interrupt (Ctrl-C) ends the run early and keeps what was computed.
+    """
+    sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario, overrides)
+    sim = Simulation(sc)
+    T = sc.duration
+    chunk = chunk or max(T / 100.0, 1e-3)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=round(T, 6), unit="s sim", desc=sc.name, leave=False,
+                   bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.3f}/{total:.3f} s [{elapsed}<{remaining}]")
+    t0 = time.perf_counter()
+    status = "running"
+    try:
+        while sim.time < T - 1e-12 and status == "running":
+            before = sim.time
+            status = sim.advance(min(sim.time + chunk, T))
+            if bar is not None:
+                bar.update(sim.time - before)
+    except KeyboardInterrupt:
+        status = "interrupted"
+    finally:
+        if bar is not None:
+            bar.close()
+    wall = time.perf_counter() - t0
+    if status == "running":
+        status = "done"
+    res = Result(sc, sim.traces(), status, sim.stop_time, wall, sim.time, adc_saturated_at=sim.adc_saturated_at,
+                 polarity=sim.polarity())
+    res.metrics = compute_metrics(res)
+    return res
