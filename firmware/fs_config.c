@@ -7,7 +7,7 @@
 
 /* The layout this configuration was written for: a header that changed since
  * the export fails here, naming the field. */
-_Static_assert(sizeof(fs_drive_config) == 1628u, "fs_drive_config: size differs from the exported layout");
+_Static_assert(sizeof(fs_drive_config) == 1756u, "fs_drive_config: size differs from the exported layout");
 _Static_assert(offsetof(fs_drive_config, config_size) == 0u, "fs_drive_config.config_size moved");
 _Static_assert(offsetof(fs_drive_config, phases) == 4u, "fs_drive_config.phases moved");
 _Static_assert(offsetof(fs_drive_config, mode) == 8u, "fs_drive_config.mode moved");
@@ -155,22 +155,24 @@ _Static_assert(offsetof(fs_drive_config, adapt.T_f) == 812u, "fs_drive_config.ad
 _Static_assert(offsetof(fs_drive_config, adapt.w_lp) == 816u, "fs_drive_config.adapt.w_lp moved");
 _Static_assert(offsetof(fs_drive_config, adapt.min_sep) == 820u, "fs_drive_config.adapt.min_sep moved");
 _Static_assert(offsetof(fs_drive_config, adapt.min_level) == 824u, "fs_drive_config.adapt.min_level moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table) == 828u, "fs_drive_config.mtpa_table moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table.n) == 828u, "fs_drive_config.mtpa_table.n moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table.T) == 832u, "fs_drive_config.mtpa_table.T moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table.i_d) == 1088u, "fs_drive_config.mtpa_table.i_d moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table.i_q) == 1344u, "fs_drive_config.mtpa_table.i_q moved");
-_Static_assert(offsetof(fs_drive_config, ident) == 1600u, "fs_drive_config.ident moved");
-_Static_assert(offsetof(fs_drive_config, ident.Ts) == 1600u, "fs_drive_config.ident.Ts moved");
-_Static_assert(offsetof(fs_drive_config, ident.delay) == 1604u, "fs_drive_config.ident.delay moved");
-_Static_assert(offsetof(fs_drive_config, ident.pole_pairs) == 1608u, "fs_drive_config.ident.pole_pairs moved");
-_Static_assert(offsetof(fs_drive_config, ident.i_max) == 1612u, "fs_drive_config.ident.i_max moved");
-_Static_assert(offsetof(fs_drive_config, ident.w_spin) == 1616u, "fs_drive_config.ident.w_spin moved");
-_Static_assert(offsetof(fs_drive_config, ident.t_ramp) == 1620u, "fs_drive_config.ident.t_ramp moved");
-_Static_assert(offsetof(fs_drive_config, ident.u_dc_min) == 1624u, "fs_drive_config.ident.u_dc_min moved");
+_Static_assert(offsetof(fs_drive_config, map) == 828u, "fs_drive_config.map moved");
+_Static_assert(offsetof(fs_drive_config, map.di_d) == 828u, "fs_drive_config.map.di_d moved");
+_Static_assert(offsetof(fs_drive_config, map.i_d0) == 832u, "fs_drive_config.map.i_d0 moved");
+_Static_assert(offsetof(fs_drive_config, map.di_q) == 836u, "fs_drive_config.map.di_q moved");
+_Static_assert(offsetof(fs_drive_config, map.psi_scale) == 840u, "fs_drive_config.map.psi_scale moved");
+_Static_assert(offsetof(fs_drive_config, map.psi_d) == 844u, "fs_drive_config.map.psi_d moved");
+_Static_assert(offsetof(fs_drive_config, map.psi_q) == 1286u, "fs_drive_config.map.psi_q moved");
+_Static_assert(offsetof(fs_drive_config, ident) == 1728u, "fs_drive_config.ident moved");
+_Static_assert(offsetof(fs_drive_config, ident.Ts) == 1728u, "fs_drive_config.ident.Ts moved");
+_Static_assert(offsetof(fs_drive_config, ident.delay) == 1732u, "fs_drive_config.ident.delay moved");
+_Static_assert(offsetof(fs_drive_config, ident.pole_pairs) == 1736u, "fs_drive_config.ident.pole_pairs moved");
+_Static_assert(offsetof(fs_drive_config, ident.i_max) == 1740u, "fs_drive_config.ident.i_max moved");
+_Static_assert(offsetof(fs_drive_config, ident.w_spin) == 1744u, "fs_drive_config.ident.w_spin moved");
+_Static_assert(offsetof(fs_drive_config, ident.t_ramp) == 1748u, "fs_drive_config.ident.t_ramp moved");
+_Static_assert(offsetof(fs_drive_config, ident.u_dc_min) == 1752u, "fs_drive_config.ident.u_dc_min moved");
 
 const fs_drive_config fs_config = {
-    .config_size = 1628u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator set it, and fs_drive_init refuses a configuration ...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
+    .config_size = 1756u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator set it, and fs_drive_init refuses a configuration ...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
     .phases = 3,   /* 3, or 5: the fundamental plane of the VSD, nearest-four-vector PWM; machine yang2022: phases */
     .mode = FS_MODE_SPEED,   /* fs_drive_mode; scenario beyond-full-range: [controller] mode */
     .angle_source = FS_ANGLE_BLEND,   /* fs_angle_source; scenario beyond-full-range: [controller] angle */
@@ -345,46 +347,88 @@ const fs_drive_config fs_config = {
         .min_sep = 0.0f,   /* 1 - rho^2 needed to update; 0: designed, 0.05; 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .min_level = 0.0f,   /* mean |phi|^2 needed; 0: designed, 0.01 (10 % of i_max or w_e_max); 0: taken from the drive's fields or designed by fs_drive_init, or off */
     },
-    .mtpa_table = {   /* the MTPA locus as a table (n = 0: designed from L_d, L_q, psi_f; a flux map's from fullspeed.design.magnetics); read at init only */
-        .n = 0,   /* 0, or FS_MTPA_N points; 0: taken from the drive's fields or designed by fs_drive_init, or off */
-        .T = {   /* N m, 0 at k = 0 and rising; 0: taken from the drive's fields or designed by fs_drive_init, or off */
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f,
+    .map = {   /* the machine's flux map (fs_fluxmap.h; di_d = 0: none, the model of L_d, L_q, psi_f above), resampled by fullspeed.design.magnetics */
+        .di_d = 0.0f,   /* A, the d step (0: no map); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .i_d0 = 0.0f,   /* A, the first d current; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .di_q = 0.0f,   /* A, the q step (the grid starts at i_q = 0); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .psi_scale = 0.0f,   /* Wb per count; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .psi_d = {   /* counts at (i_d0 + k di_d, l di_q), index k NQ + l; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0,
         },
-        .i_d = {   /* A, |i_d + j i_q| = i_max k / (N - 1); 0: taken from the drive's fields or designed by fs_drive_init, or off */
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f,
-        },
-        .i_q = {   /* A, >= 0; 0: taken from the drive's fields or designed by fs_drive_init, or off */
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f,
+        .psi_q = {   /* 0: taken from the drive's fields or designed by fs_drive_init, or off */
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0,
         },
     },
     .ident = {   /* FS_MODE_IDENTIFY (three phases, inverter): Ts, delay, pole_pairs and i_max are taken from above */

@@ -42,9 +42,9 @@ enum { F = 0, N = 1, P = 2 };
 #define FIELD_NAME(f, kind, status) #f "\0"
 static const uint8_t drive_fields[][2] = {DRIVE_FIELDS(FIELD_ENTRY)};
 static const char drive_field_names[] = DRIVE_FIELDS(FIELD_NAME);
-/* every field the table names lies before the MTPA table (the config's
- * last member, checked by fs_mtpa_init), within 256 floats of the start */
-typedef char drive_fields_fit[(offsetof(fs_drive_config, mtpa_table) <= 256 * sizeof(float) && FS_ERR__COUNT < 64) ? 1 : -1];
+/* every field the table names lies before the flux map (checked by
+ * fs_fluxmap_init), within 256 floats of the start */
+typedef char drive_fields_fit[(offsetof(fs_drive_config, map) <= 256 * sizeof(float) && FS_ERR__COUNT < 64) ? 1 : -1];
 
 /* The first field of the table out of its range, its status and its name. */
 static fs_status drive_check_fields(const fs_drive_config *cfg, const char **name)
@@ -126,6 +126,8 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     if (cfg->pole_pairs < 1) REFUSE("pole_pairs", FS_ERR_POLE_PAIRS);
     if (!(cfg->t_dead_comp < 0.5f * cfg->T_pwm)) REFUSE("t_dead_comp", FS_ERR_PARAM);
     drv->cfg = *cfg;
+    drv->has_map = cfg->map.di_d != 0.0f;
+    if (drv->has_map) SUB("map", fs_fluxmap_init(&drv->map, &drv->cfg.map));
     drv->k_T = drive_torque_k(cfg);
     drv->dd_dead = cfg->t_dead_comp / cfg->T_pwm;
     const float Tl = drive_loop_Ts(cfg);
@@ -180,9 +182,15 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         if (st != FS_OK)
             REFUSE(st == FS_ERR_J ? "J" : st == FS_ERR_BANDWIDTH ? "bw_speed" : st == FS_ERR_LIMIT ? "T_max" : "k_p_w, k_i_w", st);
         fs_mtpa_config mc = {cfg->L_d, cfg->L_q, cfg->psi_f, cfg->pole_pairs, cfg->i_max, cfg->phases,
-                             cfg->mtpa_table.n ? &cfg->mtpa_table : NULL};
+                             drv->has_map ? &drv->map : NULL};
         st = fs_mtpa_init(&drv->mtpa, &mc);
-        if (st != FS_OK) REFUSE(st == FS_ERR_LQ ? "L_q" : "mtpa (psi_f, L_d, L_q, i_max)", st);
+        if (st != FS_OK) REFUSE(st == FS_ERR_LQ ? "L_q" : drv->has_map ? "mtpa (map, i_max)" : "mtpa (psi_f, L_d, L_q, i_max)", st);
+        if (drive_weakens(cfg) && drv->has_map) {
+            if (drive_five(cfg) || drive_imc(cfg)) REFUSE("map", FS_ERR_MODE);   /* the voltage limit is the VSI's, three phases */
+            if (cfg->fw_hold) REFUSE("fw_hold", FS_ERR_MODE);   /* fs_fw.h's excess feeds no loop here */
+            fs_fwmap_config wc = {&drv->map, cfg->i_max, drv->k_T, cfg->Ts, cfg->bw_current};
+            SUB("map (flux weakening)", fs_fwmap_init(&drv->fwm, &wc, &drv->mtpa));
+        }
         if (drive_weakens(cfg)) {
             if (!(cfg->fw_gain >= 0.0f)) REFUSE("fw_gain", FS_ERR_PARAM);
             fs_fw_config fc = {cfg->Ts, cfg->L_d, cfg->fw_w_e_max, cfg->fw_gain, cfg->fw_cutoff, cfg->i_max};
@@ -258,6 +266,7 @@ void fs_drive_reset(fs_drive *drv)
     if (drv->cfg.mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
     if (drive_has_smo(&drv->cfg)) fs_smo_reset(&drv->smo, 0.0f, 0.0f);
     if (drive_weakens(&drv->cfg)) fs_fw_reset(&drv->fw);
+    if (drive_weakens(&drv->cfg) && drv->has_map) fs_fwmap_reset(&drv->fwm);
     if (drive_injects(&drv->cfg)) {
         fs_hfi_reset(&drv->hfi, 0.0f, 0.0f);
         drv->hfi.gain = drv->hfi.gain_prev = 0.0f;   /* fades in */
@@ -281,6 +290,7 @@ void fs_drive_reset(fs_drive *drv)
     drv->est_started = false;
     drv->injecting = drv->inject_on = drive_injects(&drv->cfg);
     drv->T_ff = 0.0f;
+    drv->fw_map_on = false;
     drv->phase = drive_starts(&drv->cfg) ? FS_PHASE_START : FS_PHASE_RUN;
     drv->theta_if = drv->w_if = 0.0f;
     drv->theta_ol = 0.0f;
@@ -321,6 +331,14 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
         fs_smo_step(&drv->smo, i_f, drive_u_past(drv));
         fs_blend_step_gated(&drv->blend, drv->smo.theta, drv->hfi.theta, T_ff,   /* Fig. 6 */
                             drv->smo.converged || !c->blend.gate, drv->injecting && drv->hfi.gain >= 1.0f);
+        /* With a flux map, above the band the blend is the back-EMF observer's own tracker (its torque
+         * from the map, at up to observer.bw_pll): in deep flux weakening the torque feed-forward's
+         * sensitivity to the angle, d T / d theta ~ (phases / 2) p psi_a (-i_d), pulls an estimate that
+         * lags further behind (a negative stiffness (p / J) dT/dtheta: 19,000 s^-2 on the Prius MG2 at
+         * -73 A, psi_a 0.38 Wb, J 0.035 kg m^2), which the blend's slower filter (w_o_blend, 63 rad/s
+         * there) does not overcome: it lost the rotor accelerating through 2,700 rpm. */
+        if (drv->has_map && drv->blend.g_w >= 1.0f && drv->smo.converged && c->smo.form == FS_SMO_FORM_TRACKING)
+            fs_blend_follow(&drv->blend, drv->smo.theta, drv->smo.w, drv->smo.mo.T_d_hat);
         /* Above w_inject_max the injection stops (g_w = 1 there: the HFI
          * angle is not read); below 0.9 w_inject_max it resumes from the
          * blended estimate. */
@@ -413,6 +431,33 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float
     drive_sensor_angle(drv, in, theta, w);
 }
 
+/* With a flux map and flux weakening: the current for *T_ref within the
+ * voltage limit (fs_fwmap.h) at this speed, MTPA below base speed; *T_ref
+ * becomes the torque asked of it, and the speed PI's integral holds what
+ * the limits took (its anti-windup). The voltage planned for: 95 % of the
+ * modulator's linear limit (the rest for the current loops' dynamics; at
+ * 100 % the Prius MG2's drive stalled its d current at the voltage limit
+ * holding 1540 rpm), less the resistive drop of the last current; the
+ * trim (fs_fwmap_trim) on the voltage the current loops asked. */
+static fs_dq drive_fw_map(fs_drive *drv, float u_dc, float w_e, float *T_ref)
+{
+    const fs_dq i0 = drv->cc.i0, u0 = drv->cc.u;   /* the last current (the map's point) and the voltage asked */
+    const float u_plan = 0.95f * FS_INV_SQRT3 * u_dc;
+    const float u_lim = u_plan - drv->cfg.R_s * sqrtf(i0.d * i0.d + i0.q * i0.q);
+    const float x = fs_fwmap_ratio(&drv->fwm, u_lim, w_e);
+    drv->fw_map_on = x > 1.0f;
+    if (!drv->fw_map_on) {
+        fs_fwmap_reset(&drv->fwm);
+        return fs_mtpa_step(&drv->mtpa, *T_ref);
+    }
+    fs_fwmap_trim(&drv->fwm, sqrtf(u0.d * u0.d + u0.q * u0.q), u_plan);
+    float T_real;
+    const fs_dq i = fs_fwmap_step(&drv->fwm, x, *T_ref, &T_real);
+    if (T_real != *T_ref) fs_speed_ctrl_realised(&drv->sc, *T_ref, T_real);
+    *T_ref = T_real;
+    return i;
+}
+
 /* The current reference of the closed-loop modes: polarity pulses, the I/f
  * start, speed control (MTPA and flux weakening) or the reference input. */
 static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, float w_e, bool weakens, float *T_ref)
@@ -433,12 +478,12 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
         i_ref = fs_drive_if_step(drv, in, i_ab);
     } else if (c->mode == FS_MODE_SPEED) {
         *T_ref = fs_speed_ctrl_step(&drv->sc, in->w_m_ref, w_e / (float)c->pole_pairs);
-        i_ref = fs_mtpa_step(&drv->mtpa, *T_ref);
+        i_ref = weakens && drv->has_map ? drive_fw_map(drv, in->u_dc, w_e, T_ref) : fs_mtpa_step(&drv->mtpa, *T_ref);
         /* zou2021 eq. (30): i_d* = i_d0* + the filtered correction, i_q*
          * kept; then held inside the current limit circle, whose radius
          * leaves room for the carrier's peak while injecting */
         const float i_lim = c->i_max - (drv->injecting ? drv->hfi.gain * drv->i_hf : 0.0f);
-        if (weakens) i_ref.d += drv->fw.i_d;
+        if (weakens && !drv->has_map) i_ref.d += drv->fw.i_d;   /* a map's flux weakening has its own trim */
         i_ref.d = fs_clamp_sym(i_ref.d, i_lim);
         float iq_max = sqrtf(i_lim * i_lim - i_ref.d * i_ref.d);
         float i_q0 = i_ref.q;
@@ -574,6 +619,25 @@ static float drive_imc_rectify(fs_drive *drv, const fs_drive_in *in, fs_ab *u_re
     return out->rect.v_pn;
 }
 
+/* A flux map's values at the measured current i (fs_drive.h, map) for the
+ * next step: the current loops' fluxes and incremental inductances, the
+ * back-EMF observer's q secant inductance and active flux; returns the
+ * torque of the reference i_ref on the map (linearised at i). At the
+ * voltage limit in flux weakening the current lags its reference: the
+ * observer's model at the reference put its torque 20 % off there (the
+ * Prius MG2 at 2800 rpm, i_d -76 A for -101 asked) and its angle ran away. */
+static float drive_map_step(fs_drive *drv, fs_dq i, fs_dq i_ref)
+{
+    const fs_fluxmap_point p = fs_fluxmap_eval(&drv->map, i);
+    fs_current_ctrl_set_flux(&drv->cc, i, &p);
+    if (drive_has_smo(&drv->cfg)) {
+        const float L_q = fs_fluxmap_secant_q(&drv->map, i, &p);
+        fs_smo_set_model(&drv->smo, L_q, p.psi.d - L_q * i.d);
+    }
+    const float psi_d = p.psi.d + p.L_dd * (i_ref.d - i.d), psi_q = p.psi.q + p.L_qq * (i_ref.q - i.q);
+    return drv->k_T * (psi_d * i_ref.q - psi_q * i_ref.d);
+}
+
 /* The operating stage (fs_drive.h) from the phase, the source and weight,
  * and the flux-weakening current with hysteresis. */
 static int drive_stage(const fs_drive *drv, const fs_drive_in *in, float g_w, bool weakens)
@@ -585,7 +649,7 @@ static int drive_stage(const fs_drive *drv, const fs_drive_in *in, float g_w, bo
     if (in->sensorless && drv->phase == FS_PHASE_START) return FS_STAGE_START;
     if (weakens) {
         const float lim = (drv->stage == FS_STAGE_FLUX_WEAKENING ? -0.01f : -0.02f) * c->i_max;
-        if (drv->fw.i_d < lim) return FS_STAGE_FLUX_WEAKENING;
+        if (drv->fw.i_d < lim || drv->fw_map_on) return FS_STAGE_FLUX_WEAKENING;
     }
     if (!in->sensorless) return FS_STAGE_SENSOR;
     if (g_w <= 0.0f) return FS_STAGE_INJECTION;
@@ -783,7 +847,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
         fs_current_ctrl_update_held(&drv->cc, u_real,
                                     weakening && c->fw_hold ? fs_fw_hold(&drv->fw, u_ref, u_real, w_e) : u_real);
     if (FS_WITH_ADAPT && c->adapt.T_f > 0.0f) drive_adapt(drv, in, u_real, i_dq, w_e, closed_loop);
-    if (weakening)
+    if (weakening && !drv->has_map)
         fs_fw_step(&drv->fw, u_ref.q - u_real.q, w_e);   /* eq. (26): dv_q */
 
     out->theta_e = theta;
@@ -795,7 +859,8 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     out->T_ref = T_ref;
     out->u_d = u_real.d;
     out->u_q = u_real.q;
-    drv->T_ff = drive_torque_at(c, drv->k_T, i_ref);   /* the monitor's now, the observers' next step */
+    drv->T_ff = drv->has_map ? drive_map_step(drv, i_dq, i_ref)   /* the monitor's now, the observers' next step */
+                             : drive_torque_at(c, drv->k_T, i_ref);
     out->theta_est = theta;
     out->w_est = w_e;
     out->est_valid = true;

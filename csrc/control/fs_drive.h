@@ -101,7 +101,9 @@
 #include "fs_dtcomp.h"
 #include "fs_xyctrl.h"
 #include "fs_blend.h"
+#include "fs_fluxmap.h"
 #include "fs_fw.h"
+#include "fs_fwmap.h"
 #include "fs_hfi.h"
 #include "fs_ident.h"
 #include "fs_imc.h"
@@ -359,11 +361,20 @@ typedef struct {
      * off; Ts, R_s, L_d, psi_f and i_max are taken from above, w_e_max 0
      * from smo.w_e_max */
     fs_param_adapt_config adapt;
-    /* the MTPA locus as a table (n = 0: designed from L_d, L_q, psi_f; a flux
-     * map's from fullspeed.design.magnetics); read at init only. Held in the config,
-     * not pointed to, so that the config has no pointer: the same bytes on
-     * the host and the target, and an export carries the table */
-    fs_mtpa_table mtpa_table;
+    /* the machine's flux map (fs_fluxmap.h; di_d = 0: none, the model of
+     * L_d, L_q, psi_f above), resampled by fullspeed.design.magnetics. With
+     * it: the MTPA locus is searched on the map at init (fs_mtpa.h); each
+     * step evaluates it at the last current reference, and the back-EMF
+     * observer takes its q secant inductance and active flux
+     * (fs_smo_set_model), the observers' torque feed-forward and the
+     * monitor its torque; with flux weakening, the speed mode's current
+     * references come from fs_fwmap.h above base speed (its own trim on
+     * the voltage in place of fs_fw.h's voltage-error feedback), and above
+     * the blending band the blend follows the back-EMF observer's tracker
+     * (fs_drive.c says why). Held in the config, not pointed to, so that the
+     * config has no pointer: the same bytes on the host and the target,
+     * and an export carries the map */
+    fs_fluxmap_table map;
     /* FS_MODE_IDENTIFY (three phases, inverter): Ts, delay, pole_pairs and
      * i_max are taken from above */
     fs_ident_config ident;
@@ -433,6 +444,8 @@ typedef struct {
     bool est_started;        /* the injection estimators have seen their first step */
     bool injecting;          /* the HF voltage is on (fading in or out included) */
     bool inject_on;          /* the injection is wanted (the amplitude's target) */
+    bool has_map;            /* cfg.map holds a flux map (fs_drive.map) */
+    bool fw_map_on;          /* this step's references are the map's flux weakening (fs_fwmap.h) */
     float T_ff;              /* N m: torque of the last step's current reference (the observers' feed-forward) */
     float k_T;               /* N m/A: the torque constant phases/2 p (drive_torque_k) */
     fs_ab u_hist[2];         /* realised fundamental voltage computed 1 and 2 steps ago */
@@ -457,6 +470,8 @@ typedef struct {
     fs_ab u_ff_hold, u_ff_next;
     fs_drive_out held;
     fs_ident ident;          /* FS_MODE_IDENTIFY */
+    fs_fluxmap map;          /* on cfg.map, when has_map */
+    fs_fwmap fwm;            /* with the map and flux weakening: the references within the voltage limit */
     /* after a refused init, the config field or sub-block at fault, as a
      * string literal ("smo.bw_pll", "i_max", "hfi"; fs_status_str tells
      * why); NULL after a successful one */

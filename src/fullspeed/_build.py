@@ -17,6 +17,7 @@ CSRC = ROOT / "csrc"
 HEADERS = [
     "control/fs_types.h",
     "control/fs_transforms.h",
+    "control/fs_fluxmap.h",
     "control/fs_pi.h",
     "control/fs_svpwm.h",
     "control/fs_vsd.h",
@@ -32,6 +33,7 @@ HEADERS = [
     "control/fs_mtpa.h",
     "control/fs_param_adapt.h",
     "control/fs_fw.h",
+    "control/fs_fwmap.h",
     "control/fs_srff.h",
     "control/fs_hfi_filter.h",
     "control/fs_blend.h",

@@ -22,7 +22,7 @@ import math
 import numpy as np
 
 from ..model.units import rad_s_to_rpm
-from .controller import controller_model, hfi_design
+from .controller import controller_model, hfi_design, injection_inductances
 from .magnetics import saliency_warnings
 from .rules import CARRIER_LOOP_ACTION_MAX, carrier_loop_action, control_period, u_linear
 
@@ -153,8 +153,8 @@ POLARITY_ASYMMETRY = 0.05
 
 def _w_b_p(d: dict, m) -> float:
     """The positive carrier's filter band, rad/s, as fs_hfi_init designs it."""
-    cm = controller_model(d["controller"], m)
-    h = hfi_design(d["injection"], control_period(d), cm["L_d"], cm["L_q"])
+    L_d, L_q = injection_inductances(controller_model(d["controller"], m))
+    h = hfi_design(d["injection"], control_period(d), L_d, L_q)
     return h.cfg.w_b_p
 
 

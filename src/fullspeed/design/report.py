@@ -24,8 +24,9 @@ def design_report(sc: Scenario) -> str:
     m = sc.machine
     lines = [f"{m.name}: {m.description or m.source or ''}".rstrip(": "),
              "bench (machine file; designed where left out):"]
-    for k, v in m.design.items():
-        lines.append(f"  bench.{k:<16s} {v.value:12.5g} {v.unit:<6s} {'given' if v.given else 'designed'}: {v.reason}")
+    for k, v in m.design.items():   # the bench's by their field's name, a flux map's values as map.<name>
+        name = k if "." in k else f"bench.{k}"
+        lines.append(f"  {name:<22s} {v.value:12.5g} {v.unit:<6s} {'given' if v.given else 'designed'}: {v.reason}")
     lines.append(f"scenario {sc.name}:")
     for k, v in sc.design.items():
         lines.append(f"  {k:<22s} {v.value:12.5g} {v.unit:<6s} {'given' if v.given else 'designed'}: {v.reason}")

@@ -16,7 +16,7 @@ from ..model.machines import Machine
 from ..model.scenario import Scenario, parse_scenario, scenario_data, xcomp_table
 from ..model.units import rpm_to_rad_s
 from .checks import warnings_of
-from .controller import controller_model, hfi_design
+from .controller import controller_model, hfi_design, injection_inductances
 from .machine import design_machine, mtpa_torque
 from .rules import (Value, control_period, design_band, design_carrier, design_injection, design_observer_pll,
                     machine_values, u_linear)
@@ -77,7 +77,16 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         # small at the speed loop's crossover, as the bench's encoder PLL does
         ctl["bw_speed"] = min(ctl["bw_speed"], obs["bw_pll"] / 6.0)
     if obs["top_speed_rpm"] is None:
-        obs["top_speed_rpm"] = 1.5 * m.w_m_rated * 60 / (2 * math.pi)
+        # the back-EMF observer's gain bound holds up to its top speed (fs_smo.h, eq. (18)): at least the
+        # fastest the scenario turns the rotor, with 10 % to spare (the 2004 Prius MG2 driven to 5000 rpm
+        # with its default of 1.5 x its rated 1200 rpm lost its sliding mode there and the rotor with it)
+        n_rated = 1.5 * m.w_m_rated * 60 / (2 * math.pi)
+        n_run = 1.1 * _largest_speed_rpm(d)
+        obs["top_speed_rpm"] = max(n_rated, n_run)
+        notes["observer.top_speed_rpm"] = Value(obs["top_speed_rpm"], "rpm", (
+            "1.5 x the rated speed" if n_rated >= n_run else
+            "1.1 x the fastest speed the scenario asks (references, a speed load, the initial speed), above 1.5 x rated")
+            + ": the observer's gain bound, eq. (18), holds up to it")
         if not obs["top_speed_rpm"] >= 1e-3:
             raise ConfigError("machine.rated.speed_rpm", m.w_m_rated * 60 / (2 * math.pi), "must be >= 1e-3 rpm "
                               "(1.5 x it is the observer's top speed; a denormal one divides by zero)", source)
@@ -92,6 +101,10 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         tim["h_max"] = min(0.2 * tau, 0.2 / w_top if w_top > 0 else math.inf, 1e-3)   # w_top underflows to 0 at 5e-324 rpm
         if conv["kind"] == "imc":   # and a fifth of a radian of the input filter's resonance
             tim["h_max"] = min(tim["h_max"], 0.2 * math.sqrt(conv["l_filter"] * conv["c_filter"]))
+    if ctl["flux_weakening"] and m.magnetic["model"] == "fluxmap" and ctl["fw_excess"] == "held":
+        raise ConfigError("controller.fw_excess", "held", "must be \"wound_back\" on a machine with a flux map: its flux "
+                          "weakening takes its references from the map within the voltage limit (fs_fwmap.h), with no "
+                          "voltage-error loop for a held excess to feed", source)
     if ctl["fw_top_speed_rpm"] is None:
         ctl["fw_top_speed_rpm"] = obs["top_speed_rpm"]
     if obs["start"] == "if":
@@ -165,6 +178,15 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
     return Scenario(name=d["name"], machine=m, data=d, source=source, design=notes, warnings=warnings)
 
 
+def _largest_speed_rpm(d: dict) -> float:
+    """The fastest the scenario turns the rotor, rpm: its speed references,
+    a load that holds a speed, its initial speed."""
+    speeds = [abs(v) for v in d["references"]["speed_rpm"][1]] + [abs(d["initial"]["speed_rpm"])]
+    if d["load"]["kind"] in ("speed", "speed_pi"):
+        speeds += [abs(v) for v in d["load"]["speed_rpm"][1]]
+    return max(speeds)
+
+
 def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Scenario:
     """A catalog scenario by name, or a TOML file by path, designed; overrides
     are merged into the raw data before validation."""
@@ -234,8 +256,7 @@ def _imc_fields(d: dict, m: Machine, source) -> None:
 def _injection_fields(d: dict, m: Machine, source, bw_speed_given: bool = True, designed_pll=None) -> None:
     """Fill in and check the injection, polarity and blending tables."""
     ctl, inj, pol, bl = d["controller"], d["injection"], d["polarity"], d["blending"]
-    cm = controller_model(ctl, m)
-    L_d, L_q = cm["L_d"], cm["L_q"]
+    L_d, L_q = injection_inductances(controller_model(ctl, m))
     _check_saliency(ctl, m, source)
     band = _band(d, m)
     designed = design_injection(machine_values(m), _bench_of(d, m), ctl["i_max"], rpm_to_rad_s(band["upper_rpm"].value),
@@ -321,15 +342,19 @@ def _check_carrier(f_h: float, Ts: float, source) -> None:
 
 
 def _check_saliency(ctl: dict, m: Machine, source) -> None:
-    cm = controller_model(ctl, m)
-    L_d, L_q = cm["L_d"], cm["L_q"]
+    L_d, L_q = injection_inductances(controller_model(ctl, m))
     if not abs(L_q - L_d) > 0.01 * 0.5 * (L_d + L_q):
         scaled = ctl["L_d_scale"] != 1.0 or ctl["L_q_scale"] != 1.0
         whose = (f"the controller's model of {m.name} (L_d x {ctl['L_d_scale']:g}, L_q x {ctl['L_q_scale']:g}) has"
                  if scaled else f"{m.name} has")
-        raise ConfigError("controller.angle", ctl["angle"],
-                          f"injection needs a salient machine model; {whose} L_d = {L_d:g} H within 1 % of L_q = {L_q:g} H "
-                          "(no saliency to design the estimator for)", source)
+        if "map.L_d_hf" in m.design:   # the saliency a carrier sees, where it runs
+            sal = (L_q - L_d) / (L_q + L_d)
+            why = (f"{whose} an incremental saliency (L_q - L_d)/(L_q + L_d) of {sal:.1%} on its flux map at half the rated "
+                   f"current on MTPA ({0.5 * m.i_rated:.3g} A: L_d = {L_d * 1e3:.4g} mH, L_q = {L_q * 1e3:.4g} mH), below "
+                   "the 0.5 % an injection estimator can lock on")
+        else:
+            why = f"{whose} L_d = {L_d:g} H within 1 % of L_q = {L_q:g} H (no saliency to design the estimator for)"
+        raise ConfigError("controller.angle", ctl["angle"], f"injection needs a salient machine: {why}", source)
 
 
 def _machine_injection(inj: dict, m: Machine, keys, source, designed: dict | None = None) -> None:

@@ -104,7 +104,7 @@ SCENARIO = {
         "cutoff_min_rpm": POS(None, hi=1e6, doc="floor of the adaptive filter's cutoff, as a mechanical speed; default 1/8 of the lower blending speed (yang2022: 20 rpm)"),
         "bw_pll": POS(None, hi=1e6, doc="rad/s; default from the machine's bench"),
         "valid_rpm": NONNEG(None, hi=1e6, doc="the observer's estimate is trusted above this speed; default 5/8 of the lower blending speed (yang2022: 100 rpm)"),
-        "top_speed_rpm": POS(None, hi=1e6, doc="for the gain bound; default 1.5 x rated"),
+        "top_speed_rpm": POS(None, hi=1e6, doc="for the gain bound; default 1.5 x rated, or 1.1 x the fastest speed the scenario asks where that is more"),
         "lag": C("exact", "paper", default="exact", doc="form = \"paper\": the adaptive filter's phase lag compensated exactly, or by pi/4 as the paper writes it"),
         "form": C("paper", "tracking", default="tracking",
                   doc="tracking: fullspeed's, exact in discrete time, with a motion observer on the measured torque whose "

@@ -9,7 +9,7 @@ import numpy as np
 
 from .._core import ffi, lib
 from ..design.controller import controller_model
-from ..design.magnetics import controller_values
+from ..design.magnetics import controller_map
 from ..model.errors import ConfigError
 from ..model.scenario import Scenario
 from ..model.units import hz_to_rad_s, rpm_to_rad_s
@@ -58,18 +58,14 @@ def set_fluxmap(cfg_mag, mag: dict, keep):
     cfg_mag.map_psi_q = keep(ffi.new("double[]", psi_q.ravel().tolist()))
 
 
-def _controller_from_map(dc, m, ctl: dict, keep) -> None:
-    """A flux map's inductances, magnet flux and MTPA table for the
-    controller (design.magnetics.controller_values), with the scenario's mismatch
-    scales."""
-    cv = controller_values(m.magnetic, ctl["i_max"], m.i_rated, m.phases, m.pole_pairs)
-    dc.psi_f = cv["psi_f"] * ctl["psi_f_scale"]
-    dc.L_d, dc.L_q = cv["L_d"] * ctl["L_d_scale"], cv["L_q"] * ctl["L_q_scale"]
-    dc.L_d_hf, dc.L_q_hf = cv["L_d_hf"] * ctl["L_d_scale"], cv["L_q_hf"] * ctl["L_q_scale"]
-    tab = dc.mtpa_table
-    tab.n = lib.FS_MTPA_N
-    for k in range(lib.FS_MTPA_N):
-        tab.T[k], tab.i_d[k], tab.i_q[k] = cv["mtpa_T"][k], cv["mtpa_i_d"][k], cv["mtpa_i_q"][k]
+def _controller_map(dc, m, ctl: dict) -> None:
+    """The flux map on the controller's grid (design.magnetics.controller_map:
+    fs_drive.h, map), with the scenario's mismatch scales."""
+    cm = controller_map(m.magnetic, ctl["i_max"], ctl["psi_f_scale"], ctl["L_d_scale"], ctl["L_q_scale"])
+    mp = dc.map
+    mp.di_d, mp.i_d0, mp.di_q, mp.psi_scale = cm["di_d"], cm["i_d0"], cm["di_q"], cm["psi_scale"]
+    for k, (d, q) in enumerate(zip(cm["psi_d"], cm["psi_q"])):
+        mp.psi_d[k], mp.psi_q[k] = d, q
 
 
 def build_config(sc: Scenario):
@@ -141,10 +137,11 @@ def build_config(sc: Scenario):
     dc.mode, dc.angle_source = MODES[ctl["mode"]], ANGLES[ctl["angle"]]
     dc.Ts, dc.T_pwm, dc.delay = Ts, inv.T_pwm, float(cfg.delay)
     cm = controller_model(ctl, m)
-    dc.R_s, dc.L_d, dc.L_q = cm["R_s"], cm["L_d"], cm["L_q"]
-    dc.psi_f, dc.pole_pairs = m.psi_f * ctl["psi_f_scale"], m.pole_pairs
+    dc.R_s, dc.L_d, dc.L_q, dc.psi_f = cm["R_s"], cm["L_d"], cm["L_q"], cm["psi_f"]
+    dc.pole_pairs = m.pole_pairs
     if mag["model"] == "fluxmap":
-        _controller_from_map(dc, m, ctl, keep)
+        dc.L_d_hf, dc.L_q_hf = cm["L_d_hf"], cm["L_q_hf"]
+        _controller_map(dc, m, ctl)
     dc.J, dc.B = (m.J + (load["J_load"] if load["kind"] == "speed_pi" else 0.0)) * ctl["J_scale"], m.B
     dc.i_max, dc.T_max = ctl["i_max"], ctl["T_max"]
     dc.bw_current, dc.bw_speed, dc.bw_pll = ctl["bw_current"], ctl["bw_speed"], ctl["bw_pll"]
