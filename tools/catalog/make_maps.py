@@ -80,7 +80,7 @@ def prius_secant(axis: str, i):
 
 
 def prius(out: Path = OUT):
-    i_d = np.arange(-300.0, 150.0 + 1e-9, 5.0)      # covers -i_max..i_max/2 for i_max up to 300 A
+    i_d = np.arange(-300.0, 300.0 + 1e-9, 5.0)      # covers -i_max..i_max/2 for i_max up to 300 A, and the +i_d side as wide
     i_q = np.arange(0.0, 300.0 + 1e-9, 5.0)
     D, Q = np.meshgrid(i_d, i_q, indexing="ij")
     psi_d = PRIUS_PSI_F + prius_secant("d", D) * D   # own-axis current: no cross-saturation published
