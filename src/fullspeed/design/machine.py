@@ -6,14 +6,15 @@ Also the MTPA torque a current gives, from the controller's own table."""
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from pathlib import Path
 
 from .._core import ffi, lib
 from ..model.errors import ConfigError
-from ..model.fluxmap import check_coverage
+from ..model.fluxmap import FluxMapWarning, check_coverage, coverage_limit, map_range
 from ..model.machines import Machine, machine_data, parse_machine
 from .magnetics import controller_map, controller_values
-from .rules import Value, design_bench
+from .rules import I_MAX_PER_RATED, Value, design_bench
 
 
 def design_machine(m: Machine) -> Machine:
@@ -21,13 +22,20 @@ def design_machine(m: Machine) -> Machine:
     its reason in m.design (errors name the file m was read from)."""
     source, prefix = m.origin, m.prefix
     b = dict(m.bench)
-    designed = design_bench({"i_rated": m.i_rated}, b)
+    fluxmap = m.magnetic["model"] == "fluxmap"
+    # a measured map may stop short of 1.5 x rated: the designed limit is held within it, a given one is checked below
+    i_cover = coverage_limit(m.magnetic) if fluxmap and b.get("i_max") is None else None
+    designed = design_bench({"i_rated": m.i_rated}, b, i_cover)
+    if i_cover is not None and designed["i_max"].value < I_MAX_PER_RATED * m.i_rated:
+        warnings.warn(f"{prefix}.bench.i_max: {m.name}'s flux map covers {map_range(m.magnetic)}: the current limit is held to "
+                      f"{i_cover:g} A, below the {I_MAX_PER_RATED * m.i_rated:g} A designed from the rated current "
+                      f"({I_MAX_PER_RATED:g} x {m.i_rated:g} A); give bench.i_max within the map to choose another", FluxMapWarning, stacklevel=2)
     b.update({k: v.value for k, v in designed.items()})
     if not b["i_trip"] > b["i_max"]:
         raise ConfigError(f"{prefix}.bench.i_trip", b["i_trip"], f"must be > bench.i_max ({b['i_max']:g})", source)
     if b["adc_bits"] and not b["adc_range"] >= b["i_trip"]:
         raise ConfigError(f"{prefix}.bench.adc_range", b["adc_range"], f"must be >= bench.i_trip ({b['i_trip']:g})", source)
-    if m.magnetic["model"] == "fluxmap":
+    if fluxmap:
         check_coverage(m.magnetic, b["i_max"], f"{prefix}.magnetic", source)
         designed.update(map_model(m, b["i_max"]))
     return dataclasses.replace(m, bench=b, design=designed)

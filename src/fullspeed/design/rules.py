@@ -98,9 +98,11 @@ def u_linear(u_dc: float, phases: int) -> float:
     return u_dc / (2 * math.cos(math.pi / 10)) if phases == 5 else u_dc / math.sqrt(3)
 
 
-def design_bench(m, b: dict) -> dict[str, Value]:
+def design_bench(m, b: dict, i_max_map: float | None = None) -> dict[str, Value]:
     """The bench's limits and bandwidths from the machine and its converter
-    (b: the machine's [bench] as given; None where left out)."""
+    (b: the machine's [bench] as given; None where left out). i_max_map: the
+    largest current limit the machine's flux map covers (fluxmap.coverage_limit);
+    a designed i_max is held to it (beyond, the plant would extrapolate the map)."""
     out: dict[str, Value] = {}
 
     def put(key, value, unit, reason):
@@ -109,8 +111,13 @@ def design_bench(m, b: dict) -> dict[str, Value]:
         return out[key].value
 
     Ts = sampling_period(b["f_pwm"], b["sampling"])
-    i_max = put("i_max", I_MAX_PER_RATED * m["i_rated"], "A",
-                f"{I_MAX_PER_RATED:g} x the rated current: the usual short-time overload, room for the carrier and for accelerating under rated load")
+    i_rule = I_MAX_PER_RATED * m["i_rated"]
+    if i_max_map is not None and i_rule > i_max_map:
+        i_max = put("i_max", i_max_map, "A", f"held to the {i_max_map:g} A its flux map covers (i_q over +-i_max, i_d from -i_max "
+                    f"to i_max/2), below {I_MAX_PER_RATED:g} x the rated current ({i_rule:g} A): beyond it the plant would extrapolate the map")
+    else:
+        i_max = put("i_max", i_rule, "A",
+                    f"{I_MAX_PER_RATED:g} x the rated current: the usual short-time overload, room for the carrier and for accelerating under rated load")
     i_trip = put("i_trip", I_TRIP_PER_MAX * i_max, "A",
                  f"{I_TRIP_PER_MAX:g} x i_max: above the carrier's peak and the current loop's overshoot")
     put("adc_range", ADC_RANGE_PER_TRIP * i_trip, "A", f"{ADC_RANGE_PER_TRIP:g} x i_trip: the trip level inside the converter's range")

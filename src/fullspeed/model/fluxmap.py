@@ -232,6 +232,18 @@ def zero_current_values(mag: dict) -> dict:
             "L_q": (table_at(mag, "psi_q", 0.0, h_q) - table_at(mag, "psi_q", 0.0, -h_q)) / (2 * h_q)}
 
 
+def coverage_limit(mag: dict) -> float:
+    """The largest current limit the map covers as check_coverage asks:
+    i_q over +-i_max, i_d from -i_max up to +i_max / 2."""
+    i_d, i_q = mag["i_d"], mag["i_q"]
+    return float(min(-i_d[0], 2.0 * i_d[-1], -i_q[0], i_q[-1]))
+
+
+def map_range(mag: dict) -> str:
+    """'i_d -20..20 A, i_q -26..26 A': what a map covers, for messages."""
+    return f"i_d {mag['i_d'][0]:g}..{mag['i_d'][-1]:g} A, i_q {mag['i_q'][0]:g}..{mag['i_q'][-1]:g} A"
+
+
 def check_coverage(mag: dict, i_max: float, field: str, source) -> None:
     """The map must reach the current limit: i_q over +-i_max, i_d from
     -i_max up to +i_max / 2 (the polarity detection's positive d pulses are

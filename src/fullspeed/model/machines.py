@@ -169,7 +169,11 @@ def catalog_data(name: str, source: str | None = None) -> dict:
     if name not in names:
         raise ConfigError("machine.catalog", name, "unknown machine; the catalog has " + ", ".join(names), source)
     root = resources.files("fullspeed") / "machines"
-    return tomllib.loads((root / f"{name}.toml").read_text())
+    data = tomllib.loads((root / f"{name}.toml").read_text())
+    mag = data.get("magnetic")
+    if isinstance(mag, dict) and isinstance(mag.get("file"), str) and not Path(mag["file"]).is_absolute():
+        mag["file"] = str(Path(str(root)) / mag["file"])   # a catalog machine's flux map sits beside its file
+    return data
 
 
 def parse_machine(data: dict, source: str | None = None, prefix: str = "machine") -> Machine:
