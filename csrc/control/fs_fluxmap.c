@@ -40,6 +40,10 @@ fs_fluxmap_point fs_fluxmap_eval(const fs_fluxmap *m, fs_dq i)
     if (i.q < 0.0f) p.psi.q = -p.psi.q;
     p.L_dd = s * m->inv_di_d * (dd0 + b * (dd1 - dd0));
     p.L_qq = s * m->inv_di_q * (dq0 + a * (dq1 - dq0));
+    /* along q of psi_d and along d of psi_q; the mirror image turns the sign of d psi_d / d i_q below i_q = 0 */
+    const float sq = i.q < 0.0f ? -1.0f : 1.0f;
+    p.L_dq = sq * s * m->inv_di_q * ((d01 - d00) + a * (dd1 - dd0));
+    p.L_qd = sq * s * m->inv_di_d * ((q10 - q00) + b * (dq1 - dq0));
     return p;
 }
 

@@ -43,10 +43,12 @@ typedef struct {
 
 /* The map at one current: the fluxes and the incremental inductances
  * d psi_d / d i_d, d psi_q / d i_q of the cell (the slopes a current
- * regulator and a carrier see). */
+ * regulator and a carrier see), and the cross terms d psi_d / d i_q,
+ * d psi_q / d i_d (cross-saturation). */
 typedef struct {
     fs_dq psi;           /* Wb */
     float L_dd, L_qq;    /* H */
+    float L_dq, L_qd;    /* H */
 } fs_fluxmap_point;
 
 typedef struct {

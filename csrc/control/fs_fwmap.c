@@ -11,20 +11,28 @@ static float fwmap_torque(const fs_fwmap_config *c, fs_dq i, const fs_fluxmap_po
 }
 
 /* The current whose flux is psi_t, by Newton's method on the map's
- * incremental inductances from the guess *i (the last solution: the targets
- * move a little at a time). Returns its torque; false in *ok when it does
- * not converge to 1e-6 of the flux (a map folded back on itself). */
+ * incremental inductance matrix (cross-saturation included) from the guess
+ * *i (the last solution: the targets move a little at a time), each step
+ * held within a tenth of i_max. Returns its torque; false in *ok when it
+ * does not converge to tol (a map folded back on itself). */
 static FS_COLD float fwmap_inverse(const fs_fwmap_config *c, float tol, fs_dq psi_t, fs_dq *i, bool *ok)
 {
-    for (int n = 0; n < 40; ++n) {
+    const float step_max = 0.1f * c->i_max;
+    for (int n = 0; n < 60; ++n) {
         const fs_fluxmap_point p = fs_fluxmap_eval(c->map, *i);
         const float e_d = psi_t.d - p.psi.d, e_q = psi_t.q - p.psi.q;
         if (fabsf(e_d) <= tol && fabsf(e_q) <= tol) {
             *ok = true;
             return fwmap_torque(c, *i, &p);
         }
-        i->d += e_d / p.L_dd;
-        i->q += e_q / p.L_qq;
+        const float det = p.L_dd * p.L_qq - p.L_dq * p.L_qd;
+        float dd = (p.L_qq * e_d - p.L_dq * e_q) / det, dq = (p.L_dd * e_q - p.L_qd * e_d) / det;
+        if (!(det > 0.0f)) {   /* the matrix folded: along each axis alone */
+            dd = e_d / p.L_dd;
+            dq = e_q / p.L_qq;
+        }
+        i->d += fs_clamp_sym(dd, step_max);
+        i->q += fs_clamp_sym(dq, step_max);
     }
     *ok = false;
     return 0.0f;
@@ -54,11 +62,17 @@ static FS_COLD fs_status fwmap_row(fs_fwmap *f, const fs_fwmap_config *c, fs_mtp
     bool ok = true, in_prev = false;
     float T_prev = 0.0f, I_prev = 0.0f, d_end = 0.0f, T_end = 0.0f;
     fs_dq i_end = i;
+    fs_dq i_good = i;
     for (int m = 0; m < FWMAP_NS; ++m) {
         const float d = (float)m * dd;
         float I;
         const float T = fwmap_at(c, tol, psi_lim, d, &i, &I, &ok);
-        if (!ok) return FS_ERR_PARAM;
+        if (!ok) {   /* no current has this flux (the map folds here under cross-saturation): not a point of the limit */
+            i = i_good;
+            in_prev = false;
+            continue;
+        }
+        i_good = i;
         const bool in = I <= c->i_max;
         if (in && T > T_end) {
             d_end = d;
