@@ -14,6 +14,7 @@ import pytest
 from fullspeed.design.envelope import (OVERMODULATION, Limits, envelope, plant_flux, plant_mag, table_speeds,
                                        torque_at)
 from fullspeed.design.machine import load_machine, machine_from_dict, mtpa_torque
+from fullspeed.design.scenario import scenario_from_dict
 from fullspeed.model import zoo
 from fullspeed.model.fluxmap import interp
 from fullspeed.model.units import rad_s_to_rpm, rpm_to_rad_s
@@ -396,3 +397,92 @@ def test_an_envelope_outside_the_map_is_refused_with_its_range(tmp_path):
     m = baldor(tmp_path)
     with pytest.raises(ConfigError, match="within baldor's flux map"):
         envelope(m, 540.0, 24.9)
+
+
+# --- feasibility warnings ---------------------------------------------------------------------------------------------
+
+def speed_scenario(m, rpm, T, fw=True):
+    return scenario_from_dict({"name": "t", "duration": 1.0, "machine": m,
+                               "controller": {"mode": "speed", "flux_weakening": fw},
+                               "references": {"speed_rpm": [[0.0, 0.0], [0.5, rpm]]},
+                               "load": {"torque": [[0.0, 0.0], [0.6, T]]}})
+
+
+def _mach(m):
+    """A designed machine back as the table a scenario takes."""
+    d = {"name": m.name, "kind": m.kind, "pole_pairs": m.pole_pairs,
+         "magnetic": {k: v for k, v in m.magnetic.items() if v is not None},
+         "electrical": {"R_s": m.R_s, "L_d": m.L_d, "L_q": m.L_q, "psi_f": m.psi_f},
+         "mechanical": {"J": m.J}, "rated": {"torque": m.T_rated, "current": m.i_rated,
+                                             "speed_rpm": rad_s_to_rpm(m.w_m_rated)},
+         "bench": {k: m.bench[k] for k in ("u_dc", "f_pwm", "i_max")}}
+    return d
+
+
+def feasibility(sc):
+    return [w for w in sc.warnings if w.startswith(("load.torque:", "references."))]
+
+
+def test_the_trials_infeasible_points_are_warned_with_flux_weakening_on():
+    """20000 rpm x 40 N m on the Prius and 9000 rpm x 1.5 N m on the H27
+    (accepted before): one line naming the field, the point and the
+    envelope's torque there; the points the trial held are not warned."""
+    P, H = _mach(prius()), _mach(h27())
+    w = feasibility(speed_scenario(P, 20000.0, 40.0))
+    T = torque_at(envelope(prius(), 500.0, 250.0, w_end=rpm_to_rad_s(21000.0)), rpm_to_rad_s(20000.0))
+    assert len(w) == 1 and w[0].startswith("load.torque: 40 N m at 20000 rpm") and f"at most {T:.4g} N m" in w[0]
+    w = feasibility(speed_scenario(H, 9000.0, 1.5))
+    assert len(w) == 1 and "1.5 N m at 9000 rpm" in w[0] and "at most 1.127 N m" in w[0]
+    assert not feasibility(speed_scenario(P, 5000.0, 40.0)) and not feasibility(speed_scenario(H, 7000.0, 0.6))
+
+
+def test_the_warning_sits_at_the_envelope():
+    """Just inside the envelope's torque at a speed: no line; just outside: one."""
+    m = prius()
+    T = Limits(m, 500.0, 250.0).best(np.array([m.pole_pairs * rpm_to_rad_s(2500.0)]))[0][0]
+    assert not feasibility(speed_scenario(_mach(m), 2500.0, T * (1 - 1e-4)))
+    assert len(feasibility(speed_scenario(_mach(m), 2500.0, T * (1 + 1e-4)))) == 1
+
+
+def test_a_speed_beyond_a_finite_top_speed_is_named_without_load():
+    m = load_machine("motulator-2kw-ipmsm")
+    env = envelope(m, 540.0, m.bench["i_max"])
+    w = feasibility(speed_scenario("motulator-2kw-ipmsm", 1.05 * rad_s_to_rpm(env.w_top), 0.0))
+    assert len(w) == 1 and w[0].startswith("references.speed_rpm:") and "beyond its top speed" in w[0]
+    assert f"{rad_s_to_rpm(env.w_top):.5g} rpm" in w[0]
+    assert not feasibility(speed_scenario("motulator-2kw-ipmsm", 0.9 * rad_s_to_rpm(env.w_top), 0.0))
+
+
+def test_without_flux_weakening_the_mtpa_current_meets_the_voltage_limit():
+    """Flux weakening off: the drive stays on MTPA; the speed where the MTPA
+    current for the load meets the voltage limit bounds the reference."""
+    m = prius()
+    lim = Limits(m, 500.0, 250.0)
+    n = rad_s_to_rpm(lim.mtpa_speed(100.0) / m.pole_pairs)
+    assert n == pytest.approx(rad_s_to_rpm(lim.w_limit(*lim.mtpa_current(100.0)) / 4), rel=2e-4)
+    w = feasibility(speed_scenario(_mach(m), 1.01 * n, 100.0, fw=False))
+    assert len(w) == 1 and w[0].startswith("references.speed_rpm:") and "without flux weakening" in w[0]
+    assert f"{n:.5g} rpm" in w[0] and "with flux weakening the envelope gives" in w[0]
+    assert not feasibility(speed_scenario(_mach(m), 0.99 * n, 100.0, fw=False))
+
+
+def test_a_current_reference_beyond_the_voltage_is_named():
+    """Current mode against a speed-holding load: the voltage the current
+    reference needs at the load's speed."""
+    d = {"name": "t", "duration": 0.3, "machine": "motulator-2kw-ipmsm", "controller": {"mode": "current"},
+         "references": {"i_q": 8.0}, "load": {"kind": "speed", "speed_rpm": 3000.0}}
+    w = [x for x in scenario_from_dict(d).warnings if x.startswith("references.i_q:")]
+    assert len(w) == 1 and "needs" in w[0] and "3000 rpm" in w[0]
+    d["load"]["speed_rpm"] = 1000.0
+    assert not [x for x in scenario_from_dict(d).warnings if x.startswith("references.i_q:")]
+
+
+def test_a_matrix_converter_is_held_to_its_modulations_voltage():
+    """zou2021's scenarios run on the IMC's over-modulation regions: each
+    is checked against the VTR its modulation reaches, and none is warned;
+    in the linear region Region C's 1750 rpm at 10 N m is outside."""
+    from fullspeed.design.scenario import load_scenario
+    for name in ("zou2021-region-a", "zou2021-region-b", "zou2021-region-c", "zou2021-speed-range"):
+        assert not feasibility(load_scenario(name)), name
+    w = feasibility(load_scenario("zou2021-region-c", {"converter": {"modulation": "linear"}}))
+    assert len(w) == 1 and "linear modulation" in w[0]
