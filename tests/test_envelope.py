@@ -6,6 +6,8 @@ numbers; the feasibility warnings it gives `run` and scenario loading; and
 what `fullspeed design` prints and writes."""
 import dataclasses
 import math
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -486,3 +488,28 @@ def test_a_matrix_converter_is_held_to_its_modulations_voltage():
         assert not feasibility(load_scenario(name)), name
     w = feasibility(load_scenario("zou2021-region-c", {"converter": {"modulation": "linear"}}))
     assert len(w) == 1 and "linear modulation" in w[0]
+
+
+# --- the command line ------------------------------------------------------------------------------------------------------
+
+def test_design_prints_the_envelope_and_writes_its_figure(tmp_path):
+    out = tmp_path / "o"
+    p = subprocess.run([sys.executable, "-m", "fullspeed", "design", "motulator-2kw-ipmsm", "--out", str(out)],
+                       capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    text = p.stdout
+    for what in ("base speed", "characteristic current", "top speed", "T_max N m", "P_max kW"):
+        assert what in text, what
+    rows = [ln.split() for ln in text.splitlines() if ln.startswith("  ") and ln.split()[0].replace(".", "").isdigit()]
+    assert len(rows) >= 11 and float(rows[0][0]) == 0.0 and float(rows[-1][1]) == 0.0
+    assert {r[5] for r in rows} == {"current", "current+voltage"}
+    assert (out / "envelope.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # the default folder: out/<name> where it runs
+    p = subprocess.run([sys.executable, "-m", "fullspeed", "design", "zou2021-region-c"],
+                       capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert p.returncode == 0 and (tmp_path / "out" / "zou2021-region-c" / "envelope.png").is_file(), p.stderr
+    assert "matrix converter's om2 modulation" in p.stdout
+    (tmp_path / "afile").write_text("")
+    p = subprocess.run([sys.executable, "-m", "fullspeed", "design", "yang2022", "--out", str(tmp_path / "afile")],
+                       capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert p.returncode == 2 and "--out" in p.stderr
