@@ -493,8 +493,8 @@ def envelope(m: Machine, u_dc: float, i_max: float, n: int = SPEEDS_N, u_max: fl
     w = np.linspace(0.0, w_end_e, n)
     T, i_d, i_q = lim.best(w)
     w_mtpv_e = _mtpv_onset(lim, w, i_d, i_q, w_base_e)
-    extra = np.r_[w_base_e, [] if w_mtpv_e is None else [w_mtpv_e], p * table_speeds(w_end_e / p)]
-    extra = extra[~np.isin(extra, w)]
+    extra = np.r_[w_base_e, [] if w_mtpv_e is None else [w_mtpv_e], p * table_speeds(w_end_e / p)[:-1]]
+    extra = extra[np.min(np.abs(extra[:, None] - w[None, :]), axis=1) > 1e-12 * w_end_e]   # not twice
     T_x, d_x, q_x = lim.best(extra)
     order = np.argsort(np.r_[w, extra], kind="stable")
     w, T, i_d, i_q = (np.r_[a, b][order] for a, b in ((w, extra), (T, T_x), (i_d, d_x), (i_q, q_x)))
@@ -560,7 +560,7 @@ def _mtpv_onset(lim: Limits, w, i_d, i_q, w_base_e: float) -> float | None:
     """The electrical speed where the optimum leaves the current limit
     (MTPV), between the grid's speeds w (optimum i_d, i_q); None where it
     never does."""
-    inner = (w > w_base_e) & ~lim.at_limit(i_d, i_q)
+    inner = (w > w_base_e) & np.isfinite(i_d) & ~lim.at_limit(i_d, i_q)   # nan: beyond (or at) the top speed
     if not inner.any():
         return None
     k = int(np.argmax(inner))
@@ -580,13 +580,3 @@ def torque_at(env: Envelope, w_m):
                          f"to {rad_s_to_rpm(end):.5g} rpm (its top speed is infinite): envelope(..., w_end=) reaches further")
     T = np.where(w > env.w_top, 0.0, np.interp(w, env.w_m, env.T))
     return float(T) if np.ndim(w_m) == 0 else T
-
-
-def mtpa_speed(env: Envelope, T: float) -> float:
-    """The highest mechanical speed (rad/s) at which the MTPA current for
-    torque T meets the voltage limit: where a drive without flux weakening
-    stops; 0 beyond the MTPA torque at i_max."""
-    a = env.mtpa
-    if abs(T) > a["T"][-1]:
-        return 0.0
-    return float(np.interp(abs(T), a["T"], a["w_m"]))

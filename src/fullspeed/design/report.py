@@ -4,7 +4,6 @@ machine's envelope (design.envelope) at the scenario's current limit and
 converter."""
 from __future__ import annotations
 
-import math
 import textwrap
 
 import numpy as np
@@ -86,7 +85,12 @@ def envelope_report(env: Envelope, how: str) -> str:
         marks[int(np.argmin(np.abs(env.w_m - env.w_mtpv)))] = "MTPV onset"
     rows = sorted({int(np.argmin(np.abs(env.w_m - w))) for w in table_speeds(env.w_m[-1])} | set(marks))
     lines.append(f"  {'rpm':>9s} {'T_max N m':>10s} {'P_max kW':>9s} {'i_d A':>9s} {'i_q A':>9s}  limit")
+
+    def shown(x, scale):   # what the searches leave of a zero (the angle to 1e-8 rad) shown as zero
+        return 0.0 if abs(x) < 1e-6 * scale else x
     for k in rows:
-        lines.append(f"  {rpm(env.w_m[k]):9.1f} {env.T[k]:10.4g} {env.P[k] / 1e3:9.4g} {env.i_d[k]:9.4g} {env.i_q[k]:9.4g}  "
+        T, P, i_d, i_q = (shown(x, s) for x, s in ((env.T[k], env.T_base), (env.P[k] / 1e3, env.P.max() / 1e3),
+                                                   (env.i_d[k], env.i_max), (env.i_q[k], env.i_max)))
+        lines.append(f"  {rpm(env.w_m[k]):9.1f} {T:10.4g} {P:9.4g} {i_d:9.4g} {i_q:9.4g}  "
                      f"{LIMITS[env.region[k]]:<16s}{marks.get(k, '')}".rstrip())
     return "\n".join(lines)
