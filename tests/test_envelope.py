@@ -242,12 +242,19 @@ def test_on_a_flux_map_the_envelope_is_the_best_current_within_both_limits(name,
     assert env.region[0] == "MTPA" and "FW" in set(env.region)
 
 
-def test_an_algebraic_machine_is_the_plant_model():
-    """yang2022's algebraic magnetics, tabulated from fs_mag_flux: the
-    envelope's currents, with the plant's own fluxes at them, meet the
-    voltage limit to 1e-5 and make the envelope's torque to 1e-5; and no
-    current of a polar grid (the plant's fluxes) does better."""
-    m = load_machine("yang2022")
+ALGEBRAIC = {"yang2022": lambda: load_machine("yang2022"), "zoo-0": lambda: machine_from_dict(zoo.machine(0)),
+             "zoo-2": lambda: machine_from_dict(zoo.machine(2))}
+
+
+@pytest.mark.parametrize("name", sorted(ALGEBRAIC))
+def test_an_algebraic_machine_is_the_plant_model(name):
+    """yang2022's and two saturating zoo machines' algebraic magnetics,
+    tabulated from fs_mag_flux: the envelope's currents, with the plant's
+    own fluxes at them, meet the voltage limit to 1e-5 and make the
+    envelope's torque to 1e-5; and no current of a polar grid (the plant's
+    fluxes) does better."""
+    m = ALGEBRAIC[name]()
+    assert m.magnetic["model"] == "algebraic"
     i_max, u_dc = m.bench["i_max"], m.bench["u_dc"]
     u, p = u_dc / math.sqrt(3), m.pole_pairs
     env = envelope(m, u_dc, i_max)
