@@ -80,7 +80,8 @@ def test_the_old_blending_names_are_refused_with_the_new_one():
 def test_design_command_prints_each_value_and_its_reason(tmp_path):
     f = tmp_path / "my48.toml"
     f.write_text(json_to_toml(DATASHEET))
-    p = subprocess.run([sys.executable, "-m", "fullspeed", "design", str(f)], capture_output=True, text=True, timeout=120)
+    p = subprocess.run([sys.executable, "-m", "fullspeed", "design", str(f)], capture_output=True, text=True, timeout=120,
+                       cwd=tmp_path)   # envelope.png goes to out/<name> there
     assert p.returncode == 0, p.stderr
     for key in ("bench.i_max", "injection.u_h", "injection.f_h", "blending.lower_rpm", "observer.bw_pll"):
         line = next(ln for ln in p.stdout.splitlines() if key in ln)
@@ -96,7 +97,7 @@ def test_design_command_shows_the_estimators_forms_and_takes_set(tmp_path):
     the leak's default follows the tracking it is designed for."""
     def forms(*sets):
         args = [a for kv in sets for a in ("--set", kv)]
-        p = subprocess.run([sys.executable, "-m", "fullspeed", "design", "yang2022", *args],
+        p = subprocess.run([sys.executable, "-m", "fullspeed", "design", "yang2022", *args], cwd=tmp_path,
                            capture_output=True, text=True, timeout=120)
         assert p.returncode == 0, p.stderr
         return {ln.split()[0]: ln.split()[1] for ln in p.stdout.splitlines() if ln.startswith("  ") and len(ln.split()) > 1}
@@ -107,7 +108,7 @@ def test_design_command_shows_the_estimators_forms_and_takes_set(tmp_path):
     assert (d["injection.tracking"], d["injection.leak"], d["blending.gate"]) == ("paper", "keep", "false")
     d = forms("controller.angle=smo")
     assert "observer.form" in d and "injection.leak" not in d and "controller.dead_time_predict" not in d
-    p = subprocess.run([sys.executable, "-m", "fullspeed", "design", "yang2022", "--set", "injection.tracking=fast"],
+    p = subprocess.run([sys.executable, "-m", "fullspeed", "design", "yang2022", "--set", "injection.tracking=fast"], cwd=tmp_path,
                        capture_output=True, text=True, timeout=120)
     assert p.returncode == 2 and "injection.tracking" in p.stderr
 

@@ -22,7 +22,7 @@ from importlib import resources
 from pathlib import Path
 
 from .design.checks import polarity_blind
-from .design.report import design_report
+from .design.report import design_report, envelope_report, scenario_envelope
 from .design.scenario import load_scenario, scenario_from_dict
 from .model.errors import ConfigError, EngineError, SimulationError
 from .model.files import file_name, json_safe, package_names, out_folder, out_path, path_kind, write_atomic, write_json, write_npz, write_with
@@ -146,9 +146,15 @@ def _cmd_design(args) -> int:
                                                overrides), target)
     else:
         sc = load_scenario(target, overrides)
+    out = out_folder(args.out) if args.out else out_path(OUT, sc.name, "name", sc.source)
     for w in sc.warnings:
         print(f"fullspeed: warning: {w}", file=sys.stderr)
     print(design_report(sc))
+    from .design.figure import plot_envelope
+    env, how = scenario_envelope(sc)
+    print(envelope_report(env, how))
+    write_with(out / "envelope.png", lambda tmp: plot_envelope(env, tmp, how))
+    print(f"wrote {out}/envelope.png")
     return 0
 
 
@@ -317,8 +323,9 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a scenario field, repeatable: dotted key, TOML value (controller.bw_speed=50)")
     r.set_defaults(func=_cmd_run)
-    dz = sub.add_parser("design", help="print every designed setting of a machine or scenario, with its reason")
+    dz = sub.add_parser("design", help="print every designed setting of a machine or scenario, with its reason, and the machine's envelope")
     dz.add_argument("target", help="a catalog machine, a machine TOML (datasheet fields), or a scenario (name or TOML)")
+    dz.add_argument("--out", help="output folder for envelope.png (default out/<name>)")
     dz.add_argument("--set", action="append", metavar="KEY=VALUE",
                     help="as run's: a scenario field, repeatable (controller.angle=hfi, injection.tracking=paper)")
     dz.set_defaults(func=_cmd_design)

@@ -4,8 +4,11 @@ user wants (a machine at its limit, a test of a refusal); the command line
 prints them before it runs, and the run's summary names the idealised
 hardware.
 
-- feasibility: a speed reference beyond what the link allows at the load
-  (without flux weakening, or beyond what flux weakening can reach);
+- feasibility: a speed reference, with the load it turns against, outside
+  the machine's envelope (design.envelope: MTPA, flux weakening and MTPV
+  within the current limit and the converter's voltage), or beyond where
+  the MTPA current meets the voltage limit without flux weakening; a
+  current reference whose voltage at the load's speed exceeds the limit;
 - plausibility: parameters far outside what machines have (time constants,
   the back-EMF against the link and the rated voltage, the torque constant
   against the rated torque, copper losses), which are unit mistakes more
@@ -21,8 +24,11 @@ import math
 
 import numpy as np
 
-from ..model.units import rad_s_to_rpm
+from .._core import lib
+from ..model.errors import ConfigError
+from ..model.units import rad_s_to_rpm, rpm_to_rad_s
 from .controller import controller_model, hfi_design, injection_inductances
+from .envelope import OVERMODULATION, Limits
 from .magnetics import saliency_warnings
 from .rules import CARRIER_LOOP_ACTION_MAX, carrier_loop_action, control_period, u_linear
 
@@ -40,7 +46,10 @@ SPIN = 4.0               # growth exponent of the pulses' torque on a rotor a pu
 
 def top_speed(m, u: float, T: float, i_d: float = 0.0) -> float:
     """The mechanical speed (rad/s) at which the voltage reaches u with the
-    q current for torque T (and i_d), in steady state."""
+    q current for torque T and a given i_d, in steady state (linear
+    magnetics): zou2021's analytic limits, whose i_d is fixed by the
+    strategy (0, or on a current circle). What a machine can reach at its
+    best current is its envelope (design.envelope)."""
     k = 0.5 * m.phases * m.pole_pairs
     i_q = abs(T) / (k * (m.psi_f + (m.L_d - m.L_q) * i_d)) if m.psi_f + (m.L_d - m.L_q) * i_d > 0 else math.inf
     if not math.isfinite(i_q):
@@ -85,20 +94,8 @@ def warnings_of(d: dict, m) -> list[str]:
         out.append(f"machine.electrical.R_s: the copper losses at rated current, {loss:.4g} W, are {loss / p_rated:.0%} "
                    f"of the rated power: check R_s (ohm, per phase)")
 
-    # feasibility of the speed reference
-    if ctl["mode"] == "speed":
-        w_ref = max((abs(v) for v in d["references"]["speed_rpm"][1]), default=0.0)
-        T_load = max((abs(v) for v in d["load"]["torque"][1]), default=0.0) if d["load"]["kind"] in ("torque", "brake") else 0.0
-        T = T_load + m.B * w_ref * 2 * math.pi / 60 + m.T_coulomb
-        w_top = rad_s_to_rpm(top_speed(m, u_lin, T))
-        if not ctl["flux_weakening"] and w_ref > 1.02 * w_top:
-            out.append(f"references.speed_rpm: {w_ref:.5g} rpm is beyond the {w_top:.5g} rpm the {d['converter']['u_dc']:g} V link "
-                       f"allows at {T:.3g} N m without flux weakening (controller.flux_weakening = false): the speed will not be reached")
-        elif ctl["flux_weakening"]:
-            w_fw = rad_s_to_rpm(top_speed(m, u_lin, T, -ctl["i_max"] * 0.9)) if m.psi_f > m.L_d * ctl["i_max"] * 0.9 else math.inf
-            if w_ref > 1.02 * max(w_fw, w_top):
-                out.append(f"references.speed_rpm: {w_ref:.5g} rpm is beyond the {max(w_fw, w_top):.5g} rpm flux weakening reaches "
-                           f"at {T:.3g} N m with {0.9 * ctl['i_max']:.4g} A of d current: the speed will not be reached")
+    # feasibility of the references and the load against the machine's envelope
+    out += envelope_warnings(d, m)
 
     # polarity detection
     pol, inj = d.get("polarity", {}), d.get("injection", {})
@@ -144,6 +141,174 @@ def warnings_of(d: dict, m) -> list[str]:
     if ctl["angle"] in ("hfi", "blend") and m.magnetic["model"] == "fluxmap":
         out += saliency_warnings(m.magnetic, ctl["i_max"], m.phases, m.pole_pairs, m.T_rated, m.name)
     return out
+
+
+# the matrix converter's voltage per modulation region: the largest voltage transfer ratio of each
+# (zou2021 sec. 3.3, eqs. (20)-(21): CASE 1; CASE 2 at alpha = pi/6), as the modulator has them
+IMC_VTR = {"linear": ("FS_IMC_LINEAR", 0.0), "om1": ("FS_IMC_OM1", 0.0), "om2": ("FS_IMC_OM2", math.pi / 6)}
+ENVELOPE_TOL = 1e-6      # of the torque: the envelope's own accuracy; a point at the limit is inside
+
+
+def voltage_limit(d: dict, m) -> tuple[float, str]:
+    """The voltage (V peak phase) the scenario's converter gives the
+    machine in steady state, and how it says so: the modulator's linear
+    limit u_dc/sqrt3 (the drive's over-modulation gives up to 4.9 % more),
+    or a matrix converter's largest VTR in its modulation times the grid's
+    phase amplitude (the over-modulation regions are its own setting)."""
+    conv = d["converter"]
+    if conv["kind"] == "imc":
+        name, alpha = IMC_VTR[conv["modulation"]]
+        v_im = conv["grid_ll_rms"] * math.sqrt(2.0 / 3.0)
+        return (float(lib.fs_imc_vtr_max(getattr(lib, name), alpha)) * v_im,
+                f"the matrix converter's {conv['modulation']} modulation on a {conv['grid_ll_rms']:g} V grid")
+    return (u_linear(conv["u_dc"], m.phases),
+            f"the {conv['u_dc']:g} V link at linear modulation, over-modulation giving up to "
+            f"{100 * (OVERMODULATION - 1):.1f} % more voltage")
+
+
+def _points(profiles: list, extra: tuple = ()) -> list[tuple[float, list]]:
+    """The corners of piecewise-linear profiles (times, values), together:
+    each time any of them has a corner (and the extra times), with each
+    profile's values there (both sides of a step)."""
+    times = sorted({t for p in profiles for t in p[0]} | set(extra)) or [0.0]
+    out = []
+    for t in times:
+        vals = []
+        for tp, yp in profiles:
+            at = [y for tk, y in zip(tp, yp) if tk == t]
+            vals.append(at or [float(np.interp(t, tp, yp)) if len(tp) else 0.0])
+        out.append((t, vals))
+    return out
+
+
+def envelope_warnings(d: dict, m) -> list[str]:
+    """A line per field whose profile asks, at one of its corners, for more
+    than the machine's envelope gives there (the worst corner): in speed
+    mode the speed reference with the load and friction it turns against
+    (with flux weakening, against the torque the envelope gives at that
+    speed; without, against where the MTPA current meets the voltage
+    limit); in current mode with a speed-holding load, the current
+    reference's voltage at the load's speed."""
+    ctl, load, ref = d["controller"], d["load"], d["references"]
+    if ctl["mode"] == "speed" and load["kind"] in ("torque", "brake"):
+        cases = []
+        for t, (speeds, loads) in _points([ref["speed_rpm"], load["torque"]]):
+            for n in speeds:
+                w_m = rpm_to_rad_s(abs(n))
+                for T_l in loads:
+                    cases.append((t, abs(n), w_m, abs(T_l), abs(T_l) + m.B * w_m + m.T_coulomb))
+        cases = [c for c in cases if c[1] > 0]
+        if not cases:
+            return []
+        try:
+            quick, how = _limits(d, m, coarse=True)
+            if _inside(quick, cases, ctl["flux_weakening"]):   # the usual case, in a few ms
+                return []
+            lim, how = _limits(d, m)
+        except ConfigError as exc:   # a flux map short of the scenario's i_max: said, not refused here
+            return [f"controller.i_max: {exc.allowed}: the references are not checked against the envelope"]
+        return _speed_warnings(lim, cases, ctl["flux_weakening"], how, m)
+    if ctl["mode"] == "current" and load["kind"] in ("speed", "speed_pi"):
+        try:
+            return _current_warnings(d, m)
+        except ConfigError as exc:
+            return [f"controller.i_max: {exc.allowed}: the references are not checked against the envelope"]
+    return []
+
+
+def _limits(d: dict, m, coarse: bool = False) -> tuple[Limits, str]:
+    """The machine within the scenario's current limit and its converter's voltage."""
+    u, how = voltage_limit(d, m)
+    return Limits(m, d["converter"]["u_dc"], d["controller"]["i_max"], u_max=u, coarse=coarse), how
+
+
+QUICK_MARGIN = 1e-3      # the coarse MTPA locus's interpolation is within this of the fine one's
+
+
+def _inside(quick: Limits, cases: list, weakening: bool) -> bool:
+    """Whether every case is inside by a coarse scan alone: with flux
+    weakening a scanned current within both limits makes its torque (a
+    lower bound of the envelope's); without, the MTPA locus's speed with a
+    margin for its coarser interpolation."""
+    p = quick.p
+    if weakening:
+        T_low = quick.scan_torque(np.array([c[2] * p for c in cases]))
+        return all(c[4] <= T for c, T in zip(cases, T_low))
+    return all(c[2] * p <= (1 - QUICK_MARGIN) * quick.mtpa_speed(c[4]) for c in cases)
+
+
+def _speed_warnings(lim: Limits, cases: list, weakening: bool, how: str, m) -> list[str]:
+    """The speed mode's lines, the worst case of each field (cases: t,
+    rpm, w_m, load torque, torque needed with friction): load.torque where
+    a load asks for the torque, references.speed_rpm where friction alone
+    does (the speed is beyond the top speed)."""
+    p, i_max = lim.p, lim.i_max
+    T_mtpa = lim.mtpa_locus()["T"][-1]
+    where = f"{i_max:g} A and {how}"
+    if weakening:   # nan: no current within the limits reaches the speed (beyond the top speed)
+        T_max = lim.best(np.array([c[2] * p for c in cases]))[0]
+        short = [(c[4] - T if np.isfinite(T) else math.inf, c, T) for c, T in zip(cases, T_max)]
+    else:   # the MTPA current for the torque must meet the voltage limit at the speed
+        w_top = {T: lim.mtpa_speed(T) / p for T in {c[4] for c in cases}}
+        short = [((c[2] - w_top[c[4]]) / max(c[2], 1e-300), c, w_top[c[4]]) for c in cases]
+    worst = {}
+    for excess, c, limit in short:
+        field = "load.torque" if c[3] > 0 else "references.speed_rpm"
+        if excess > (ENVELOPE_TOL * max(c[4], 1e-12) if weakening else ENVELOPE_TOL) and excess > worst.get(field, (0.0,))[0]:
+            worst[field] = (excess, c, limit)
+    out = []
+    for field, (_, (t, n, w_m, T_l, T), limit) in worst.items():
+        what = f"{T_l:.4g} N m at {n:.5g} rpm" if T_l > 0 else f"{n:.5g} rpm"
+        at = f"t = {t:g} s" + (f", {T:.4g} N m with friction" if T > T_l * (1 + 1e-9) else "")
+        if T > T_mtpa * (1 + ENVELOPE_TOL):
+            out.append(f"{field}: {what} ({at}) is beyond the {T_mtpa:.4g} N m {m.name} makes at i_max on MTPA "
+                       f"(within {where}; `fullspeed design` prints the envelope)")
+        elif weakening:
+            most = (f"it makes at most {limit:.4g} N m at that speed" if np.isfinite(limit) else
+                    f"that speed is beyond its top speed, {rad_s_to_rpm(lim.w_top()[0] / p):.5g} rpm")
+            out.append(f"{field}: {what} ({at}) lies outside {m.name}'s envelope: {most} with flux weakening (MTPA, "
+                       f"flux weakening and MTPV within {where}; `fullspeed design` prints the envelope): the speed "
+                       "will not be held")
+        else:
+            T_fw = lim.best(np.array([w_m * p]))[0][0]
+            fw = (f"with flux weakening the envelope gives {T_fw:.4g} N m there" if np.isfinite(T_fw) and T_fw > 0
+                  else "beyond the top speed even with flux weakening")
+            out.append(f"references.speed_rpm: {n:.5g} rpm is beyond the {rad_s_to_rpm(limit):.5g} rpm "
+                       f"{how.split(',')[0]} allows at {T:.3g} N m ({at}) without flux weakening "
+                       f"(controller.flux_weakening = false: the MTPA current meets the voltage limit there; {fw}): "
+                       "the speed will not be reached")
+    return out
+
+
+def _current_warnings(d: dict, m) -> list[str]:
+    """The current mode's line: the reference's voltage at the load's
+    speed above the converter's (the currents will not be reached)."""
+    ref, load, ctl = d["references"], d["load"], d["controller"]
+    lim, how = _limits(d, m, coarse=True)   # its fluxes anywhere are the plant's own, exact
+    u = lim.u
+    worst = None
+    for t, (ds, qs, ns) in _points([ref["i_d"], ref["i_q"], load["speed_rpm"]]):
+        for i_d in ds:
+            for i_q in qs:
+                for n in ns:
+                    if math.hypot(i_d, i_q) > ctl["i_max"]:
+                        continue   # the drive limits the current: not the voltage's question
+                    v = _voltage(lim, i_d, i_q, m.pole_pairs * rpm_to_rad_s(n))
+                    if worst is None or v > worst[0]:
+                        worst = (v, t, i_d, i_q, n)
+    if worst is None or worst[0] <= u * (1 + ENVELOPE_TOL):
+        return []
+    v, t, i_d, i_q, n = worst
+    T_max = _limits(d, m)[0].best(np.array([m.pole_pairs * rpm_to_rad_s(abs(n))]))[0][0]
+    return [f"references.i_q: i_d = {i_d:.4g} A, i_q = {i_q:.4g} A at {n:.5g} rpm (load.speed_rpm, t = {t:g} s) needs "
+            f"{v:.4g} V of the {u:.4g} V {how.split(',')[0]} gives: the currents will not be reached (the envelope "
+            f"gives at most {T_max:.4g} N m at that speed)"]
+
+
+def _voltage(lim: Limits, i_d: float, i_q: float, w_e: float) -> float:
+    """|R_s i + j w_e psi(i)| at any current (the flux as the plant has it)."""
+    psi_d, psi_q = lim.flux_anywhere(i_d, i_q)
+    return math.hypot(lim.R * i_d - w_e * psi_q, lim.R * i_q + w_e * psi_d)
 
 
 # the incremental L_d asymmetry below which the detection cannot decide: its
