@@ -434,15 +434,17 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float
 /* With a flux map and flux weakening: the current for *T_ref within the
  * voltage limit (fs_fwmap.h) at this speed, MTPA below base speed; *T_ref
  * becomes the torque asked of it, and the speed PI's integral holds what
- * the limits took (its anti-windup). The voltage planned for: 95 % of the
- * modulator's linear limit (the rest for the current loops' dynamics; at
- * 100 % the Prius MG2's drive stalled its d current at the voltage limit
- * holding 1540 rpm), less the resistive drop of the last current; the
- * trim (fs_fwmap_trim) on the voltage the current loops asked. */
+ * the limits took (its anti-windup). The voltage planned for: the
+ * modulator's linear limit, less the resistive drop of the last current;
+ * the trim (fs_fwmap_trim) takes the current loops' transient demand on
+ * top of it back (the over-modulation beyond the linear limit, 5 % more,
+ * covers them meanwhile). On the 2004 Prius MG2 (encoder, the speed held
+ * at 1200..6000 rpm) the torque held is 1 to 4 % below the map's envelope
+ * (design.envelope); planning for 95 % of the limit cost 6 to 12 %. */
 static fs_dq drive_fw_map(fs_drive *drv, float u_dc, float w_e, float *T_ref)
 {
     const fs_dq i0 = drv->cc.i0, u0 = drv->cc.u;   /* the last current (the map's point) and the voltage asked */
-    const float u_plan = 0.95f * FS_INV_SQRT3 * u_dc;
+    const float u_plan = FS_INV_SQRT3 * u_dc;
     const float u_lim = u_plan - drv->cfg.R_s * sqrtf(i0.d * i0.d + i0.q * i0.q);
     const float x = fs_fwmap_ratio(&drv->fwm, u_lim, w_e);
     drv->fw_map_on = x > 1.0f;

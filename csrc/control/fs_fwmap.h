@@ -31,17 +31,16 @@
  * allows (on the 2004 Prius MG2's map at 1540 rpm: 358 N m on 250 A, where
  * the feedback held 190 N m on 125 A).
  *
- * The references meet the flux limit in steady state; the current loops'
- * lag while the reference moves (an acceleration deepens it continuously),
- * their error and the map's take a few % more voltage, and at the
- * modulator's edge the d current can no longer be driven (on the Prius MG2
- * accelerating through 4800 rpm the demand reached 100 % of the linear
- * limit while planning for 95 %, i_d stalled and the back-EMF observer
- * lost 10 el.deg). fs_fwmap_trim closes the loop on the voltage the current
- * regulators ask: an integrator on its excess over the plan, at
+ * The references meet the flux limit in steady state; while the
+ * reference moves (an acceleration deepens it continuously) the current
+ * loops ask more, and at the modulator's edge the d current can no longer
+ * be driven deeper. fs_fwmap_trim closes the loop on the voltage the
+ * current regulators ask: an integrator on its excess over the plan, at
  * FS_FWMAP_TRIM_PER_BW of the current loop's bandwidth (well inside it),
  * raises x, the speed ratio the flux limit is taken at (x (1 + trim), trim
- * in [0, 1]), and lets it back down as the excess goes.
+ * in [0, 1]), and lets it back down as the excess goes. On the 2004 Prius
+ * MG2's full range (sensorless, 5000 rpm in flux weakening) the largest
+ * angle error was 7.7 el.deg without it, 3.8 with it.
  */
 #ifndef FS_FWMAP_H
 #define FS_FWMAP_H
