@@ -51,8 +51,10 @@ TEXT_GOAL = 32 * 1024
 # The firmware's compile-time options (fs_drive.h): a three-phase inverter
 # drive on the blend with flux weakening leaves these out (it keeps the
 # dead-time compensation on the predicted current, its default while it
-# injects: 1,288 B of flash at -O2).
-OPTIONS = ["-DFS_WITH_IMC=0", "-DFS_WITH_FIVE_PHASE=0", "-DFS_WITH_SWVI=0", "-DFS_WITH_IDENT=0", "-DFS_WITH_ADAPT=0"]
+# injects: 1,288 B of flash at -O2), and, for a machine known by L_d, L_q,
+# psi_f (the catalog's beyond-full-range), the flux map (4.7 kB).
+OPTIONS = ["-DFS_WITH_IMC=0", "-DFS_WITH_FIVE_PHASE=0", "-DFS_WITH_SWVI=0", "-DFS_WITH_IDENT=0", "-DFS_WITH_ADAPT=0",
+           "-DFS_WITH_FLUXMAP=0"]
 # The image is linked with link-time optimisation: at -O2 it inlines the
 # single-use static functions across files and drops what no path reaches
 # (40,536 B of flash without, 32,160 B with, for the image below as it was

@@ -795,7 +795,8 @@ def firmware_leaves_out(scenario: str) -> str | None:
     d = sc.data
     out = [what for what, used in (("the matrix converter", d["converter"]["kind"] == "imc"),
                                    ("five phases", sc.machine.phases == 5),
-                                   ("square-wave injection", d["controller"]["angle"] == "swvi")) if used]
+                                   ("square-wave injection", d["controller"]["angle"] == "swvi"),
+                                   ("a flux map", sc.machine.magnetic["model"] == "fluxmap")) if used]
     return ", ".join(out) or None
 
 

@@ -111,7 +111,7 @@ static fs_dq current_ctrl_step_map(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, fl
 fs_dq fs_current_ctrl_step(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, float w_e)
 {
     const fs_current_ctrl_config *c = &cc->cfg;
-    if (cc->map) return current_ctrl_step_map(cc, i_ref, i, w_e);
+    if (FS_WITH_FLUXMAP && cc->map) return current_ctrl_step_map(cc, i_ref, i, w_e);
     if (c->predict) {
         /* current at the next sample, from the voltage acting until then:
          * the sampled plant i+ = a i + b (u - cross-coupling), per axis */

@@ -127,7 +127,8 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     if (!(cfg->t_dead_comp < 0.5f * cfg->T_pwm)) REFUSE("t_dead_comp", FS_ERR_PARAM);
     drv->cfg = *cfg;
     drv->has_map = cfg->map.di_d != 0.0f;
-    if (drv->has_map) SUB("map", fs_fluxmap_init(&drv->map, &drv->cfg.map));
+    if (!FS_WITH_FLUXMAP && drv->has_map) REFUSE("map", FS_ERR_MODE);
+    if (drive_map(drv)) SUB("map", fs_fluxmap_init(&drv->map, &drv->cfg.map));
     drv->k_T = drive_torque_k(cfg);
     drv->dd_dead = cfg->t_dead_comp / cfg->T_pwm;
     const float Tl = drive_loop_Ts(cfg);
@@ -182,10 +183,10 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         if (st != FS_OK)
             REFUSE(st == FS_ERR_J ? "J" : st == FS_ERR_BANDWIDTH ? "bw_speed" : st == FS_ERR_LIMIT ? "T_max" : "k_p_w, k_i_w", st);
         fs_mtpa_config mc = {cfg->L_d, cfg->L_q, cfg->psi_f, cfg->pole_pairs, cfg->i_max, cfg->phases,
-                             drv->has_map ? &drv->map : NULL};
+                             drive_map(drv) ? &drv->map : NULL};
         st = fs_mtpa_init(&drv->mtpa, &mc);
-        if (st != FS_OK) REFUSE(st == FS_ERR_LQ ? "L_q" : drv->has_map ? "mtpa (map, i_max)" : "mtpa (psi_f, L_d, L_q, i_max)", st);
-        if (drive_weakens(cfg) && drv->has_map) {
+        if (st != FS_OK) REFUSE(st == FS_ERR_LQ ? "L_q" : drive_map(drv) ? "mtpa (map, i_max)" : "mtpa (psi_f, L_d, L_q, i_max)", st);
+        if (drive_weakens(cfg) && drive_map(drv)) {
             if (drive_five(cfg) || drive_imc(cfg)) REFUSE("map", FS_ERR_MODE);   /* the voltage limit is the VSI's, three phases */
             if (cfg->fw_hold) REFUSE("fw_hold", FS_ERR_MODE);   /* fs_fw.h's excess feeds no loop here */
             fs_fwmap_config wc = {&drv->map, cfg->i_max, drv->k_T, cfg->Ts, cfg->bw_current};
@@ -266,7 +267,7 @@ void fs_drive_reset(fs_drive *drv)
     if (drv->cfg.mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
     if (drive_has_smo(&drv->cfg)) fs_smo_reset(&drv->smo, 0.0f, 0.0f);
     if (drive_weakens(&drv->cfg)) fs_fw_reset(&drv->fw);
-    if (drive_weakens(&drv->cfg) && drv->has_map) fs_fwmap_reset(&drv->fwm);
+    if (drive_weakens(&drv->cfg) && drive_map(drv)) fs_fwmap_reset(&drv->fwm);
     if (drive_injects(&drv->cfg)) {
         fs_hfi_reset(&drv->hfi, 0.0f, 0.0f);
         drv->hfi.gain = drv->hfi.gain_prev = 0.0f;   /* fades in */
@@ -337,7 +338,7 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
          * lags further behind (a negative stiffness (p / J) dT/dtheta: 19,000 s^-2 on the Prius MG2 at
          * -73 A, psi_a 0.38 Wb, J 0.035 kg m^2), which the blend's slower filter (w_o_blend, 63 rad/s
          * there) does not overcome: it lost the rotor accelerating through 2,700 rpm. */
-        if (drv->has_map && drv->blend.g_w >= 1.0f && drv->smo.converged && c->smo.form == FS_SMO_FORM_TRACKING)
+        if (drive_map(drv) && drv->blend.g_w >= 1.0f && drv->smo.converged && c->smo.form == FS_SMO_FORM_TRACKING)
             fs_blend_follow(&drv->blend, drv->smo.theta, drv->smo.w, drv->smo.mo.T_d_hat);
         /* Above w_inject_max the injection stops (g_w = 1 there: the HFI
          * angle is not read); below 0.9 w_inject_max it resumes from the
@@ -480,12 +481,12 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
         i_ref = fs_drive_if_step(drv, in, i_ab);
     } else if (c->mode == FS_MODE_SPEED) {
         *T_ref = fs_speed_ctrl_step(&drv->sc, in->w_m_ref, w_e / (float)c->pole_pairs);
-        i_ref = weakens && drv->has_map ? drive_fw_map(drv, in->u_dc, w_e, T_ref) : fs_mtpa_step(&drv->mtpa, *T_ref);
+        i_ref = weakens && drive_map(drv) ? drive_fw_map(drv, in->u_dc, w_e, T_ref) : fs_mtpa_step(&drv->mtpa, *T_ref);
         /* zou2021 eq. (30): i_d* = i_d0* + the filtered correction, i_q*
          * kept; then held inside the current limit circle, whose radius
          * leaves room for the carrier's peak while injecting */
         const float i_lim = c->i_max - (drv->injecting ? drv->hfi.gain * drv->i_hf : 0.0f);
-        if (weakens && !drv->has_map) i_ref.d += drv->fw.i_d;   /* a map's flux weakening has its own trim */
+        if (weakens && !drive_map(drv)) i_ref.d += drv->fw.i_d;   /* a map's flux weakening has its own trim */
         i_ref.d = fs_clamp_sym(i_ref.d, i_lim);
         float iq_max = sqrtf(i_lim * i_lim - i_ref.d * i_ref.d);
         float i_q0 = i_ref.q;
@@ -849,7 +850,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
         fs_current_ctrl_update_held(&drv->cc, u_real,
                                     weakening && c->fw_hold ? fs_fw_hold(&drv->fw, u_ref, u_real, w_e) : u_real);
     if (FS_WITH_ADAPT && c->adapt.T_f > 0.0f) drive_adapt(drv, in, u_real, i_dq, w_e, closed_loop);
-    if (weakening && !drv->has_map)
+    if (weakening && !drive_map(drv))
         fs_fw_step(&drv->fw, u_ref.q - u_real.q, w_e);   /* eq. (26): dv_q */
 
     out->theta_e = theta;
@@ -861,7 +862,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     out->T_ref = T_ref;
     out->u_d = u_real.d;
     out->u_q = u_real.q;
-    drv->T_ff = drv->has_map ? drive_map_step(drv, i_dq, i_ref)   /* the monitor's now, the observers' next step */
+    drv->T_ff = drive_map(drv) ? drive_map_step(drv, i_dq, i_ref)   /* the monitor's now, the observers' next step */
                              : drive_torque_at(c, drv->k_T, i_ref);
     out->theta_est = theta;
     out->w_est = w_e;

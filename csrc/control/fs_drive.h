@@ -133,6 +133,8 @@
  *   FS_WITH_IDENT       the identification mode (fs_ident.h; mode refused)
  *   FS_WITH_ADAPT       the online R_s and psi_f correction (fs_param_adapt.h; adapt refused)
  *   FS_WITH_DTCOMP      dead-time compensation on the predicted current (fs_dtcomp.h; dt_predict refused)
+ *   FS_WITH_FLUXMAP     a flux map in the controller (fs_fluxmap.h, fs_fwmap.h; map refused): 4.7 kB of
+ *                       flash at -O2, 900 B of config, 2.2 kB of RAM (the flux weakening's table)
  * A three-phase inverter drive on the blend with flux weakening needs only
  * FS_WITH_DTCOMP (the scenarios' default while the drive injects: the
  * carrier's current crosses zero within the period; without a carrier

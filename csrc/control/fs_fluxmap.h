@@ -29,6 +29,12 @@
 #include "fs_transforms.h"
 #include "fs_types.h"
 
+/* FS_WITH_FLUXMAP 0 (fs_drive.h, compile-time options): the controller
+ * without a flux map; its code is not linked and a map is refused. */
+#ifndef FS_WITH_FLUXMAP
+#define FS_WITH_FLUXMAP 1
+#endif
+
 enum { FS_FLUXMAP_ND = 13, FS_FLUXMAP_NQ = 17, FS_FLUXMAP_N = 221 };   /* N = ND NQ */
 
 /* In the drive's configuration: no pointer, the same bytes on every target. */

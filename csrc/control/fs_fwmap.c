@@ -42,7 +42,8 @@ static FS_COLD float fwmap_inverse(const fs_fwmap_config *c, float tol, fs_dq ps
  * psi_lim (the current in *i, from its guess there). */
 static FS_COLD float fwmap_at(const fs_fwmap_config *c, float tol, float psi_lim, float d, fs_dq *i, float *I, bool *ok)
 {
-    const float T = fwmap_inverse(c, tol, (fs_dq){psi_lim * cosf(d), psi_lim * sinf(d)}, i, ok);
+    const float _Complex e = fs_cis(d);   /* the drive's own trigonometry: no libm sinf/cosf in the image */
+    const float T = fwmap_inverse(c, tol, (fs_dq){psi_lim * fs_cre(e), psi_lim * fs_cim(e)}, i, ok);
     *I = sqrtf(i->d * i->d + i->q * i->q);
     return T;
 }
@@ -127,7 +128,8 @@ static FS_COLD fs_status fwmap_row(fs_fwmap *f, const fs_fwmap_config *c, fs_mtp
         fs_dq ib = i_end;
         for (int b = 0; b < 24; ++b) {
             const float mid = 0.5f * (lo + hi);
-            const float T = fwmap_inverse(c, tol, (fs_dq){psi_lim * cosf(mid), psi_lim * sinf(mid)}, &ib, &ok);
+            float I;
+            const float T = fwmap_at(c, tol, psi_lim, mid, &ib, &I, &ok);
             if (!ok) return FS_ERR_PARAM;
             if (T < T_j) lo = mid; else hi = mid;
         }

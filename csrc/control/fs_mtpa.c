@@ -16,8 +16,9 @@ static float mtpa_k(const fs_mtpa_config *c) { return 0.5f * (float)c->phases * 
 /* The map's torque at current magnitude I and angle g (from the d axis). */
 static float mtpa_map_torque(const fs_mtpa *m, float I, float g, fs_dq *i)
 {
-    i->d = I * cosf(g);
-    i->q = I * sinf(g);
+    const float _Complex e = fs_cis(g);   /* the drive's own trigonometry: no libm sinf/cosf in the image */
+    i->d = I * fs_cre(e);
+    i->q = I * fs_cim(e);
     const fs_fluxmap_point p = fs_fluxmap_eval(m->cfg.map, *i);
     return m->k_T * (p.psi.d * i->q - p.psi.q * i->d);
 }
