@@ -663,6 +663,7 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
         fs_drive_in din;
         sample(s, t, &din, i_ph, &i_d, &i_q);
         fs_drive_out dout;
+        memset(&dout, 0, sizeof dout);   /* the fields a mode leaves unwritten (ident_step) read 0, not the stack's */
         fs_drive_step(&s->drive, &din, &dout);
         command(s, dout.duty, &dout.rect);
         if (record) {

@@ -559,6 +559,9 @@ def export_fmu(scenario, out: str | Path, kinds=("drive",), fmi: int = 3, overri
     bad = [k for k in kinds if k not in MODELS]
     if bad or not kinds:
         raise ConfigError("kind", bad or kinds, f"must be among {sorted(MODELS)}", None)
+    if not (CSRC / "fmu" / "fs_fmu.h").is_file():
+        raise ConfigError("--fmu", str(CSRC), "an FMU is built from the source tree's csrc/, which is not here (an "
+                          "installed package without it): export from a clone", None)
     sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario, overrides or None)
     out = out_folder(out)
     for k in kinds:
