@@ -168,3 +168,42 @@ def test_traces_as_a_mat_file_load_with_their_units(tmp_path):
     assert m["metrics"].i_phase_max == res.metrics["i_phase_max"] and m["metrics"].T_e_pp == res.metrics["T_e_pp"]
     assert m["metrics"].true_loss_at.size == 0   # None: MATLAB's empty
     assert list(m["stage_names"])[:2] == ["open", "sensor"]
+
+
+def test_the_drive_fmu_builds_from_its_sources_and_build_description(fmus, tmp_path):
+    """What another platform does: the C files sources/buildDescription.xml
+    lists, compiled with its options by plain cc, in place of the binary;
+    FMPy's run of that build gives the shipped binary's duties."""
+    import re
+    import shutil
+    import subprocess
+    from concurrent.futures import ThreadPoolExecutor
+
+    from fmpy import extract
+
+    path = fmus[("drive", 3)]
+    root = tmp_path / "fmu"
+    extract(str(path), str(root))
+    bd = (root / "sources" / "buildDescription.xml").read_text()
+    files = re.findall(r'<SourceFile name="([^"]+)"', bd)
+    options = re.search(r'compilerOptions="([^"]+)"', bd).group(1).split()
+    assert "fmu/fs_fmi3.c" in files and "control/fs_config.c" in files and "-ffp-contract=off" in options
+    md = read_model_description(str(path))
+    (binary,) = (root / "binaries").rglob(f"{md.coSimulation.modelIdentifier}.*")
+    binary.unlink()
+    cc = shutil.which("cc") or "cc"
+
+    def compile_one(name):
+        obj = tmp_path / (name.replace("/", "_") + ".o")
+        subprocess.run([cc, *options, "-fPIC", "-c", str(root / "sources" / name), "-o", str(obj)], check=True)
+        return str(obj)
+
+    with ThreadPoolExecutor() as pool:
+        objs = list(pool.map(compile_one, files))
+    subprocess.run([cc, "-shared", "-o", str(binary), *objs, "-lm"], check=True)
+    shipped = simulate_fmu(str(path), stop_time=0.05, output_interval=1e-4, output=["duty_a", "duty_b", "stage"])
+    rebuilt = simulate_fmu(str(root), stop_time=0.05, output_interval=1e-4, output=["duty_a", "duty_b", "stage"])
+    assert len(shipped) == len(rebuilt) == 501
+    for name in ("duty_a", "duty_b", "stage"):
+        assert np.array_equal(shipped[name], rebuilt[name]), name
+    assert len(set(shipped["duty_a"])) > 10   # the drive did something: polarity pulses
