@@ -14,7 +14,12 @@
  *
  * The communication step is one control period, FS_FMU_TS: a doStep runs
  * one sample of the drive (its inputs as set before it) and, for the closed
- * loop, the plant over that period. */
+ * loop, the plant over that period.
+ *
+ * fmi2/ and fmi3/ hold the FMI standard's headers as the Modelica
+ * Association publishes them (2-Clause BSD, the licence at the head of each
+ * file), copied unchanged from FMPy 0.3.32's package (fmpy/c-code); the
+ * front ends are this project's own. */
 #ifndef FS_FMU_H
 #define FS_FMU_H
 
