@@ -9,6 +9,9 @@
 
 enum { P_W_M_REF, P_I_D_REF, P_I_Q_REF, P_U_D_REF, P_U_Q_REF, P_W_E_REF, P_T_LOAD, P_W_LOAD, P_SENSORLESS,
        P_U_DC_SCALE, P_N };
+/* fs_sim_hold's indices are these */
+typedef char fs_sim_profile_check[(P_W_M_REF == FS_SIM_W_M_REF && P_T_LOAD == FS_SIM_T_LOAD && P_W_LOAD == FS_SIM_W_LOAD
+                                   && P_U_DC_SCALE == FS_SIM_U_DC_SCALE && P_N == FS_SIM_PROFILES) ? 1 : -1];
 
 struct fs_sim {
     fs_sim_config cfg;
@@ -38,10 +41,24 @@ struct fs_sim {
     double e_cu_prev;        /* the copper-loss meter at the start of the period, J */
     double k_mag;            /* the magnet factor the plant has */
     double psi_f_true;       /* the plant's open-circuit magnet flux, Wb */
+    int held[P_N];           /* fs_sim_hold: the master's value in place of the profile */
+    double held_y[P_N], held_slope[P_N];
+    int sampled;             /* fs_sim_sample ran and fs_sim_actuate has not */
+    double e_in0, p_cond0;   /* at the last sample: the input energy meter, J, and the devices' conduction loss, W */
 };
 
 /* The runner passes drive duties to the inverter and phase currents back. */
 typedef char fs_sim_legs_check[((int)FS_INV_MAX_LEGS >= (int)FS_PHASES_MAX) ? 1 : -1];
+
+/* Profile p at t, and its slope: the master's held value where it holds one (fs_sim_hold). */
+static double prof(fs_sim *s, int p, double t, double *slope)
+{
+    if (s->held[p]) {
+        if (slope) *slope = s->held_slope[p];
+        return s->held_y[p];
+    }
+    return fs_pwl_eval(&s->prof[p], t, slope);
+}
 
 static double pi_const(void) { return 3.14159265358979323846; }
 
@@ -236,7 +253,7 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
     s->x[FS_X_W_M] = cfg->w_m0;
     fs_pmsm_rest_flux(&s->pmsm, s->x);   /* spatial harmonics: zero current at theta_m0 */
     if (cfg->plant.load_kind == FS_LOAD_SPEED_IDEAL)
-        s->x[FS_X_W_M] = fs_pwl_eval(&s->prof[P_W_LOAD], 0.0, NULL);
+        s->x[FS_X_W_M] = prof(s, P_W_LOAD, 0.0, NULL);
     for (int k = 0; k < FS_INV_MAX_LEGS; ++k) s->duty_now[k] = s->duty_next[k] = 0.5;
     s->rng = cfg->seed ? cfg->seed : 0x9E3779B97F4A7C15ULL;
     s->stop_time = NAN;
@@ -319,8 +336,8 @@ static void integrate_period(fs_sim *s, double t0)
         in.open_phase = s->cfg.fault.open_phase;
         in.tau_open = 3.0 * s->cfg.h_max;   /* the interrupted current falls in a few steps */
     }
-    in.T_load = fs_pwl_eval(&s->prof[P_T_LOAD], t0, NULL);
-    in.w_load = fs_pwl_eval(&s->prof[P_W_LOAD], t0, &slope);
+    in.T_load = prof(s, P_T_LOAD, t0, NULL);
+    in.w_load = prof(s, P_W_LOAD, t0, &slope);
     in.dw_load = slope;
     double i_ph[FS_INV_MAX_LEGS];
     int halves = s->cfg.sampling == FS_SAMPLING_DOUBLE ? 1 : 2;
@@ -424,8 +441,8 @@ static void integrate_period_imc(fs_sim *s, double t0)
 {
     fs_pmsm_input in = {0};
     double slope;
-    in.T_load = fs_pwl_eval(&s->prof[P_T_LOAD], t0, NULL);
-    in.w_load = fs_pwl_eval(&s->prof[P_W_LOAD], t0, &slope);
+    in.T_load = prof(s, P_T_LOAD, t0, NULL);
+    in.w_load = prof(s, P_W_LOAD, t0, &slope);
     in.dw_load = slope;
     s->g_int[0] = s->g_int[1] = s->g_int[2] = 0.0;
     double t = t0;
@@ -443,135 +460,216 @@ static void integrate_period_imc(fs_sim *s, double t0)
     }
 }
 
+/* The devices' conduction loss at phase currents i_ph, W: each leg's
+ * conducting device (switch or diode) drops sign(i) u_on + r_on i. The
+ * matrix converter's model has no drops. */
+static double conduction_loss(const fs_sim *s, const double *i_ph)
+{
+    const fs_inverter_config *inv = &s->cfg.inverter;
+    if (s->imc || (inv->u_on == 0.0 && inv->r_on == 0.0)) return 0.0;
+    double p = 0.0;
+    for (int k = 0; k < s->phases; ++k) p += fabs(i_ph[k]) * (inv->u_on + inv->r_on * fabs(i_ph[k]));
+    return p;
+}
+
+/* The sampling instant at t: the true phase and rotor-frame currents, and
+ * the drive's inputs as the hardware gives them (the sensors, the dc link,
+ * the references and the load machine's speed at t). */
+static void sample(fs_sim *s, double t, fs_drive_in *din, double *i_ph, double *i_d, double *i_q)
+{
+    const fs_sim_config *c = &s->cfg;
+    const int p = c->plant.pole_pairs;
+    double slope;
+    if (c->plant.load_kind == FS_LOAD_SPEED_IDEAL)
+        s->x[FS_X_W_M] = prof(s, P_W_LOAD, t, &slope);
+
+    /* the dc link over this period (the inverter's; a sag or a step) */
+    if (!s->imc && (s->prof[P_U_DC_SCALE].n > 0 || s->held[P_U_DC_SCALE]))
+        s->cfg.inverter.u_dc = s->u_dc0 * prof(s, P_U_DC_SCALE, t, NULL);
+
+    phase_currents(s, s->x, i_ph, i_d, i_q);
+    for (int k = 0; k < s->phases; ++k) din->i_ph[k] = (float)adc(s, k, i_ph[k], t);
+    for (int k = s->phases; k < FS_PHASES_MAX; ++k) din->i_ph[k] = 0.0f;
+    din->u_dc = (float)c->inverter.u_dc;
+    if (s->imc) {
+        double u_in[3];
+        inv_clarke3(s->g[FS_GRID_X_VC_A], s->g[FS_GRID_X_VC_B], u_in);
+        for (int k = 0; k < 3; ++k) din->u_in[k] = (float)u_in[k];
+        if (s->k > 0) din->u_dc = (float)(s->g_int[1] / s->Tc);
+    } else {
+        din->u_in[0] = din->u_in[1] = din->u_in[2] = 0.0f;
+    }
+    if (!(c->fault.t_encoder_stop > 0.0 && t >= c->fault.t_encoder_stop))
+        s->theta_enc_held = (float)encoder(s, s->x[FS_X_THETA_M]);
+    din->theta_m_enc = s->theta_enc_held;
+    din->theta_e_ext = (float)wrap_pi(p * s->x[FS_X_THETA_M]);
+    din->w_e_ext = (float)(p * s->x[FS_X_W_M]);
+    din->w_m_ref = (float)prof(s, P_W_M_REF, t, NULL);
+    din->i_d_ref = (float)prof(s, P_I_D_REF, t, NULL);
+    din->i_q_ref = (float)prof(s, P_I_Q_REF, t, NULL);
+    din->u_d_ref = (float)prof(s, P_U_D_REF, t, NULL);
+    din->u_q_ref = (float)prof(s, P_U_Q_REF, t, NULL);
+    din->w_e_ref = (float)prof(s, P_W_E_REF, t, NULL);
+    din->sensorless = prof(s, P_SENSORLESS, t, NULL) > 0.5;
+    s->e_in0 = s->x[FS_X_E_IN];
+    s->p_cond0 = conduction_loss(s, i_ph);
+}
+
+/* The duties (and rectifier intervals) the drive computed at this sample:
+ * at once without the computation delay, else at the next update. */
+static void command(fs_sim *s, const float *duty, const fs_imc_rect *rect)
+{
+    for (int k = 0; k < s->phases; ++k) s->duty_next[k] = duty[k];
+    if (rect) s->rect_next = *rect;
+    if (!s->cfg.delay) {
+        for (int k = 0; k < s->phases; ++k) s->duty_now[k] = s->duty_next[k];
+        s->rect_now = s->rect_next;
+    }
+}
+
+/* The plant's channels of a trace row at time t (the state as it is; u_dc
+ * the dc link sampled at t), the drive's left as they are. */
+static void row_plant(fs_sim *s, double t, const double *i_ph, double i_d, double i_q, double u_dc, double *r)
+{
+    const fs_sim_config *c = &s->cfg;
+    fs_pmsm_input pin = {0};
+    pin.T_load = prof(s, P_T_LOAD, t, NULL);
+    pin.w_load = prof(s, P_W_LOAD, t, NULL);
+    double Te, Tl, id2, iq2;
+    fs_pmsm_outputs(&s->pmsm, s->x, &pin, &id2, &iq2, &Te, &Tl);
+    r[FS_CH_T] = t;
+    r[FS_CH_THETA_E] = wrap_pi(c->plant.pole_pairs * s->x[FS_X_THETA_M]);
+    r[FS_CH_W_M] = s->x[FS_X_W_M];
+    r[FS_CH_PSI_D] = s->x[FS_X_PSI_D];
+    r[FS_CH_PSI_Q] = s->x[FS_X_PSI_Q];
+    r[FS_CH_I_D] = i_d;
+    r[FS_CH_I_Q] = i_q;
+    r[FS_CH_I_A] = i_ph[0];
+    r[FS_CH_I_B] = i_ph[1];
+    r[FS_CH_I_C] = i_ph[2];
+    r[FS_CH_T_E] = Te;
+    r[FS_CH_T_L] = Tl;
+    r[FS_CH_U_D] = s->k > 0 ? s->x[FS_X_UD_INT] / s->Tc : 0.0;
+    r[FS_CH_U_Q] = s->k > 0 ? s->x[FS_X_UQ_INT] / s->Tc : 0.0;
+    r[FS_CH_E_IN] = s->x[FS_X_E_IN];
+    r[FS_CH_E_CU] = s->x[FS_X_E_CU];
+    r[FS_CH_E_AIRGAP] = s->x[FS_X_E_AIRGAP];
+    r[FS_CH_W_MAG] = fs_pmsm_energy(&s->pmsm, s->x);
+    fs_pmsm_currents3(&s->pmsm, s->x, &r[FS_CH_I_D3], &r[FS_CH_I_Q3]);
+    const int imc_mean = s->imc && s->k > 0;
+    r[FS_CH_I_GRID_A] = imc_mean ? s->g_int[0] / s->Tc : 0.0;
+    r[FS_CH_V_PN] = imc_mean ? s->g_int[1] / s->Tc : 0.0;
+    r[FS_CH_U_AB] = imc_mean ? s->g_int[2] / s->Tc : 0.0;
+    r[FS_CH_E_GRID] = s->imc ? s->g[FS_GRID_X_E_GRID] : 0.0;
+    r[FS_CH_E_RF] = s->imc ? s->g[FS_GRID_X_E_RF] : 0.0;
+    r[FS_CH_W_FILTER] = s->imc ? fs_grid_energy(&c->grid, s->g) : 0.0;
+    r[FS_CH_U_DC] = u_dc;
+    r[FS_CH_T_WINDING] = s->thermal_on ? s->thermal.T_w : 0.0;
+    r[FS_CH_T_MAGNET] = s->thermal_on ? s->thermal.T_m : 0.0;
+    r[FS_CH_R_S_TRUE] = s->pmsm.cfg.R_s;
+    r[FS_CH_PSI_F_TRUE] = s->psi_f_true;
+}
+
+/* The drive's channels of a trace row: its inputs and outputs at this sample. */
+static void row_drive(const fs_sim *s, const fs_drive_in *din, const fs_drive_out *dout, double *r)
+{
+    const fs_sim_config *c = &s->cfg;
+    const int p = c->plant.pole_pairs;
+    const double theta_e = r[FS_CH_THETA_E];
+    r[FS_CH_DUTY_A] = dout->duty[0];
+    r[FS_CH_DUTY_B] = dout->duty[1];
+    r[FS_CH_DUTY_C] = dout->duty[2];
+    r[FS_CH_W_M_REF] = din->w_m_ref;
+    r[FS_CH_I_D_REF] = dout->i_d_ref;
+    r[FS_CH_I_Q_REF] = dout->i_q_ref;
+    r[FS_CH_T_REF] = dout->T_ref;
+    r[FS_CH_I_D_HAT] = dout->i_d;
+    r[FS_CH_I_Q_HAT] = dout->i_q;
+    r[FS_CH_U_D_REF] = dout->u_d;
+    r[FS_CH_U_Q_REF] = dout->u_q;
+    r[FS_CH_THETA_HAT] = dout->theta_e;
+    r[FS_CH_W_M_HAT] = dout->w_e / p;
+    r[FS_CH_THETA_ERR] = wrap_pi(theta_e - dout->theta_e);
+    r[FS_CH_OVERMOD] = dout->over_modulation;
+    r[FS_CH_THETA_EST] = dout->theta_est;
+    r[FS_CH_W_M_EST] = dout->w_est / p;
+    r[FS_CH_EST_VALID] = dout->est_valid;
+    r[FS_CH_EST_ERR] = wrap_pi(theta_e - dout->theta_est);
+    r[FS_CH_PHASE] = dout->phase;
+    r[FS_CH_I_D_FW] = dout->i_d_fw;
+    r[FS_CH_G_W] = dout->g_w;
+    r[FS_CH_INJECT] = dout->injecting;
+    r[FS_CH_I_HF_D] = dout->i_hf_d;
+    r[FS_CH_I_HF_Q] = dout->i_hf_q;
+    r[FS_CH_ALPHA] = dout->alpha;
+    r[FS_CH_LOCK_RESID] = dout->lock_resid;
+    r[FS_CH_LOCK_LOST] = dout->lock_lost;
+    r[FS_CH_STAGE] = dout->stage;
+    r[FS_CH_RECOVERIES] = dout->recoveries;
+    const int adapt = c->drive.adapt.T_f > 0.0f;
+    r[FS_CH_R_S_HAT] = adapt ? s->drive.adapt.R_s : c->drive.R_s;
+    r[FS_CH_PSI_F_HAT] = adapt ? s->drive.adapt.psi_f : c->drive.psi_f;
+}
+
+/* The plant over the period from the sample at t with the duties acting,
+ * then the delayed duties and the checks: FS_RUN_DONE or a stop. */
+static int advance(fs_sim *s, double t)
+{
+    const fs_sim_config *c = &s->cfg;
+    s->x[FS_X_UD_INT] = s->x[FS_X_UQ_INT] = 0.0;
+    if (s->imc) integrate_period_imc(s, t); else integrate_period(s, t);
+    if (s->thermal_on) thermal_period(s);
+    if (c->delay) {
+        for (int k = 0; k < s->phases; ++k) s->duty_now[k] = s->duty_next[k];
+        s->rect_now = s->rect_next;
+    }
+    ++s->k;
+    s->x[FS_X_THETA_M] = fmod(s->x[FS_X_THETA_M], 2.0 * pi_const());
+
+    int finite = 1;
+    for (int n = 0; n < FS_GRID_X_N; ++n) finite = finite && isfinite(s->g[n]);
+    for (int n = 0; n < s->nx; ++n) {
+        if (!isfinite(s->x[n]) || !finite) {
+            s->stopped = FS_STOP_NAN;
+            s->stop_time = fs_sim_time(s);
+            return s->stopped;
+        }
+    }
+    if (c->i_trip > 0.0) {
+        double i_ph[FS_INV_MAX_LEGS];
+        phase_currents(s, s->x, i_ph, NULL, NULL);
+        for (int k = 0; k < s->phases; ++k) {
+            if (fabs(i_ph[k]) > c->i_trip) {
+                s->stopped = FS_STOP_OVERCURRENT;
+                s->stop_time = fs_sim_time(s);
+                return s->stopped;
+            }
+        }
+    }
+    return FS_RUN_DONE;
+}
+
 int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
 {
     if (!s || !rows || (!trace && max_rows > 0)) return FS_RUN_ERR_NULL;
     *rows = 0;
     if (s->stopped) return s->stopped;
     const fs_sim_config *c = &s->cfg;
-    const int p = c->plant.pole_pairs;
     while ((double)s->k * s->Tc < t_end - 0.5 * s->Tc) {
         int record = (s->k % c->decimation) == 0;
         if (record && *rows >= max_rows) return FS_RUN_BUFFER_FULL;
         double t = (double)s->k * s->Tc;
-        double slope;
-        if (c->plant.load_kind == FS_LOAD_SPEED_IDEAL)
-            s->x[FS_X_W_M] = fs_pwl_eval(&s->prof[P_W_LOAD], t, &slope);
-
-        /* the dc link over this period (the inverter's; a sag or a step) */
-        if (!s->imc && s->prof[P_U_DC_SCALE].n > 0)
-            s->cfg.inverter.u_dc = s->u_dc0 * fs_pwl_eval(&s->prof[P_U_DC_SCALE], t, NULL);
-
-        /* sample */
         double i_ph[FS_INV_MAX_LEGS], i_d, i_q;
-        phase_currents(s, s->x, i_ph, &i_d, &i_q);
         fs_drive_in din;
-        for (int k = 0; k < s->phases; ++k) din.i_ph[k] = (float)adc(s, k, i_ph[k], t);
-        for (int k = s->phases; k < FS_PHASES_MAX; ++k) din.i_ph[k] = 0.0f;
-        din.u_dc = (float)c->inverter.u_dc;
-        if (s->imc) {
-            double u_in[3];
-            inv_clarke3(s->g[FS_GRID_X_VC_A], s->g[FS_GRID_X_VC_B], u_in);
-            for (int k = 0; k < 3; ++k) din.u_in[k] = (float)u_in[k];
-            if (s->k > 0) din.u_dc = (float)(s->g_int[1] / s->Tc);
-        } else {
-            din.u_in[0] = din.u_in[1] = din.u_in[2] = 0.0f;
-        }
-        if (!(c->fault.t_encoder_stop > 0.0 && t >= c->fault.t_encoder_stop))
-            s->theta_enc_held = (float)encoder(s, s->x[FS_X_THETA_M]);
-        din.theta_m_enc = s->theta_enc_held;
-        din.theta_e_ext = (float)wrap_pi(p * s->x[FS_X_THETA_M]);
-        din.w_e_ext = (float)(p * s->x[FS_X_W_M]);
-        din.w_m_ref = (float)fs_pwl_eval(&s->prof[P_W_M_REF], t, NULL);
-        din.i_d_ref = (float)fs_pwl_eval(&s->prof[P_I_D_REF], t, NULL);
-        din.i_q_ref = (float)fs_pwl_eval(&s->prof[P_I_Q_REF], t, NULL);
-        din.u_d_ref = (float)fs_pwl_eval(&s->prof[P_U_D_REF], t, NULL);
-        din.u_q_ref = (float)fs_pwl_eval(&s->prof[P_U_Q_REF], t, NULL);
-        din.w_e_ref = (float)fs_pwl_eval(&s->prof[P_W_E_REF], t, NULL);
-        din.sensorless = fs_pwl_eval(&s->prof[P_SENSORLESS], t, NULL) > 0.5;
-
-        /* control */
+        sample(s, t, &din, i_ph, &i_d, &i_q);
         fs_drive_out dout;
+        memset(&dout, 0, sizeof dout);   /* the fields a mode leaves unwritten (ident_step) read 0, not the stack's */
         fs_drive_step(&s->drive, &din, &dout);
-        for (int k = 0; k < s->phases; ++k) s->duty_next[k] = dout.duty[k];
-        s->rect_next = dout.rect;
-        if (!c->delay) {
-            for (int k = 0; k < s->phases; ++k) s->duty_now[k] = s->duty_next[k];
-            s->rect_now = s->rect_next;
-        }
-
+        command(s, dout.duty, &dout.rect);
         if (record) {
             double *r = trace + (size_t)(*rows) * FS_CH_N;
-            fs_pmsm_input pin = {0};
-            pin.T_load = fs_pwl_eval(&s->prof[P_T_LOAD], t, NULL);
-            pin.w_load = fs_pwl_eval(&s->prof[P_W_LOAD], t, NULL);
-            double Te, Tl, id2, iq2;
-            fs_pmsm_outputs(&s->pmsm, s->x, &pin, &id2, &iq2, &Te, &Tl);
-            double theta_e = wrap_pi(p * s->x[FS_X_THETA_M]);
-            r[FS_CH_T] = t;
-            r[FS_CH_THETA_E] = theta_e;
-            r[FS_CH_W_M] = s->x[FS_X_W_M];
-            r[FS_CH_PSI_D] = s->x[FS_X_PSI_D];
-            r[FS_CH_PSI_Q] = s->x[FS_X_PSI_Q];
-            r[FS_CH_I_D] = i_d;
-            r[FS_CH_I_Q] = i_q;
-            r[FS_CH_I_A] = i_ph[0];
-            r[FS_CH_I_B] = i_ph[1];
-            r[FS_CH_I_C] = i_ph[2];
-            r[FS_CH_T_E] = Te;
-            r[FS_CH_T_L] = Tl;
-            r[FS_CH_U_D] = s->k > 0 ? s->x[FS_X_UD_INT] / s->Tc : 0.0;
-            r[FS_CH_U_Q] = s->k > 0 ? s->x[FS_X_UQ_INT] / s->Tc : 0.0;
-            r[FS_CH_DUTY_A] = dout.duty[0];
-            r[FS_CH_DUTY_B] = dout.duty[1];
-            r[FS_CH_DUTY_C] = dout.duty[2];
-            r[FS_CH_W_M_REF] = din.w_m_ref;
-            r[FS_CH_I_D_REF] = dout.i_d_ref;
-            r[FS_CH_I_Q_REF] = dout.i_q_ref;
-            r[FS_CH_T_REF] = dout.T_ref;
-            r[FS_CH_I_D_HAT] = dout.i_d;
-            r[FS_CH_I_Q_HAT] = dout.i_q;
-            r[FS_CH_U_D_REF] = dout.u_d;
-            r[FS_CH_U_Q_REF] = dout.u_q;
-            r[FS_CH_THETA_HAT] = dout.theta_e;
-            r[FS_CH_W_M_HAT] = dout.w_e / p;
-            r[FS_CH_THETA_ERR] = wrap_pi(theta_e - dout.theta_e);
-            r[FS_CH_OVERMOD] = dout.over_modulation;
-            r[FS_CH_E_IN] = s->x[FS_X_E_IN];
-            r[FS_CH_E_CU] = s->x[FS_X_E_CU];
-            r[FS_CH_E_AIRGAP] = s->x[FS_X_E_AIRGAP];
-            r[FS_CH_W_MAG] = fs_pmsm_energy(&s->pmsm, s->x);
-            r[FS_CH_THETA_EST] = dout.theta_est;
-            r[FS_CH_W_M_EST] = dout.w_est / p;
-            r[FS_CH_EST_VALID] = dout.est_valid;
-            r[FS_CH_EST_ERR] = wrap_pi(theta_e - dout.theta_est);
-            r[FS_CH_PHASE] = dout.phase;
-            r[FS_CH_I_D_FW] = dout.i_d_fw;
-            r[FS_CH_G_W] = dout.g_w;
-            r[FS_CH_INJECT] = dout.injecting;
-            fs_pmsm_currents3(&s->pmsm, s->x, &r[FS_CH_I_D3], &r[FS_CH_I_Q3]);
-            r[FS_CH_I_HF_D] = dout.i_hf_d;
-            r[FS_CH_I_HF_Q] = dout.i_hf_q;
-            const int imc_mean = s->imc && s->k > 0;
-            r[FS_CH_I_GRID_A] = imc_mean ? s->g_int[0] / s->Tc : 0.0;
-            r[FS_CH_V_PN] = imc_mean ? s->g_int[1] / s->Tc : 0.0;
-            r[FS_CH_U_AB] = imc_mean ? s->g_int[2] / s->Tc : 0.0;
-            r[FS_CH_ALPHA] = dout.alpha;
-            r[FS_CH_E_GRID] = s->imc ? s->g[FS_GRID_X_E_GRID] : 0.0;
-            r[FS_CH_E_RF] = s->imc ? s->g[FS_GRID_X_E_RF] : 0.0;
-            r[FS_CH_W_FILTER] = s->imc ? fs_grid_energy(&c->grid, s->g) : 0.0;
-            r[FS_CH_LOCK_RESID] = dout.lock_resid;
-            r[FS_CH_LOCK_LOST] = dout.lock_lost;
-            r[FS_CH_STAGE] = dout.stage;
-            r[FS_CH_RECOVERIES] = dout.recoveries;
-            r[FS_CH_U_DC] = din.u_dc;
-            r[FS_CH_T_WINDING] = s->thermal_on ? s->thermal.T_w : 0.0;
-            r[FS_CH_T_MAGNET] = s->thermal_on ? s->thermal.T_m : 0.0;
-            r[FS_CH_R_S_TRUE] = s->pmsm.cfg.R_s;
-            r[FS_CH_PSI_F_TRUE] = s->psi_f_true;
-            const int adapt = c->drive.adapt.T_f > 0.0f;
-            r[FS_CH_R_S_HAT] = adapt ? s->drive.adapt.R_s : c->drive.R_s;
-            r[FS_CH_PSI_F_HAT] = adapt ? s->drive.adapt.psi_f : c->drive.psi_f;
+            row_plant(s, t, i_ph, i_d, i_q, din.u_dc, r);
+            row_drive(s, &din, &dout, r);
             ++*rows;
         }
         if (c->lock_stop && dout.lock_lost) {
@@ -584,37 +682,65 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
             s->stop_time = t;
             return s->stopped;
         }
-
-        /* the plant over this period */
-        s->x[FS_X_UD_INT] = s->x[FS_X_UQ_INT] = 0.0;
-        if (s->imc) integrate_period_imc(s, t); else integrate_period(s, t);
-        if (s->thermal_on) thermal_period(s);
-        if (c->delay) {
-            for (int k = 0; k < s->phases; ++k) s->duty_now[k] = s->duty_next[k];
-            s->rect_now = s->rect_next;
-        }
-        ++s->k;
-        s->x[FS_X_THETA_M] = fmod(s->x[FS_X_THETA_M], 2.0 * pi_const());
-
-        int finite = 1;
-        for (int n = 0; n < FS_GRID_X_N; ++n) finite = finite && isfinite(s->g[n]);
-        for (int n = 0; n < s->nx; ++n) {
-            if (!isfinite(s->x[n]) || !finite) {
-                s->stopped = FS_STOP_NAN;
-                s->stop_time = fs_sim_time(s);
-                return s->stopped;
-            }
-        }
-        if (c->i_trip > 0.0) {
-            phase_currents(s, s->x, i_ph, NULL, NULL);
-            for (int k = 0; k < s->phases; ++k) {
-                if (fabs(i_ph[k]) > c->i_trip) {
-                    s->stopped = FS_STOP_OVERCURRENT;
-                    s->stop_time = fs_sim_time(s);
-                    return s->stopped;
-                }
-            }
-        }
+        int st = advance(s, t);
+        if (st != FS_RUN_DONE) return st;
     }
     return FS_RUN_DONE;
+}
+
+int fs_sim_hold(fs_sim *s, int which, double value, double slope)
+{
+    if (!s || which < 0 || which >= P_N) return -1;
+    s->held[which] = 1;
+    s->held_y[which] = value;
+    s->held_slope[which] = slope;
+    return 0;
+}
+
+int fs_sim_sample(fs_sim *s, fs_drive_in *in, double *t)
+{
+    if (!s || !in || !t) return FS_RUN_ERR_NULL;
+    if (s->stopped) return s->stopped;
+    double i_ph[FS_INV_MAX_LEGS], i_d, i_q;
+    *t = (double)s->k * s->Tc;
+    sample(s, *t, in, i_ph, &i_d, &i_q);
+    s->sampled = 1;
+    return FS_RUN_DONE;
+}
+
+int fs_sim_actuate(fs_sim *s, const float *duty, const fs_imc_rect *rect)
+{
+    if (!s || !duty || (s->imc && !rect)) return FS_RUN_ERR_NULL;
+    if (s->stopped) return s->stopped;
+    if (!s->sampled) return FS_RUN_ERR_ORDER;
+    s->sampled = 0;
+    command(s, duty, rect);
+    return advance(s, (double)s->k * s->Tc);
+}
+
+void fs_sim_plant_row(fs_sim *s, double *row)
+{
+    if (!s || !row) return;
+    const double t = fs_sim_time(s);
+    double i_ph[FS_INV_MAX_LEGS], i_d, i_q;
+    phase_currents(s, s->x, i_ph, &i_d, &i_q);
+    double u_dc = s->cfg.inverter.u_dc;
+    if (!s->imc && (s->prof[P_U_DC_SCALE].n > 0 || s->held[P_U_DC_SCALE]))
+        u_dc = s->u_dc0 * prof(s, P_U_DC_SCALE, t, NULL);
+    if (s->imc && s->k > 0) u_dc = (float)(s->g_int[1] / s->Tc);   /* as the drive samples it */
+    row_plant(s, t, i_ph, i_d, i_q, (float)u_dc, row);
+}
+
+void fs_sim_dc_link(fs_sim *s, double *u_dc, double *i_dc, double *p_dc)
+{
+    double u = NAN, p = NAN;
+    if (s && s->k > 0) {
+        double i_ph[FS_INV_MAX_LEGS];
+        phase_currents(s, s->x, i_ph, NULL, NULL);
+        u = s->imc ? s->g_int[1] / s->Tc : s->cfg.inverter.u_dc;
+        p = (s->x[FS_X_E_IN] - s->e_in0) / s->Tc + 0.5 * (s->p_cond0 + conduction_loss(s, i_ph));
+    }
+    if (u_dc) *u_dc = u;
+    if (p_dc) *p_dc = p;
+    if (i_dc) *i_dc = p / u;
 }

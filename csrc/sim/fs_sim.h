@@ -135,7 +135,8 @@ typedef enum {
     FS_STOP_OVERCURRENT = 3,  /* a phase current exceeded i_trip */
     FS_STOP_LOSS_OF_LOCK = 4, /* an estimator lost track of the rotor */
     FS_STOP_POLARITY = 5,     /* the drive could not determine the magnet's polarity and refused to start */
-    FS_RUN_ERR_NULL = -1      /* sim or rows (or trace, with max_rows > 0) is NULL: nothing run */
+    FS_RUN_ERR_NULL = -1,     /* sim or rows (or trace, with max_rows > 0) is NULL: nothing run */
+    FS_RUN_ERR_ORDER = -2     /* fs_sim_actuate without an fs_sim_sample before it: nothing run */
 } fs_run_status;
 
 typedef struct fs_sim fs_sim;
@@ -155,5 +156,40 @@ double fs_sim_stop_time(const fs_sim *sim);
 double fs_sim_adc_saturated_at(const fs_sim *sim);
 /* The drive under simulation, to read its state (e.g. the polarity detection's margin, the identification's result). */
 const fs_drive *fs_sim_drive(const fs_sim *sim);
+
+/* Co-simulation: a master (csrc/fmu's FMU of the closed loop) in place of
+ * the scenario's profiles. From now on profile `which` holds `value` (the
+ * unit of its fs_sim_config profile) and `slope` (per second: the shaft
+ * follows the load machine's speed w_load over the period with it; 0
+ * elsewhere). Returns 0, or -1 for a NULL sim or an index out of range. */
+typedef enum {
+    FS_SIM_W_M_REF = 0, FS_SIM_I_D_REF, FS_SIM_I_Q_REF, FS_SIM_U_D_REF, FS_SIM_U_Q_REF, FS_SIM_W_E_REF,
+    FS_SIM_T_LOAD, FS_SIM_W_LOAD, FS_SIM_SENSORLESS, FS_SIM_U_DC_SCALE, FS_SIM_PROFILES
+} fs_sim_profile;
+int fs_sim_hold(fs_sim *sim, int which, double value, double slope);
+
+/* Co-simulation with the drive outside the runner (an FMU of it, a drive on
+ * a bench), in place of fs_sim_run: call in turn fs_sim_sample, which
+ * writes the inputs the drive gets at the next sampling instant and that
+ * instant's time t, s, and fs_sim_actuate, which takes the duties (the
+ * first `phases`; and the matrix converter's rectifier intervals, else
+ * NULL) the drive computed from them and runs the plant over the period,
+ * with the computation delay as configured. Both return FS_RUN_DONE or the
+ * stop (NaN, overcurrent; FS_RUN_ERR_NULL, FS_RUN_ERR_ORDER). The runner's
+ * own drive is not stepped, no trace is written and the drive's stops (lock,
+ * polarity) are the caller's. */
+int fs_sim_sample(fs_sim *sim, fs_drive_in *in, double *t);
+int fs_sim_actuate(fs_sim *sim, const float *duty, const fs_imc_rect *rect);
+/* The plant's channels of a trace row (FS_CH_*: time, angle, speed, fluxes,
+ * currents, torques, the terminal voltage over the last period, meters, the
+ * dc link, temperatures) at the present time, as the next sample records
+ * them; the drive's channels are left as they are. */
+void fs_sim_plant_row(fs_sim *sim, double *row);
+/* The dc link over the last period: its voltage, V, and the mean current,
+ * A, and power, W, drawn from it: the machine's input energy over the
+ * period (exact, a state) plus the devices' conduction loss (u_on |i| +
+ * r_on i^2 a leg, by the trapezoid over the period's ends). NaN before the
+ * first period. */
+void fs_sim_dc_link(fs_sim *sim, double *u_dc, double *i_dc, double *p_dc);
 
 #endif /* FS_SIM_H */

@@ -112,6 +112,8 @@ def _cmd_run(args) -> int:
     # metrics.json last: its presence marks the folder complete (an older one goes first)
     (out / "metrics.json").unlink(missing_ok=True)
     write_npz(out / "traces.npz", res.traces)
+    if args.mat:
+        write_with(out / "traces.mat", res.to_mat)
     write_with(out / "run.png", lambda tmp: plot_run(res, tmp))
     write_json(out / "metrics.json", json_safe(res.metrics), indent=2)
     print(f"{res.scenario.name}: {res.sim_time:.3f} s simulated in {res.wall_time:.3f} s wall "
@@ -124,7 +126,7 @@ def _cmd_run(args) -> int:
               + (" (the estimate turned by pi)" if res.polarity["flip"] else ""))
     if res.metrics.get("ideal_hardware"):
         print("ideal hardware: " + ", ".join(res.metrics["ideal_hardware"]))
-    print(f"wrote {out}/metrics.json, traces.npz, run.png")
+    print(f"wrote {out}/metrics.json, traces.npz{', traces.mat' if args.mat else ''}, run.png")
     failed = run_verdict(res)
     for line in failed:
         print(f"fullspeed: run failed: {line}", file=sys.stderr)
@@ -283,10 +285,23 @@ def _cmd_identify(args) -> int:
 def _cmd_export(args) -> int:
     from .workflows.export import export
 
-
+    if args.fmu or args.fmu_system:
+        return _cmd_export_fmu(args)
     paths = export(args.scenario, args.out, args.name, _set_overrides(args.set))
     print(f"wrote {' and '.join(str(p) for p in paths)}: the fs_drive_config of {args.scenario} "
           f"(compile the .c with csrc/control; fs_drive_init(&drive, &{args.name}))")
+    return 0
+
+
+def _cmd_export_fmu(args) -> int:
+    from .workflows.fmu import export_fmu
+
+    if args.name != "fs_config":
+        raise ConfigError("--name", args.name, "names the C configuration of the plain export; an FMU is named after "
+                          "its scenario (<name>-drive.fmu, <name>-system.fmu)")
+    kinds = (["drive"] if args.fmu else []) + (["system"] if args.fmu_system else [])
+    for p in export_fmu(args.scenario, args.out, kinds, args.fmi, _set_overrides(args.set)):
+        print(f"wrote {p} (FMI {args.fmi}.0 co-simulation, {p.stat().st_size:,} B)")
     return 0
 
 
@@ -320,6 +335,7 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--out", help="output folder (default out/<name>)")
     r.add_argument("--inverter", choices=["averaged", "switching"], help="override the inverter model")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
+    r.add_argument("--mat", action="store_true", help="also write traces.mat (MATLAB: traces, metrics and units)")
     r.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a scenario field, repeatable: dotted key, TOML value (controller.bw_speed=50)")
     r.set_defaults(func=_cmd_run)
@@ -367,6 +383,11 @@ def main(argv: list[str] | None = None) -> int:
     ex.add_argument("--name", default="fs_config", help="the C constant and the files' name (default fs_config)")
     ex.add_argument("--set", action="append", metavar="KEY=VALUE",
                     help="as run's: a scenario field, repeatable (controller.bw_current=4000)")
+    ex.add_argument("--fmu", action="store_true",
+                    help="write <name>-drive.fmu instead: the drive as an FMI co-simulation unit (one step a control period)")
+    ex.add_argument("--fmu-system", action="store_true",
+                    help="write <name>-system.fmu: plant, converter and drive as fullspeed simulates them")
+    ex.add_argument("--fmi", type=int, choices=[2, 3], default=3, help="the FMI version of the FMUs (default 3)")
     ex.set_defaults(func=_cmd_export)
     sch = sub.add_parser("schema", help="the scenario and machine fields: unit, default, range, meaning (docs/reference.md)")
     sch.add_argument("section", nargs="?", help="e.g. controller, injection, machine, machine.bench (default: all)")

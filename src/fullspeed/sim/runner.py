@@ -3,6 +3,7 @@ bar, the traces, and the Result (the configuration: sim.config)."""
 from __future__ import annotations
 
 import math
+import re
 import time
 from dataclasses import dataclass, field
 
@@ -11,6 +12,7 @@ import numpy as np
 from .._core import ffi, lib
 from ..design.scenario import load_scenario
 from ..model.errors import SimulationError
+from ..model.files import json_safe
 from ..model.scenario import Scenario
 from .config import build_config, check_smo_gain
 from .metrics import STAGES, compute_metrics
@@ -88,6 +90,42 @@ class Result:
         df.attrs["units"] = dict(UNITS)
         df.attrs["scenario"] = self.scenario.name
         return df
+
+    def to_mat(self, path) -> None:
+        """The traces and metrics as a MATLAB .mat file (v5, compressed; scipy
+        needed): `traces` (a struct of the channels, SI), `units` (each
+        channel's unit), `metrics`, `stage_names` (the names of stage's codes,
+        from 0), `scenario`, `stop_reason`, `stop_time` ([] if none). Readable
+        by MATLAB's load and scipy.io.loadmat."""
+        from scipy.io import savemat
+
+        data = {"traces": {k: np.ascontiguousarray(v) for k, v in self.traces.items()},
+                "units": dict(UNITS), "metrics": mat_value(json_safe(self.metrics)),
+                "stage_names": mat_value(list(STAGES)), "scenario": self.scenario.name,
+                "stop_reason": self.stop_reason, "stop_time": mat_value(self.stop_time)}
+        with open(path, "wb") as f:
+            savemat(f, data, do_compression=True, long_field_names=True, oned_as="column")
+
+
+def mat_value(x):
+    """A JSON-like value as scipy.io.savemat takes it: dicts as structs (keys
+    made MATLAB names), lists as arrays or cells, None as [] (MATLAB's empty)."""
+    if isinstance(x, dict):
+        return {mat_name(str(k)): mat_value(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        items = [mat_value(v) for v in x]
+        if items and all(isinstance(v, (int, float, bool, np.number)) for v in items):
+            return np.asarray(items, dtype=float)
+        cell = np.empty(len(items), dtype=object)
+        cell[:] = items
+        return cell
+    return np.zeros((0, 0)) if x is None else x
+
+
+def mat_name(key: str) -> str:
+    """A MATLAB field name: letters, digits and _, starting with a letter."""
+    name = re.sub(r"\W", "_", key, flags=re.ASCII)
+    return name if name[:1].isalpha() else "x" + name
 
 
 class Simulation:

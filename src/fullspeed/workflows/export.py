@@ -188,12 +188,20 @@ def c_float(x: float) -> str:
     return s + "f"
 
 
+def c_double(x: float) -> str:
+    """A double literal that parses back to the same double (the shortest repr)."""
+    if not math.isfinite(x):
+        return c_float(x)
+    s = repr(float(x))
+    return s if any(c in s for c in ".e") else s + ".0"
+
+
 def _leaf(t, v, path: str) -> str:
     if t.kind == "enum":
         return t.elements.get(v, str(v))
     name = t.cname
     if name in ("float", "double"):
-        return c_float(v)
+        return c_double(v) if name == "double" else c_float(v)
     if name in ("_Bool", "bool"):
         return "true" if v else "false"
     if path in ENUMS:
@@ -203,16 +211,17 @@ def _leaf(t, v, path: str) -> str:
     return str(v)
 
 
-def _initializer(t, v, path: str, indent: str, describe) -> list[str]:
-    """Lines of a designated initializer of value v of cffi type t."""
+def _initializer(t, v, path: str, indent: str, describe, pointer=None) -> list[str]:
+    """Lines of a designated initializer of value v of cffi type t (pointer(path,
+    value): the C expression of a non-NULL pointer field, else it is refused)."""
     lines = []
     for name, f in t.fields:
         fp = f"{path}.{name}" if path else name
         ft, fv = f.type, getattr(v, name)
         if ft.kind == "pointer":
-            if fv != ffi.NULL:
+            if fv != ffi.NULL and pointer is None:
                 raise ConfigError(f"drive.{fp}", "a pointer", "cannot be exported (only values): export a table as an array", None)
-            lines.append(f"{indent}.{name} = NULL,")
+            lines.append(f"{indent}.{name} = {pointer(fp, fv) if fv != ffi.NULL else 'NULL'},")
             continue
         if ft.kind == "struct" or (ft.kind == "array" and ft.item.kind == "struct"):
             note = describe(t.cname, name, None, None)
@@ -220,7 +229,7 @@ def _initializer(t, v, path: str, indent: str, describe) -> list[str]:
             note = describe(t.cname, name, fp, any(fv[k] for k in range(ft.length)) if ft.kind == "array" else fv)
         if ft.kind == "struct":
             lines.append(f"{indent}.{name} = {{   /* {note} */")
-            lines += _initializer(ft, fv, fp, indent + "    ", describe)
+            lines += _initializer(ft, fv, fp, indent + "    ", describe, pointer)
             lines.append(f"{indent}}},")
         elif ft.kind == "array":
             it = ft.item
@@ -228,7 +237,7 @@ def _initializer(t, v, path: str, indent: str, describe) -> list[str]:
                 lines.append(f"{indent}.{name} = {{   /* {note} */")
                 for k in range(ft.length):
                     lines.append(f"{indent}    [{k}] = {{")
-                    lines += _initializer(it, fv[k], f"{fp}[{k}]", indent + "        ", describe)
+                    lines += _initializer(it, fv[k], f"{fp}[{k}]", indent + "        ", describe, pointer)
                     lines.append(f"{indent}    }},")
                 lines.append(f"{indent}}},")
             else:
@@ -240,6 +249,12 @@ def _initializer(t, v, path: str, indent: str, describe) -> list[str]:
         else:
             lines.append(f"{indent}.{name} = {_leaf(ft, fv, fp)},   /* {note} */")
     return lines
+
+
+def initializer(cname: str, value, describe, pointer=None) -> list[str]:
+    """The designated initializer's lines of a value of any fs_* struct (as the
+    export's; pointer gives a pointer field's C expression)."""
+    return _initializer(ffi.typeof(cname), value, "", "    ", describe, pointer)
 
 
 def layout_asserts(cname: str) -> list[str]:

@@ -67,7 +67,6 @@ NOT_YET.update({
     "B-REAL": "the catalog of published machines and the controller on their flux maps are not built yet (issue 33)",
     "B-START": "the start chosen by the machine (alignment, I/f, a motion test) is not built yet (issue 34)",
     "B-MAPID": "the identification of the flux map is not built yet (issue 35)",
-    "B-FMU": "the FMI co-simulation units are not built yet (issue 36)",
 })
 
 
