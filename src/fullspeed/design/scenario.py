@@ -168,7 +168,7 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         if f"injection.{key}" not in notes and d["injection"][key] is not None and ctl["angle"] in ("hfi", "blend", "swvi"):
             notes[f"injection.{key}"] = Value(d["injection"][key], "", "given in the machine file or the scenario", True)
     notes.update(d.pop("_notes", {}))
-    warnings = warnings_of(d, m) + check_table_settings(d, m.name, source)
+    warnings = warnings_of(d, m, bw_speed_given="bw_speed" in data.get("controller", {})) + check_table_settings(d, m.name, source)
     return Scenario(name=d["name"], machine=m, data=d, source=source, design=notes, warnings=warnings)
 
 
