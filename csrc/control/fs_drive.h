@@ -86,7 +86,7 @@
  * Timing and re-entrancy. fs_drive_step must complete within Ts of its
  *   sampling instant, before the next update event. On a Cortex-M4F at
  *   -O2 a step takes about 1,280-2,890 instructions on average by angle
- *   source, 4,080 at most (the blend); 2,475 on average and 3,492 at most
+ *   source, 4,080 at most (the blend); 2,479 on average and 3,499 at most
  *   over the blended full-range run in the firmware's build (-flto):
  *   bench/pil.py measures it per mode. It
  *   touches only *drv, *in and *out (no globals, no heap): instances are
@@ -95,7 +95,7 @@
  *   interrupt each other. It uses the FPU (lazy stacking keeps an interrupt
  *   that does correct).
  * Memory. sizeof(fs_drive) is about 7.1 KB (bench/pil.py reports the
- *   target's, 7,104 B; a 64-bit host's is up to 16 B more: its pointers);
+ *   target's, 7,120 B; a 64-bit host's is up to 16 B more: its pointers);
  *   its stack is under 800 B (bench/pil.py: 728 B on the static call graph,
  *   328 B the measured high-water mark).
  */
