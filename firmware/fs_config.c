@@ -7,7 +7,7 @@
 
 /* The layout this configuration was written for: a header that changed since
  * the export fails here, naming the field. */
-_Static_assert(sizeof(fs_drive_config) == 1756u, "fs_drive_config: size differs from the exported layout");
+_Static_assert(sizeof(fs_drive_config) == 1760u, "fs_drive_config: size differs from the exported layout");
 _Static_assert(offsetof(fs_drive_config, config_size) == 0u, "fs_drive_config.config_size moved");
 _Static_assert(offsetof(fs_drive_config, phases) == 4u, "fs_drive_config.phases moved");
 _Static_assert(offsetof(fs_drive_config, mode) == 8u, "fs_drive_config.mode moved");
@@ -67,112 +67,113 @@ _Static_assert(offsetof(fs_drive_config, lock_time) == 216u, "fs_drive_config.lo
 _Static_assert(offsetof(fs_drive_config, lock_recover) == 220u, "fs_drive_config.lock_recover moved");
 _Static_assert(offsetof(fs_drive_config, t_recover) == 224u, "fs_drive_config.t_recover moved");
 _Static_assert(offsetof(fs_drive_config, lock_retries) == 228u, "fs_drive_config.lock_retries moved");
-_Static_assert(offsetof(fs_drive_config, i_start) == 232u, "fs_drive_config.i_start moved");
-_Static_assert(offsetof(fs_drive_config, a_start) == 236u, "fs_drive_config.a_start moved");
-_Static_assert(offsetof(fs_drive_config, w_handover) == 240u, "fs_drive_config.w_handover moved");
-_Static_assert(offsetof(fs_drive_config, hfi) == 244u, "fs_drive_config.hfi moved");
-_Static_assert(offsetof(fs_drive_config, hfi.Ts) == 244u, "fs_drive_config.hfi.Ts moved");
-_Static_assert(offsetof(fs_drive_config, hfi.delay) == 248u, "fs_drive_config.hfi.delay moved");
-_Static_assert(offsetof(fs_drive_config, hfi.u_h) == 252u, "fs_drive_config.hfi.u_h moved");
-_Static_assert(offsetof(fs_drive_config, hfi.w_h) == 256u, "fs_drive_config.hfi.w_h moved");
-_Static_assert(offsetof(fs_drive_config, hfi.R_s) == 260u, "fs_drive_config.hfi.R_s moved");
-_Static_assert(offsetof(fs_drive_config, hfi.L_d) == 264u, "fs_drive_config.hfi.L_d moved");
-_Static_assert(offsetof(fs_drive_config, hfi.L_q) == 268u, "fs_drive_config.hfi.L_q moved");
-_Static_assert(offsetof(fs_drive_config, hfi.w_b_p) == 272u, "fs_drive_config.hfi.w_b_p moved");
-_Static_assert(offsetof(fs_drive_config, hfi.w_b_n) == 276u, "fs_drive_config.hfi.w_b_n moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs) == 280u, "fs_drive_config.hfi.obs moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.Ts) == 280u, "fs_drive_config.hfi.obs.Ts moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.J) == 284u, "fs_drive_config.hfi.obs.J moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.B) == 288u, "fs_drive_config.hfi.obs.B moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.pole_pairs) == 292u, "fs_drive_config.hfi.obs.pole_pairs moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.bandwidth) == 296u, "fs_drive_config.hfi.obs.bandwidth moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp) == 300u, "fs_drive_config.hfi.xcomp moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.n) == 300u, "fs_drive_config.hfi.xcomp.n moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.i_q0) == 304u, "fs_drive_config.hfi.xcomp.i_q0 moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.di_q) == 308u, "fs_drive_config.hfi.xcomp.di_q moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.delta) == 312u, "fs_drive_config.hfi.xcomp.delta moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.poly) == 444u, "fs_drive_config.hfi.xcomp.poly moved");
-_Static_assert(offsetof(fs_drive_config, hfi.leak) == 460u, "fs_drive_config.hfi.leak moved");
-_Static_assert(offsetof(fs_drive_config, hfi.lag) == 464u, "fs_drive_config.hfi.lag moved");
-_Static_assert(offsetof(fs_drive_config, blend) == 468u, "fs_drive_config.blend moved");
-_Static_assert(offsetof(fs_drive_config, blend.w_lower) == 468u, "fs_drive_config.blend.w_lower moved");
-_Static_assert(offsetof(fs_drive_config, blend.w_upper) == 472u, "fs_drive_config.blend.w_upper moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs) == 476u, "fs_drive_config.blend.obs moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.Ts) == 476u, "fs_drive_config.blend.obs.Ts moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.J) == 480u, "fs_drive_config.blend.obs.J moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.B) == 484u, "fs_drive_config.blend.obs.B moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.pole_pairs) == 488u, "fs_drive_config.blend.obs.pole_pairs moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.bandwidth) == 492u, "fs_drive_config.blend.obs.bandwidth moved");
-_Static_assert(offsetof(fs_drive_config, blend.gate) == 496u, "fs_drive_config.blend.gate moved");
-_Static_assert(offsetof(fs_drive_config, w_inject_max) == 500u, "fs_drive_config.w_inject_max moved");
-_Static_assert(offsetof(fs_drive_config, polarity) == 504u, "fs_drive_config.polarity moved");
-_Static_assert(offsetof(fs_drive_config, polarity.Ts) == 504u, "fs_drive_config.polarity.Ts moved");
-_Static_assert(offsetof(fs_drive_config, polarity.i_pulse) == 508u, "fs_drive_config.polarity.i_pulse moved");
-_Static_assert(offsetof(fs_drive_config, polarity.t_lock) == 512u, "fs_drive_config.polarity.t_lock moved");
-_Static_assert(offsetof(fs_drive_config, polarity.t_pulse) == 516u, "fs_drive_config.polarity.t_pulse moved");
-_Static_assert(offsetof(fs_drive_config, polarity.i_pulse_max) == 520u, "fs_drive_config.polarity.i_pulse_max moved");
-_Static_assert(offsetof(fs_drive_config, polarity.d_min) == 524u, "fs_drive_config.polarity.d_min moved");
-_Static_assert(offsetof(fs_drive_config, polarity.w_filter) == 528u, "fs_drive_config.polarity.w_filter moved");
-_Static_assert(offsetof(fs_drive_config, polarity.n_carrier) == 532u, "fs_drive_config.polarity.n_carrier moved");
-_Static_assert(offsetof(fs_drive_config, polarity.w_max) == 536u, "fs_drive_config.polarity.w_max moved");
-_Static_assert(offsetof(fs_drive_config, swvi) == 540u, "fs_drive_config.swvi moved");
-_Static_assert(offsetof(fs_drive_config, swvi.Ts) == 540u, "fs_drive_config.swvi.Ts moved");
-_Static_assert(offsetof(fs_drive_config, swvi.delay) == 544u, "fs_drive_config.swvi.delay moved");
-_Static_assert(offsetof(fs_drive_config, swvi.u_h) == 548u, "fs_drive_config.swvi.u_h moved");
-_Static_assert(offsetof(fs_drive_config, swvi.L_d) == 552u, "fs_drive_config.swvi.L_d moved");
-_Static_assert(offsetof(fs_drive_config, swvi.L_q) == 556u, "fs_drive_config.swvi.L_q moved");
-_Static_assert(offsetof(fs_drive_config, swvi.bandwidth) == 560u, "fs_drive_config.swvi.bandwidth moved");
-_Static_assert(offsetof(fs_drive_config, swvi.w_max) == 564u, "fs_drive_config.swvi.w_max moved");
-_Static_assert(offsetof(fs_drive_config, swvi.sequence) == 568u, "fs_drive_config.swvi.sequence moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp) == 572u, "fs_drive_config.swvi.xcomp moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.n) == 572u, "fs_drive_config.swvi.xcomp.n moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.i_q0) == 576u, "fs_drive_config.swvi.xcomp.i_q0 moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.di_q) == 580u, "fs_drive_config.swvi.xcomp.di_q moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.delta) == 584u, "fs_drive_config.swvi.xcomp.delta moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.poly) == 716u, "fs_drive_config.swvi.xcomp.poly moved");
-_Static_assert(offsetof(fs_drive_config, swvi.carrier_off) == 732u, "fs_drive_config.swvi.carrier_off moved");
-_Static_assert(offsetof(fs_drive_config, k_p_d) == 736u, "fs_drive_config.k_p_d moved");
-_Static_assert(offsetof(fs_drive_config, k_i_d) == 740u, "fs_drive_config.k_i_d moved");
-_Static_assert(offsetof(fs_drive_config, k_p_q) == 744u, "fs_drive_config.k_p_q moved");
-_Static_assert(offsetof(fs_drive_config, k_i_q) == 748u, "fs_drive_config.k_i_q moved");
-_Static_assert(offsetof(fs_drive_config, k_p_w) == 752u, "fs_drive_config.k_p_w moved");
-_Static_assert(offsetof(fs_drive_config, k_i_w) == 756u, "fs_drive_config.k_i_w moved");
-_Static_assert(offsetof(fs_drive_config, cc_internal_model) == 760u, "fs_drive_config.cc_internal_model moved");
-_Static_assert(offsetof(fs_drive_config, converter) == 764u, "fs_drive_config.converter moved");
-_Static_assert(offsetof(fs_drive_config, imc_region) == 768u, "fs_drive_config.imc_region moved");
-_Static_assert(offsetof(fs_drive_config, imc_w_grid) == 772u, "fs_drive_config.imc_w_grid moved");
-_Static_assert(offsetof(fs_drive_config, imc_depth) == 776u, "fs_drive_config.imc_depth moved");
-_Static_assert(offsetof(fs_drive_config, imc_i_lim) == 780u, "fs_drive_config.imc_i_lim moved");
-_Static_assert(offsetof(fs_drive_config, imc_V_im) == 784u, "fs_drive_config.imc_V_im moved");
-_Static_assert(offsetof(fs_drive_config, adapt) == 788u, "fs_drive_config.adapt moved");
-_Static_assert(offsetof(fs_drive_config, adapt.Ts) == 788u, "fs_drive_config.adapt.Ts moved");
-_Static_assert(offsetof(fs_drive_config, adapt.R_s) == 792u, "fs_drive_config.adapt.R_s moved");
-_Static_assert(offsetof(fs_drive_config, adapt.L_d) == 796u, "fs_drive_config.adapt.L_d moved");
-_Static_assert(offsetof(fs_drive_config, adapt.psi_f) == 800u, "fs_drive_config.adapt.psi_f moved");
-_Static_assert(offsetof(fs_drive_config, adapt.i_max) == 804u, "fs_drive_config.adapt.i_max moved");
-_Static_assert(offsetof(fs_drive_config, adapt.w_e_max) == 808u, "fs_drive_config.adapt.w_e_max moved");
-_Static_assert(offsetof(fs_drive_config, adapt.T_f) == 812u, "fs_drive_config.adapt.T_f moved");
-_Static_assert(offsetof(fs_drive_config, adapt.w_lp) == 816u, "fs_drive_config.adapt.w_lp moved");
-_Static_assert(offsetof(fs_drive_config, adapt.min_sep) == 820u, "fs_drive_config.adapt.min_sep moved");
-_Static_assert(offsetof(fs_drive_config, adapt.min_level) == 824u, "fs_drive_config.adapt.min_level moved");
-_Static_assert(offsetof(fs_drive_config, map) == 828u, "fs_drive_config.map moved");
-_Static_assert(offsetof(fs_drive_config, map.di_d) == 828u, "fs_drive_config.map.di_d moved");
-_Static_assert(offsetof(fs_drive_config, map.i_d0) == 832u, "fs_drive_config.map.i_d0 moved");
-_Static_assert(offsetof(fs_drive_config, map.di_q) == 836u, "fs_drive_config.map.di_q moved");
-_Static_assert(offsetof(fs_drive_config, map.psi_scale) == 840u, "fs_drive_config.map.psi_scale moved");
-_Static_assert(offsetof(fs_drive_config, map.psi_d) == 844u, "fs_drive_config.map.psi_d moved");
-_Static_assert(offsetof(fs_drive_config, map.psi_q) == 1286u, "fs_drive_config.map.psi_q moved");
-_Static_assert(offsetof(fs_drive_config, ident) == 1728u, "fs_drive_config.ident moved");
-_Static_assert(offsetof(fs_drive_config, ident.Ts) == 1728u, "fs_drive_config.ident.Ts moved");
-_Static_assert(offsetof(fs_drive_config, ident.delay) == 1732u, "fs_drive_config.ident.delay moved");
-_Static_assert(offsetof(fs_drive_config, ident.pole_pairs) == 1736u, "fs_drive_config.ident.pole_pairs moved");
-_Static_assert(offsetof(fs_drive_config, ident.i_max) == 1740u, "fs_drive_config.ident.i_max moved");
-_Static_assert(offsetof(fs_drive_config, ident.w_spin) == 1744u, "fs_drive_config.ident.w_spin moved");
-_Static_assert(offsetof(fs_drive_config, ident.t_ramp) == 1748u, "fs_drive_config.ident.t_ramp moved");
-_Static_assert(offsetof(fs_drive_config, ident.u_dc_min) == 1752u, "fs_drive_config.ident.u_dc_min moved");
+_Static_assert(offsetof(fs_drive_config, w_over) == 232u, "fs_drive_config.w_over moved");
+_Static_assert(offsetof(fs_drive_config, i_start) == 236u, "fs_drive_config.i_start moved");
+_Static_assert(offsetof(fs_drive_config, a_start) == 240u, "fs_drive_config.a_start moved");
+_Static_assert(offsetof(fs_drive_config, w_handover) == 244u, "fs_drive_config.w_handover moved");
+_Static_assert(offsetof(fs_drive_config, hfi) == 248u, "fs_drive_config.hfi moved");
+_Static_assert(offsetof(fs_drive_config, hfi.Ts) == 248u, "fs_drive_config.hfi.Ts moved");
+_Static_assert(offsetof(fs_drive_config, hfi.delay) == 252u, "fs_drive_config.hfi.delay moved");
+_Static_assert(offsetof(fs_drive_config, hfi.u_h) == 256u, "fs_drive_config.hfi.u_h moved");
+_Static_assert(offsetof(fs_drive_config, hfi.w_h) == 260u, "fs_drive_config.hfi.w_h moved");
+_Static_assert(offsetof(fs_drive_config, hfi.R_s) == 264u, "fs_drive_config.hfi.R_s moved");
+_Static_assert(offsetof(fs_drive_config, hfi.L_d) == 268u, "fs_drive_config.hfi.L_d moved");
+_Static_assert(offsetof(fs_drive_config, hfi.L_q) == 272u, "fs_drive_config.hfi.L_q moved");
+_Static_assert(offsetof(fs_drive_config, hfi.w_b_p) == 276u, "fs_drive_config.hfi.w_b_p moved");
+_Static_assert(offsetof(fs_drive_config, hfi.w_b_n) == 280u, "fs_drive_config.hfi.w_b_n moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs) == 284u, "fs_drive_config.hfi.obs moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.Ts) == 284u, "fs_drive_config.hfi.obs.Ts moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.J) == 288u, "fs_drive_config.hfi.obs.J moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.B) == 292u, "fs_drive_config.hfi.obs.B moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.pole_pairs) == 296u, "fs_drive_config.hfi.obs.pole_pairs moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.bandwidth) == 300u, "fs_drive_config.hfi.obs.bandwidth moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp) == 304u, "fs_drive_config.hfi.xcomp moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.n) == 304u, "fs_drive_config.hfi.xcomp.n moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.i_q0) == 308u, "fs_drive_config.hfi.xcomp.i_q0 moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.di_q) == 312u, "fs_drive_config.hfi.xcomp.di_q moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.delta) == 316u, "fs_drive_config.hfi.xcomp.delta moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.poly) == 448u, "fs_drive_config.hfi.xcomp.poly moved");
+_Static_assert(offsetof(fs_drive_config, hfi.leak) == 464u, "fs_drive_config.hfi.leak moved");
+_Static_assert(offsetof(fs_drive_config, hfi.lag) == 468u, "fs_drive_config.hfi.lag moved");
+_Static_assert(offsetof(fs_drive_config, blend) == 472u, "fs_drive_config.blend moved");
+_Static_assert(offsetof(fs_drive_config, blend.w_lower) == 472u, "fs_drive_config.blend.w_lower moved");
+_Static_assert(offsetof(fs_drive_config, blend.w_upper) == 476u, "fs_drive_config.blend.w_upper moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs) == 480u, "fs_drive_config.blend.obs moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.Ts) == 480u, "fs_drive_config.blend.obs.Ts moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.J) == 484u, "fs_drive_config.blend.obs.J moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.B) == 488u, "fs_drive_config.blend.obs.B moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.pole_pairs) == 492u, "fs_drive_config.blend.obs.pole_pairs moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.bandwidth) == 496u, "fs_drive_config.blend.obs.bandwidth moved");
+_Static_assert(offsetof(fs_drive_config, blend.gate) == 500u, "fs_drive_config.blend.gate moved");
+_Static_assert(offsetof(fs_drive_config, w_inject_max) == 504u, "fs_drive_config.w_inject_max moved");
+_Static_assert(offsetof(fs_drive_config, polarity) == 508u, "fs_drive_config.polarity moved");
+_Static_assert(offsetof(fs_drive_config, polarity.Ts) == 508u, "fs_drive_config.polarity.Ts moved");
+_Static_assert(offsetof(fs_drive_config, polarity.i_pulse) == 512u, "fs_drive_config.polarity.i_pulse moved");
+_Static_assert(offsetof(fs_drive_config, polarity.t_lock) == 516u, "fs_drive_config.polarity.t_lock moved");
+_Static_assert(offsetof(fs_drive_config, polarity.t_pulse) == 520u, "fs_drive_config.polarity.t_pulse moved");
+_Static_assert(offsetof(fs_drive_config, polarity.i_pulse_max) == 524u, "fs_drive_config.polarity.i_pulse_max moved");
+_Static_assert(offsetof(fs_drive_config, polarity.d_min) == 528u, "fs_drive_config.polarity.d_min moved");
+_Static_assert(offsetof(fs_drive_config, polarity.w_filter) == 532u, "fs_drive_config.polarity.w_filter moved");
+_Static_assert(offsetof(fs_drive_config, polarity.n_carrier) == 536u, "fs_drive_config.polarity.n_carrier moved");
+_Static_assert(offsetof(fs_drive_config, polarity.w_max) == 540u, "fs_drive_config.polarity.w_max moved");
+_Static_assert(offsetof(fs_drive_config, swvi) == 544u, "fs_drive_config.swvi moved");
+_Static_assert(offsetof(fs_drive_config, swvi.Ts) == 544u, "fs_drive_config.swvi.Ts moved");
+_Static_assert(offsetof(fs_drive_config, swvi.delay) == 548u, "fs_drive_config.swvi.delay moved");
+_Static_assert(offsetof(fs_drive_config, swvi.u_h) == 552u, "fs_drive_config.swvi.u_h moved");
+_Static_assert(offsetof(fs_drive_config, swvi.L_d) == 556u, "fs_drive_config.swvi.L_d moved");
+_Static_assert(offsetof(fs_drive_config, swvi.L_q) == 560u, "fs_drive_config.swvi.L_q moved");
+_Static_assert(offsetof(fs_drive_config, swvi.bandwidth) == 564u, "fs_drive_config.swvi.bandwidth moved");
+_Static_assert(offsetof(fs_drive_config, swvi.w_max) == 568u, "fs_drive_config.swvi.w_max moved");
+_Static_assert(offsetof(fs_drive_config, swvi.sequence) == 572u, "fs_drive_config.swvi.sequence moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp) == 576u, "fs_drive_config.swvi.xcomp moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.n) == 576u, "fs_drive_config.swvi.xcomp.n moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.i_q0) == 580u, "fs_drive_config.swvi.xcomp.i_q0 moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.di_q) == 584u, "fs_drive_config.swvi.xcomp.di_q moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.delta) == 588u, "fs_drive_config.swvi.xcomp.delta moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.poly) == 720u, "fs_drive_config.swvi.xcomp.poly moved");
+_Static_assert(offsetof(fs_drive_config, swvi.carrier_off) == 736u, "fs_drive_config.swvi.carrier_off moved");
+_Static_assert(offsetof(fs_drive_config, k_p_d) == 740u, "fs_drive_config.k_p_d moved");
+_Static_assert(offsetof(fs_drive_config, k_i_d) == 744u, "fs_drive_config.k_i_d moved");
+_Static_assert(offsetof(fs_drive_config, k_p_q) == 748u, "fs_drive_config.k_p_q moved");
+_Static_assert(offsetof(fs_drive_config, k_i_q) == 752u, "fs_drive_config.k_i_q moved");
+_Static_assert(offsetof(fs_drive_config, k_p_w) == 756u, "fs_drive_config.k_p_w moved");
+_Static_assert(offsetof(fs_drive_config, k_i_w) == 760u, "fs_drive_config.k_i_w moved");
+_Static_assert(offsetof(fs_drive_config, cc_internal_model) == 764u, "fs_drive_config.cc_internal_model moved");
+_Static_assert(offsetof(fs_drive_config, converter) == 768u, "fs_drive_config.converter moved");
+_Static_assert(offsetof(fs_drive_config, imc_region) == 772u, "fs_drive_config.imc_region moved");
+_Static_assert(offsetof(fs_drive_config, imc_w_grid) == 776u, "fs_drive_config.imc_w_grid moved");
+_Static_assert(offsetof(fs_drive_config, imc_depth) == 780u, "fs_drive_config.imc_depth moved");
+_Static_assert(offsetof(fs_drive_config, imc_i_lim) == 784u, "fs_drive_config.imc_i_lim moved");
+_Static_assert(offsetof(fs_drive_config, imc_V_im) == 788u, "fs_drive_config.imc_V_im moved");
+_Static_assert(offsetof(fs_drive_config, adapt) == 792u, "fs_drive_config.adapt moved");
+_Static_assert(offsetof(fs_drive_config, adapt.Ts) == 792u, "fs_drive_config.adapt.Ts moved");
+_Static_assert(offsetof(fs_drive_config, adapt.R_s) == 796u, "fs_drive_config.adapt.R_s moved");
+_Static_assert(offsetof(fs_drive_config, adapt.L_d) == 800u, "fs_drive_config.adapt.L_d moved");
+_Static_assert(offsetof(fs_drive_config, adapt.psi_f) == 804u, "fs_drive_config.adapt.psi_f moved");
+_Static_assert(offsetof(fs_drive_config, adapt.i_max) == 808u, "fs_drive_config.adapt.i_max moved");
+_Static_assert(offsetof(fs_drive_config, adapt.w_e_max) == 812u, "fs_drive_config.adapt.w_e_max moved");
+_Static_assert(offsetof(fs_drive_config, adapt.T_f) == 816u, "fs_drive_config.adapt.T_f moved");
+_Static_assert(offsetof(fs_drive_config, adapt.w_lp) == 820u, "fs_drive_config.adapt.w_lp moved");
+_Static_assert(offsetof(fs_drive_config, adapt.min_sep) == 824u, "fs_drive_config.adapt.min_sep moved");
+_Static_assert(offsetof(fs_drive_config, adapt.min_level) == 828u, "fs_drive_config.adapt.min_level moved");
+_Static_assert(offsetof(fs_drive_config, map) == 832u, "fs_drive_config.map moved");
+_Static_assert(offsetof(fs_drive_config, map.di_d) == 832u, "fs_drive_config.map.di_d moved");
+_Static_assert(offsetof(fs_drive_config, map.i_d0) == 836u, "fs_drive_config.map.i_d0 moved");
+_Static_assert(offsetof(fs_drive_config, map.di_q) == 840u, "fs_drive_config.map.di_q moved");
+_Static_assert(offsetof(fs_drive_config, map.psi_scale) == 844u, "fs_drive_config.map.psi_scale moved");
+_Static_assert(offsetof(fs_drive_config, map.psi_d) == 848u, "fs_drive_config.map.psi_d moved");
+_Static_assert(offsetof(fs_drive_config, map.psi_q) == 1290u, "fs_drive_config.map.psi_q moved");
+_Static_assert(offsetof(fs_drive_config, ident) == 1732u, "fs_drive_config.ident moved");
+_Static_assert(offsetof(fs_drive_config, ident.Ts) == 1732u, "fs_drive_config.ident.Ts moved");
+_Static_assert(offsetof(fs_drive_config, ident.delay) == 1736u, "fs_drive_config.ident.delay moved");
+_Static_assert(offsetof(fs_drive_config, ident.pole_pairs) == 1740u, "fs_drive_config.ident.pole_pairs moved");
+_Static_assert(offsetof(fs_drive_config, ident.i_max) == 1744u, "fs_drive_config.ident.i_max moved");
+_Static_assert(offsetof(fs_drive_config, ident.w_spin) == 1748u, "fs_drive_config.ident.w_spin moved");
+_Static_assert(offsetof(fs_drive_config, ident.t_ramp) == 1752u, "fs_drive_config.ident.t_ramp moved");
+_Static_assert(offsetof(fs_drive_config, ident.u_dc_min) == 1756u, "fs_drive_config.ident.u_dc_min moved");
 
 const fs_drive_config fs_config = {
-    .config_size = 1756u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator set it, and fs_drive_init refuses a configuration ...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
+    .config_size = 1760u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator set it, and fs_drive_init refuses a configuration ...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
     .phases = 3,   /* 3, or 5: the fundamental plane of the VSD, nearest-four-vector PWM; machine yang2022: phases */
     .mode = FS_MODE_SPEED,   /* fs_drive_mode; scenario beyond-full-range: [controller] mode */
     .angle_source = FS_ANGLE_BLEND,   /* fs_angle_source; scenario beyond-full-range: [controller] angle */
@@ -229,9 +230,10 @@ const fs_drive_config fs_config = {
     .fw_cutoff = 0.0f,   /* flux weakening in speed mode (zou2021 PART_1, fs_fw.h): the top electrical speed of eq. (31), rad/s (0: off), the gain on its beta (the loop's dc gain at ...; 0: taken from the drive's fields or designed by fs_drive_init, or off (controller.fw_cutoff) */
     .fw_hold = 0,   /* default of [controller] fw_excess (fullspeed.design.scenario) */
     .lock_time = 0.0199999996f,   /* loss-of-lock monitor (fs_lock.h) while the loops run sensorless: the time, s, the estimator in use may spend off track, net, before lock counts as lost (0 ...; default of [controller] lock_time (fullspeed.design.scenario) */
-    .lock_recover = 1,   /* recovery from a loss of lock (lock_recover = 1; else the monitor latches lock_lost); scenario beyond-full-range: [controller] lock */
+    .lock_recover = 1,   /* recovery from a loss of lock (lock_recover = 1; else the monitor latches lock_lost and the drive goes on): the flying restart, the start sequence again, or ...; scenario beyond-full-range: [controller] lock */
     .t_recover = 0.0500000007f,   /* default of [controller] recover_time (fullspeed.design.scenario) */
     .lock_retries = 3,   /* default of [controller] lock_retries (fullspeed.design.scenario) */
+    .w_over = 3141.59277f,   /* the overspeed stop (fs_drive_protect.h): above this electrical speed, rad/s, the drive halts with FS_FAULT_OVERSPEED (0: none); default of [controller] overspeed_rpm (fullspeed.design.scenario) */
     .i_start = 0.0f,   /* sensorless start (speed mode, FS_ANGLE_SMO, sensorless from standstill): I/f, a current of i_start on the d axis of a frame accelerated at a_start (el. ...; 0: taken from the drive's fields or designed by fs_drive_init, or off (observer.i_start) */
     .a_start = 0.0f,   /* sensorless start (speed mode, FS_ANGLE_SMO, sensorless from standstill): I/f, a current of i_start on the d axis of a frame accelerated at a_start (el. ...; 0: taken from the drive's fields or designed by fs_drive_init, or off (observer.start_accel_rpm_s) */
     .w_handover = 0.0f,   /* sensorless start (speed mode, FS_ANGLE_SMO, sensorless from standstill): I/f, a current of i_start on the d axis of a frame accelerated at a_start (el. ...; 0: taken from the drive's fields or designed by fs_drive_init, or off (observer.start_handover_rpm) */

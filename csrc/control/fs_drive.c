@@ -1,5 +1,6 @@
 #include "fs_drive.h"
 #include "fs_drive_ident.h"
+#include "fs_drive_protect.h"
 #include "fs_drive_start.h"
 #include "fs_math.h"
 
@@ -24,7 +25,7 @@ enum { F = 0, N = 1, P = 2 };
     X(smo.k, F, FS_ERR_SMO_GAIN) X(smo.margin, F, FS_ERR_LIMIT) X(smo.delta, F, FS_ERR_PARAM) \
     X(smo.w_c_min, F, FS_ERR_BANDWIDTH) X(smo.bw_pll, F, FS_ERR_BANDWIDTH) X(smo.w_valid, F, FS_ERR_PARAM) \
     X(fw_w_e_max, N, FS_ERR_LIMIT) X(fw_gain, N, FS_ERR_PARAM) X(fw_cutoff, N, FS_ERR_BANDWIDTH) \
-    X(lock_time, N, FS_ERR_LIMIT) X(t_recover, F, FS_ERR_PARAM) X(i_start, N, FS_ERR_I_MAX) \
+    X(lock_time, N, FS_ERR_LIMIT) X(t_recover, F, FS_ERR_PARAM) X(w_over, N, FS_ERR_LIMIT) X(i_start, N, FS_ERR_I_MAX) \
     X(a_start, F, FS_ERR_PARAM) X(w_handover, F, FS_ERR_PARAM) X(hfi.u_h, F, FS_ERR_PARAM) \
     X(hfi.w_h, F, FS_ERR_BANDWIDTH) X(hfi.w_b_p, F, FS_ERR_BANDWIDTH) X(hfi.w_b_n, F, FS_ERR_BANDWIDTH) \
     X(hfi.obs.bandwidth, F, FS_ERR_BANDWIDTH) X(blend.w_lower, F, FS_ERR_LIMIT) X(blend.w_upper, F, FS_ERR_LIMIT) \
@@ -283,6 +284,8 @@ void fs_drive_reset(fs_drive *drv)
     drv->lock_ri = drv->lock_es = drv->lock_eh = drv->lock_ex = 0.0f;
     drv->stage = FS_STAGE_OPEN;
     drv->recoveries = 0;
+    drv->fault = FS_FAULT_NONE;
+    drv->w_over = drv->cfg.w_over > 0.0f ? drv->cfg.w_over : FS_DRIVE_NO_LIMIT;
     drv->t_left = 0.0f;
     drv->alpha = 0.0f;
     drv->u_ff_hold.alpha = drv->u_ff_hold.beta = 0.0f;
@@ -298,12 +301,6 @@ void fs_drive_reset(fs_drive *drv)
     drv->pll_started = false;
     drv->u_hist[0].alpha = drv->u_hist[0].beta = 0.0f;
     drv->u_hist[1] = drv->u_hist[0];
-}
-
-/* The realised fundamental voltage that acted over the period that ended now. */
-static fs_ab drive_u_past(const fs_drive *drv)
-{
-    return drv->cfg.delay > 0.5f ? drv->u_hist[1] : drv->u_hist[0];
 }
 
 
@@ -461,8 +458,9 @@ static fs_dq drive_fw_map(fs_drive *drv, float u_dc, float w_e, float *T_ref)
     return i;
 }
 
-/* The current reference of the closed-loop modes: polarity pulses, the I/f
- * start, speed control (MTPA and flux weakening) or the reference input. */
+/* The current reference of the closed-loop modes: the zero-current wait of
+ * a recovery, polarity pulses, the I/f start, speed control (MTPA and flux
+ * weakening) or the reference input; i_ab the loops' (fundamental) current. */
 static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, float w_e, bool weakens, float *T_ref)
 {
     const fs_drive_config *c = &drv->cfg;
@@ -470,13 +468,12 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
     *T_ref = 0.0f;
     if (drv->phase == FS_PHASE_RECOVER) {
         i_ref.d = i_ref.q = 0.0f;
-        drv->t_left -= c->Ts;
-        if (drv->t_left <= 0.0f) fs_drive_recover_end(drv);
+        fs_drive_recover_step(drv, i_ab);
     } else if (drv->phase == FS_PHASE_POLARITY) {
         i_ref.d = fs_polarity_step(&drv->pol, drv->hfi.i_p, drv->hfi.w);
         i_ref.q = 0.0f;
         if (drv->pol.stage == FS_POLARITY_DONE) fs_drive_polarity_done(drv);
-        if (drv->pol.stage == FS_POLARITY_UNDETERMINED) drv->phase = FS_PHASE_HALT;
+        if (drv->pol.stage == FS_POLARITY_UNDETERMINED) fs_drive_halt(drv, FS_FAULT_POLARITY, NULL);
     } else if (c->mode == FS_MODE_SPEED && in->sensorless && drv->phase == FS_PHASE_START) {
         i_ref = fs_drive_if_step(drv, in, i_ab);
     } else if (c->mode == FS_MODE_SPEED) {
@@ -642,13 +639,15 @@ static float drive_map_step(fs_drive *drv, fs_dq i, fs_dq i_ref)
 }
 
 /* The operating stage (fs_drive.h) from the phase, the source and weight,
- * and the flux-weakening current with hysteresis. */
+ * and the flux-weakening current with hysteresis; open once halted (in the
+ * step that halts, too). */
 static int drive_stage(const fs_drive *drv, const fs_drive_in *in, float g_w, bool weakens)
 {
     const fs_drive_config *c = &drv->cfg;
     if (c->mode != FS_MODE_CURRENT && c->mode != FS_MODE_SPEED) return FS_STAGE_OPEN;
     if (drv->phase == FS_PHASE_POLARITY) return FS_STAGE_POLARITY;
-    if (drv->phase == FS_PHASE_RECOVER) return FS_STAGE_RECOVERY;
+    if (drv->phase >= FS_PHASE_RECOVER)   /* one comparison for both: RECOVER < HALT */
+        return drv->phase == FS_PHASE_RECOVER ? FS_STAGE_RECOVERY : FS_STAGE_OPEN;
     if (in->sensorless && drv->phase == FS_PHASE_START) return FS_STAGE_START;
     if (weakens) {
         const float lim = (drv->stage == FS_STAGE_FLUX_WEAKENING ? -0.01f : -0.02f) * c->i_max;
@@ -746,6 +745,7 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     drv->stage = drive_stage(drv, in, 0.0f, drive_weakens(c));
     out->stage = drv->stage;
     out->recoveries = 0;
+    if (fabsf(w_e) > drv->w_over) fs_drive_halt(drv, FS_FAULT_OVERSPEED, out);
 }
 
 /* Online R_s and psi_f (fs_param_adapt.h), learnt while the loops run
@@ -763,7 +763,7 @@ static void drive_adapt(fs_drive *drv, const fs_drive_in *in, fs_dq u, fs_dq i, 
     }
 }
 
-/* Halted (FS_PHASE_HALT): zero voltage, the fault held. */
+/* Halted (FS_PHASE_HALT, fs_drive_protect.h): zero voltage, the fault held. */
 static void drive_step_halt(const fs_drive *drv, fs_ab i_ab, fs_drive_out *out)
 {
     *out = (fs_drive_out){0};
@@ -773,8 +773,9 @@ static void drive_step_halt(const fs_drive *drv, fs_ab i_ab, fs_drive_out *out)
     out->i_q = i.q;
     out->phase = FS_PHASE_HALT;
     out->stage = FS_STAGE_OPEN;
-    out->fault = FS_FAULT_POLARITY;   /* the only refusal so far */
+    out->fault = drv->fault;
     out->recoveries = drv->recoveries;
+    out->lock_lost = drv->fault == FS_FAULT_LOCK;
 }
 
 void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
@@ -826,7 +827,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     bool polarity = drv->phase == FS_PHASE_POLARITY;
 
     if (closed_loop) {
-        i_ref = drive_current_ref(drv, in, i_ab, w_e, weakens, &T_ref);
+        i_ref = drive_current_ref(drv, in, i_loop, w_e, weakens, &T_ref);
         u_ref = fs_current_ctrl_step(&drv->cc, i_ref, i_dq, w_e);
     }
 
@@ -892,12 +893,10 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     if (c->lock_time > 0.0f) {
         out->lock_resid = drive_lock_residual(drv, in, out, i_loop, cos_t, sin_t);   /* the current the loops used, as out->i_d, i_q are it in their frame */
         out->lock_lost = fs_lock_step(&drv->lock, out->lock_resid);
-        if (out->lock_lost && c->lock_recover && drv->recoveries < c->lock_retries) {
-            fs_drive_recover_begin(drv);
-            out->lock_lost = false;
-        }
+        if (out->lock_lost && c->lock_recover) fs_drive_lock_lost(drv, out);   /* recover, or halt (fs_drive_protect.h) */
     }
     drv->stage = drive_stage(drv, in, out->g_w, weakens);
     out->stage = drv->stage;
     out->recoveries = drv->recoveries;
+    if (fabsf(w_e) > drv->w_over) fs_drive_halt(drv, FS_FAULT_OVERSPEED, out);
 }

@@ -55,15 +55,20 @@
  *   hardware dead time is the firmware's; t_dead_comp compensates it.
  * Protection. The drive limits its current references to i_max and its
  *   voltage to the modulator's hexagon, refuses a bad configuration (naming
- *   the field), and watches the estimator: out.lock_lost is latched when lock
- *   is lost (after lock_retries recoveries, if configured). It does NOT trip
- *   on overcurrent (i_trip lives in the simulator, not here), on dc-link
- *   over- or under-voltage, temperature, or a failed sensor, and does not
- *   check its inputs for NaN: the firmware turns the PWM off on those, and on
- *   lock_lost, within the same interrupt. Nor does it start where its
- *   polarity detection could not decide: it halts with out.fault =
- *   FS_FAULT_POLARITY (duties 1/2 from then on), which the firmware also
- *   answers by turning the PWM off and reporting it.
+ *   the field), watches the estimator and acts on a loss of lock
+ *   (fs_drive_protect.h): with lock_recover it holds zero current, then
+ *   catches the spinning rotor on its back-EMF observer (a flying restart),
+ *   runs its start sequence again at low speed, or halts with out.fault =
+ *   FS_FAULT_LOCK; without, out.lock_lost is latched and it goes on. It
+ *   halts with FS_FAULT_OVERSPEED when its speed passes w_over, and where
+ *   its polarity detection could not decide, with FS_FAULT_POLARITY. Halted,
+ *   its duties are 1/2 from then on: the firmware turns the PWM off on a
+ *   fault (above the speed where the line-to-line back-EMF's peak exceeds
+ *   the link, the active short circuit instead), and on lock_lost, within
+ *   the same interrupt, and reports it. It does NOT trip on overcurrent
+ *   (i_trip lives in the simulator, not here), on dc-link over- or
+ *   under-voltage, temperature, or a failed sensor, and does not check its
+ *   inputs for NaN: the firmware turns the PWM off on those.
  * References. The loops follow in.w_m_ref (speed mode) or i_d_ref, i_q_ref
  *   (current mode) as given: a speed step asks for T_max at once and the
  *   estimators see the fastest change the machine can make. A firmware
@@ -81,7 +86,7 @@
  * Timing and re-entrancy. fs_drive_step must complete within Ts of its
  *   sampling instant, before the next update event. On a Cortex-M4F at
  *   -O2 a step takes about 1,280-2,890 instructions on average by angle
- *   source, 4,080 at most (the blend); 2,475 on average and 3,492 at most
+ *   source, 4,080 at most (the blend); 2,479 on average and 3,499 at most
  *   over the blended full-range run in the firmware's build (-flto):
  *   bench/pil.py measures it per mode. It
  *   touches only *drv, *in and *out (no globals, no heap): instances are
@@ -90,7 +95,7 @@
  *   interrupt each other. It uses the FPU (lazy stacking keeps an interrupt
  *   that does correct).
  * Memory. sizeof(fs_drive) is about 7.1 KB (bench/pil.py reports the
- *   target's, 7,104 B; a 64-bit host's is up to 16 B more: its pointers);
+ *   target's, 7,120 B; a 64-bit host's is up to 16 B more: its pointers);
  *   its stack is under 800 B (bench/pil.py: 728 B on the static call graph,
  *   328 B the measured high-water mark).
  */
@@ -187,14 +192,17 @@ typedef enum {
     FS_PHASE_START = 1,      /* I/f start: open-loop frame, waiting for the observer */
     FS_PHASE_POLARITY = 2,   /* magnet polarity detection: d-current pulses, i_q = 0 */
     FS_PHASE_RECOVER = 3,    /* lock lost: zero current while the estimators settle (fs_drive_start.c) */
-    FS_PHASE_HALT = 4        /* refused to go on (fs_drive_out.fault): zero voltage, no injection */
+    FS_PHASE_HALT = 4        /* refused to go on (fs_drive_out.fault): zero voltage, no injection (last: fs_drive.c
+                                tells RECOVER and HALT from the rest with one comparison) */
 } fs_drive_phase;
 
 /* Why the drive refused to go on (fs_drive_out.fault), held from then on;
  * the caller must stop the inverter and report it. */
 typedef enum {
     FS_FAULT_NONE = 0,
-    FS_FAULT_POLARITY = 1    /* polarity detection found no margin up to its largest pulse (fs_polarity.h) */
+    FS_FAULT_POLARITY = 1,   /* polarity detection found no margin up to its largest pulse (fs_polarity.h) */
+    FS_FAULT_LOCK = 2,       /* lock lost and not re-acquired: the retries spent, or none possible (fs_drive_protect.h) */
+    FS_FAULT_OVERSPEED = 3   /* the speed passed w_over (fs_drive_protect.h) */
 } fs_drive_fault;
 
 /* The operating stage, traced: where the drive is in its sequence
@@ -305,16 +313,16 @@ typedef struct {
      * over lock_time / 4 as well. */
     float lock_time;
     /* recovery from a loss of lock (lock_recover = 1; else the monitor
-     * latches lock_lost). The currents are held at zero for t_recover, s,
-     * while the estimators settle without the loops' disturbance; then, if
-     * the sliding-mode observer is valid and (in the blend) above w_lower,
-     * every estimate is set to its angle and speed (a catch on the fly);
-     * otherwise the start sequence runs again: polarity detection and
-     * injection, or the I/f start. After lock_retries recoveries the next
-     * loss latches lock_lost. */
+     * latches lock_lost and the drive goes on): the flying restart, the
+     * start sequence again, or the halt with FS_FAULT_LOCK, by the speed the
+     * back-EMF says (fs_drive_protect.h); t_recover, s, the zero-current
+     * wait; after lock_retries recoveries the next loss halts. */
     int lock_recover;
     float t_recover;
     int lock_retries;
+    /* the overspeed stop (fs_drive_protect.h): above this electrical speed,
+     * rad/s, the drive halts with FS_FAULT_OVERSPEED (0: none) */
+    float w_over;
     /* sensorless start (speed mode, FS_ANGLE_SMO, sensorless from standstill):
      * I/f, a current of i_start on the d axis of a frame accelerated at a_start
      * (el. rad/s^2) up to w_handover (el. rad/s), where the loops take the
@@ -435,6 +443,8 @@ typedef struct {
     float lock_a;            /* the residual's low-pass pole */
     float lock_ri, lock_es, lock_eh;   /* low-passed: SMO current error / delta, SMO PLL error, injection error */
     float lock_ex;           /* low-passed: |SMO angle - blended angle| while the SMO is valid, rad */
+    float w_over;            /* the overspeed stop on the loops' speed, el. rad/s: cfg.w_over; FS_DRIVE_NO_LIMIT
+                                without one and during a recovery's zero-current wait (fs_drive_protect.h) */
     int stage;               /* fs_drive_stage */
     int recoveries;
     float t_left;            /* s left in FS_PHASE_RECOVER */
@@ -472,6 +482,8 @@ typedef struct {
     fs_ab u_ff_hold, u_ff_next;
     fs_drive_out held;
     fs_ident ident;          /* FS_MODE_IDENTIFY */
+    int fault;               /* fs_drive_fault, held in FS_PHASE_HALT */
+    float e_rec;             /* FS_PHASE_RECOVER: the back-EMF's magnitude, low-passed, V (fs_drive_protect.h) */
     fs_fluxmap map;          /* on cfg.map, when has_map */
     fs_fwmap fwm;            /* with the map and flux weakening: the references within the voltage limit */
     /* after a refused init, the config field or sub-block at fault, as a

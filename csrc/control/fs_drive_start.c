@@ -1,6 +1,7 @@
 /* The drive's start-up sequence (polarity detection, the injection
- * estimators' first step, the I/f start and its hand-over) and its recovery
- * from a loss of lock; the hub (fs_drive.c) calls these. */
+ * estimators' first step, the I/f start and its hand-over), also run again
+ * after a loss of lock at low speed; the hub (fs_drive.c) and the protection
+ * (fs_drive_protect.c) call these. */
 #include "fs_drive_start.h"
 #include "fs_math.h"
 
@@ -70,55 +71,27 @@ fs_dq fs_drive_if_step(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab)
     return i_ref;
 }
 
-/* Lock lost, recovery on (fs_drive.h): zero current from now on; the loops'
- * controllers start afresh; an observer that still tracks (the SMO, valid,
- * in the blend above w_lower) hands its angle and speed to every estimate. */
-static bool drive_smo_catches(const fs_drive *drv)
+/* The start sequence again, after a loss of lock at low speed
+ * (fs_drive_protect.h): polarity detection on the injection estimator,
+ * which kept following the saliency, or the I/f start; false without one
+ * (the SMO started on the encoder). */
+FS_COLD bool fs_drive_restart(fs_drive *drv)
 {
     const fs_drive_config *c = &drv->cfg;
-    if (!drive_has_smo(c) || !drv->smo.valid) return false;
-    return c->angle_source != FS_ANGLE_BLEND || fabsf(drv->smo.w) >= drv->blend.cfg.w_lower;
-}
-
-static void drive_catch(fs_drive *drv)
-{
-    if (drv->cfg.angle_source != FS_ANGLE_BLEND) return;
-    fs_blend_reset(&drv->blend, drv->smo.theta, drv->smo.w);
-    fs_hfi_set_angle(&drv->hfi, drv->smo.theta, drv->smo.w);
-}
-
-void fs_drive_recover_begin(fs_drive *drv)
-{
-    const fs_drive_config *c = &drv->cfg;
-    drv->phase = FS_PHASE_RECOVER;
-    drv->t_left = c->t_recover;
-    drv->recoveries += 1;
-    fs_lock_reset(&drv->lock);   /* the residual's low-passes restart out of FS_PHASE_RUN */
-    if (c->mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
-    if (drive_weakens(c)) fs_fw_reset(&drv->fw);
-    if (drive_smo_catches(drv)) drive_catch(drv);
-}
-
-/* The end of the zero-current wait: on the observer's estimate if it
- * tracks, else the start sequence again (polarity detection on the
- * injection estimator, which kept following the saliency, or the I/f start). */
-void fs_drive_recover_end(fs_drive *drv)
-{
-    const fs_drive_config *c = &drv->cfg;
-    drv->phase = FS_PHASE_RUN;
-    if (drive_smo_catches(drv)) {
-        drive_catch(drv);
-        if (c->mode == FS_MODE_SPEED) fs_speed_ctrl_preset(&drv->sc, drv->smo.w / (float)c->pole_pairs, 0.0f);
-    } else if (drive_injects(c)) {
+    if (drive_injects(c)) {
         drv->inject_on = true;
         if (c->angle_source == FS_ANGLE_BLEND) fs_blend_reset(&drv->blend, drv->hfi.theta, drv->hfi.w);
         if (c->polarity.i_pulse > 0.0f) {
             fs_polarity_reset(&drv->pol);
             drv->phase = FS_PHASE_POLARITY;
         }
-    } else if (drive_starts(c)) {
+        return true;
+    }
+    if (drive_starts(c)) {
         drv->theta_if = drv->smo.theta;
         drv->w_if = 0.0f;
         drv->phase = FS_PHASE_START;
+        return true;
     }
+    return false;
 }

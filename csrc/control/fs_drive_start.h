@@ -1,6 +1,6 @@
 /* The drive's internals shared by its files (not part of the public API):
- * the predicates on its configuration, and the start-up sequence and
- * recovery (fs_drive_start.c) that the hub (fs_drive.c) calls. */
+ * the predicates on its configuration, and the start-up sequence
+ * (fs_drive_start.c) that the hub (fs_drive.c) calls. */
 #ifndef FS_DRIVE_START_H
 #define FS_DRIVE_START_H
 
@@ -67,9 +67,7 @@ void fs_drive_start_estimators(fs_drive *drv, const fs_drive_in *in);
 void fs_drive_polarity_done(fs_drive *drv);
 /* One step of the I/f start: its current reference, and the hand-over. */
 fs_dq fs_drive_if_step(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab);
-/* Lock lost with recovery on: zero current, the catch if the observer tracks. */
-void fs_drive_recover_begin(fs_drive *drv);
-/* The end of the zero-current wait: the catch, or the start sequence again. */
-void fs_drive_recover_end(fs_drive *drv);
+/* The start sequence again after a loss of lock (false: none). */
+bool fs_drive_restart(fs_drive *drv);
 
 #endif /* FS_DRIVE_START_H */

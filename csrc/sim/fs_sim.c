@@ -677,8 +677,9 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
             s->stop_time = t;
             return s->stopped;
         }
-        if (dout.fault == FS_FAULT_POLARITY) {   /* the drive refused to start: as a firmware would, stop */
-            s->stopped = FS_STOP_POLARITY;
+        if (dout.fault != FS_FAULT_NONE) {   /* the drive halted: as a firmware would, stop (the PWM off) */
+            s->stopped = dout.fault == FS_FAULT_POLARITY ? FS_STOP_POLARITY
+                       : dout.fault == FS_FAULT_OVERSPEED ? FS_STOP_OVERSPEED : FS_STOP_LOSS_OF_LOCK;
             s->stop_time = t;
             return s->stopped;
         }

@@ -133,8 +133,9 @@ typedef enum {
     FS_RUN_BUFFER_FULL = 1,   /* trace buffer full before t_end: call again */
     FS_STOP_NAN = 2,          /* a state became NaN or infinite */
     FS_STOP_OVERCURRENT = 3,  /* a phase current exceeded i_trip */
-    FS_STOP_LOSS_OF_LOCK = 4, /* an estimator lost track of the rotor */
+    FS_STOP_LOSS_OF_LOCK = 4, /* an estimator lost track of the rotor (and, with recovery, was not re-acquired) */
     FS_STOP_POLARITY = 5,     /* the drive could not determine the magnet's polarity and refused to start */
+    FS_STOP_OVERSPEED = 6,    /* the drive halted at its overspeed limit (fs_drive_protect.h) */
     FS_RUN_ERR_NULL = -1,     /* sim or rows (or trace, with max_rows > 0) is NULL: nothing run */
     FS_RUN_ERR_ORDER = -2     /* fs_sim_actuate without an fs_sim_sample before it: nothing run */
 } fs_run_status;

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 import re
 import sys
 import time
@@ -20,6 +21,8 @@ import tomllib
 import warnings
 from importlib import resources
 from pathlib import Path
+
+import numpy as np
 
 from .design.checks import polarity_blind
 from .design.report import design_report, envelope_report, scenario_envelope
@@ -84,15 +87,56 @@ def run_verdict(res) -> list[str]:
         out.append(f"stopped at t = {t_stop:.4f} s: polarity undetermined ({why}): the drive refused to start sensorless")
     elif res.stop_reason == "interrupted":
         out.append(f"interrupted at t = {t_stop:.6f} s (traces up to there were written)")
+    elif res.stop_reason in ("overspeed", "loss_of_lock"):
+        out.append(f"stopped at t = {t_stop:.4f} s with the PWM off: {_protection_stop(res)} (traces up to the stop were written)")
     elif res.stop_reason != "done":
         out.append(f"stopped at t = {t_stop:.6f} s: {res.stop_reason} (traces up to the stop were written)")
-    if m.get("lock_lost_at") is not None:
-        out.append(f"loss of lock flagged by the drive's monitor at t = {m['lock_lost_at']:.4f} s")
-    if m.get("true_loss_at") is not None:
-        flagged = m.get("lock_lost_at") is not None or res.stop_reason != "done"
-        out.append(f"the estimate was 90 el.deg off the rotor for 20 ms net by t = {m['true_loss_at']:.4f} s (the simulation's truth)"
+    latched = np.flatnonzero(res["lock_lost"] > 0) if res["t"].size else []
+    if len(latched):
+        went_on = res.stop_reason == "done" and res.scenario.data["controller"]["lock"] == "detect"
+        out.append(f"loss of lock flagged by the drive's monitor at t = {res['t'][latched[0]]:.4f} s"
+                   + ("; the drive went on (controller.lock = \"detect\")" if went_on else ""))
+    if m.get("true_loss_unanswered_at") is not None:
+        flagged = len(latched) > 0 or res.stop_reason != "done"
+        out.append(f"the estimate was 90 el.deg off the rotor for 20 ms net by t = {m['true_loss_unanswered_at']:.4f} s (the simulation's truth)"
                    + ("" if flagged else ": the drive did not flag it (a silent failure)"))
+    start = m.get("start_unfinished")
+    if start:
+        out.append(f"the run ended in the start stage {start['stage']} (since t = {start['since']:.4f} s): the drive "
+                   + ("never closed its loops on the estimate" if start["never_left"] else "had not closed its loops on the estimate again"))
+    end = m.get("speed_end")
+    if end and end["far"]:
+        w = end["window"]
+        out.append(f"the speed ends at {end['speed_rpm']:.1f} rpm against its reference {end['ref_rpm']:.1f} rpm (means over "
+                   f"{w[0]:.4g}..{w[1]:.4g} s), {abs(end['speed_rpm'] - end['ref_rpm']):.1f} rpm off: outside the "
+                   f"+-{end['band_rpm']:.1f} rpm of a speed loop in control (10 % of the reference, at least 5 % of rated speed)")
     return out
+
+
+def _protection_stop(res) -> str:
+    """Why the drive halted (fs_drive_protect.h), for a stop reason
+    overspeed or loss_of_lock."""
+    ctl, m = res.scenario.data["controller"], res.metrics
+    rotor = abs(float(res["w_m"][-1])) * 60.0 / (2.0 * math.pi) if res["t"].size else float("nan")
+    if res.stop_reason == "overspeed":
+        w = abs(float(res["w_m_hat"][-1])) * 60.0 / (2.0 * math.pi)
+        return (f"overspeed, the drive's speed {w:.0f} rpm past its limit {ctl['overspeed_rpm']:.0f} rpm "
+                f"(controller.overspeed_rpm; the rotor at {rotor:.0f} rpm)")
+    if ctl["lock"] == "stop":
+        return "loss of lock (controller.lock = \"stop\")"
+    events = m.get("lock_events", [])
+    if events and events[-1]["action"] == "stopped" and events[-1]["halted"]:
+        h = m.get("halt") or {}
+        low = {"blend": ("blending.lower_rpm", res.scenario.data["blending"].get("lower_rpm")),
+               "smo": ("observer.start_handover_rpm", res.scenario.data["observer"].get("start_handover_rpm"))
+               if res.scenario.data["observer"]["start"] == "if" else (None, None)}.get(ctl["angle"], (None, None))
+        return (f"loss of lock not re-acquired: at the end of the zero-current wait the back-EMF measured "
+                f"{h.get('emf_V', float('nan')):.3g} V, {abs(h.get('emf_rpm', float('nan'))):.0f} rpm by psi_f (the rotor's "
+                f"{events[-1]['rotor_rpm']:.0f} rpm), where the back-EMF observer had not caught the rotor; "
+                + (f"below {low[1]:.0f} rpm ({low[0]}) the start sequence would have found it" if low[0]
+                   else "the drive has no start sequence to find it again (the observer started on the encoder)"))
+    return (f"loss of lock again after {len(events)} re-acquisition{'s' if len(events) != 1 else ''} "
+            f"(controller.lock_retries = {ctl['lock_retries']})")
 
 
 def _cmd_run(args) -> int:
@@ -119,8 +163,6 @@ def _cmd_run(args) -> int:
     print(f"{res.scenario.name}: {res.sim_time:.3f} s simulated in {res.wall_time:.3f} s wall "
           f"= {res.speed_ratio:.1f} simulated s per wall s ({res.scenario.data['converter']['inverter']} inverter)")
     print("\n".join(summary_lines(res.metrics)))
-    if res.metrics.get("sensorless_err_deg_max") is not None:
-        print(f"largest angle error while sensorless: {res.metrics['sensorless_err_deg_max']:.2f} el.deg")
     if res.polarity is not None and res.polarity["stage"] == "done":
         print(f"polarity: decided with margin {res.polarity['margin']:.2f} at {res.polarity['i_pulse']:.3g} A"
               + (" (the estimate turned by pi)" if res.polarity["flip"] else ""))

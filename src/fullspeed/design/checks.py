@@ -10,9 +10,14 @@ hardware.
   the MTPA current meets the voltage limit without flux weakening; a
   current reference whose voltage at the load's speed exceeds the limit;
 - plausibility: parameters far outside what machines have (time constants,
-  the back-EMF against the link and the rated voltage, the torque constant
-  against the rated torque, copper losses), which are unit mistakes more
-  often than machines (H for mH, kg m^2 for g m^2);
+  the back-EMF at rated speed against the rated voltage or the link, the
+  torque at rated current with its reluctance part against the rated
+  torque, copper losses), which are unit and definition mistakes more often
+  than machines (H for mH, kg m^2 for g m^2, poles for pole pairs, psi_f
+  from a line-to-line Ke, the rated current as rms), each line naming the
+  field and the likely mistake;
+- the speed loop against the observer whose speed it takes (a given
+  controller.bw_speed above what design.scenario allows it);
 - polarity detection on a machine without the d-axis saturation asymmetry
   it measures (linear magnetics), with a rotor so light that its pulses
   spin it, or under a load that turns the rotor while the pulses make no
@@ -20,6 +25,7 @@ hardware.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -29,15 +35,31 @@ from ..model.errors import ConfigError
 from ..model.units import rad_s_to_rpm, rpm_to_rad_s
 from .controller import controller_model, hfi_design, injection_inductances
 from .envelope import OVERMODULATION, Limits
-from .magnetics import saliency_warnings
+from .machine import mtpa_torque
+from .magnetics import mtpa_locus, saliency_warnings
 from .rules import CARRIER_LOOP_ACTION_MAX, carrier_loop_action, control_period, u_linear
 
 # The bands of plausibility, each with its reason.
 TAU_E = (1e-5, 1.0)      # s, L_d / R_s: 10 us (a few-mH machine with a large R) .. 1 s (large machines reach 0.1 s)
 TAU_M = (1e-3, 20.0)     # s, J w_rated / T_rated: the time to rated speed at rated torque
 EMF_PER_LINK = 2.0       # the back-EMF at rated speed may exceed the link (flux weakening), not by 2x
-K_T = (0.5, 3.0)         # 1.5 p psi_f i_rated / T_rated: reluctance torque and saturation move it, not by 2x
+# The back-EMF at rated speed against the rated (terminal) voltage, where the machine gives it: the terminal
+# voltage carries the EMF and the current's drops (catalog: 0.69..1.04); above 1.3 the magnet flux alone would
+# need flux weakening cancelling a quarter of it at rated speed: twice the pole pairs or a line-to-line Ke's
+# psi_f (x sqrt 3) put a machine from 0.65 or 0.75 there
+EMF_PER_RATED_VOLTAGE = 1.3
+K_T_MAGNET = 0.5         # 1.5 p psi_f i_rated / T_rated: the magnet alone below half the rated torque is a current given as rms or a small psi_f
+# The torque at rated current on MTPA, 1.5 p (psi_f i_q + (L_d - L_q) i_d i_q) (a flux map's own), against the
+# rated torque. Below 0.7 the machine cannot make its rating (the zoo's, which draws the magnet's share at
+# 0.8..1, reaches 0.81). Above 2.4 it makes far more than its rating, beyond what saturation explains with the
+# small-signal inductances a datasheet gives: zou2021's 1.92, the Prius MG2's published 2.26 / 6.15 mH at its
+# 250 A (2.26 x its 400 N m; its flux map 1.21 x); twice the pole pairs doubles it (Prius 4.52), a line-to-line
+# Ke's psi_f (x sqrt 3) raises it to 2.60 there
+K_T_TOTAL = (0.7, 2.4)
 COPPER = 0.5             # copper losses at rated current, of rated power: small low-voltage machines reach 0.4 (yang2022: 0.41 at its 40 A rms)
+# psi_f (Wb, peak phase flux linkage) from a datasheet's Ke (V per 1000 rpm, line-to-line rms), as the
+# machine template says it (model.reference.machine_template)
+KE_TO_PSI_F = "psi_f = Ke sqrt(2) / sqrt(3) / (p 2 pi 1000 / 60)"
 # the share of the detection's speed tolerance a load's acceleration may use: the estimate's
 # own lag and noise take the rest (yang2022's machine refused from 0.94 of it, at 1 N m)
 POLARITY_LOAD = 0.8
@@ -65,8 +87,9 @@ def top_speed(m, u: float, T: float, i_d: float = 0.0) -> float:
     return max((-b + math.sqrt(disc)) / (2 * a), 0.0) / m.pole_pairs
 
 
-def warnings_of(d: dict, m) -> list[str]:
-    """The warning lines of a validated scenario (data d, machine m)."""
+def warnings_of(d: dict, m, bw_speed_given: bool = False) -> list[str]:
+    """The warning lines of a validated scenario (data d, machine m;
+    bw_speed_given: the scenario sets controller.bw_speed)."""
     out = []
     ctl = d["controller"]
     u_lin = u_linear(d["converter"]["u_dc"], m.phases)
@@ -80,14 +103,8 @@ def warnings_of(d: dict, m) -> list[str]:
     if not TAU_M[0] <= tau_m <= TAU_M[1]:
         out.append(f"machine.mechanical.J: J w_rated / T_rated = {tau_m:.3g} s to rated speed at rated torque is outside "
                    f"{TAU_M[0]:g}..{TAU_M[1]:g} s: check J's unit (kg m^2)")
-    emf = w_e_rated * m.psi_f
-    if emf > EMF_PER_LINK * u_lin:
-        out.append(f"machine.electrical.psi_f: the back-EMF at rated speed, {emf:.4g} V, is {emf / u_lin:.3g} x the "
-                   f"{u_lin:.4g} V the link gives: check psi_f (Wb, peak phase flux linkage) and converter.u_dc")
-    k_t = 0.5 * m.phases * m.pole_pairs * m.psi_f * m.i_rated / m.T_rated
-    if m.psi_f > 0 and not K_T[0] <= k_t <= K_T[1]:
-        out.append(f"machine.rated.current: (phases/2) p psi_f i_rated = {k_t:.3g} x the rated torque, outside "
-                   f"{K_T[0]:g}..{K_T[1]:g}: check psi_f (Wb), the rated current (A peak) and torque (N m)")
+    out += emf_warnings(m, u_lin)
+    out += torque_warnings(m)
     p_rated = m.T_rated * m.w_m_rated
     loss = 0.5 * m.phases * m.R_s * m.i_rated ** 2
     if loss > COPPER * p_rated:
@@ -96,6 +113,10 @@ def warnings_of(d: dict, m) -> list[str]:
 
     # feasibility of the references and the load against the machine's envelope
     out += envelope_warnings(d, m)
+
+    # the speed loop against the observer whose speed it takes
+    if bw_speed_given:
+        out += speed_loop_warning(d, m)
 
     # polarity detection
     pol, inj = d.get("polarity", {}), d.get("injection", {})
@@ -309,6 +330,121 @@ def _voltage(lim: Limits, i_d: float, i_q: float, w_e: float) -> float:
     """|R_s i + j w_e psi(i)| at any current (the flux as the plant has it)."""
     psi_d, psi_q = lim.flux_anywhere(i_d, i_q)
     return math.hypot(lim.R * i_d - w_e * psi_q, lim.R * i_q + w_e * psi_d)
+
+def _mistakes(m, psi_ok: bool, p_ok: bool, henry_ok: bool = False) -> list[tuple[str, str]]:
+    """The likely mistakes behind too much EMF or torque, (field, what),
+    the commonest first: psi_f from a line-to-line Ke, pole pairs given as
+    poles, inductances in mH typed as H."""
+    out = []
+    if psi_ok:
+        out.append(("machine.electrical.psi_f", f"psi_f from a line-to-line Ke ({m.psi_f:.4g} Wb is sqrt 3 x "
+                    f"{m.psi_f / math.sqrt(3):.4g}: {KE_TO_PSI_F}, Ke in V/krpm line-to-line rms)"))
+    if p_ok:
+        out.append(("machine.pole_pairs", f"pole_pairs given as poles ({m.pole_pairs} for {m.pole_pairs // 2} pairs)"))
+    if henry_ok:
+        out.append(("machine.electrical.L_d", f"L_d and L_q in mH typed as H ({m.L_d:g} and {m.L_q:g})"))
+    return out
+
+
+def _likely(found: list[tuple[str, str]], first: str, otherwise: str) -> str:
+    """A warning's field (the likeliest mistake's, else `first`) and its text."""
+    if not found:
+        return f"{first}: {{}}: {otherwise}"
+    return f"{found[0][0]}: {{}}: likely " + " or ".join(what for _, what in found)
+
+
+def emf_warnings(m, u_lin: float) -> list[str]:
+    """The back-EMF at rated speed against the rated voltage where the
+    machine gives it (EMF_PER_RATED_VOLTAGE), else against the link
+    (EMF_PER_LINK)."""
+    emf = m.pole_pairs * m.w_m_rated * m.psi_f
+    ref, what, band = ((m.u_rated, "rated voltage (machine.rated.voltage, peak phase: line-to-line rms x sqrt(2/3))",
+                        EMF_PER_RATED_VOLTAGE) if m.u_rated else (u_lin, "link gives", EMF_PER_LINK))
+    if not emf > band * ref:
+        return []
+    found = _mistakes(m, emf / math.sqrt(3) <= band * ref, m.pole_pairs % 2 == 0 and emf / 2 <= band * ref)
+    line = _likely(found, "machine.electrical.psi_f", "check psi_f (Wb, peak phase flux linkage), pole_pairs and converter.u_dc")
+    return [line.format(f"the back-EMF at rated speed, p w_rated psi_f = {emf:.4g} V, is {emf / ref:.3g} x the {ref:.4g} V "
+                        f"the {what}, above {band:g}")]
+
+
+def rated_torque_ratio(m, i: float | None = None, **fields) -> float | None:
+    """The torque at current i (the rated current) on the MTPA locus, with
+    its reluctance part, over the rated torque: the linear model's
+    (1.5 p (psi_f i_q + (L_d - L_q) i_d i_q)), a flux map's own where the
+    machine has one; with other fields (pole_pairs, psi_f, L_d, L_q) for the
+    linear model. None where the model makes no torque."""
+    i = m.i_rated if i is None else i
+    mm = dataclasses.replace(m, **fields) if fields else m
+    if not fields and m.magnetic.get("model") == "fluxmap":
+        T, d, q = mtpa_locus(m.magnetic, max(i, 1e-9) * 1.0, m.phases, m.pole_pairs)
+        return float(T[-1]) / m.T_rated
+    try:
+        return mtpa_torque(mm, i) / m.T_rated
+    except ValueError:
+        return None
+
+
+def torque_warnings(m) -> list[str]:
+    """The torque at rated current with its reluctance part against the rated
+    torque (K_T_TOTAL), and the magnet's alone (K_T_MAGNET), each naming the
+    likely mistake."""
+    out = []
+    r = rated_torque_ratio(m)
+    head = (f"the torque at rated current on MTPA with its reluctance part (1.5 p (psi_f i_q + (L_d - L_q) i_d i_q) at "
+            f"{m.i_rated:g} A) is {r:.3g} x the rated torque ({m.T_rated:g} N m)" if r is not None else "")
+    if r is not None and r > K_T_TOTAL[1]:
+        def fits(**fields):
+            return K_T_TOTAL[0] <= (rated_torque_ratio(m, **fields) or 0.0) <= K_T_TOTAL[1]
+        found = _mistakes(m, fits(psi_f=m.psi_f / math.sqrt(3)), m.pole_pairs % 2 == 0 and fits(pole_pairs=m.pole_pairs // 2),
+                          m.R_s > 0 and m.L_d / m.R_s > TAU_E[1] and fits(L_d=1e-3 * m.L_d, L_q=1e-3 * m.L_q))
+        line = _likely(found, "machine.electrical.psi_f", "check pole_pairs, psi_f (Wb), L_d, L_q (H) and the rated torque (N m)")
+        out.append(line.format(f"{head}, above {K_T_TOTAL[1]:g}, more than saturation explains"))
+    elif r is not None and r < K_T_TOTAL[0]:
+        rms = K_T_TOTAL[0] <= (rated_torque_ratio(m, math.sqrt(2) * m.i_rated) or 0)
+        out.append(f"machine.rated.current: {head}, below {K_T_TOTAL[0]:g}: the machine cannot make its rating; "
+                   + (f"likely the rated current given as rms (peak {math.sqrt(2) * m.i_rated:.4g} A)" if rms
+                      else "check psi_f (Wb), the rated current (A peak) and torque (N m)"))
+    k_t = 0.5 * m.phases * m.pole_pairs * m.psi_f * m.i_rated / m.T_rated
+    if m.psi_f > 0 and k_t < K_T_MAGNET and not (r is not None and r < K_T_TOTAL[0]):
+        out.append(f"machine.rated.current: the magnet's torque at rated current, (phases/2) p psi_f i_rated = {k_t:.3g} x the "
+                   f"rated torque, below {K_T_MAGNET:g}: likely the rated current given as rms (peak = rms x sqrt 2 = "
+                   f"{math.sqrt(2) * m.i_rated:.4g} A), or check psi_f (Wb) and the torque (N m)")
+    return out
+
+
+def speed_loop_bound(d: dict, m) -> tuple[float, str] | None:
+    """The fastest speed loop the observer feeding it allows (design.scenario's
+    rule) and why; None where the loop takes the encoder's speed or a
+    paper's gains."""
+    ctl, inj, obs = d["controller"], d["injection"], d["observer"]
+    if ctl["gains"] == "paper":
+        return None
+    if ctl["angle"] in ("hfi", "blend"):
+        cm = controller_model(ctl, m)
+        h = hfi_design(inj, control_period(d), cm["L_d"], cm["L_q"])
+        w_o = (d["blending"]["bw_observer"] if ctl["angle"] == "blend" else None) or h.w_o_blend
+        return 0.5 * w_o, f"half the bandwidth of the observer whose speed it takes ({w_o:.4g} rad/s)"
+    if ctl["angle"] == "smo":
+        return obs["bw_pll"] / 6.0, f"a sixth of the back-EMF observer's PLL (observer.bw_pll = {obs['bw_pll']:.4g} rad/s)"
+    if ctl["angle"] == "swvi":
+        return inj["bw_pll"] / 2.0, f"half the square wave's PLL (injection.bw_pll = {inj['bw_pll']:.4g} rad/s)"
+    return None
+
+
+def speed_loop_warning(d: dict, m) -> list[str]:
+    """A line when a speed loop the scenario sets (controller.bw_speed; a
+    machine file's bench.bw_speed is its bench's, as the catalog's papers
+    ran it) outruns the observer that feeds it: its lag then sits inside the
+    loop (the Prius MG2 rolled back further at standstill under 200 N m with
+    bw_speed 60 and 100 rad/s)."""
+    ctl = d["controller"]
+    b = speed_loop_bound(d, m) if ctl["mode"] == "speed" else None
+    if b is None or not ctl["bw_speed"] > b[0] * (1 + 1e-6):
+        return []
+    return [f"controller.bw_speed: {ctl['bw_speed']:.4g} rad/s outruns the observer that feeds the speed loop: at most "
+            f"{b[0]:.4g} rad/s, {b[1]}; its lag in the loop makes the rotor roll back further under a load at standstill "
+            "and can cost lock: leave bw_speed to the design or raise the observer's bandwidth"]
 
 
 # the incremental L_d asymmetry below which the detection cannot decide: its

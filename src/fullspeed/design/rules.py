@@ -35,7 +35,10 @@ f_s = 1/Ts):
 - the observer's PLL at 3 times the electrical speed of the lower band edge
   (it must follow the angle there), within 6 bw_speed .. bw_current / 10;
 - bw_speed = bw_current / 30, the encoder PLL at 2 pi x that (its double
-  pole lags 18 deg at the speed loop's crossover).
+  pole lags 18 deg at the speed loop's crossover);
+- the overspeed stop at 1.2 x the fastest the drive is designed for (the
+  observer's and flux weakening's top speed) or the scenario asks (its
+  references, the load's speed, the initial speed).
 """
 from __future__ import annotations
 
@@ -73,6 +76,11 @@ PLL_PER_W_E_LOWER = 3
 # under rated load grows to 9..15 el.deg, and from 0.99 up the injection's loop cycles at 35 Hz
 # (20 kHz with 3500 or 4000 rad/s, 40 kHz with 3000, 10 kHz with 5000: +-20..45 el.deg)
 CARRIER_LOOP_ACTION_MAX = 0.8
+# The overspeed stop (csrc/control/fs_drive_protect.h) over the fastest the drive is designed for or asked: a
+# speed loop's overshoot on a step (5-15 %) and a reversal's stay below it; a rotor 20 % past that is a runaway
+# (an active load overhauling the drive, a loss the monitor has not flagged yet) whose back-EMF outgrows what
+# the observer's gain, flux weakening's d current and the link were designed for
+OVERSPEED_PER_TOP = 1.2
 
 
 @dataclass(frozen=True)
@@ -126,6 +134,17 @@ def design_bench(m, b: dict, i_max_map: float | None = None) -> dict[str, Value]
     bw_s = put("bw_speed", BW_SPEED_PER_CURRENT * bw_c, "rad/s", "bw_current / 30: the speed loop well inside the current loop")
     put("bw_pll", 2 * math.pi * bw_s, "rad/s", "2 pi bw_speed: the encoder PLL's double pole lags 18 deg at the speed loop's crossover")
     return out
+
+
+def design_overspeed(speeds: dict[str, float]) -> Value:
+    """The overspeed stop, rpm: OVERSPEED_PER_TOP x the fastest of the speeds
+    (name: rpm) the drive is designed for or asked."""
+    name, top = max(speeds.items(), key=lambda kv: abs(kv[1]))
+    return Value(OVERSPEED_PER_TOP * abs(top), "rpm",
+                 f"{OVERSPEED_PER_TOP:g} x the fastest the drive is designed for or asked ({name}, {abs(top):.5g} rpm): "
+                 "a step's overshoot stays below it; a rotor beyond it is a runaway (an active load overhauling the "
+                 "drive, a loss not yet flagged), whose back-EMF outgrows what the observer, flux weakening and the "
+                 "link were designed for")
 
 
 def voltage_error(m, b: dict) -> float:

@@ -19,7 +19,7 @@ from .checks import warnings_of
 from .controller import controller_model, hfi_design, injection_inductances
 from .machine import design_machine, mtpa_torque
 from .rules import (Value, control_period, design_band, design_carrier, design_injection, design_observer_pll,
-                    machine_values, u_linear)
+                    design_overspeed, machine_values, u_linear)
 from .xcomp import check_table_settings
 
 # The trace is held in memory: one row of doubles per recorded sample.
@@ -107,6 +107,13 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
                           "voltage-error loop for a held excess to feed", source)
     if ctl["fw_top_speed_rpm"] is None:
         ctl["fw_top_speed_rpm"] = obs["top_speed_rpm"]
+    if ctl["overspeed_rpm"] is None:
+        notes["controller.overspeed_rpm"] = design_overspeed(_speeds_asked(d))
+        ctl["overspeed_rpm"] = notes["controller.overspeed_rpm"].value
+    else:
+        notes["controller.overspeed_rpm"] = Value(ctl["overspeed_rpm"], "rpm", "given in the scenario", True)
+    if ctl["lock"] is None:   # the drive acts on a loss (fs_drive_protect.h); the square wave has no restart sequence
+        ctl["lock"] = "stop" if ctl["angle"] == "swvi" else "recover"
     if obs["start"] == "if":
         if ctl["angle"] != "smo" or ctl["mode"] != "speed":
             raise ConfigError("observer.start", "if", "needs controller.mode = \"speed\" and controller.angle = \"smo\"", source)
@@ -174,7 +181,7 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         if f"injection.{key}" not in notes and d["injection"][key] is not None and ctl["angle"] in ("hfi", "blend", "swvi"):
             notes[f"injection.{key}"] = Value(d["injection"][key], "", "given in the machine file or the scenario", True)
     notes.update(d.pop("_notes", {}))
-    warnings = warnings_of(d, m) + check_table_settings(d, m.name, source)
+    warnings = warnings_of(d, m, bw_speed_given="bw_speed" in data.get("controller", {})) + check_table_settings(d, m.name, source)
     return Scenario(name=d["name"], machine=m, data=d, source=source, design=notes, warnings=warnings)
 
 
@@ -192,6 +199,22 @@ def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Sc
     are merged into the raw data before validation."""
     data, source = scenario_data(name_or_path, overrides)
     return scenario_from_dict(data, source)
+
+
+def _speeds_asked(d: dict) -> dict[str, float]:
+    """The speeds (rpm) the drive is designed for or the scenario asks, by
+    the field that gives each: what the overspeed stop is designed over."""
+    ctl, ref, load = d["controller"], d["references"], d["load"]
+    out = {"observer.top_speed_rpm": d["observer"]["top_speed_rpm"], "initial.speed_rpm": d["initial"]["speed_rpm"]}
+    if ctl["flux_weakening"]:
+        out["controller.fw_top_speed_rpm"] = ctl["fw_top_speed_rpm"]
+    profiles = {"speed": "speed_rpm", "voltage": "frame_rpm", "vf": "frame_rpm"}
+    if ctl["mode"] in profiles:
+        key = profiles[ctl["mode"]]
+        out[f"references.{key}"] = max((abs(v) for v in ref[key][1]), default=0.0)
+    if load["kind"] in ("speed", "speed_pi"):
+        out["load.speed_rpm"] = max((abs(v) for v in load["speed_rpm"][1]), default=0.0)
+    return out
 
 
 def _bench_of(d: dict, m: Machine) -> dict:

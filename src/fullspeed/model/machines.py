@@ -142,6 +142,7 @@ class Machine:
     T_rated: float
     i_rated: float          # A peak
     w_m_rated: float        # rad/s
+    u_rated: float | None   # V peak phase, the rated voltage where given ([rated] voltage)
     magnetic: dict
     bench: dict
     extra: dict = field(default_factory=dict)   # injection, blending, ... as given
@@ -219,7 +220,7 @@ def parse_machine(data: dict, source: str | None = None, prefix: str = "machine"
         name=d["name"], kind=d["kind"], phases=d["phases"], pole_pairs=d["pole_pairs"],
         R_s=e["R_s"], L_d=e["L_d"], L_q=e["L_q"], psi_f=e["psi_f"],
         J=m["J"], B=m["B"], T_coulomb=m["T_coulomb"],
-        T_rated=r["torque"], i_rated=r["current"], w_m_rated=rpm_to_rad_s(r["speed_rpm"]),
+        T_rated=r["torque"], i_rated=r["current"], w_m_rated=rpm_to_rad_s(r["speed_rpm"]), u_rated=r["voltage"],
         magnetic=d["magnetic"], bench=b, extra=extra, source=d["source"], description=d["description"],
         L_d3=th["L_d3"], L_q3=th["L_q3"], psi_f3=th["psi_f3"], thermal=d["thermal"],
         harmonics=d["harmonics"], origin=source, prefix=prefix,

@@ -103,6 +103,16 @@ def section_names() -> list[str]:
     return [name for name, _, _ in sections()]
 
 
+# Comment lines the template puts under a field: the conversions datasheets need
+TEMPLATE_NOTES = {
+    "pole_pairs": ["# pole pairs = poles / 2: an 8-pole machine has 4"],
+    "psi_f": ["# the magnet's peak phase flux linkage. From a datasheet's Ke (back-EMF constant in V per 1000 rpm,",
+              "# line-to-line rms): psi_f = Ke * sqrt(2) / sqrt(3) / (pole_pairs * 2 * pi * 1000 / 60),",
+              "# e.g. Ke = 50 V/krpm with 4 pole pairs: 50 * 1.4142 / 1.7321 / 418.88 = 0.0975 Wb",
+              "# (forgetting the / sqrt(3) of line-to-line to phase makes it 1.73 x too large)"],
+}
+
+
 def machine_template(name: str) -> str:
     """A machine file with only the fields the schema requires, each with
     its unit, range and meaning in a comment; the value to fill in is "?"
@@ -117,7 +127,7 @@ def machine_template(name: str) -> str:
         rng = range_text(s)
         note = "; ".join(x for x in (unit, rng, meaning) if x)
         value = f'"{name}"' if k == "name" else '"?"'
-        return f"{k} = {value}" + (f"    # {note}" if note else "")
+        return "\n".join([f"{k} = {value}" + (f"    # {note}" if note else ""), *TEMPLATE_NOTES.get(k, [])])
 
     tables = []
     for k, s in MACHINE.items():

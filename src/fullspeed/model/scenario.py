@@ -85,13 +85,18 @@ SCENARIO = {
         "depth_control": B(False, doc="imc, speed mode with flux weakening and modulation om2: alpha from eq. (33); else from the demanded VTR"),
         "i_lim": POS(None, hi=1e5, doc="A, I_lim of eq. (33); default the machine's bench i_lim"),
         # loss of lock of the estimator the loops use (fs_lock.h)
-        "lock": C("off", "detect", "stop", "recover", default="detect",
-                  doc="detect: traced (lock_resid, lock_lost); stop: the run ends with stop reason loss_of_lock; "
-                      "recover: zero current, then the observer's estimate or the start sequence again (fs_drive.h), "
-                      "and the stop once lock_retries are spent"),
+        "lock": C("off", "detect", "stop", "recover", default=None,
+                  doc="what the drive does when it loses lock: recover: zero current, then at speed a flying restart "
+                      "on the back-EMF observer, at low speed the start sequence again, else the stop with the PWM off "
+                      "(fs_drive_protect.h), and the stop once lock_retries are spent; stop: the stop at once (stop reason "
+                      "loss_of_lock); detect: traced only (lock_resid, lock_lost), the drive goes on; default recover, "
+                      "stop with angle = \"swvi\" (no restart sequence)"),
         "lock_time": POS(0.02, hi=10.0, doc="s off track, net (each step weighted by how far over, up to twice: fs_lock.h), before lock counts as lost"),
         "recover_time": POS(0.05, hi=10.0, doc="s of zero current before a recovery re-acquires"),
         "lock_retries": I(3, 0, 1000, doc="recoveries before a loss of lock stops the run"),
+        "overspeed_rpm": NONNEG(None, hi=1e6, doc="the drive stops with the PWM off above this speed (stop reason overspeed; "
+                                "fs_drive_protect.h); default designed: 1.2 x the fastest the drive is designed for or asked "
+                                "(fullspeed design); 0: no overspeed stop"),
         "param_adapt": B(False, doc="online correction of R_s and psi_f while sensorless (fs_param_adapt.h)"),
         "adapt_time": POS(5.0, hi=1e4, doc="s, its least squares' forgetting time: long against the drive's cycle of operating points, short against the machine's heating"),
     }),

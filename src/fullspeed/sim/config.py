@@ -163,6 +163,7 @@ def build_config(sc: Scenario):
     dc.lock_recover = int(ctl["lock"] == "recover")
     dc.t_recover, dc.lock_retries = ctl["recover_time"], ctl["lock_retries"]
     cfg.lock_stop = ctl["lock"] in ("stop", "recover")   # with recovery: once the retries are spent
+    dc.w_over = m.pole_pairs * rpm_to_rad_s(ctl["overspeed_rpm"])
 
     p = m.pole_pairs
     obs = d["observer"]

@@ -54,6 +54,7 @@ STOP_REASONS = {
     lib.FS_STOP_OVERCURRENT: "overcurrent",
     lib.FS_STOP_LOSS_OF_LOCK: "loss_of_lock",
     lib.FS_STOP_POLARITY: "polarity_undetermined",
+    lib.FS_STOP_OVERSPEED: "overspeed",
 }
 
 @dataclass
@@ -61,13 +62,14 @@ class Result:
     """Traces (NumPy arrays by channel name, SI units) and metrics of a run."""
     scenario: Scenario
     traces: dict[str, np.ndarray]
-    stop_reason: str                 # "done", "nan", "overcurrent", "loss_of_lock", "polarity_undetermined", "interrupted"
+    stop_reason: str                 # "done", "nan", "overcurrent", "loss_of_lock", "polarity_undetermined", "overspeed", "interrupted"
     stop_time: float | None
     wall_time: float                 # s
     sim_time: float                  # s simulated
     metrics: dict = field(default_factory=dict)
     adc_saturated_at: float | None = None   # s, the first current reading at +-adc_range
     polarity: dict | None = None     # the polarity detection's outcome (Simulation.polarity)
+    halt: dict | None = None         # why the drive halted (Simulation.halt)
 
     @property
     def speed_ratio(self) -> float:
@@ -196,6 +198,18 @@ class Simulation:
         return {"stage": stages.get(p.stage, str(p.stage)), "d": float(p.d), "margin": float(p.margin),
                 "attempts": int(p.attempts), "i_pulse": float(p.i_now), "flip": bool(p.flip), "moved": bool(p.moved)}
 
+    def halt(self) -> dict | None:
+        """Why the drive halted (fs_drive_protect.h), None if it did not: the
+        fault, and for a loss of lock the back-EMF its zero-current wait last
+        measured, V, and the speed that says by the controller's magnet flux."""
+        drv = lib.fs_sim_drive(self._sim)
+        faults = {lib.FS_FAULT_POLARITY: "polarity", lib.FS_FAULT_LOCK: "lock", lib.FS_FAULT_OVERSPEED: "overspeed"}
+        if drv.phase != lib.FS_PHASE_HALT:
+            return None
+        c = drv.cfg
+        w = float(drv.e_rec) / (c.psi_f * c.pole_pairs) if c.psi_f > 0 else math.nan
+        return {"fault": faults.get(drv.fault, str(drv.fault)), "emf_V": float(drv.e_rec), "emf_rpm": w * 60.0 / (2.0 * math.pi)}
+
     def traces(self) -> dict[str, np.ndarray]:
         """Each channel as a view into the buffer (strided, no copy)."""
         self._n += self._rows[0]; self._rows[0] = 0   # noqa: E702 (rows of a call a Ctrl-C cut off)
@@ -234,6 +248,6 @@ def simulate(scenario: Scenario | str, progress: bool = False, chunk: float | No
     if status == "running":
         status = "done"
     res = Result(sc, sim.traces(), status, sim.stop_time, wall, sim.time, adc_saturated_at=sim.adc_saturated_at,
-                 polarity=sim.polarity())
+                 polarity=sim.polarity(), halt=sim.halt())
     res.metrics = compute_metrics(res)
     return res

@@ -61,7 +61,7 @@ KEYS = {
     "fw_w_e_max": "controller.fw_top_speed_rpm", "fw_gain": "controller.fw_gain", "fw_cutoff": "controller.fw_cutoff",
     "fw_hold": "controller.fw_excess", "cc_internal_model": "controller.gains",
     "lock_time": "controller.lock_time", "lock_recover": "controller.lock", "t_recover": "controller.recover_time",
-    "lock_retries": "controller.lock_retries",
+    "lock_retries": "controller.lock_retries", "w_over": "controller.overspeed_rpm",
     "i_start": "observer.i_start", "a_start": "observer.start_accel_rpm_s", "w_handover": "observer.start_handover_rpm",
     "hfi.u_h": "injection.u_h", "hfi.w_h": "injection.f_h", "hfi.w_b_p": "injection.bw_filter_p",
     "hfi.w_b_n": "injection.bw_filter_n", "hfi.obs.bandwidth": "injection.bw_observer", "hfi.xcomp": "injection.xcomp",
