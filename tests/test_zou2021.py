@@ -98,7 +98,7 @@ def test_part2_stays_off_at_low_speed_and_heavy_load():
     assert np.max(r["alpha"][m]) == 0.0
 
 
-@pytest.mark.parametrize("field, value", [("inverter", "switching"), ("t_dead", 2e-6)])
+@pytest.mark.parametrize("field, value", [("inverter", "switching"), ("u_on", 1.0), ("r_on", 0.05)])
 def test_what_the_averaged_model_lacks_is_a_field_error(field, value):
     with pytest.raises(ConfigError, match=f"converter.{field}"):
         load_scenario("zou2021-region-a", {"converter": {field: value}})
