@@ -226,6 +226,7 @@ FS_SPECIALISE void currents3(const fs_pmsm *m, const double *x, double *i_d3, do
 /* The iron loss's drag at a state (fs_losses.h). */
 static double iron_drag(const fs_pmsm *m, const double *x)
 {
+    if (m->cfg.iron.P_ref == 0.0) return 0.0;   /* none: not even the flux's magnitude */
     return fs_iron_torque(&m->cfg.iron, m->cfg.pole_pairs, x[FS_X_W_M], hypot(x[FS_X_PSI_D], x[FS_X_PSI_Q]));
 }
 
