@@ -252,6 +252,22 @@ def write_table(rows: list[dict], path: Path) -> Path:
     return write_with(path, write)
 
 
+def grid_triangles(rows: list[dict], ok: np.ndarray) -> np.ndarray | None:
+    """The map's points are a grid, speeds by torque fractions (as listed):
+    its cells' triangles whose three corners are all ok, so that a contour
+    does not reach across points not held."""
+    speeds = sorted({r["speed_rpm"] for r in rows})
+    n_f = len(rows) // len(speeds)
+    if n_f < 2 or len(speeds) < 2 or n_f * len(speeds) != len(rows):
+        return None
+    tris = []
+    for k in range(len(speeds) - 1):
+        for j in range(n_f - 1):
+            a, b, c, d = k * n_f + j, k * n_f + j + 1, (k + 1) * n_f + j, (k + 1) * n_f + j + 1
+            tris += [t for t in ((a, b, c), (b, d, c)) if ok[list(t)].all()]
+    return np.array(tris) if tris else None
+
+
 def plot_map(rows: list[dict], rpm: list[float], env, summary: dict, path: Path):
     """Contours of the machine's, the converter's and the drive's efficiency
     over the held points, with the analytic envelope and the points not
@@ -260,19 +276,20 @@ def plot_map(rows: list[dict], rpm: list[float], env, summary: dict, path: Path)
     fig, ax = plt.subplots(2, 2, figsize=(12, 9))
     n_env = np.concatenate([[0.0], rpm])
     T_env = np.concatenate([[env[0]], env])
+    x = np.array([r["speed_rpm"] for r in rows])
+    y = np.array([r["torque_Nm"] for r in rows])
     for a, (key, title) in zip(ax.flat, (("eta_machine", "machine"), ("eta_converter", "converter"),
                                          ("eta_drive", "drive"))):
-        pts = [r for r in held if r.get(key) is not None]
-        if len(pts) >= 3:
-            x = np.array([r["speed_rpm"] for r in pts])
-            y = np.array([r["torque_Nm"] for r in pts])
-            z = 100.0 * np.array([r[key] for r in pts])
-            levels = np.unique(np.clip(np.percentile(z, [5, 15, 30, 45, 60, 75, 85, 92, 97, 100]), None, 100.0))
+        ok = np.array([bool(r.get("held")) and r.get(key) is not None for r in rows])
+        z = 100.0 * np.array([r[key] if o else 0.0 for r, o in zip(rows, ok)])
+        tri = grid_triangles(rows, ok)
+        if tri is not None and ok.sum() >= 3:
+            levels = np.unique(np.clip(np.percentile(z[ok], [5, 15, 30, 45, 60, 75, 85, 92, 97, 100]), None, 100.0))
             if levels.size >= 2:
-                cs = a.tricontourf(x, y, z, levels=levels, cmap="viridis")
-                a.tricontour(x, y, z, levels=levels, colors="k", linewidths=0.4)
+                cs = a.tricontourf(x, y, tri, z, levels=levels, cmap="viridis")
+                a.tricontour(x, y, tri, z, levels=levels, colors="k", linewidths=0.4)
                 fig.colorbar(cs, ax=a, label="efficiency (%)")
-            a.plot(x, y, "k.", ms=3)
+        a.plot(x[ok], y[ok], "k.", ms=3)
         miss = [r for r in rows if not r.get("held")]
         if miss:
             a.plot([r["speed_rpm"] for r in miss], [r["torque_Nm"] for r in miss], "rx", ms=5, label="not held")
