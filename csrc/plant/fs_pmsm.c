@@ -404,7 +404,9 @@ FS_SPECIALISE void deriv_cs(fs_pmsm *m, const double *x, const fs_pmsm_input *in
         if (!five) dx[FS_X_PSI_D3] = dx[FS_X_PSI_Q3] = 0.0;   /* not a three-phase machine's: held */
         dx[FS_X_E_FE] = T_fe * w_m;
         dx[FS_X_E_MECH] = friction(c, w_m) * w_m;
-        dx[FS_X_E_SHAFT] = T_shaft * w_m;
+        /* an ideal speed load takes whatever the shaft gives beyond the speed's own change */
+        dx[FS_X_E_SHAFT] = (c->load_kind == FS_LOAD_SPEED_IDEAL ? T_e - friction(c, w_m) - T_fe - c->J * in->dw_load
+                                                                : T_shaft) * w_m;
         dx[FS_X_I_A_INT] = cs * i_d - sn * i_q;
         dx[FS_X_I_B_INT] = sn * i_d + cs * i_q;
         dx[FS_X_I_X_INT] = five ? c3 * i_d3 - s3 * i_q3 : 0.0;

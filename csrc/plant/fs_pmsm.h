@@ -25,7 +25,8 @@
  *   J dw_m/dt = T_e - T_L - B w_m - T_c sat(w_m / w_c) - T_fe,
  * and the meters of the shaft's side run too: E_FE = int T_fe w_m (iron),
  * E_MECH = int (B w_m + T_c sat(w_m / w_c)) w_m (friction) and E_SHAFT =
- * int T_L w_m (the load's work), so that E_AIRGAP = E_FE + E_MECH + E_SHAFT
+ * int T_L w_m (the load's work; an ideal speed load's torque is what the
+ * shaft gives beyond J dw_m/dt), so that E_AIRGAP = E_FE + E_MECH + E_SHAFT
  * + the kinetic energy's change; and the stationary currents' integrals
  * (I_A_INT, I_B_INT, and I_X_INT, I_Y_INT for five phases), from which a
  * converter meters what it passes with coefficients held over a step.

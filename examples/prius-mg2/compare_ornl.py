@@ -22,7 +22,6 @@ import numpy as np
 from fullspeed.design.scenario import scenario_from_dict
 from fullspeed.model.units import rpm_to_rad_s
 from fullspeed.sim import simulate
-from fullspeed.sim.metrics import window_mask
 from fullspeed.workflows.effmap import fluxes, voltage_limit
 
 HERE = Path(__file__).resolve().parent
@@ -49,7 +48,7 @@ def least_current_point(sc, rpm: float, T_e: float) -> tuple[float, float]:
 
 def plant_at(rpm: float, torque: float) -> dict:
     """The plant's efficiency at a shaft torque and speed, with the drive in current control."""
-    base = {"name": "ornl-point", "duration": 0.3, "machine": str(HERE / "prius-mg2.toml"),
+    base = {"name": "ornl-point", "duration": 0.3, "machine": str(HERE / "prius-mg2.toml"), "metrics": {"steady": [0.15, 0.3]},
             "controller": {"mode": "current", "angle": "encoder"},
             "losses": {"devices": True, "iron": True}, "load": {"kind": "speed", "speed_rpm": rpm},
             "initial": {"speed_rpm": rpm}}
@@ -58,15 +57,10 @@ def plant_at(rpm: float, torque: float) -> dict:
     for _ in range(3):   # the drag depends on the flux the currents make
         i_d, i_q = least_current_point(sc, rpm, T_e)
         res = simulate(scenario_from_dict({**base, "references": {"i_d": i_d, "i_q": i_q}}))
-        m = window_mask(res["t"], 0.15, 0.3)
-        k0, k1 = np.flatnonzero(m)[[0, -1]]
-        dt = res["t"][k1] - res["t"][k0]
-        P = {ch: (res[ch][k1] - res[ch][k0]) / dt for ch in ("E_in", "E_dc", "E_airgap", "E_fe", "E_mech", "E_cu")}
+        P = res.metrics["power"]   # over the steady window: the load machine takes what the shaft gives
         w = rpm_to_rad_s(rpm)
-        shaft = P["E_airgap"] - P["E_fe"] - P["E_mech"]   # the load machine holds the speed: it takes the rest
-        T_e = torque + (P["E_fe"] + P["E_mech"]) / w
-    return {"i_d_A": i_d, "i_q_A": i_q, "shaft_Nm": shaft / w, "eta_machine": shaft / P["E_in"],
-            "eta_drive": shaft / P["E_dc"], "P_cu_W": P["E_cu"], "P_fe_W": P["E_fe"], "P_mech_W": P["E_mech"]}
+        T_e = torque + (P["P_fe_W"] + P["P_mech_W"]) / w
+    return {"i_d_A": i_d, "i_q_A": i_q, "shaft_Nm": P["P_shaft_W"] / w, **P}
 
 
 def main(folder: str) -> None:

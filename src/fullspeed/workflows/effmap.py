@@ -134,43 +134,31 @@ def map_scenarios(data: dict, source: str, top_rpm: float | None) -> tuple[Scena
     return scenario_from_dict(deep_merge(data, shared), source), shared
 
 
-def point_overrides(rpm: float, torque: float, duration: float) -> dict:
+def point_overrides(rpm: float, torque: float, duration: float, window: float) -> dict:
     """One point: the rotor at the speed from the start, the reference
-    there, the load ramped in."""
+    there, the load ramped in, the powers measured over the last window."""
     return {"duration": duration, "initial": {"speed_rpm": rpm}, "references": {"speed_rpm": rpm},
             "load": {"kind": "torque", "torque": [[0.0, 0.0], [T_RAMP, torque], [duration, torque]]},
-            "metrics": {"steady": None}}
+            "metrics": {"steady": [duration - window, duration]}}
 
 
 def map_point(task: dict) -> dict:
     """Run one point and measure it over its window (a journal task)."""
-    data = deep_merge(task["data"], point_overrides(task["rpm"], task["torque"], task["duration"]))
+    data = deep_merge(task["data"], point_overrides(task["rpm"], task["torque"], task["duration"], task["window"]))
     res = simulate(scenario_from_dict(data, task["source"]))
     if res.stop_reason == "interrupted":   # Ctrl-C: not a finished point (the map stops, the point runs on resume)
         raise KeyboardInterrupt
     out = {"stop_reason": res.stop_reason, "wall_s": res.wall_time}
-    t = res["t"]
-    m = window_mask(t, task["duration"] - task["window"], task["duration"])
-    if res.stop_reason != "done" or m.sum() < 2:
+    p = res.metrics.get("power")
+    if res.stop_reason != "done" or p is None:
         return {**out, "held": False}
-    k0, k1 = np.flatnonzero(m)[[0, -1]]
-    T = t[k1] - t[k0]
-
-    def power(ch):
-        return float((res[ch][k1] - res[ch][k0]) / T)
-
-    imc = res.scenario.data["converter"]["kind"] == "imc"
+    m = window_mask(res["t"], task["duration"] - task["window"], task["duration"])
     n_mean = float(rad_s_to_rpm(np.mean(res["w_m"][m])))
-    P = {"P_shaft_W": power("E_shaft"), "P_in_W": power("E_in"), "P_source_W": power("E_grid" if imc else "E_dc"),
-         "P_cu_W": power("E_cu"), "P_fe_W": power("E_fe"), "P_mech_W": power("E_mech"), "P_cond_W": power("E_cond"),
-         "P_sw_W": power("E_sw"), "P_rect_W": power("E_rect"), "P_filter_W": power("E_rf") if imc else 0.0}
-    held = abs(n_mean - task["rpm"]) <= HELD * task["rpm"] and P["P_shaft_W"] > 0.0
+    held = abs(n_mean - task["rpm"]) <= HELD * task["rpm"] and p["P_shaft_W"] > 0.0
     # a point not held is no steady state (the kinetic energy it gives up is not a loss): no efficiency
-    eta = {"eta_machine": P["P_shaft_W"] / P["P_in_W"] if held and P["P_in_W"] > 0 else None,
-           "eta_converter": P["P_in_W"] / P["P_source_W"] if held and P["P_source_W"] > 0 else None,
-           "eta_drive": P["P_shaft_W"] / P["P_source_W"] if held and P["P_source_W"] > 0 else None}
-    return {**out, **P, **eta, "held": bool(held), "speed_mean_rpm": n_mean,
-            "i_d_A": float(np.mean(res["i_d"][m])), "i_q_A": float(np.mean(res["i_q"][m])),
+    eta = {k: p[k] if held else None for k in ("eta_machine", "eta_converter", "eta_drive")}
+    return {**out, **{k: v for k, v in p.items() if k.startswith("P_")}, **eta, "held": bool(held),
+            "speed_mean_rpm": n_mean, "i_d_A": float(np.mean(res["i_d"][m])), "i_q_A": float(np.mean(res["i_q"][m])),
             "i_s_A": float(np.mean(np.hypot(res["i_d"][m], res["i_q"][m]))),
             "i_d_fw_A": float(np.mean(res["i_d_fw"][m])), "u_s_V": float(np.mean(np.hypot(res["u_d"][m], res["u_q"][m])))}
 
