@@ -636,7 +636,7 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
         din.sensorless = fs_pwl_eval(&s->prof[P_SENSORLESS], t, NULL) > 0.5;
 
         /* control */
-        fs_drive_out dout;
+        fs_drive_out dout = {0};   /* what the step leaves unset (ident_step outside identification) reads 0, not the stack's */
         fs_drive_step(&s->drive, &din, &dout);
         for (int k = 0; k < s->phases; ++k) s->duty_next[k] = dout.duty[k];
         s->rect_next = dout.rect;
