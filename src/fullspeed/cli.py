@@ -1,4 +1,4 @@
-"""Command line: fullspeed run | list | sweep | reproduce | calibrate | export.
+"""Command line: fullspeed run | list | sweep | map | reproduce | calibrate | export.
 
 Exit status: 0 done; 1 a run that stopped (a protection, lost lock, an
 interrupt during the simulation) or a sweep with points not run; 2 bad input
@@ -281,6 +281,38 @@ def _cmd_reproduce(args) -> int:
     return 0
 
 
+def _cmd_map(args) -> int:
+    from .workflows.effmap import TORQUE_FRACTIONS, efficiency_map
+    from .workflows.journal import JOURNAL
+
+
+    overrides = _set_overrides(args.set)
+    target = args.target
+    name = Path(target).stem if target.endswith(".toml") else target
+    out = out_folder(args.out) if args.out else out_path(OUT / "maps", name, "target", None)
+    torques = tuple(args.torques) if args.torques else TORQUE_FRACTIONS
+    print(f"map {target} -> {out}", file=sys.stderr)
+    try:
+        em = efficiency_map(target, out, speeds=args.speeds, torques=torques, top_rpm=args.top_rpm,
+                            overrides=overrides or None, workers=args.workers, progress=not args.quiet)
+    except KeyboardInterrupt:
+        print(f"fullspeed: map stopped: what finished is kept in {out / JOURNAL}; run the same command to resume",
+              file=sys.stderr)
+        raise
+    s = em.summary
+    print(f"{em.name}: {s['points']} points, {s['held']} held; module: {s.get('module') or 'ideal switches'}; "
+          f"iron loss: {s.get('iron_source') or 'none'}")
+    for key, label in (("eta_machine", "machine"), ("eta_converter", "converter"), ("eta_drive", "drive")):
+        p = s.get(f"{key}_peak")
+        if p:
+            print(f"peak {label} efficiency {100 * p['eta']:.2f} % at {p['speed_rpm']:.0f} rpm, {p['torque_Nm']:.1f} N m")
+    print("wrote " + ", ".join(str(p) for p in em.paths))
+    not_run = [r for r in em.rows if r.get("stop_reason") == "not run"]
+    if not_run:
+        print(f"fullspeed: {len(not_run)} points not run; run the same command again to run them", file=sys.stderr)
+    return 1 if not_run else 0
+
+
 def _cmd_calibrate(args) -> int:
     import numpy as np
 
@@ -406,6 +438,20 @@ def main(argv: list[str] | None = None) -> int:
     rp.add_argument("--out", default="out/reproduce")
     rp.add_argument("--quiet", action="store_true")
     rp.set_defaults(func=_cmd_reproduce)
+    mp = sub.add_parser("map", help="the efficiency map (machine, converter, drive) over the torque-speed envelope, losses by kind",
+                        description="Each point: the drive in speed mode holds a speed while a load torque ramps in, "
+                                    "every loss the machine file has acting and metered (its [converter] module, its "
+                                    "[losses] iron loss, friction). Writes map.csv, map.json and map.png; resumable.")
+    mp.add_argument("target", help="a scenario (speed mode) or a machine (catalog name or machine file: encoder, flux weakening)")
+    mp.add_argument("--speeds", type=int, default=8, help="speeds, evenly up to the top speed (default 8)")
+    mp.add_argument("--torques", type=float, nargs="+", metavar="F",
+                    help="torques as fractions of the envelope at each speed (default 0.1 0.25 0.4 0.55 0.7 0.85 0.97)")
+    mp.add_argument("--top-rpm", type=float, help="the map's top speed (default the scenario's observer top speed)")
+    mp.add_argument("--workers", type=int, help="local worker processes (default: the cores)")
+    mp.add_argument("--out", help="output folder (default out/maps/<target>); run again to resume")
+    mp.add_argument("--quiet", action="store_true", help="no progress bar")
+    mp.add_argument("--set", action="append", metavar="KEY=VALUE", help="as run's: a scenario field, repeatable")
+    mp.set_defaults(func=_cmd_map)
     cal = sub.add_parser("calibrate", help="measure the injection estimator's cross-saturation table (encoder in the loop)")
     cal.add_argument("scenario", help="a scenario with angle = \"hfi\" or \"blend\" (its machine, speed and injection)")
     cal.add_argument("--i-q-max", type=float, default=40.0, help="A: the table spans -i_q_max..i_q_max")

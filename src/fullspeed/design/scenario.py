@@ -260,10 +260,12 @@ def _imc_fields(d: dict, m: Machine, source) -> None:
     if conv["inverter"] == "switching":
         raise ConfigError("converter.inverter", "switching", "must be \"averaged\" with kind = \"imc\" (the inverter stage is averaged per rectifier interval)", source)
     conv["inverter"] = "averaged"
-    for key in ("t_dead", "u_on"):
+    for key in ("u_on", "r_on"):
         if conv[key]:
-            raise ConfigError(f"converter.{key}", conv[key], "must be 0 with kind = \"imc\" (the model has no dead time or device drops)", source)
-    conv["t_dead"] = 0.0
+            raise ConfigError(f"converter.{key}", conv[key], "must be 0 with kind = \"imc\" (its devices' drops are the "
+                              "machine's [converter] module's, with losses.devices)", source)
+    if conv["t_dead"] is None:   # the ideal converter of the paper's modulator (not the bench's inverter dead time)
+        conv["t_dead"] = 0.0
     if tim["sampling"] == "double":
         raise ConfigError("timing.sampling", "double", "must be \"single\" with kind = \"imc\"", source)
     tim["sampling"] = "single"

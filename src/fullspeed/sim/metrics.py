@@ -451,8 +451,49 @@ def compute_metrics(res) -> dict:
         out["i_q_error_rms"] = float(np.sqrt(np.mean((tr["i_q_ref"][m] - tr["i_q"][m]) ** 2)))
     out["T_e_mean"] = float(np.mean(tr["T_e"][m]))
     out["T_e_pp"] = float(np.ptp(tr["T_e"][m]))
+    power = power_metrics(res, m)
+    if power is not None:
+        out["power"] = power
     out["theta_err_deg"] = angle_error_stats(tr["theta_err"][m])
     out["est_err_deg"] = angle_error_stats(tr["est_err"][m])
+    return out
+
+
+# the loss meters (fs_sim.h) by kind: the machine's, then the converter's
+LOSS_METERS = {"P_cu_W": ("E_cu", "copper"), "P_fe_W": ("E_fe", "iron"), "P_mech_W": ("E_mech", "friction"),
+               "P_cond_W": ("E_cond", "conduction"), "P_sw_W": ("E_sw", "commutation"),
+               "P_rect_W": ("E_rect", "rectifier"), "P_filter_W": ("E_rf", "input filter")}
+
+
+def power_metrics(res, m: np.ndarray) -> dict | None:
+    """Where the power goes over the window m, from the loss meters (the
+    scenario's [losses] on; else None): the converter's source's power (the
+    dc link's, or the grid's for the matrix converter), the machine's
+    terminals', the shaft's, each loss, and the efficiencies (motoring:
+    out over in; generating: the other way)."""
+    if not any(res.scenario.data["losses"].values()):
+        return None
+    tr, t = res.traces, res.traces["t"]
+    k = np.flatnonzero(m)
+    if k.size < 2 or not t[k[-1]] > t[k[0]]:
+        return None
+    dt = t[k[-1]] - t[k[0]]
+
+    def power(ch):
+        return float((tr[ch][k[-1]] - tr[ch][k[0]]) / dt)
+
+    imc = res.scenario.data["converter"]["kind"] == "imc"
+    out = {"P_source_W": power("E_grid" if imc else "E_dc"), "P_in_W": power("E_in"), "P_shaft_W": power("E_shaft")}
+    out.update({key: power(ch) if key != "P_filter_W" or imc else 0.0 for key, (ch, _) in LOSS_METERS.items()})
+
+    def eta(a, b):   # a upstream of b
+        if a > 0.0 and b > 0.0:
+            return b / a
+        return a / b if a < 0.0 and b < 0.0 else None
+
+    out["eta_machine"] = eta(out["P_in_W"], out["P_shaft_W"])
+    out["eta_converter"] = eta(out["P_source_W"], out["P_in_W"])
+    out["eta_drive"] = eta(out["P_source_W"], out["P_shaft_W"])
     return out
 
 
@@ -466,6 +507,13 @@ def summary_lines(metrics: dict) -> list[str]:
     if metrics.get("speed_error_pct") is not None:
         lines.append(f"  speed {metrics['speed_rpm']:.2f} rpm against {metrics['speed_ref_rpm']:.2f} rpm: "
                      f"error {metrics['speed_error_pct']:+.4f} %")
+    p = metrics.get("power")
+    if p is not None:
+        losses = ", ".join(f"{label} {p[key]:.4g}" for key, (_, label) in LOSS_METERS.items() if p[key] != 0.0)
+        effs = ", ".join(f"{k} {100 * p[f'eta_{k}']:.2f} %" for k in ("machine", "converter", "drive")
+                         if p[f"eta_{k}"] is not None)
+        lines.append(f"  power: source {p['P_source_W']:.4g} W, machine terminals {p['P_in_W']:.4g} W, shaft "
+                     f"{p['P_shaft_W']:.4g} W; losses (W): {losses}" + (f"; efficiency {effs}" if effs else ""))
     if isinstance(metrics.get("theta_err_deg"), dict) and metrics["theta_err_deg"]["mean"] is not None:
         e = metrics["theta_err_deg"]
         lines.append(f"  angle error (true - used) mean {e['mean']:+.2f}, peak-to-peak {e['pp']:.2f}, max |.| {e['max']:.2f} el.deg")

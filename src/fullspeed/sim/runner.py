@@ -27,6 +27,7 @@ CHANNELS = [
     "i_grid_a", "v_pn", "u_ab", "alpha", "E_grid", "E_rf", "W_filter",
     "lock_resid", "lock_lost", "stage", "recoveries", "u_dc",
     "T_winding", "T_magnet", "R_s_true", "psi_f_true", "R_s_hat", "psi_f_hat",
+    "E_dc", "E_cond", "E_rect", "E_sw", "E_fe", "E_mech", "E_shaft",
 ]
 assert len(CHANNELS) == lib.FS_CH_N, "channel names out of step with fs_sim.h"
 
@@ -42,7 +43,8 @@ UNITS = {
                      "lock_resid", "lock_lost", "recoveries"), "1"),
     **dict.fromkeys(("w_m_ref", "w_m_hat", "w_m_est"), "rad/s"),
     **dict.fromkeys(("theta_hat", "theta_err", "theta_est", "est_err"), "rad"),
-    **dict.fromkeys(("E_in", "E_cu", "E_airgap", "W_mag", "E_grid", "E_rf", "W_filter"), "J"),
+    **dict.fromkeys(("E_in", "E_cu", "E_airgap", "W_mag", "E_grid", "E_rf", "W_filter",
+                     "E_dc", "E_cond", "E_rect", "E_sw", "E_fe", "E_mech", "E_shaft"), "J"),
     "stage": "name",
     "T_winding": "degC", "T_magnet": "degC", "R_s_true": "ohm", "R_s_hat": "ohm", "psi_f_true": "Wb", "psi_f_hat": "Wb",
 }
