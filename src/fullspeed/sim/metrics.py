@@ -1,6 +1,7 @@
 """Metrics of a run, all measured from its traces."""
 from __future__ import annotations
 
+import bisect
 import math
 
 import numpy as np
@@ -86,6 +87,12 @@ def _steady(res) -> tuple[tuple[float, float] | None, str]:
 
 def window_mask(t: np.ndarray, t0: float, t1: float) -> np.ndarray:
     return (t >= t0 - 1e-12) & (t <= t1 + 1e-12)
+
+
+def window_slice(t: np.ndarray, t0: float, t1: float) -> slice:
+    """window_mask of rising times as a slice: found by bisection, so that
+    one window costs log(len(t)) and not len(t)."""
+    return slice(int(np.searchsorted(t, t0 - 1e-12, "left")), int(np.searchsorted(t, t1 + 1e-12, "right")))
 
 
 def angle_error_stats(err_rad: np.ndarray) -> dict:
@@ -181,15 +188,18 @@ def step_metrics(res) -> list[dict]:
     t_end = float(t[-1])
 
     def window(c):
-        """From the change to the next one: an empty mask for a change after the run's end."""
-        nxt = [s for s in starts if s >= c[1] - 1e-12 and s > c[0]]
-        m = window_mask(t, c[0], min(nxt[0], t_end) if nxt else t_end)
-        return m
+        """From the change to the next start (the first s > c[0] with s >
+        c[1] - 1e-12, by bisection: a profile of n changes costs n log n, not
+        n^2): an empty slice for a change after the run's end."""
+        lo = c[1] - 1e-12
+        k = bisect.bisect_right(starts, c[0]) if lo <= c[0] else bisect.bisect_left(starts, lo)
+        return window_slice(t, c[0], min(starts[k], t_end) if k < len(starts) else t_end)
 
     w_floor = SPEED_FLOOR * sc.machine.w_m_rated
     injecting = d["controller"]["angle"] in ("hfi", "blend", "swvi")
     n_carrier = round(1.0 / (d["injection"]["f_h"] * float(t[1] - t[0]))) if injecting else 0
     out = []
+    seen: dict[str, np.ndarray] = {}   # each channel as measured (averaged once, not per change)
     for name, ch, ref_ch, unit in refs:
         to_si = rpm_to_rad_s(1.0) if unit == "rpm" else 1.0
         for c in _changes(d["references"][name]):
@@ -199,10 +209,13 @@ def step_metrics(res) -> list[dict]:
             y0, y1 = c[2] * to_si, c[3] * to_si
             band = max(SETTLE_BAND * abs(y1 - y0), w_floor if unit == "rpm" else 0.0)
             r = {"kind": "reference", "signal": ch, "t": c[0], "ramp": c[1] - c[0], "from": c[2], "to": c[3], "unit": unit}
-            y = np.asarray(tr[ch])
+            if ch not in seen:
+                seen[ch] = np.asarray(tr[ch])
+                if unit == "A" and n_carrier > 1:
+                    # the carrier's current would read as overshoot: its one-period mean (adds up to a period to the times)
+                    seen[ch] = np.convolve(seen[ch], np.full(n_carrier, 1.0 / n_carrier), mode="same")
+            y = seen[ch]
             if unit == "A" and n_carrier > 1:
-                # the carrier's current would read as overshoot: its one-period mean (adds up to a period to the times)
-                y = np.convolve(y, np.full(n_carrier, 1.0 / n_carrier), mode="same")
                 r["averaged_over"] = n_carrier * float(t[1] - t[0])
             r.update(step_response(t[m], y[m], c[0], y0, y1, band))
             if r["final"] is not None:
@@ -214,13 +227,14 @@ def step_metrics(res) -> list[dict]:
             if c[0] >= t_end:
                 continue
             m = window(c)
-            e = np.asarray(tr["w_m"])[m] - np.asarray(tr["w_m_ref"])[m]
+            w_ref = np.asarray(tr["w_m_ref"])[m]
+            e = np.asarray(tr["w_m"])[m] - w_ref
             sign = -1.0 if c[3] > c[2] else 1.0     # more load torque pulls the speed down
             if load["kind"] == "brake":              # a brake acts against the motion
-                sign *= float(np.sign(np.mean(tr["w_m_ref"][m]))) or 1.0
+                sign *= float(np.sign(np.mean(w_ref))) or 1.0
             dip = sign * e
             k = int(np.argmax(dip)) if dip.size else 0
-            band = np.maximum(SETTLE_BAND * np.abs(np.asarray(tr["w_m_ref"])[m]), w_floor)
+            band = np.maximum(SETTLE_BAND * np.abs(w_ref), w_floor)
             r = {"kind": "load", "signal": "w_m", "t": c[0], "ramp": c[1] - c[0], "from": c[2], "to": c[3], "unit": "N m",
                  "dip_rpm": rad_s_to_rpm(float(max(dip[k], 0.0))) if dip.size else None,
                  "t_dip": float(t[m][k]) if dip.size else None,
