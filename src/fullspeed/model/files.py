@@ -79,7 +79,9 @@ def read_bounded(path: str | Path, field: str, source: str | None = None, limit:
         os.set_blocking(fd, True)
         with os.fdopen(fd, "rb") as f:
             fd = -1   # closed by f
-            data = f.read(limit + 1)
+            data = f.read(st.st_size + 1)   # the size it has (read(limit) would allocate the limit)
+            if len(data) > st.st_size:      # it grew since: on to the limit
+                data += f.read(limit + 1 - len(data))
     finally:
         if fd >= 0:
             os.close(fd)
