@@ -263,9 +263,12 @@ def claim(folder: str | Path, field: str = "--out"):
         made.append(up)
         up = up.parent
     folder.mkdir(parents=True, exist_ok=True)
-    fd = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0) | getattr(os, "O_CLOEXEC", 0))
     try:
-        if fcntl is not None:
+        fd = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0) | getattr(os, "O_CLOEXEC", 0))
+    except OSError:   # a folder one may write but not read: not claimed
+        fd = -1
+    try:
+        if fcntl is not None and fd >= 0:
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
@@ -283,7 +286,8 @@ def claim(folder: str | Path, field: str = "--out"):
                     break
             raise
     finally:
-        os.close(fd)
+        if fd >= 0:
+            os.close(fd)
 
 
 def owned_folder(folder: str | Path, names, field: str = "--out") -> Path:
@@ -349,8 +353,13 @@ def replace_folder(folder: str | Path, files: dict[str, str | bytes], owned=(), 
         else:
             old = Path(tempfile.mkdtemp(dir=parent, prefix=f".{folder.name[:100]}.", suffix=".old"))
             os.rename(folder, old / "x")
-            os.rename(new, folder)
-            shutil.rmtree(old, ignore_errors=True)
+            try:
+                os.rename(new, folder)
+            except BaseException:   # the old set back in its place
+                os.rename(old / "x", folder)
+                raise
+            finally:
+                shutil.rmtree(old, ignore_errors=True)
     except BaseException:
         shutil.rmtree(new, ignore_errors=True)
         raise
