@@ -386,7 +386,7 @@ def _chunked(cfg, T: float, dt: float, max_rows: int):
     assert ptr != ffi.NULL, err
     sim = ffi.gc(ptr, lib.fs_sim_destroy)
     parts, full, t_end = [], 0, 0.0
-    while lib.fs_sim_time(sim) < T - 1e-12:
+    while lib.fs_sim_step_count(sim) < lib.fs_sim_steps(sim, T):   # periods, as fs_sim_run counts them
         t_end = min(t_end + dt, T)
         while True:
             rc, tr = run_to(sim, t_end, max_rows)

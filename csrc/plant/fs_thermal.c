@@ -7,6 +7,7 @@ static int in_range(double x, double lo, double hi) { return x >= lo && x <= hi;
 
 fs_status fs_thermal_init(fs_thermal *th, const fs_thermal_config *cfg)
 {
+    if (!th || !cfg) return FS_ERR_NULL;
     th->cfg = *cfg;
     th->T_w = cfg->T_w0;
     th->T_m = cfg->T_m0;

@@ -46,9 +46,9 @@ typedef struct {
     double P_cu, P_fe;        /* the losses of the last step, W */
 } fs_thermal;
 
-/* FS_OK, or FS_ERR_PARAM for a field out of range or not finite
- * (resistances and capacities > 0, time_scale >= 1, k_rotor in [0, 1], an
- * iron loss fs_iron_check refuses,
+/* FS_OK, FS_ERR_NULL for a NULL argument, or FS_ERR_PARAM for a field out
+ * of range or not finite (resistances and capacities > 0, time_scale >= 1,
+ * k_rotor in [0, 1], an iron loss fs_iron_check refuses,
  * |alpha| < 0.1 / K, temperatures in
  * [-273.15, 1000] degC, and each parameter factor positive from -50 degC to
  * 300 degC). */

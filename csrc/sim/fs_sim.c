@@ -323,6 +323,15 @@ void fs_sim_destroy(fs_sim *s)
 }
 
 double fs_sim_time(const fs_sim *s) { return s ? (double)s->k * s->Tc : NAN; }
+long long fs_sim_step_count(const fs_sim *s) { return s ? s->k : -1; }
+
+long long fs_sim_steps(const fs_sim *s, double t)
+{
+    if (!s) return 0;
+    const double n = ceil(t / s->Tc - 0.5);
+    if (!(n > 0.0)) return 0;                  /* t <= Tc / 2, or NaN */
+    return n < 0x1p62 ? (long long)n : (long long)0x1p62;   /* beyond any duration the schema allows */
+}
 double fs_sim_stop_time(const fs_sim *s) { return s ? s->stop_time : NAN; }
 double fs_sim_adc_saturated_at(const fs_sim *s) { return s ? s->adc_sat_time : NAN; }
 
@@ -805,11 +814,16 @@ static int advance(fs_sim *s, double t)
 
 int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
 {
+    return fs_sim_run_steps(s, fs_sim_steps(s, t_end), trace, max_rows, rows);
+}
+
+int fs_sim_run_steps(fs_sim *s, long long k_end, double *trace, int max_rows, int *rows)
+{
     if (!s || !rows || (!trace && max_rows > 0)) return FS_RUN_ERR_NULL;
     *rows = 0;
     if (s->stopped) return s->stopped;
     const fs_sim_config *c = &s->cfg;
-    while ((double)s->k * s->Tc < t_end - 0.5 * s->Tc) {
+    while (s->k < k_end) {
         int record = (s->k % c->decimation) == 0;
         if (record && *rows >= max_rows) return FS_RUN_BUFFER_FULL;
         double t = (double)s->k * s->Tc;

@@ -167,8 +167,20 @@ typedef struct fs_sim fs_sim;
 fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len);
 void fs_sim_destroy(fs_sim *sim);
 /* Advances to t_end, writing at most max_rows rows of FS_CH_N doubles into
- * trace; *rows receives the count. Returns an fs_run_status. */
+ * trace; *rows receives the count. Returns an fs_run_status. It runs until
+ * fs_sim_step_count reaches fs_sim_steps(sim, t_end): fs_sim_run_steps. */
 int fs_sim_run(fs_sim *sim, double t_end, double *trace, int max_rows, int *rows);
+/* The same, to k_end control periods run in all (nothing when k_end <= fs_sim_step_count). */
+int fs_sim_run_steps(fs_sim *sim, long long k_end, double *trace, int max_rows, int *rows);
+/* The control periods a run from 0 to t takes: the nearest whole number,
+ * ceil(t / Tc - 1/2), so that |n Tc - t| <= Tc / 2 (a remainder of exactly
+ * half a period is not run); 0 for t <= Tc / 2 or NaN. One rule for
+ * fs_sim_run and its callers, which count periods with it instead of
+ * comparing times (a loop waiting for the time to reach t would wait for
+ * ever when the remainder is under half a period). */
+long long fs_sim_steps(const fs_sim *sim, double t);
+/* The control periods run so far (fs_sim_time is this times Tc); -1 for a NULL sim. */
+long long fs_sim_step_count(const fs_sim *sim);
 /* Simulated time, s (NaN for a NULL sim, as the two below). */
 double fs_sim_time(const fs_sim *sim);
 /* Time of the stop, for a run that stopped (NaN otherwise). */

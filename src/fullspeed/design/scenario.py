@@ -168,6 +168,8 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
                              "of a radian at the top speed, is shorter: check R_s, L_d, L_q and observer.top_speed_rpm)"), source)
     if ctl["i_max"] >= m.bench["i_trip"]:
         raise ConfigError("controller.i_max", ctl["i_max"], f"must be below the trip level bench.i_trip ({m.bench['i_trip']:g} A)", source)
+    if d["duration"] < Ts:   # the run counts whole periods (fs_sim_steps): a shorter one would run none
+        raise ConfigError("duration", d["duration"], f"must be at least one control period ({Ts:g} s)", source)
     rows = d["duration"] / (Ts * d["trace"]["decimation"])
     if rows * TRACE_ROW_BYTES > TRACE_MAX_BYTES:
         need = math.ceil(d["duration"] / Ts * TRACE_ROW_BYTES / TRACE_MAX_BYTES)
