@@ -5,6 +5,10 @@
 #include <stddef.h>
 #include "fs_config.h"
 
+#if !defined(FS_CONFIG_EXPORT_ID) || FS_CONFIG_EXPORT_ID != 0x8468392fu
+#error "fs_config.h is not the header exported with fs_config.c (another export, or one cut short): export again"
+#endif
+
 /* The layout this configuration was written for: a header that changed since
  * the export fails here, naming the field. */
 _Static_assert(sizeof(fs_drive_config) == 1760u, "fs_drive_config: size differs from the exported layout");

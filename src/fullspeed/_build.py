@@ -46,6 +46,7 @@ HEADERS = [
     "control/fs_imc.h",
     "control/fs_ident.h",
     "control/fs_drive.h",
+    "plant/fs_losses.h",
     "plant/fs_magnetic.h",
     "plant/fs_pmsm.h",
     "plant/fs_thermal.h",

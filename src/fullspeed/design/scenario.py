@@ -168,6 +168,8 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
                              "of a radian at the top speed, is shorter: check R_s, L_d, L_q and observer.top_speed_rpm)"), source)
     if ctl["i_max"] >= m.bench["i_trip"]:
         raise ConfigError("controller.i_max", ctl["i_max"], f"must be below the trip level bench.i_trip ({m.bench['i_trip']:g} A)", source)
+    if d["duration"] < Ts:   # the run counts whole periods (fs_sim_steps): a shorter one would run none
+        raise ConfigError("duration", d["duration"], f"must be at least one control period ({Ts:g} s)", source)
     rows = d["duration"] / (Ts * d["trace"]["decimation"])
     if rows * TRACE_ROW_BYTES > TRACE_MAX_BYTES:
         need = math.ceil(d["duration"] / Ts * TRACE_ROW_BYTES / TRACE_MAX_BYTES)
@@ -260,10 +262,12 @@ def _imc_fields(d: dict, m: Machine, source) -> None:
     if conv["inverter"] == "switching":
         raise ConfigError("converter.inverter", "switching", "must be \"averaged\" with kind = \"imc\" (the inverter stage is averaged per rectifier interval)", source)
     conv["inverter"] = "averaged"
-    for key in ("t_dead", "u_on"):
+    for key in ("u_on", "r_on"):
         if conv[key]:
-            raise ConfigError(f"converter.{key}", conv[key], "must be 0 with kind = \"imc\" (the model has no dead time or device drops)", source)
-    conv["t_dead"] = 0.0
+            raise ConfigError(f"converter.{key}", conv[key], "must be 0 with kind = \"imc\" (its devices' drops are the "
+                              "machine's [converter] module's, with losses.devices)", source)
+    if conv["t_dead"] is None:   # the ideal converter of the paper's modulator (not the bench's inverter dead time)
+        conv["t_dead"] = 0.0
     if tim["sampling"] == "double":
         raise ConfigError("timing.sampling", "double", "must be \"single\" with kind = \"imc\"", source)
     tim["sampling"] = "single"

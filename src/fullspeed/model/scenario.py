@@ -191,6 +191,14 @@ SCENARIO = {
         "T_winding0": F(None, lo=-50.0, hi=300.0, doc="degC; default the ambient"),
         "T_magnet0": F(None, lo=-50.0, hi=300.0, doc="degC; default the ambient"),
     }, default={}),
+    # where the power goes: the converter's devices and the machine's iron loss act on the plant, every loss metered
+    # (csrc/plant/fs_losses.h; the trace's E_dc, E_cond, E_rect, E_sw, E_fe, E_mech, E_shaft)
+    "losses": T({
+        "devices": B(False, doc="the machine's [converter] module: its conduction drops act on the plant, its commutation "
+                                "energies are drawn from the converter's source (false: ideal switches, or converter.u_on, r_on)"),
+        "iron": B(False, doc="the machine's [losses] iron loss drawn from the shaft as a drag torque"),
+        "trace": B(False, doc="run the loss meters also with neither (on with either)"),
+    }, default={}),
     # the machine's spatial harmonics (its [harmonics] table, csrc/plant/fs_pmsm.h)
     "harmonics": T({"enabled": B(False, doc="the flux depends on the rotor angle: back-EMF and saliency harmonics, cogging")},
                    default={}),
@@ -279,6 +287,7 @@ def parse_scenario(data: dict, source: str | None = None) -> tuple[dict, Machine
     _per_unit(d, data, m, source)
     _fault_fields(d, m, source)
     _thermal_fields(d, m, source)
+    _losses_fields(d, m, source)
     if d["controller"]["xy_control"] and m.phases != 5:
         raise ConfigError("controller.xy_control", True, "needs a five-phase machine (the x-y plane)", source)
     steady = d["metrics"]["steady"]
@@ -324,6 +333,21 @@ def _thermal_fields(d: dict, m: Machine, source) -> None:
     for key in ("T_winding0", "T_magnet0"):
         if th[key] is None:
             th[key] = th["T_amb"]
+
+
+def _losses_fields(d: dict, m: Machine, source) -> None:
+    los, conv = d["losses"], d["converter"]
+    if los["devices"]:
+        if m.converter is None:
+            raise ConfigError("losses.devices", True, f"needs a [converter] table in the machine {m.name}: the module's "
+                              "datasheet values (fullspeed schema machine.converter)", source)
+        for key in ("u_on", "r_on"):
+            if conv[key]:
+                raise ConfigError(f"converter.{key}", conv[key], "must be 0 with losses.devices (the drops are the "
+                                  "module's, machine [converter]: one setting in one place)", source)
+    if los["iron"] and m.losses is None:
+        raise ConfigError("losses.iron", True, f"needs a [losses] table in the machine {m.name}: its iron loss "
+                          "coefficients (fullspeed schema machine.losses)", source)
 
 
 def _fault_fields(d: dict, m: Machine, source) -> None:

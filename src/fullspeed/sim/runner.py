@@ -27,6 +27,7 @@ CHANNELS = [
     "i_grid_a", "v_pn", "u_ab", "alpha", "E_grid", "E_rf", "W_filter",
     "lock_resid", "lock_lost", "stage", "recoveries", "u_dc",
     "T_winding", "T_magnet", "R_s_true", "psi_f_true", "R_s_hat", "psi_f_hat",
+    "E_dc", "E_cond", "E_rect", "E_sw", "E_fe", "E_mech", "E_shaft",
 ]
 assert len(CHANNELS) == lib.FS_CH_N, "channel names out of step with fs_sim.h"
 
@@ -42,7 +43,8 @@ UNITS = {
                      "lock_resid", "lock_lost", "recoveries"), "1"),
     **dict.fromkeys(("w_m_ref", "w_m_hat", "w_m_est"), "rad/s"),
     **dict.fromkeys(("theta_hat", "theta_err", "theta_est", "est_err"), "rad"),
-    **dict.fromkeys(("E_in", "E_cu", "E_airgap", "W_mag", "E_grid", "E_rf", "W_filter"), "J"),
+    **dict.fromkeys(("E_in", "E_cu", "E_airgap", "W_mag", "E_grid", "E_rf", "W_filter",
+                     "E_dc", "E_cond", "E_rect", "E_sw", "E_fe", "E_mech", "E_shaft"), "J"),
     "stage": "name",
     "T_winding": "degC", "T_magnet": "degC", "R_s_true": "ohm", "R_s_hat": "ohm", "psi_f_true": "Wb", "psi_f_hat": "Wb",
 }
@@ -157,21 +159,34 @@ class Simulation:
     def time(self) -> float:
         return lib.fs_sim_time(self._sim)
 
+    @property
+    def step_count(self) -> int:
+        """Control periods run so far."""
+        return lib.fs_sim_step_count(self._sim)
+
+    def steps(self, t: float) -> int:
+        """The control periods a run to t takes (fs_sim_steps: the nearest
+        whole number, |n Tc - t| <= Tc / 2), the count advance(t) stops at."""
+        return lib.fs_sim_steps(self._sim, t)
+
     def advance(self, t_end: float) -> str:
-        """Run to t_end (or a stop). Returns the status: running, done or a stop reason."""
+        """Run to t_end (or a stop): to steps(t_end) periods. Returns the status: running, done or a stop reason."""
+        return self.advance_steps(self.steps(t_end))
+
+    def advance_steps(self, k_end: int) -> str:
+        """Run until k_end control periods have run in all (or a stop). Returns the status."""
         rows = self._rows
-        Tc = self._cfg.drive.Ts
         dec = self._cfg.decimation
         while True:
             self._n += rows[0]; rows[0] = 0   # noqa: E702 (no call or jump between the two: no signal handler runs there)
-            need = self._n + int((t_end - self.time) / (Tc * dec)) + 2
+            need = self._n + max(0, k_end - self.step_count) // dec + 2
             if need > len(self._buf):
                 grown = np.empty((max(need, 2 * len(self._buf)), lib.FS_CH_N))
                 grown[: self._n] = self._buf[: self._n]
                 self._buf = grown
             free = len(self._buf) - self._n
             ptr = ffi.cast("double *", self._buf.ctypes.data) + self._n * lib.FS_CH_N
-            rc = lib.fs_sim_run(self._sim, t_end, ptr, free, rows)
+            rc = lib.fs_sim_run_steps(self._sim, k_end, ptr, free, rows)
             self._n += rows[0]; rows[0] = 0   # noqa: E702
             if rc == lib.FS_RUN_BUFFER_FULL:
                 continue
@@ -225,7 +240,10 @@ def simulate(scenario: Scenario | str, progress: bool = False, chunk: float | No
     sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario, overrides)
     sim = Simulation(sc)
     T = sc.duration
-    chunk = chunk or max(T / 100.0, 1e-3)
+    # periods, counted once by the C core's rule (fs_sim_steps): the loop ends
+    # whatever the remainder of T after its last whole period
+    n_end = sim.steps(T)
+    n_chunk = max(1, sim.steps(chunk or max(T / 100.0, 1e-3)))
     bar = None
     if progress:
         from tqdm import tqdm
@@ -234,9 +252,9 @@ def simulate(scenario: Scenario | str, progress: bool = False, chunk: float | No
     t0 = time.perf_counter()
     status = "running"
     try:
-        while sim.time < T - 1e-12 and status == "running":
+        while sim.step_count < n_end and status == "running":
             before = sim.time
-            status = sim.advance(min(sim.time + chunk, T))
+            status = sim.advance_steps(min(sim.step_count + n_chunk, n_end))
             if bar is not None:
                 bar.update(sim.time - before)
     except KeyboardInterrupt:
