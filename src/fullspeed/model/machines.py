@@ -208,6 +208,16 @@ def catalog_names() -> list[str]:
     return package_names("machines")
 
 
+# The catalog's machines that are the papers' (and the bench's peer), beside the published ones
+PAPER_MACHINES = ("motulator-2kw-ipmsm", "yang2022", "yu2022", "zou2021")
+
+
+def published_machines() -> list[str]:
+    """The catalog's published machines (src/fullspeed/machines: each value with
+    its source), the papers' left out: what claim B-REAL runs."""
+    return [n for n in catalog_names() if n not in PAPER_MACHINES]
+
+
 def catalog_data(name: str, source: str | None = None) -> dict:
     names = catalog_names()
     if name not in names:

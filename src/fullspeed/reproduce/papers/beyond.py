@@ -64,7 +64,6 @@ def xcomp_3ph(out: Path) -> Measurement:
 
 # Claims whose work is still open: listed with the reason, never left out.
 NOT_YET.update({
-    "B-REAL": "the catalog of published machines and the controller on their flux maps are not built yet (issue 33)",
     "B-START": "the start chosen by the machine (alignment, I/f, a motion test) is not built yet (issue 34)",
     "B-MAPID": "the identification of the flux map is not built yet (issue 35)",
 })
