@@ -5,10 +5,6 @@
 
 #include <stddef.h>
 
-/* A refusal names the config field or sub-block at fault (fs_drive.fail). */
-#define REFUSE(where, status) do { drv->fail = (where); return (status); } while (0)
-#define SUB(where, call) do { fs_status st_ = (call); if (st_ != FS_OK) REFUSE((where), st_); } while (0)
-
 /* The float fields the drive reads, with the range each must be in whatever
  * the mode (F finite, N >= 0 and finite, P > 0 and finite; the rest is
  * checked where it is used) and the status that refuses it. */
@@ -62,7 +58,7 @@ static fs_status drive_check_fields(const fs_drive_config *cfg, const char **nam
     return FS_OK;
 }
 
-/* The injection estimators: HFI (and blend), the polarity detector. */
+/* The injection estimators: HFI (and blend). */
 static fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
 {
     fs_motion_obs_config mo = {cfg->Ts, cfg->J, cfg->B, cfg->pole_pairs, 0.0f};
@@ -85,17 +81,6 @@ static fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
         bc.obs = mo;
         SUB("blend", fs_blend_init(&drv->blend, &bc));
         if (cfg->w_inject_max > 0.0f && !(0.9f * cfg->w_inject_max >= bc.w_upper)) REFUSE("w_inject_max", FS_ERR_LIMIT);
-    }
-    if (cfg->polarity.i_pulse > 0.0f) {
-        fs_polarity_config pc = cfg->polarity;
-        pc.Ts = cfg->Ts;
-        if (pc.i_pulse > cfg->i_max) REFUSE("polarity.i_pulse", FS_ERR_ABOVE_I_MAX);
-        if (pc.i_pulse_max > cfg->i_max) REFUSE("polarity.i_pulse_max", FS_ERR_ABOVE_I_MAX);
-        /* the retries up to the current limit less the carrier's peak */
-        if (pc.i_pulse_max == 0.0f) pc.i_pulse_max = fs_maxf(cfg->i_max - drv->i_hf, pc.i_pulse);
-        pc.w_filter = drv->hfi.cfg.w_b_p;
-        pc.n_carrier = (int)(2.0f * FS_PI / (drv->hfi.cfg.w_h * cfg->Ts) + 0.5f);
-        SUB("polarity", fs_polarity_init(&drv->pol, &pc));
     }
     return FS_OK;
 }
@@ -238,11 +223,8 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
             SUB("imc_depth", fs_imc_depth_init(&drv->depth, &dc));
         }
     }
-    if (cfg->i_start > cfg->i_max) REFUSE("i_start", FS_ERR_ABOVE_I_MAX);
-    if (cfg->i_start > 0.0f) {
-        if (!fs_pos(cfg->a_start)) REFUSE("a_start", FS_ERR_PARAM);
-        if (!fs_pos(cfg->w_handover)) REFUSE("w_handover", FS_ERR_PARAM);
-    }
+    st = fs_drive_start_init(drv, cfg);
+    if (st != FS_OK) return st;
     fs_drive_reset(drv);
     return FS_OK;
 }
@@ -262,8 +244,8 @@ void fs_drive_reset(fs_drive *drv)
         fs_hfi_reset(&drv->hfi, 0.0f, 0.0f);
         drv->hfi.gain = drv->hfi.gain_prev = 0.0f;   /* fades in */
         if (drv->cfg.angle_source == FS_ANGLE_BLEND) fs_blend_reset(&drv->blend, 0.0f, 0.0f);
-        if (drv->cfg.polarity.i_pulse > 0.0f) fs_polarity_reset(&drv->pol);
     }
+    fs_drive_start_reset(drv);
     if (drive_square(&drv->cfg)) fs_swvi_reset(&drv->sw, 0.0f, 0.0f);
     if (drive_imc_depth(&drv->cfg)) fs_imc_depth_reset(&drv->depth);
     if (drv->cfg.lock_time > 0.0f) {
@@ -282,17 +264,10 @@ void fs_drive_reset(fs_drive *drv)
     drv->injecting = drv->inject_on = drive_injects(&drv->cfg);
     drv->T_ff = 0.0f;
     drv->phase = drive_starts(&drv->cfg) ? FS_PHASE_START : FS_PHASE_RUN;
-    drv->theta_if = drv->w_if = 0.0f;
     drv->theta_ol = 0.0f;
     drv->pll_started = false;
     drv->u_hist[0].alpha = drv->u_hist[0].beta = 0.0f;
     drv->u_hist[1] = drv->u_hist[0];
-}
-
-/* The realised fundamental voltage that acted over the period that ended now. */
-static fs_ab drive_u_past(const fs_drive *drv)
-{
-    return drv->cfg.delay > 0.5f ? drv->u_hist[1] : drv->u_hist[0];
 }
 
 
@@ -394,9 +369,10 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float
     if (c->angle_source == FS_ANGLE_SMO) {
         fs_smo_step(&drv->smo, *i_ab, drive_u_past(drv));
         if (in->sensorless) {
+            if (c->w_restart > 0.0f && drv->phase == FS_PHASE_RUN) fs_drive_if_restart(drv, in);
             bool start = drv->phase == FS_PHASE_START;
-            *theta = start ? drv->theta_if : drv->smo.theta;
-            *w = start ? drv->w_if : drv->smo.w;
+            *theta = start ? drv->ifs.theta : drv->smo.theta;
+            *w = start ? drv->ifs.w : drv->smo.w;
             return;
         }
     }
@@ -425,10 +401,7 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
         drv->t_left -= c->Ts;
         if (drv->t_left <= 0.0f) fs_drive_recover_end(drv);
     } else if (drv->phase == FS_PHASE_POLARITY) {
-        i_ref.d = fs_polarity_step(&drv->pol, drv->hfi.i_p, drv->hfi.w);
-        i_ref.q = 0.0f;
-        if (drv->pol.stage == FS_POLARITY_DONE) fs_drive_polarity_done(drv);
-        if (drv->pol.stage == FS_POLARITY_UNDETERMINED) drv->phase = FS_PHASE_HALT;
+        i_ref = fs_drive_polarity_step(drv);
     } else if (c->mode == FS_MODE_SPEED && in->sensorless && drv->phase == FS_PHASE_START) {
         i_ref = fs_drive_if_step(drv, in, i_ab);
     } else if (c->mode == FS_MODE_SPEED) {
@@ -706,7 +679,7 @@ static void drive_step_halt(const fs_drive *drv, fs_ab i_ab, fs_drive_out *out)
     out->i_q = i.q;
     out->phase = FS_PHASE_HALT;
     out->stage = FS_STAGE_OPEN;
-    out->fault = FS_FAULT_POLARITY;   /* the only refusal so far */
+    out->fault = drv->fault;
     out->recoveries = drv->recoveries;
 }
 

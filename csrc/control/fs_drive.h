@@ -104,9 +104,11 @@
 #include "fs_fw.h"
 #include "fs_hfi.h"
 #include "fs_ident.h"
+#include "fs_if_start.h"
 #include "fs_imc.h"
 #include "fs_lock.h"
 #include "fs_monitor.h"
+#include "fs_motion_test.h"
 #include "fs_mtpa.h"
 #include "fs_param_adapt.h"
 #include "fs_pll.h"
@@ -190,7 +192,9 @@ typedef enum {
  * the caller must stop the inverter and report it. */
 typedef enum {
     FS_FAULT_NONE = 0,
-    FS_FAULT_POLARITY = 1    /* polarity detection found no margin up to its largest pulse (fs_polarity.h) */
+    FS_FAULT_POLARITY = 1,   /* polarity detection found no margin up to its largest pulse (fs_polarity.h), or the
+                                motion test no turn, or too much noise or motion to decide (fs_motion_test.h) */
+    FS_FAULT_START = 2       /* the I/f start waited t_handover at w_handover without the observer agreeing */
 } fs_drive_fault;
 
 /* The operating stage, traced: where the drive is in its sequence
@@ -367,6 +371,21 @@ typedef struct {
     /* FS_MODE_IDENTIFY (three phases, inverter): Ts, delay, pole_pairs and
      * i_max are taken from above */
     fs_ident_config ident;
+    /* The start chosen by the machine (fullspeed.design.start), after the
+     * fields above so that their places stay where the step reads them.
+     * Polarity by a bounded motion (fs_motion_test.h) instead of the pulses
+     * when motion.i_push > 0 (polarity.i_pulse is then 0; Ts taken from
+     * above; the push at most i_max less the carrier's peak). The I/f start
+     * (i_start > 0, fs_if_start.h): its damping's virtual resistance r_damp
+     * (ohm, 0: none) centred on the rotor's swing at w_swing (rad/s), the
+     * longest wait at w_handover for the observer, t_handover (s, 0: no
+     * limit; then FS_FAULT_START), and w_restart (el. rad/s, 0: never):
+     * running on the observer below it, with the reference below it too, the
+     * loops return to the I/f frame (the observer is not trusted at the
+     * speeds it has to pass through: a reversal) and hand over again at
+     * w_handover (> w_restart). */
+    fs_motion_test_config motion;
+    float r_damp, w_swing, t_handover, w_restart;
 } fs_drive_config;
 
 typedef struct {
@@ -427,7 +446,6 @@ typedef struct {
     float t_left;            /* s left in FS_PHASE_RECOVER */
     float alpha;             /* its last output, rad */
     int phase;               /* fs_drive_phase */
-    float theta_if, w_if;    /* I/f frame */
     float theta_ol;          /* open-loop frame angle */
     bool pll_started;
     bool est_started;        /* the injection estimators have seen their first step */
@@ -461,6 +479,11 @@ typedef struct {
      * string literal ("smo.bw_pll", "i_max", "hfi"; fs_status_str tells
      * why); NULL after a successful one */
     const char *fail;
+    /* the start (fs_drive_start.c), past everything the run reads */
+    fs_motion_test mt;       /* polarity by motion (cfg.motion.i_push > 0) */
+    float mt_ff;             /* N m: the feed-forward of the motion test's push taken back out of the observers' loads */
+    fs_if_start ifs;         /* the I/f frame (cfg.i_start > 0) */
+    int fault;               /* fs_drive_fault: why FS_PHASE_HALT */
 } fs_drive;
 
 /* Every float field is refused when not finite (naming it), each field out of

@@ -579,8 +579,8 @@ int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
             s->stop_time = t;
             return s->stopped;
         }
-        if (dout.fault == FS_FAULT_POLARITY) {   /* the drive refused to start: as a firmware would, stop */
-            s->stopped = FS_STOP_POLARITY;
+        if (dout.fault != FS_FAULT_NONE) {   /* the drive refused to go on: as a firmware would, stop */
+            s->stopped = dout.fault == FS_FAULT_START ? FS_STOP_START : FS_STOP_POLARITY;
             s->stop_time = t;
             return s->stopped;
         }

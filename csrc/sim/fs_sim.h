@@ -135,6 +135,7 @@ typedef enum {
     FS_STOP_OVERCURRENT = 3,  /* a phase current exceeded i_trip */
     FS_STOP_LOSS_OF_LOCK = 4, /* an estimator lost track of the rotor */
     FS_STOP_POLARITY = 5,     /* the drive could not determine the magnet's polarity and refused to start */
+    FS_STOP_START = 6,        /* the I/f start never handed over to the observer (fs_drive FS_FAULT_START) */
     FS_RUN_ERR_NULL = -1      /* sim or rows (or trace, with max_rows > 0) is NULL: nothing run */
 } fs_run_status;
 
