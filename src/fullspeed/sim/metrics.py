@@ -281,6 +281,32 @@ def sensorless_error_max(tr, after_step: float = 0.05) -> float | None:
     return float(np.degrees(np.max(np.abs(np.asarray(tr["theta_err"])[keep]))))
 
 
+# the starts after which the loops run on an estimate from standstill (design.start)
+START_KINDS = {"pulses": "polarity pulses", "motion": "motion test", "if": "I/f start", "known": "at a known angle"}
+
+
+def start_motion(res) -> dict | None:
+    """The rotor's motion before the loops first run on an estimate
+    (SENSORLESS_STAGES): its largest turn from where it stood, el.deg and
+    mechanical degrees, its largest speed, rpm, until when (None: the loops
+    never did), and the bound the start's design gives for it (el.deg; None
+    where it has none). None for a run that does not start sensorless."""
+    st = res.scenario.data.get("start", {})
+    kind = st.get("kind")
+    tr = res.traces
+    t = np.asarray(tr["t"])
+    if kind not in START_KINDS or t.size == 0:
+        return None
+    on = np.isin(np.asarray(tr["stage"]).astype(int), SENSORLESS_STAGES)
+    k = int(np.argmax(on)) if on.any() else t.size - 1
+    theta = np.unwrap(np.asarray(tr["theta_e"])[: k + 1])
+    turn = float(np.degrees(np.max(np.abs(theta - theta[0]))))
+    p = res.scenario.machine.pole_pairs
+    return {"kind": kind, "until": float(t[k]) if on.any() else None, "turn_deg": turn, "turn_deg_mech": turn / p,
+            "speed_max_rpm": rad_s_to_rpm(float(np.max(np.abs(np.asarray(tr["w_m"])[: k + 1])))),
+            "bound_deg": st.get("c", {}).get("bound_deg")}
+
+
 def compute_metrics(res) -> dict:
     tr = res.traces
     t = tr["t"]
@@ -314,6 +340,9 @@ def compute_metrics(res) -> dict:
         out["faults"] = faults
     out["steps"] = step_metrics(res)
     out["stages"] = stage_metrics(tr)
+    motion = start_motion(res)
+    if motion is not None:
+        out["start_motion"] = motion
     if not m.any():
         return out
     mode = res.scenario.data["controller"]["mode"]
@@ -365,6 +394,13 @@ def summary_lines(metrics: dict) -> list[str]:
     for name, st in metrics.get("stages", {}).items():
         lines.append(f"stage {name:15s} {st['time']:8.4f} s in {st['entries']} entr{'y' if st['entries'] == 1 else 'ies'}, "
                      f"max |angle error| {st['theta_err_max_deg']:.2f} el.deg")
+    sm = metrics.get("start_motion")
+    if sm is not None:
+        until = f"before the loops ran on the estimate at {sm['until']:.4f} s" if sm["until"] is not None \
+            else "and the loops never ran on the estimate"
+        bound = f" (the start's bound {sm['bound_deg']:.1f} el.deg)" if sm.get("bound_deg") is not None else ""
+        lines.append(f"start ({START_KINDS[sm['kind']]}): the rotor turned {sm['turn_deg']:.2f} el.deg "
+                     f"({sm['turn_deg_mech']:.2f} deg mechanical), at most {sm['speed_max_rpm']:.1f} rpm, {until}{bound}")
     return lines
 
 
@@ -427,6 +463,7 @@ def fault_report(res) -> dict | None:
 METRIC_NAMES = (
     "stop_reason", "stop_time", "sim_time", "wall_time", "speed_ratio", "i_phase_max",
     "lock_lost_at", "recoveries", "true_loss_at", "silent_failure", "sensorless_err_deg_max",
+    "start_motion.kind", "start_motion.turn_deg", "start_motion.speed_max_rpm", "start_motion.bound_deg",
     "speed_ref_rpm", "speed_rpm", "speed_error_pct", "i_d_error_rms", "i_q_error_rms",
     "T_e_mean", "T_e_pp",
     "theta_err_deg.mean", "theta_err_deg.pp", "theta_err_deg.max",
