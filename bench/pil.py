@@ -795,7 +795,9 @@ def firmware_leaves_out(scenario: str) -> str | None:
     d = sc.data
     out = [what for what, used in (("the matrix converter", d["converter"]["kind"] == "imc"),
                                    ("five phases", sc.machine.phases == 5),
-                                   ("square-wave injection", d["controller"]["angle"] == "swvi")) if used]
+                                   ("square-wave injection", d["controller"]["angle"] == "swvi"),
+                                   ("the motion test", d["start"]["kind"] == "motion"),
+                                   ("the I/f start", d["observer"]["start"] == "if")) if used]
     return ", ".join(out) or None
 
 

@@ -78,7 +78,7 @@ void app_pwm_isr(drive_app *app)
         return;
     }
     fs_drive_step(&app->drive, &app->in, &app->out);
-    if (app->out.fault != FS_FAULT_NONE) {   /* the drive halted (polarity undetermined): it will not go on */
+    if (app->out.fault != FS_FAULT_NONE) {   /* the drive halted (polarity undetermined, or an I/f start never handed over) */
         app_fault(app, APP_FAULT_DRIVE);
         return;
     }

@@ -369,7 +369,7 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float
     if (c->angle_source == FS_ANGLE_SMO) {
         fs_smo_step(&drv->smo, *i_ab, drive_u_past(drv));
         if (in->sensorless) {
-            if (c->w_restart > 0.0f && drv->phase == FS_PHASE_RUN) fs_drive_if_restart(drv, in);
+            if (FS_WITH_IF_START && c->w_restart > 0.0f && drv->phase == FS_PHASE_RUN) fs_drive_if_restart(drv, in);
             bool start = drv->phase == FS_PHASE_START;
             *theta = start ? drv->ifs.theta : drv->smo.theta;
             *w = start ? drv->ifs.w : drv->smo.w;
@@ -402,7 +402,7 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
         if (drv->t_left <= 0.0f) fs_drive_recover_end(drv);
     } else if (drv->phase == FS_PHASE_POLARITY) {
         i_ref = fs_drive_polarity_step(drv);
-    } else if (c->mode == FS_MODE_SPEED && in->sensorless && drv->phase == FS_PHASE_START) {
+    } else if (FS_WITH_IF_START && c->mode == FS_MODE_SPEED && in->sensorless && drv->phase == FS_PHASE_START) {
         i_ref = fs_drive_if_step(drv, in, i_ab);
     } else if (c->mode == FS_MODE_SPEED) {
         *T_ref = fs_speed_ctrl_step(&drv->sc, in->w_m_ref, w_e / (float)c->pole_pairs);

@@ -81,7 +81,7 @@
  * Timing and re-entrancy. fs_drive_step must complete within Ts of its
  *   sampling instant, before the next update event. On a Cortex-M4F at
  *   -O2 a step takes about 1,280-2,890 instructions on average by angle
- *   source, 4,080 at most (the blend); 2,475 on average and 3,492 at most
+ *   source, 4,080 at most (the blend); 2,470 on average and 3,488 at most
  *   over the blended full-range run in the firmware's build (-flto):
  *   bench/pil.py measures it per mode. It
  *   touches only *drv, *in and *out (no globals, no heap): instances are
@@ -89,9 +89,9 @@
  *   fs_drive_init, fs_drive_reset and fs_drive_step on one instance must not
  *   interrupt each other. It uses the FPU (lazy stacking keeps an interrupt
  *   that does correct).
- * Memory. sizeof(fs_drive) is about 7.1 KB (bench/pil.py reports the
- *   target's, 7,104 B; a 64-bit host's is up to 16 B more: its pointers);
- *   its stack is under 800 B (bench/pil.py: 728 B on the static call graph,
+ * Memory. sizeof(fs_drive) is about 7.4 KB (bench/pil.py reports the
+ *   target's, 7,368 B; a 64-bit host's is up to 16 B more: its pointers);
+ *   its stack is under 800 B (bench/pil.py: 736 B on the static call graph,
  *   328 B the measured high-water mark).
  */
 #ifndef FS_DRIVE_H
@@ -133,11 +133,16 @@
  *   FS_WITH_IDENT       the identification mode (fs_ident.h; mode refused)
  *   FS_WITH_ADAPT       the online R_s and psi_f correction (fs_param_adapt.h; adapt refused)
  *   FS_WITH_DTCOMP      dead-time compensation on the predicted current (fs_dtcomp.h; dt_predict refused)
+ *   FS_WITH_MOTION_TEST polarity by a bounded motion (fs_motion_test.h; motion refused)
+ *   FS_WITH_IF_START    the I/f start into the back-EMF observer (fs_if_start.h; i_start refused)
  * A three-phase inverter drive on the blend with flux weakening needs only
  * FS_WITH_DTCOMP (the scenarios' default while the drive injects: the
  * carrier's current crosses zero within the period; without a carrier
  * fs_dtcomp_step computes the usual compensation, which is then the same): a commissioning
- * build keeps FS_WITH_IDENT, a production build leaves it out. */
+ * build keeps FS_WITH_IDENT, a production build leaves it out; one whose machine's
+ * polarity pulses decide (its d axis saturates) leaves out the starts that turn the rotor,
+ * FS_WITH_MOTION_TEST and FS_WITH_IF_START (3,248 B of flash at -O2 with their glue: the
+ * blended image 34,000 B with them, 30,752 B without, bench/firmware.py). */
 #ifndef FS_WITH_IMC
 #define FS_WITH_IMC 1
 #endif
@@ -155,6 +160,12 @@
 #endif
 #ifndef FS_WITH_DTCOMP
 #define FS_WITH_DTCOMP 1
+#endif
+#ifndef FS_WITH_MOTION_TEST
+#define FS_WITH_MOTION_TEST 1
+#endif
+#ifndef FS_WITH_IF_START
+#define FS_WITH_IF_START 1
 #endif
 
 typedef enum {

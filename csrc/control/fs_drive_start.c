@@ -8,7 +8,7 @@
 /* The injection estimators' first step: sensorless from the start, the
  * polarity is detected first; with the encoder in the loop they start from
  * its angle (commissioning, calibration). */
-void fs_drive_start_estimators(fs_drive *drv, const fs_drive_in *in)
+FS_COLD void fs_drive_start_estimators(fs_drive *drv, const fs_drive_in *in)
 {
     const fs_drive_config *c = &drv->cfg;
     drv->est_started = true;
@@ -24,9 +24,11 @@ void fs_drive_start_estimators(fs_drive *drv, const fs_drive_in *in)
 
 /* The start's units: the polarity detection (pulses or the motion test;
  * after the injection's init, whose carrier bounds them) and the I/f start. */
-fs_status fs_drive_start_init(fs_drive *drv, const fs_drive_config *cfg)
+FS_COLD fs_status fs_drive_start_init(fs_drive *drv, const fs_drive_config *cfg)
 {
     if (cfg->polarity.i_pulse > 0.0f && cfg->motion.i_push > 0.0f) REFUSE("motion.i_push", FS_ERR_PARAM);   /* one method */
+    if (!FS_WITH_MOTION_TEST && cfg->motion.i_push > 0.0f) REFUSE("motion", FS_ERR_MODE);   /* left out (fs_drive.h) */
+    if (!FS_WITH_IF_START && cfg->i_start > 0.0f) REFUSE("i_start", FS_ERR_MODE);
     if (drive_injects(cfg) && cfg->polarity.i_pulse > 0.0f) {
         fs_polarity_config pc = cfg->polarity;
         pc.Ts = cfg->Ts;
@@ -38,7 +40,7 @@ fs_status fs_drive_start_init(fs_drive *drv, const fs_drive_config *cfg)
         pc.n_carrier = (int)(2.0f * FS_PI / (drv->hfi.cfg.w_h * cfg->Ts) + 0.5f);
         SUB("polarity", fs_polarity_init(&drv->pol, &pc));
     }
-    if (drive_injects(cfg) && cfg->motion.i_push > 0.0f) {
+    if (drive_injects(cfg) && drive_motion(cfg)) {
         fs_motion_test_config mc = cfg->motion;
         mc.Ts = cfg->Ts;
         /* the injection's filters settle (fs_hfi.h), and its observer, a triple pole, catches up (1.4 % left) */
@@ -48,7 +50,7 @@ fs_status fs_drive_start_init(fs_drive *drv, const fs_drive_config *cfg)
         SUB("motion", fs_motion_test_init(&drv->mt, &mc));
     }
     if (cfg->i_start > cfg->i_max) REFUSE("i_start", FS_ERR_ABOVE_I_MAX);
-    if (cfg->i_start > 0.0f) {
+    if (FS_WITH_IF_START && cfg->i_start > 0.0f) {
         if (!fs_pos(cfg->a_start)) REFUSE("a_start", FS_ERR_PARAM);
         if (!fs_pos(cfg->w_handover)) REFUSE("w_handover", FS_ERR_PARAM);
         if (!(fs_nonneg(cfg->w_restart) && cfg->w_restart < cfg->w_handover)) REFUSE("w_restart", FS_ERR_PARAM);
@@ -61,12 +63,12 @@ fs_status fs_drive_start_init(fs_drive *drv, const fs_drive_config *cfg)
 }
 
 /* The start's state afresh (fs_drive_reset). */
-void fs_drive_start_reset(fs_drive *drv)
+FS_COLD void fs_drive_start_reset(fs_drive *drv)
 {
     const fs_drive_config *c = &drv->cfg;
     if (drive_injects(c) && c->polarity.i_pulse > 0.0f) fs_polarity_reset(&drv->pol);
-    if (drive_injects(c) && c->motion.i_push > 0.0f) fs_motion_test_reset(&drv->mt);
-    if (c->i_start > 0.0f) fs_if_start_reset(&drv->ifs, 0.0f, 0.0f);
+    if (drive_injects(c) && drive_motion(c)) fs_motion_test_reset(&drv->mt);
+    if (FS_WITH_IF_START && c->i_start > 0.0f) fs_if_start_reset(&drv->ifs, 0.0f, 0.0f);
     drv->mt_ff = 0.0f;
     drv->fault = FS_FAULT_NONE;
 }
@@ -110,10 +112,10 @@ static void drive_motion_ff(fs_drive *drv, float i_q)
 /* One step of the polarity detection: the d-current pulses or the motion
  * test's q current (on the injection's estimated axis); on its decision the
  * run, on its refusal the halt. */
-fs_dq fs_drive_polarity_step(fs_drive *drv)
+FS_COLD fs_dq fs_drive_polarity_step(fs_drive *drv)
 {
     fs_dq i_ref = {0.0f, 0.0f};
-    if (drv->cfg.motion.i_push > 0.0f) {
+    if (drive_motion(&drv->cfg)) {
         i_ref.q = fs_motion_test_step(&drv->mt, drv->hfi.theta);
         drive_motion_ff(drv, i_ref.q);
         if (drv->mt.stage == FS_MOTION_DONE) drive_polarity_done(drv, drv->mt.flip);
@@ -141,7 +143,7 @@ fs_dq fs_drive_polarity_step(fs_drive *drv)
  * FS_FAULT_START). The speed controller's integral is preset to the torque
  * the current makes in the observer's frame, so that the hand-over does not
  * bump the torque. */
-fs_dq fs_drive_if_step(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab)
+FS_COLD fs_dq fs_drive_if_step(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab)
 {
     const fs_drive_config *c = &drv->cfg;
     fs_if_start *s = &drv->ifs;
@@ -165,7 +167,7 @@ fs_dq fs_drive_if_step(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab)
  * The frame starts on the observer's angle and speed, turned ahead by the
  * load angle at which i_start makes the torque the loops made (at most 45
  * el.deg: the design's), so that the torque does not jump. */
-void fs_drive_if_restart(fs_drive *drv, const fs_drive_in *in)
+FS_COLD void fs_drive_if_restart(fs_drive *drv, const fs_drive_in *in)
 {
     const fs_drive_config *c = &drv->cfg;
     const float w_ref = (float)c->pole_pairs * in->w_m_ref;

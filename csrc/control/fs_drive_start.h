@@ -12,7 +12,7 @@
 
 static inline bool drive_starts(const fs_drive_config *c)
 {
-    return c->mode == FS_MODE_SPEED && c->angle_source == FS_ANGLE_SMO && c->i_start > 0.0f;
+    return FS_WITH_IF_START && c->mode == FS_MODE_SPEED && c->angle_source == FS_ANGLE_SMO && c->i_start > 0.0f;
 }
 
 static inline bool drive_weakens(const fs_drive_config *c)
@@ -25,10 +25,13 @@ static inline bool drive_injects(const fs_drive_config *c)
     return c->angle_source == FS_ANGLE_HFI || c->angle_source == FS_ANGLE_BLEND;
 }
 
+/* The polarity by the motion test (fs_motion_test.h), or else by pulses. */
+static inline bool drive_motion(const fs_drive_config *c) { return FS_WITH_MOTION_TEST && c->motion.i_push > 0.0f; }
+
 /* The polarity is detected before the injection's start: by pulses or by the motion test. */
 static inline bool drive_detects_polarity(const fs_drive_config *c)
 {
-    return c->polarity.i_pulse > 0.0f || c->motion.i_push > 0.0f;
+    return c->polarity.i_pulse > 0.0f || drive_motion(c);
 }
 
 /* The realised fundamental voltage that acted over the period that ended now. */
@@ -73,7 +76,11 @@ static inline float drive_torque_at(const fs_drive_config *c, float k_T, fs_dq i
 
 static inline float drive_torque(const fs_drive_config *c, fs_dq i) { return drive_torque_at(c, drive_torque_k(c), i); }
 
-/* The start's units from the config (fs_drive_init, after the injection's),
+/* The start's functions run before the loops close (FS_COLD, fs_math.h:
+ * kept apart from the step's code, which the firmware's link-time inlining
+ * would otherwise grow past its limits: with them inlined the blended step
+ * lost the monitor's inlining, +51 instructions a step on average).
+ * The start's units from the config (fs_drive_init, after the injection's),
  * and their state afresh (fs_drive_reset). */
 fs_status fs_drive_start_init(fs_drive *drv, const fs_drive_config *cfg);
 void fs_drive_start_reset(fs_drive *drv);

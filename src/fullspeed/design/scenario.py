@@ -105,7 +105,7 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
             raise ConfigError("observer.handover", obs["handover"], "must be 0 with start = \"if\" (sensorless from t = 0)", source)
         if obs["i_start"] is not None and obs["i_start"] > ctl["i_max"]:
             raise ConfigError("observer.i_start", obs["i_start"], f"must be <= controller.i_max ({ctl['i_max']:g} A)", source)
-        notes.update(design_if(d, m, source, bw_speed_given="bw_speed" in data.get("controller", {})))
+        notes.update(design_if(d, m, source, bw_speed_given="bw_speed" in data.get("controller", {}) or m.design["bw_speed"].given))
     if d["injection"]["leak"] is None:   # the filter the observer is designed for (fs_hfi.h)
         d["injection"]["leak"] = "remove" if d["injection"]["tracking"] == "lag" else "keep"
     if ctl["angle"] in ("hfi", "blend"):
@@ -226,15 +226,16 @@ def _imc_fields(d: dict, m: Machine, source) -> None:
 
 
 def _injection_saliency(d: dict, m: Machine) -> tuple[float, float]:
-    """The inductances an injection's carrier sees, as the controller knows
+    """The inductances an injection's carrier sees, as the datasheet gives
     them: a flux map's incremental ones at half the rated current on its
-    MTPA locus, else the machine's; the scenario's scales on them."""
-    ctl = d["controller"]
+    MTPA locus, else the machine's. Not the scenario's *_scale: those are a
+    controller's errors on purpose, which the design (as the carrier's, from
+    the machine's values) does not know of (B-ROBUST's +-20 % on L_d and L_q
+    put yang2022's L_q/L_d of 1.4 at 1.04 and chose an I/f start for it)."""
     if m.magnetic["model"] == "fluxmap":
-        cv = controller_values(m.magnetic, ctl["i_max"], m.i_rated, m.phases, m.pole_pairs)
-        return cv["L_d_hf"] * ctl["L_d_scale"], cv["L_q_hf"] * ctl["L_q_scale"]
-    cm = controller_model(ctl, m)
-    return cm["L_d"], cm["L_q"]
+        cv = controller_values(m.magnetic, d["controller"]["i_max"], m.i_rated, m.phases, m.pole_pairs)
+        return cv["L_d_hf"], cv["L_q_hf"]
+    return m.L_d, m.L_q
 
 
 def _choose_start(d: dict, m: Machine, source) -> dict:

@@ -249,7 +249,7 @@ def design_pulses(d: dict, m, cm: dict, i_hf: float, h, u_lin: float) -> dict[st
     loop's reach asks it; each with its reason and numbers."""
     ctl, pol = d["controller"], d["polarity"]
     i_max, t_p, Ts = ctl["i_max"], pol["t_pulse"], _Ts(d)
-    L_ctrl, L_d, L_q = cm["L_d"], cm["L_d"], cm["L_q"]
+    L_ctrl, L_d, L_q = cm["L_d"], m.L_d, m.L_q   # the loop on the controller's model; the torque the machine's
     t_pol = pol["t_lock"] + 2 * t_p
     T_L = load_torque(d, t_pol)
     w_max = 0.1 * h.cfg.w_b_p   # FS_POLARITY_W_MAX_PER_FILTER of the filter's band
@@ -381,10 +381,14 @@ def _if_handover(d: dict, m, source, bw_speed_given: bool) -> dict[str, Value]:
     if obs["start_handover_rpm"] is None:
         w_h, why = 2.0 * obs["valid_rpm"] * to_e, "twice valid_rpm: the observer is trusted from there (its EMF about twice the voltage error it cannot tell from it)"
         if w_bw > w_h:
-            w_h = min(w_bw, max(w_cap, w_h))
-            why = (f"where the observer's tracker, {SMO_BW_PER_W:g} x the electrical speed at {IF_RESTART:g} of it, is "
-                   f"{IF_TRACKER_PER_SPEED_LOOP:g} x the speed loop's bandwidth ({ctl['bw_speed']:.4g} rad/s), above twice valid_rpm"
-                   + (f"; held at {IF_HANDOVER_MAX:.0%} of rated speed" if w_h < w_bw else ""))
+            tracker = (f"where the observer's tracker, {SMO_BW_PER_W:g} x the electrical speed at {IF_RESTART:g} of it, is "
+                       f"{IF_TRACKER_PER_SPEED_LOOP:g} x the speed loop's bandwidth ({ctl['bw_speed']:.4g} rad/s)")
+            if w_bw <= w_cap:
+                w_h, why = w_bw, tracker + ", above twice valid_rpm"
+            elif w_cap > w_h:
+                w_h, why = w_cap, f"{IF_HANDOVER_MAX:.0%} of rated speed, short of {tracker}"
+            else:
+                why += f" (short of {tracker}, above {IF_HANDOVER_MAX:.0%} of rated speed)"
         obs["start_handover_rpm"] = w_h / to_e
         out["observer.start_handover_rpm"] = Value(obs["start_handover_rpm"], "rpm", why)
     if not obs["start_handover_rpm"] > 0:   # a default that came out 0: the I/f start would never hand over
@@ -398,6 +402,23 @@ def _if_handover(d: dict, m, source, bw_speed_given: bool) -> dict[str, Value]:
     return out
 
 
+def _load_at_low_speed(d: dict, w_rpm: float) -> float:
+    """The largest load torque while the I/f frame may run: from the start
+    until the reference has passed w_rpm, and wherever it comes back below
+    (the return through zero), N m; on a grid of the run's breakpoints and
+    1 ms."""
+    load = d["load"]
+    if load["kind"] not in ("torque", "brake"):
+        return 0.0
+    (t_w, w), (t_l, T) = d["references"]["speed_rpm"], load["torque"]
+    t = np.union1d(np.union1d(t_w, t_l), np.arange(0.0, d["duration"], 1e-3))
+    w_t, T_t = np.abs(np.interp(t, t_w, w)), np.abs(np.interp(t, t_l, T))
+    low = w_t <= w_rpm
+    first = int(np.argmax(~low)) if (~low).any() else t.size   # the start runs until the reference leaves the band
+    low[:first] = True
+    return float(np.max(T_t[low])) if low.any() else 0.0
+
+
 def design_if(d: dict, m, source, bw_speed_given: bool = True) -> dict[str, Value]:
     """The I/f start into the back-EMF observer (fs_if_start.h): the speed
     the observer takes over at, the current, the frame's acceleration, the
@@ -406,16 +427,16 @@ def design_if(d: dict, m, source, bw_speed_given: bool = True) -> dict[str, Valu
     ctl, obs = d["controller"], d["observer"]
     p, J = m.pole_pairs, m.J
     k_T = 0.5 * m.phases * p
-    psi_f = m.psi_f * ctl["psi_f_scale"]
+    psi_f = m.psi_f   # the datasheet's (the scenario's *_scale are a controller's errors, unknown to the design)
     out: dict[str, Value] = {}
     if not psi_f > 0:
         raise ConfigError("observer.start", "if", f"needs a magnet flux: {m.name} has psi_f = {psi_f:g} Wb", source)
     out.update(_if_handover(d, m, source, bw_speed_given))
-    T_L = load_torque(d, d["duration"]) + m.T_coulomb
+    T_L = _load_at_low_speed(d, obs["start_handover_rpm"]) + m.T_coulomb
     i_max = ctl["i_max"]
     c_load = math.cos(math.radians(IF_LOAD_ANGLE_DEG))
     s_load = math.sin(math.radians(IF_LOAD_ANGLE_DEG))
-    dL = max(m.L_q * ctl["L_q_scale"] - m.L_d * ctl["L_d_scale"], 0.0)
+    dL = max(m.L_q - m.L_d, 0.0)
 
     def T_i(i):
         """The torque i makes at 90 el.deg of load angle, as it scales the one at IF_LOAD_ANGLE_DEG: the frame's d
@@ -463,7 +484,7 @@ def design_if(d: dict, m, source, bw_speed_given: bool = True) -> dict[str, Valu
         # the EMF's L di/dt with the controller's mean L where the plant's incremental one differs (saliency,
         # the d axis saturated by i_start) closes a loop of gain dL w / r_damp through the damping: at most
         # IF_SELF_LOOP at the band's top (4 w_swing)
-        cm = {"L_d": m.L_d * ctl["L_d_scale"], "L_q": m.L_q * ctl["L_q_scale"]}
+        cm = {"L_d": m.L_d * ctl["L_d_scale"], "L_q": m.L_q * ctl["L_q_scale"]}   # the controller's, in the EMF
         L = 0.5 * (cm["L_d"] + cm["L_q"])
         L_inc = float(incremental_L_d(m, [obs["i_start"]], 0.01 * obs["i_start"])[0])
         dL_self = max(abs(L - L_inc), abs(L - cm["L_q"]), abs(L - cm["L_d"]))

@@ -298,6 +298,7 @@ def start_motion(res) -> dict | None:
     if kind not in START_KINDS or t.size == 0:
         return None
     on = np.isin(np.asarray(tr["stage"]).astype(int), SENSORLESS_STAGES)
+    on = on & np.r_[on[1:], False]   # for two samples at least: the step a start halts in reads as one
     k = int(np.argmax(on)) if on.any() else t.size - 1
     theta = np.unwrap(np.asarray(tr["theta_e"])[: k + 1])
     turn = float(np.degrees(np.max(np.abs(theta - theta[0]))))
