@@ -57,6 +57,10 @@ def test_no_motion_keeps_the_refusal_and_says_what_the_machine_lacks():
     low = load_scenario("beyond-zoo", {"machine": {"zoo": LOW_SALIENCY}, "start": {"allow_motion": False}})
     assert low.data["start"]["kind"] == "pulses" and low.data["controller"]["angle"] == "blend"
     assert any(w.startswith("start.method:") and "resolution" in w for w in low.warnings), low.warnings
+    # a carrier given is the scenario's choice of the injection: kept, motion allowed or not, and said
+    given = load_scenario("beyond-zoo", {"machine": {"zoo": LOW_SALIENCY}, "injection": {"u_h": low.data["injection"]["u_h"]}})
+    assert given.data["controller"]["angle"] == "blend" and given.data["start"]["kind"] in ("pulses", "motion")
+    assert "below 0.5); the carrier is given" in given.data["start"]["reason"]
     with pytest.raises(ConfigError, match="start.allow_motion"):
         load_scenario("beyond-zoo", {"machine": {"zoo": LINEAR}, "start": {"allow_motion": False, "method": "motion"}})
     with pytest.raises(ConfigError, match="start.allow_motion"):

@@ -268,14 +268,17 @@ def _choose_start(d: dict, m: Machine, source) -> dict:
     inj = d["injection"]
     f_h = inj["f_h"] or m.extra.get("injection", {}).get("f_h") or _carrier(d, m).value
     ratio, what = injection_resolution(L_d, L_q, f_h, _bench_of(d, m), ctl["i_max"])
-    usable = ratio >= RESOLUTION_MIN
+    # a carrier given (the scenario's injection.u_h, or the machine's) is the scenario's choice of the injection:
+    # the design keeps it (its own checks then apply to it) and says how well it resolves
+    carrier_given = inj["u_h"] is not None or "u_h" in m.extra.get("injection", {})
+    usable = ratio >= RESOLUTION_MIN or carrier_given
     st["c"]["resolution"] = ratio
-    sal = f"L_q/L_d = {L_q / L_d:.3g} ({what}: {ratio:.2f}, {'at least' if usable else 'below'} {RESOLUTION_MIN:g})"
+    sal = f"L_q/L_d = {L_q / L_d:.3g} ({what}: {ratio:.2f}, {'at least' if ratio >= RESOLUTION_MIN else 'below'} {RESOLUTION_MIN:g})"
     if method == "if" or (method == "designed" and motion and not usable):
         if not motion:
             raise ConfigError("start.allow_motion", False, "forbids the I/f start (start.method = \"if\"): it turns the rotor", source)
         if angle == "hfi":
-            raise ConfigError("controller.angle", "hfi", f"the injection cannot use {m.name}'s saliency, {sal}: "
+            raise ConfigError("controller.angle", "hfi", f"{m.name} is not salient enough for the injection, {sal}: "
                               "use \"blend\" (it then starts I/f into the back-EMF observer) or \"smo\" with observer.start = \"if\"", source)
         if ctl["mode"] != "speed":
             raise ConfigError("controller.mode", ctl["mode"], f"must be \"speed\" for the I/f start the machine needs ({sal})", source)
@@ -292,7 +295,8 @@ def _choose_start(d: dict, m: Machine, source) -> dict:
     else:
         st["kind"] = "pulses" if not motion else {"pulses": "pulses", "motion": "motion"}.get(method, "designed")
         st["reason"] = f"the injection uses the saliency, {sal}" + (
-            "" if usable else "; start.allow_motion = false or a named method keeps it")
+            "" if ratio >= RESOLUTION_MIN else "; the carrier is given" if carrier_given and motion and method == "designed"
+            else "; start.allow_motion = false or a named method keeps it")
     return {}
 
 
