@@ -797,7 +797,9 @@ def firmware_leaves_out(scenario: str) -> str | None:
     out = [what for what, used in (("the matrix converter", d["converter"]["kind"] == "imc"),
                                    ("five phases", sc.machine.phases == 5),
                                    ("square-wave injection", d["controller"]["angle"] == "swvi"),
-                                   ("a flux map", sc.machine.magnetic["model"] == "fluxmap")) if used]
+                                   ("a flux map", sc.machine.magnetic["model"] == "fluxmap"),
+                                   ("the motion test", d["start"]["kind"] == "motion"),
+                                   ("the I/f start", d["observer"]["start"] == "if")) if used]
     return ", ".join(out) or None
 
 

@@ -847,7 +847,8 @@ int fs_sim_run_steps(fs_sim *s, long long k_end, double *trace, int max_rows, in
         }
         if (dout.fault != FS_FAULT_NONE) {   /* the drive halted: as a firmware would, stop (the PWM off) */
             s->stopped = dout.fault == FS_FAULT_POLARITY ? FS_STOP_POLARITY
-                       : dout.fault == FS_FAULT_OVERSPEED ? FS_STOP_OVERSPEED : FS_STOP_LOSS_OF_LOCK;
+                       : dout.fault == FS_FAULT_OVERSPEED ? FS_STOP_OVERSPEED
+                       : dout.fault == FS_FAULT_START ? FS_STOP_START : FS_STOP_LOSS_OF_LOCK;
             s->stop_time = t;
             return s->stopped;
         }

@@ -156,6 +156,7 @@ typedef enum {
     FS_STOP_LOSS_OF_LOCK = 4, /* an estimator lost track of the rotor (and, with recovery, was not re-acquired) */
     FS_STOP_POLARITY = 5,     /* the drive could not determine the magnet's polarity and refused to start */
     FS_STOP_OVERSPEED = 6,    /* the drive halted at its overspeed limit (fs_drive_protect.h) */
+    FS_STOP_START = 7,        /* the I/f start never handed over to the observer (fs_drive FS_FAULT_START) */
     FS_RUN_ERR_NULL = -1,     /* sim or rows (or trace, with max_rows > 0) is NULL: nothing run */
     FS_RUN_ERR_ORDER = -2     /* fs_sim_actuate without an fs_sim_sample before it: nothing run */
 } fs_run_status;

@@ -41,6 +41,8 @@ HEADERS = [
     "control/fs_hfi.h",
     "control/fs_swvi.h",
     "control/fs_polarity.h",
+    "control/fs_motion_test.h",
+    "control/fs_if_start.h",
     "control/fs_lock.h",
     "control/fs_monitor.h",
     "control/fs_imc.h",

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .design.checks import polarity_blind
+from .design.start import polarity_blind
 from .design.report import design_report, envelope_report, scenario_envelope
 from .design.scenario import load_scenario, scenario_from_dict
 from .model.errors import ConfigError, EngineError, SimulationError, one_line
@@ -81,7 +81,21 @@ def run_verdict(res) -> list[str]:
     the drive in control."""
     m, out = res.metrics, []
     t_stop = res.stop_time if res.stop_time is not None else res.sim_time
-    if res.stop_reason == "polarity_undetermined":
+    if res.stop_reason == "polarity_undetermined" and (res.polarity or {}).get("method") == "motion":
+        p = res.polarity
+        why = ("the rotor turned on its own before or after the doublet (a load moves it)" if p["moved"] else
+               f"the estimate's spread asks a threshold of {p['threshold_deg']:.3g} el.deg, beyond the motion allowed"
+               if p["attempts"] == 0 else
+               f"the rotor turned {abs(p['turn_deg']):.3g} el.deg of the {p['threshold_deg']:.3g} needed at "
+               f"{p['i_push']:.3g} A, the largest push (held: stiction, a brake)")
+        out.append(f"stopped at t = {t_stop:.4f} s: polarity undetermined by the motion test ({why}): the drive refused "
+                   "to start sensorless")
+    elif res.stop_reason == "start_failed":
+        obs = res.scenario.data["observer"]
+        out.append(f"stopped at t = {t_stop:.4f} s: the I/f start waited observer.start_timeout = {obs['start_timeout']:.3g} s at "
+                   f"the hand-over speed ({obs['start_handover_rpm']:.4g} rpm) without the back-EMF observer agreeing with "
+                   "the frame: the rotor is not following it (pulled out by the load or the acceleration)")
+    elif res.stop_reason == "polarity_undetermined":
         p = res.polarity or {}
         why = "the pulses spun the rotor" if p.get("moved") else \
             f"margin {p.get('margin', 0):.2f} < 1 at {p.get('i_pulse', 0):.3g} A (D = {100 * p.get('d', 0):.2f} %)"
@@ -169,7 +183,11 @@ def _cmd_run(args) -> int:
     print(f"{res.scenario.name}: {res.sim_time:.3f} s simulated in {res.wall_time:.3f} s wall "
           f"= {res.speed_ratio:.1f} simulated s per wall s ({res.scenario.data['converter']['inverter']} inverter)")
     print("\n".join(summary_lines(res.metrics)))
-    if res.polarity is not None and res.polarity["stage"] == "done":
+    if res.polarity is not None and res.polarity["stage"] == "done" and res.polarity["method"] == "motion":
+        print(f"polarity: decided by the motion test, the estimate turned {res.polarity['turn_deg']:+.2f} el.deg "
+              f"(threshold {res.polarity['threshold_deg']:.2f}) at {res.polarity['i_push']:.3g} A"
+              + (" (the estimate turned by pi)" if res.polarity["flip"] else ""))
+    elif res.polarity is not None and res.polarity["stage"] == "done":
         print(f"polarity: decided with margin {res.polarity['margin']:.2f} at {res.polarity['i_pulse']:.3g} A"
               + (" (the estimate turned by pi)" if res.polarity["flip"] else ""))
     if res.metrics.get("ideal_hardware"):

@@ -183,6 +183,10 @@ def build_config(sc: Scenario):
         dc.i_start = obs["i_start"]
         dc.a_start = p * rpm_to_rad_s(obs["start_accel_rpm_s"])
         dc.w_handover = p * rpm_to_rad_s(obs["start_handover_rpm"])
+        c = d["start"]["c"]
+        dc.r_damp, dc.w_swing = c.get("r_damp", 0.0), c.get("w_swing", 0.0)
+        dc.t_handover = obs["start_timeout"]
+        dc.w_restart = p * rpm_to_rad_s(obs["restart_rpm"])
     if ctl["angle"] in ("hfi", "blend"):
         _set_injection(dc, d, p)
     if ctl["angle"] == "swvi":
@@ -289,7 +293,12 @@ def _set_injection(dc, d: dict, p: int) -> None:
         dc.blend.obs.bandwidth = bl["bw_observer"] or 0.0
         dc.blend.gate = bl["gate"]
         dc.w_inject_max = p * rpm_to_rad_s(inj["stop_rpm"])
-    if pol["enabled"]:
+    st = d["start"]
+    if pol["enabled"] and st["kind"] == "motion":
+        mc, c = dc.motion, st["c"]
+        mc.i_push, mc.i_push_max, mc.t_lock, mc.t_push = st["i_push"], c["i_push_max"], c["t_lock"], c["t_push"]
+        mc.theta_dec, mc.theta_max = math.radians(st["turn_deg"]), math.radians(c["theta_max_deg"])
+    elif pol["enabled"]:
         dc.polarity.i_pulse, dc.polarity.t_lock, dc.polarity.t_pulse = pol["i_pulse"], pol["t_lock"], pol["t_pulse"]
         dc.polarity.i_pulse_max = pol["i_pulse_max"] or 0.0   # 0: up to i_max less the carrier's peak
 

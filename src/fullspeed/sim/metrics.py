@@ -424,6 +424,31 @@ def job_checks(res) -> dict:
         out["speed_end"] = {"speed_rpm": rad_s_to_rpm(w), "ref_rpm": rad_s_to_rpm(w_ref), "band_rpm": rad_s_to_rpm(band),
                             "window": [float(t[m][0]), float(t[m][-1])], "far": abs(w - w_ref) > band}
     return out
+# the starts after which the loops run on an estimate from standstill (design.start)
+START_KINDS = {"pulses": "polarity pulses", "motion": "motion test", "if": "I/f start", "known": "at a known angle"}
+
+
+def start_motion(res) -> dict | None:
+    """The rotor's motion before the loops first run on an estimate
+    (SENSORLESS_STAGES): its largest turn from where it stood, el.deg and
+    mechanical degrees, its largest speed, rpm, until when (None: the loops
+    never did), and the bound the start's design gives for it (el.deg; None
+    where it has none). None for a run that does not start sensorless."""
+    st = res.scenario.data.get("start", {})
+    kind = st.get("kind")
+    tr = res.traces
+    t = np.asarray(tr["t"])
+    if kind not in START_KINDS or t.size == 0:
+        return None
+    on = np.isin(np.asarray(tr["stage"]).astype(int), SENSORLESS_STAGES)
+    on = on & np.r_[on[1:], False]   # for two samples at least: the step a start halts in reads as one
+    k = int(np.argmax(on)) if on.any() else t.size - 1
+    theta = np.unwrap(np.asarray(tr["theta_e"])[: k + 1])
+    turn = float(np.degrees(np.max(np.abs(theta - theta[0]))))
+    p = res.scenario.machine.pole_pairs
+    return {"kind": kind, "until": float(t[k]) if on.any() else None, "turn_deg": turn, "turn_deg_mech": turn / p,
+            "speed_max_rpm": rad_s_to_rpm(float(np.max(np.abs(np.asarray(tr["w_m"])[: k + 1])))),
+            "bound_deg": st.get("c", {}).get("bound_deg")}
 
 
 def compute_metrics(res) -> dict:
@@ -463,6 +488,9 @@ def compute_metrics(res) -> dict:
         out["faults"] = faults
     out["steps"] = step_metrics(res)
     out["stages"] = stage_metrics(tr)
+    motion = start_motion(res)
+    if motion is not None:
+        out["start_motion"] = motion
     if not m.any():
         return out
     mode = res.scenario.data["controller"]["mode"]
@@ -569,6 +597,13 @@ def summary_lines(metrics: dict) -> list[str]:
     if metrics.get("sensorless_err_deg_max") is not None:
         lines.append(f"largest angle error while sensorless (the stages start, injection, blend, backemf, flux_weakening; "
                      f"outside 50 ms after each step): {metrics['sensorless_err_deg_max']:.2f} el.deg")
+    sm = metrics.get("start_motion")
+    if sm is not None:
+        until = f"before the loops ran on the estimate at {sm['until']:.4f} s" if sm["until"] is not None \
+            else "and the loops never ran on the estimate"
+        bound = f" (the start's bound {sm['bound_deg']:.1f} el.deg)" if sm.get("bound_deg") is not None else ""
+        lines.append(f"start ({START_KINDS[sm['kind']]}): the rotor turned {sm['turn_deg']:.2f} el.deg "
+                     f"({sm['turn_deg_mech']:.2f} deg mechanical), at most {sm['speed_max_rpm']:.1f} rpm, {until}{bound}")
     lines += lock_lines(metrics)
     return lines
 
@@ -657,6 +692,7 @@ def fault_report(res) -> dict | None:
 METRIC_NAMES = (
     "stop_reason", "stop_time", "sim_time", "wall_time", "speed_ratio", "i_phase_max",
     "lock_lost_at", "recoveries", "true_loss_at", "silent_failure", "sensorless_err_deg_max",
+    "start_motion.kind", "start_motion.turn_deg", "start_motion.speed_max_rpm", "start_motion.bound_deg",
     "speed_ref_rpm", "speed_rpm", "speed_error_pct", "i_d_error_rms", "i_q_error_rms",
     "T_e_mean", "T_e_pp",
     "theta_err_deg.mean", "theta_err_deg.pp", "theta_err_deg.max",

@@ -57,6 +57,7 @@ STOP_REASONS = {
     lib.FS_STOP_LOSS_OF_LOCK: "loss_of_lock",
     lib.FS_STOP_POLARITY: "polarity_undetermined",
     lib.FS_STOP_OVERSPEED: "overspeed",
+    lib.FS_STOP_START: "start_failed",
 }
 
 @dataclass
@@ -201,16 +202,28 @@ class Simulation:
         return None if math.isnan(t) else t
 
     def polarity(self) -> dict | None:
-        """The polarity detection's outcome (fs_polarity.h): its stage, the
-        relative difference D of the last pulse pair and its margin (>= 1
-        decides), the pairs run, the last pulse; None without detection."""
+        """The polarity detection's outcome: by pulses (fs_polarity.h) its
+        stage, the relative difference D of the last pulse pair and its
+        margin (>= 1 decides), the pairs run, the last pulse; by the motion
+        test (fs_motion_test.h, method "motion") its stage, the estimate's
+        turn and the threshold it had to reach (el.deg), the pushes run, the
+        last push; None without detection."""
         drv = lib.fs_sim_drive(self._sim)
-        if drv.cfg.polarity.i_pulse <= 0.0 or drv.cfg.angle_source not in (lib.FS_ANGLE_HFI, lib.FS_ANGLE_BLEND):
+        if drv.cfg.angle_source not in (lib.FS_ANGLE_HFI, lib.FS_ANGLE_BLEND):
+            return None
+        if drv.cfg.motion.i_push > 0.0:
+            mt = drv.mt
+            stages = {lib.FS_MOTION_LOCK: "lock", lib.FS_MOTION_PUSH: "doublet", lib.FS_MOTION_SETTLE: "settle",
+                      lib.FS_MOTION_DONE: "done", lib.FS_MOTION_UNDETERMINED: "undetermined"}
+            return {"method": "motion", "stage": stages.get(mt.stage, str(mt.stage)), "turn_deg": math.degrees(mt.turn),
+                    "threshold_deg": math.degrees(mt.threshold), "attempts": int(mt.attempts), "i_push": float(mt.i_now),
+                    "flip": bool(mt.flip), "moved": bool(mt.moved)}
+        if drv.cfg.polarity.i_pulse <= 0.0:
             return None
         p = drv.pol
         stages = {lib.FS_POLARITY_LOCK: "lock", lib.FS_POLARITY_POS: "pulse", lib.FS_POLARITY_NEG: "pulse",
                   lib.FS_POLARITY_DONE: "done", lib.FS_POLARITY_UNDETERMINED: "undetermined"}
-        return {"stage": stages.get(p.stage, str(p.stage)), "d": float(p.d), "margin": float(p.margin),
+        return {"method": "pulses", "stage": stages.get(p.stage, str(p.stage)), "d": float(p.d), "margin": float(p.margin),
                 "attempts": int(p.attempts), "i_pulse": float(p.i_now), "flip": bool(p.flip), "moved": bool(p.moved)}
 
     def halt(self) -> dict | None:
@@ -218,7 +231,8 @@ class Simulation:
         fault, and for a loss of lock the back-EMF its zero-current wait last
         measured, V, and the speed that says by the controller's magnet flux."""
         drv = lib.fs_sim_drive(self._sim)
-        faults = {lib.FS_FAULT_POLARITY: "polarity", lib.FS_FAULT_LOCK: "lock", lib.FS_FAULT_OVERSPEED: "overspeed"}
+        faults = {lib.FS_FAULT_POLARITY: "polarity", lib.FS_FAULT_LOCK: "lock", lib.FS_FAULT_OVERSPEED: "overspeed",
+                  lib.FS_FAULT_START: "start"}
         if drv.phase != lib.FS_PHASE_HALT:
             return None
         c = drv.cfg

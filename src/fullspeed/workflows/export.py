@@ -80,6 +80,10 @@ KEYS = {
     "lock_time": "controller.lock_time", "lock_recover": "controller.lock", "t_recover": "controller.recover_time",
     "lock_retries": "controller.lock_retries", "w_over": "controller.overspeed_rpm",
     "i_start": "observer.i_start", "a_start": "observer.start_accel_rpm_s", "w_handover": "observer.start_handover_rpm",
+    "r_damp": "observer.start_damping", "w_swing": "observer.start_damping", "t_handover": "observer.start_timeout",
+    "w_restart": "observer.restart_rpm", "motion.i_push": "start.i_push", "motion.i_push_max": "start.i_push",
+    "motion.t_lock": "polarity.t_lock",   # and the observer's pull-in (design.start) "motion.t_push": "start.i_push", "motion.theta_dec": "start.turn_deg",
+    "motion.theta_max": "start.turn_deg",
     "hfi.u_h": "injection.u_h", "hfi.w_h": "injection.f_h", "hfi.w_b_p": "injection.bw_filter_p",
     "hfi.w_b_n": "injection.bw_filter_n", "hfi.obs.bandwidth": "injection.bw_observer", "hfi.xcomp": "injection.xcomp",
     "hfi.leak": "injection.leak", "hfi.lag": "injection.tracking", "dt_predict": "controller.dead_time_predict",
@@ -99,6 +103,7 @@ CHOICES = {"fw_hold", "cc_internal_model", "lock_recover", "dt_predict", "hfi.le
            "blend.gate", "swvi.carrier_off", "imc_depth", "delay"}
 # The blocks only some angle sources or converters read: the others carry their defaults unread
 USED_BY = {"smo.": ("smo", "blend"), "hfi.": ("hfi", "blend"), "blend.": ("blend",), "polarity.": ("hfi", "blend"),
+           "motion.": ("hfi", "blend"),
            "swvi.": ("swvi",)}
 
 
