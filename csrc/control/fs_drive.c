@@ -433,7 +433,7 @@ static fs_dq drive_fw_map(fs_drive *drv, float u_dc, float w_e, float *T_ref)
         fs_fwmap_reset(&drv->fwm);
         return fs_mtpa_step(&drv->mtpa, *T_ref);
     }
-    fs_fwmap_trim(&drv->fwm, sqrtf(u0.d * u0.d + u0.q * u0.q), u_plan);
+    fs_fwmap_trim(&drv->fwm, sqrtf(u0.d * u0.d + u0.q * u0.q), u_plan, x);
     float T_real;
     const fs_dq i = fs_fwmap_step(&drv->fwm, x, *T_ref, &T_real);
     if (T_real != *T_ref) fs_speed_ctrl_realised(&drv->sc, *T_ref, T_real);

@@ -3,7 +3,8 @@
 
 /* the flux limit's angle is marched in steps of pi / FWMAP_NS from the d axis */
 #define FWMAP_NS 256
-#define FWMAP_XN (FS_FWMAP_X_MAX - 1.0f)
+/* the least flux is searched on the d axis in steps of i_max / FWMAP_NLF */
+#define FWMAP_NLF 64
 
 static float fwmap_torque(const fs_fwmap_config *c, fs_dq i, const fs_fluxmap_point *p)
 {
@@ -55,7 +56,7 @@ static FS_COLD float fwmap_at(const fs_fwmap_config *c, float tol, float psi_lim
  * that angle the torque falls to a minimum (near the d axis the flux
  * limit's currents have a positive d current and brake); a torque below
  * T_max is found by bisection of the angle on the rising arc between. */
-static FS_COLD fs_status fwmap_row(fs_fwmap *f, const fs_fwmap_config *c, fs_mtpa *mtpa, int k, float psi_lim)
+static FS_COLD fs_status fwmap_row(fs_fwmap *f, const fs_fwmap_config *c, fs_mtpa *mtpa, int k, float psi_lim, float i_lf)
 {
     const float tol = 1e-6f * f->psi_mtpa;
     const float dd = FS_PI / (float)FWMAP_NS;
@@ -108,6 +109,13 @@ static FS_COLD fs_status fwmap_row(fs_fwmap *f, const fs_fwmap_config *c, fs_mtp
         il = in_i;
     }
     f->T_max[k] = fs_maxf(T_end, 0.0f);
+    if (!(T_end > 0.0f)) {   /* beyond the top speed: no torque within both limits; the least flux there is */
+        for (int j = 0; j < FS_FWMAP_NT; ++j) {
+            f->i_d[k * FS_FWMAP_NT + j] = i_lf;
+            f->i_q[k * FS_FWMAP_NT + j] = 0.0f;
+        }
+        return FS_OK;
+    }
     for (int j = 0; j < FS_FWMAP_NT; ++j) {
         const int n = k * FS_FWMAP_NT + j;
         const float T_j = f->T_max[k] * (float)j / (float)(FS_FWMAP_NT - 1);
@@ -151,10 +159,22 @@ FS_COLD fs_status fs_fwmap_init(fs_fwmap *f, const fs_fwmap_config *cfg, fs_mtpa
     const fs_fluxmap_point p = fs_fluxmap_eval(cfg->map, i_top);
     f->psi_mtpa = sqrtf(p.psi.d * p.psi.d + p.psi.q * p.psi.q);
     if (!fs_pos(f->psi_mtpa)) return FS_ERR_PARAM;
-    f->inv_dx = 1.0f / FWMAP_XN;
+    /* the least flux within the current limit, on the d axis (fs_fwmap.h): the top speed's ratio */
+    float i_lf = 0.0f, psi_min = f->psi_mtpa;
+    for (int n = 0; n <= FWMAP_NLF; ++n) {
+        const float i_d = -cfg->i_max * (float)n / (float)FWMAP_NLF;
+        const float psi = fabsf(fs_fluxmap_eval(cfg->map, (fs_dq){i_d, 0.0f}).psi.d);
+        if (psi < psi_min) {
+            psi_min = psi;
+            i_lf = i_d;
+        }
+    }
+    const float x_top = psi_min > 0.0f ? f->psi_mtpa / psi_min : FS_FWMAP_X_MAX;
+    const float x_n = fs_maxf(fs_minf(x_top, FS_FWMAP_X_MAX), 1.001f) - 1.0f;
+    f->inv_dx = 1.0f / x_n;
     for (int k = 0; k < FS_FWMAP_NX; ++k) {
         const float s = (float)k / (float)(FS_FWMAP_NX - 1);
-        const fs_status st = fwmap_row(f, cfg, mtpa, k, f->psi_mtpa / (1.0f + FWMAP_XN * s * s));
+        const fs_status st = fwmap_row(f, cfg, mtpa, k, f->psi_mtpa / (1.0f + x_n * s * s), i_lf);
         if (st != FS_OK) return st;
     }
     return FS_OK;
@@ -167,23 +187,25 @@ float fs_fwmap_ratio(const fs_fwmap *f, float u_lim, float w_e)
     return u_lim > 0.0f ? (1.0f + f->trim) * f->psi_mtpa * fabsf(w_e) / u_lim : FS_FWMAP_X_MAX;
 }
 
-void fs_fwmap_trim(fs_fwmap *f, float u, float u_plan)
+void fs_fwmap_trim(fs_fwmap *f, float u, float u_plan, float x)
 {
-    f->trim = fs_clampf(f->trim + f->k_trim * (u - u_plan) / u_plan, 0.0f, 1.0f);
+    /* down to the base speed's x = 1 (x / (1 + trim) is the ratio without it), and at most by half */
+    const float lo = fs_maxf((1.0f + f->trim) / x - 1.0f, -0.5f);
+    f->trim = fs_clampf(f->trim + f->k_trim * (u - u_plan) / u_plan, fs_minf(lo, 0.0f), 1.0f);
 }
 
 fs_dq fs_fwmap_step(const fs_fwmap *f, float x, float T_ref, float *T_real)
 {
-    /* rows at x_k = 1 + (X_MAX - 1) (k / (NX - 1))^2: dense near base speed, where the flux limit moves fastest */
+    /* rows at x_k = 1 + (x_end - 1) (k / (NX - 1))^2: dense near base speed, where the flux limit moves fastest */
     const float u = fs_minf(sqrtf(fs_maxf(x - 1.0f, 0.0f) * f->inv_dx), 1.0f) * (float)(FS_FWMAP_NX - 1);   /* held beyond X_MAX */
     const int k = (int)fs_minf(u, (float)(FS_FWMAP_NX - 2));
     const float a = u - (float)k;
     const float T_max = f->T_max[k] + a * (f->T_max[k + 1] - f->T_max[k]);
     const float T = fs_minf(fabsf(T_ref), T_max);
     *T_real = T_ref < 0.0f ? -T : T;
-    fs_dq i = {0.0f, 0.0f};
-    if (!(T_max > 0.0f)) return i;   /* beyond the top speed: no torque within the limits */
-    const float t = T / T_max * (float)(FS_FWMAP_NT - 1);
+    fs_dq i;
+    /* beyond the top speed (T_max 0) the rows hold the least flux */
+    const float t = T_max > 0.0f ? T / T_max * (float)(FS_FWMAP_NT - 1) : 0.0f;
     const int j = (int)fs_minf(t, (float)(FS_FWMAP_NT - 2));
     const float b = t - (float)j;
     const int n = k * FS_FWMAP_NT + j;

@@ -14,15 +14,27 @@
  * where the torque is that, on the side of less current.
  *
  * init tabulates this on the map (fs_fluxmap.h) for x = psi_mtpa / psi_lim
- * (the speed over base speed at the same voltage) from 1 to FS_FWMAP_X_MAX
- * in FS_FWMAP_NX rows, spaced as the square of the row's index (dense near
+ * (the speed over base speed at the same voltage) from 1 to x_end in
+ * FS_FWMAP_NX rows, spaced as the square of the row's index (dense near
  * base speed, where the flux limit moves fastest), each at FS_FWMAP_NT torques from 0 to T_max(x): along
  * the flux limit psi_lim e^{j delta}, delta from the d axis up, the current
  * is found by Newton's method on the map (its incremental inductances), the
  * torque rises to T_max and the current's magnitude with it. step
  * interpolates the table bilinearly in x and T / T_max(x), and holds T_max.
- * Beyond FS_FWMAP_X_MAX (8 x base speed) the last row scaled: the flux
- * limit there is a small circle near the characteristic current.
+ * x_end is the machine's top speed over its base speed, x_top = psi_mtpa /
+ * psi_min, psi_min the least flux any current within the limit makes (on
+ * the d axis, at -i_max or at the characteristic current), or
+ * FS_FWMAP_X_MAX (8) where that is further (a characteristic current within
+ * the limit: no top speed; beyond 8 the last row held). Beyond x_top no
+ * current makes torque within both limits: the rows there hold the least
+ * flux's current, so that a rotor driven beyond the top speed (a load
+ * machine, an overshoot the trim follows) meets the most weakening the
+ * limit allows, not none. With rows to 8 on a hub motor whose top speed is
+ * 1.5 x base (the Grin all-axle, characteristic current 3.4 x i_max) four
+ * rows covered its whole flux-weakening range, the fifth held no current:
+ * interpolated to it, the references weakened less and less near the top
+ * speed; once the trim had wound x beyond it they asked for no current,
+ * the back-EMF outgrew the voltage and drove 33 A of braking current.
  *
  * Against the voltage-feedback flux weakening (fs_fw.h), which adds a d
  * current while the voltage saturates and keeps the q current the speed
@@ -38,7 +50,14 @@
  * current regulators ask: an integrator on its excess over the plan, at
  * FS_FWMAP_TRIM_PER_BW of the current loop's bandwidth (well inside it),
  * raises x, the speed ratio the flux limit is taken at (x (1 + trim), trim
- * in [0, 1]), and lets it back down as the excess goes. On the 2004 Prius
+ * up to 1), and lets it back down as the excess goes; below the plan it
+ * lowers x (down to 1, base speed, and at most by half), so that in
+ * steady state the voltage asked is the plan's: the resistive drop, planned
+ * for as R_s |i| (its whole magnitude against the flux's voltage), and the
+ * map's interpolation leave the references inside the limit by a little,
+ * which near the top speed is much torque (the ODrive D6374 at 0.9 of its
+ * top speed held 9 % below its envelope, the Anaheim BLY171D at 2 x base
+ * 13 %, where the torque falls 10 % for 1 % of voltage). On the 2004 Prius
  * MG2's full range (sensorless, 5000 rpm in flux weakening) the largest
  * angle error was 7.7 el.deg without it, 3.8 with it.
  */
@@ -64,7 +83,7 @@ typedef struct {
 
 typedef struct {
     float psi_mtpa;          /* Wb, |psi| of MTPA at i_max (x = 1) */
-    float inv_dx;            /* 1 / (X_MAX - 1) */
+    float inv_dx;            /* 1 / (x_end - 1): the rows' span (header) */
     float k_trim;            /* the trim's integral gain per step, Ts FS_FWMAP_TRIM_PER_BW bw_current */
     float trim;              /* its state, >= 0 (header) */
     float T_max[FS_FWMAP_NX];               /* N m at x_k = 1 + k dx */
@@ -79,8 +98,9 @@ void fs_fwmap_reset(fs_fwmap *f);
  * speed (<= 1: MTPA holds). */
 float fs_fwmap_ratio(const fs_fwmap *f, float u_lim, float w_e);
 /* The trim (header): u the voltage the current regulators asked last, u_plan
- * the voltage planned for; while x > 1 (in flux weakening). */
-void fs_fwmap_trim(fs_fwmap *f, float u, float u_plan);
+ * the voltage planned for, x this step's ratio (fs_fwmap_ratio); while
+ * x > 1 (in flux weakening). */
+void fs_fwmap_trim(fs_fwmap *f, float u, float u_plan, float x);
 /* For x > 1: the current for torque T_ref (either sign), T_ref held at
  * T_max(x) (*T_real: the torque asked of the current). */
 fs_dq fs_fwmap_step(const fs_fwmap *f, float x, float T_ref, float *T_real);
