@@ -92,12 +92,27 @@ def controller_map(mag: dict, i_max: float, psi_f_scale: float = 1.0, L_d_scale:
     psi_scale (the largest flux at 32,000 counts). A model error on purpose
     (the scenario's *_scale) scales the magnet's flux psi_d(0, 0) and the
     currents' parts of the fluxes apart."""
-    i_d = np.linspace(-i_max, 0.5 * i_max, lib.FS_FLUXMAP_ND)
-    i_q = np.linspace(0.0, i_max, lib.FS_FLUXMAP_NQ)
-    D, Q = np.meshgrid(i_d, i_q, indexing="ij")
+    i_d, i_q, D, Q = _controller_grid(i_max)
     psi_d, psi_q = interp(mag, "psi_d", D, Q), interp(mag, "psi_q", D, Q)
     psi_f = table_at(mag, "psi_d", 0.0, 0.0)
-    psi_d, psi_q = psi_f_scale * psi_f + L_d_scale * (psi_d - psi_f), L_q_scale * psi_q
+    return _controller_table(i_d, i_q, psi_f_scale * psi_f + L_d_scale * (psi_d - psi_f), L_q_scale * psi_q)
+
+
+def linear_controller_map(psi_f: float, L_d: float, L_q: float, i_max: float) -> dict:
+    """The map a machine given by constants makes, on the controller's grid
+    (controller_map): psi_d = psi_f + L_d i_d, psi_q = L_q i_q. The drive
+    plans its flux weakening on it (fs_fwmap.h) as on a measured one."""
+    i_d, i_q, D, Q = _controller_grid(i_max)
+    return _controller_table(i_d, i_q, psi_f + L_d * D, L_q * Q)
+
+
+def _controller_grid(i_max: float):
+    i_d = np.linspace(-i_max, 0.5 * i_max, lib.FS_FLUXMAP_ND)
+    i_q = np.linspace(0.0, i_max, lib.FS_FLUXMAP_NQ)
+    return (i_d, i_q, *np.meshgrid(i_d, i_q, indexing="ij"))
+
+
+def _controller_table(i_d, i_q, psi_d, psi_q) -> dict:
     scale = float(max(np.abs(psi_d).max(), np.abs(psi_q).max())) / 32000.0
     return {"di_d": float(i_d[1] - i_d[0]), "i_d0": float(i_d[0]), "di_q": float(i_q[1] - i_q[0]), "psi_scale": scale,
             "psi_d": np.rint(psi_d / scale).astype(int).ravel().tolist(),

@@ -105,10 +105,19 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         tim["h_max"] = min(0.2 * tau, 0.2 / w_top if w_top > 0 else math.inf, 1e-3)   # w_top underflows to 0 at 5e-324 rpm
         if conv["kind"] == "imc":   # and a fifth of a radian of the input filter's resonance
             tim["h_max"] = min(tim["h_max"], 0.2 * math.sqrt(conv["l_filter"] * conv["c_filter"]))
-    if ctl["flux_weakening"] and m.magnetic["model"] == "fluxmap" and ctl["fw_excess"] == "held":
-        raise ConfigError("controller.fw_excess", "held", "must be \"wound_back\" on a machine with a flux map: its flux "
-                          "weakening takes its references from the map within the voltage limit (fs_fwmap.h), with no "
-                          "voltage-error loop for a held excess to feed", source)
+    if ctl["flux_weakening"] and m.magnetic["model"] == "fluxmap" and ctl["fw_method"] == "feedback":
+        raise ConfigError("controller.fw_method", "feedback", "must be \"planned\" on a machine with a flux map: the "
+                          "drive plans its flux weakening on the map within the voltage limit (fs_fwmap.h)", source)
+    if ctl["flux_weakening"] and ctl["fw_method"] == "planned" and ctl["fw_excess"] == "held":
+        raise ConfigError("controller.fw_excess", "held", "must be \"wound_back\" with fw_method = \"planned\": the "
+                          "references come from the map within the voltage limit (fs_fwmap.h), with no voltage-error "
+                          "loop for a held excess to feed (\"held\" is fw_method = \"feedback\"'s, zou2021's)", source)
+    if ctl["flux_weakening"] and ctl["fw_method"] == "planned":
+        for key in ("fw_top_speed_rpm", "fw_gain", "fw_cutoff"):
+            if ctl[key] is not None:
+                raise ConfigError(f"controller.{key}", ctl[key], "is fw_method = \"feedback\"'s (zou2021's PART_1), "
+                                  "which the planned flux weakening (the default) does not use: leave it out or set "
+                                  "fw_method = \"feedback\"", source)
     if ctl["fw_top_speed_rpm"] is None:
         ctl["fw_top_speed_rpm"] = obs["top_speed_rpm"]
     if ctl["overspeed_rpm"] is None:

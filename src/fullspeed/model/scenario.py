@@ -72,8 +72,14 @@ SCENARIO = {
         "L_q_scale": F(1.0, lo=0.01, hi=100.0, doc="the controller's L_q over the machine's"),
         "psi_f_scale": F(1.0, lo=0.01, hi=100.0, doc="the controller's psi_f over the machine's"),
         "J_scale": F(1.0, lo=0.01, hi=100.0, doc="the controller's J over the machine's"),
-        # zou2021 PART_1 voltage-error-feedback flux weakening on top of MTPA
-        "flux_weakening": B(False, doc="speed mode: voltage-error-feedback flux weakening above the base speed (zou2021 PART_1)"),
+        "flux_weakening": B(False, doc="speed mode: flux weakening above the base speed (fw_method says how)"),
+        "fw_method": C("planned", "feedback", default="planned",
+                       doc="\"planned\": the current references within the voltage limit at each speed, planned on the "
+                           "machine's flux map (fs_fwmap.h; a machine given by L_d, L_q, psi_f: the map those make), with "
+                           "a trim on the voltage asked; \"feedback\": zou2021's PART_1, a d current from the voltage "
+                           "error on top of MTPA (fs_fw.h; fw_top_speed_rpm, fw_gain, fw_cutoff and fw_excess are its), "
+                           "on machines given by constants only"),
+        # zou2021 PART_1 voltage-error-feedback flux weakening on top of MTPA (fw_method = "feedback")
         "fw_top_speed_rpm": POS(None, hi=1e6, doc="w_r,max of eq. (31); default the observer's top speed"),
         "fw_gain": POS(None, hi=1e6, doc="multiplies beta of eq. (31): the loop's dc gain at the top speed (the paper: 1); default designed in the drive's init (fs_drive.h: 50 wound back, 1/4 held)"),
         "fw_cutoff": POS(None, hi=1e6, doc="rad/s, the low-pass of eq. (30); default designed in the drive's init (fs_drive.h; the paper: bw_current)"),

@@ -9,7 +9,7 @@ import numpy as np
 
 from .._core import ffi, lib
 from ..design.controller import controller_model
-from ..design.magnetics import controller_map
+from ..design.magnetics import controller_map, linear_controller_map
 from ..model.errors import ConfigError
 from ..model.scenario import Scenario
 from ..model.units import hz_to_rad_s, rpm_to_rad_s
@@ -58,10 +58,8 @@ def set_fluxmap(cfg_mag, mag: dict, keep):
     cfg_mag.map_psi_q = keep(ffi.new("double[]", psi_q.ravel().tolist()))
 
 
-def _controller_map(dc, m, ctl: dict) -> None:
-    """The flux map on the controller's grid (design.magnetics.controller_map:
-    fs_drive.h, map), with the scenario's mismatch scales."""
-    cm = controller_map(m.magnetic, ctl["i_max"], ctl["psi_f_scale"], ctl["L_d_scale"], ctl["L_q_scale"])
+def _controller_map(dc, cm: dict) -> None:
+    """A flux map on the controller's grid (design.magnetics: fs_drive.h, map)."""
     mp = dc.map
     mp.di_d, mp.i_d0, mp.di_q, mp.psi_scale = cm["di_d"], cm["i_d0"], cm["di_q"], cm["psi_scale"]
     for k, (d, q) in enumerate(zip(cm["psi_d"], cm["psi_q"])):
@@ -140,9 +138,12 @@ def build_config(sc: Scenario):
     cm = controller_model(ctl, m)
     dc.R_s, dc.L_d, dc.L_q, dc.psi_f = cm["R_s"], cm["L_d"], cm["L_q"], cm["psi_f"]
     dc.pole_pairs = m.pole_pairs
-    if mag["model"] == "fluxmap":
+    if mag["model"] == "fluxmap":   # the machine's map, with the scenario's mismatch scales
         dc.L_d_hf, dc.L_q_hf = cm["L_d_hf"], cm["L_q_hf"]
-        _controller_map(dc, m, ctl)
+        _controller_map(dc, controller_map(m.magnetic, ctl["i_max"], ctl["psi_f_scale"], ctl["L_d_scale"],
+                                           ctl["L_q_scale"]))
+    elif ctl["flux_weakening"] and ctl["fw_method"] == "planned":   # the map of the controller's constants
+        _controller_map(dc, linear_controller_map(cm["psi_f"], cm["L_d"], cm["L_q"], ctl["i_max"]))
     dc.J, dc.B = (m.J + (load["J_load"] if load["kind"] == "speed_pi" else 0.0)) * ctl["J_scale"], m.B
     dc.i_max, dc.T_max = ctl["i_max"], ctl["T_max"]
     dc.bw_current, dc.bw_speed, dc.bw_pll = ctl["bw_current"], ctl["bw_speed"], ctl["bw_pll"]
@@ -155,7 +156,7 @@ def build_config(sc: Scenario):
     if ctl["xy_control"]:   # the same bandwidth as the fundamental's loops
         dc.bw_xy, dc.L_d3, dc.L_q3, dc.psi_f3 = ctl["bw_current"], m.L_d3, m.L_q3, m.psi_f3
     dc.vf_gain, dc.vf_boost = ctl["vf_gain"], ctl["vf_boost"]
-    if ctl["flux_weakening"]:
+    if ctl["flux_weakening"]:   # fw_w_e_max > 0: on (fs_drive.h); the rest is fs_fw.h's, fw_method = "feedback"
         dc.fw_w_e_max = m.pole_pairs * rpm_to_rad_s(ctl["fw_top_speed_rpm"])
         dc.fw_gain = ctl["fw_gain"] or 0.0       # 0: designed in fs_drive_init
         dc.fw_cutoff = ctl["fw_cutoff"] or 0.0   # 0: designed in fs_drive_init

@@ -129,7 +129,7 @@ def map_scenarios(data: dict, source: str, top_rpm: float | None) -> tuple[Scena
         raise ConfigError("--top-rpm", top, "must be > 0 rpm", source)
     shared = {"losses": {"devices": m.converter is not None, "iron": m.losses is not None, "trace": True},
               "observer": {"top_speed_rpm": max(top, float(sc.data["observer"]["top_speed_rpm"]))}}
-    if ctl["flux_weakening"] and "fw_top_speed_rpm" not in data.get("controller", {}):
+    if ctl["flux_weakening"] and ctl["fw_method"] == "feedback" and "fw_top_speed_rpm" not in data.get("controller", {}):
         shared["controller"] = {"fw_top_speed_rpm": top}
     return scenario_from_dict(deep_merge(data, shared), source), shared
 
