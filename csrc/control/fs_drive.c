@@ -114,7 +114,7 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     drv->cfg = *cfg;
     drv->has_map = cfg->map.di_d != 0.0f;
     if (!FS_WITH_FLUXMAP && drv->has_map) REFUSE("map", FS_ERR_MODE);
-    if (drive_map(drv)) SUB("map", fs_fluxmap_init(&drv->map, &drv->cfg.map));
+    if (drive_fw_plans(drv)) SUB("map", fs_fluxmap_init(&drv->map, &drv->cfg.map));
     drv->k_T = drive_torque_k(cfg);
     drv->dd_dead = cfg->t_dead_comp / cfg->T_pwm;
     const float Tl = drive_loop_Ts(cfg);
@@ -172,7 +172,7 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
                              drive_map(drv) ? &drv->map : NULL};
         st = fs_mtpa_init(&drv->mtpa, &mc);
         if (st != FS_OK) REFUSE(st == FS_ERR_LQ ? "L_q" : drive_map(drv) ? "mtpa (map, i_max)" : "mtpa (psi_f, L_d, L_q, i_max)", st);
-        if (drive_weakens(cfg) && drive_map(drv)) {
+        if (drive_weakens(cfg) && drive_fw_plans(drv)) {
             if (drive_five(cfg) || drive_imc(cfg)) REFUSE("map", FS_ERR_MODE);   /* the voltage limit is the VSI's, three phases */
             if (cfg->fw_hold) REFUSE("fw_hold", FS_ERR_MODE);   /* fs_fw.h's excess feeds no loop here */
             fs_fwmap_config wc = {&drv->map, cfg->i_max, drv->k_T, cfg->Ts, cfg->bw_current};
@@ -250,7 +250,7 @@ void fs_drive_reset(fs_drive *drv)
     if (drv->cfg.mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
     if (drive_has_smo(&drv->cfg)) fs_smo_reset(&drv->smo, 0.0f, 0.0f);
     if (drive_weakens(&drv->cfg)) fs_fw_reset(&drv->fw);
-    if (drive_weakens(&drv->cfg) && drive_map(drv)) fs_fwmap_reset(&drv->fwm);
+    if (drive_weakens(&drv->cfg) && drive_fw_plans(drv)) fs_fwmap_reset(&drv->fwm);
     if (drive_injects(&drv->cfg)) {
         fs_hfi_reset(&drv->hfi, 0.0f, 0.0f);
         drv->hfi.gain = drv->hfi.gain_prev = 0.0f;   /* fades in */
@@ -424,8 +424,13 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float
  * (design.envelope); planning for 95 % of the limit cost 6 to 12 %. */
 static fs_dq drive_fw_map(fs_drive *drv, float u_dc, float w_e, float *T_ref)
 {
-    const fs_dq i0 = drv->cc.i0, u0 = drv->cc.u;   /* the last current (the map's point) and the voltage asked */
-    const float u_plan = FS_INV_SQRT3 * u_dc;
+    /* the last current (the map's point; on constants the loops' last) and the voltage asked */
+    const fs_dq i0 = drive_map(drv) ? drv->cc.i0 : drv->cc.meas, u0 = drv->cc.u;
+    /* while injecting the carrier takes its amplitude off the linear limit (zoo machine 47, injecting at
+     * 1400 rpm: planned for the whole limit, the fundamental over-modulated under the carrier and the
+     * injection's estimate ran 28 el.deg off) */
+    const float u_hf = drv->injecting ? drv->hfi.gain * drv->hfi.u_amp : 0.0f;
+    const float u_plan = FS_INV_SQRT3 * u_dc - u_hf;
     const float u_lim = u_plan - drv->cfg.R_s * sqrtf(i0.d * i0.d + i0.q * i0.q);
     const float x = fs_fwmap_ratio(&drv->fwm, u_lim, w_e);
     drv->fw_map_on = x > 1.0f;
@@ -458,12 +463,12 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
         i_ref = fs_drive_if_step(drv, in, i_ab);
     } else if (c->mode == FS_MODE_SPEED) {
         *T_ref = fs_speed_ctrl_step(&drv->sc, in->w_m_ref, w_e / (float)c->pole_pairs);
-        i_ref = weakens && drive_map(drv) ? drive_fw_map(drv, in->u_dc, w_e, T_ref) : fs_mtpa_step(&drv->mtpa, *T_ref);
+        i_ref = weakens && drive_fw_plans(drv) ? drive_fw_map(drv, in->u_dc, w_e, T_ref) : fs_mtpa_step(&drv->mtpa, *T_ref);
         /* zou2021 eq. (30): i_d* = i_d0* + the filtered correction, i_q*
          * kept; then held inside the current limit circle, whose radius
          * leaves room for the carrier's peak while injecting */
         const float i_lim = c->i_max - (drv->injecting ? drv->hfi.gain * drv->i_hf : 0.0f);
-        if (weakens && !drive_map(drv)) i_ref.d += drv->fw.i_d;   /* a map's flux weakening has its own trim */
+        if (weakens && !drive_fw_plans(drv)) i_ref.d += drv->fw.i_d;   /* a map's flux weakening has its own trim */
         i_ref.d = fs_clamp_sym(i_ref.d, i_lim);
         float iq_max = sqrtf(i_lim * i_lim - i_ref.d * i_ref.d);
         float i_q0 = i_ref.q;
@@ -833,7 +838,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
         fs_current_ctrl_update_held(&drv->cc, u_real,
                                     weakening && c->fw_hold ? fs_fw_hold(&drv->fw, u_ref, u_real, w_e) : u_real);
     if (FS_WITH_ADAPT && c->adapt.T_f > 0.0f) drive_adapt(drv, in, u_real, i_dq, w_e, closed_loop);
-    if (weakening && !drive_map(drv))
+    if (weakening && !drive_fw_plans(drv))
         fs_fw_step(&drv->fw, u_ref.q - u_real.q, w_e);   /* eq. (26): dv_q */
 
     out->theta_e = theta;

@@ -400,6 +400,10 @@ typedef struct {
      * config has no pointer: the same bytes on the host and the target,
      * and an export carries the map */
     fs_fluxmap_table map;
+    /* 1: the map only plans the flux weakening (fs_fwmap.h): a machine
+     * given by L_d, L_q, psi_f, whose map is the one those make; the
+     * current loops, MTPA, observers and monitor stay on L_d, L_q, psi_f */
+    int map_fw_only;
     /* FS_MODE_IDENTIFY (three phases, inverter): Ts, delay, pole_pairs and
      * i_max are taken from above */
     fs_ident_config ident;
@@ -487,7 +491,7 @@ typedef struct {
     bool est_started;        /* the injection estimators have seen their first step */
     bool injecting;          /* the HF voltage is on (fading in or out included) */
     bool inject_on;          /* the injection is wanted (the amplitude's target) */
-    bool has_map;            /* cfg.map holds a flux map (fs_drive.map) */
+    bool has_map;            /* cfg.map holds a flux map (fs_drive.map): the machine's, or the flux weakening's only */
     bool fw_map_on;          /* this step's references are the map's flux weakening (fs_fwmap.h) */
     float T_ff;              /* N m: torque of the last step's current reference (the observers' feed-forward) */
     float k_T;               /* N m/A: the torque constant phases/2 p (drive_torque_k) */

@@ -52,7 +52,10 @@ static inline bool drive_imc_depth(const fs_drive_config *c)
 static inline float drive_loop_Ts(const fs_drive_config *c) { return drive_square(c) ? 2.0f * c->Ts : c->Ts; }
 
 /* A flux map in the controller (constant false without FS_WITH_FLUXMAP: its code is not linked). */
-static inline bool drive_map(const fs_drive *drv) { return FS_WITH_FLUXMAP && drv->has_map; }
+/* the machine on its flux map (fs_drive.h, map) */
+static inline bool drive_map(const fs_drive *drv) { return FS_WITH_FLUXMAP && drv->has_map && !drv->cfg.map_fw_only; }
+/* the flux weakening planned on a map (the machine's, or the one its constants make) */
+static inline bool drive_fw_plans(const fs_drive *drv) { return FS_WITH_FLUXMAP && drv->has_map; }
 
 /* The SMO runs for its own source and inside the blend. */
 static inline bool drive_has_smo(const fs_drive_config *c)

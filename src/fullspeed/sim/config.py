@@ -144,6 +144,7 @@ def build_config(sc: Scenario):
                                            ctl["L_q_scale"]))
     elif ctl["flux_weakening"] and ctl["fw_method"] == "planned":   # the map of the controller's constants
         _controller_map(dc, linear_controller_map(cm["psi_f"], cm["L_d"], cm["L_q"], ctl["i_max"]))
+        dc.map_fw_only = 1   # the rest of the drive stays on the constants
     dc.J, dc.B = (m.J + (load["J_load"] if load["kind"] == "speed_pi" else 0.0)) * ctl["J_scale"], m.B
     dc.i_max, dc.T_max = ctl["i_max"], ctl["T_max"]
     dc.bw_current, dc.bw_speed, dc.bw_pll = ctl["bw_current"], ctl["bw_speed"], ctl["bw_pll"]

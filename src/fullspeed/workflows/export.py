@@ -76,7 +76,7 @@ KEYS = {
     "smo.margin": "observer.margin", "smo.delta": "observer.delta", "smo.w_c_min": "observer.cutoff_min_rpm",
     "smo.bw_pll": "observer.bw_pll", "smo.w_valid": "observer.valid_rpm", "smo.lag": "observer.lag",
     "fw_w_e_max": "controller.fw_top_speed_rpm", "fw_gain": "controller.fw_gain", "fw_cutoff": "controller.fw_cutoff",
-    "fw_hold": "controller.fw_excess", "cc_internal_model": "controller.gains",
+    "fw_hold": "controller.fw_excess", "map_fw_only": "controller.fw_method", "cc_internal_model": "controller.gains",
     "lock_time": "controller.lock_time", "lock_recover": "controller.lock", "t_recover": "controller.recover_time",
     "lock_retries": "controller.lock_retries", "w_over": "controller.overspeed_rpm",
     "i_start": "observer.i_start", "a_start": "observer.start_accel_rpm_s", "w_handover": "observer.start_handover_rpm",
