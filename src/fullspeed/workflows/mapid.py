@@ -116,7 +116,7 @@ def _fill(psi_d, psi_q, src) -> None:
 
 def disc_points(i_max: float, n: int = 41) -> tuple[np.ndarray, np.ndarray]:
     """An even grid of currents within the current limit's disc (41 x 41
-    over the square: 1,300 points inside)."""
+    over the square: 1,257 points inside)."""
     g = np.linspace(-i_max, i_max, n)
     a, b = np.meshgrid(g, g, indexing="ij")
     inside = a * a + b * b <= i_max * i_max * (1 + 1e-9)
