@@ -7,7 +7,7 @@
 
 /* The layout this configuration was written for: a header that changed since
  * the export fails here, naming the field. */
-_Static_assert(sizeof(fs_drive_config) == 1628u, "fs_drive_config: size differs from the exported layout");
+_Static_assert(sizeof(fs_drive_config) == 1660u, "fs_drive_config: size differs from the exported layout");
 _Static_assert(offsetof(fs_drive_config, config_size) == 0u, "fs_drive_config.config_size moved");
 _Static_assert(offsetof(fs_drive_config, phases) == 4u, "fs_drive_config.phases moved");
 _Static_assert(offsetof(fs_drive_config, mode) == 8u, "fs_drive_config.mode moved");
@@ -168,9 +168,17 @@ _Static_assert(offsetof(fs_drive_config, ident.i_max) == 1612u, "fs_drive_config
 _Static_assert(offsetof(fs_drive_config, ident.w_spin) == 1616u, "fs_drive_config.ident.w_spin moved");
 _Static_assert(offsetof(fs_drive_config, ident.t_ramp) == 1620u, "fs_drive_config.ident.t_ramp moved");
 _Static_assert(offsetof(fs_drive_config, ident.u_dc_min) == 1624u, "fs_drive_config.ident.u_dc_min moved");
+_Static_assert(offsetof(fs_drive_config, ident.standstill_only) == 1628u, "fs_drive_config.ident.standstill_only moved");
+_Static_assert(offsetof(fs_drive_config, ident.locked) == 1632u, "fs_drive_config.ident.locked moved");
+_Static_assert(offsetof(fs_drive_config, ident.skip_map) == 1636u, "fs_drive_config.ident.skip_map moved");
+_Static_assert(offsetof(fs_drive_config, ident.i_test) == 1640u, "fs_drive_config.ident.i_test moved");
+_Static_assert(offsetof(fs_drive_config, ident.t_level) == 1644u, "fs_drive_config.ident.t_level moved");
+_Static_assert(offsetof(fs_drive_config, ident.psi_f_hint) == 1648u, "fs_drive_config.ident.psi_f_hint moved");
+_Static_assert(offsetof(fs_drive_config, ident.J_hint) == 1652u, "fs_drive_config.ident.J_hint moved");
+_Static_assert(offsetof(fs_drive_config, ident.motion_max) == 1656u, "fs_drive_config.ident.motion_max moved");
 
 const fs_drive_config fs_config = {
-    .config_size = 1628u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator set it, and fs_drive_init refuses a configuration ...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
+    .config_size = 1660u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator set it, and fs_drive_init refuses a configuration ...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
     .phases = 3,   /* 3, or 5: the fundamental plane of the VSD, nearest-four-vector PWM; machine yang2022: phases */
     .mode = FS_MODE_SPEED,   /* fs_drive_mode; scenario beyond-full-range: [controller] mode */
     .angle_source = FS_ANGLE_BLEND,   /* fs_angle_source; scenario beyond-full-range: [controller] angle */
@@ -395,5 +403,13 @@ const fs_drive_config fs_config = {
         .w_spin = 0.0f,   /* el. rad/s: the running steps' speed (lowered to half the voltage limit); 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .t_ramp = 0.0f,   /* s: the I/f ramp from 0 to w_spin (the inertia is not known before); 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .u_dc_min = 0.0f,   /* V: below this link voltage the sequence does not start (0: 1 V); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .standstill_only = 0,   /* 1: the rotor may not turn: the standstill steps only; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .locked = 0,   /* 1: the rotor is held (a brake, a locked shaft): standstill steps only, no motion bound; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .skip_map = 0,   /* 1: no flux map (MAP, DCURVE); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .i_test = 0.0f,   /* A: the levels' top current (0: 0.6 i_max); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .t_level = 0.0f,   /* s: the top levels' window per sign (0: 0.1 s); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .psi_f_hint = 0.0f,   /* Wb, kg m^2, the nameplate's: size the map's q sweeps against the rotor's motion (0: unknown); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .J_hint = 0.0f,   /* Wb, kg m^2, the nameplate's: size the map's q sweeps against the rotor's motion (0: unknown); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .motion_max = 0.0f,   /* el. rad: the map's q sweeps' motion bound (0: 1 el.deg); 0: taken from the drive's fields or designed by fs_drive_init, or off */
     },
 };

@@ -8,7 +8,7 @@
 
 /* sizeof(fs_drive_config) when exported; fs_config.config_size holds it too and
  * fs_drive_init refuses the configuration if the library's differs */
-#define FS_CONFIG_SIZE 1628u
+#define FS_CONFIG_SIZE 1660u
 
 extern const fs_drive_config fs_config;
 
