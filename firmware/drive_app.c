@@ -78,12 +78,12 @@ void app_pwm_isr(drive_app *app)
         return;
     }
     fs_drive_step(&app->drive, &app->in, &app->out);
-    if (app->out.fault != FS_FAULT_NONE) {   /* the drive halted (polarity undetermined): it will not go on */
-        app_fault(app, APP_FAULT_DRIVE);
+    if (app->out.lock_lost) {   /* lost, and not re-acquired (fs_drive_protect.h): it will not go on */
+        app_fault(app, APP_FAULT_LOCK);
         return;
     }
-    if (app->out.lock_lost) {   /* recovery, when configured, has run out of retries */
-        app_fault(app, APP_FAULT_LOCK);
+    if (app->out.fault != FS_FAULT_NONE) {   /* the drive halted (overspeed, polarity undetermined, an I/f start never handed over) */
+        app_fault(app, APP_FAULT_DRIVE);
         return;
     }
     board_set_duty(app->out.duty, n);

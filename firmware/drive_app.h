@@ -28,10 +28,10 @@ typedef enum {
     APP_FAULT_OVERCURRENT = 1,
     APP_FAULT_UNDERVOLTAGE = 2,
     APP_FAULT_OVERVOLTAGE = 3,
-    APP_FAULT_LOCK = 4,              /* the drive's monitor latched lock_lost (fs_lock.h) */
+    APP_FAULT_LOCK = 4,              /* lock lost and not re-acquired: lock_lost (fs_lock.h, fs_drive_protect.h) */
     APP_STOPPED = 5,                 /* not started, or app_stop */
     APP_FAULT_DRIVE = 6              /* the drive halted: app.out.fault (fs_drive_fault), e.g. the
-                                        polarity detection could not decide */
+                                        polarity detection could not decide, or its overspeed */
 } app_state;
 
 /* app_init's refusal beside fs_drive_init's (an fs_status): the board's

@@ -5,9 +5,13 @@
 #include <stddef.h>
 #include "fs_config.h"
 
+#if !defined(FS_CONFIG_EXPORT_ID) || FS_CONFIG_EXPORT_ID != 0x2faf4f4bu
+#error "fs_config.h is not the header exported with fs_config.c (another export, or one cut short): export again"
+#endif
+
 /* The layout this configuration was written for: a header that changed since
  * the export fails here, naming the field. */
-_Static_assert(sizeof(fs_drive_config) == 1660u, "fs_drive_config: size differs from the exported layout");
+_Static_assert(sizeof(fs_drive_config) == 1840u, "fs_drive_config: size differs from the exported layout");
 _Static_assert(offsetof(fs_drive_config, config_size) == 0u, "fs_drive_config.config_size moved");
 _Static_assert(offsetof(fs_drive_config, phases) == 4u, "fs_drive_config.phases moved");
 _Static_assert(offsetof(fs_drive_config, mode) == 8u, "fs_drive_config.mode moved");
@@ -67,118 +71,134 @@ _Static_assert(offsetof(fs_drive_config, lock_time) == 216u, "fs_drive_config.lo
 _Static_assert(offsetof(fs_drive_config, lock_recover) == 220u, "fs_drive_config.lock_recover moved");
 _Static_assert(offsetof(fs_drive_config, t_recover) == 224u, "fs_drive_config.t_recover moved");
 _Static_assert(offsetof(fs_drive_config, lock_retries) == 228u, "fs_drive_config.lock_retries moved");
-_Static_assert(offsetof(fs_drive_config, i_start) == 232u, "fs_drive_config.i_start moved");
-_Static_assert(offsetof(fs_drive_config, a_start) == 236u, "fs_drive_config.a_start moved");
-_Static_assert(offsetof(fs_drive_config, w_handover) == 240u, "fs_drive_config.w_handover moved");
-_Static_assert(offsetof(fs_drive_config, hfi) == 244u, "fs_drive_config.hfi moved");
-_Static_assert(offsetof(fs_drive_config, hfi.Ts) == 244u, "fs_drive_config.hfi.Ts moved");
-_Static_assert(offsetof(fs_drive_config, hfi.delay) == 248u, "fs_drive_config.hfi.delay moved");
-_Static_assert(offsetof(fs_drive_config, hfi.u_h) == 252u, "fs_drive_config.hfi.u_h moved");
-_Static_assert(offsetof(fs_drive_config, hfi.w_h) == 256u, "fs_drive_config.hfi.w_h moved");
-_Static_assert(offsetof(fs_drive_config, hfi.R_s) == 260u, "fs_drive_config.hfi.R_s moved");
-_Static_assert(offsetof(fs_drive_config, hfi.L_d) == 264u, "fs_drive_config.hfi.L_d moved");
-_Static_assert(offsetof(fs_drive_config, hfi.L_q) == 268u, "fs_drive_config.hfi.L_q moved");
-_Static_assert(offsetof(fs_drive_config, hfi.w_b_p) == 272u, "fs_drive_config.hfi.w_b_p moved");
-_Static_assert(offsetof(fs_drive_config, hfi.w_b_n) == 276u, "fs_drive_config.hfi.w_b_n moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs) == 280u, "fs_drive_config.hfi.obs moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.Ts) == 280u, "fs_drive_config.hfi.obs.Ts moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.J) == 284u, "fs_drive_config.hfi.obs.J moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.B) == 288u, "fs_drive_config.hfi.obs.B moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.pole_pairs) == 292u, "fs_drive_config.hfi.obs.pole_pairs moved");
-_Static_assert(offsetof(fs_drive_config, hfi.obs.bandwidth) == 296u, "fs_drive_config.hfi.obs.bandwidth moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp) == 300u, "fs_drive_config.hfi.xcomp moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.n) == 300u, "fs_drive_config.hfi.xcomp.n moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.i_q0) == 304u, "fs_drive_config.hfi.xcomp.i_q0 moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.di_q) == 308u, "fs_drive_config.hfi.xcomp.di_q moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.delta) == 312u, "fs_drive_config.hfi.xcomp.delta moved");
-_Static_assert(offsetof(fs_drive_config, hfi.xcomp.poly) == 444u, "fs_drive_config.hfi.xcomp.poly moved");
-_Static_assert(offsetof(fs_drive_config, hfi.leak) == 460u, "fs_drive_config.hfi.leak moved");
-_Static_assert(offsetof(fs_drive_config, hfi.lag) == 464u, "fs_drive_config.hfi.lag moved");
-_Static_assert(offsetof(fs_drive_config, blend) == 468u, "fs_drive_config.blend moved");
-_Static_assert(offsetof(fs_drive_config, blend.w_lower) == 468u, "fs_drive_config.blend.w_lower moved");
-_Static_assert(offsetof(fs_drive_config, blend.w_upper) == 472u, "fs_drive_config.blend.w_upper moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs) == 476u, "fs_drive_config.blend.obs moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.Ts) == 476u, "fs_drive_config.blend.obs.Ts moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.J) == 480u, "fs_drive_config.blend.obs.J moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.B) == 484u, "fs_drive_config.blend.obs.B moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.pole_pairs) == 488u, "fs_drive_config.blend.obs.pole_pairs moved");
-_Static_assert(offsetof(fs_drive_config, blend.obs.bandwidth) == 492u, "fs_drive_config.blend.obs.bandwidth moved");
-_Static_assert(offsetof(fs_drive_config, blend.gate) == 496u, "fs_drive_config.blend.gate moved");
-_Static_assert(offsetof(fs_drive_config, w_inject_max) == 500u, "fs_drive_config.w_inject_max moved");
-_Static_assert(offsetof(fs_drive_config, polarity) == 504u, "fs_drive_config.polarity moved");
-_Static_assert(offsetof(fs_drive_config, polarity.Ts) == 504u, "fs_drive_config.polarity.Ts moved");
-_Static_assert(offsetof(fs_drive_config, polarity.i_pulse) == 508u, "fs_drive_config.polarity.i_pulse moved");
-_Static_assert(offsetof(fs_drive_config, polarity.t_lock) == 512u, "fs_drive_config.polarity.t_lock moved");
-_Static_assert(offsetof(fs_drive_config, polarity.t_pulse) == 516u, "fs_drive_config.polarity.t_pulse moved");
-_Static_assert(offsetof(fs_drive_config, polarity.i_pulse_max) == 520u, "fs_drive_config.polarity.i_pulse_max moved");
-_Static_assert(offsetof(fs_drive_config, polarity.d_min) == 524u, "fs_drive_config.polarity.d_min moved");
-_Static_assert(offsetof(fs_drive_config, polarity.w_filter) == 528u, "fs_drive_config.polarity.w_filter moved");
-_Static_assert(offsetof(fs_drive_config, polarity.n_carrier) == 532u, "fs_drive_config.polarity.n_carrier moved");
-_Static_assert(offsetof(fs_drive_config, polarity.w_max) == 536u, "fs_drive_config.polarity.w_max moved");
-_Static_assert(offsetof(fs_drive_config, swvi) == 540u, "fs_drive_config.swvi moved");
-_Static_assert(offsetof(fs_drive_config, swvi.Ts) == 540u, "fs_drive_config.swvi.Ts moved");
-_Static_assert(offsetof(fs_drive_config, swvi.delay) == 544u, "fs_drive_config.swvi.delay moved");
-_Static_assert(offsetof(fs_drive_config, swvi.u_h) == 548u, "fs_drive_config.swvi.u_h moved");
-_Static_assert(offsetof(fs_drive_config, swvi.L_d) == 552u, "fs_drive_config.swvi.L_d moved");
-_Static_assert(offsetof(fs_drive_config, swvi.L_q) == 556u, "fs_drive_config.swvi.L_q moved");
-_Static_assert(offsetof(fs_drive_config, swvi.bandwidth) == 560u, "fs_drive_config.swvi.bandwidth moved");
-_Static_assert(offsetof(fs_drive_config, swvi.w_max) == 564u, "fs_drive_config.swvi.w_max moved");
-_Static_assert(offsetof(fs_drive_config, swvi.sequence) == 568u, "fs_drive_config.swvi.sequence moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp) == 572u, "fs_drive_config.swvi.xcomp moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.n) == 572u, "fs_drive_config.swvi.xcomp.n moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.i_q0) == 576u, "fs_drive_config.swvi.xcomp.i_q0 moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.di_q) == 580u, "fs_drive_config.swvi.xcomp.di_q moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.delta) == 584u, "fs_drive_config.swvi.xcomp.delta moved");
-_Static_assert(offsetof(fs_drive_config, swvi.xcomp.poly) == 716u, "fs_drive_config.swvi.xcomp.poly moved");
-_Static_assert(offsetof(fs_drive_config, swvi.carrier_off) == 732u, "fs_drive_config.swvi.carrier_off moved");
-_Static_assert(offsetof(fs_drive_config, k_p_d) == 736u, "fs_drive_config.k_p_d moved");
-_Static_assert(offsetof(fs_drive_config, k_i_d) == 740u, "fs_drive_config.k_i_d moved");
-_Static_assert(offsetof(fs_drive_config, k_p_q) == 744u, "fs_drive_config.k_p_q moved");
-_Static_assert(offsetof(fs_drive_config, k_i_q) == 748u, "fs_drive_config.k_i_q moved");
-_Static_assert(offsetof(fs_drive_config, k_p_w) == 752u, "fs_drive_config.k_p_w moved");
-_Static_assert(offsetof(fs_drive_config, k_i_w) == 756u, "fs_drive_config.k_i_w moved");
-_Static_assert(offsetof(fs_drive_config, cc_internal_model) == 760u, "fs_drive_config.cc_internal_model moved");
-_Static_assert(offsetof(fs_drive_config, converter) == 764u, "fs_drive_config.converter moved");
-_Static_assert(offsetof(fs_drive_config, imc_region) == 768u, "fs_drive_config.imc_region moved");
-_Static_assert(offsetof(fs_drive_config, imc_w_grid) == 772u, "fs_drive_config.imc_w_grid moved");
-_Static_assert(offsetof(fs_drive_config, imc_depth) == 776u, "fs_drive_config.imc_depth moved");
-_Static_assert(offsetof(fs_drive_config, imc_i_lim) == 780u, "fs_drive_config.imc_i_lim moved");
-_Static_assert(offsetof(fs_drive_config, imc_V_im) == 784u, "fs_drive_config.imc_V_im moved");
-_Static_assert(offsetof(fs_drive_config, adapt) == 788u, "fs_drive_config.adapt moved");
-_Static_assert(offsetof(fs_drive_config, adapt.Ts) == 788u, "fs_drive_config.adapt.Ts moved");
-_Static_assert(offsetof(fs_drive_config, adapt.R_s) == 792u, "fs_drive_config.adapt.R_s moved");
-_Static_assert(offsetof(fs_drive_config, adapt.L_d) == 796u, "fs_drive_config.adapt.L_d moved");
-_Static_assert(offsetof(fs_drive_config, adapt.psi_f) == 800u, "fs_drive_config.adapt.psi_f moved");
-_Static_assert(offsetof(fs_drive_config, adapt.i_max) == 804u, "fs_drive_config.adapt.i_max moved");
-_Static_assert(offsetof(fs_drive_config, adapt.w_e_max) == 808u, "fs_drive_config.adapt.w_e_max moved");
-_Static_assert(offsetof(fs_drive_config, adapt.T_f) == 812u, "fs_drive_config.adapt.T_f moved");
-_Static_assert(offsetof(fs_drive_config, adapt.w_lp) == 816u, "fs_drive_config.adapt.w_lp moved");
-_Static_assert(offsetof(fs_drive_config, adapt.min_sep) == 820u, "fs_drive_config.adapt.min_sep moved");
-_Static_assert(offsetof(fs_drive_config, adapt.min_level) == 824u, "fs_drive_config.adapt.min_level moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table) == 828u, "fs_drive_config.mtpa_table moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table.n) == 828u, "fs_drive_config.mtpa_table.n moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table.T) == 832u, "fs_drive_config.mtpa_table.T moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table.i_d) == 1088u, "fs_drive_config.mtpa_table.i_d moved");
-_Static_assert(offsetof(fs_drive_config, mtpa_table.i_q) == 1344u, "fs_drive_config.mtpa_table.i_q moved");
-_Static_assert(offsetof(fs_drive_config, ident) == 1600u, "fs_drive_config.ident moved");
-_Static_assert(offsetof(fs_drive_config, ident.Ts) == 1600u, "fs_drive_config.ident.Ts moved");
-_Static_assert(offsetof(fs_drive_config, ident.delay) == 1604u, "fs_drive_config.ident.delay moved");
-_Static_assert(offsetof(fs_drive_config, ident.pole_pairs) == 1608u, "fs_drive_config.ident.pole_pairs moved");
-_Static_assert(offsetof(fs_drive_config, ident.i_max) == 1612u, "fs_drive_config.ident.i_max moved");
-_Static_assert(offsetof(fs_drive_config, ident.w_spin) == 1616u, "fs_drive_config.ident.w_spin moved");
-_Static_assert(offsetof(fs_drive_config, ident.t_ramp) == 1620u, "fs_drive_config.ident.t_ramp moved");
-_Static_assert(offsetof(fs_drive_config, ident.u_dc_min) == 1624u, "fs_drive_config.ident.u_dc_min moved");
-_Static_assert(offsetof(fs_drive_config, ident.standstill_only) == 1628u, "fs_drive_config.ident.standstill_only moved");
-_Static_assert(offsetof(fs_drive_config, ident.locked) == 1632u, "fs_drive_config.ident.locked moved");
-_Static_assert(offsetof(fs_drive_config, ident.skip_map) == 1636u, "fs_drive_config.ident.skip_map moved");
-_Static_assert(offsetof(fs_drive_config, ident.i_test) == 1640u, "fs_drive_config.ident.i_test moved");
-_Static_assert(offsetof(fs_drive_config, ident.t_level) == 1644u, "fs_drive_config.ident.t_level moved");
-_Static_assert(offsetof(fs_drive_config, ident.psi_f_hint) == 1648u, "fs_drive_config.ident.psi_f_hint moved");
-_Static_assert(offsetof(fs_drive_config, ident.J_hint) == 1652u, "fs_drive_config.ident.J_hint moved");
-_Static_assert(offsetof(fs_drive_config, ident.motion_max) == 1656u, "fs_drive_config.ident.motion_max moved");
+_Static_assert(offsetof(fs_drive_config, w_over) == 232u, "fs_drive_config.w_over moved");
+_Static_assert(offsetof(fs_drive_config, i_start) == 236u, "fs_drive_config.i_start moved");
+_Static_assert(offsetof(fs_drive_config, a_start) == 240u, "fs_drive_config.a_start moved");
+_Static_assert(offsetof(fs_drive_config, w_handover) == 244u, "fs_drive_config.w_handover moved");
+_Static_assert(offsetof(fs_drive_config, hfi) == 248u, "fs_drive_config.hfi moved");
+_Static_assert(offsetof(fs_drive_config, hfi.Ts) == 248u, "fs_drive_config.hfi.Ts moved");
+_Static_assert(offsetof(fs_drive_config, hfi.delay) == 252u, "fs_drive_config.hfi.delay moved");
+_Static_assert(offsetof(fs_drive_config, hfi.u_h) == 256u, "fs_drive_config.hfi.u_h moved");
+_Static_assert(offsetof(fs_drive_config, hfi.w_h) == 260u, "fs_drive_config.hfi.w_h moved");
+_Static_assert(offsetof(fs_drive_config, hfi.R_s) == 264u, "fs_drive_config.hfi.R_s moved");
+_Static_assert(offsetof(fs_drive_config, hfi.L_d) == 268u, "fs_drive_config.hfi.L_d moved");
+_Static_assert(offsetof(fs_drive_config, hfi.L_q) == 272u, "fs_drive_config.hfi.L_q moved");
+_Static_assert(offsetof(fs_drive_config, hfi.w_b_p) == 276u, "fs_drive_config.hfi.w_b_p moved");
+_Static_assert(offsetof(fs_drive_config, hfi.w_b_n) == 280u, "fs_drive_config.hfi.w_b_n moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs) == 284u, "fs_drive_config.hfi.obs moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.Ts) == 284u, "fs_drive_config.hfi.obs.Ts moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.J) == 288u, "fs_drive_config.hfi.obs.J moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.B) == 292u, "fs_drive_config.hfi.obs.B moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.pole_pairs) == 296u, "fs_drive_config.hfi.obs.pole_pairs moved");
+_Static_assert(offsetof(fs_drive_config, hfi.obs.bandwidth) == 300u, "fs_drive_config.hfi.obs.bandwidth moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp) == 304u, "fs_drive_config.hfi.xcomp moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.n) == 304u, "fs_drive_config.hfi.xcomp.n moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.i_q0) == 308u, "fs_drive_config.hfi.xcomp.i_q0 moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.di_q) == 312u, "fs_drive_config.hfi.xcomp.di_q moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.delta) == 316u, "fs_drive_config.hfi.xcomp.delta moved");
+_Static_assert(offsetof(fs_drive_config, hfi.xcomp.poly) == 448u, "fs_drive_config.hfi.xcomp.poly moved");
+_Static_assert(offsetof(fs_drive_config, hfi.leak) == 464u, "fs_drive_config.hfi.leak moved");
+_Static_assert(offsetof(fs_drive_config, hfi.lag) == 468u, "fs_drive_config.hfi.lag moved");
+_Static_assert(offsetof(fs_drive_config, blend) == 472u, "fs_drive_config.blend moved");
+_Static_assert(offsetof(fs_drive_config, blend.w_lower) == 472u, "fs_drive_config.blend.w_lower moved");
+_Static_assert(offsetof(fs_drive_config, blend.w_upper) == 476u, "fs_drive_config.blend.w_upper moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs) == 480u, "fs_drive_config.blend.obs moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.Ts) == 480u, "fs_drive_config.blend.obs.Ts moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.J) == 484u, "fs_drive_config.blend.obs.J moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.B) == 488u, "fs_drive_config.blend.obs.B moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.pole_pairs) == 492u, "fs_drive_config.blend.obs.pole_pairs moved");
+_Static_assert(offsetof(fs_drive_config, blend.obs.bandwidth) == 496u, "fs_drive_config.blend.obs.bandwidth moved");
+_Static_assert(offsetof(fs_drive_config, blend.gate) == 500u, "fs_drive_config.blend.gate moved");
+_Static_assert(offsetof(fs_drive_config, w_inject_max) == 504u, "fs_drive_config.w_inject_max moved");
+_Static_assert(offsetof(fs_drive_config, polarity) == 508u, "fs_drive_config.polarity moved");
+_Static_assert(offsetof(fs_drive_config, polarity.Ts) == 508u, "fs_drive_config.polarity.Ts moved");
+_Static_assert(offsetof(fs_drive_config, polarity.i_pulse) == 512u, "fs_drive_config.polarity.i_pulse moved");
+_Static_assert(offsetof(fs_drive_config, polarity.t_lock) == 516u, "fs_drive_config.polarity.t_lock moved");
+_Static_assert(offsetof(fs_drive_config, polarity.t_pulse) == 520u, "fs_drive_config.polarity.t_pulse moved");
+_Static_assert(offsetof(fs_drive_config, polarity.i_pulse_max) == 524u, "fs_drive_config.polarity.i_pulse_max moved");
+_Static_assert(offsetof(fs_drive_config, polarity.d_min) == 528u, "fs_drive_config.polarity.d_min moved");
+_Static_assert(offsetof(fs_drive_config, polarity.w_filter) == 532u, "fs_drive_config.polarity.w_filter moved");
+_Static_assert(offsetof(fs_drive_config, polarity.n_carrier) == 536u, "fs_drive_config.polarity.n_carrier moved");
+_Static_assert(offsetof(fs_drive_config, polarity.w_max) == 540u, "fs_drive_config.polarity.w_max moved");
+_Static_assert(offsetof(fs_drive_config, swvi) == 544u, "fs_drive_config.swvi moved");
+_Static_assert(offsetof(fs_drive_config, swvi.Ts) == 544u, "fs_drive_config.swvi.Ts moved");
+_Static_assert(offsetof(fs_drive_config, swvi.delay) == 548u, "fs_drive_config.swvi.delay moved");
+_Static_assert(offsetof(fs_drive_config, swvi.u_h) == 552u, "fs_drive_config.swvi.u_h moved");
+_Static_assert(offsetof(fs_drive_config, swvi.L_d) == 556u, "fs_drive_config.swvi.L_d moved");
+_Static_assert(offsetof(fs_drive_config, swvi.L_q) == 560u, "fs_drive_config.swvi.L_q moved");
+_Static_assert(offsetof(fs_drive_config, swvi.bandwidth) == 564u, "fs_drive_config.swvi.bandwidth moved");
+_Static_assert(offsetof(fs_drive_config, swvi.w_max) == 568u, "fs_drive_config.swvi.w_max moved");
+_Static_assert(offsetof(fs_drive_config, swvi.sequence) == 572u, "fs_drive_config.swvi.sequence moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp) == 576u, "fs_drive_config.swvi.xcomp moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.n) == 576u, "fs_drive_config.swvi.xcomp.n moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.i_q0) == 580u, "fs_drive_config.swvi.xcomp.i_q0 moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.di_q) == 584u, "fs_drive_config.swvi.xcomp.di_q moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.delta) == 588u, "fs_drive_config.swvi.xcomp.delta moved");
+_Static_assert(offsetof(fs_drive_config, swvi.xcomp.poly) == 720u, "fs_drive_config.swvi.xcomp.poly moved");
+_Static_assert(offsetof(fs_drive_config, swvi.carrier_off) == 736u, "fs_drive_config.swvi.carrier_off moved");
+_Static_assert(offsetof(fs_drive_config, k_p_d) == 740u, "fs_drive_config.k_p_d moved");
+_Static_assert(offsetof(fs_drive_config, k_i_d) == 744u, "fs_drive_config.k_i_d moved");
+_Static_assert(offsetof(fs_drive_config, k_p_q) == 748u, "fs_drive_config.k_p_q moved");
+_Static_assert(offsetof(fs_drive_config, k_i_q) == 752u, "fs_drive_config.k_i_q moved");
+_Static_assert(offsetof(fs_drive_config, k_p_w) == 756u, "fs_drive_config.k_p_w moved");
+_Static_assert(offsetof(fs_drive_config, k_i_w) == 760u, "fs_drive_config.k_i_w moved");
+_Static_assert(offsetof(fs_drive_config, cc_internal_model) == 764u, "fs_drive_config.cc_internal_model moved");
+_Static_assert(offsetof(fs_drive_config, converter) == 768u, "fs_drive_config.converter moved");
+_Static_assert(offsetof(fs_drive_config, imc_region) == 772u, "fs_drive_config.imc_region moved");
+_Static_assert(offsetof(fs_drive_config, imc_w_grid) == 776u, "fs_drive_config.imc_w_grid moved");
+_Static_assert(offsetof(fs_drive_config, imc_depth) == 780u, "fs_drive_config.imc_depth moved");
+_Static_assert(offsetof(fs_drive_config, imc_i_lim) == 784u, "fs_drive_config.imc_i_lim moved");
+_Static_assert(offsetof(fs_drive_config, imc_V_im) == 788u, "fs_drive_config.imc_V_im moved");
+_Static_assert(offsetof(fs_drive_config, adapt) == 792u, "fs_drive_config.adapt moved");
+_Static_assert(offsetof(fs_drive_config, adapt.Ts) == 792u, "fs_drive_config.adapt.Ts moved");
+_Static_assert(offsetof(fs_drive_config, adapt.R_s) == 796u, "fs_drive_config.adapt.R_s moved");
+_Static_assert(offsetof(fs_drive_config, adapt.L_d) == 800u, "fs_drive_config.adapt.L_d moved");
+_Static_assert(offsetof(fs_drive_config, adapt.psi_f) == 804u, "fs_drive_config.adapt.psi_f moved");
+_Static_assert(offsetof(fs_drive_config, adapt.i_max) == 808u, "fs_drive_config.adapt.i_max moved");
+_Static_assert(offsetof(fs_drive_config, adapt.w_e_max) == 812u, "fs_drive_config.adapt.w_e_max moved");
+_Static_assert(offsetof(fs_drive_config, adapt.T_f) == 816u, "fs_drive_config.adapt.T_f moved");
+_Static_assert(offsetof(fs_drive_config, adapt.w_lp) == 820u, "fs_drive_config.adapt.w_lp moved");
+_Static_assert(offsetof(fs_drive_config, adapt.min_sep) == 824u, "fs_drive_config.adapt.min_sep moved");
+_Static_assert(offsetof(fs_drive_config, adapt.min_level) == 828u, "fs_drive_config.adapt.min_level moved");
+_Static_assert(offsetof(fs_drive_config, map) == 832u, "fs_drive_config.map moved");
+_Static_assert(offsetof(fs_drive_config, map.di_d) == 832u, "fs_drive_config.map.di_d moved");
+_Static_assert(offsetof(fs_drive_config, map.i_d0) == 836u, "fs_drive_config.map.i_d0 moved");
+_Static_assert(offsetof(fs_drive_config, map.di_q) == 840u, "fs_drive_config.map.di_q moved");
+_Static_assert(offsetof(fs_drive_config, map.psi_scale) == 844u, "fs_drive_config.map.psi_scale moved");
+_Static_assert(offsetof(fs_drive_config, map.psi_d) == 848u, "fs_drive_config.map.psi_d moved");
+_Static_assert(offsetof(fs_drive_config, map.psi_q) == 1290u, "fs_drive_config.map.psi_q moved");
+_Static_assert(offsetof(fs_drive_config, ident) == 1732u, "fs_drive_config.ident moved");
+_Static_assert(offsetof(fs_drive_config, ident.Ts) == 1732u, "fs_drive_config.ident.Ts moved");
+_Static_assert(offsetof(fs_drive_config, ident.delay) == 1736u, "fs_drive_config.ident.delay moved");
+_Static_assert(offsetof(fs_drive_config, ident.pole_pairs) == 1740u, "fs_drive_config.ident.pole_pairs moved");
+_Static_assert(offsetof(fs_drive_config, ident.i_max) == 1744u, "fs_drive_config.ident.i_max moved");
+_Static_assert(offsetof(fs_drive_config, ident.w_spin) == 1748u, "fs_drive_config.ident.w_spin moved");
+_Static_assert(offsetof(fs_drive_config, ident.t_ramp) == 1752u, "fs_drive_config.ident.t_ramp moved");
+_Static_assert(offsetof(fs_drive_config, ident.u_dc_min) == 1756u, "fs_drive_config.ident.u_dc_min moved");
+_Static_assert(offsetof(fs_drive_config, ident.standstill_only) == 1760u, "fs_drive_config.ident.standstill_only moved");
+_Static_assert(offsetof(fs_drive_config, ident.locked) == 1764u, "fs_drive_config.ident.locked moved");
+_Static_assert(offsetof(fs_drive_config, ident.skip_map) == 1768u, "fs_drive_config.ident.skip_map moved");
+_Static_assert(offsetof(fs_drive_config, ident.i_test) == 1772u, "fs_drive_config.ident.i_test moved");
+_Static_assert(offsetof(fs_drive_config, ident.t_level) == 1776u, "fs_drive_config.ident.t_level moved");
+_Static_assert(offsetof(fs_drive_config, ident.psi_f_hint) == 1780u, "fs_drive_config.ident.psi_f_hint moved");
+_Static_assert(offsetof(fs_drive_config, ident.J_hint) == 1784u, "fs_drive_config.ident.J_hint moved");
+_Static_assert(offsetof(fs_drive_config, ident.motion_max) == 1788u, "fs_drive_config.ident.motion_max moved");
+_Static_assert(offsetof(fs_drive_config, motion) == 1792u, "fs_drive_config.motion moved");
+_Static_assert(offsetof(fs_drive_config, motion.Ts) == 1792u, "fs_drive_config.motion.Ts moved");
+_Static_assert(offsetof(fs_drive_config, motion.i_push) == 1796u, "fs_drive_config.motion.i_push moved");
+_Static_assert(offsetof(fs_drive_config, motion.i_push_max) == 1800u, "fs_drive_config.motion.i_push_max moved");
+_Static_assert(offsetof(fs_drive_config, motion.t_lock) == 1804u, "fs_drive_config.motion.t_lock moved");
+_Static_assert(offsetof(fs_drive_config, motion.t_push) == 1808u, "fs_drive_config.motion.t_push moved");
+_Static_assert(offsetof(fs_drive_config, motion.t_settle) == 1812u, "fs_drive_config.motion.t_settle moved");
+_Static_assert(offsetof(fs_drive_config, motion.theta_dec) == 1816u, "fs_drive_config.motion.theta_dec moved");
+_Static_assert(offsetof(fs_drive_config, motion.theta_max) == 1820u, "fs_drive_config.motion.theta_max moved");
+_Static_assert(offsetof(fs_drive_config, r_damp) == 1824u, "fs_drive_config.r_damp moved");
+_Static_assert(offsetof(fs_drive_config, w_swing) == 1828u, "fs_drive_config.w_swing moved");
+_Static_assert(offsetof(fs_drive_config, t_handover) == 1832u, "fs_drive_config.t_handover moved");
+_Static_assert(offsetof(fs_drive_config, w_restart) == 1836u, "fs_drive_config.w_restart moved");
 
 const fs_drive_config fs_config = {
-    .config_size = 1660u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator set it, and fs_drive_init refuses a configuration ...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
+    .config_size = 1840u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator set it, and fs_drive_init refuses a configuration ...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
     .phases = 3,   /* 3, or 5: the fundamental plane of the VSD, nearest-four-vector PWM; machine yang2022: phases */
     .mode = FS_MODE_SPEED,   /* fs_drive_mode; scenario beyond-full-range: [controller] mode */
     .angle_source = FS_ANGLE_BLEND,   /* fs_angle_source; scenario beyond-full-range: [controller] angle */
@@ -235,9 +255,10 @@ const fs_drive_config fs_config = {
     .fw_cutoff = 0.0f,   /* flux weakening in speed mode (zou2021 PART_1, fs_fw.h): the top electrical speed of eq. (31), rad/s (0: off), the gain on its beta (the loop's dc gain at ...; 0: taken from the drive's fields or designed by fs_drive_init, or off (controller.fw_cutoff) */
     .fw_hold = 0,   /* default of [controller] fw_excess (fullspeed.design.scenario) */
     .lock_time = 0.0199999996f,   /* loss-of-lock monitor (fs_lock.h) while the loops run sensorless: the time, s, the estimator in use may spend off track, net, before lock counts as lost (0 ...; default of [controller] lock_time (fullspeed.design.scenario) */
-    .lock_recover = 1,   /* recovery from a loss of lock (lock_recover = 1; else the monitor latches lock_lost); scenario beyond-full-range: [controller] lock */
+    .lock_recover = 1,   /* recovery from a loss of lock (lock_recover = 1; else the monitor latches lock_lost and the drive goes on): the flying restart, the start sequence again, or ...; scenario beyond-full-range: [controller] lock */
     .t_recover = 0.0500000007f,   /* default of [controller] recover_time (fullspeed.design.scenario) */
     .lock_retries = 3,   /* default of [controller] lock_retries (fullspeed.design.scenario) */
+    .w_over = 3141.59277f,   /* the overspeed stop (fs_drive_protect.h): above this electrical speed, rad/s, the drive halts with FS_FAULT_OVERSPEED (0: none); default of [controller] overspeed_rpm (fullspeed.design.scenario) */
     .i_start = 0.0f,   /* sensorless start (speed mode, FS_ANGLE_SMO, sensorless from standstill): I/f, a current of i_start on the d axis of a frame accelerated at a_start (el. ...; 0: taken from the drive's fields or designed by fs_drive_init, or off (observer.i_start) */
     .a_start = 0.0f,   /* sensorless start (speed mode, FS_ANGLE_SMO, sensorless from standstill): I/f, a current of i_start on the d axis of a frame accelerated at a_start (el. ...; 0: taken from the drive's fields or designed by fs_drive_init, or off (observer.start_accel_rpm_s) */
     .w_handover = 0.0f,   /* sensorless start (speed mode, FS_ANGLE_SMO, sensorless from standstill): I/f, a current of i_start on the d axis of a frame accelerated at a_start (el. ...; 0: taken from the drive's fields or designed by fs_drive_init, or off (observer.start_handover_rpm) */
@@ -295,7 +316,7 @@ const fs_drive_config fs_config = {
         .i_pulse = 30.0f,   /* d-current pulse amplitude, A (> 0); default of [polarity] i_pulse (fullspeed.design.scenario) */
         .t_lock = 0.0611154959f,   /* settling of the estimator before the pulses, s (>= 0); default of [polarity] t_lock (fullspeed.design.scenario) */
         .t_pulse = 0.0229183119f,   /* length of each pulse, s (>= 4 Ts; t_lock + t_pulse < 1e3 s and 1e9 Ts); default of [polarity] t_pulse (fullspeed.design.scenario) */
-        .i_pulse_max = 0.0f,   /* the largest pulse of the retries, A (0: i_pulse, no retry; else >= i_pulse); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .i_pulse_max = 43.1565781f,   /* the largest pulse of the retries, A (0: i_pulse, no retry; else >= i_pulse); set by fullspeed.sim.build_config */
         .d_min = 0.0f,   /* the relative difference's floor (0: FS_POLARITY_D_MIN; else in (0, 1)); 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .w_filter = 0.0f,   /* the carrier amplitude's filter bandwidth, rad/s (0: samples taken as independent); 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .n_carrier = 0,   /* samples per carrier period (0 or 1: the window is not rounded); 0: taken from the drive's fields or designed by fs_drive_init, or off */
@@ -353,46 +374,88 @@ const fs_drive_config fs_config = {
         .min_sep = 0.0f,   /* 1 - rho^2 needed to update; 0: designed, 0.05; 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .min_level = 0.0f,   /* mean |phi|^2 needed; 0: designed, 0.01 (10 % of i_max or w_e_max); 0: taken from the drive's fields or designed by fs_drive_init, or off */
     },
-    .mtpa_table = {   /* the MTPA locus as a table (n = 0: designed from L_d, L_q, psi_f; a flux map's from fullspeed.design.magnetics); read at init only */
-        .n = 0,   /* 0, or FS_MTPA_N points; 0: taken from the drive's fields or designed by fs_drive_init, or off */
-        .T = {   /* N m, 0 at k = 0 and rising; 0: taken from the drive's fields or designed by fs_drive_init, or off */
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f,
+    .map = {   /* the machine's flux map (fs_fluxmap.h; di_d = 0: none, the model of L_d, L_q, psi_f above), resampled by fullspeed.design.magnetics */
+        .di_d = 0.0f,   /* A, the d step (0: no map); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .i_d0 = 0.0f,   /* A, the first d current; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .di_q = 0.0f,   /* A, the q step (the grid starts at i_q = 0); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .psi_scale = 0.0f,   /* Wb per count; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .psi_d = {   /* counts at (i_d0 + k di_d, l di_q), index k NQ + l; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0,
         },
-        .i_d = {   /* A, |i_d + j i_q| = i_max k / (N - 1); 0: taken from the drive's fields or designed by fs_drive_init, or off */
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f,
-        },
-        .i_q = {   /* A, >= 0; 0: taken from the drive's fields or designed by fs_drive_init, or off */
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
-            0.0f, 0.0f, 0.0f, 0.0f,
+        .psi_q = {   /* 0: taken from the drive's fields or designed by fs_drive_init, or off */
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0,
         },
     },
     .ident = {   /* FS_MODE_IDENTIFY (three phases, inverter): Ts, delay, pole_pairs and i_max are taken from above */
@@ -412,4 +475,18 @@ const fs_drive_config fs_config = {
         .J_hint = 0.0f,   /* Wb, kg m^2, the nameplate's: size the map's q sweeps against the rotor's motion (0: unknown); 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .motion_max = 0.0f,   /* el. rad: the map's q sweeps' motion bound (0: 1 el.deg); 0: taken from the drive's fields or designed by fs_drive_init, or off */
     },
+    .motion = {   /* The start chosen by the machine (fullspeed.design.start), after the fields above so that their places stay where the step reads them. Polarity by a bounded ... */
+        .Ts = 0.0f,   /* sampling period, s; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .i_push = 0.0f,   /* the doublet's peak q current, A (> 0); 0: taken from the drive's fields or designed by fs_drive_init, or off (start.i_push) */
+        .i_push_max = 0.0f,   /* the largest of the retries, A (0: i_push, no retry; else >= i_push); 0: taken from the drive's fields or designed by fs_drive_init, or off (start.i_push) */
+        .t_lock = 0.0f,   /* settling of the estimator, s (>= 8 Ts); 0: taken from the drive's fields or designed by fs_drive_init, or off (polarity.t_lock) */
+        .t_push = 0.0f,   /* each half of the doublet, s (>= Ts); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .t_settle = 0.0f,   /* no current before the turn is read, s (>= Ts; t_lock + 2 t_push + t_settle < 1e3 s and 1e9 Ts); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .theta_dec = 0.0f,   /* the estimate's turn that decides, el. rad (> 0, < pi/2); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .theta_max = 0.0f,   /* the largest threshold accepted, el. rad (0: 4 theta_dec; else >= theta_dec, < pi/2); 0: taken from the drive's fields or designed by fs_drive_init, or off (start.turn_deg) */
+    },
+    .r_damp = 0.0f,   /* 0: taken from the drive's fields or designed by fs_drive_init, or off (observer.start_damping) */
+    .w_swing = 0.0f,   /* 0: taken from the drive's fields or designed by fs_drive_init, or off (observer.start_damping) */
+    .t_handover = 0.0f,   /* 0: taken from the drive's fields or designed by fs_drive_init, or off (observer.start_timeout) */
+    .w_restart = 0.0f,   /* 0: taken from the drive's fields or designed by fs_drive_init, or off (observer.restart_rpm) */
 };

@@ -117,13 +117,15 @@ def test_recovery_catches_the_rotor_on_the_observer_and_returns_to_the_reference
     assert rad_s_to_rpm(np.mean(r["w_m"][t > 1.0])) == pytest.approx(100.0, abs=10.0)
 
 
-def test_recovery_gives_up_after_its_retries():
-    # an SMO whose gain is designed for 500 rpm, at 2000 rpm: each catch loses again
+def test_recovery_stops_where_its_observer_cannot_catch_the_rotor():
+    # an SMO whose gain is designed for 500 rpm, at 2000 rpm: it does not converge during the
+    # zero-current wait, and at that speed no start sequence finds the rotor: the drive stops
     r = simulate("yang2022-smo-steady-400rpm", overrides={
         "observer": {"top_speed_rpm": 500.0}, "load": {"speed_rpm": 2000.0},
         "controller": {"lock": "recover", "lock_retries": 2}})
-    assert r.stop_reason == "loss_of_lock"
-    assert r["recoveries"][-1] == 2
+    assert r.stop_reason == "loss_of_lock" and r.halt["fault"] == "lock"
+    assert r["recoveries"][-1] == 1 and r.metrics["lock_events"][0]["halted"]
+    assert 1800.0 < r.halt["emf_rpm"] < 2200.0   # the wait's back-EMF measured the rotor's 2000 rpm
 
 
 def test_a_small_parameter_monte_carlo_keeps_lock(tmp_path):

@@ -144,7 +144,8 @@ def test_the_runaway_the_comparison_report_found_unflagged_is_flagged():
     scen, ov = lc.BASES["motulator-hfi"][:2]
     prof = {"references": {"speed_rpm": [[0, 0], [1.0, 0], [1.0, 150], [2.0, 150], [2.5, 0], [3.0, -150], [3.0, 0], [4.0, 0]]},
             "load": {"torque": [[0, 0], [0.5, 0], [0.5, 14], [3.5, 14], [3.5, 0], [4, 0]]}, "duration": 4.0,
-            "metrics": {"steady": [3.6, 4.0]}, "injection": {"u_h": 150.0, "tracking": "paper"}}
+            "metrics": {"steady": [3.6, 4.0]}, "injection": {"u_h": 150.0, "tracking": "paper"},
+            "controller": {"lock": "detect"}}   # the monitor's flag, the drive going on as the report ran it
     r = simulate(load_scenario(scen, deep_merge(ov, prof)))
     t_true = true_loss_at(r.traces)
     flagged = np.flatnonzero(r["lock_lost"] > 0)

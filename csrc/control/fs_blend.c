@@ -42,6 +42,14 @@ void fs_blend_reset(fs_blend *b, float theta, float w)
     b->trust = 1.0f;   /* the caller resets from an angle it trusts */
 }
 
+void fs_blend_follow(fs_blend *b, float theta, float w, float T_d)
+{
+    fs_motion_obs_reset(&b->obs, theta, w);
+    b->obs.T_d_hat = T_d;
+    b->theta_hat = b->theta_blnd = b->obs.theta_hat;
+    b->w_hat = b->obs.w_hat;
+}
+
 float fs_blend_step(fs_blend *b, float theta_smo, float theta_hfi, float T_ff)
 {
     return fs_blend_step_gated(b, theta_smo, theta_hfi, T_ff, true, false);

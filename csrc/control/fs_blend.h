@@ -68,6 +68,11 @@ float fs_blend_angle(float theta_smo, float theta_hfi, float g);
 fs_status fs_blend_init(fs_blend *b, const fs_blend_config *cfg);
 /* Observer at angle theta and electrical speed w; the weight follows w. */
 void fs_blend_reset(fs_blend *b, float theta, float w);
+/* The filtering observer set to an estimate the caller trusts (angle,
+ * electrical speed, the load torque as fs_motion_obs holds it), its weight
+ * and gate kept: above the band, where the back-EMF observer alone is
+ * blended, the caller may hand its own tracker's state over each step. */
+void fs_blend_follow(fs_blend *b, float theta, float w, float T_d);
 /* One step with the two angles sampled now and the torque of the period
  * that just ended (N m). Returns the filtered angle theta_hat. */
 float fs_blend_step(fs_blend *b, float theta_smo, float theta_hfi, float T_ff);

@@ -69,11 +69,49 @@ void fs_current_ctrl_reset(fs_current_ctrl *cc)
     cc->u = cc->ref;
     cc->u_ff = cc->ref;
     cc->u_prev = cc->ref;
+    cc->map = false;   /* until the drive gives a map's values (fs_current_ctrl_set_flux) */
+    cc->i0 = cc->ref;
+}
+
+void fs_current_ctrl_set_flux(fs_current_ctrl *cc, fs_dq i0, const fs_fluxmap_point *p)
+{
+    cc->map = true;
+    cc->i0 = i0;
+    cc->psi0 = p->psi;
+    cc->L_dd = p->L_dd;
+    cc->L_qq = p->L_qq;
+    cc->s_d = p->L_dd / cc->cfg.L_d;
+    cc->s_q = p->L_qq / cc->cfg.L_q;
+}
+
+/* The step on a flux map (fs_current_ctrl.h): the predictor's plant per axis
+ * at the incremental inductance, i+ = i + (1 - a) / s ... with b / s; the
+ * fluxes at the measured and at the predicted current from the map's
+ * linearisation; the PIs on s i (their gains times s). */
+static fs_dq current_ctrl_step_map(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, float w_e)
+{
+    const fs_current_ctrl_config *c = &cc->cfg;
+    if (c->predict) {
+        const float psi_d = cc->psi0.d + cc->L_dd * (i.d - cc->i0.d), psi_q = cc->psi0.q + cc->L_qq * (i.q - cc->i0.q);
+        const float v_d = cc->u_prev.d + w_e * psi_q, v_q = cc->u_prev.q - w_e * psi_d;
+        const float i_d = i.d + ((cc->a_d - 1.0f) * i.d + cc->b_d * v_d) / cc->s_d;
+        i.q = i.q + ((cc->a_q - 1.0f) * i.q + cc->b_q * v_q) / cc->s_q;
+        i.d = i_d;
+    }
+    cc->u_ff.d = -w_e * (cc->psi0.q + cc->L_qq * (i.q - cc->i0.q));
+    cc->u_ff.q = w_e * (cc->psi0.d + cc->L_dd * (i.d - cc->i0.d));
+    const fs_dq r = {cc->s_d * i_ref.d, cc->s_q * i_ref.q}, y = {cc->s_d * i.d, cc->s_q * i.q};
+    cc->u.d = fs_pi_output(&cc->pi_d, r.d, y.d) + cc->u_ff.d;
+    cc->u.q = fs_pi_output(&cc->pi_q, r.q, y.q) + cc->u_ff.q;
+    cc->ref = r;
+    cc->meas = y;
+    return cc->u;
 }
 
 fs_dq fs_current_ctrl_step(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, float w_e)
 {
     const fs_current_ctrl_config *c = &cc->cfg;
+    if (FS_WITH_FLUXMAP && cc->map) return current_ctrl_step_map(cc, i_ref, i, w_e);
     if (c->predict) {
         /* current at the next sample, from the voltage acting until then:
          * the sampled plant i+ = a i + b (u - cross-coupling), per axis */

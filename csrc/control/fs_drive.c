@@ -1,13 +1,10 @@
 #include "fs_drive.h"
 #include "fs_drive_ident.h"
+#include "fs_drive_protect.h"
 #include "fs_drive_start.h"
 #include "fs_math.h"
 
 #include <stddef.h>
-
-/* A refusal names the config field or sub-block at fault (fs_drive.fail). */
-#define REFUSE(where, status) do { drv->fail = (where); return (status); } while (0)
-#define SUB(where, call) do { fs_status st_ = (call); if (st_ != FS_OK) REFUSE((where), st_); } while (0)
 
 /* The float fields the drive reads, with the range each must be in whatever
  * the mode (F finite, N >= 0 and finite, P > 0 and finite; the rest is
@@ -24,7 +21,7 @@ enum { F = 0, N = 1, P = 2 };
     X(smo.k, F, FS_ERR_SMO_GAIN) X(smo.margin, F, FS_ERR_LIMIT) X(smo.delta, F, FS_ERR_PARAM) \
     X(smo.w_c_min, F, FS_ERR_BANDWIDTH) X(smo.bw_pll, F, FS_ERR_BANDWIDTH) X(smo.w_valid, F, FS_ERR_PARAM) \
     X(fw_w_e_max, N, FS_ERR_LIMIT) X(fw_gain, N, FS_ERR_PARAM) X(fw_cutoff, N, FS_ERR_BANDWIDTH) \
-    X(lock_time, N, FS_ERR_LIMIT) X(t_recover, F, FS_ERR_PARAM) X(i_start, N, FS_ERR_I_MAX) \
+    X(lock_time, N, FS_ERR_LIMIT) X(t_recover, F, FS_ERR_PARAM) X(w_over, N, FS_ERR_LIMIT) X(i_start, N, FS_ERR_I_MAX) \
     X(a_start, F, FS_ERR_PARAM) X(w_handover, F, FS_ERR_PARAM) X(hfi.u_h, F, FS_ERR_PARAM) \
     X(hfi.w_h, F, FS_ERR_BANDWIDTH) X(hfi.w_b_p, F, FS_ERR_BANDWIDTH) X(hfi.w_b_n, F, FS_ERR_BANDWIDTH) \
     X(hfi.obs.bandwidth, F, FS_ERR_BANDWIDTH) X(blend.w_lower, F, FS_ERR_LIMIT) X(blend.w_upper, F, FS_ERR_LIMIT) \
@@ -42,9 +39,9 @@ enum { F = 0, N = 1, P = 2 };
 #define FIELD_NAME(f, kind, status) #f "\0"
 static const uint8_t drive_fields[][2] = {DRIVE_FIELDS(FIELD_ENTRY)};
 static const char drive_field_names[] = DRIVE_FIELDS(FIELD_NAME);
-/* every field the table names lies before the MTPA table (the config's
- * last member, checked by fs_mtpa_init), within 256 floats of the start */
-typedef char drive_fields_fit[(offsetof(fs_drive_config, mtpa_table) <= 256 * sizeof(float) && FS_ERR__COUNT < 64) ? 1 : -1];
+/* every field the table names lies before the flux map (checked by
+ * fs_fluxmap_init), within 256 floats of the start */
+typedef char drive_fields_fit[(offsetof(fs_drive_config, map) <= 256 * sizeof(float) && FS_ERR__COUNT < 64) ? 1 : -1];
 
 /* The first field of the table out of its range, its status and its name. */
 static fs_status drive_check_fields(const fs_drive_config *cfg, const char **name)
@@ -62,7 +59,7 @@ static fs_status drive_check_fields(const fs_drive_config *cfg, const char **nam
     return FS_OK;
 }
 
-/* The injection estimators: HFI (and blend), the polarity detector. */
+/* The injection estimators: HFI (and blend). */
 static fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
 {
     fs_motion_obs_config mo = {cfg->Ts, cfg->J, cfg->B, cfg->pole_pairs, 0.0f};
@@ -85,17 +82,6 @@ static fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
         bc.obs = mo;
         SUB("blend", fs_blend_init(&drv->blend, &bc));
         if (cfg->w_inject_max > 0.0f && !(0.9f * cfg->w_inject_max >= bc.w_upper)) REFUSE("w_inject_max", FS_ERR_LIMIT);
-    }
-    if (cfg->polarity.i_pulse > 0.0f) {
-        fs_polarity_config pc = cfg->polarity;
-        pc.Ts = cfg->Ts;
-        if (pc.i_pulse > cfg->i_max) REFUSE("polarity.i_pulse", FS_ERR_ABOVE_I_MAX);
-        if (pc.i_pulse_max > cfg->i_max) REFUSE("polarity.i_pulse_max", FS_ERR_ABOVE_I_MAX);
-        /* the retries up to the current limit less the carrier's peak */
-        if (pc.i_pulse_max == 0.0f) pc.i_pulse_max = fs_maxf(cfg->i_max - drv->i_hf, pc.i_pulse);
-        pc.w_filter = drv->hfi.cfg.w_b_p;
-        pc.n_carrier = (int)(2.0f * FS_PI / (drv->hfi.cfg.w_h * cfg->Ts) + 0.5f);
-        SUB("polarity", fs_polarity_init(&drv->pol, &pc));
     }
     return FS_OK;
 }
@@ -126,6 +112,9 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     if (cfg->pole_pairs < 1) REFUSE("pole_pairs", FS_ERR_POLE_PAIRS);
     if (!(cfg->t_dead_comp < 0.5f * cfg->T_pwm)) REFUSE("t_dead_comp", FS_ERR_PARAM);
     drv->cfg = *cfg;
+    drv->has_map = cfg->map.di_d != 0.0f;
+    if (!FS_WITH_FLUXMAP && drv->has_map) REFUSE("map", FS_ERR_MODE);
+    if (drive_map(drv)) SUB("map", fs_fluxmap_init(&drv->map, &drv->cfg.map));
     drv->k_T = drive_torque_k(cfg);
     drv->dd_dead = cfg->t_dead_comp / cfg->T_pwm;
     const float Tl = drive_loop_Ts(cfg);
@@ -180,9 +169,15 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         if (st != FS_OK)
             REFUSE(st == FS_ERR_J ? "J" : st == FS_ERR_BANDWIDTH ? "bw_speed" : st == FS_ERR_LIMIT ? "T_max" : "k_p_w, k_i_w", st);
         fs_mtpa_config mc = {cfg->L_d, cfg->L_q, cfg->psi_f, cfg->pole_pairs, cfg->i_max, cfg->phases,
-                             cfg->mtpa_table.n ? &cfg->mtpa_table : NULL};
+                             drive_map(drv) ? &drv->map : NULL};
         st = fs_mtpa_init(&drv->mtpa, &mc);
-        if (st != FS_OK) REFUSE(st == FS_ERR_LQ ? "L_q" : "mtpa (psi_f, L_d, L_q, i_max)", st);
+        if (st != FS_OK) REFUSE(st == FS_ERR_LQ ? "L_q" : drive_map(drv) ? "mtpa (map, i_max)" : "mtpa (psi_f, L_d, L_q, i_max)", st);
+        if (drive_weakens(cfg) && drive_map(drv)) {
+            if (drive_five(cfg) || drive_imc(cfg)) REFUSE("map", FS_ERR_MODE);   /* the voltage limit is the VSI's, three phases */
+            if (cfg->fw_hold) REFUSE("fw_hold", FS_ERR_MODE);   /* fs_fw.h's excess feeds no loop here */
+            fs_fwmap_config wc = {&drv->map, cfg->i_max, drv->k_T, cfg->Ts, cfg->bw_current};
+            SUB("map (flux weakening)", fs_fwmap_init(&drv->fwm, &wc, &drv->mtpa));
+        }
         if (drive_weakens(cfg)) {
             if (!(cfg->fw_gain >= 0.0f)) REFUSE("fw_gain", FS_ERR_PARAM);
             fs_fw_config fc = {cfg->Ts, cfg->L_d, cfg->fw_w_e_max, cfg->fw_gain, cfg->fw_cutoff, cfg->i_max};
@@ -238,11 +233,8 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
             SUB("imc_depth", fs_imc_depth_init(&drv->depth, &dc));
         }
     }
-    if (cfg->i_start > cfg->i_max) REFUSE("i_start", FS_ERR_ABOVE_I_MAX);
-    if (cfg->i_start > 0.0f) {
-        if (!fs_pos(cfg->a_start)) REFUSE("a_start", FS_ERR_PARAM);
-        if (!fs_pos(cfg->w_handover)) REFUSE("w_handover", FS_ERR_PARAM);
-    }
+    st = fs_drive_start_init(drv, cfg);
+    if (st != FS_OK) return st;
     fs_drive_reset(drv);
     return FS_OK;
 }
@@ -258,12 +250,13 @@ void fs_drive_reset(fs_drive *drv)
     if (drv->cfg.mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
     if (drive_has_smo(&drv->cfg)) fs_smo_reset(&drv->smo, 0.0f, 0.0f);
     if (drive_weakens(&drv->cfg)) fs_fw_reset(&drv->fw);
+    if (drive_weakens(&drv->cfg) && drive_map(drv)) fs_fwmap_reset(&drv->fwm);
     if (drive_injects(&drv->cfg)) {
         fs_hfi_reset(&drv->hfi, 0.0f, 0.0f);
         drv->hfi.gain = drv->hfi.gain_prev = 0.0f;   /* fades in */
         if (drv->cfg.angle_source == FS_ANGLE_BLEND) fs_blend_reset(&drv->blend, 0.0f, 0.0f);
-        if (drv->cfg.polarity.i_pulse > 0.0f) fs_polarity_reset(&drv->pol);
     }
+    fs_drive_start_reset(drv);
     if (drive_square(&drv->cfg)) fs_swvi_reset(&drv->sw, 0.0f, 0.0f);
     if (drive_imc_depth(&drv->cfg)) fs_imc_depth_reset(&drv->depth);
     if (drv->cfg.lock_time > 0.0f) {
@@ -271,8 +264,11 @@ void fs_drive_reset(fs_drive *drv)
         fs_monitor_reset(&drv->mon);
     }
     drv->lock_ri = drv->lock_es = drv->lock_eh = drv->lock_ex = 0.0f;
+    drv->t_quiet = 0.0f;
     drv->stage = FS_STAGE_OPEN;
     drv->recoveries = 0;
+    drv->fault = FS_FAULT_NONE;
+    drv->w_over = drv->cfg.w_over > 0.0f ? drv->cfg.w_over : FS_DRIVE_NO_LIMIT;
     drv->t_left = 0.0f;
     drv->alpha = 0.0f;
     drv->u_ff_hold.alpha = drv->u_ff_hold.beta = 0.0f;
@@ -281,18 +277,12 @@ void fs_drive_reset(fs_drive *drv)
     drv->est_started = false;
     drv->injecting = drv->inject_on = drive_injects(&drv->cfg);
     drv->T_ff = 0.0f;
+    drv->fw_map_on = false;
     drv->phase = drive_starts(&drv->cfg) ? FS_PHASE_START : FS_PHASE_RUN;
-    drv->theta_if = drv->w_if = 0.0f;
     drv->theta_ol = 0.0f;
     drv->pll_started = false;
     drv->u_hist[0].alpha = drv->u_hist[0].beta = 0.0f;
     drv->u_hist[1] = drv->u_hist[0];
-}
-
-/* The realised fundamental voltage that acted over the period that ended now. */
-static fs_ab drive_u_past(const fs_drive *drv)
-{
-    return drv->cfg.delay > 0.5f ? drv->u_hist[1] : drv->u_hist[0];
 }
 
 
@@ -321,6 +311,14 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
         fs_smo_step(&drv->smo, i_f, drive_u_past(drv));
         fs_blend_step_gated(&drv->blend, drv->smo.theta, drv->hfi.theta, T_ff,   /* Fig. 6 */
                             drv->smo.converged || !c->blend.gate, drv->injecting && drv->hfi.gain >= 1.0f);
+        /* With a flux map, above the band the blend is the back-EMF observer's own tracker (its torque
+         * from the map, at up to observer.bw_pll): in deep flux weakening the torque feed-forward's
+         * sensitivity to the angle, d T / d theta ~ (phases / 2) p psi_a (-i_d), pulls an estimate that
+         * lags further behind (a negative stiffness (p / J) dT/dtheta: 19,000 s^-2 on the Prius MG2 at
+         * -73 A, psi_a 0.38 Wb, J 0.035 kg m^2), which the blend's slower filter (w_o_blend, 63 rad/s
+         * there) does not overcome: it lost the rotor accelerating through 2,700 rpm. */
+        if (drive_map(drv) && drv->blend.g_w >= 1.0f && drv->smo.converged && c->smo.form == FS_SMO_FORM_TRACKING)
+            fs_blend_follow(&drv->blend, drv->smo.theta, drv->smo.w, drv->smo.mo.T_d_hat);
         /* Above w_inject_max the injection stops (g_w = 1 there: the HFI
          * angle is not read); below 0.9 w_inject_max it resumes from the
          * blended estimate. */
@@ -394,9 +392,10 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float
     if (c->angle_source == FS_ANGLE_SMO) {
         fs_smo_step(&drv->smo, *i_ab, drive_u_past(drv));
         if (in->sensorless) {
+            if (FS_WITH_IF_START && c->w_restart > 0.0f && drv->phase == FS_PHASE_RUN) fs_drive_if_restart(drv, in);
             bool start = drv->phase == FS_PHASE_START;
-            *theta = start ? drv->theta_if : drv->smo.theta;
-            *w = start ? drv->w_if : drv->smo.w;
+            *theta = start ? drv->ifs.theta : drv->smo.theta;
+            *w = start ? drv->ifs.w : drv->smo.w;
             return;
         }
     }
@@ -413,8 +412,38 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float
     drive_sensor_angle(drv, in, theta, w);
 }
 
-/* The current reference of the closed-loop modes: polarity pulses, the I/f
- * start, speed control (MTPA and flux weakening) or the reference input. */
+/* With a flux map and flux weakening: the current for *T_ref within the
+ * voltage limit (fs_fwmap.h) at this speed, MTPA below base speed; *T_ref
+ * becomes the torque asked of it, and the speed PI's integral holds what
+ * the limits took (its anti-windup). The voltage planned for: the
+ * modulator's linear limit, less the resistive drop of the last current;
+ * the trim (fs_fwmap_trim) takes the current loops' transient demand on
+ * top of it back (the over-modulation beyond the linear limit, 5 % more,
+ * covers them meanwhile). On the 2004 Prius MG2 (encoder, the speed held
+ * at 1200..6000 rpm) the torque held is 1 to 4 % below the map's envelope
+ * (design.envelope); planning for 95 % of the limit cost 6 to 12 %. */
+static fs_dq drive_fw_map(fs_drive *drv, float u_dc, float w_e, float *T_ref)
+{
+    const fs_dq i0 = drv->cc.i0, u0 = drv->cc.u;   /* the last current (the map's point) and the voltage asked */
+    const float u_plan = FS_INV_SQRT3 * u_dc;
+    const float u_lim = u_plan - drv->cfg.R_s * sqrtf(i0.d * i0.d + i0.q * i0.q);
+    const float x = fs_fwmap_ratio(&drv->fwm, u_lim, w_e);
+    drv->fw_map_on = x > 1.0f;
+    if (!drv->fw_map_on) {
+        fs_fwmap_reset(&drv->fwm);
+        return fs_mtpa_step(&drv->mtpa, *T_ref);
+    }
+    fs_fwmap_trim(&drv->fwm, sqrtf(u0.d * u0.d + u0.q * u0.q), u_plan);
+    float T_real;
+    const fs_dq i = fs_fwmap_step(&drv->fwm, x, *T_ref, &T_real);
+    if (T_real != *T_ref) fs_speed_ctrl_realised(&drv->sc, *T_ref, T_real);
+    *T_ref = T_real;
+    return i;
+}
+
+/* The current reference of the closed-loop modes: the zero-current wait of
+ * a recovery, polarity pulses, the I/f start, speed control (MTPA and flux
+ * weakening) or the reference input; i_ab the loops' (fundamental) current. */
 static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, float w_e, bool weakens, float *T_ref)
 {
     const fs_drive_config *c = &drv->cfg;
@@ -422,23 +451,19 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
     *T_ref = 0.0f;
     if (drv->phase == FS_PHASE_RECOVER) {
         i_ref.d = i_ref.q = 0.0f;
-        drv->t_left -= c->Ts;
-        if (drv->t_left <= 0.0f) fs_drive_recover_end(drv);
+        fs_drive_recover_step(drv, i_ab);
     } else if (drv->phase == FS_PHASE_POLARITY) {
-        i_ref.d = fs_polarity_step(&drv->pol, drv->hfi.i_p, drv->hfi.w);
-        i_ref.q = 0.0f;
-        if (drv->pol.stage == FS_POLARITY_DONE) fs_drive_polarity_done(drv);
-        if (drv->pol.stage == FS_POLARITY_UNDETERMINED) drv->phase = FS_PHASE_HALT;
-    } else if (c->mode == FS_MODE_SPEED && in->sensorless && drv->phase == FS_PHASE_START) {
+        i_ref = fs_drive_polarity_step(drv);
+    } else if (FS_WITH_IF_START && c->mode == FS_MODE_SPEED && in->sensorless && drv->phase == FS_PHASE_START) {
         i_ref = fs_drive_if_step(drv, in, i_ab);
     } else if (c->mode == FS_MODE_SPEED) {
         *T_ref = fs_speed_ctrl_step(&drv->sc, in->w_m_ref, w_e / (float)c->pole_pairs);
-        i_ref = fs_mtpa_step(&drv->mtpa, *T_ref);
+        i_ref = weakens && drive_map(drv) ? drive_fw_map(drv, in->u_dc, w_e, T_ref) : fs_mtpa_step(&drv->mtpa, *T_ref);
         /* zou2021 eq. (30): i_d* = i_d0* + the filtered correction, i_q*
          * kept; then held inside the current limit circle, whose radius
          * leaves room for the carrier's peak while injecting */
         const float i_lim = c->i_max - (drv->injecting ? drv->hfi.gain * drv->i_hf : 0.0f);
-        if (weakens) i_ref.d += drv->fw.i_d;
+        if (weakens && !drive_map(drv)) i_ref.d += drv->fw.i_d;   /* a map's flux weakening has its own trim */
         i_ref.d = fs_clamp_sym(i_ref.d, i_lim);
         float iq_max = sqrtf(i_lim * i_lim - i_ref.d * i_ref.d);
         float i_q0 = i_ref.q;
@@ -466,13 +491,15 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
 {
     const fs_drive_config *c = &drv->cfg;
     const bool run = in->sensorless && drv->phase == FS_PHASE_RUN;
+    drv->t_quiet = run ? fs_maxf(drv->t_quiet - c->Ts, 0.0f) : drv->t_quiet;
+    const bool settled = drv->t_quiet <= 0.0f;   /* after polarity detection (fs_drive_start.c) */
     const float g_w = out ? out->g_w : 0.0f;
     float r_mon = 0.0f;
     if (out) {
         const fs_monitor_in mi = {i_ab, drv->u_hist[0], in->u_dc, out->theta_e, out->w_e, cos_t, sin_t,
                                   {out->i_d, out->i_q}, drv->T_ff,   /* the torque of out->i_d_ref, i_q_ref */
                                   {out->i_d_ref - out->i_d, out->i_q_ref - out->i_q},
-                                  run && (c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED)};
+                                  run && settled && (c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED)};
         r_mon = fs_monitor_step(&drv->mon, &mi);
         if (drv->mon.jumped) fs_lock_latch(&drv->lock);
     }
@@ -486,8 +513,8 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
      * over 30 deg (a rated load step swings it to about 28 on yu2022's
      * bench, U-XCOUPLE, and the estimate comes back) */
     const bool square = drive_square(c);
-    const bool inj_on = run && (square ? c->mode != FS_MODE_OFF && drv->sw.k > 4
-                                       : drive_injects(c) && drv->injecting && drv->hfi.k_settle == 0);
+    const bool inj_on = run && settled && (square ? c->mode != FS_MODE_OFF && drv->sw.k > 4
+                                                  : drive_injects(c) && drv->injecting && drv->hfi.k_settle == 0);
     const float eps_inj = square ? drv->sw.eps : drv->hfi.eps;
     drv->lock_ri = smo_on ? drv->lock_ri + b * (drv->smo.r_i - drv->lock_ri) : 0.0f;
     drv->lock_es = smo_on ? drv->lock_es + b * (drv->smo.eps - drv->lock_es) : 0.0f;
@@ -574,18 +601,39 @@ static float drive_imc_rectify(fs_drive *drv, const fs_drive_in *in, fs_ab *u_re
     return out->rect.v_pn;
 }
 
+/* A flux map's values at the measured current i (fs_drive.h, map) for the
+ * next step: the current loops' fluxes and incremental inductances, the
+ * back-EMF observer's q secant inductance and active flux; returns the
+ * torque of the reference i_ref on the map (linearised at i). At the
+ * voltage limit in flux weakening the current lags its reference: the
+ * observer's model at the reference put its torque 20 % off there (the
+ * Prius MG2 at 2800 rpm, i_d -76 A for -101 asked) and its angle ran away. */
+static float drive_map_step(fs_drive *drv, fs_dq i, fs_dq i_ref)
+{
+    const fs_fluxmap_point p = fs_fluxmap_eval(&drv->map, i);
+    fs_current_ctrl_set_flux(&drv->cc, i, &p);
+    if (drive_has_smo(&drv->cfg)) {
+        const float L_q = fs_fluxmap_secant_q(&drv->map, i, &p);
+        fs_smo_set_model(&drv->smo, L_q, p.psi.d - L_q * i.d);
+    }
+    const float psi_d = p.psi.d + p.L_dd * (i_ref.d - i.d), psi_q = p.psi.q + p.L_qq * (i_ref.q - i.q);
+    return drv->k_T * (psi_d * i_ref.q - psi_q * i_ref.d);
+}
+
 /* The operating stage (fs_drive.h) from the phase, the source and weight,
- * and the flux-weakening current with hysteresis. */
+ * and the flux-weakening current with hysteresis; open once halted (in the
+ * step that halts, too). */
 static int drive_stage(const fs_drive *drv, const fs_drive_in *in, float g_w, bool weakens)
 {
     const fs_drive_config *c = &drv->cfg;
     if (c->mode != FS_MODE_CURRENT && c->mode != FS_MODE_SPEED) return FS_STAGE_OPEN;
     if (drv->phase == FS_PHASE_POLARITY) return FS_STAGE_POLARITY;
-    if (drv->phase == FS_PHASE_RECOVER) return FS_STAGE_RECOVERY;
+    if (drv->phase >= FS_PHASE_RECOVER)   /* one comparison for both: RECOVER < HALT */
+        return drv->phase == FS_PHASE_RECOVER ? FS_STAGE_RECOVERY : FS_STAGE_OPEN;
     if (in->sensorless && drv->phase == FS_PHASE_START) return FS_STAGE_START;
     if (weakens) {
         const float lim = (drv->stage == FS_STAGE_FLUX_WEAKENING ? -0.01f : -0.02f) * c->i_max;
-        if (drv->fw.i_d < lim) return FS_STAGE_FLUX_WEAKENING;
+        if (drv->fw.i_d < lim || drv->fw_map_on) return FS_STAGE_FLUX_WEAKENING;
     }
     if (!in->sensorless) return FS_STAGE_SENSOR;
     if (g_w <= 0.0f) return FS_STAGE_INJECTION;
@@ -679,6 +727,7 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     drv->stage = drive_stage(drv, in, 0.0f, drive_weakens(c));
     out->stage = drv->stage;
     out->recoveries = 0;
+    if (fabsf(w_e) > drv->w_over) fs_drive_halt(drv, FS_FAULT_OVERSPEED, out);
 }
 
 /* Online R_s and psi_f (fs_param_adapt.h), learnt while the loops run
@@ -696,7 +745,7 @@ static void drive_adapt(fs_drive *drv, const fs_drive_in *in, fs_dq u, fs_dq i, 
     }
 }
 
-/* Halted (FS_PHASE_HALT): zero voltage, the fault held. */
+/* Halted (FS_PHASE_HALT, fs_drive_protect.h): zero voltage, the fault held. */
 static void drive_step_halt(const fs_drive *drv, fs_ab i_ab, fs_drive_out *out)
 {
     *out = (fs_drive_out){0};
@@ -706,8 +755,9 @@ static void drive_step_halt(const fs_drive *drv, fs_ab i_ab, fs_drive_out *out)
     out->i_q = i.q;
     out->phase = FS_PHASE_HALT;
     out->stage = FS_STAGE_OPEN;
-    out->fault = FS_FAULT_POLARITY;   /* the only refusal so far */
+    out->fault = drv->fault;
     out->recoveries = drv->recoveries;
+    out->lock_lost = drv->fault == FS_FAULT_LOCK;
 }
 
 void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
@@ -759,7 +809,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     bool polarity = drv->phase == FS_PHASE_POLARITY;
 
     if (closed_loop) {
-        i_ref = drive_current_ref(drv, in, i_ab, w_e, weakens, &T_ref);
+        i_ref = drive_current_ref(drv, in, i_loop, w_e, weakens, &T_ref);
         u_ref = fs_current_ctrl_step(&drv->cc, i_ref, i_dq, w_e);
     }
 
@@ -783,7 +833,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
         fs_current_ctrl_update_held(&drv->cc, u_real,
                                     weakening && c->fw_hold ? fs_fw_hold(&drv->fw, u_ref, u_real, w_e) : u_real);
     if (FS_WITH_ADAPT && c->adapt.T_f > 0.0f) drive_adapt(drv, in, u_real, i_dq, w_e, closed_loop);
-    if (weakening)
+    if (weakening && !drive_map(drv))
         fs_fw_step(&drv->fw, u_ref.q - u_real.q, w_e);   /* eq. (26): dv_q */
 
     out->theta_e = theta;
@@ -795,7 +845,8 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     out->T_ref = T_ref;
     out->u_d = u_real.d;
     out->u_q = u_real.q;
-    drv->T_ff = drive_torque_at(c, drv->k_T, i_ref);   /* the monitor's now, the observers' next step */
+    drv->T_ff = drive_map(drv) ? drive_map_step(drv, i_dq, i_ref)   /* the monitor's now, the observers' next step */
+                             : drive_torque_at(c, drv->k_T, i_ref);
     out->theta_est = theta;
     out->w_est = w_e;
     out->est_valid = true;
@@ -824,12 +875,10 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     if (c->lock_time > 0.0f) {
         out->lock_resid = drive_lock_residual(drv, in, out, i_loop, cos_t, sin_t);   /* the current the loops used, as out->i_d, i_q are it in their frame */
         out->lock_lost = fs_lock_step(&drv->lock, out->lock_resid);
-        if (out->lock_lost && c->lock_recover && drv->recoveries < c->lock_retries) {
-            fs_drive_recover_begin(drv);
-            out->lock_lost = false;
-        }
+        if (out->lock_lost && c->lock_recover) fs_drive_lock_lost(drv, out);   /* recover, or halt (fs_drive_protect.h) */
     }
     drv->stage = drive_stage(drv, in, out->g_w, weakens);
     out->stage = drv->stage;
     out->recoveries = drv->recoveries;
+    if (fabsf(w_e) > drv->w_over) fs_drive_halt(drv, FS_FAULT_OVERSPEED, out);
 }

@@ -55,15 +55,20 @@
  *   hardware dead time is the firmware's; t_dead_comp compensates it.
  * Protection. The drive limits its current references to i_max and its
  *   voltage to the modulator's hexagon, refuses a bad configuration (naming
- *   the field), and watches the estimator: out.lock_lost is latched when lock
- *   is lost (after lock_retries recoveries, if configured). It does NOT trip
- *   on overcurrent (i_trip lives in the simulator, not here), on dc-link
- *   over- or under-voltage, temperature, or a failed sensor, and does not
- *   check its inputs for NaN: the firmware turns the PWM off on those, and on
- *   lock_lost, within the same interrupt. Nor does it start where its
- *   polarity detection could not decide: it halts with out.fault =
- *   FS_FAULT_POLARITY (duties 1/2 from then on), which the firmware also
- *   answers by turning the PWM off and reporting it.
+ *   the field), watches the estimator and acts on a loss of lock
+ *   (fs_drive_protect.h): with lock_recover it holds zero current, then
+ *   catches the spinning rotor on its back-EMF observer (a flying restart),
+ *   runs its start sequence again at low speed, or halts with out.fault =
+ *   FS_FAULT_LOCK; without, out.lock_lost is latched and it goes on. It
+ *   halts with FS_FAULT_OVERSPEED when its speed passes w_over, and where
+ *   its polarity detection could not decide, with FS_FAULT_POLARITY. Halted,
+ *   its duties are 1/2 from then on: the firmware turns the PWM off on a
+ *   fault (above the speed where the line-to-line back-EMF's peak exceeds
+ *   the link, the active short circuit instead), and on lock_lost, within
+ *   the same interrupt, and reports it. It does NOT trip on overcurrent
+ *   (i_trip lives in the simulator, not here), on dc-link over- or
+ *   under-voltage, temperature, or a failed sensor, and does not check its
+ *   inputs for NaN: the firmware turns the PWM off on those.
  * References. The loops follow in.w_m_ref (speed mode) or i_d_ref, i_q_ref
  *   (current mode) as given: a speed step asks for T_max at once and the
  *   estimators see the fastest change the machine can make. A firmware
@@ -81,7 +86,7 @@
  * Timing and re-entrancy. fs_drive_step must complete within Ts of its
  *   sampling instant, before the next update event. On a Cortex-M4F at
  *   -O2 a step takes about 1,280-2,890 instructions on average by angle
- *   source, 4,080 at most (the blend); 2,475 on average and 3,492 at most
+ *   source, 4,080 at most (the blend); 2,479 on average and 3,499 at most
  *   over the blended full-range run in the firmware's build (-flto):
  *   bench/pil.py measures it per mode. It
  *   touches only *drv, *in and *out (no globals, no heap): instances are
@@ -90,7 +95,7 @@
  *   interrupt each other. It uses the FPU (lazy stacking keeps an interrupt
  *   that does correct).
  * Memory. sizeof(fs_drive) is about 7.1 KB (bench/pil.py reports the
- *   target's, 7,104 B; a 64-bit host's is up to 16 B more: its pointers);
+ *   target's, 7,120 B; a 64-bit host's is up to 16 B more: its pointers);
  *   its stack is under 800 B (bench/pil.py: 728 B on the static call graph,
  *   328 B the measured high-water mark).
  */
@@ -101,12 +106,16 @@
 #include "fs_dtcomp.h"
 #include "fs_xyctrl.h"
 #include "fs_blend.h"
+#include "fs_fluxmap.h"
 #include "fs_fw.h"
+#include "fs_fwmap.h"
 #include "fs_hfi.h"
 #include "fs_ident.h"
+#include "fs_if_start.h"
 #include "fs_imc.h"
 #include "fs_lock.h"
 #include "fs_monitor.h"
+#include "fs_motion_test.h"
 #include "fs_mtpa.h"
 #include "fs_param_adapt.h"
 #include "fs_pll.h"
@@ -131,11 +140,18 @@
  *   FS_WITH_IDENT       the identification mode (fs_ident.h; mode refused)
  *   FS_WITH_ADAPT       the online R_s and psi_f correction (fs_param_adapt.h; adapt refused)
  *   FS_WITH_DTCOMP      dead-time compensation on the predicted current (fs_dtcomp.h; dt_predict refused)
+ *   FS_WITH_FLUXMAP     a flux map in the controller (fs_fluxmap.h, fs_fwmap.h; map refused): 4.7 kB of
+ *                       flash at -O2, 900 B of config, 2.2 kB of RAM (the flux weakening's table)
+ *   FS_WITH_MOTION_TEST polarity by a bounded motion (fs_motion_test.h; motion refused)
+ *   FS_WITH_IF_START    the I/f start into the back-EMF observer (fs_if_start.h; i_start refused)
  * A three-phase inverter drive on the blend with flux weakening needs only
  * FS_WITH_DTCOMP (the scenarios' default while the drive injects: the
  * carrier's current crosses zero within the period; without a carrier
  * fs_dtcomp_step computes the usual compensation, which is then the same): a commissioning
- * build keeps FS_WITH_IDENT, a production build leaves it out. */
+ * build keeps FS_WITH_IDENT, a production build leaves it out; one whose machine's
+ * polarity pulses decide (its d axis saturates) leaves out the starts that turn the rotor,
+ * FS_WITH_MOTION_TEST and FS_WITH_IF_START (3,248 B of flash at -O2 with their glue: the
+ * blended image 34,000 B with them, 30,752 B without, bench/firmware.py). */
 #ifndef FS_WITH_IMC
 #define FS_WITH_IMC 1
 #endif
@@ -153,6 +169,12 @@
 #endif
 #ifndef FS_WITH_DTCOMP
 #define FS_WITH_DTCOMP 1
+#endif
+#ifndef FS_WITH_MOTION_TEST
+#define FS_WITH_MOTION_TEST 1
+#endif
+#ifndef FS_WITH_IF_START
+#define FS_WITH_IF_START 1
 #endif
 
 typedef enum {
@@ -183,14 +205,19 @@ typedef enum {
     FS_PHASE_START = 1,      /* I/f start: open-loop frame, waiting for the observer */
     FS_PHASE_POLARITY = 2,   /* magnet polarity detection: d-current pulses, i_q = 0 */
     FS_PHASE_RECOVER = 3,    /* lock lost: zero current while the estimators settle (fs_drive_start.c) */
-    FS_PHASE_HALT = 4        /* refused to go on (fs_drive_out.fault): zero voltage, no injection */
+    FS_PHASE_HALT = 4        /* refused to go on (fs_drive_out.fault): zero voltage, no injection (last: fs_drive.c
+                                tells RECOVER and HALT from the rest with one comparison) */
 } fs_drive_phase;
 
 /* Why the drive refused to go on (fs_drive_out.fault), held from then on;
  * the caller must stop the inverter and report it. */
 typedef enum {
     FS_FAULT_NONE = 0,
-    FS_FAULT_POLARITY = 1    /* polarity detection found no margin up to its largest pulse (fs_polarity.h) */
+    FS_FAULT_POLARITY = 1,   /* polarity detection found no margin up to its largest pulse (fs_polarity.h), or the
+                                motion test no turn, or too much noise or motion to decide (fs_motion_test.h) */
+    FS_FAULT_LOCK = 2,       /* lock lost and not re-acquired: the retries spent, or none possible (fs_drive_protect.h) */
+    FS_FAULT_OVERSPEED = 3,  /* the speed passed w_over (fs_drive_protect.h) */
+    FS_FAULT_START = 4       /* the I/f start waited t_handover at w_handover without the observer agreeing */
 } fs_drive_fault;
 
 /* The operating stage, traced: where the drive is in its sequence
@@ -301,16 +328,16 @@ typedef struct {
      * over lock_time / 4 as well. */
     float lock_time;
     /* recovery from a loss of lock (lock_recover = 1; else the monitor
-     * latches lock_lost). The currents are held at zero for t_recover, s,
-     * while the estimators settle without the loops' disturbance; then, if
-     * the sliding-mode observer is valid and (in the blend) above w_lower,
-     * every estimate is set to its angle and speed (a catch on the fly);
-     * otherwise the start sequence runs again: polarity detection and
-     * injection, or the I/f start. After lock_retries recoveries the next
-     * loss latches lock_lost. */
+     * latches lock_lost and the drive goes on): the flying restart, the
+     * start sequence again, or the halt with FS_FAULT_LOCK, by the speed the
+     * back-EMF says (fs_drive_protect.h); t_recover, s, the zero-current
+     * wait; after lock_retries recoveries the next loss halts. */
     int lock_recover;
     float t_recover;
     int lock_retries;
+    /* the overspeed stop (fs_drive_protect.h): above this electrical speed,
+     * rad/s, the drive halts with FS_FAULT_OVERSPEED (0: none) */
+    float w_over;
     /* sensorless start (speed mode, FS_ANGLE_SMO, sensorless from standstill):
      * I/f, a current of i_start on the d axis of a frame accelerated at a_start
      * (el. rad/s^2) up to w_handover (el. rad/s), where the loops take the
@@ -359,14 +386,38 @@ typedef struct {
      * off; Ts, R_s, L_d, psi_f and i_max are taken from above, w_e_max 0
      * from smo.w_e_max */
     fs_param_adapt_config adapt;
-    /* the MTPA locus as a table (n = 0: designed from L_d, L_q, psi_f; a flux
-     * map's from fullspeed.design.magnetics); read at init only. Held in the config,
-     * not pointed to, so that the config has no pointer: the same bytes on
-     * the host and the target, and an export carries the table */
-    fs_mtpa_table mtpa_table;
+    /* the machine's flux map (fs_fluxmap.h; di_d = 0: none, the model of
+     * L_d, L_q, psi_f above), resampled by fullspeed.design.magnetics. With
+     * it: the MTPA locus is searched on the map at init (fs_mtpa.h); each
+     * step evaluates it at the last current reference, and the back-EMF
+     * observer takes its q secant inductance and active flux
+     * (fs_smo_set_model), the observers' torque feed-forward and the
+     * monitor its torque; with flux weakening, the speed mode's current
+     * references come from fs_fwmap.h above base speed (its own trim on
+     * the voltage in place of fs_fw.h's voltage-error feedback), and above
+     * the blending band the blend follows the back-EMF observer's tracker
+     * (fs_drive.c says why). Held in the config, not pointed to, so that the
+     * config has no pointer: the same bytes on the host and the target,
+     * and an export carries the map */
+    fs_fluxmap_table map;
     /* FS_MODE_IDENTIFY (three phases, inverter): Ts, delay, pole_pairs and
      * i_max are taken from above */
     fs_ident_config ident;
+    /* The start chosen by the machine (fullspeed.design.start), after the
+     * fields above so that their places stay where the step reads them.
+     * Polarity by a bounded motion (fs_motion_test.h) instead of the pulses
+     * when motion.i_push > 0 (polarity.i_pulse is then 0; Ts taken from
+     * above; the push at most i_max less the carrier's peak). The I/f start
+     * (i_start > 0, fs_if_start.h): its damping's virtual resistance r_damp
+     * (ohm, 0: none) centred on the rotor's swing at w_swing (rad/s), the
+     * longest wait at w_handover for the observer, t_handover (s, 0: no
+     * limit; then FS_FAULT_START), and w_restart (el. rad/s, 0: never):
+     * running on the observer below it, with the reference below it too, the
+     * loops return to the I/f frame (the observer is not trusted at the
+     * speeds it has to pass through: a reversal) and hand over again at
+     * w_handover (> w_restart). */
+    fs_motion_test_config motion;
+    float r_damp, w_swing, t_handover, w_restart;
 } fs_drive_config;
 
 typedef struct {
@@ -421,18 +472,23 @@ typedef struct {
     float i_hf;              /* the rotating carrier current's peak, A: i_max less it bounds the fundamental */
     float lock_a;            /* the residual's low-pass pole */
     float lock_ri, lock_es, lock_eh;   /* low-passed: SMO current error / delta, SMO PLL error, injection error */
+    float t_quiet;           /* s: the injection's error joins the lock's residual once this has run out: after
+                                polarity detection, whose pulses or push disturbed the estimate, polarity.t_lock */
     float lock_ex;           /* low-passed: |SMO angle - blended angle| while the SMO is valid, rad */
+    float w_over;            /* the overspeed stop on the loops' speed, el. rad/s: cfg.w_over; FS_DRIVE_NO_LIMIT
+                                without one and during a recovery's zero-current wait (fs_drive_protect.h) */
     int stage;               /* fs_drive_stage */
     int recoveries;
     float t_left;            /* s left in FS_PHASE_RECOVER */
     float alpha;             /* its last output, rad */
     int phase;               /* fs_drive_phase */
-    float theta_if, w_if;    /* I/f frame */
     float theta_ol;          /* open-loop frame angle */
     bool pll_started;
     bool est_started;        /* the injection estimators have seen their first step */
     bool injecting;          /* the HF voltage is on (fading in or out included) */
     bool inject_on;          /* the injection is wanted (the amplitude's target) */
+    bool has_map;            /* cfg.map holds a flux map (fs_drive.map) */
+    bool fw_map_on;          /* this step's references are the map's flux weakening (fs_fwmap.h) */
     float T_ff;              /* N m: torque of the last step's current reference (the observers' feed-forward) */
     float k_T;               /* N m/A: the torque constant phases/2 p (drive_torque_k) */
     fs_ab u_hist[2];         /* realised fundamental voltage computed 1 and 2 steps ago */
@@ -457,10 +513,18 @@ typedef struct {
     fs_ab u_ff_hold, u_ff_next;
     fs_drive_out held;
     fs_ident ident;          /* FS_MODE_IDENTIFY */
+    int fault;               /* fs_drive_fault, held in FS_PHASE_HALT */
+    float e_rec;             /* FS_PHASE_RECOVER: the back-EMF's magnitude, low-passed, V (fs_drive_protect.h) */
+    fs_fluxmap map;          /* on cfg.map, when has_map */
+    fs_fwmap fwm;            /* with the map and flux weakening: the references within the voltage limit */
     /* after a refused init, the config field or sub-block at fault, as a
      * string literal ("smo.bw_pll", "i_max", "hfi"; fs_status_str tells
      * why); NULL after a successful one */
     const char *fail;
+    /* the start (fs_drive_start.c), past everything the run reads */
+    fs_motion_test mt;       /* polarity by motion (cfg.motion.i_push > 0) */
+    float mt_ff;             /* N m: the feed-forward of the motion test's push taken back out of the observers' loads */
+    fs_if_start ifs;         /* the I/f frame (cfg.i_start > 0) */
 } fs_drive;
 
 /* Every float field is refused when not finite (naming it), each field out of

@@ -12,9 +12,9 @@
 #define FS_SQRT3 1.73205080756887729353f
 #define FS_INV_SQRT3 0.57735026918962576451f
 
-/* FS_COLD: run once, at start-up (the inits and their designs): GCC
- * optimizes such a function for size and keeps it apart from the step's
- * code. The arithmetic is the same (no reassociation, no contraction, as
+/* FS_COLD: run once, at start-up (the inits and their designs), or rarely
+ * (the answer to a loss of lock, fs_drive_protect.c): GCC optimizes such a
+ * function for size and keeps it apart from the step's code. The arithmetic is the same (no reassociation, no contraction, as
  * at any level without -ffast-math), so are the results: only the
  * production image's flash shrinks */
 #if defined(__GNUC__)

@@ -13,20 +13,46 @@ static float mtpa_id(const fs_mtpa_config *c, float I)
 /* Torque per (flux x current): (phases / 2) p. */
 static float mtpa_k(const fs_mtpa_config *c) { return 0.5f * (float)c->phases * (float)c->pole_pairs; }
 
-/* A given table: FS_MTPA_N finite points, the current magnitude at each
- * the table's own (i_max k / (N - 1), to 0.1 %), the torque 0 at first and
- * rising. */
-static fs_status mtpa_copy(fs_mtpa *m, const fs_mtpa_table *t)
+/* The map's torque at current magnitude I and angle g (from the d axis). */
+static float mtpa_map_torque(const fs_mtpa *m, float I, float g, fs_dq *i)
 {
-    if (t->n != FS_MTPA_N) return FS_ERR_PARAM;
-    for (int k = 0; k < FS_MTPA_N; ++k) {
-        float I = m->cfg.i_max * (float)k / (float)(FS_MTPA_N - 1);
-        if (!fs_fin(t->T[k]) || !fs_fin(t->i_d[k]) || !(t->i_q[k] >= 0.0f) || !fs_fin(t->i_q[k])) return FS_ERR_PARAM;
-        if (!(fabsf(hypotf(t->i_d[k], t->i_q[k]) - I) <= 1e-3f * m->cfg.i_max)) return FS_ERR_PARAM;
-        if (k == 0 ? !(t->T[0] == 0.0f) : !(t->T[k] > t->T[k - 1])) return FS_ERR_PARAM;
-        m->T[k] = t->T[k];
-        m->i_d[k] = t->i_d[k];
-        m->i_q[k] = t->i_q[k];
+    const float _Complex e = fs_cis(g);   /* the drive's own trigonometry: no libm sinf/cosf in the image */
+    i->d = I * fs_cre(e);
+    i->q = I * fs_cim(e);
+    const fs_fluxmap_point p = fs_fluxmap_eval(m->cfg.map, *i);
+    return m->k_T * (p.psi.d * i->q - p.psi.q * i->d);
+}
+
+/* The locus on a flux map (fs_mtpa.h): per magnitude the angle of most
+ * torque in [0, pi] (a positive d current where the map's d path is the
+ * larger inductance), golden-section search to 1e-5 rad (the torque is
+ * flat at its maximum: its error is below 1e-9 of it). The torque must rise
+ * with the magnitude (a map that makes none is refused). */
+static FS_COLD fs_status mtpa_search(fs_mtpa *m)
+{
+    const float r = 0.618034f;
+    m->i_d[0] = m->i_q[0] = m->T[0] = 0.0f;
+    for (int k = 1; k < FS_MTPA_N; ++k) {
+        const float I = m->cfg.i_max * (float)k / (float)(FS_MTPA_N - 1);
+        float lo = 0.0f, hi = FS_PI;
+        fs_dq i;
+        float g1 = hi - r * (hi - lo), g2 = lo + r * (hi - lo);
+        float T1 = mtpa_map_torque(m, I, g1, &i), T2 = mtpa_map_torque(m, I, g2, &i);
+        while (hi - lo > 1e-5f) {
+            if (T1 < T2) {   /* the maximum is right of g1 */
+                lo = g1; g1 = g2; T1 = T2;
+                g2 = lo + r * (hi - lo);
+                T2 = mtpa_map_torque(m, I, g2, &i);
+            } else {
+                hi = g2; g2 = g1; T2 = T1;
+                g1 = hi - r * (hi - lo);
+                T1 = mtpa_map_torque(m, I, g1, &i);
+            }
+        }
+        m->T[k] = mtpa_map_torque(m, I, 0.5f * (lo + hi), &i);
+        m->i_d[k] = i.d;
+        m->i_q[k] = i.q;
+        if (!(m->T[k] > m->T[k - 1] && m->T[k] < INFINITY)) return FS_ERR_PARAM;
     }
     return FS_OK;
 }
@@ -35,14 +61,14 @@ fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
 {
     if (!m || !cfg) return FS_ERR_NULL;
     if (!fs_pos(cfg->L_d)) return FS_ERR_LD;
-    if (!(cfg->L_q >= cfg->L_d) || !fs_fin(cfg->L_q)) return FS_ERR_LQ;  /* MTPA here assumes L_q >= L_d */
+    if (!cfg->map && !(cfg->L_q >= cfg->L_d)) return FS_ERR_LQ;   /* the closed form assumes L_q >= L_d */
+    if (!fs_fin(cfg->L_q)) return FS_ERR_LQ;
     if (!fs_nonneg(cfg->psi_f)) return FS_ERR_PSI_F;
     if (cfg->pole_pairs < 1) return FS_ERR_POLE_PAIRS;
     if (cfg->phases != 3 && cfg->phases != 5) return FS_ERR_PARAM;
     if (!fs_pos(cfg->i_max)) return FS_ERR_I_MAX;
     m->cfg = *cfg;
-    m->cfg.table = NULL;
-    m->tabulated = cfg->table != NULL;
+    m->tabulated = cfg->map != NULL;
     m->k_T = mtpa_k(cfg);
     m->seg = 0;
     m->dL = cfg->L_q - cfg->L_d;
@@ -50,7 +76,11 @@ fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
     m->dL4 = 4.0f * m->dL * m->dL;
     m->psi2 = cfg->psi_f * cfg->psi_f;
     m->salient = m->dL > 1e-9f * cfg->L_q;
-    if (cfg->table) return mtpa_copy(m, cfg->table);
+    if (cfg->map) {
+        const fs_status st = mtpa_search(m);
+        m->cfg.map = NULL;   /* not kept: the table is all the step needs */
+        return st;
+    }
     for (int k = 0; k < FS_MTPA_N; ++k) {
         float I = cfg->i_max * (float)k / (float)(FS_MTPA_N - 1);
         float id = mtpa_id(cfg, I);
@@ -113,7 +143,7 @@ fs_dq fs_mtpa_step(fs_mtpa *m, float T_ref)
          * from it */
         float s = (T - m->T[lo]) / (m->T[hi] - m->T[lo]);
         float iq = m->i_q[lo] + s * (m->i_q[hi] - m->i_q[lo]), T0, dT;
-        if (m->tabulated) {   /* a flux map's locus: the table, linearly */
+        if (m->tabulated) {   /* a flux map's locus: its table, linearly */
             out.q = iq;
             out.d = m->i_d[lo] + s * (m->i_d[hi] - m->i_d[lo]);
             if (T_ref < 0.0f) out.q = -out.q;

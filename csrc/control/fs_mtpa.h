@@ -6,26 +6,21 @@
  * to i_max; step inverts the table for a torque reference. The locus does
  * not depend on the number of phases; the torque scales with it.
  *
- * A machine known by its flux map (saturation, cross-saturation) has its
- * locus computed off line from the map (fullspeed.design.magnetics.mtpa_locus) and
- * given as a table: the torque and currents at |i| = i_max k / (N - 1),
- * k = 0..N-1; step then interpolates it linearly.
+ * A machine known by its flux map (saturation, cross-saturation:
+ * fs_fluxmap.h) has its locus searched on the map at init: at each current
+ * magnitude |i| = i_max k / (N - 1), k = 0..N-1, the current angle of most
+ * torque (phases / 2) p (psi_d i_q - psi_q i_d), by golden-section search
+ * over 0..pi (the torque along a circle has one maximum
+ * there); step then interpolates the table linearly.
  */
 #ifndef FS_MTPA_H
 #define FS_MTPA_H
 
+#include "fs_fluxmap.h"
 #include "fs_transforms.h"
 #include "fs_types.h"
 
 enum { FS_MTPA_N = 64 };
-
-/* An MTPA locus given as a table (n = 0: none) */
-typedef struct {
-    int n;                  /* 0, or FS_MTPA_N points */
-    float T[FS_MTPA_N];     /* N m, 0 at k = 0 and rising */
-    float i_d[FS_MTPA_N];   /* A, |i_d + j i_q| = i_max k / (N - 1) */
-    float i_q[FS_MTPA_N];   /* A, >= 0 */
-} fs_mtpa_table;
 
 typedef struct {
     float L_d, L_q;   /* H */
@@ -33,7 +28,7 @@ typedef struct {
     int pole_pairs;
     float i_max;      /* A, peak */
     int phases;       /* 3 or 5: T = (phases / 2) p (psi_f + (L_d - L_q) i_d) i_q */
-    const fs_mtpa_table *table;   /* NULL: the locus of L_d, L_q, psi_f; else copied at init (not kept) */
+    const fs_fluxmap *map;   /* NULL: the locus of L_d, L_q, psi_f; else searched on the map at init (not kept) */
 } fs_mtpa_config;
 
 typedef struct {
@@ -41,10 +36,10 @@ typedef struct {
     float T[FS_MTPA_N];    /* torque at each table point, N m, rising */
     float i_d[FS_MTPA_N];  /* A */
     float i_q[FS_MTPA_N];  /* A */
-    int tabulated;         /* 1: the table was given (step interpolates it) */
+    int tabulated;         /* 1: the locus was searched on a map (step interpolates it) */
     float k_T;             /* (phases / 2) p: torque per (flux x current) */
     int seg;               /* the table segment of the last step (where step looks first) */
-    /* the locus' constants, formed once as the step formed them: L_q - L_d,
+    /* the linear locus' constants, formed once as the step formed them: L_q - L_d,
      * 2 (L_q - L_d), 4 (L_q - L_d)^2, psi_f^2; salient: L_q - L_d > 1e-9 L_q */
     float dL, dL2, dL4, psi2;
     int salient;

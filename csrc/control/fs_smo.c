@@ -73,6 +73,9 @@ fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
         const float r = FS_SMO_WC_PER_BW * FS_SMO_BW_PER_W;
         o->e_valid = r / sqrtf(4.0f * r * r + 1.0f) * cfg->w_valid * cfg->psi_f;
     }
+    o->L_q_run = cfg->L_q;   /* the model until a map's values come (fs_smo_set_model; a reset keeps them) */
+    o->psi_run = cfg->psi_f;
+    o->map = false;
     fs_smo_reset(o, 0.0f, 0.0f);
     return FS_OK;
 }
@@ -115,6 +118,13 @@ void fs_smo_follow(fs_smo *o, float theta, float w, float T_d)
     o->w = o->mo.w_hat;
     o->k_settled = 0;
     o->converged = false;
+}
+
+void fs_smo_set_model(fs_smo *o, float L_q, float psi_a)
+{
+    o->L_q_run = L_q;
+    o->psi_run = fs_maxf(psi_a, 0.5f * o->cfg.psi_f);   /* as smo_psi_x: a large positive i_d */
+    o->map = true;
 }
 
 void fs_smo_set_dir(fs_smo *o, float w)
@@ -185,7 +195,7 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
      * resistive and cross-coupling terms (fs_smo.h, change 1) and, where
      * the tracker's speed would turn the angle against the error (G > 0),
      * the speed of the EMF's magnitude in the cross-coupling (change 4) */
-    const float wdL = (track && o->gen ? o->w_emf : w) * (c->L_d - c->L_q);
+    const float wdL = (track && o->gen ? o->w_emf : w) * (c->L_d - o->L_q_run);
     fs_ab i_m = o->i_hat;
     if (track) {
         const fs_ab i0 = o->have_prev ? o->i_prev : i;
@@ -234,12 +244,12 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
         /* the torque of the period: mean current in the frame at its middle */
         const float th_mid = th_prev + 0.5f * c->Ts * w;
         const fs_dq i_dq = fs_park(i_m, fs_cosf(th_mid), fs_sinf(th_mid));
-        o->psi_x = smo_psi_x(c, i_dq.d);
+        o->psi_x = o->map ? o->psi_run : smo_psi_x(c, i_dq.d);
         const float T = o->k_T * o->psi_x * i_dq.q;
         /* change 4: the EMF's speed for the next step's model, and whether
          * it is needed there (G = (L_d - L_q) i_q / (w psi_f) > 0) */
         o->w_emf = o->dir * mag * h_inv / o->psi_x;
-        o->gen = (c->L_d - c->L_q) * i_dq.q * w > 0.0f;
+        o->gen = (c->L_d - o->L_q_run) * i_dq.q * w > 0.0f;
         /* against the prediction, as the PLL's, low-passed at the tracker's
          * bandwidth: the angle error it is working off, not one sample's
          * (the injection's fade-in steps the fundamental current) */
@@ -280,7 +290,7 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
             eps = (-e.alpha * cth - e.beta * sth) / mag;
             eps *= o->dir;
         }
-        o->psi_x = smo_psi_x(c, i.alpha * cth + i.beta * sth);   /* for `converged` */
+        o->psi_x = o->map ? o->psi_run : smo_psi_x(c, i.alpha * cth + i.beta * sth);   /* for `converged` */
         fs_pll_step(&o->pll, eps);
         o->eps = eps;
         o->e_mag = mag;

@@ -123,6 +123,16 @@
  *     hands it over (fs_smo_follow), so that the tracker leaves standstill
  *     on the rotor's angle, speed and load.
  *
+ * Saturation (both forms, fs_smo_set_model): in steady state the extended
+ * EMF of eq. (4) lies along q only where the model's L_q is the machine's
+ * q secant inductance psi_q / i_q at the operating point (the model's
+ * w L_q i_q must be the flux w psi_q); its magnitude over the speed is then
+ * the active flux psi_d - L_q i_d. A drive that knows the machine's flux
+ * map (fs_fluxmap.h) gives both for each step; L_d (the current observer's
+ * dynamics) stays the configured one. With constant L_q the angle is off by
+ * about (L_q,model - L_q) i_q / psi_a: 25 el.deg on the 2004 Prius MG2 at
+ * 80 A with its rated-current inductances.
+ *
  * Convergence (both forms, for a hand-over): `converged` is set once the
  * current error stays in the boundary layer (r_i <= 1), |eps| below
  * sin 5 deg and the EMF's own speed within FS_SMO_AGREE of the estimate's
@@ -210,6 +220,9 @@ typedef struct {
     float r_i;           /* max |current error| over delta at the last step: <= 1 while sliding */
     float eps;           /* the last normalized PLL error, sin(theta - theta_pll) */
     float e_mag;         /* |filtered EMF|, V: about |w| psi_f / sqrt 2 behind the filter when it tracks */
+    float L_q_run;       /* the model's L_q this step: cfg.L_q, or a flux map's secant (fs_smo_set_model) */
+    float psi_run;       /* with a map: the active flux psi_d - L_q i_d (the EMF over the speed), Wb */
+    bool map;            /* fs_smo_set_model was called: psi_run replaces psi_f + (L_d - L_q) i_d */
 } fs_smo;
 
 fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg);
@@ -226,6 +239,9 @@ void fs_smo_set_dir(fs_smo *o, float w);
  * there. No effect on the paper form, once valid, or with an EMF that says
  * the rotor turns faster (the caller's estimate may have slipped). */
 void fs_smo_follow(fs_smo *o, float theta, float w, float T_d);
+/* From a flux map, for the next step (header, saturation): the q secant
+ * inductance and the active flux at the operating point. */
+void fs_smo_set_model(fs_smo *o, float L_q, float psi_a);
 /* One step: i is the current sampled now, u the stationary voltage that
  * acted during the period that ended now. Returns the angle. */
 float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u);

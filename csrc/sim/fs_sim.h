@@ -17,9 +17,26 @@
  * the dc-link current is sum(duty i), drawn from the two input phases on
  * the rails. The plant and the filter are integrated together, so the
  * input current is built from the switching functions and its spectrum is
- * the converter's. Neglected: the switching ripple inside an interval, the
- * rectifier's commutation (it switches at zero dc-link current, in the
- * inverter's zero vectors), device drops and dead time; single sampling.
+ * the converter's. With the module's devices (inverter.dev) the rectifier's
+ * path (two bidirectional switches, each a transistor and a diode in
+ * series) drops its voltage from v_pn, and each inverter-stage leg its
+ * devices' drop; with a dead time each leg loses it once per interval, as
+ * the averaged inverter does per period. Neglected: the switching ripple
+ * inside an interval and the rectifier's commutation (it switches at zero
+ * dc-link current, in the inverter's zero vectors: no switching loss);
+ * single sampling.
+ *
+ * Losses (plant.losses): the converter's meters run with the machine's
+ * (fs_pmsm.h). E_DC is the energy the converter takes from its source, the
+ * inverter's dc link (u_dc sum s_k i_k, fs_inverter.h) or the matrix
+ * converter's input capacitors (v_pn i_dc); E_COND its devices' conduction
+ * loss (the matrix converter's inverter stage), E_RECT the rectifier's,
+ * E_SW the commutation energies (fs_losses.h; each leg's at each edge, the
+ * matrix converter's stage once up and down per interval, at the interval's
+ * start). The source supplies E_SW too: the matrix converter draws it from
+ * its filter as a constant power over the interval. So, to the integrator's
+ * precision, E_DC = E_IN + E_COND + E_RECT + E_SW, and E_AIRGAP = E_FE +
+ * E_MECH + E_SHAFT + the kinetic energy's change.
  */
 #ifndef FS_SIM_H
 #define FS_SIM_H
@@ -125,6 +142,9 @@ enum {
      * magnet flux (psi_d at zero current), ohm and Wb */
     FS_CH_T_WINDING, FS_CH_T_MAGNET, FS_CH_R_S_TRUE, FS_CH_PSI_F_TRUE,
     FS_CH_R_S_HAT, FS_CH_PSI_F_HAT,   /* the controller's R_s and psi_f (online correction, fs_param_adapt.h) */
+    /* the loss meters (plant.losses; 0 without), J */
+    FS_CH_E_DC, FS_CH_E_COND, FS_CH_E_RECT, FS_CH_E_SW,
+    FS_CH_E_FE, FS_CH_E_MECH, FS_CH_E_SHAFT,
     FS_CH_N
 };
 
@@ -133,9 +153,12 @@ typedef enum {
     FS_RUN_BUFFER_FULL = 1,   /* trace buffer full before t_end: call again */
     FS_STOP_NAN = 2,          /* a state became NaN or infinite */
     FS_STOP_OVERCURRENT = 3,  /* a phase current exceeded i_trip */
-    FS_STOP_LOSS_OF_LOCK = 4, /* an estimator lost track of the rotor */
+    FS_STOP_LOSS_OF_LOCK = 4, /* an estimator lost track of the rotor (and, with recovery, was not re-acquired) */
     FS_STOP_POLARITY = 5,     /* the drive could not determine the magnet's polarity and refused to start */
-    FS_RUN_ERR_NULL = -1      /* sim or rows (or trace, with max_rows > 0) is NULL: nothing run */
+    FS_STOP_OVERSPEED = 6,    /* the drive halted at its overspeed limit (fs_drive_protect.h) */
+    FS_STOP_START = 7,        /* the I/f start never handed over to the observer (fs_drive FS_FAULT_START) */
+    FS_RUN_ERR_NULL = -1,     /* sim or rows (or trace, with max_rows > 0) is NULL: nothing run */
+    FS_RUN_ERR_ORDER = -2     /* fs_sim_actuate without an fs_sim_sample before it: nothing run */
 } fs_run_status;
 
 typedef struct fs_sim fs_sim;
@@ -145,8 +168,20 @@ typedef struct fs_sim fs_sim;
 fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len);
 void fs_sim_destroy(fs_sim *sim);
 /* Advances to t_end, writing at most max_rows rows of FS_CH_N doubles into
- * trace; *rows receives the count. Returns an fs_run_status. */
+ * trace; *rows receives the count. Returns an fs_run_status. It runs until
+ * fs_sim_step_count reaches fs_sim_steps(sim, t_end): fs_sim_run_steps. */
 int fs_sim_run(fs_sim *sim, double t_end, double *trace, int max_rows, int *rows);
+/* The same, to k_end control periods run in all (nothing when k_end <= fs_sim_step_count). */
+int fs_sim_run_steps(fs_sim *sim, long long k_end, double *trace, int max_rows, int *rows);
+/* The control periods a run from 0 to t takes: the nearest whole number,
+ * ceil(t / Tc - 1/2), so that |n Tc - t| <= Tc / 2 (a remainder of exactly
+ * half a period is not run); 0 for t <= Tc / 2 or NaN. One rule for
+ * fs_sim_run and its callers, which count periods with it instead of
+ * comparing times (a loop waiting for the time to reach t would wait for
+ * ever when the remainder is under half a period). */
+long long fs_sim_steps(const fs_sim *sim, double t);
+/* The control periods run so far (fs_sim_time is this times Tc); -1 for a NULL sim. */
+long long fs_sim_step_count(const fs_sim *sim);
 /* Simulated time, s (NaN for a NULL sim, as the two below). */
 double fs_sim_time(const fs_sim *sim);
 /* Time of the stop, for a run that stopped (NaN otherwise). */
@@ -155,5 +190,41 @@ double fs_sim_stop_time(const fs_sim *sim);
 double fs_sim_adc_saturated_at(const fs_sim *sim);
 /* The drive under simulation, to read its state (e.g. the polarity detection's margin, the identification's result). */
 const fs_drive *fs_sim_drive(const fs_sim *sim);
+
+/* Co-simulation: a master (csrc/fmu's FMU of the closed loop) in place of
+ * the scenario's profiles. From now on profile `which` holds `value` (the
+ * unit of its fs_sim_config profile) and `slope` (per second: the shaft
+ * follows the load machine's speed w_load over the period with it; 0
+ * elsewhere). Returns 0, or -1 for a NULL sim or an index out of range. */
+typedef enum {
+    FS_SIM_W_M_REF = 0, FS_SIM_I_D_REF, FS_SIM_I_Q_REF, FS_SIM_U_D_REF, FS_SIM_U_Q_REF, FS_SIM_W_E_REF,
+    FS_SIM_T_LOAD, FS_SIM_W_LOAD, FS_SIM_SENSORLESS, FS_SIM_U_DC_SCALE, FS_SIM_PROFILES
+} fs_sim_profile;
+int fs_sim_hold(fs_sim *sim, int which, double value, double slope);
+
+/* Co-simulation with the drive outside the runner (an FMU of it, a drive on
+ * a bench), in place of fs_sim_run: call in turn fs_sim_sample, which
+ * writes the inputs the drive gets at the next sampling instant and that
+ * instant's time t, s, and fs_sim_actuate, which takes the duties (the
+ * first `phases`; and the matrix converter's rectifier intervals, else
+ * NULL) the drive computed from them and runs the plant over the period,
+ * with the computation delay as configured. Both return FS_RUN_DONE or the
+ * stop (NaN, overcurrent; FS_RUN_ERR_NULL, FS_RUN_ERR_ORDER). The runner's
+ * own drive is not stepped, no trace is written and the drive's stops (lock,
+ * polarity) are the caller's. */
+int fs_sim_sample(fs_sim *sim, fs_drive_in *in, double *t);
+int fs_sim_actuate(fs_sim *sim, const float *duty, const fs_imc_rect *rect);
+/* The plant's channels of a trace row (FS_CH_*: time, angle, speed, fluxes,
+ * currents, torques, the terminal voltage over the last period, meters, the
+ * dc link, temperatures) at the present time, as the next sample records
+ * them; the drive's channels are left as they are. */
+void fs_sim_plant_row(fs_sim *sim, double *row);
+/* The dc link over the last period: its voltage, V, and the mean current,
+ * A, and power, W, drawn from it: the machine's input energy over the
+ * period (exact, a state) plus the devices' conduction loss (u_on |i| +
+ * r_on i^2 a leg, by the trapezoid over the period's ends); with the loss
+ * meters (plant.losses) the source's own meter, devices and commutations in
+ * it. NaN before the first period. */
+void fs_sim_dc_link(fs_sim *sim, double *u_dc, double *i_dc, double *p_dc);
 
 #endif /* FS_SIM_H */

@@ -1,11 +1,12 @@
-/* fs-test-sources: control/fs_mtpa.c control/fs_transforms.c control/fs_status.c
+/* fs-test-sources: control/fs_mtpa.c control/fs_fluxmap.c control/fs_transforms.c control/fs_status.c
  *
  * fs_mtpa: init validation; non-salient machine (i_d = 0, T = 1.5 p psi_f i_q);
  * salient machines: the returned current gives the reference torque within 1 %,
  * and is the maximum-torque-per-ampere current (at the same magnitude a current
  * angle 2 degrees either way gives less torque); negative torque mirrors i_q;
  * beyond the limit the current magnitude is i_max; the segment the last step
- * found (where step looks first) changes no result.
+ * found (where step looks first) changes no result; a flux map's locus, searched
+ * at init, is the closed form's on a linear machine's map.
  */
 #include <stdint.h>
 #include <string.h>
@@ -164,34 +165,50 @@ int main(void)
     fs_dq s = fs_mtpa_step(&m, 1.0f);
     FS_CHECK_REL(s.d, -s.q, 1e-5, 0, "SynRM at 45 degrees");
 
-    /* A given table (a flux map's locus): copied, interpolated linearly.
-     * The designed table of c handed back as a table gives its currents
-     * within the chord's error (0.5 % of i_max), and the table is refused
-     * unless it has FS_MTPA_N points at |i| = i_max k / (N - 1), finite,
-     * its torque 0 and rising. */
+    /* A flux map's locus, searched at init: the linear machine c as a map
+     * (on the grid's points its fluxes are exact; between them the
+     * bilinear map of a linear machine is exact too) gives c's locus to the
+     * search's precision and the interpolation's chord (0.5 % of i_max);
+     * the table's torque is the map's. */
     fs_mtpa d;
     fs_mtpa_init(&d, &c);
-    fs_mtpa_table tab = {FS_MTPA_N, {0}, {0}, {0}};
-    for (int k = 0; k < FS_MTPA_N; ++k) {
-        tab.T[k] = d.T[k];
-        tab.i_d[k] = d.i_d[k];
-        tab.i_q[k] = d.i_q[k];
+    fs_fluxmap_table tab;
+    tab.i_d0 = -c.i_max;
+    tab.di_d = 1.5f * c.i_max / (float)(FS_FLUXMAP_ND - 1);
+    tab.di_q = c.i_max / (float)(FS_FLUXMAP_NQ - 1);
+    tab.psi_scale = (c.psi_f + c.L_q * c.i_max) / 32000.0f;
+    for (int k = 0; k < FS_FLUXMAP_ND; ++k) {
+        for (int l = 0; l < FS_FLUXMAP_NQ; ++l) {
+            const float i_d = tab.i_d0 + (float)k * tab.di_d, i_q = (float)l * tab.di_q;
+            tab.psi_d[k * FS_FLUXMAP_NQ + l] = (int16_t)lrintf((c.psi_f + c.L_d * i_d) / tab.psi_scale);
+            tab.psi_q[k * FS_FLUXMAP_NQ + l] = (int16_t)lrintf(c.L_q * i_q / tab.psi_scale);
+        }
     }
+    fs_fluxmap map;
+    FS_CHECK_EQ_INT(fs_fluxmap_init(&map, &tab), FS_OK, "map init");
     fs_mtpa_config ct = c;
-    ct.table = &tab;
+    ct.map = &map;
     fs_mtpa t;
-    FS_CHECK_EQ_INT(fs_mtpa_init(&t, &ct), FS_OK, "table init");
-    FS_CHECK(t.tabulated == 1 && t.cfg.table == NULL, "table copied, pointer not kept");
+    FS_CHECK_EQ_INT(fs_mtpa_init(&t, &ct), FS_OK, "map's locus");
+    FS_CHECK(t.tabulated == 1 && t.cfg.map == NULL, "tabulated, the map not kept");
+    for (int k = 0; k < FS_MTPA_N; ++k)
+        FS_CHECK(fabsf(t.T[k] - d.T[k]) <= 1e-3f * d.T[k] + 1e-6f * d.T[FS_MTPA_N - 1], "the map's MTPA torque at point %d: %g vs %g", k, t.T[k], d.T[k]);
     for (int k = 1; k <= 99; ++k) {
         float T_ref = d.T[FS_MTPA_N - 1] * (float)k / 100.0f;
         fs_dq a = fs_mtpa_step(&d, T_ref), b2 = fs_mtpa_step(&t, -T_ref);
         FS_CHECK(fabsf(a.d - b2.d) < 0.005f * c.i_max && fabsf(a.q + b2.q) < 0.005f * c.i_max,
-                 "table: (%g, %g) against the locus (%g, %g)", b2.d, -b2.q, a.d, a.q);
+                 "map: (%g, %g) against the locus (%g, %g)", b2.d, -b2.q, a.d, a.q);
     }
-    fs_mtpa_table bad = tab; bad.n = 10;          ct.table = &bad; FS_CHECK_EQ_INT(fs_mtpa_init(&t, &ct), FS_ERR_PARAM, "table n");
-    bad = tab; bad.T[5] = bad.T[4];               FS_CHECK_EQ_INT(fs_mtpa_init(&t, &ct), FS_ERR_PARAM, "table torque not rising");
-    bad = tab; bad.T[0] = 0.1f;                   FS_CHECK_EQ_INT(fs_mtpa_init(&t, &ct), FS_ERR_PARAM, "table torque at 0 A");
-    bad = tab; bad.i_q[7] *= 1.1f;                FS_CHECK_EQ_INT(fs_mtpa_init(&t, &ct), FS_ERR_PARAM, "table |i| off its point");
-    bad = tab; bad.i_d[3] = NAN;                  FS_CHECK_EQ_INT(fs_mtpa_init(&t, &ct), FS_ERR_PARAM, "table NaN");
+    /* A map that makes no torque (no magnet, no saliency) is refused. */
+    fs_fluxmap_table flat = tab;
+    for (int n = 0; n < FS_FLUXMAP_N; ++n) {
+        const int k = n / FS_FLUXMAP_NQ, l = n % FS_FLUXMAP_NQ;
+        flat.psi_d[n] = (int16_t)(100 * k - 600);
+        flat.psi_q[n] = (int16_t)(100 * l);   /* the same incremental inductance on both axes... */
+    }
+    flat.di_q = flat.di_d;                    /* ...per ampere: L_d = L_q, psi_f = 0 */
+    flat.i_d0 = -6.0f * flat.di_d;
+    FS_CHECK_EQ_INT(fs_fluxmap_init(&map, &flat), FS_OK, "a flat map is a map");
+    FS_CHECK_EQ_INT(fs_mtpa_init(&t, &ct), FS_ERR_PARAM, "but makes no torque");
     return fs_test_summary("test_mtpa");
 }

@@ -4,43 +4,73 @@ user wants (a machine at its limit, a test of a refusal); the command line
 prints them before it runs, and the run's summary names the idealised
 hardware.
 
-- feasibility: a speed reference beyond what the link allows at the load
-  (without flux weakening, or beyond what flux weakening can reach);
+- feasibility: a speed reference, with the load it turns against, outside
+  the machine's envelope (design.envelope: MTPA, flux weakening and MTPV
+  within the current limit and the converter's voltage), or beyond where
+  the MTPA current meets the voltage limit without flux weakening; a
+  current reference whose voltage at the load's speed exceeds the limit;
 - plausibility: parameters far outside what machines have (time constants,
-  the back-EMF against the link and the rated voltage, the torque constant
-  against the rated torque, copper losses), which are unit mistakes more
-  often than machines (H for mH, kg m^2 for g m^2);
-- polarity detection on a machine without the d-axis saturation asymmetry
-  it measures (linear magnetics), with a rotor so light that its pulses
-  spin it, or under a load that turns the rotor while the pulses make no
-  torque (fs_polarity.h): the drive will refuse to start sensorless.
+  the back-EMF at rated speed against the rated voltage or the link, the
+  torque at rated current with its reluctance part against the rated
+  torque, copper losses), which are unit and definition mistakes more often
+  than machines (H for mH, kg m^2 for g m^2, poles for pole pairs, psi_f
+  from a line-to-line Ke, the rated current as rms), each line naming the
+  field and the likely mistake;
+- the speed loop against the observer whose speed it takes (a given
+  controller.bw_speed above what design.scenario allows it);
+- polarity pulses on a machine without the d-axis saturation asymmetry
+  they measure (linear magnetics), pulses larger than the rotor and the
+  current loop tolerate (design.start), or a load that turns the rotor while
+  the pulses make no torque (fs_polarity.h): the drive will refuse to start
+  sensorless, or trip; an injection start on a saliency below the
+  injection's resolution (design.start).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 
-from ..model.units import rad_s_to_rpm
-from .controller import controller_model, hfi_design
-from .magnetics import saliency_warnings
+from .._core import lib
+from ..model.errors import ConfigError
+from ..model.units import rad_s_to_rpm, rpm_to_rad_s
+from .controller import controller_model, hfi_design, injection_inductances
+from .envelope import OVERMODULATION, Limits
+from .machine import mtpa_torque
+from .magnetics import mtpa_locus, saliency_warnings
 from .rules import CARRIER_LOOP_ACTION_MAX, carrier_loop_action, control_period, u_linear
+from .start import POLARITY_LOAD, RESOLUTION_MIN, largest_on, polarity_blind
 
 # The bands of plausibility, each with its reason.
 TAU_E = (1e-5, 1.0)      # s, L_d / R_s: 10 us (a few-mH machine with a large R) .. 1 s (large machines reach 0.1 s)
 TAU_M = (1e-3, 20.0)     # s, J w_rated / T_rated: the time to rated speed at rated torque
 EMF_PER_LINK = 2.0       # the back-EMF at rated speed may exceed the link (flux weakening), not by 2x
-K_T = (0.5, 3.0)         # 1.5 p psi_f i_rated / T_rated: reluctance torque and saturation move it, not by 2x
+# The back-EMF at rated speed against the rated (terminal) voltage, where the machine gives it: the terminal
+# voltage carries the EMF and the current's drops (catalog: 0.69..1.04); above 1.3 the magnet flux alone would
+# need flux weakening cancelling a quarter of it at rated speed: twice the pole pairs or a line-to-line Ke's
+# psi_f (x sqrt 3) put a machine from 0.65 or 0.75 there
+EMF_PER_RATED_VOLTAGE = 1.3
+K_T_MAGNET = 0.5         # 1.5 p psi_f i_rated / T_rated: the magnet alone below half the rated torque is a current given as rms or a small psi_f
+# The torque at rated current on MTPA, 1.5 p (psi_f i_q + (L_d - L_q) i_d i_q) (a flux map's own), against the
+# rated torque. Below 0.7 the machine cannot make its rating (the zoo's, which draws the magnet's share at
+# 0.8..1, reaches 0.81). Above 2.4 it makes far more than its rating, beyond what saturation explains with the
+# small-signal inductances a datasheet gives: zou2021's 1.92, the Prius MG2's published 2.26 / 6.15 mH at its
+# 250 A (2.26 x its 400 N m; its flux map 1.21 x); twice the pole pairs doubles it (Prius 4.52), a line-to-line
+# Ke's psi_f (x sqrt 3) raises it to 2.60 there
+K_T_TOTAL = (0.7, 2.4)
 COPPER = 0.5             # copper losses at rated current, of rated power: small low-voltage machines reach 0.4 (yang2022: 0.41 at its 40 A rms)
-# the share of the detection's speed tolerance a load's acceleration may use: the estimate's
-# own lag and noise take the rest (yang2022's machine refused from 0.94 of it, at 1 N m)
-POLARITY_LOAD = 0.8
-SPIN = 4.0               # growth exponent of the pulses' torque on a rotor a pulse pair may reach (e^4 = 55x)
+# psi_f (Wb, peak phase flux linkage) from a datasheet's Ke (V per 1000 rpm, line-to-line rms), as the
+# machine template says it (model.reference.machine_template)
+KE_TO_PSI_F = "psi_f = Ke sqrt(2) / sqrt(3) / (p 2 pi 1000 / 60)"
 
 
 def top_speed(m, u: float, T: float, i_d: float = 0.0) -> float:
     """The mechanical speed (rad/s) at which the voltage reaches u with the
-    q current for torque T (and i_d), in steady state."""
+    q current for torque T and a given i_d, in steady state (linear
+    magnetics): zou2021's analytic limits, whose i_d is fixed by the
+    strategy (0, or on a current circle). What a machine can reach at its
+    best current is its envelope (design.envelope)."""
     k = 0.5 * m.phases * m.pole_pairs
     i_q = abs(T) / (k * (m.psi_f + (m.L_d - m.L_q) * i_d)) if m.psi_f + (m.L_d - m.L_q) * i_d > 0 else math.inf
     if not math.isfinite(i_q):
@@ -56,8 +86,9 @@ def top_speed(m, u: float, T: float, i_d: float = 0.0) -> float:
     return max((-b + math.sqrt(disc)) / (2 * a), 0.0) / m.pole_pairs
 
 
-def warnings_of(d: dict, m) -> list[str]:
-    """The warning lines of a validated scenario (data d, machine m)."""
+def warnings_of(d: dict, m, bw_speed_given: bool = False) -> list[str]:
+    """The warning lines of a validated scenario (data d, machine m;
+    bw_speed_given: the scenario sets controller.bw_speed)."""
     out = []
     ctl = d["controller"]
     u_lin = u_linear(d["converter"]["u_dc"], m.phases)
@@ -71,56 +102,53 @@ def warnings_of(d: dict, m) -> list[str]:
     if not TAU_M[0] <= tau_m <= TAU_M[1]:
         out.append(f"machine.mechanical.J: J w_rated / T_rated = {tau_m:.3g} s to rated speed at rated torque is outside "
                    f"{TAU_M[0]:g}..{TAU_M[1]:g} s: check J's unit (kg m^2)")
-    emf = w_e_rated * m.psi_f
-    if emf > EMF_PER_LINK * u_lin:
-        out.append(f"machine.electrical.psi_f: the back-EMF at rated speed, {emf:.4g} V, is {emf / u_lin:.3g} x the "
-                   f"{u_lin:.4g} V the link gives: check psi_f (Wb, peak phase flux linkage) and converter.u_dc")
-    k_t = 0.5 * m.phases * m.pole_pairs * m.psi_f * m.i_rated / m.T_rated
-    if m.psi_f > 0 and not K_T[0] <= k_t <= K_T[1]:
-        out.append(f"machine.rated.current: (phases/2) p psi_f i_rated = {k_t:.3g} x the rated torque, outside "
-                   f"{K_T[0]:g}..{K_T[1]:g}: check psi_f (Wb), the rated current (A peak) and torque (N m)")
+    out += emf_warnings(m, u_lin)
+    out += torque_warnings(m)
     p_rated = m.T_rated * m.w_m_rated
     loss = 0.5 * m.phases * m.R_s * m.i_rated ** 2
     if loss > COPPER * p_rated:
         out.append(f"machine.electrical.R_s: the copper losses at rated current, {loss:.4g} W, are {loss / p_rated:.0%} "
                    f"of the rated power: check R_s (ohm, per phase)")
 
-    # feasibility of the speed reference
-    if ctl["mode"] == "speed":
-        w_ref = max((abs(v) for v in d["references"]["speed_rpm"][1]), default=0.0)
-        T_load = max((abs(v) for v in d["load"]["torque"][1]), default=0.0) if d["load"]["kind"] in ("torque", "brake") else 0.0
-        T = T_load + m.B * w_ref * 2 * math.pi / 60 + m.T_coulomb
-        w_top = rad_s_to_rpm(top_speed(m, u_lin, T))
-        if not ctl["flux_weakening"] and w_ref > 1.02 * w_top:
-            out.append(f"references.speed_rpm: {w_ref:.5g} rpm is beyond the {w_top:.5g} rpm the {d['converter']['u_dc']:g} V link "
-                       f"allows at {T:.3g} N m without flux weakening (controller.flux_weakening = false): the speed will not be reached")
-        elif ctl["flux_weakening"]:
-            w_fw = rad_s_to_rpm(top_speed(m, u_lin, T, -ctl["i_max"] * 0.9)) if m.psi_f > m.L_d * ctl["i_max"] * 0.9 else math.inf
-            if w_ref > 1.02 * max(w_fw, w_top):
-                out.append(f"references.speed_rpm: {w_ref:.5g} rpm is beyond the {max(w_fw, w_top):.5g} rpm flux weakening reaches "
-                           f"at {T:.3g} N m with {0.9 * ctl['i_max']:.4g} A of d current: the speed will not be reached")
+    # feasibility of the references and the load against the machine's envelope
+    out += envelope_warnings(d, m)
 
-    # polarity detection
-    pol, inj = d.get("polarity", {}), d.get("injection", {})
-    if ctl["angle"] in ("hfi", "blend") and pol.get("enabled") and ctl["mode"] in ("current", "speed"):
-        what = polarity_blind(m, pol.get("i_pulse") or 0.5 * ctl["i_max"])
-        if what:
+    # the speed loop against the observer whose speed it takes
+    if bw_speed_given:
+        out += speed_loop_warning(d, m)
+
+    # the start (design.start)
+    pol, inj, st = d.get("polarity", {}), d.get("injection", {}), d.get("start", {})
+    out += start_warnings(d, m)
+    if st.get("kind") == "motion" and not st["c"]["T_push"] > 2 * st["c"]["T_load"]:
+        out.append(f"start.i_push: the motion test's push, {st['i_push']:.4g} A, makes {st['c']['T_push']:.3g} N m, not above "
+                   f"twice the load and friction acting while it runs ({st['c']['T_load']:.3g} N m): the load would turn the "
+                   "rotor its own way and the test will refuse (stop reason polarity_undetermined); let the load act after "
+                   f"the start, or raise start.i_push towards {2.2 * st['c']['T_load'] / st['c']['T_push'] * st['i_push']:.3g} A")
+    if st.get("kind") == "pulses" and m.psi_f > 0:
+        safe = st["c"].get("pulse_safe", {})
+        i_safe = min(safe.get("still", math.inf), safe.get("reach", math.inf))
+        blind = polarity_blind(m, pol["i_pulse"])
+        if blind:
             out.append(f"polarity.enabled: polarity detection measures the d axis's saturation asymmetry, and {m.name}'s "
-                       f"{what}: the drive will refuse to start sensorless (stop reason polarity_undetermined); "
-                       "give [magnetic] its saturation, or start at a known angle (polarity.enabled = false)")
-        elif pol.get("i_pulse") and pol.get("t_pulse") and m.psi_f > 0:
-            lam = math.sqrt(0.5 * m.phases * m.pole_pairs ** 2 * m.psi_f * pol["i_pulse"] / m.J)
-            if lam * 2 * pol["t_pulse"] > SPIN:
-                out.append(f"polarity.t_pulse: the rotor is light for its pulses: {pol['i_pulse']:.3g} A a few degrees off the "
-                           f"axis spins it up within {SPIN / lam:.3g} s, shorter than a pulse pair ({2 * pol['t_pulse']:.3g} s); "
-                           "the detection will likely refuse (stop reason polarity_undetermined)")
-        if not what and d["load"]["kind"] == "torque" and pol.get("t_lock") is not None and pol.get("t_pulse"):
+                       f"{blind}: the drive will refuse to start sensorless (stop reason polarity_undetermined); "
+                       "give [magnetic] its saturation, start at a known angle (polarity.enabled = false), or let the start "
+                       "turn the rotor (start.method = \"designed\" or \"motion\", start.allow_motion = true)")
+        elif pol["i_pulse"] > 1.0001 * i_safe:
+            why = ("the rotor's inertia: its torque on an estimate a few degrees off the axis spins the rotor within a "
+                   "pulse, and the detection will refuse (stop reason polarity_undetermined)"
+                   if safe["still"] <= safe["reach"] else
+                   "the current loop's reach: the step from +i to -i on the d axis's saturated incremental inductance, "
+                   "with the carrier, passes 0.9 of the trip level (stop reason overcurrent)")
+            out.append(f"polarity.i_pulse: {pol['i_pulse']:.4g} A is beyond what {m.name} tolerates, {why}; "
+                       f"polarity.i_pulse = {i_safe:.3g} A would not (or leave it to the design)")
+        if not blind and d["load"]["kind"] == "torque" and pol.get("t_lock") is not None and pol.get("t_pulse"):
             # the pulses make no torque: a load acting before the first pair
             # ends accelerates the rotor, and a pair whose half-pulse mean
             # speeds differ by more than w_max (a tenth of the positive
             # carrier's filter band, fs_polarity.h) decides nothing
             t_pol = pol["t_lock"] + 2 * pol["t_pulse"]
-            T_pol = _largest_on(d["load"]["torque"], t_pol)
+            T_pol = largest_on(d["load"]["torque"], t_pol)
             dw = m.pole_pairs * max(T_pol - m.T_coulomb, 0.0) / m.J * 0.5 * pol["t_pulse"]
             w_max = 0.1 * _w_b_p(d, m)   # FS_POLARITY_W_MAX_PER_FILTER of the filter's band
             if w_max > 0 and dw > POLARITY_LOAD * w_max:
@@ -146,15 +174,298 @@ def warnings_of(d: dict, m) -> list[str]:
     return out
 
 
-# the incremental L_d asymmetry below which the detection cannot decide: its
-# 5 % floor on the carrier amplitude (fs_polarity.h) needs about that much
-POLARITY_ASYMMETRY = 0.05
+# the matrix converter's voltage per modulation region: the largest voltage transfer ratio of each
+# (zou2021 sec. 3.3, eqs. (20)-(21): CASE 1; CASE 2 at alpha = pi/6), as the modulator has them
+IMC_VTR = {"linear": ("FS_IMC_LINEAR", 0.0), "om1": ("FS_IMC_OM1", 0.0), "om2": ("FS_IMC_OM2", math.pi / 6)}
+ENVELOPE_TOL = 1e-6      # of the torque: the envelope's own accuracy; a point at the limit is inside
+
+
+def voltage_limit(d: dict, m) -> tuple[float, str]:
+    """The voltage (V peak phase) the scenario's converter gives the
+    machine in steady state, and how it says so: the modulator's linear
+    limit u_dc/sqrt3 (the drive's over-modulation gives up to 4.9 % more),
+    or a matrix converter's largest VTR in its modulation times the grid's
+    phase amplitude (the over-modulation regions are its own setting)."""
+    conv = d["converter"]
+    if conv["kind"] == "imc":
+        name, alpha = IMC_VTR[conv["modulation"]]
+        v_im = conv["grid_ll_rms"] * math.sqrt(2.0 / 3.0)
+        return (float(lib.fs_imc_vtr_max(getattr(lib, name), alpha)) * v_im,
+                f"the matrix converter's {conv['modulation']} modulation on a {conv['grid_ll_rms']:g} V grid")
+    return (u_linear(conv["u_dc"], m.phases),
+            f"the {conv['u_dc']:g} V link at linear modulation, over-modulation giving up to "
+            f"{100 * (OVERMODULATION - 1):.1f} % more voltage")
+
+
+def _points(profiles: list, extra: tuple = ()) -> list[tuple[float, list]]:
+    """The corners of piecewise-linear profiles (times, values), together:
+    each time any of them has a corner (and the extra times), with each
+    profile's values there (both sides of a step)."""
+    times = sorted({t for p in profiles for t in p[0]} | set(extra)) or [0.0]
+    out = []
+    for t in times:
+        vals = []
+        for tp, yp in profiles:
+            at = [y for tk, y in zip(tp, yp) if tk == t]
+            vals.append(at or [float(np.interp(t, tp, yp)) if len(tp) else 0.0])
+        out.append((t, vals))
+    return out
+
+
+def envelope_warnings(d: dict, m) -> list[str]:
+    """A line per field whose profile asks, at one of its corners, for more
+    than the machine's envelope gives there (the worst corner): in speed
+    mode the speed reference with the load and friction it turns against
+    (with flux weakening, against the torque the envelope gives at that
+    speed; without, against where the MTPA current meets the voltage
+    limit); in current mode with a speed-holding load, the current
+    reference's voltage at the load's speed."""
+    ctl, load, ref = d["controller"], d["load"], d["references"]
+    if ctl["mode"] == "speed" and load["kind"] in ("torque", "brake"):
+        cases = []
+        for t, (speeds, loads) in _points([ref["speed_rpm"], load["torque"]]):
+            for n in speeds:
+                w_m = rpm_to_rad_s(abs(n))
+                for T_l in loads:
+                    cases.append((t, abs(n), w_m, abs(T_l), abs(T_l) + m.B * w_m + m.T_coulomb))
+        cases = [c for c in cases if c[1] > 0]
+        if not cases:
+            return []
+        try:
+            quick, how = _limits(d, m, coarse=True)
+            if _inside(quick, cases, ctl["flux_weakening"]):   # the usual case, in a few ms
+                return []
+            lim, how = _limits(d, m)
+        except ConfigError as exc:   # a flux map short of the scenario's i_max: said, not refused here
+            return [f"controller.i_max: {exc.allowed}: the references are not checked against the envelope"]
+        return _speed_warnings(lim, cases, ctl["flux_weakening"], how, m)
+    if ctl["mode"] == "current" and load["kind"] in ("speed", "speed_pi"):
+        try:
+            return _current_warnings(d, m)
+        except ConfigError as exc:
+            return [f"controller.i_max: {exc.allowed}: the references are not checked against the envelope"]
+    return []
+
+
+def _limits(d: dict, m, coarse: bool = False) -> tuple[Limits, str]:
+    """The machine within the scenario's current limit and its converter's voltage."""
+    u, how = voltage_limit(d, m)
+    return Limits(m, d["converter"]["u_dc"], d["controller"]["i_max"], u_max=u, coarse=coarse), how
+
+
+QUICK_MARGIN = 1e-3      # the coarse MTPA locus's interpolation is within this of the fine one's
+
+
+def _inside(quick: Limits, cases: list, weakening: bool) -> bool:
+    """Whether every case is inside by a coarse scan alone: with flux
+    weakening a scanned current within both limits makes its torque (a
+    lower bound of the envelope's); without, the MTPA locus's speed with a
+    margin for its coarser interpolation."""
+    p = quick.p
+    if weakening:
+        T_low = quick.scan_torque(np.array([c[2] * p for c in cases]))
+        return all(c[4] <= T for c, T in zip(cases, T_low))
+    return all(c[2] * p <= (1 - QUICK_MARGIN) * quick.mtpa_speed(c[4]) for c in cases)
+
+
+def _speed_warnings(lim: Limits, cases: list, weakening: bool, how: str, m) -> list[str]:
+    """The speed mode's lines, the worst case of each field (cases: t,
+    rpm, w_m, load torque, torque needed with friction): load.torque where
+    a load asks for the torque, references.speed_rpm where friction alone
+    does (the speed is beyond the top speed)."""
+    p, i_max = lim.p, lim.i_max
+    T_mtpa = lim.mtpa_locus()["T"][-1]
+    where = f"{i_max:g} A and {how}"
+    if weakening:   # nan: no current within the limits reaches the speed (beyond the top speed)
+        T_max = lim.best(np.array([c[2] * p for c in cases]))[0]
+        short = [(c[4] - T if np.isfinite(T) else math.inf, c, T) for c, T in zip(cases, T_max)]
+    else:   # the MTPA current for the torque must meet the voltage limit at the speed
+        w_top = {T: lim.mtpa_speed(T) / p for T in {c[4] for c in cases}}
+        short = [((c[2] - w_top[c[4]]) / max(c[2], 1e-300), c, w_top[c[4]]) for c in cases]
+    worst = {}
+    for excess, c, limit in short:
+        field = "load.torque" if c[3] > 0 else "references.speed_rpm"
+        if excess > (ENVELOPE_TOL * max(c[4], 1e-12) if weakening else ENVELOPE_TOL) and excess > worst.get(field, (0.0,))[0]:
+            worst[field] = (excess, c, limit)
+    out = []
+    for field, (_, (t, n, w_m, T_l, T), limit) in worst.items():
+        what = f"{T_l:.4g} N m at {n:.5g} rpm" if T_l > 0 else f"{n:.5g} rpm"
+        at = f"t = {t:g} s" + (f", {T:.4g} N m with friction" if T > T_l * (1 + 1e-9) else "")
+        if T > T_mtpa * (1 + ENVELOPE_TOL):
+            out.append(f"{field}: {what} ({at}) is beyond the {T_mtpa:.4g} N m {m.name} makes at i_max on MTPA "
+                       f"(within {where}; `fullspeed design` prints the envelope)")
+        elif weakening:
+            most = (f"it makes at most {limit:.4g} N m at that speed" if np.isfinite(limit) else
+                    f"that speed is beyond its top speed, {rad_s_to_rpm(lim.w_top()[0] / p):.5g} rpm")
+            out.append(f"{field}: {what} ({at}) lies outside {m.name}'s envelope: {most} with flux weakening (MTPA, "
+                       f"flux weakening and MTPV within {where}; `fullspeed design` prints the envelope): the speed "
+                       "will not be held")
+        else:
+            T_fw = lim.best(np.array([w_m * p]))[0][0]
+            fw = (f"with flux weakening the envelope gives {T_fw:.4g} N m there" if np.isfinite(T_fw) and T_fw > 0
+                  else "beyond the top speed even with flux weakening")
+            out.append(f"references.speed_rpm: {n:.5g} rpm is beyond the {rad_s_to_rpm(limit):.5g} rpm "
+                       f"{how.split(',')[0]} allows at {T:.3g} N m ({at}) without flux weakening "
+                       f"(controller.flux_weakening = false: the MTPA current meets the voltage limit there; {fw}): "
+                       "the speed will not be reached")
+    return out
+
+
+def _current_warnings(d: dict, m) -> list[str]:
+    """The current mode's line: the reference's voltage at the load's
+    speed above the converter's (the currents will not be reached)."""
+    ref, load, ctl = d["references"], d["load"], d["controller"]
+    lim, how = _limits(d, m, coarse=True)   # its fluxes anywhere are the plant's own, exact
+    u = lim.u
+    worst = None
+    for t, (ds, qs, ns) in _points([ref["i_d"], ref["i_q"], load["speed_rpm"]]):
+        for i_d in ds:
+            for i_q in qs:
+                for n in ns:
+                    if math.hypot(i_d, i_q) > ctl["i_max"]:
+                        continue   # the drive limits the current: not the voltage's question
+                    v = _voltage(lim, i_d, i_q, m.pole_pairs * rpm_to_rad_s(n))
+                    if worst is None or v > worst[0]:
+                        worst = (v, t, i_d, i_q, n)
+    if worst is None or worst[0] <= u * (1 + ENVELOPE_TOL):
+        return []
+    v, t, i_d, i_q, n = worst
+    T_max = _limits(d, m)[0].best(np.array([m.pole_pairs * rpm_to_rad_s(abs(n))]))[0][0]
+    return [f"references.i_q: i_d = {i_d:.4g} A, i_q = {i_q:.4g} A at {n:.5g} rpm (load.speed_rpm, t = {t:g} s) needs "
+            f"{v:.4g} V of the {u:.4g} V {how.split(',')[0]} gives: the currents will not be reached (the envelope "
+            f"gives at most {T_max:.4g} N m at that speed)"]
+
+
+def _voltage(lim: Limits, i_d: float, i_q: float, w_e: float) -> float:
+    """|R_s i + j w_e psi(i)| at any current (the flux as the plant has it)."""
+    psi_d, psi_q = lim.flux_anywhere(i_d, i_q)
+    return math.hypot(lim.R * i_d - w_e * psi_q, lim.R * i_q + w_e * psi_d)
+
+def _mistakes(m, psi_ok: bool, p_ok: bool, henry_ok: bool = False) -> list[tuple[str, str]]:
+    """The likely mistakes behind too much EMF or torque, (field, what),
+    the commonest first: psi_f from a line-to-line Ke, pole pairs given as
+    poles, inductances in mH typed as H."""
+    out = []
+    if psi_ok:
+        out.append(("machine.electrical.psi_f", f"psi_f from a line-to-line Ke ({m.psi_f:.4g} Wb is sqrt 3 x "
+                    f"{m.psi_f / math.sqrt(3):.4g}: {KE_TO_PSI_F}, Ke in V/krpm line-to-line rms)"))
+    if p_ok:
+        out.append(("machine.pole_pairs", f"pole_pairs given as poles ({m.pole_pairs} for {m.pole_pairs // 2} pairs)"))
+    if henry_ok:
+        out.append(("machine.electrical.L_d", f"L_d and L_q in mH typed as H ({m.L_d:g} and {m.L_q:g})"))
+    return out
+
+
+def _likely(found: list[tuple[str, str]], first: str, otherwise: str) -> str:
+    """A warning's field (the likeliest mistake's, else `first`) and its text."""
+    if not found:
+        return f"{first}: {{}}: {otherwise}"
+    return f"{found[0][0]}: {{}}: likely " + " or ".join(what for _, what in found)
+
+
+def emf_warnings(m, u_lin: float) -> list[str]:
+    """The back-EMF at rated speed against the rated voltage where the
+    machine gives it (EMF_PER_RATED_VOLTAGE), else against the link
+    (EMF_PER_LINK)."""
+    emf = m.pole_pairs * m.w_m_rated * m.psi_f
+    ref, what, band = ((m.u_rated, "rated voltage (machine.rated.voltage, peak phase: line-to-line rms x sqrt(2/3))",
+                        EMF_PER_RATED_VOLTAGE) if m.u_rated else (u_lin, "link gives", EMF_PER_LINK))
+    if not emf > band * ref:
+        return []
+    found = _mistakes(m, emf / math.sqrt(3) <= band * ref, m.pole_pairs % 2 == 0 and emf / 2 <= band * ref)
+    line = _likely(found, "machine.electrical.psi_f", "check psi_f (Wb, peak phase flux linkage), pole_pairs and converter.u_dc")
+    return [line.format(f"the back-EMF at rated speed, p w_rated psi_f = {emf:.4g} V, is {emf / ref:.3g} x the {ref:.4g} V "
+                        f"the {what}, above {band:g}")]
+
+
+def rated_torque_ratio(m, i: float | None = None, **fields) -> float | None:
+    """The torque at current i (the rated current) on the MTPA locus, with
+    its reluctance part, over the rated torque: the linear model's
+    (1.5 p (psi_f i_q + (L_d - L_q) i_d i_q)), a flux map's own where the
+    machine has one; with other fields (pole_pairs, psi_f, L_d, L_q) for the
+    linear model. None where the model makes no torque."""
+    i = m.i_rated if i is None else i
+    mm = dataclasses.replace(m, **fields) if fields else m
+    if not fields and m.magnetic.get("model") == "fluxmap":
+        T, d, q = mtpa_locus(m.magnetic, max(i, 1e-9) * 1.0, m.phases, m.pole_pairs)
+        return float(T[-1]) / m.T_rated
+    try:
+        return mtpa_torque(mm, i) / m.T_rated
+    except ValueError:
+        return None
+
+
+def torque_warnings(m) -> list[str]:
+    """The torque at rated current with its reluctance part against the rated
+    torque (K_T_TOTAL), and the magnet's alone (K_T_MAGNET), each naming the
+    likely mistake."""
+    out = []
+    r = rated_torque_ratio(m)
+    head = (f"the torque at rated current on MTPA with its reluctance part (1.5 p (psi_f i_q + (L_d - L_q) i_d i_q) at "
+            f"{m.i_rated:g} A) is {r:.3g} x the rated torque ({m.T_rated:g} N m)" if r is not None else "")
+    if r is not None and r > K_T_TOTAL[1]:
+        def fits(**fields):
+            return K_T_TOTAL[0] <= (rated_torque_ratio(m, **fields) or 0.0) <= K_T_TOTAL[1]
+        found = _mistakes(m, fits(psi_f=m.psi_f / math.sqrt(3)), m.pole_pairs % 2 == 0 and fits(pole_pairs=m.pole_pairs // 2),
+                          m.R_s > 0 and m.L_d / m.R_s > TAU_E[1] and fits(L_d=1e-3 * m.L_d, L_q=1e-3 * m.L_q))
+        line = _likely(found, "machine.electrical.psi_f", "check pole_pairs, psi_f (Wb), L_d, L_q (H) and the rated torque (N m)")
+        out.append(line.format(f"{head}, above {K_T_TOTAL[1]:g}, more than saturation explains"))
+    elif r is not None and r < K_T_TOTAL[0]:
+        rms = K_T_TOTAL[0] <= (rated_torque_ratio(m, math.sqrt(2) * m.i_rated) or 0)
+        out.append(f"machine.rated.current: {head}, below {K_T_TOTAL[0]:g}: the machine cannot make its rating; "
+                   + (f"likely the rated current given as rms (peak {math.sqrt(2) * m.i_rated:.4g} A)" if rms
+                      else "check psi_f (Wb), the rated current (A peak) and torque (N m)"))
+    k_t = 0.5 * m.phases * m.pole_pairs * m.psi_f * m.i_rated / m.T_rated
+    # the magnet alone stands in for the total where linear inductances (unsaturated, small-signal) overstate the
+    # reluctance torque: the trial's Prius at an rms current still makes 1.22 x on them. A flux map's torque is
+    # the machine's own, saturation in it, and the total decides: a PM-assisted synchronous reluctance machine
+    # makes most of its torque from saliency (SyR-e's THOR: magnet 0.46 of 1.0 x rated)
+    linear = m.magnetic.get("model") != "fluxmap"
+    if linear and m.psi_f > 0 and k_t < K_T_MAGNET and not (r is not None and r < K_T_TOTAL[0]):
+        out.append(f"machine.rated.current: the magnet's torque at rated current, (phases/2) p psi_f i_rated = {k_t:.3g} x the "
+                   f"rated torque, below {K_T_MAGNET:g}: likely the rated current given as rms (peak = rms x sqrt 2 = "
+                   f"{math.sqrt(2) * m.i_rated:.4g} A), or check psi_f (Wb) and the torque (N m)")
+    return out
+
+
+def speed_loop_bound(d: dict, m) -> tuple[float, str] | None:
+    """The fastest speed loop the observer feeding it allows (design.scenario's
+    rule) and why; None where the loop takes the encoder's speed or a
+    paper's gains."""
+    ctl, inj, obs = d["controller"], d["injection"], d["observer"]
+    if ctl["gains"] == "paper":
+        return None
+    if ctl["angle"] in ("hfi", "blend"):
+        cm = controller_model(ctl, m)
+        h = hfi_design(inj, control_period(d), cm["L_d"], cm["L_q"])
+        w_o = (d["blending"]["bw_observer"] if ctl["angle"] == "blend" else None) or h.w_o_blend
+        return 0.5 * w_o, f"half the bandwidth of the observer whose speed it takes ({w_o:.4g} rad/s)"
+    if ctl["angle"] == "smo":
+        return obs["bw_pll"] / 6.0, f"a sixth of the back-EMF observer's PLL (observer.bw_pll = {obs['bw_pll']:.4g} rad/s)"
+    if ctl["angle"] == "swvi":
+        return inj["bw_pll"] / 2.0, f"half the square wave's PLL (injection.bw_pll = {inj['bw_pll']:.4g} rad/s)"
+    return None
+
+
+def speed_loop_warning(d: dict, m) -> list[str]:
+    """A line when a speed loop the scenario sets (controller.bw_speed; a
+    machine file's bench.bw_speed is its bench's, as the catalog's papers
+    ran it) outruns the observer that feeds it: its lag then sits inside the
+    loop (the Prius MG2 rolled back further at standstill under 200 N m with
+    bw_speed 60 and 100 rad/s)."""
+    ctl = d["controller"]
+    b = speed_loop_bound(d, m) if ctl["mode"] == "speed" else None
+    if b is None or not ctl["bw_speed"] > b[0] * (1 + 1e-6):
+        return []
+    return [f"controller.bw_speed: {ctl['bw_speed']:.4g} rad/s outruns the observer that feeds the speed loop: at most "
+            f"{b[0]:.4g} rad/s, {b[1]}; its lag in the loop makes the rotor roll back further under a load at standstill "
+            "and can cost lock: leave bw_speed to the design or raise the observer's bandwidth"]
 
 
 def _w_b_p(d: dict, m) -> float:
     """The positive carrier's filter band, rad/s, as fs_hfi_init designs it."""
-    cm = controller_model(d["controller"], m)
-    h = hfi_design(d["injection"], control_period(d), cm["L_d"], cm["L_q"])
+    L_d, L_q = injection_inductances(controller_model(d["controller"], m))
+    h = hfi_design(d["injection"], control_period(d), L_d, L_q)
     return h.cfg.w_b_p
 
 
@@ -183,38 +494,16 @@ def carrier_loop_warning(d: dict, m) -> list[str]:
             f"standstill; keep bw_current <= {lo:.4g} rad/s, or leave injection.f_h to the design (it rises with bw_current)"]
 
 
-def _largest_on(profile, t_end: float) -> float:
-    """The largest magnitude of a piecewise-linear profile (times, values;
-    held beyond its ends) over [0, t_end]."""
-    t, y = profile
-    ts = [0.0, t_end, *(tk for tk in t if 0.0 < tk < t_end)]
-    return max(abs(float(np.interp(tk, t, y))) for tk in ts) if len(t) else 0.0
-
-
-def polarity_blind(m, i_pulse: float) -> str | None:
-    """Why polarity detection cannot decide on machine m at pulses of i_pulse
-    (what its magnetics lack, as "<m.name>'s ..." completes it), or None."""
-    if m.magnetic["model"] == "linear":
-        return "magnetics are linear"
-    asym = d_asymmetry(m, i_pulse)
-    if asym is not None and asym < POLARITY_ASYMMETRY:
-        return f"flux map's incremental L_d differs by only {asym:.1%} between -i_pulse and +i_pulse"
-    return None
-
-
-def d_asymmetry(m, i_pulse: float) -> float | None:
-    """A flux map's incremental L_d at -i_pulse against +i_pulse (i_q = 0),
-    relative: what polarity detection decides on; None without a map."""
-    if m.magnetic.get("model") != "fluxmap":
-        return None
-    i_d, i_q, psi_d = (np.asarray(m.magnetic[k], float) for k in ("i_d", "i_q", "psi_d"))
-    col = np.array([np.interp(0.0, i_q, row) for row in psi_d])     # psi_d(i_d) at i_q = 0
-    h = 0.25 * i_pulse
-
-    def L(i):   # the incremental L_d at i (the map's range clamps it)
-        return (np.interp(i + h, i_d, col) - np.interp(i - h, i_d, col)) / (2 * h)
-    lo, hi = L(-i_pulse), L(i_pulse)
-    return abs(lo - hi) / max(lo, hi) if max(lo, hi) > 0 else 0.0
+def start_warnings(d: dict, m) -> list[str]:
+    """The start the design kept where the machine asked for another: an
+    injection start on a saliency below the injection's resolution."""
+    st = d.get("start", {})
+    res = st.get("c", {}).get("resolution")
+    if st.get("kind") in ("pulses", "motion", "known") and res is not None and res < RESOLUTION_MIN:
+        return [f"start.method: the injection's resolution on {m.name} is {res:.2f} of what its carrier's design wants "
+                f"(below {RESOLUTION_MIN:g}: too little saliency); its angle at standstill will be noisy or lost: "
+                "start.method = \"designed\" with start.allow_motion = true starts I/f into the back-EMF observer instead"]
+    return []
 
 
 def ideal_hardware(d: dict) -> list[str]:

@@ -12,9 +12,24 @@ from ..model.machines import Machine
 
 
 def controller_model(ctl: dict, m: Machine) -> dict:
-    """R_s, L_d, L_q as the controller knows them: the machine's times the
-    controller's *_scale (a model error on purpose)."""
-    return {"R_s": m.R_s * ctl["R_s_scale"], "L_d": m.L_d * ctl["L_d_scale"], "L_q": m.L_q * ctl["L_q_scale"]}
+    """R_s, L_d, L_q, psi_f as the controller knows them: the machine's times
+    the controller's *_scale (a model error on purpose). A flux map's machine
+    (design.machine.map_model): its map's psi_f, secant L_d, L_q and, for the
+    injection, its incremental L_d_hf, L_q_hf."""
+    if "map.L_d" in m.design:
+        v = {k: m.design[f"map.{k}"].value for k in ("psi_f", "L_d", "L_q", "L_d_hf", "L_q_hf")}
+        return {"R_s": m.R_s * ctl["R_s_scale"], "psi_f": v["psi_f"] * ctl["psi_f_scale"],
+                "L_d": v["L_d"] * ctl["L_d_scale"], "L_q": v["L_q"] * ctl["L_q_scale"],
+                "L_d_hf": v["L_d_hf"] * ctl["L_d_scale"], "L_q_hf": v["L_q_hf"] * ctl["L_q_scale"]}
+    return {"R_s": m.R_s * ctl["R_s_scale"], "L_d": m.L_d * ctl["L_d_scale"], "L_q": m.L_q * ctl["L_q_scale"],
+            "psi_f": m.psi_f * ctl["psi_f_scale"]}
+
+
+def injection_inductances(cm: dict) -> tuple[float, float]:
+    """The inductances the rotating carrier sees, from controller_model's
+    values: a flux map's incremental ones where it runs, else L_d, L_q (the
+    drive's rule, fs_drive.h L_d_hf)."""
+    return cm.get("L_d_hf", cm["L_d"]), cm.get("L_q_hf", cm["L_q"])
 
 
 def hfi_design(inj: dict, Ts: float, L_d: float, L_q: float, source=None):

@@ -1,11 +1,13 @@
 """What the design takes from a flux map: the MTPA locus searched on the
 map, the incremental saliency an injection estimator sees along it, and the
 values the controller is given (psi_f, secant and incremental inductances,
-the MTPA table). The map itself is read and checked in model.fluxmap."""
+the MTPA table), and the map as the controller holds it (controller_map).
+The map itself is read and checked in model.fluxmap."""
 from __future__ import annotations
 
 import numpy as np
 
+from .._core import lib
 from ..model.fluxmap import interp, table_at, zero_current_values
 
 MTPA_N = 64          # csrc/control/fs_mtpa.h FS_MTPA_N
@@ -79,3 +81,24 @@ def controller_values(mag: dict, i_max: float, i_rated: float, phases: int, pole
     L_q_hf = (table_at(mag, "psi_q", i_d_h, i_q_h + h_q) - table_at(mag, "psi_q", i_d_h, i_q_h - h_q)) / (2 * h_q)
     return {"psi_f": psi_f, "L_d": L_d, "L_q": L_q, "L_d_hf": L_d_hf, "L_q_hf": L_q_hf,
             "mtpa_T": T, "mtpa_i_d": d, "mtpa_i_q": q}
+
+
+def controller_map(mag: dict, i_max: float, psi_f_scale: float = 1.0, L_d_scale: float = 1.0,
+                   L_q_scale: float = 1.0) -> dict:
+    """The machine's map on the controller's grid (csrc/control/fs_fluxmap.h):
+    FS_FLUXMAP_ND d currents from -i_max to i_max / 2 (flux weakening's
+    deepest, the polarity pulses' largest), FS_FLUXMAP_NQ q currents from 0
+    to i_max (the map's mirror image below), the fluxes as 16-bit counts of
+    psi_scale (the largest flux at 32,000 counts). A model error on purpose
+    (the scenario's *_scale) scales the magnet's flux psi_d(0, 0) and the
+    currents' parts of the fluxes apart."""
+    i_d = np.linspace(-i_max, 0.5 * i_max, lib.FS_FLUXMAP_ND)
+    i_q = np.linspace(0.0, i_max, lib.FS_FLUXMAP_NQ)
+    D, Q = np.meshgrid(i_d, i_q, indexing="ij")
+    psi_d, psi_q = interp(mag, "psi_d", D, Q), interp(mag, "psi_q", D, Q)
+    psi_f = table_at(mag, "psi_d", 0.0, 0.0)
+    psi_d, psi_q = psi_f_scale * psi_f + L_d_scale * (psi_d - psi_f), L_q_scale * psi_q
+    scale = float(max(np.abs(psi_d).max(), np.abs(psi_q).max())) / 32000.0
+    return {"di_d": float(i_d[1] - i_d[0]), "i_d0": float(i_d[0]), "di_q": float(i_q[1] - i_q[0]), "psi_scale": scale,
+            "psi_d": np.rint(psi_d / scale).astype(int).ravel().tolist(),
+            "psi_q": np.rint(psi_q / scale).astype(int).ravel().tolist()}

@@ -35,7 +35,10 @@ f_s = 1/Ts):
 - the observer's PLL at 3 times the electrical speed of the lower band edge
   (it must follow the angle there), within 6 bw_speed .. bw_current / 10;
 - bw_speed = bw_current / 30, the encoder PLL at 2 pi x that (its double
-  pole lags 18 deg at the speed loop's crossover).
+  pole lags 18 deg at the speed loop's crossover);
+- the overspeed stop at 1.2 x the fastest the drive is designed for (the
+  observer's and flux weakening's top speed) or the scenario asks (its
+  references, the load's speed, the initial speed).
 """
 from __future__ import annotations
 
@@ -44,6 +47,7 @@ import math
 from dataclasses import dataclass
 
 from .._core import ffi, lib
+from ..model.fluxmap import table_at
 from ..model.units import rad_s_to_rpm
 
 # The design targets, each with its reason (printed by `fullspeed design`).
@@ -72,6 +76,11 @@ PLL_PER_W_E_LOWER = 3
 # under rated load grows to 9..15 el.deg, and from 0.99 up the injection's loop cycles at 35 Hz
 # (20 kHz with 3500 or 4000 rad/s, 40 kHz with 3000, 10 kHz with 5000: +-20..45 el.deg)
 CARRIER_LOOP_ACTION_MAX = 0.8
+# The overspeed stop (csrc/control/fs_drive_protect.h) over the fastest the drive is designed for or asked: a
+# speed loop's overshoot on a step (5-15 %) and a reversal's stay below it; a rotor 20 % past that is a runaway
+# (an active load overhauling the drive, a loss the monitor has not flagged yet) whose back-EMF outgrows what
+# the observer's gain, flux weakening's d current and the link were designed for
+OVERSPEED_PER_TOP = 1.2
 
 
 @dataclass(frozen=True)
@@ -97,9 +106,11 @@ def u_linear(u_dc: float, phases: int) -> float:
     return u_dc / (2 * math.cos(math.pi / 10)) if phases == 5 else u_dc / math.sqrt(3)
 
 
-def design_bench(m, b: dict) -> dict[str, Value]:
+def design_bench(m, b: dict, i_max_map: float | None = None) -> dict[str, Value]:
     """The bench's limits and bandwidths from the machine and its converter
-    (b: the machine's [bench] as given; None where left out)."""
+    (b: the machine's [bench] as given; None where left out). i_max_map: the
+    largest current limit the machine's flux map covers (fluxmap.coverage_limit);
+    a designed i_max is held to it (beyond, the plant would extrapolate the map)."""
     out: dict[str, Value] = {}
 
     def put(key, value, unit, reason):
@@ -108,8 +119,13 @@ def design_bench(m, b: dict) -> dict[str, Value]:
         return out[key].value
 
     Ts = sampling_period(b["f_pwm"], b["sampling"])
-    i_max = put("i_max", I_MAX_PER_RATED * m["i_rated"], "A",
-                f"{I_MAX_PER_RATED:g} x the rated current: the usual short-time overload, room for the carrier and for accelerating under rated load")
+    i_rule = I_MAX_PER_RATED * m["i_rated"]
+    if i_max_map is not None and i_rule > i_max_map:
+        i_max = put("i_max", i_max_map, "A", f"held to the {i_max_map:g} A its flux map covers (i_q over +-i_max, i_d from -i_max "
+                    f"to i_max/2), below {I_MAX_PER_RATED:g} x the rated current ({i_rule:g} A): beyond it the plant would extrapolate the map")
+    else:
+        i_max = put("i_max", i_rule, "A",
+                    f"{I_MAX_PER_RATED:g} x the rated current: the usual short-time overload, room for the carrier and for accelerating under rated load")
     i_trip = put("i_trip", I_TRIP_PER_MAX * i_max, "A",
                  f"{I_TRIP_PER_MAX:g} x i_max: above the carrier's peak and the current loop's overshoot")
     put("adc_range", ADC_RANGE_PER_TRIP * i_trip, "A", f"{ADC_RANGE_PER_TRIP:g} x i_trip: the trip level inside the converter's range")
@@ -118,6 +134,17 @@ def design_bench(m, b: dict) -> dict[str, Value]:
     bw_s = put("bw_speed", BW_SPEED_PER_CURRENT * bw_c, "rad/s", "bw_current / 30: the speed loop well inside the current loop")
     put("bw_pll", 2 * math.pi * bw_s, "rad/s", "2 pi bw_speed: the encoder PLL's double pole lags 18 deg at the speed loop's crossover")
     return out
+
+
+def design_overspeed(speeds: dict[str, float]) -> Value:
+    """The overspeed stop, rpm: OVERSPEED_PER_TOP x the fastest of the speeds
+    (name: rpm) the drive is designed for or asked."""
+    name, top = max(speeds.items(), key=lambda kv: abs(kv[1]))
+    return Value(OVERSPEED_PER_TOP * abs(top), "rpm",
+                 f"{OVERSPEED_PER_TOP:g} x the fastest the drive is designed for or asked ({name}, {abs(top):.5g} rpm): "
+                 "a step's overshoot stays below it; a rotor beyond it is a runaway (an active load overhauling the "
+                 "drive, a loss not yet flagged), whose back-EMF outgrows what the observer, flux weakening and the "
+                 "link were designed for")
 
 
 def voltage_error(m, b: dict) -> float:
@@ -158,8 +185,14 @@ def carrier_currents(u_h: float, w_h: float, L_d: float, L_q: float) -> tuple[fl
 
 
 def fundamental_voltage(m, w_m: float, i: float) -> float:
-    """The fundamental's voltage at a mechanical speed and a q current, V peak."""
+    """The fundamental's voltage at a mechanical speed and a q current, V
+    peak: a flux map's fluxes at that current where the machine has one (a
+    saturated L_q: the 2004 Prius MG2 needs 150 V at 405 rpm and 250 A on
+    its map, 265 V with its unsaturated L_q)."""
     w_e = m["pole_pairs"] * w_m
+    if m.get("flux") is not None:
+        psi_d, psi_q = m["flux"](0.0, i)
+        return math.hypot(m["R_s"] * i + w_e * psi_d, w_e * psi_q)
     return math.hypot(m["R_s"] * i + w_e * m["psi_f"], w_e * m["L_q"] * i)
 
 
@@ -168,8 +201,9 @@ def design_injection(m, b: dict, i_max: float, w_m_upper: float, carrier: Value)
     Ts = sampling_period(b["f_pwm"], b["sampling"])
     f_h = carrier.value
     w_h = 2 * math.pi * f_h
-    _, i_n_per_v = carrier_currents(1.0, w_h, m["L_d"], m["L_q"])
-    i_p_per_v = sum(carrier_currents(1.0, w_h, m["L_d"], m["L_q"]))
+    L_d, L_q = m.get("L_d_hf", m["L_d"]), m.get("L_q_hf", m["L_q"])   # what the carrier sees
+    _, i_n_per_v = carrier_currents(1.0, w_h, L_d, L_q)
+    i_p_per_v = sum(carrier_currents(1.0, w_h, L_d, L_q))
     lsb = 2 * b["adc_range"] / 2 ** b["adc_bits"] if b["adc_bits"] else 0.0
     targets = {f"{I_N_LSB} ADC steps": I_N_LSB * lsb, f"{I_N_NOISE} noise deviations": I_N_NOISE * b["noise_i"],
                f"{I_N_PER_I_MAX:.0%} of i_max": I_N_PER_I_MAX * i_max}
@@ -263,9 +297,17 @@ def design_carrier(m, b: dict, bw_current: float | None, delay: bool = True) -> 
 
 
 def machine_values(m) -> dict:
-    """The datasheet quantities the rules use, from a Machine."""
-    return {"pole_pairs": m.pole_pairs, "phases": m.phases, "R_s": m.R_s, "L_d": m.L_d, "L_q": m.L_q,
-            "psi_f": m.psi_f, "J": m.J, "i_rated": m.i_rated, "w_m_rated": m.w_m_rated, "T_rated": m.T_rated}
+    """The datasheet quantities the rules use, from a Machine; with a flux
+    map also its fluxes (flux(i_d, i_q) -> (psi_d, psi_q), Wb) and the
+    incremental inductances a carrier sees (L_d_hf, L_q_hf:
+    design.machine.map_model)."""
+    out = {"pole_pairs": m.pole_pairs, "phases": m.phases, "R_s": m.R_s, "L_d": m.L_d, "L_q": m.L_q,
+           "psi_f": m.psi_f, "J": m.J, "i_rated": m.i_rated, "w_m_rated": m.w_m_rated, "T_rated": m.T_rated}
+    if m.magnetic["model"] == "fluxmap" and "map.L_d_hf" in m.design:
+        mag = m.magnetic
+        out.update(psi_f=m.design["map.psi_f"].value, L_d_hf=m.design["map.L_d_hf"].value, L_q_hf=m.design["map.L_q_hf"].value,
+                   flux=lambda i_d, i_q: (table_at(mag, "psi_d", i_d, i_q), table_at(mag, "psi_q", i_d, i_q)))
+    return out
 
 
 def design_observer_pll(m, w_m_lower: float, bw_speed: float, bw_current: float) -> Value:

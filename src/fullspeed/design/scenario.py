@@ -16,10 +16,13 @@ from ..model.machines import Machine
 from ..model.scenario import Scenario, parse_scenario, scenario_data, xcomp_table
 from ..model.units import rpm_to_rad_s
 from .checks import warnings_of
-from .controller import controller_model, hfi_design
+from .controller import controller_model, hfi_design, injection_inductances
 from .machine import design_machine, mtpa_torque
+from .magnetics import controller_values
+from .start import (POLARITY_ASYMMETRY, RESOLUTION_MIN, design_if, design_motion, design_pulses, injection_resolution,
+                    polarity_blind)
 from .rules import (Value, control_period, design_band, design_carrier, design_injection, design_observer_pll,
-                    machine_values, u_linear)
+                    design_overspeed, machine_values, u_linear)
 from .xcomp import check_table_settings
 
 # The trace is held in memory: one row of doubles per recorded sample.
@@ -55,6 +58,7 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
             notes[f"controller.{key}"] = m.design[key]
         else:
             notes[f"controller.{key}"] = Value(ctl[key], m.design[key].unit, "given in the scenario", True)
+    notes.update(_choose_start(d, m, source))
     obs = d["observer"]
     band = _band(d, m)
     if obs["bw_pll"] is None:
@@ -77,7 +81,16 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         # small at the speed loop's crossover, as the bench's encoder PLL does
         ctl["bw_speed"] = min(ctl["bw_speed"], obs["bw_pll"] / 6.0)
     if obs["top_speed_rpm"] is None:
-        obs["top_speed_rpm"] = 1.5 * m.w_m_rated * 60 / (2 * math.pi)
+        # the back-EMF observer's gain bound holds up to its top speed (fs_smo.h, eq. (18)): at least the
+        # fastest the scenario turns the rotor, with 10 % to spare (the 2004 Prius MG2 driven to 5000 rpm
+        # with its default of 1.5 x its rated 1200 rpm lost its sliding mode there and the rotor with it)
+        n_rated = 1.5 * m.w_m_rated * 60 / (2 * math.pi)
+        n_run = 1.1 * _largest_speed_rpm(d)
+        obs["top_speed_rpm"] = max(n_rated, n_run)
+        notes["observer.top_speed_rpm"] = Value(obs["top_speed_rpm"], "rpm", (
+            "1.5 x the rated speed" if n_rated >= n_run else
+            "1.1 x the fastest speed the scenario asks (references, a speed load, the initial speed), above 1.5 x rated")
+            + ": the observer's gain bound, eq. (18), holds up to it")
         if not obs["top_speed_rpm"] >= 1e-3:
             raise ConfigError("machine.rated.speed_rpm", m.w_m_rated * 60 / (2 * math.pi), "must be >= 1e-3 rpm "
                               "(1.5 x it is the observer's top speed; a denormal one divides by zero)", source)
@@ -92,26 +105,27 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         tim["h_max"] = min(0.2 * tau, 0.2 / w_top if w_top > 0 else math.inf, 1e-3)   # w_top underflows to 0 at 5e-324 rpm
         if conv["kind"] == "imc":   # and a fifth of a radian of the input filter's resonance
             tim["h_max"] = min(tim["h_max"], 0.2 * math.sqrt(conv["l_filter"] * conv["c_filter"]))
+    if ctl["flux_weakening"] and m.magnetic["model"] == "fluxmap" and ctl["fw_excess"] == "held":
+        raise ConfigError("controller.fw_excess", "held", "must be \"wound_back\" on a machine with a flux map: its flux "
+                          "weakening takes its references from the map within the voltage limit (fs_fwmap.h), with no "
+                          "voltage-error loop for a held excess to feed", source)
     if ctl["fw_top_speed_rpm"] is None:
         ctl["fw_top_speed_rpm"] = obs["top_speed_rpm"]
+    if ctl["overspeed_rpm"] is None:
+        notes["controller.overspeed_rpm"] = design_overspeed(_speeds_asked(d))
+        ctl["overspeed_rpm"] = notes["controller.overspeed_rpm"].value
+    else:
+        notes["controller.overspeed_rpm"] = Value(ctl["overspeed_rpm"], "rpm", "given in the scenario", True)
+    if ctl["lock"] is None:   # the drive acts on a loss (fs_drive_protect.h); the square wave has no restart sequence
+        ctl["lock"] = "stop" if ctl["angle"] == "swvi" else "recover"
     if obs["start"] == "if":
         if ctl["angle"] != "smo" or ctl["mode"] != "speed":
             raise ConfigError("observer.start", "if", "needs controller.mode = \"speed\" and controller.angle = \"smo\"", source)
         if obs["handover"] != 0.0:
             raise ConfigError("observer.handover", obs["handover"], "must be 0 with start = \"if\" (sensorless from t = 0)", source)
-        if obs["i_start"] is None:
-            obs["i_start"] = 0.5 * ctl["i_max"]
-        if obs["i_start"] > ctl["i_max"]:
+        if obs["i_start"] is not None and obs["i_start"] > ctl["i_max"]:
             raise ConfigError("observer.i_start", obs["i_start"], f"must be <= controller.i_max ({ctl['i_max']:g} A)", source)
-        if obs["start_handover_rpm"] is None:
-            obs["start_handover_rpm"] = 2.0 * obs["valid_rpm"]
-        if obs["start_accel_rpm_s"] is None:
-            # a quarter of the torque the start current makes at a 90 deg load angle
-            T = 0.25 * 1.5 * m.pole_pairs * m.psi_f * obs["i_start"]
-            obs["start_accel_rpm_s"] = T / m.J * 60 / (2 * math.pi)
-        for key, why in (("start_handover_rpm", "twice valid_rpm"), ("start_accel_rpm_s", "from the magnet flux psi_f")):
-            if not obs[key] > 0:   # a default that came out 0: the I/f start would never hand over
-                raise ConfigError(f"observer.{key}", obs[key], f"must be > 0 (the default is {why}): set it", source)
+        notes.update(design_if(d, m, source, bw_speed_given="bw_speed" in data.get("controller", {}) or m.design["bw_speed"].given))
     if d["injection"]["leak"] is None:   # the filter the observer is designed for (fs_hfi.h)
         d["injection"]["leak"] = "remove" if d["injection"]["tracking"] == "lag" else "keep"
     if ctl["angle"] in ("hfi", "blend"):
@@ -148,6 +162,8 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
                              "of a radian at the top speed, is shorter: check R_s, L_d, L_q and observer.top_speed_rpm)"), source)
     if ctl["i_max"] >= m.bench["i_trip"]:
         raise ConfigError("controller.i_max", ctl["i_max"], f"must be below the trip level bench.i_trip ({m.bench['i_trip']:g} A)", source)
+    if d["duration"] < Ts:   # the run counts whole periods (fs_sim_steps): a shorter one would run none
+        raise ConfigError("duration", d["duration"], f"must be at least one control period ({Ts:g} s)", source)
     rows = d["duration"] / (Ts * d["trace"]["decimation"])
     if rows * TRACE_ROW_BYTES > TRACE_MAX_BYTES:
         need = math.ceil(d["duration"] / Ts * TRACE_ROW_BYTES / TRACE_MAX_BYTES)
@@ -161,8 +177,17 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         if f"injection.{key}" not in notes and d["injection"][key] is not None and ctl["angle"] in ("hfi", "blend", "swvi"):
             notes[f"injection.{key}"] = Value(d["injection"][key], "", "given in the machine file or the scenario", True)
     notes.update(d.pop("_notes", {}))
-    warnings = warnings_of(d, m) + check_table_settings(d, m.name, source)
+    warnings = warnings_of(d, m, bw_speed_given="bw_speed" in data.get("controller", {})) + check_table_settings(d, m.name, source)
     return Scenario(name=d["name"], machine=m, data=d, source=source, design=notes, warnings=warnings)
+
+
+def _largest_speed_rpm(d: dict) -> float:
+    """The fastest the scenario turns the rotor, rpm: its speed references,
+    a load that holds a speed, its initial speed."""
+    speeds = [abs(v) for v in d["references"]["speed_rpm"][1]] + [abs(d["initial"]["speed_rpm"])]
+    if d["load"]["kind"] in ("speed", "speed_pi"):
+        speeds += [abs(v) for v in d["load"]["speed_rpm"][1]]
+    return max(speeds)
 
 
 def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Scenario:
@@ -170,6 +195,22 @@ def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Sc
     are merged into the raw data before validation."""
     data, source = scenario_data(name_or_path, overrides)
     return scenario_from_dict(data, source)
+
+
+def _speeds_asked(d: dict) -> dict[str, float]:
+    """The speeds (rpm) the drive is designed for or the scenario asks, by
+    the field that gives each: what the overspeed stop is designed over."""
+    ctl, ref, load = d["controller"], d["references"], d["load"]
+    out = {"observer.top_speed_rpm": d["observer"]["top_speed_rpm"], "initial.speed_rpm": d["initial"]["speed_rpm"]}
+    if ctl["flux_weakening"]:
+        out["controller.fw_top_speed_rpm"] = ctl["fw_top_speed_rpm"]
+    profiles = {"speed": "speed_rpm", "voltage": "frame_rpm", "vf": "frame_rpm"}
+    if ctl["mode"] in profiles:
+        key = profiles[ctl["mode"]]
+        out[f"references.{key}"] = max((abs(v) for v in ref[key][1]), default=0.0)
+    if load["kind"] in ("speed", "speed_pi"):
+        out["load.speed_rpm"] = max((abs(v) for v in load["speed_rpm"][1]), default=0.0)
+    return out
 
 
 def _bench_of(d: dict, m: Machine) -> dict:
@@ -215,10 +256,12 @@ def _imc_fields(d: dict, m: Machine, source) -> None:
     if conv["inverter"] == "switching":
         raise ConfigError("converter.inverter", "switching", "must be \"averaged\" with kind = \"imc\" (the inverter stage is averaged per rectifier interval)", source)
     conv["inverter"] = "averaged"
-    for key in ("t_dead", "u_on"):
+    for key in ("u_on", "r_on"):
         if conv[key]:
-            raise ConfigError(f"converter.{key}", conv[key], "must be 0 with kind = \"imc\" (the model has no dead time or device drops)", source)
-    conv["t_dead"] = 0.0
+            raise ConfigError(f"converter.{key}", conv[key], "must be 0 with kind = \"imc\" (its devices' drops are the "
+                              "machine's [converter] module's, with losses.devices)", source)
+    if conv["t_dead"] is None:   # the ideal converter of the paper's modulator (not the bench's inverter dead time)
+        conv["t_dead"] = 0.0
     if tim["sampling"] == "double":
         raise ConfigError("timing.sampling", "double", "must be \"single\" with kind = \"imc\"", source)
     tim["sampling"] = "single"
@@ -231,11 +274,85 @@ def _imc_fields(d: dict, m: Machine, source) -> None:
         raise ConfigError("controller.i_lim", ctl["i_lim"], f"must be <= controller.i_max ({i_max:g} A)", source)
 
 
+def _injection_saliency(d: dict, m: Machine) -> tuple[float, float]:
+    """The inductances an injection's carrier sees, as the datasheet gives
+    them: a flux map's incremental ones at half the rated current on its
+    MTPA locus, else the machine's. Not the scenario's *_scale: those are a
+    controller's errors on purpose, which the design (as the carrier's, from
+    the machine's values) does not know of (B-ROBUST's +-20 % on L_d and L_q
+    put yang2022's L_q/L_d of 1.4 at 1.04 and chose an I/f start for it)."""
+    if m.magnetic["model"] == "fluxmap":
+        cv = controller_values(m.magnetic, d["controller"]["i_max"], m.i_rated, m.phases, m.pole_pairs)
+        return cv["L_d_hf"], cv["L_q_hf"]
+    return m.L_d, m.L_q
+
+
+def _choose_start(d: dict, m: Machine, source) -> dict:
+    """The start the machine gets (design.start): d["start"]["kind"] one of
+    pulses, motion (settled in _injection_fields, which designs them), if,
+    known (the angle taken as known: polarity detection off, the square
+    wave), sensor (the encoder until the hand-over), none (no closed loop),
+    with its reason; a blend on a machine whose saliency the injection cannot
+    use becomes the back-EMF observer with an I/f start."""
+    ctl, obs, st = d["controller"], d["observer"], d["start"]
+    st["c"] = {}
+    angle, closed = ctl["angle"], ctl["mode"] in ("current", "speed")
+    method, motion = st["method"], st["allow_motion"]
+    if angle == "smo" and method == "if" and obs["handover"] == 0.0:
+        obs["start"] = "if"
+    if not closed or angle in ("encoder", "true"):
+        st["kind"], st["reason"] = ("sensor" if closed else "none"), "the loops do not start on an estimate"
+        return {}
+    if angle == "smo":
+        if obs["start"] == "if" and not motion:
+            raise ConfigError("start.allow_motion", False, "forbids the I/f start (observer.start = \"if\"): it turns the rotor", source)
+        st["kind"] = "if" if obs["start"] == "if" else "sensor"
+        st["reason"] = ("observer.start = \"if\": the back-EMF observer sees nothing at standstill" if st["kind"] == "if"
+                        else f"the encoder until observer.handover ({obs['handover']:g} s)")
+        return {}
+    if angle == "swvi":
+        st["kind"], st["reason"] = "known", "the square wave has no polarity detection: the rotor within 90 el.deg of the estimate"
+        return {}
+    L_d, L_q = _injection_saliency(d, m)
+    inj = d["injection"]
+    f_h = inj["f_h"] or m.extra.get("injection", {}).get("f_h") or _carrier(d, m).value
+    ratio, what = injection_resolution(L_d, L_q, f_h, _bench_of(d, m), ctl["i_max"])
+    # a carrier given (the scenario's injection.u_h, or the machine's) is the scenario's choice of the injection:
+    # the design keeps it (its own checks then apply to it) and says how well it resolves
+    carrier_given = inj["u_h"] is not None or "u_h" in m.extra.get("injection", {})
+    usable = ratio >= RESOLUTION_MIN or carrier_given
+    st["c"]["resolution"] = ratio
+    sal = f"L_q/L_d = {L_q / L_d:.3g} ({what}: {ratio:.2f}, {'at least' if ratio >= RESOLUTION_MIN else 'below'} {RESOLUTION_MIN:g})"
+    if method == "if" or (method == "designed" and motion and not usable):
+        if not motion:
+            raise ConfigError("start.allow_motion", False, "forbids the I/f start (start.method = \"if\"): it turns the rotor", source)
+        if angle == "hfi":
+            raise ConfigError("controller.angle", "hfi", f"{m.name} is not salient enough for the injection, {sal}: "
+                              "use \"blend\" (it then starts I/f into the back-EMF observer) or \"smo\" with observer.start = \"if\"", source)
+        if ctl["mode"] != "speed":
+            raise ConfigError("controller.mode", ctl["mode"], f"must be \"speed\" for the I/f start the machine needs ({sal})", source)
+        ctl["angle"], obs["start"] = "smo", "if"
+        st["kind"] = "if"
+        st["reason"] = ("start.method = \"if\"" if method == "if" else
+                        f"no saliency the injection can use, {sal}: the back-EMF observer alone (controller.angle blend -> smo), "
+                        "from standstill by an I/f start")
+        return {}
+    if not d["polarity"]["enabled"]:
+        st["kind"], st["reason"] = "known", "polarity.enabled = false: the rotor's angle taken as the estimate's"
+    elif method == "motion" and not motion:
+        raise ConfigError("start.allow_motion", False, "forbids the motion test (start.method = \"motion\"): it turns the rotor", source)
+    else:
+        st["kind"] = "pulses" if not motion else {"pulses": "pulses", "motion": "motion"}.get(method, "designed")
+        st["reason"] = f"the injection uses the saliency, {sal}" + (
+            "" if ratio >= RESOLUTION_MIN else "; the carrier is given" if carrier_given and motion and method == "designed"
+            else "; start.allow_motion = false or a named method keeps it")
+    return {}
+
+
 def _injection_fields(d: dict, m: Machine, source, bw_speed_given: bool = True, designed_pll=None) -> None:
     """Fill in and check the injection, polarity and blending tables."""
     ctl, inj, pol, bl = d["controller"], d["injection"], d["polarity"], d["blending"]
-    cm = controller_model(ctl, m)
-    L_d, L_q = cm["L_d"], cm["L_q"]
+    L_d, L_q = injection_inductances(controller_model(ctl, m))
     _check_saliency(ctl, m, source)
     band = _band(d, m)
     designed = design_injection(machine_values(m), _bench_of(d, m), ctl["i_max"], rpm_to_rad_s(band["upper_rpm"].value),
@@ -289,6 +406,8 @@ def _injection_fields(d: dict, m: Machine, source, bw_speed_given: bool = True, 
             raise ConfigError("polarity.t_pulse", pol["t_pulse"], f"must be >= {t_pulse_min:.3g} s: 6 / w_b_p, the carrier amplitude settles in each pulse's first half", source)
     if inj["xcomp"] is not None:
         inj["xcomp"] = xcomp_table(inj["xcomp"], source)
+    if pol["enabled"] and d["start"]["kind"] in ("designed", "pulses", "motion"):
+        d["_notes"].update(_polarity_start(d, m, i_hf, h, u_lin, source))
     if pol["i_pulse"] is None:
         pol["i_pulse"] = 0.5 * ctl["i_max"]
     if pol["i_pulse"] > ctl["i_max"]:
@@ -310,6 +429,31 @@ def _injection_fields(d: dict, m: Machine, source, bw_speed_given: bool = True, 
             raise ConfigError("injection.stop_rpm", inj["stop_rpm"], f"must be >= upper_rpm / 0.9 = {bl['upper_rpm'] / 0.9:g} (the injection resumes at 0.9 x stop_rpm)", source)
 
 
+def _polarity_start(d: dict, m: Machine, i_hf: float, h, u_lin: float, source) -> dict:
+    """The polarity detection the machine gets (design.start): the pulses,
+    designed safe for the rotor and the current loop, where the d axis
+    saturates asymmetrically at the largest of them; else the motion test."""
+    ctl, pol, st = d["controller"], d["polarity"], d["start"]
+    notes: dict = {}
+    if st["kind"] in ("designed", "pulses"):
+        given = {k: pol[k] for k in ("i_pulse", "i_pulse_max")}
+        notes = design_pulses(d, m, controller_model(ctl, m), i_hf, h, u_lin)
+        i_top = pol["i_pulse_max"] or max(ctl["i_max"] - i_hf, pol["i_pulse"])
+        blind = polarity_blind(m, i_top) if st["kind"] == "designed" else None
+        if blind:   # nothing for the pulses to decide on at any pulse the rotor and the loop tolerate
+            pol.update(given)
+            notes = {}
+            st["kind"] = "motion"
+            st["reason"] += f"; {m.name}'s {blind} (at {i_top:.4g} A): no asymmetry for the pulses, a bounded motion test"
+        else:
+            st["kind"] = "pulses"
+            if st["method"] == "designed":
+                st["reason"] += f"; the d axis saturates asymmetrically at the pulses (design.start: {POLARITY_ASYMMETRY:.0%} needed)"
+    if st["kind"] == "motion":
+        notes.update(design_motion(d, m, i_hf, h.cfg.obs.bandwidth, h.cfg.w_b_n))
+    return notes
+
+
 def _check_carrier(f_h: float, Ts: float, source) -> None:
     """The rotating carrier's limit, fs_hfi_w_h_max's rule (the one C applies):
     more than 4 samples per carrier period, w_h Ts < pi/2 in float32."""
@@ -321,15 +465,19 @@ def _check_carrier(f_h: float, Ts: float, source) -> None:
 
 
 def _check_saliency(ctl: dict, m: Machine, source) -> None:
-    cm = controller_model(ctl, m)
-    L_d, L_q = cm["L_d"], cm["L_q"]
+    L_d, L_q = injection_inductances(controller_model(ctl, m))
     if not abs(L_q - L_d) > 0.01 * 0.5 * (L_d + L_q):
         scaled = ctl["L_d_scale"] != 1.0 or ctl["L_q_scale"] != 1.0
         whose = (f"the controller's model of {m.name} (L_d x {ctl['L_d_scale']:g}, L_q x {ctl['L_q_scale']:g}) has"
                  if scaled else f"{m.name} has")
-        raise ConfigError("controller.angle", ctl["angle"],
-                          f"injection needs a salient machine model; {whose} L_d = {L_d:g} H within 1 % of L_q = {L_q:g} H "
-                          "(no saliency to design the estimator for)", source)
+        if "map.L_d_hf" in m.design:   # the saliency a carrier sees, where it runs
+            sal = (L_q - L_d) / (L_q + L_d)
+            why = (f"{whose} an incremental saliency (L_q - L_d)/(L_q + L_d) of {sal:.1%} on its flux map at half the rated "
+                   f"current on MTPA ({0.5 * m.i_rated:.3g} A: L_d = {L_d * 1e3:.4g} mH, L_q = {L_q * 1e3:.4g} mH), below "
+                   "the 0.5 % an injection estimator can lock on")
+        else:
+            why = f"{whose} L_d = {L_d:g} H within 1 % of L_q = {L_q:g} H (no saliency to design the estimator for)"
+        raise ConfigError("controller.angle", ctl["angle"], f"injection needs a salient machine: {why}", source)
 
 
 def _machine_injection(inj: dict, m: Machine, keys, source, designed: dict | None = None) -> None:

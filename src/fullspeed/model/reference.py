@@ -7,7 +7,7 @@ from collections.abc import Iterator
 
 from .machines import MACHINE
 from .scenario import SCENARIO
-from .schema import MISSING, Spec, range_text, unit_and_meaning
+from .schema import MISSING, Spec, range_text, toml_string, unit_and_meaning
 
 KIND = {"float": "number", "int": "integer", "bool": "true/false", "str": "string", "choice": "choice",
         "profile": "number or [[t_s, value], ...]", "numbers": "list of numbers", "notes": "table of strings",
@@ -103,12 +103,23 @@ def section_names() -> list[str]:
     return [name for name, _, _ in sections()]
 
 
+# Comment lines the template puts under a field: the conversions datasheets need
+TEMPLATE_NOTES = {
+    "pole_pairs": ["# pole pairs = poles / 2: an 8-pole machine has 4"],
+    "psi_f": ["# the magnet's peak phase flux linkage. From a datasheet's Ke (back-EMF constant in V per 1000 rpm,",
+              "# line-to-line rms): psi_f = Ke * sqrt(2) / sqrt(3) / (pole_pairs * 2 * pi * 1000 / 60),",
+              "# e.g. Ke = 50 V/krpm with 4 pole pairs: 50 * 1.4142 / 1.7321 / 418.88 = 0.0975 Wb",
+              "# (forgetting the / sqrt(3) of line-to-line to phase makes it 1.73 x too large)"],
+}
+
+
 def machine_template(name: str) -> str:
     """A machine file with only the fields the schema requires, each with
     its unit, range and meaning in a comment; the value to fill in is "?"
     (refused until it is). Everything with a default or a design is left
     out: `fullspeed schema machine` lists it."""
-    lines = [f"# Machine {name}: fill in every \"?\" (the datasheet's values). Everything else has a",
+    quoted = toml_string(name)   # escaped: a quote or a newline in the name cannot add keys
+    lines = [f"# Machine {quoted}: fill in every \"?\" (the datasheet's values). Everything else has a",
              "# default or is designed from these; `fullspeed schema machine` lists all fields.",
              "# SI units; speeds in mechanical rpm; currents and voltages peak phase values."]
 
@@ -116,8 +127,8 @@ def machine_template(name: str) -> str:
         unit, meaning = unit_and_meaning(k, s)
         rng = range_text(s)
         note = "; ".join(x for x in (unit, rng, meaning) if x)
-        value = f'"{name}"' if k == "name" else '"?"'
-        return f"{k} = {value}" + (f"    # {note}" if note else "")
+        value = quoted if k == "name" else '"?"'
+        return "\n".join([f"{k} = {value}" + (f"    # {note}" if note else ""), *TEMPLATE_NOTES.get(k, [])])
 
     tables = []
     for k, s in MACHINE.items():

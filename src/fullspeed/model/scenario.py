@@ -85,13 +85,18 @@ SCENARIO = {
         "depth_control": B(False, doc="imc, speed mode with flux weakening and modulation om2: alpha from eq. (33); else from the demanded VTR"),
         "i_lim": POS(None, hi=1e5, doc="A, I_lim of eq. (33); default the machine's bench i_lim"),
         # loss of lock of the estimator the loops use (fs_lock.h)
-        "lock": C("off", "detect", "stop", "recover", default="detect",
-                  doc="detect: traced (lock_resid, lock_lost); stop: the run ends with stop reason loss_of_lock; "
-                      "recover: zero current, then the observer's estimate or the start sequence again (fs_drive.h), "
-                      "and the stop once lock_retries are spent"),
+        "lock": C("off", "detect", "stop", "recover", default=None,
+                  doc="what the drive does when it loses lock: recover: zero current, then at speed a flying restart "
+                      "on the back-EMF observer, at low speed the start sequence again, else the stop with the PWM off "
+                      "(fs_drive_protect.h), and the stop once lock_retries are spent; stop: the stop at once (stop reason "
+                      "loss_of_lock); detect: traced only (lock_resid, lock_lost), the drive goes on; default recover, "
+                      "stop with angle = \"swvi\" (no restart sequence)"),
         "lock_time": POS(0.02, hi=10.0, doc="s off track, net (each step weighted by how far over, up to twice: fs_lock.h), before lock counts as lost"),
         "recover_time": POS(0.05, hi=10.0, doc="s of zero current before a recovery re-acquires"),
         "lock_retries": I(3, 0, 1000, doc="recoveries before a loss of lock stops the run"),
+        "overspeed_rpm": NONNEG(None, hi=1e6, doc="the drive stops with the PWM off above this speed (stop reason overspeed; "
+                                "fs_drive_protect.h); default designed: 1.2 x the fastest the drive is designed for or asked "
+                                "(fullspeed design); 0: no overspeed stop"),
         "param_adapt": B(False, doc="online correction of R_s and psi_f while sensorless (fs_param_adapt.h)"),
         "adapt_time": POS(5.0, hi=1e4, doc="s, its least squares' forgetting time: long against the drive's cycle of operating points, short against the machine's heating"),
     }),
@@ -104,17 +109,32 @@ SCENARIO = {
         "cutoff_min_rpm": POS(None, hi=1e6, doc="floor of the adaptive filter's cutoff, as a mechanical speed; default 1/8 of the lower blending speed (yang2022: 20 rpm)"),
         "bw_pll": POS(None, hi=1e6, doc="rad/s; default from the machine's bench"),
         "valid_rpm": NONNEG(None, hi=1e6, doc="the observer's estimate is trusted above this speed; default 5/8 of the lower blending speed (yang2022: 100 rpm)"),
-        "top_speed_rpm": POS(None, hi=1e6, doc="for the gain bound; default 1.5 x rated"),
+        "top_speed_rpm": POS(None, hi=1e6, doc="for the gain bound; default 1.5 x rated, or 1.1 x the fastest speed the scenario asks where that is more"),
         "lag": C("exact", "paper", default="exact", doc="form = \"paper\": the adaptive filter's phase lag compensated exactly, or by pi/4 as the paper writes it"),
         "form": C("paper", "tracking", default="tracking",
                   doc="tracking: fullspeed's, exact in discrete time, with a motion observer on the measured torque whose "
                       "bandwidth follows the EMF (fs_smo.h); paper: the SMO and PLL of yang2022 sec. 2 (its scenarios pin it)"),
         # how the sensorless drive starts: on the encoder until `handover`, or
         # sensorless from standstill with an I/f start
-        "start": C("encoder", "if", default="encoder", doc="sensorless start: on the encoder until handover, or I/f from standstill"),
-        "i_start": POS(None, hi=1e5, doc="A; default half of i_max"),
-        "start_accel_rpm_s": POS(None, hi=1e9, doc="frame acceleration; default from a quarter of the start current's torque"),
+        "start": C("encoder", "if", default="encoder", doc="sensorless start: on the encoder until handover, or I/f from standstill (fs_if_start.h)"),
+        "i_start": POS(None, hi=1e5, doc="A, the I/f frame's d current; default half of i_max, or what carries the load at 45 el.deg with a quarter to spare (at most 0.8 i_max)"),
+        "start_accel_rpm_s": POS(None, hi=1e9, doc="frame acceleration; default the start current's torque left beside the load, at most a quarter of it, over J"),
         "start_handover_rpm": POS(None, hi=1e6, doc="the loops take the observer here; default twice valid_rpm"),
+        "start_damping": NONNEG(0.7, hi=10.0, doc="the damping ratio of the rotor's swing about the I/f frame, by the EMF it makes (fs_if_start.h); 0: none"),
+        "start_timeout": POS(None, hi=1e4, doc="s, the longest wait at the hand-over speed for the observer, then the run stops (start_failed); default 100 / bw_pll, at least 0.5 s"),
+        "restart_rpm": NONNEG(None, hi=1e6, doc="below this, with the reference below it too, the loops return from the observer to the I/f frame (a reversal through zero); default 0.75 x start_handover_rpm; 0: never"),
+    }, default={}),
+    # the sensorless start from standstill with injection (hfi, blend) or
+    # without (design.start): chosen by the machine unless named here
+    "start": T({
+        "method": C("designed", "pulses", "motion", "if", default="designed",
+                    doc="designed: polarity pulses where the d axis saturates asymmetrically, else a bounded motion test "
+                        "where the injection has saliency to use, else (angle blend) an I/f start into the back-EMF "
+                        "observer; pulses, motion or if to name one"),
+        "allow_motion": B(True, doc="false: no start that turns the rotor (the motion test, the I/f start): the polarity "
+                                    "pulses, which refuse to start where they cannot decide (stop reason polarity_undetermined)"),
+        "i_push": POS(None, hi=1e5, doc="A, the motion test's q-current push; default designed from J, psi_f and the load (fs_motion_test.h)"),
+        "turn_deg": POS(None, hi=20.0, doc="el.deg, the injection estimate's turn that decides the motion test; default 4 (doubled where the estimate is noisier)"),
     }, default={}),
     # HF voltage injection: rotating (yang2022 sec. 3) for angle = "hfi" or
     # "blend", square-wave (yu2022 sec. 2) for angle = "swvi"
@@ -185,6 +205,14 @@ SCENARIO = {
         "T_amb": F(None, lo=-50.0, hi=300.0, doc="degC; default the machine's"),
         "T_winding0": F(None, lo=-50.0, hi=300.0, doc="degC; default the ambient"),
         "T_magnet0": F(None, lo=-50.0, hi=300.0, doc="degC; default the ambient"),
+    }, default={}),
+    # where the power goes: the converter's devices and the machine's iron loss act on the plant, every loss metered
+    # (csrc/plant/fs_losses.h; the trace's E_dc, E_cond, E_rect, E_sw, E_fe, E_mech, E_shaft)
+    "losses": T({
+        "devices": B(False, doc="the machine's [converter] module: its conduction drops act on the plant, its commutation "
+                                "energies are drawn from the converter's source (false: ideal switches, or converter.u_on, r_on)"),
+        "iron": B(False, doc="the machine's [losses] iron loss drawn from the shaft as a drag torque"),
+        "trace": B(False, doc="run the loss meters also with neither (on with either)"),
     }, default={}),
     # the machine's spatial harmonics (its [harmonics] table, csrc/plant/fs_pmsm.h)
     "harmonics": T({"enabled": B(False, doc="the flux depends on the rotor angle: back-EMF and saliency harmonics, cogging")},
@@ -299,6 +327,7 @@ def parse_scenario(data: dict, source: str | None = None) -> tuple[dict, Machine
     _per_unit(d, data, m, source)
     _fault_fields(d, m, source)
     _thermal_fields(d, m, source)
+    _losses_fields(d, m, source)
     if d["controller"]["xy_control"] and m.phases != 5:
         raise ConfigError("controller.xy_control", True, "needs a five-phase machine (the x-y plane)", source)
     steady = d["metrics"]["steady"]
@@ -344,6 +373,21 @@ def _thermal_fields(d: dict, m: Machine, source) -> None:
     for key in ("T_winding0", "T_magnet0"):
         if th[key] is None:
             th[key] = th["T_amb"]
+
+
+def _losses_fields(d: dict, m: Machine, source) -> None:
+    los, conv = d["losses"], d["converter"]
+    if los["devices"]:
+        if m.converter is None:
+            raise ConfigError("losses.devices", True, f"needs a [converter] table in the machine {m.name}: the module's "
+                              "datasheet values (fullspeed schema machine.converter)", source)
+        for key in ("u_on", "r_on"):
+            if conv[key]:
+                raise ConfigError(f"converter.{key}", conv[key], "must be 0 with losses.devices (the drops are the "
+                                  "module's, machine [converter]: one setting in one place)", source)
+    if los["iron"] and m.losses is None:
+        raise ConfigError("losses.iron", True, f"needs a [losses] table in the machine {m.name}: its iron loss "
+                          "coefficients (fullspeed schema machine.losses)", source)
 
 
 def _fault_fields(d: dict, m: Machine, source) -> None:

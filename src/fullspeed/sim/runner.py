@@ -3,6 +3,7 @@ bar, the traces, and the Result (the configuration: sim.config)."""
 from __future__ import annotations
 
 import math
+import re
 import time
 from dataclasses import dataclass, field
 
@@ -11,6 +12,7 @@ import numpy as np
 from .._core import ffi, lib
 from ..design.scenario import load_scenario
 from ..model.errors import SimulationError
+from ..model.files import json_safe
 from ..model.scenario import Scenario
 from .config import build_config, check_smo_gain
 from .metrics import STAGES, compute_metrics
@@ -25,6 +27,7 @@ CHANNELS = [
     "i_grid_a", "v_pn", "u_ab", "alpha", "E_grid", "E_rf", "W_filter",
     "lock_resid", "lock_lost", "stage", "recoveries", "u_dc",
     "T_winding", "T_magnet", "R_s_true", "psi_f_true", "R_s_hat", "psi_f_hat",
+    "E_dc", "E_cond", "E_rect", "E_sw", "E_fe", "E_mech", "E_shaft",
 ]
 assert len(CHANNELS) == lib.FS_CH_N, "channel names out of step with fs_sim.h"
 
@@ -40,7 +43,8 @@ UNITS = {
                      "lock_resid", "lock_lost", "recoveries"), "1"),
     **dict.fromkeys(("w_m_ref", "w_m_hat", "w_m_est"), "rad/s"),
     **dict.fromkeys(("theta_hat", "theta_err", "theta_est", "est_err"), "rad"),
-    **dict.fromkeys(("E_in", "E_cu", "E_airgap", "W_mag", "E_grid", "E_rf", "W_filter"), "J"),
+    **dict.fromkeys(("E_in", "E_cu", "E_airgap", "W_mag", "E_grid", "E_rf", "W_filter",
+                     "E_dc", "E_cond", "E_rect", "E_sw", "E_fe", "E_mech", "E_shaft"), "J"),
     "stage": "name",
     "T_winding": "degC", "T_magnet": "degC", "R_s_true": "ohm", "R_s_hat": "ohm", "psi_f_true": "Wb", "psi_f_hat": "Wb",
 }
@@ -52,6 +56,8 @@ STOP_REASONS = {
     lib.FS_STOP_OVERCURRENT: "overcurrent",
     lib.FS_STOP_LOSS_OF_LOCK: "loss_of_lock",
     lib.FS_STOP_POLARITY: "polarity_undetermined",
+    lib.FS_STOP_OVERSPEED: "overspeed",
+    lib.FS_STOP_START: "start_failed",
 }
 
 @dataclass
@@ -59,13 +65,14 @@ class Result:
     """Traces (NumPy arrays by channel name, SI units) and metrics of a run."""
     scenario: Scenario
     traces: dict[str, np.ndarray]
-    stop_reason: str                 # "done", "nan", "overcurrent", "loss_of_lock", "polarity_undetermined", "interrupted"
+    stop_reason: str                 # "done", "nan", "overcurrent", "loss_of_lock", "polarity_undetermined", "overspeed", "interrupted"
     stop_time: float | None
     wall_time: float                 # s
     sim_time: float                  # s simulated
     metrics: dict = field(default_factory=dict)
     adc_saturated_at: float | None = None   # s, the first current reading at +-adc_range
     polarity: dict | None = None     # the polarity detection's outcome (Simulation.polarity)
+    halt: dict | None = None         # why the drive halted (Simulation.halt)
 
     @property
     def speed_ratio(self) -> float:
@@ -88,6 +95,42 @@ class Result:
         df.attrs["units"] = dict(UNITS)
         df.attrs["scenario"] = self.scenario.name
         return df
+
+    def to_mat(self, path) -> None:
+        """The traces and metrics as a MATLAB .mat file (v5, compressed; scipy
+        needed): `traces` (a struct of the channels, SI), `units` (each
+        channel's unit), `metrics`, `stage_names` (the names of stage's codes,
+        from 0), `scenario`, `stop_reason`, `stop_time` ([] if none). Readable
+        by MATLAB's load and scipy.io.loadmat."""
+        from scipy.io import savemat
+
+        data = {"traces": {k: np.ascontiguousarray(v) for k, v in self.traces.items()},
+                "units": dict(UNITS), "metrics": mat_value(json_safe(self.metrics)),
+                "stage_names": mat_value(list(STAGES)), "scenario": self.scenario.name,
+                "stop_reason": self.stop_reason, "stop_time": mat_value(self.stop_time)}
+        with open(path, "wb") as f:
+            savemat(f, data, do_compression=True, long_field_names=True, oned_as="column")
+
+
+def mat_value(x):
+    """A JSON-like value as scipy.io.savemat takes it: dicts as structs (keys
+    made MATLAB names), lists as arrays or cells, None as [] (MATLAB's empty)."""
+    if isinstance(x, dict):
+        return {mat_name(str(k)): mat_value(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        items = [mat_value(v) for v in x]
+        if items and all(isinstance(v, (int, float, bool, np.number)) for v in items):
+            return np.asarray(items, dtype=float)
+        cell = np.empty(len(items), dtype=object)
+        cell[:] = items
+        return cell
+    return np.zeros((0, 0)) if x is None else x
+
+
+def mat_name(key: str) -> str:
+    """A MATLAB field name: letters, digits and _, starting with a letter."""
+    name = re.sub(r"\W", "_", key, flags=re.ASCII)
+    return name if name[:1].isalpha() else "x" + name
 
 
 class Simulation:
@@ -117,21 +160,34 @@ class Simulation:
     def time(self) -> float:
         return lib.fs_sim_time(self._sim)
 
+    @property
+    def step_count(self) -> int:
+        """Control periods run so far."""
+        return lib.fs_sim_step_count(self._sim)
+
+    def steps(self, t: float) -> int:
+        """The control periods a run to t takes (fs_sim_steps: the nearest
+        whole number, |n Tc - t| <= Tc / 2), the count advance(t) stops at."""
+        return lib.fs_sim_steps(self._sim, t)
+
     def advance(self, t_end: float) -> str:
-        """Run to t_end (or a stop). Returns the status: running, done or a stop reason."""
+        """Run to t_end (or a stop): to steps(t_end) periods. Returns the status: running, done or a stop reason."""
+        return self.advance_steps(self.steps(t_end))
+
+    def advance_steps(self, k_end: int) -> str:
+        """Run until k_end control periods have run in all (or a stop). Returns the status."""
         rows = self._rows
-        Tc = self._cfg.drive.Ts
         dec = self._cfg.decimation
         while True:
             self._n += rows[0]; rows[0] = 0   # noqa: E702 (no call or jump between the two: no signal handler runs there)
-            need = self._n + int((t_end - self.time) / (Tc * dec)) + 2
+            need = self._n + max(0, k_end - self.step_count) // dec + 2
             if need > len(self._buf):
                 grown = np.empty((max(need, 2 * len(self._buf)), lib.FS_CH_N))
                 grown[: self._n] = self._buf[: self._n]
                 self._buf = grown
             free = len(self._buf) - self._n
             ptr = ffi.cast("double *", self._buf.ctypes.data) + self._n * lib.FS_CH_N
-            rc = lib.fs_sim_run(self._sim, t_end, ptr, free, rows)
+            rc = lib.fs_sim_run_steps(self._sim, k_end, ptr, free, rows)
             self._n += rows[0]; rows[0] = 0   # noqa: E702
             if rc == lib.FS_RUN_BUFFER_FULL:
                 continue
@@ -146,17 +202,42 @@ class Simulation:
         return None if math.isnan(t) else t
 
     def polarity(self) -> dict | None:
-        """The polarity detection's outcome (fs_polarity.h): its stage, the
-        relative difference D of the last pulse pair and its margin (>= 1
-        decides), the pairs run, the last pulse; None without detection."""
+        """The polarity detection's outcome: by pulses (fs_polarity.h) its
+        stage, the relative difference D of the last pulse pair and its
+        margin (>= 1 decides), the pairs run, the last pulse; by the motion
+        test (fs_motion_test.h, method "motion") its stage, the estimate's
+        turn and the threshold it had to reach (el.deg), the pushes run, the
+        last push; None without detection."""
         drv = lib.fs_sim_drive(self._sim)
-        if drv.cfg.polarity.i_pulse <= 0.0 or drv.cfg.angle_source not in (lib.FS_ANGLE_HFI, lib.FS_ANGLE_BLEND):
+        if drv.cfg.angle_source not in (lib.FS_ANGLE_HFI, lib.FS_ANGLE_BLEND):
+            return None
+        if drv.cfg.motion.i_push > 0.0:
+            mt = drv.mt
+            stages = {lib.FS_MOTION_LOCK: "lock", lib.FS_MOTION_PUSH: "doublet", lib.FS_MOTION_SETTLE: "settle",
+                      lib.FS_MOTION_DONE: "done", lib.FS_MOTION_UNDETERMINED: "undetermined"}
+            return {"method": "motion", "stage": stages.get(mt.stage, str(mt.stage)), "turn_deg": math.degrees(mt.turn),
+                    "threshold_deg": math.degrees(mt.threshold), "attempts": int(mt.attempts), "i_push": float(mt.i_now),
+                    "flip": bool(mt.flip), "moved": bool(mt.moved)}
+        if drv.cfg.polarity.i_pulse <= 0.0:
             return None
         p = drv.pol
         stages = {lib.FS_POLARITY_LOCK: "lock", lib.FS_POLARITY_POS: "pulse", lib.FS_POLARITY_NEG: "pulse",
                   lib.FS_POLARITY_DONE: "done", lib.FS_POLARITY_UNDETERMINED: "undetermined"}
-        return {"stage": stages.get(p.stage, str(p.stage)), "d": float(p.d), "margin": float(p.margin),
+        return {"method": "pulses", "stage": stages.get(p.stage, str(p.stage)), "d": float(p.d), "margin": float(p.margin),
                 "attempts": int(p.attempts), "i_pulse": float(p.i_now), "flip": bool(p.flip), "moved": bool(p.moved)}
+
+    def halt(self) -> dict | None:
+        """Why the drive halted (fs_drive_protect.h), None if it did not: the
+        fault, and for a loss of lock the back-EMF its zero-current wait last
+        measured, V, and the speed that says by the controller's magnet flux."""
+        drv = lib.fs_sim_drive(self._sim)
+        faults = {lib.FS_FAULT_POLARITY: "polarity", lib.FS_FAULT_LOCK: "lock", lib.FS_FAULT_OVERSPEED: "overspeed",
+                  lib.FS_FAULT_START: "start"}
+        if drv.phase != lib.FS_PHASE_HALT:
+            return None
+        c = drv.cfg
+        w = float(drv.e_rec) / (c.psi_f * c.pole_pairs) if c.psi_f > 0 else math.nan
+        return {"fault": faults.get(drv.fault, str(drv.fault)), "emf_V": float(drv.e_rec), "emf_rpm": w * 60.0 / (2.0 * math.pi)}
 
     def traces(self) -> dict[str, np.ndarray]:
         """Each channel as a view into the buffer (strided, no copy)."""
@@ -173,7 +254,10 @@ def simulate(scenario: Scenario | str, progress: bool = False, chunk: float | No
     sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario, overrides)
     sim = Simulation(sc)
     T = sc.duration
-    chunk = chunk or max(T / 100.0, 1e-3)
+    # periods, counted once by the C core's rule (fs_sim_steps): the loop ends
+    # whatever the remainder of T after its last whole period
+    n_end = sim.steps(T)
+    n_chunk = max(1, sim.steps(chunk or max(T / 100.0, 1e-3)))
     bar = None
     if progress:
         from tqdm import tqdm
@@ -182,9 +266,9 @@ def simulate(scenario: Scenario | str, progress: bool = False, chunk: float | No
     t0 = time.perf_counter()
     status = "running"
     try:
-        while sim.time < T - 1e-12 and status == "running":
+        while sim.step_count < n_end and status == "running":
             before = sim.time
-            status = sim.advance(min(sim.time + chunk, T))
+            status = sim.advance_steps(min(sim.step_count + n_chunk, n_end))
             if bar is not None:
                 bar.update(sim.time - before)
     except KeyboardInterrupt:
@@ -196,6 +280,6 @@ def simulate(scenario: Scenario | str, progress: bool = False, chunk: float | No
     if status == "running":
         status = "done"
     res = Result(sc, sim.traces(), status, sim.stop_time, wall, sim.time, adc_saturated_at=sim.adc_saturated_at,
-                 polarity=sim.polarity())
+                 polarity=sim.polarity(), halt=sim.halt())
     res.metrics = compute_metrics(res)
     return res

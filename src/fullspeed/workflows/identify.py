@@ -13,9 +13,7 @@ whether the flux map is identified (workflows/mapid.py makes the drive's
 readings a map)."""
 from __future__ import annotations
 
-import json
 import math
-import os
 import tempfile
 import time
 import warnings
@@ -28,7 +26,9 @@ from .._core import ffi, lib
 from ..design.machine import load_machine, machine_from_dict
 from ..design.scenario import load_scenario, scenario_from_dict
 from ..model.errors import ConfigError, SimulationError
+from ..model.files import replace_folder
 from ..model.scenario import Scenario
+from ..model.schema import toml_string
 from ..model.zoo import SEED as ZOO_SEED
 from ..model.zoo import machine as zoo_machine
 from ..sim.config import build_config, set_fluxmap
@@ -352,6 +352,7 @@ def _result(sc: Scenario, s: dict, drv, stop: str, sim_time: float, wall: float,
     return res
 
 
+
 def _map(sc: Scenario, res: Identification, ident) -> dict:
     """The identified map (workflows/mapid.py) and its errors against the truth."""
     m = sc.machine
@@ -397,7 +398,7 @@ def _toml_value(v) -> str:
     if isinstance(v, float):
         return repr(float(v)) if math.isfinite(v) else ("nan" if math.isnan(v) else ("inf" if v > 0 else "-inf"))
     if isinstance(v, str):
-        return json.dumps(v)
+        return toml_string(v)
     if isinstance(v, (list, tuple)):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
     raise TypeError(type(v))
@@ -412,17 +413,6 @@ def _toml(tables: dict[str, dict]) -> str:
             if v is not None:
                 out.append(f"{k} = {_toml_value(v)}")
     return "\n".join(out).lstrip() + "\n"
-
-
-def _write_atomic(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 IDENTIFIED = ("ok", OUTSIDE)   # a value the drive measured (outside goal: against the truth only a simulation knows)
@@ -527,39 +517,45 @@ def _machine_toml(tab: dict) -> str:
     return _toml({"": top, **subs})
 
 
+OUTPUTS = ("identification.toml", "machine.toml", "fluxmap.csv", "fluxmap-measured.csv")   # what an identification's folder holds
+
+
 def write_identification(res: Identification, sc: Scenario, out: Path) -> list[Path]:
     """identification.toml (every quantity with its status), the map's
     fluxmap.csv and fluxmap-measured.csv where it was identified, and
     machine.toml when the quantities a machine file needs are there. The
-    machine file is loaded back: one the loader refuses is removed and the
-    refusal reported (res.details["machine_file"])."""
-    out.mkdir(parents=True, exist_ok=True)
-    paths = []
+    machine file is loaded back first (beside its map, in a scratch
+    folder): one the loader refuses is left out and the refusal reported
+    (res.details["machine_file"]). The folder is replaced as a whole
+    (files.replace_folder), so that it never pairs one identification's
+    report with another's machine or map, and a failed identification
+    leaves none of an earlier one's."""
+    files: dict[str, str] = {}
     m = sc.machine
     if res.map is not None:
         psi_f = res.values.get("psi_f", m.psi_f)
-        for name, text in (("fluxmap.csv", mapid.csv_text(res.map["grid"], m.name)),
-                           ("fluxmap-measured.csv", mapid.measured_csv_text(res.map["readings"], res.map["i_max"], psi_f, m.name))):
-            _write_atomic(out / name, text)
-            paths.append(out / name)
+        files[OUTPUTS[2]] = mapid.csv_text(res.map["grid"], m.name)
+        files[OUTPUTS[3]] = mapid.measured_csv_text(res.map["readings"], res.map["i_max"], psi_f, m.name)
     tab, notes = machine_table(res, sc)
     res.details["machine_file"] = {"written": False, "notes": notes}
     if tab is not None:
-        path = out / "machine.toml"
-        _write_atomic(path, _machine_toml(tab))
-        try:
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always")
-                load_machine(path)
-            res.details["machine_file"].update(written=True, warnings=[str(w.message) for w in caught])
-            paths.append(path)
-        except ConfigError as exc:   # the loader's refusal: no file it refuses is left behind
-            path.unlink(missing_ok=True)
-            res.details["machine_file"]["refused"] = str(exc)
+        text = _machine_toml(tab)
+        with tempfile.TemporaryDirectory(prefix="fullspeed-identify-") as scratch:
+            for name, data in files.items():
+                (Path(scratch) / name).write_text(data)
+            (Path(scratch) / OUTPUTS[1]).write_text(text)
+            try:
+                with warnings.catch_warnings(record=True) as caught:
+                    warnings.simplefilter("always")
+                    load_machine(Path(scratch) / OUTPUTS[1])
+                res.details["machine_file"].update(written=True, warnings=[str(w.message) for w in caught])
+                files[OUTPUTS[1]] = text
+            except ConfigError as exc:   # the loader's refusal: no file it refuses is written
+                res.details["machine_file"]["refused"] = str(exc)
     tabs = report_tables(res)
     tabs["machine_file"] = {k: (v if not isinstance(v, list) else "; ".join(v)) for k, v in res.details["machine_file"].items()}
-    _write_atomic(out / "identification.toml", _toml(tabs))
-    return [out / "identification.toml"] + paths
+    report = {OUTPUTS[0]: _toml(tabs)}
+    return replace_folder(out, {**report, **files}, OUTPUTS)
 
 
 def print_identification(res: Identification) -> None:

@@ -167,7 +167,9 @@ def _base_cases(name: str, spec: tuple, rng: np.random.Generator, healthy: int, 
     """One base's cases of the given kinds (the original campaign: all kinds,
     a pi-off start from 180 el.deg)."""
     scen, ov, est, t_x, w_x, t_end = spec
-    ov = deep_merge(ov, {"controller": {"lock": "detect"}})
+    # the monitor's flags against the truth over the whole run: it flags and
+    # the drive goes on (no recovery, no overspeed stop)
+    ov = deep_merge(ov, {"controller": {"lock": "detect", "overspeed_rpm": 0.0}})
     out = []
 
     def add(kind, label, extra):

@@ -19,7 +19,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ..design.checks import POLARITY_ASYMMETRY, d_asymmetry
+from ..design.start import POLARITY_ASYMMETRY, d_asymmetry
 from ..model.fluxmap import interp
 
 ND, NQ = 9, 8          # fs_mapid.h: FS_MAPID_ND, FS_MAPID_NQ
@@ -157,7 +157,7 @@ def true_grid(true_flux, i_max: float) -> dict:
 
 
 def asymmetry(grid: dict, i_pulse: float) -> float | None:
-    """The d-axis asymmetry polarity detection decides on (design.checks:
+    """The d-axis asymmetry polarity detection decides on (design.start:
     the incremental L_d at -i_pulse against +i_pulse), of a map's grid."""
     mag = {"model": "fluxmap", "i_d": list(grid["i_d"]), "i_q": list(grid["i_q"]),
            "psi_d": np.asarray(grid["psi_d"]).tolist()}

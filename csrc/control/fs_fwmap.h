@@ -1,0 +1,88 @@
+/* Current references within the voltage limit, from the flux map: flux
+ * weakening that uses the whole current limit, and MTPV.
+ *
+ * In steady state the voltage is about w_e |psi| (the resistive drop
+ * aside), so a speed w_e and an available voltage u_lim allow the fluxes
+ * |psi(i)| <= psi_lim = u_lim / |w_e|. Below base speed (psi_lim at least
+ * the flux of MTPA at i_max, psi_mtpa) MTPA holds every torque. Above it
+ * the most torque inside the current limit and the flux limit is T_max(psi_lim):
+ * on the flux limit |psi| = psi_lim where the current limit cuts it, or at
+ * its maximum along it (MTPV: maximum torque per volt, where the machine's
+ * characteristic current lies inside the current limit); and a smaller
+ * torque takes the least current that makes it within both limits: MTPA
+ * while that is inside the flux limit, else the point of the flux limit
+ * where the torque is that, on the side of less current.
+ *
+ * init tabulates this on the map (fs_fluxmap.h) for x = psi_mtpa / psi_lim
+ * (the speed over base speed at the same voltage) from 1 to FS_FWMAP_X_MAX
+ * in FS_FWMAP_NX rows, spaced as the square of the row's index (dense near
+ * base speed, where the flux limit moves fastest), each at FS_FWMAP_NT torques from 0 to T_max(x): along
+ * the flux limit psi_lim e^{j delta}, delta from the d axis up, the current
+ * is found by Newton's method on the map (its incremental inductances), the
+ * torque rises to T_max and the current's magnitude with it. step
+ * interpolates the table bilinearly in x and T / T_max(x), and holds T_max.
+ * Beyond FS_FWMAP_X_MAX (8 x base speed) the last row scaled: the flux
+ * limit there is a small circle near the characteristic current.
+ *
+ * Against the voltage-feedback flux weakening (fs_fw.h), which adds a d
+ * current while the voltage saturates and keeps the q current the speed
+ * loop asks, these references are feed-forward: the torque the machine can
+ * make at a speed is asked for directly, with all the current the limit
+ * allows (on the 2004 Prius MG2's map at 1540 rpm: 358 N m on 250 A, where
+ * the feedback held 190 N m on 125 A).
+ *
+ * The references meet the flux limit in steady state; while the
+ * reference moves (an acceleration deepens it continuously) the current
+ * loops ask more, and at the modulator's edge the d current can no longer
+ * be driven deeper. fs_fwmap_trim closes the loop on the voltage the
+ * current regulators ask: an integrator on its excess over the plan, at
+ * FS_FWMAP_TRIM_PER_BW of the current loop's bandwidth (well inside it),
+ * raises x, the speed ratio the flux limit is taken at (x (1 + trim), trim
+ * in [0, 1]), and lets it back down as the excess goes. On the 2004 Prius
+ * MG2's full range (sensorless, 5000 rpm in flux weakening) the largest
+ * angle error was 7.7 el.deg without it, 3.8 with it.
+ */
+#ifndef FS_FWMAP_H
+#define FS_FWMAP_H
+
+#include "fs_fluxmap.h"
+#include "fs_mtpa.h"
+#include "fs_transforms.h"
+#include "fs_types.h"
+
+enum { FS_FWMAP_NX = 16, FS_FWMAP_NT = 12, FS_FWMAP_NTAB = 192 };   /* NTAB = NX NT */
+#define FS_FWMAP_X_MAX 8.0f
+
+typedef struct {
+    const fs_fluxmap *map;   /* read at init only */
+    float i_max;             /* A */
+    float k_T;               /* (phases / 2) p: torque per (flux x current) */
+    float Ts, bw_current;    /* s, rad/s: the trim's rate (header) */
+} fs_fwmap_config;
+
+#define FS_FWMAP_TRIM_PER_BW 0.05f
+
+typedef struct {
+    float psi_mtpa;          /* Wb, |psi| of MTPA at i_max (x = 1) */
+    float inv_dx;            /* 1 / (X_MAX - 1) */
+    float k_trim;            /* the trim's integral gain per step, Ts FS_FWMAP_TRIM_PER_BW bw_current */
+    float trim;              /* its state, >= 0 (header) */
+    float T_max[FS_FWMAP_NX];               /* N m at x_k = 1 + k dx */
+    float i_d[FS_FWMAP_NTAB], i_q[FS_FWMAP_NTAB];   /* A at (x_k, T_max(x_k) j / (NT - 1)), index k NT + j; i_q >= 0 */
+} fs_fwmap;
+
+/* mtpa: the map's locus at the same i_max (fs_mtpa.h), which the rows
+ * take below the flux limit; its segment cache moves. */
+fs_status fs_fwmap_init(fs_fwmap *f, const fs_fwmap_config *cfg, fs_mtpa *mtpa);
+void fs_fwmap_reset(fs_fwmap *f);
+/* The speed ratio x = (1 + trim) psi_mtpa |w_e| / u_lim for a voltage and a
+ * speed (<= 1: MTPA holds). */
+float fs_fwmap_ratio(const fs_fwmap *f, float u_lim, float w_e);
+/* The trim (header): u the voltage the current regulators asked last, u_plan
+ * the voltage planned for; while x > 1 (in flux weakening). */
+void fs_fwmap_trim(fs_fwmap *f, float u, float u_plan);
+/* For x > 1: the current for torque T_ref (either sign), T_ref held at
+ * T_max(x) (*T_real: the torque asked of the current). */
+fs_dq fs_fwmap_step(const fs_fwmap *f, float x, float T_ref, float *T_real);
+
+#endif /* FS_FWMAP_H */

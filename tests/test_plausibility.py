@@ -1,0 +1,125 @@
+"""Plausibility that catches the classic datasheet mistakes (design/checks.py)
+on the new-user trial's Prius MG2, quiet on the catalog, the zoo and the
+repository's machines; the template's Ke -> psi_f; the speed loop against
+the observer that feeds it."""
+import copy
+import math
+from pathlib import Path
+
+import pytest
+
+from fullspeed.design.checks import emf_warnings, torque_warnings
+from fullspeed.design.machine import load_machine, machine_from_dict
+from fullspeed.design.rules import u_linear
+from fullspeed.design.scenario import load_scenario, scenario_from_dict
+from fullspeed.model.machines import catalog_data, catalog_names
+from fullspeed.model.reference import machine_template
+from fullspeed.model import zoo
+
+ROOT = Path(__file__).resolve().parents[1]
+# the trial's Prius MG2 (its section 1: jonelay/phase-sweep's values, ORNL's ratings), linear magnetics
+PRIUS = {"name": "prius2004", "kind": "ipmsm", "pole_pairs": 4,
+         "electrical": {"R_s": 0.077, "L_d": 2.26e-3, "L_q": 6.15e-3, "psi_f": 0.1607},
+         "mechanical": {"J": 0.035}, "rated": {"torque": 400.0, "current": 250.0, "speed_rpm": 1200.0},
+         "bench": {"u_dc": 500.0, "f_pwm": 10e3, "t_dead": 3e-6, "noise_i": 0.3}}
+
+
+def plausibility(d: dict) -> list[str]:
+    m = machine_from_dict(copy.deepcopy(d))
+    return emf_warnings(m, u_linear(m.bench["u_dc"], m.phases)) + torque_warnings(m)
+
+
+def prius(**changes) -> dict:
+    d = copy.deepcopy(PRIUS)
+    for path, v in changes.items():
+        *tables, key = path.split("__")
+        t = d
+        for k in tables:
+            t = t[k]
+        t[key] = v
+    return d
+
+
+def test_the_trial_prius_passes_and_its_classic_mistakes_are_named():
+    assert plausibility(prius()) == []
+    assert plausibility(prius(rated__torque=398.0)) == []   # ORNL's 50 kW at 1200 rpm
+    # pole pairs given as poles
+    (w,) = plausibility(prius(pole_pairs=8))
+    assert w.startswith("machine.pole_pairs:") and "pole_pairs given as poles (8 for 4 pairs)" in w and "4.52 x" in w
+    # psi_f from a line-to-line Ke: x sqrt 3
+    (w,) = plausibility(prius(electrical__psi_f=0.1607 * math.sqrt(3)))
+    assert w.startswith("machine.electrical.psi_f:") and "line-to-line Ke" in w and "sqrt(2) / sqrt(3)" in w
+    # the rated current given as rms (the trial's third mistake, caught before, still caught)
+    (w,) = plausibility(prius(rated__current=176.8))
+    assert w.startswith("machine.rated.current:") and "rms" in w and "250" in w
+    # L in mH typed as H: named by the time constant and by the torque
+    ws = plausibility(prius(electrical__L_d=2.26, electrical__L_q=6.15))
+    assert ws and ws[0].startswith("machine.electrical.L_d:") and "mH typed as H" in ws[0]
+
+
+def test_the_rated_voltage_catches_what_the_link_cannot():
+    # with a rated voltage, the back-EMF at rated speed against it: motulator's machine
+    # (0.85 of its rated voltage) with its pole pairs doubled or psi_f from a line-to-line Ke
+    d = catalog_data("motulator-2kw-ipmsm")
+    assert plausibility(d) == []
+    # (its torque at rated current, 1.08 x rated, doubles to 2.16: inside what saturation explains)
+    d2 = copy.deepcopy(d)
+    d2["pole_pairs"] *= 2
+    (w,) = plausibility(d2)   # 1.7 x: halved or over sqrt 3 both fit, and both are named
+    assert "rated voltage" in w and "1.7 x" in w and "pole_pairs given as poles (6 for 3 pairs)" in w
+    assert w.split(":")[0] in ("machine.pole_pairs", "machine.electrical.psi_f")
+    d3 = copy.deepcopy(d)
+    d3["electrical"]["psi_f"] *= math.sqrt(3)
+    (w,) = plausibility(d3)
+    assert w.startswith("machine.electrical.psi_f:") and "rated voltage" in w and "line-to-line Ke" in w
+
+
+@pytest.mark.parametrize("name", catalog_names())
+def test_quiet_on_every_catalog_machine(name):
+    assert plausibility(catalog_data(name)) == []
+
+
+def test_quiet_on_the_zoo_and_the_repository_machines():
+    from conftest import MACHINE
+    from test_design import DATASHEET as MY48
+    from test_identify import SERVO
+    for k in range(zoo.SIZE):
+        assert plausibility(zoo.machine(k)) == [], k
+    for d in (MACHINE, MY48, SERVO):
+        assert plausibility(d) == [], d["name"]
+    own = load_machine(str(ROOT / "examples" / "own-machine" / "my48v.toml"))   # with its flux map's torque
+    assert emf_warnings(own, u_linear(own.bench["u_dc"], own.phases)) + torque_warnings(own) == []
+
+
+def test_the_template_turns_a_line_to_line_ke_into_psi_f():
+    text = machine_template("m")
+    assert "Ke" in text and "line-to-line rms" in text
+    assert "psi_f = Ke * sqrt(2) / sqrt(3) / (pole_pairs * 2 * pi * 1000 / 60)" in text
+    # its worked example is right: 50 V/krpm, 4 pole pairs
+    assert "0.0975 Wb" in text and 50 * math.sqrt(2) / math.sqrt(3) / (4 * 2 * math.pi * 1000 / 60) == pytest.approx(0.0975, abs=5e-5)
+    assert "poles / 2" in text
+
+
+def test_a_speed_loop_faster_than_its_observer_is_warned():
+    d = {"name": "p", "duration": 1.0, "machine": copy.deepcopy(PRIUS), "injection": {"u_h": 50.0},
+         "controller": {"mode": "speed", "angle": "blend", "flux_weakening": True}}
+    designed = scenario_from_dict(copy.deepcopy(d))
+    assert not any(w.startswith("controller.bw_speed") for w in designed.warnings)
+    bw = designed.data["controller"]["bw_speed"]
+    d["controller"]["bw_speed"] = 100.0   # the trial's --set controller.bw_speed=100
+    (w,) = [w for w in scenario_from_dict(copy.deepcopy(d)).warnings if w.startswith("controller.bw_speed")]
+    assert f"at most {bw:.4g} rad/s" in w and "half the bandwidth of the observer" in w
+    d["controller"]["bw_speed"] = 0.9 * bw
+    assert not any(w.startswith("controller.bw_speed") for w in scenario_from_dict(copy.deepcopy(d)).warnings)
+    smo = load_scenario("yang2022-smo-ramp", {"controller": {"bw_speed": 200.0}})
+    assert any(w.startswith("controller.bw_speed") and "a sixth of the back-EMF observer's PLL" in w for w in smo.warnings)
+
+
+def test_a_flux_map_machine_is_judged_by_its_own_torque():
+    # SyR-e's THOR makes half its torque from saliency: the magnet alone (0.46 x rated) is no sign of an rms
+    # current on a map, but the map's total at an rms current (0.64 x, below 0.7) is, and says so
+    d = catalog_data("syre-thor")
+    assert plausibility(d) == []
+    d["rated"]["current"] /= math.sqrt(2)
+    (w,) = plausibility(d)
+    assert w.startswith("machine.rated.current:") and "rms" in w and "0.642 x" in w

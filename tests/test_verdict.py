@@ -1,0 +1,87 @@
+"""No success without the job done, and a summary whose lines agree: a run
+that never left its start stage or whose speed ends far from its reference
+is not `done` with exit 0; the sensorless error counts every stage the
+loops make torque in; no steady window after a stop; no sensorless line for
+an encoder run; a load's response only where the speed reference holds."""
+import numpy as np
+import pytest
+
+from fullspeed.cli import run_verdict
+from fullspeed.design.scenario import load_scenario, scenario_from_dict
+from fullspeed.model.units import rad_s_to_rpm
+from fullspeed.model.zoo import machine as zoo_machine
+from fullspeed.sim import simulate
+from fullspeed.sim.metrics import CONTROL_BAND, sensorless_error_max, summary_lines
+
+
+def test_a_start_that_never_hands_over_is_not_success():
+    # the I/f start accelerates its frame towards the reference or the hand-over speed,
+    # whichever is lower: a reference below the hand-over leaves the drive in its start stage
+    ov = {"duration": 0.6, "metrics": {"steady": None}, "observer": {"start_handover_rpm": 400.0},
+          "references": {"speed_rpm": [[0.0, 0.0], [0.1, 0.0], [0.1, 200.0]]}, "load": {"torque": 0.0}}
+    res = simulate("bench-motulator-2kw", overrides=ov)
+    assert res.stop_reason == "done"
+    assert res.metrics["start_unfinished"]["stage"] == "start" and res.metrics["start_unfinished"]["never_left"]
+    lines = run_verdict(res)
+    assert any("ended in the start stage start" in line and "never closed its loops" in line for line in lines)
+
+
+def test_a_speed_far_from_its_reference_at_the_end_is_not_success():
+    # 6000 rpm asked of the yang2022 machine without flux weakening: its 24 V link stops it near 4600
+    ov = {"duration": 1.2, "metrics": {"steady": None}, "references": {"speed_rpm": [[0.0, 0.0], [0.1, 6000.0]]}}
+    res = simulate("yang2022-encoder-speedstep", overrides=ov)
+    end = res.metrics["speed_end"]
+    assert res.stop_reason == "done" and end["far"] and end["ref_rpm"] == pytest.approx(6000.0)
+    assert abs(end["speed_rpm"] - 6000.0) > CONTROL_BAND * 6000.0
+    assert any("the speed ends at" in line and "outside the +-600.0 rpm" in line for line in run_verdict(res))
+    near = simulate("yang2022-encoder-speedstep")   # the same drive at 1000 rpm: within its band
+    assert not near.metrics["speed_end"]["far"] and run_verdict(near) == []
+
+
+def test_the_sensorless_error_counts_the_start_stage():
+    # the new-user trial's PM-SyRM: 1.28 el.deg reported beside a start stage at 179.99
+    t = np.arange(400) * 1e-3
+    stage = np.where(t < 0.3, 3, 6).astype(float)   # the I/f start, then the back-EMF observer
+    err = np.radians(np.where(t < 0.3, 179.99, 1.28))
+    tr = {"t": t, "stage": stage, "theta_err": err, "w_m_ref": np.zeros_like(t), "T_L": np.zeros_like(t)}
+    assert sensorless_error_max(tr) == pytest.approx(179.99)
+    assert sensorless_error_max(tr, t_from=0.31) == pytest.approx(1.28)   # after the encoder handed over
+
+
+def test_an_encoder_run_has_no_sensorless_error_even_in_flux_weakening():
+    res = simulate("beyond-full-range", overrides={"controller": {"angle": "encoder"}, "duration": 3.4,
+                                                  "metrics": {"steady": None}})
+    assert "flux_weakening" in res.metrics["stages"]
+    assert res.metrics["sensorless_err_deg_max"] is None
+    assert not any("while sensorless" in line for line in summary_lines(res.metrics))
+
+
+def test_no_steady_window_after_a_stop_before_it():
+    # a linear zoo machine held to polarity pulses (no motion test allowed): refused at the start, long before
+    # its steady window
+    d = {"name": "z1", "duration": 1.0, "machine": {"zoo": 1}, "controller": {"mode": "speed", "angle": "blend"},
+         "start": {"allow_motion": False},
+         "references": {"speed_rpm": [[0.0, 0.0], [0.2, 0.0], [0.4, 0.3 * zoo_machine(1)["rated"]["speed_rpm"]]]}}
+    res = simulate(scenario_from_dict(d))
+    assert res.stop_reason == "polarity_undetermined" and res.stop_time < 0.4
+    m = res.metrics
+    assert m["steady_window"] is None and "the run stopped at" in m["steady_basis"]
+    assert "speed_error_pct" not in m
+    assert summary_lines(m)[0].startswith("steady window: none: the run stopped at")
+
+
+def test_a_load_decrease_is_a_rise_and_a_load_change_on_a_ramp_is_not_measured():
+    load = {"torque": [[0.0, 0.0], [0.3, 0.0], [0.31, 2.0], [0.8, 2.0], [0.81, 0.5], [1.3, 0.5], [1.5, 2.0]]}
+    ref = {"speed_rpm": [[0.0, 0.0], [0.1, 1000.0], [1.2, 1000.0], [1.7, 1500.0]]}
+    res = simulate("yang2022-encoder-speedstep", overrides={"duration": 2.0, "metrics": {"steady": None},
+                                                             "load": load, "references": ref})
+    up, down, ramp = [s for s in res.metrics["steps"] if s["kind"] == "load"]
+    assert up["response"] == "dip" and up["dip_rpm"] > 5.0 and 0.3 <= up["t_dip"] < 0.31 + 0.3
+    assert down["response"] == "rise" and "dip_rpm" not in down and down["rise_rpm"] > 5.0
+    t, w, w_ref = res["t"], rad_s_to_rpm(res["w_m"]), rad_s_to_rpm(res["w_m_ref"])
+    k = np.argmin(np.abs(t - down["t_rise"]))
+    assert w[k] - w_ref[k] == pytest.approx(down["rise_rpm"])     # above the reference, not below
+    assert ramp["dip_rpm"] is None and "speed reference changes" in ramp["note"]
+    lines = summary_lines(res.metrics)
+    assert any("speed rise" in line for line in lines)
+    assert any(line.startswith("load step at 1.3 s") and "not measured" in line for line in lines)
