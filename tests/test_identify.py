@@ -322,3 +322,19 @@ def test_map_summary_counts_the_saturating_machines():
     assert s["machines"] == 3 and s["identified"] == 2 and s["max"] == 2.0
     assert s["not_identified"] == {"m4": "failed: the sweeps did not read the grid"}
     assert map_summary(rows, saturating_only=False)["identified"] == 5
+
+
+def test_catalog_flux_map_machine_identified_locked_or_refused_naming_the_motion():
+    # the Prius MG2 free: its light rotor turns through LEVELS, which the
+    # drive reads as noise; the inverter's error of that step must not be "ok"
+    free = identify(_scenario("prius2004-mg2"))
+    assert not free.ok
+    assert free.status["verr"] == "failed" and "u_e" not in free.values
+    for q in ("verr", "R_s"):
+        assert "the rotor turned" in free.reason[q] and "locked = true" in free.reason[q], free.reason[q]
+    turned = free.motion["steps"]["levels"]["max_deg"]
+    assert turned > 90.0 and f"{turned:.0f} el.deg" in free.reason["verr"]
+    # locked, as the reason says: the map within its goal
+    held = identify(_scenario("prius2004-mg2", identify={"locked": True}))
+    assert held.status["map"] == "ok" and held.map["errors"]["rms_pct"] <= 3.0
+    assert all(held.status[q] == "ok" for q in ("verr", "R_s", "L_d", "L_q"))
