@@ -10,8 +10,9 @@
 enum { P_W_M_REF, P_I_D_REF, P_I_Q_REF, P_U_D_REF, P_U_Q_REF, P_W_E_REF, P_T_LOAD, P_W_LOAD, P_SENSORLESS,
        P_U_DC_SCALE, P_N };
 /* fs_sim_hold's indices are these */
-typedef char fs_sim_profile_check[(P_W_M_REF == FS_SIM_W_M_REF && P_T_LOAD == FS_SIM_T_LOAD && P_W_LOAD == FS_SIM_W_LOAD
-                                   && P_U_DC_SCALE == FS_SIM_U_DC_SCALE && P_N == FS_SIM_PROFILES) ? 1 : -1];
+typedef char fs_sim_profile_check[((int)P_W_M_REF == (int)FS_SIM_W_M_REF && (int)P_T_LOAD == (int)FS_SIM_T_LOAD
+                                   && (int)P_W_LOAD == (int)FS_SIM_W_LOAD && (int)P_U_DC_SCALE == (int)FS_SIM_U_DC_SCALE
+                                   && (int)P_N == (int)FS_SIM_PROFILES) ? 1 : -1];
 
 struct fs_sim {
     fs_sim_config cfg;
@@ -45,6 +46,14 @@ struct fs_sim {
     double held_y[P_N], held_slope[P_N];
     int sampled;             /* fs_sim_sample ran and fs_sim_actuate has not */
     double e_in0, p_cond0;   /* at the last sample: the input energy meter, J, and the devices' conduction loss, W */
+    /* The phase and rotor-frame currents of the state as it is, computed by
+     * the overcurrent check at the end of a period and taken by the next
+     * sample instead of computing them again (the same function of the same
+     * state: the same bits). Not with a flux map, whose current solve starts
+     * from its last solution (fs_mag_current's hint): a second solve of the
+     * same state can differ in the last bit, so it is solved twice as before. */
+    int cur_ok;
+    double cur_ph[FS_INV_MAX_LEGS], cur_d, cur_q;
 };
 
 /* The runner passes drive duties to the inverter and phase currents back. */
@@ -62,11 +71,29 @@ static double prof(fs_sim *s, int p, double t, double *slope)
 
 static double pi_const(void) { return 3.14159265358979323846; }
 
+/* fmod(x, y) for y > 0, bit for bit, without the library call where |x| <
+ * 2 y (an angle wrapped once a sample never leaves that band): fmod is exact
+ * (x - n y for n = trunc(x / y)), so it is x itself for |x| < y, and for y
+ * <= |x| < 2 y it is x -+ y, which the subtraction gives exactly (Sterbenz:
+ * y / 2 <= |x| <= 2 y), with fmod's sign (x's) where that is zero. NaN,
+ * infinities and the rest take fmod. */
+static double fmod_near(double x, double y)
+{
+    if (x >= 0.0) {
+        if (x < y) return x;
+        if (x < 2.0 * y) return x - y;
+    } else if (x > -2.0 * y) {
+        if (x > -y) return x;
+        return x == -y ? -0.0 : x + y;   /* fmod keeps x's sign: -y gives -0 */
+    }
+    return fmod(x, y);
+}
+
 static double wrap_pi(double x)
 {
     const double PI = pi_const();
     if (x > -PI && x <= PI) return x;
-    x = fmod(x + PI, 2.0 * PI);
+    x = fmod_near(x + PI, 2.0 * PI);
     if (x <= 0.0) x += 2.0 * PI;
     return x - PI;
 }
@@ -487,7 +514,13 @@ static void sample(fs_sim *s, double t, fs_drive_in *din, double *i_ph, double *
     if (!s->imc && (s->prof[P_U_DC_SCALE].n > 0 || s->held[P_U_DC_SCALE]))
         s->cfg.inverter.u_dc = s->u_dc0 * prof(s, P_U_DC_SCALE, t, NULL);
 
-    phase_currents(s, s->x, i_ph, i_d, i_q);
+    if (s->cur_ok) {
+        for (int k = 0; k < FS_INV_MAX_LEGS; ++k) i_ph[k] = s->cur_ph[k];
+        *i_d = s->cur_d;
+        *i_q = s->cur_q;
+    } else {
+        phase_currents(s, s->x, i_ph, i_d, i_q);
+    }
     for (int k = 0; k < s->phases; ++k) din->i_ph[k] = (float)adc(s, k, i_ph[k], t);
     for (int k = s->phases; k < FS_PHASES_MAX; ++k) din->i_ph[k] = 0.0f;
     din->u_dc = (float)c->inverter.u_dc;
@@ -616,6 +649,7 @@ static void row_drive(const fs_sim *s, const fs_drive_in *din, const fs_drive_ou
 static int advance(fs_sim *s, double t)
 {
     const fs_sim_config *c = &s->cfg;
+    s->cur_ok = 0;
     s->x[FS_X_UD_INT] = s->x[FS_X_UQ_INT] = 0.0;
     if (s->imc) integrate_period_imc(s, t); else integrate_period(s, t);
     if (s->thermal_on) thermal_period(s);
@@ -624,20 +658,20 @@ static int advance(fs_sim *s, double t)
         s->rect_now = s->rect_next;
     }
     ++s->k;
-    s->x[FS_X_THETA_M] = fmod(s->x[FS_X_THETA_M], 2.0 * pi_const());
+    s->x[FS_X_THETA_M] = fmod_near(s->x[FS_X_THETA_M], 2.0 * pi_const());
 
-    int finite = 1;
-    for (int n = 0; n < FS_GRID_X_N; ++n) finite = finite && isfinite(s->g[n]);
-    for (int n = 0; n < s->nx; ++n) {
-        if (!isfinite(s->x[n]) || !finite) {
-            s->stopped = FS_STOP_NAN;
-            s->stop_time = fs_sim_time(s);
-            return s->stopped;
-        }
+    int finite = 1;   /* the filter's states move only with the matrix converter */
+    if (s->imc) for (int n = 0; n < FS_GRID_X_N; ++n) finite &= isfinite(s->g[n]) != 0;
+    for (int n = 0; n < s->nx; ++n) finite &= isfinite(s->x[n]) != 0;
+    if (!finite) {
+        s->stopped = FS_STOP_NAN;
+        s->stop_time = fs_sim_time(s);
+        return s->stopped;
     }
     if (c->i_trip > 0.0) {
-        double i_ph[FS_INV_MAX_LEGS];
-        phase_currents(s, s->x, i_ph, NULL, NULL);
+        double *i_ph = s->cur_ph;
+        phase_currents(s, s->x, i_ph, &s->cur_d, &s->cur_q);
+        s->cur_ok = s->pmsm.mag.cfg.kind != FS_MAG_FLUXMAP;
         for (int k = 0; k < s->phases; ++k) {
             if (fabs(i_ph[k]) > c->i_trip) {
                 s->stopped = FS_STOP_OVERCURRENT;
