@@ -137,7 +137,8 @@ typedef enum {
     FS_STOP_POLARITY = 5,     /* the drive could not determine the magnet's polarity and refused to start */
     FS_STOP_OVERSPEED = 6,    /* the drive halted at its overspeed limit (fs_drive_protect.h) */
     FS_RUN_ERR_NULL = -1,     /* sim or rows (or trace, with max_rows > 0) is NULL: nothing run */
-    FS_RUN_ERR_ORDER = -2     /* fs_sim_actuate without an fs_sim_sample before it: nothing run */
+    FS_RUN_ERR_ORDER = -2,    /* fs_sim_actuate without an fs_sim_sample before it: nothing run */
+    FS_RUN_ERR_STRIDE = -3    /* fs_sim_run_cols with a stride below 1 or max_rows: nothing run */
 } fs_run_status;
 
 typedef struct fs_sim fs_sim;
@@ -149,6 +150,10 @@ void fs_sim_destroy(fs_sim *sim);
 /* Advances to t_end, writing at most max_rows rows of FS_CH_N doubles into
  * trace; *rows receives the count. Returns an fs_run_status. */
 int fs_sim_run(fs_sim *sim, double t_end, double *trace, int max_rows, int *rows);
+/* fs_sim_run with the trace column-major: channel c of the call's row r at
+ * trace[c * stride + r] (stride >= max_rows: each channel's samples are
+ * contiguous, as the Python front keeps them); FS_RUN_ERR_STRIDE else. */
+int fs_sim_run_cols(fs_sim *sim, double t_end, double *trace, long stride, int max_rows, int *rows);
 /* Simulated time, s (NaN for a NULL sim, as the two below). */
 double fs_sim_time(const fs_sim *sim);
 /* Time of the stop, for a run that stopped (NaN otherwise). */
