@@ -677,10 +677,13 @@ static int advance(fs_sim *s, double t)
     ++s->k;
     s->x[FS_X_THETA_M] = fmod_near(s->x[FS_X_THETA_M], 2.0 * pi_const());
 
-    int finite = 1;   /* the filter's states move only with the matrix converter */
-    if (s->imc) for (int n = 0; n < FS_GRID_X_N; ++n) finite &= isfinite(s->g[n]) != 0;
-    for (int n = 0; n < s->nx; ++n) finite &= isfinite(s->x[n]) != 0;
-    if (!finite) {
+    /* all states finite: x * 0 is 0 for a finite x and NaN for an infinite
+     * or NaN one, so the sum is 0 or NaN (the filter's states move only with
+     * the matrix converter) */
+    double zero = 0.0;
+    if (s->imc) for (int n = 0; n < FS_GRID_X_N; ++n) zero += s->g[n] * 0.0;
+    for (int n = 0; n < s->nx; ++n) zero += s->x[n] * 0.0;
+    if (zero != 0.0) {
         s->stopped = FS_STOP_NAN;
         s->stop_time = fs_sim_time(s);
         return s->stopped;
