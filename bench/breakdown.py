@@ -48,6 +48,8 @@ MODES = ("averaged", "switching")
 WHATS = ("base", "simulate", "metrics", "notrace")
 PLANT_FNS = ("fs_pmsm_rk4", "fs_inverter_mean_voltage", "fs_inverter_segments", "fs_inverter_voltage")
 ONE_ROW = 1_000_000          # trace.decimation that leaves one row of the run
+LOOP_FNS = ("fs_sim_run", "fs_sim_run_cols")   # the runner's loop: row-major, column-major (the front's)
+WARM_RUNS = 2                # runs every driver makes first: simulate() and the one-row run
 
 
 # --- the driver callgrind runs ---------------------------------------------------
@@ -142,14 +144,14 @@ def plant_ir(a: dict, samples: int) -> int:
 
 def split(base: dict, sim: dict, met: dict, one: dict, n: int, samples: int) -> dict:
     """Per sample, each part's instructions, from the four annotations."""
-    def d(a, key):        # per run, the difference to the base driver
-        return (a["incl"].get(key, 0) - base["incl"].get(key, 0)) / n
+    def d(a, *keys):      # per run, the difference to the base driver
+        return sum(a["incl"].get(k, 0) - base["incl"].get(k, 0) for k in keys) / n
 
     total = (sim["total"] - base["total"]) / n
-    c_loop = d(sim, "fs_sim_run")
+    c_loop = d(sim, *LOOP_FNS)
     control = d(sim, "fs_drive_step")
-    plant = (plant_ir(sim, samples * (n + 1)) - plant_ir(base, samples)) / n
-    tracing = c_loop - d(one, "fs_sim_run")
+    plant = (plant_ir(sim, samples * (WARM_RUNS + n)) - plant_ir(base, samples * WARM_RUNS)) / n
+    tracing = c_loop - d(one, *LOOP_FNS)
     metrics = (met["total"] - base["total"]) / n
     parts = {"control": control, "plant": plant, "tracing": tracing,
              "runner": c_loop - control - plant - tracing, "metrics": metrics, "front": total - c_loop - metrics}
