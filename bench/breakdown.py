@@ -48,7 +48,7 @@ MODES = ("averaged", "switching")
 WHATS = ("base", "simulate", "metrics", "notrace")
 PLANT_FNS = ("fs_pmsm_rk4", "fs_inverter_mean_voltage", "fs_inverter_segments", "fs_inverter_voltage")
 ONE_ROW = 1_000_000          # trace.decimation that leaves one row of the run
-LOOP_FNS = ("fs_sim_run", "fs_sim_run_cols")   # the runner's loop: row-major, column-major (the front's)
+LOOP_FNS = ("fs_sim_run_steps", "fs_sim_run_cols")   # the runner's loop: row-major (fs_sim_run's), column-major (the front's)
 WARM_RUNS = 2                # runs every driver makes first: simulate() and the one-row run
 
 
@@ -65,9 +65,10 @@ def driver(what: str, inverter: str, n: int) -> None:
 
     def bare(s):     # the C loop as simulate() drives it, without the metrics
         sim = Simulation(s)
-        T, chunk, st = s.duration, max(s.duration / 100.0, 1e-3), "running"
-        while sim.time < T - 1e-12 and st == "running":
-            st = sim.advance(min(sim.time + chunk, T))
+        n_end, st = sim.steps(s.duration), "running"
+        n_chunk = max(1, sim.steps(max(s.duration / 100.0, 1e-3)))
+        while sim.step_count < n_end and st == "running":
+            st = sim.advance_steps(min(sim.step_count + n_chunk, n_end))
         return sim
 
     res = fs.simulate(sc)          # warm-up, in every driver

@@ -12,7 +12,8 @@ What it does, in a temporary directory (never the source tree):
   - links the firmware image: firmware/*.c (the configuration exported from
     the beyond-full-range scenario, the integration layer drive_app.c and the
     stand-in board) with the library compiled again with the firmware's
-    options (OPTIONS: no matrix converter, five phases or square wave; see
+    options (OPTIONS: no matrix converter, five phases, square wave,
+    identification, online adaptation, motion test or I/f start; see
     fs_drive.h), newlib-nano, --gc-sections and -lm, so the libm float
     routines that a real image carries are counted;
   - reports text/data/bss (arm-none-eabi-size) of the library objects (summed,
@@ -52,9 +53,10 @@ TEXT_GOAL = 32 * 1024
 # drive on the blend with flux weakening leaves these out (it keeps the
 # dead-time compensation on the predicted current, its default while it
 # injects: 1,288 B of flash at -O2), and, for a machine known by L_d, L_q,
-# psi_f (the catalog's beyond-full-range), the flux map (4.7 kB).
+# psi_f (the catalog's beyond-full-range), the flux map (4.7 kB); the yang2022
+# machine's pulses decide its polarity: neither the motion test nor the I/f start.
 OPTIONS = ["-DFS_WITH_IMC=0", "-DFS_WITH_FIVE_PHASE=0", "-DFS_WITH_SWVI=0", "-DFS_WITH_IDENT=0", "-DFS_WITH_ADAPT=0",
-           "-DFS_WITH_FLUXMAP=0"]
+           "-DFS_WITH_FLUXMAP=0", "-DFS_WITH_MOTION_TEST=0", "-DFS_WITH_IF_START=0"]
 # The image is linked with link-time optimisation: at -O2 it inlines the
 # single-use static functions across files and drops what no path reaches
 # (40,536 B of flash without, 32,160 B with, for the image below as it was

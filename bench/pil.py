@@ -36,6 +36,7 @@ import argparse
 import hashlib
 import importlib.util
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -796,7 +797,9 @@ def firmware_leaves_out(scenario: str) -> str | None:
     out = [what for what, used in (("the matrix converter", d["converter"]["kind"] == "imc"),
                                    ("five phases", sc.machine.phases == 5),
                                    ("square-wave injection", d["controller"]["angle"] == "swvi"),
-                                   ("a flux map", sc.machine.magnetic["model"] == "fluxmap")) if used]
+                                   ("a flux map", sc.machine.magnetic["model"] == "fluxmap"),
+                                   ("the motion test", d["start"]["kind"] == "motion"),
+                                   ("the I/f start", d["observer"]["start"] == "if")) if used]
     return ", ".join(out) or None
 
 
@@ -950,13 +953,20 @@ def main(argv: list[str] | None = None) -> int:
     if bad:
         print(f"--modes/--loop = {','.join(bad)}: must be among {', '.join(MODES)}", file=sys.stderr)
         return 2
-    if a.scenario:
-        from fullspeed.model.errors import ConfigError
-        from fullspeed.design.scenario import load_scenario
-        try:
-            load_scenario(a.scenario)   # refused here, in one line, before anything is built
-        except ConfigError as e:
-            print(f"--scenario: {e}", file=sys.stderr)
+    from fullspeed.design.scenario import load_scenario
+    from fullspeed.model.errors import ConfigError
+    from fullspeed.model.files import out_folder
+    for opt, v in (("--duration", a.duration), ("--loop-duration", a.loop_duration)):
+        if v is not None and not (math.isfinite(v) and v > 0):
+            print(f"{opt} = {v}: must be a number of seconds > 0", file=sys.stderr)
+            return 2
+    for opt, check in (("--scenario", a.scenario and (lambda: load_scenario(a.scenario, overrides={"trace": {"decimation": 1}}))),
+                       ("--out", a.out and (lambda: out_folder(a.out)))):
+        try:   # refused here, in one line, before anything is built (the scenario as closed_loop loads it)
+            if check:
+                check()
+        except ConfigError as e:   # it names the field; the scenario's is a field of the scenario
+            print(f"{opt}: {e}" if opt == "--scenario" else str(e), file=sys.stderr)
             return 2
     rep = pil_report(modes, a.duration, a.loop or None, a.loop_duration, scenario=a.scenario)
     print(format_report(rep))

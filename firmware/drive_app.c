@@ -82,7 +82,7 @@ void app_pwm_isr(drive_app *app)
         app_fault(app, APP_FAULT_LOCK);
         return;
     }
-    if (app->out.fault != FS_FAULT_NONE) {   /* the drive halted (overspeed, polarity undetermined): it will not go on */
+    if (app->out.fault != FS_FAULT_NONE) {   /* the drive halted (overspeed, polarity undetermined, an I/f start never handed over) */
         app_fault(app, APP_FAULT_DRIVE);
         return;
     }

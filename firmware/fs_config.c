@@ -5,9 +5,13 @@
 #include <stddef.h>
 #include "fs_config.h"
 
+#if !defined(FS_CONFIG_EXPORT_ID) || FS_CONFIG_EXPORT_ID != 0xef6ac35cu
+#error "fs_config.h is not the header exported with fs_config.c (another export, or one cut short): export again"
+#endif
+
 /* The layout this configuration was written for: a header that changed since
  * the export fails here, naming the field. */
-_Static_assert(sizeof(fs_drive_config) == 1760u, "fs_drive_config: size differs from the exported layout");
+_Static_assert(sizeof(fs_drive_config) == 1808u, "fs_drive_config: size differs from the exported layout");
 _Static_assert(offsetof(fs_drive_config, config_size) == 0u, "fs_drive_config.config_size moved");
 _Static_assert(offsetof(fs_drive_config, phases) == 4u, "fs_drive_config.phases moved");
 _Static_assert(offsetof(fs_drive_config, mode) == 8u, "fs_drive_config.mode moved");
@@ -171,9 +175,22 @@ _Static_assert(offsetof(fs_drive_config, ident.i_max) == 1744u, "fs_drive_config
 _Static_assert(offsetof(fs_drive_config, ident.w_spin) == 1748u, "fs_drive_config.ident.w_spin moved");
 _Static_assert(offsetof(fs_drive_config, ident.t_ramp) == 1752u, "fs_drive_config.ident.t_ramp moved");
 _Static_assert(offsetof(fs_drive_config, ident.u_dc_min) == 1756u, "fs_drive_config.ident.u_dc_min moved");
+_Static_assert(offsetof(fs_drive_config, motion) == 1760u, "fs_drive_config.motion moved");
+_Static_assert(offsetof(fs_drive_config, motion.Ts) == 1760u, "fs_drive_config.motion.Ts moved");
+_Static_assert(offsetof(fs_drive_config, motion.i_push) == 1764u, "fs_drive_config.motion.i_push moved");
+_Static_assert(offsetof(fs_drive_config, motion.i_push_max) == 1768u, "fs_drive_config.motion.i_push_max moved");
+_Static_assert(offsetof(fs_drive_config, motion.t_lock) == 1772u, "fs_drive_config.motion.t_lock moved");
+_Static_assert(offsetof(fs_drive_config, motion.t_push) == 1776u, "fs_drive_config.motion.t_push moved");
+_Static_assert(offsetof(fs_drive_config, motion.t_settle) == 1780u, "fs_drive_config.motion.t_settle moved");
+_Static_assert(offsetof(fs_drive_config, motion.theta_dec) == 1784u, "fs_drive_config.motion.theta_dec moved");
+_Static_assert(offsetof(fs_drive_config, motion.theta_max) == 1788u, "fs_drive_config.motion.theta_max moved");
+_Static_assert(offsetof(fs_drive_config, r_damp) == 1792u, "fs_drive_config.r_damp moved");
+_Static_assert(offsetof(fs_drive_config, w_swing) == 1796u, "fs_drive_config.w_swing moved");
+_Static_assert(offsetof(fs_drive_config, t_handover) == 1800u, "fs_drive_config.t_handover moved");
+_Static_assert(offsetof(fs_drive_config, w_restart) == 1804u, "fs_drive_config.w_restart moved");
 
 const fs_drive_config fs_config = {
-    .config_size = 1760u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator set it, and fs_drive_init refuses a configuration ...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
+    .config_size = 1808u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator set it, and fs_drive_init refuses a configuration ...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
     .phases = 3,   /* 3, or 5: the fundamental plane of the VSD, nearest-four-vector PWM; machine yang2022: phases */
     .mode = FS_MODE_SPEED,   /* fs_drive_mode; scenario beyond-full-range: [controller] mode */
     .angle_source = FS_ANGLE_BLEND,   /* fs_angle_source; scenario beyond-full-range: [controller] angle */
@@ -291,7 +308,7 @@ const fs_drive_config fs_config = {
         .i_pulse = 30.0f,   /* d-current pulse amplitude, A (> 0); default of [polarity] i_pulse (fullspeed.design.scenario) */
         .t_lock = 0.0611154959f,   /* settling of the estimator before the pulses, s (>= 0); default of [polarity] t_lock (fullspeed.design.scenario) */
         .t_pulse = 0.0229183119f,   /* length of each pulse, s (>= 4 Ts; t_lock + t_pulse < 1e3 s and 1e9 Ts); default of [polarity] t_pulse (fullspeed.design.scenario) */
-        .i_pulse_max = 0.0f,   /* the largest pulse of the retries, A (0: i_pulse, no retry; else >= i_pulse); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .i_pulse_max = 43.1565781f,   /* the largest pulse of the retries, A (0: i_pulse, no retry; else >= i_pulse); set by fullspeed.sim.build_config */
         .d_min = 0.0f,   /* the relative difference's floor (0: FS_POLARITY_D_MIN; else in (0, 1)); 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .w_filter = 0.0f,   /* the carrier amplitude's filter bandwidth, rad/s (0: samples taken as independent); 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .n_carrier = 0,   /* samples per carrier period (0 or 1: the window is not rounded); 0: taken from the drive's fields or designed by fs_drive_init, or off */
@@ -442,4 +459,18 @@ const fs_drive_config fs_config = {
         .t_ramp = 0.0f,   /* s: the I/f ramp from 0 to w_spin (the inertia is not known before); 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .u_dc_min = 0.0f,   /* V: below this link voltage the sequence does not start (0: 1 V); 0: taken from the drive's fields or designed by fs_drive_init, or off */
     },
+    .motion = {   /* The start chosen by the machine (fullspeed.design.start), after the fields above so that their places stay where the step reads them. Polarity by a bounded ... */
+        .Ts = 0.0f,   /* sampling period, s; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .i_push = 0.0f,   /* the doublet's peak q current, A (> 0); 0: taken from the drive's fields or designed by fs_drive_init, or off (start.i_push) */
+        .i_push_max = 0.0f,   /* the largest of the retries, A (0: i_push, no retry; else >= i_push); 0: taken from the drive's fields or designed by fs_drive_init, or off (start.i_push) */
+        .t_lock = 0.0f,   /* settling of the estimator, s (>= 8 Ts); 0: taken from the drive's fields or designed by fs_drive_init, or off (polarity.t_lock) */
+        .t_push = 0.0f,   /* each half of the doublet, s (>= Ts); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .t_settle = 0.0f,   /* no current before the turn is read, s (>= Ts; t_lock + 2 t_push + t_settle < 1e3 s and 1e9 Ts); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .theta_dec = 0.0f,   /* the estimate's turn that decides, el. rad (> 0, < pi/2); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .theta_max = 0.0f,   /* the largest threshold accepted, el. rad (0: 4 theta_dec; else >= theta_dec, < pi/2); 0: taken from the drive's fields or designed by fs_drive_init, or off (start.turn_deg) */
+    },
+    .r_damp = 0.0f,   /* 0: taken from the drive's fields or designed by fs_drive_init, or off (observer.start_damping) */
+    .w_swing = 0.0f,   /* 0: taken from the drive's fields or designed by fs_drive_init, or off (observer.start_damping) */
+    .t_handover = 0.0f,   /* 0: taken from the drive's fields or designed by fs_drive_init, or off (observer.start_timeout) */
+    .w_restart = 0.0f,   /* 0: taken from the drive's fields or designed by fs_drive_init, or off (observer.restart_rpm) */
 };

@@ -78,7 +78,8 @@ def run_cols_to(sim, t_end: float, max_rows: int):
     channel (stride max_rows); the rows returned row-major, as run_to's."""
     buf = np.full((lib.FS_CH_N, max(max_rows, 1)), np.nan)
     rows = ffi.new("int *")
-    rc = lib.fs_sim_run_cols(sim, t_end, ffi.cast("double *", buf.ctypes.data), max(max_rows, 1), max_rows, rows)
+    rc = lib.fs_sim_run_cols(sim, lib.fs_sim_steps(sim, t_end), ffi.cast("double *", buf.ctypes.data),
+                             max(max_rows, 1), max_rows, rows)
     return rc, buf[:, : rows[0]].T.copy()
 
 
@@ -181,8 +182,12 @@ def create_refuses_bad_five_phase_configs():
 @check
 def create_refuses_bad_matrix_converter_configs():
     c = [("inverter.kind", "converter.inverter", _set("inverter.kind", lib.FS_INV_SWITCHING)),
-         ("inverter.t_dead", "converter.t_dead", _set("inverter.t_dead", 1e-6)),
-         ("inverter.u_on", "converter.t_dead", _set("inverter.u_on", 1.0)),
+         # the scenario has the module's devices on: the simple drops are refused without them too
+         ("inverter.u_on", "converter.u_on", lambda cfg: (setattr(cfg.inverter.dev, "enabled", 0),
+                                                          setattr(cfg.inverter, "u_on", 1.0))),
+         ("inverter.r_on", "converter.u_on", lambda cfg: (setattr(cfg.inverter.dev, "enabled", 0),
+                                                          setattr(cfg.inverter, "r_on", 0.01))),
+         ("inverter.dev.I_ref", "inverter: kind", _set("inverter.dev.I_ref", 0.0)),
          ("sampling", "timing.sampling", lambda cfg: (setattr(cfg, "sampling", lib.FS_SAMPLING_DOUBLE),
                                                       setattr(cfg.drive, "Ts", cfg.drive.Ts / 2))),
          ("grid.C_f", "converter.grid", _set("grid.C_f", 0.0)),
@@ -391,7 +396,7 @@ def _chunked(cfg, T: float, dt: float, max_rows: int, run=run_to):
     assert ptr != ffi.NULL, err
     sim = ffi.gc(ptr, lib.fs_sim_destroy)
     parts, full, t_end = [], 0, 0.0
-    while lib.fs_sim_time(sim) < T - 1e-12:
+    while lib.fs_sim_step_count(sim) < lib.fs_sim_steps(sim, T):   # periods, as fs_sim_run counts them
         t_end = min(t_end + dt, T)
         while True:
             rc, tr = run(sim, t_end, max_rows)

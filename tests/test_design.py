@@ -87,8 +87,13 @@ def test_design_command_prints_each_value_and_its_reason(tmp_path):
         line = next(ln for ln in p.stdout.splitlines() if key in ln)
         assert "designed:" in line
     assert "45 A" in next(ln for ln in p.stdout.splitlines() if "bench.i_max" in ln)
-    # linear magnetics: polarity detection cannot work, and the command says so
-    assert "polarity.enabled" in p.stderr and "linear" in p.stderr
+    # linear magnetics: the pulses cannot tell the poles, the start the machine gets is a motion test, and why
+    assert "bounded motion test" in p.stdout and "magnetics are linear" in p.stdout, p.stdout
+    assert "start.i_push" in p.stdout and not p.stderr
+    # with the rotor not to be turned: the pulses, and the warning that they will refuse
+    p = subprocess.run([sys.executable, "-m", "fullspeed", "design", str(f), "--set", "start.allow_motion=false"],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0 and "polarity.enabled" in p.stderr and "linear" in p.stderr, p.stderr
 
 
 def test_design_command_shows_the_estimators_forms_and_takes_set(tmp_path):
@@ -147,14 +152,37 @@ def test_an_unreachable_speed_is_named():
 
 # --- polarity ----------------------------------------------------------------------
 
-def test_polarity_on_a_linear_machine_is_right_or_refused_at_every_angle():
-    """Linear magnetics: nothing to measure; the drive refuses to start
+LINEAR_YANG = {"machine": {"catalog": "yang2022", "magnetic": {"model": "linear"}}, "duration": 0.5}
+
+
+def test_polarity_pulses_on_a_linear_machine_refuse_at_every_angle():
+    """Linear magnetics, the rotor not to be turned (start.allow_motion =
+    false): the pulses have nothing to measure; the drive refuses to start
     sensorless, and never starts pi off (yang2022's machine made linear)."""
     for th in range(0, 360, 45):
-        r = simulate("yang2022-polarity", overrides={"machine": {"catalog": "yang2022", "magnetic": {"model": "linear"}}, "duration": 0.5,
+        r = simulate("yang2022-polarity", overrides={**LINEAR_YANG, "start": {"allow_motion": False},
                                                      "initial": {"theta_e_deg": th}})
         assert r.stop_reason == "polarity_undetermined", (th, r.polarity)
+        assert r.polarity["method"] == "pulses"
         assert r.polarity["stage"] == "undetermined" and r.polarity["margin"] < 1.0
+
+
+def test_the_motion_test_finds_the_pole_on_a_linear_machine_at_every_angle():
+    """Linear magnetics, the start left to the machine: the motion test
+    (fs_motion_test.h) turns the rotor by a few degrees and tells north from
+    south at every angle, the estimate ending on the rotor; the turn stays
+    within the design's bound and is reported. (The scenario's paper observer
+    is slow: the test takes about 0.7 s.)"""
+    flips = set()
+    for th in range(0, 360, 45):
+        r = simulate("yang2022-polarity", overrides={**LINEAR_YANG, "duration": 1.2, "initial": {"theta_e_deg": th}})
+        assert r.stop_reason == "done" and r.polarity["method"] == "motion", (th, r.polarity)
+        assert r.polarity["stage"] == "done" and abs(r.polarity["turn_deg"]) >= r.polarity["threshold_deg"]
+        assert abs(np.degrees(r["theta_err"][-1])) < 20.0, th   # on the right pole
+        sm = r.metrics["start_motion"]
+        assert sm["kind"] == "motion" and 1.0 < sm["turn_deg"] <= sm["bound_deg"], sm
+        flips.add(r.polarity["flip"])
+    assert flips == {True, False}   # both poles were found at some angle
 
 
 def test_polarity_on_the_saturating_machine_decides_with_margin():
@@ -164,15 +192,24 @@ def test_polarity_on_the_saturating_machine_decides_with_margin():
         assert abs(np.degrees(r["theta_err"][-1])) < 20.0   # ended on the right pole
 
 
-def test_a_run_that_failed_exits_1_and_says_why(tmp_path):
+@pytest.mark.parametrize("allow_motion, why", [
+    (False, "magnetics are linear, so the pulses have no saturation asymmetry"),
+    (True, "polarity undetermined by the motion test (the rotor turned"),
+])
+def test_a_run_that_failed_exits_1_and_says_why(tmp_path, allow_motion, why):
+    """A linear machine whose rotor the load machine holds: the pulses have
+    nothing to decide on (the cause beneath named, as the load-time warning
+    gives it, whatever the pulses did first), and the motion test cannot turn
+    the rotor (its largest push named)."""
     out = tmp_path / "o"
     p = subprocess.run([sys.executable, "-c",
-                        "import sys; from fullspeed.cli import main; sys.exit(main(['run', sys.argv[1], '--quiet', '--out', sys.argv[2]]))",
-                        str(_linear_polarity(tmp_path)), str(out)], capture_output=True, text=True, timeout=120)
+                        "import sys; from fullspeed.cli import main; sys.exit(main(['run', sys.argv[1], '--quiet', '--out', sys.argv[2], "
+                        "'--set', sys.argv[3]]))",
+                        str(_linear_polarity(tmp_path)), str(out), f"start.allow_motion={str(allow_motion).lower()}"],
+                       capture_output=True, text=True, timeout=120)
     assert p.returncode == 1, p.stderr
     assert "fullspeed: run failed: " in p.stderr and "polarity undetermined" in p.stderr
-    # the cause beneath, as the load-time warning gives it, whatever the pulses did first
-    assert "magnetics are linear, so the pulses have no saturation asymmetry" in p.stderr, p.stderr
+    assert why in p.stderr, p.stderr
     m = json.loads((out / "metrics.json").read_text())
     assert m["stop_reason"] == "polarity_undetermined" and m["polarity"]["stage"] == "undetermined"
 
@@ -216,22 +253,21 @@ def test_the_zoo_is_seeded_and_plausible():
         assert not [w for w in sc.warnings if not w.startswith("polarity.")], sc.warnings
 
 
-@pytest.mark.parametrize("k, outcome", [(1, "refused"), (4, "success"), (92, "success"), (24, "success")])
-def test_zoo_sample(k, outcome):
-    """Some of the zoo's runs (the whole zoo is claim B-ZOO): a linear machine
-    is refused by the polarity detection, saturating ones run the whole
-    profile within 15 el.deg: 4; 92 (12 pole pairs, 8 kHz: the start under
-    half rated load tripped on the paper's injection observer, which lagged
-    the load ramp); 24 (the dead time's voltage 0.8 of the carrier's: with
-    the usual compensation the estimate wandered 25 el.deg at standstill)."""
+@pytest.mark.parametrize("k, start", [(1, "motion"), (4, "pulses"), (92, "pulses"), (24, "pulses")])
+def test_zoo_sample(k, start):
+    """Some of the zoo's runs (the whole zoo is claim B-ZOO), each through the
+    whole profile within 15 el.deg: a linear machine starts by the motion
+    test; saturating ones by the pulses: 4; 92 (12 pole pairs, 8 kHz: the
+    start under half rated load tripped on the paper's injection observer,
+    which lagged the load ramp); 24 (the dead time's voltage 0.8 of the
+    carrier's: with the usual compensation the estimate wandered 25 el.deg
+    at standstill)."""
     from fullspeed.reproduce.papers.zoo import classify
     r = simulate("beyond-zoo", overrides={"machine": {"zoo": k}})
-    if outcome == "refused":
-        assert r.stop_reason == "polarity_undetermined"
-    else:
-        row = {**r.metrics, "stop_reason": r.stop_reason}
-        assert classify(row) == "success", r.metrics
-        assert r["w_m"].max() > 1.25 * r.scenario.machine.w_m_rated and r["w_m"][-1] < 0
+    assert r.scenario.data["start"]["kind"] == start
+    row = {**r.metrics, "stop_reason": r.stop_reason}
+    assert classify(row) == "success", r.metrics
+    assert r["w_m"].max() > 1.25 * r.scenario.machine.w_m_rated and r["w_m"][-1] < 0
 
 
 def _fluxmap(asym: float) -> dict:
@@ -244,11 +280,19 @@ def _fluxmap(asym: float) -> dict:
     return {"model": "fluxmap", "i_d": i, "i_q": i, "psi_d": psi_d, "psi_q": psi_q}
 
 
-@pytest.mark.parametrize("asym, warned", [(0.0, True), (0.6, False)])
-def test_a_flux_map_without_d_asymmetry_is_named(asym, warned):
+@pytest.mark.parametrize("asym, start", [(0.0, "motion"), (0.6, "pulses")])
+def test_a_flux_map_without_d_asymmetry_is_named(asym, start):
+    """The map's asymmetry decides the start; where the pulses are kept
+    anyway (the rotor not to be turned), the warning names the map."""
     m = {**DATASHEET, "magnetic": _fluxmap(asym)}
     sc = scenario(m)
-    assert any(w.startswith("polarity.enabled:") and "flux map" in w for w in sc.warnings) == warned, sc.warnings
+    assert sc.data["start"]["kind"] == start
+    assert not [w for w in sc.warnings if w.startswith("polarity.")], sc.warnings
+    if start == "motion":
+        assert "flux map's incremental L_d differs by only" in sc.data["start"]["reason"]
+    kept = scenario(m, start={"allow_motion": False})
+    assert kept.data["start"]["kind"] == "pulses"
+    assert any(w.startswith("polarity.enabled:") and "flux map" in w for w in kept.warnings) == (start == "motion"), kept.warnings
 
 
 def test_no_voltage_for_a_carrier_is_named_with_its_cause():

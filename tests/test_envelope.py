@@ -507,7 +507,12 @@ def test_design_prints_the_envelope_and_writes_its_figure(tmp_path):
     text = p.stdout
     for what in ("base speed", "characteristic current", "top speed", "T_max N m", "P_max kW"):
         assert what in text, what
-    rows = [ln.split() for ln in text.splitlines() if ln.startswith("  ") and ln.split()[0].replace(".", "").isdigit()]
+    def numbers(ln):   # the envelope table's rows: five numbers and the limit (not prose that wraps onto a number)
+        try:
+            return [float(x) for x in ln.split()[:5]] if len(ln.split()) >= 6 else None
+        except ValueError:
+            return None
+    rows = [ln.split() for ln in text.splitlines() if ln.startswith("  ") and numbers(ln)]
     assert len(rows) >= 11 and float(rows[0][0]) == 0.0 and float(rows[-1][1]) == 0.0
     assert {r[5] for r in rows} == {"current", "current+voltage"}
     assert (out / "envelope.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -113,3 +113,13 @@ def test_a_speed_loop_faster_than_its_observer_is_warned():
     assert not any(w.startswith("controller.bw_speed") for w in scenario_from_dict(copy.deepcopy(d)).warnings)
     smo = load_scenario("yang2022-smo-ramp", {"controller": {"bw_speed": 200.0}})
     assert any(w.startswith("controller.bw_speed") and "a sixth of the back-EMF observer's PLL" in w for w in smo.warnings)
+
+
+def test_a_flux_map_machine_is_judged_by_its_own_torque():
+    # SyR-e's THOR makes half its torque from saliency: the magnet alone (0.46 x rated) is no sign of an rms
+    # current on a map, but the map's total at an rms current (0.64 x, below 0.7) is, and says so
+    d = catalog_data("syre-thor")
+    assert plausibility(d) == []
+    d["rated"]["current"] /= math.sqrt(2)
+    (w,) = plausibility(d)
+    assert w.startswith("machine.rated.current:") and "rms" in w and "0.642 x" in w

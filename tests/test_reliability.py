@@ -85,7 +85,7 @@ BAD_INPUTS = [
     ("open phase on five phases", SWVI + '[faults]\nopen_phase = "a"\n', "faults.open_phase"),
     ("dc link to zero", BASE + '[faults]\nu_dc_scale = [[0.0, 1.0], [0.005, 0.0]]\n', "faults.u_dc_scale"),
     ("dc-link sag on the matrix converter", IMC + '[faults]\nu_dc_scale = 0.5\n', "faults.u_dc_scale"),
-    ("dead time on the matrix converter", IMC.replace('kind = "imc"', 'kind = "imc"\nt_dead = 1e-6'), "converter.t_dead"),
+    ("a device drop on the matrix converter", IMC.replace('kind = "imc"', 'kind = "imc"\nu_on = 1.0'), "converter.u_on"),
     ("TOML syntax", BASE + "[controller\n", "toml"),
     ("nesting beyond the parser", 'name = "x"\nduration = 0.01\nx = ' + "[" * 5000 + "]" * 5000 + "\n", "toml"),
     ("a key holding a newline", BASE + '"a\\nb" = 1\n', "controller.a"),

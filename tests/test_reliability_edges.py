@@ -550,9 +550,10 @@ def test_xcomp_eval_does_not_read_a_table_its_check_refuses():
 # --- 42, 43: Ctrl-C during a run and during its writing ----------------------------
 
 class _InterruptAfterRun:
-    """fullspeed.sim's lib with fs_sim_run_cols (the runner's call) raising
-    KeyboardInterrupt as it returns on its n-th call: where a real Ctrl-C
-    lands (the C call returns, the interpreter then runs the signal handler)."""
+    """fullspeed.sim's lib with fs_sim_run_cols (what the runner calls)
+    raising KeyboardInterrupt as it returns on its n-th call: where a real
+    Ctrl-C lands (the C call returns, the interpreter then runs the signal
+    handler)."""
 
     def __init__(self, lib, n):
         self._lib, self._n, self.calls = lib, n, 0

@@ -48,7 +48,7 @@ def _tail(text: str, n: int = 6000) -> str:
 
 def expected_rows(name: str) -> int:
     """Recorded samples of a catalog scenario run to its end: sample k is
-    taken while k Ts < T - Ts / 2 (fs_sim_run), every decimation-th kept."""
+    taken while k < fs_sim_steps(T) = ceil(T / Ts - 1/2) (fs_sim_run), every decimation-th kept."""
     d = load_scenario(name).data
     Ts = 1.0 / d["converter"]["f_pwm"]
     if d["timing"]["sampling"] == "double":

@@ -34,7 +34,7 @@ def test_columns_hold_the_row_major_trace_bit_for_bit_across_calls():
     buf, rows, n = np.full((lib.FS_CH_N, stride), np.nan), ffi.new("int *"), 0
     for t_end in (0.011, 0.02, SC.duration):  # three calls, each writing after the last
         ptr = ffi.cast("double *", buf.ctypes.data) + n
-        assert lib.fs_sim_run_cols(sim._sim, t_end, ptr, stride, stride - n, rows) == lib.FS_RUN_DONE
+        assert lib.fs_sim_run_cols(sim._sim, sim.steps(t_end), ptr, stride, stride - n, rows) == lib.FS_RUN_DONE
         n += rows[0]
     assert n == len(ref)
     assert buf[:, :n].tobytes() == np.ascontiguousarray(ref.T).tobytes()
@@ -47,9 +47,9 @@ def test_a_full_buffer_stops_the_call_and_the_next_goes_on():
     stride = len(ref)
     buf, rows = np.full((lib.FS_CH_N, stride), np.nan), ffi.new("int *")
     base = ffi.cast("double *", buf.ctypes.data)
-    assert lib.fs_sim_run_cols(sim._sim, SC.duration, base, stride, 10, rows) == lib.FS_RUN_BUFFER_FULL
+    assert lib.fs_sim_run_cols(sim._sim, sim.steps(SC.duration), base, stride, 10, rows) == lib.FS_RUN_BUFFER_FULL
     assert rows[0] == 10 and np.isnan(buf[:, 10:]).all()
-    assert lib.fs_sim_run_cols(sim._sim, SC.duration, base + 10, stride, stride - 10, rows) == lib.FS_RUN_DONE
+    assert lib.fs_sim_run_cols(sim._sim, sim.steps(SC.duration), base + 10, stride, stride - 10, rows) == lib.FS_RUN_DONE
     assert buf.tobytes() == np.ascontiguousarray(ref.T).tobytes()
 
 
@@ -57,10 +57,10 @@ def test_a_stride_below_the_rows_is_refused_before_any_step():
     sim = runner.Simulation(SC)
     buf, rows = np.zeros((lib.FS_CH_N, 8)), ffi.new("int *")
     ptr = ffi.cast("double *", buf.ctypes.data)
-    assert lib.fs_sim_run_cols(sim._sim, SC.duration, ptr, 4, 8, rows) == lib.FS_RUN_ERR_STRIDE
-    assert lib.fs_sim_run_cols(sim._sim, SC.duration, ptr, 0, 0, rows) == lib.FS_RUN_ERR_STRIDE
+    assert lib.fs_sim_run_cols(sim._sim, sim.steps(SC.duration), ptr, 4, 8, rows) == lib.FS_RUN_ERR_STRIDE
+    assert lib.fs_sim_run_cols(sim._sim, sim.steps(SC.duration), ptr, 0, 0, rows) == lib.FS_RUN_ERR_STRIDE
     assert lib.fs_sim_time(sim._sim) == 0.0 and not buf.any()
-    assert lib.fs_sim_run_cols(ffi.NULL, 1.0, ptr, 8, 8, rows) == lib.FS_RUN_ERR_NULL
+    assert lib.fs_sim_run_cols(ffi.NULL, 100, ptr, 8, 8, rows) == lib.FS_RUN_ERR_NULL
 
 
 def test_the_runner_grows_its_buffer_without_losing_rows():

@@ -16,14 +16,17 @@ from fullspeed.sim import simulate
 from conftest import MACHINE
 
 THERMAL = {"T_ref": 20.0, "T_amb": 40.0, "R_wa": 0.8, "R_wm": 3.0, "R_ma": 4.0, "C_w": 900.0, "C_m": 700.0,
-           "P_fe_ref": 20.0, "speed_fe_rpm": 2000.0, "k_hyst": 0.7, "k_rotor": 0.1}
+           "k_rotor": 0.1}
+IRON = {"P_fe_ref": 20.0, "speed_fe_rpm": 2000.0, "k_hyst": 0.7, "source": "assumed: a test's"}
 
 
 def thermal_model(**kw):
     cfg = ffi.new("fs_thermal_config *", {"enabled": 1, "T_amb": 40.0, "T_ref": 20.0, "T_w0": 40.0, "T_m0": 40.0,
                                           "R_wa": 0.8, "R_wm": 3.0, "R_ma": 4.0, "C_w": 900.0, "C_m": 700.0,
-                                          "alpha_cu": 0.00393, "alpha_br": -0.0012, "P_fe_ref": 20.0,
-                                          "w_fe_ref": 1000.0, "k_hyst": 0.7, "k_rotor": 0.1, "time_scale": 1.0, **kw})
+                                          "alpha_cu": 0.00393, "alpha_br": -0.0012,
+                                          "iron": {"P_ref": 20.0, "w_ref": 1000.0, "psi_ref": 1.0, "k_hyst": 0.7,
+                                                   "beta": 2.0, "w_band": 1.0},
+                                          "k_rotor": 0.1, "time_scale": 1.0, **kw})
     th = ffi.new("fs_thermal *")
     return th, lib.fs_thermal_init(th, cfg)
 
@@ -60,9 +63,13 @@ def test_time_scale_speeds_the_heating_not_its_end():
 
 def test_iron_loss_splits_hysteresis_and_eddy():
     th, _ = thermal_model()
-    assert lib.fs_thermal_iron_loss(th, 1000.0, 1.0) == pytest.approx(20.0)
-    assert lib.fs_thermal_iron_loss(th, -500.0, 1.0) == pytest.approx(20.0 * (0.7 * 0.5 + 0.3 * 0.25))
-    assert lib.fs_thermal_iron_loss(th, 1000.0, 0.5) == pytest.approx(5.0)
+    fe = ffi.addressof(th.cfg, "iron")
+    assert lib.fs_iron_loss(fe, 1000.0, 1.0) == pytest.approx(20.0)
+    assert lib.fs_iron_loss(fe, -500.0, 1.0) == pytest.approx(20.0 * (0.7 * 0.5 + 0.3 * 0.25))
+    assert lib.fs_iron_loss(fe, 1000.0, 0.5) == pytest.approx(5.0)
+    # a hysteresis exponent other than 2 acts on the hysteresis part alone
+    fe.beta = 1.6
+    assert lib.fs_iron_loss(fe, 500.0, 0.5) == pytest.approx(20.0 * (0.7 * 0.5 * 0.5 ** 1.6 + 0.3 * 0.25 * 0.25))
 
 
 @pytest.mark.parametrize("field,value", [("R_wa", 0.0), ("C_m", -1.0), ("time_scale", 0.5), ("k_rotor", 1.5),
@@ -75,6 +82,7 @@ def test_thermal_refuses_bad_fields(field, value):
 def heated(model="linear", **thermal):
     m = copy.deepcopy(MACHINE)
     m["thermal"] = dict(THERMAL)
+    m["losses"] = dict(IRON)
     if model == "algebraic":
         m["magnetic"] = {"model": "algebraic", "a_dd": 1.3e23, "S": 10.0, "a_dq": 9.6e14, "U": 2.0, "V": 1.0}
     return {"name": "heat", "duration": 0.3, "machine": m,
@@ -132,6 +140,10 @@ def test_thermal_config_errors():
     d = heated()
     d["thermal"]["time_scale"] = 0.5
     with pytest.raises(ConfigError, match="time_scale"):
+        scenario_from_dict(d)
+    d = heated()   # the iron loss is the machine's [losses], not the thermal model's
+    d["machine"]["thermal"]["P_fe_ref"] = 20.0
+    with pytest.raises(ConfigError, match="now called machine.losses.P_fe_ref"):
         scenario_from_dict(d)
 
 

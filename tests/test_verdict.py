@@ -57,8 +57,10 @@ def test_an_encoder_run_has_no_sensorless_error_even_in_flux_weakening():
 
 
 def test_no_steady_window_after_a_stop_before_it():
-    # a linear zoo machine with polarity detection: refused at the start, long before its steady window
+    # a linear zoo machine held to polarity pulses (no motion test allowed): refused at the start, long before
+    # its steady window
     d = {"name": "z1", "duration": 1.0, "machine": {"zoo": 1}, "controller": {"mode": "speed", "angle": "blend"},
+         "start": {"allow_motion": False},
          "references": {"speed_rpm": [[0.0, 0.0], [0.2, 0.0], [0.4, 0.3 * zoo_machine(1)["rated"]["speed_rpm"]]]}}
     res = simulate(scenario_from_dict(d))
     assert res.stop_reason == "polarity_undetermined" and res.stop_time < 0.4

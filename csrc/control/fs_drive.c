@@ -6,10 +6,6 @@
 
 #include <stddef.h>
 
-/* A refusal names the config field or sub-block at fault (fs_drive.fail). */
-#define REFUSE(where, status) do { drv->fail = (where); return (status); } while (0)
-#define SUB(where, call) do { fs_status st_ = (call); if (st_ != FS_OK) REFUSE((where), st_); } while (0)
-
 /* The float fields the drive reads, with the range each must be in whatever
  * the mode (F finite, N >= 0 and finite, P > 0 and finite; the rest is
  * checked where it is used) and the status that refuses it. */
@@ -63,7 +59,7 @@ static fs_status drive_check_fields(const fs_drive_config *cfg, const char **nam
     return FS_OK;
 }
 
-/* The injection estimators: HFI (and blend), the polarity detector. */
+/* The injection estimators: HFI (and blend). */
 static fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
 {
     fs_motion_obs_config mo = {cfg->Ts, cfg->J, cfg->B, cfg->pole_pairs, 0.0f};
@@ -86,17 +82,6 @@ static fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
         bc.obs = mo;
         SUB("blend", fs_blend_init(&drv->blend, &bc));
         if (cfg->w_inject_max > 0.0f && !(0.9f * cfg->w_inject_max >= bc.w_upper)) REFUSE("w_inject_max", FS_ERR_LIMIT);
-    }
-    if (cfg->polarity.i_pulse > 0.0f) {
-        fs_polarity_config pc = cfg->polarity;
-        pc.Ts = cfg->Ts;
-        if (pc.i_pulse > cfg->i_max) REFUSE("polarity.i_pulse", FS_ERR_ABOVE_I_MAX);
-        if (pc.i_pulse_max > cfg->i_max) REFUSE("polarity.i_pulse_max", FS_ERR_ABOVE_I_MAX);
-        /* the retries up to the current limit less the carrier's peak */
-        if (pc.i_pulse_max == 0.0f) pc.i_pulse_max = fs_maxf(cfg->i_max - drv->i_hf, pc.i_pulse);
-        pc.w_filter = drv->hfi.cfg.w_b_p;
-        pc.n_carrier = (int)(2.0f * FS_PI / (drv->hfi.cfg.w_h * cfg->Ts) + 0.5f);
-        SUB("polarity", fs_polarity_init(&drv->pol, &pc));
     }
     return FS_OK;
 }
@@ -248,11 +233,8 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
             SUB("imc_depth", fs_imc_depth_init(&drv->depth, &dc));
         }
     }
-    if (cfg->i_start > cfg->i_max) REFUSE("i_start", FS_ERR_ABOVE_I_MAX);
-    if (cfg->i_start > 0.0f) {
-        if (!fs_pos(cfg->a_start)) REFUSE("a_start", FS_ERR_PARAM);
-        if (!fs_pos(cfg->w_handover)) REFUSE("w_handover", FS_ERR_PARAM);
-    }
+    st = fs_drive_start_init(drv, cfg);
+    if (st != FS_OK) return st;
     fs_drive_reset(drv);
     return FS_OK;
 }
@@ -273,8 +255,8 @@ void fs_drive_reset(fs_drive *drv)
         fs_hfi_reset(&drv->hfi, 0.0f, 0.0f);
         drv->hfi.gain = drv->hfi.gain_prev = 0.0f;   /* fades in */
         if (drv->cfg.angle_source == FS_ANGLE_BLEND) fs_blend_reset(&drv->blend, 0.0f, 0.0f);
-        if (drv->cfg.polarity.i_pulse > 0.0f) fs_polarity_reset(&drv->pol);
     }
+    fs_drive_start_reset(drv);
     if (drive_square(&drv->cfg)) fs_swvi_reset(&drv->sw, 0.0f, 0.0f);
     if (drive_imc_depth(&drv->cfg)) fs_imc_depth_reset(&drv->depth);
     if (drv->cfg.lock_time > 0.0f) {
@@ -282,6 +264,7 @@ void fs_drive_reset(fs_drive *drv)
         fs_monitor_reset(&drv->mon);
     }
     drv->lock_ri = drv->lock_es = drv->lock_eh = drv->lock_ex = 0.0f;
+    drv->t_quiet = 0.0f;
     drv->stage = FS_STAGE_OPEN;
     drv->recoveries = 0;
     drv->fault = FS_FAULT_NONE;
@@ -296,7 +279,6 @@ void fs_drive_reset(fs_drive *drv)
     drv->T_ff = 0.0f;
     drv->fw_map_on = false;
     drv->phase = drive_starts(&drv->cfg) ? FS_PHASE_START : FS_PHASE_RUN;
-    drv->theta_if = drv->w_if = 0.0f;
     drv->theta_ol = 0.0f;
     drv->pll_started = false;
     drv->u_hist[0].alpha = drv->u_hist[0].beta = 0.0f;
@@ -410,9 +392,10 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float
     if (c->angle_source == FS_ANGLE_SMO) {
         fs_smo_step(&drv->smo, *i_ab, drive_u_past(drv));
         if (in->sensorless) {
+            if (FS_WITH_IF_START && c->w_restart > 0.0f && drv->phase == FS_PHASE_RUN) fs_drive_if_restart(drv, in);
             bool start = drv->phase == FS_PHASE_START;
-            *theta = start ? drv->theta_if : drv->smo.theta;
-            *w = start ? drv->w_if : drv->smo.w;
+            *theta = start ? drv->ifs.theta : drv->smo.theta;
+            *w = start ? drv->ifs.w : drv->smo.w;
             return;
         }
     }
@@ -470,11 +453,8 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
         i_ref.d = i_ref.q = 0.0f;
         fs_drive_recover_step(drv, i_ab);
     } else if (drv->phase == FS_PHASE_POLARITY) {
-        i_ref.d = fs_polarity_step(&drv->pol, drv->hfi.i_p, drv->hfi.w);
-        i_ref.q = 0.0f;
-        if (drv->pol.stage == FS_POLARITY_DONE) fs_drive_polarity_done(drv);
-        if (drv->pol.stage == FS_POLARITY_UNDETERMINED) fs_drive_halt(drv, FS_FAULT_POLARITY, NULL);
-    } else if (c->mode == FS_MODE_SPEED && in->sensorless && drv->phase == FS_PHASE_START) {
+        i_ref = fs_drive_polarity_step(drv);
+    } else if (FS_WITH_IF_START && c->mode == FS_MODE_SPEED && in->sensorless && drv->phase == FS_PHASE_START) {
         i_ref = fs_drive_if_step(drv, in, i_ab);
     } else if (c->mode == FS_MODE_SPEED) {
         *T_ref = fs_speed_ctrl_step(&drv->sc, in->w_m_ref, w_e / (float)c->pole_pairs);
@@ -511,13 +491,15 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
 {
     const fs_drive_config *c = &drv->cfg;
     const bool run = in->sensorless && drv->phase == FS_PHASE_RUN;
+    drv->t_quiet = run ? fs_maxf(drv->t_quiet - c->Ts, 0.0f) : drv->t_quiet;
+    const bool settled = drv->t_quiet <= 0.0f;   /* after polarity detection (fs_drive_start.c) */
     const float g_w = out ? out->g_w : 0.0f;
     float r_mon = 0.0f;
     if (out) {
         const fs_monitor_in mi = {i_ab, drv->u_hist[0], in->u_dc, out->theta_e, out->w_e, cos_t, sin_t,
                                   {out->i_d, out->i_q}, drv->T_ff,   /* the torque of out->i_d_ref, i_q_ref */
                                   {out->i_d_ref - out->i_d, out->i_q_ref - out->i_q},
-                                  run && (c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED)};
+                                  run && settled && (c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED)};
         r_mon = fs_monitor_step(&drv->mon, &mi);
         if (drv->mon.jumped) fs_lock_latch(&drv->lock);
     }
@@ -531,8 +513,8 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
      * over 30 deg (a rated load step swings it to about 28 on yu2022's
      * bench, U-XCOUPLE, and the estimate comes back) */
     const bool square = drive_square(c);
-    const bool inj_on = run && (square ? c->mode != FS_MODE_OFF && drv->sw.k > 4
-                                       : drive_injects(c) && drv->injecting && drv->hfi.k_settle == 0);
+    const bool inj_on = run && settled && (square ? c->mode != FS_MODE_OFF && drv->sw.k > 4
+                                                  : drive_injects(c) && drv->injecting && drv->hfi.k_settle == 0);
     const float eps_inj = square ? drv->sw.eps : drv->hfi.eps;
     drv->lock_ri = smo_on ? drv->lock_ri + b * (drv->smo.r_i - drv->lock_ri) : 0.0f;
     drv->lock_es = smo_on ? drv->lock_es + b * (drv->smo.eps - drv->lock_es) : 0.0f;

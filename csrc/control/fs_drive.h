@@ -111,9 +111,11 @@
 #include "fs_fwmap.h"
 #include "fs_hfi.h"
 #include "fs_ident.h"
+#include "fs_if_start.h"
 #include "fs_imc.h"
 #include "fs_lock.h"
 #include "fs_monitor.h"
+#include "fs_motion_test.h"
 #include "fs_mtpa.h"
 #include "fs_param_adapt.h"
 #include "fs_pll.h"
@@ -140,11 +142,16 @@
  *   FS_WITH_DTCOMP      dead-time compensation on the predicted current (fs_dtcomp.h; dt_predict refused)
  *   FS_WITH_FLUXMAP     a flux map in the controller (fs_fluxmap.h, fs_fwmap.h; map refused): 4.7 kB of
  *                       flash at -O2, 900 B of config, 2.2 kB of RAM (the flux weakening's table)
+ *   FS_WITH_MOTION_TEST polarity by a bounded motion (fs_motion_test.h; motion refused)
+ *   FS_WITH_IF_START    the I/f start into the back-EMF observer (fs_if_start.h; i_start refused)
  * A three-phase inverter drive on the blend with flux weakening needs only
  * FS_WITH_DTCOMP (the scenarios' default while the drive injects: the
  * carrier's current crosses zero within the period; without a carrier
  * fs_dtcomp_step computes the usual compensation, which is then the same): a commissioning
- * build keeps FS_WITH_IDENT, a production build leaves it out. */
+ * build keeps FS_WITH_IDENT, a production build leaves it out; one whose machine's
+ * polarity pulses decide (its d axis saturates) leaves out the starts that turn the rotor,
+ * FS_WITH_MOTION_TEST and FS_WITH_IF_START (3,248 B of flash at -O2 with their glue: the
+ * blended image 34,000 B with them, 30,752 B without, bench/firmware.py). */
 #ifndef FS_WITH_IMC
 #define FS_WITH_IMC 1
 #endif
@@ -162,6 +169,12 @@
 #endif
 #ifndef FS_WITH_DTCOMP
 #define FS_WITH_DTCOMP 1
+#endif
+#ifndef FS_WITH_MOTION_TEST
+#define FS_WITH_MOTION_TEST 1
+#endif
+#ifndef FS_WITH_IF_START
+#define FS_WITH_IF_START 1
 #endif
 
 typedef enum {
@@ -200,9 +213,11 @@ typedef enum {
  * the caller must stop the inverter and report it. */
 typedef enum {
     FS_FAULT_NONE = 0,
-    FS_FAULT_POLARITY = 1,   /* polarity detection found no margin up to its largest pulse (fs_polarity.h) */
+    FS_FAULT_POLARITY = 1,   /* polarity detection found no margin up to its largest pulse (fs_polarity.h), or the
+                                motion test no turn, or too much noise or motion to decide (fs_motion_test.h) */
     FS_FAULT_LOCK = 2,       /* lock lost and not re-acquired: the retries spent, or none possible (fs_drive_protect.h) */
-    FS_FAULT_OVERSPEED = 3   /* the speed passed w_over (fs_drive_protect.h) */
+    FS_FAULT_OVERSPEED = 3,  /* the speed passed w_over (fs_drive_protect.h) */
+    FS_FAULT_START = 4       /* the I/f start waited t_handover at w_handover without the observer agreeing */
 } fs_drive_fault;
 
 /* The operating stage, traced: where the drive is in its sequence
@@ -388,6 +403,21 @@ typedef struct {
     /* FS_MODE_IDENTIFY (three phases, inverter): Ts, delay, pole_pairs and
      * i_max are taken from above */
     fs_ident_config ident;
+    /* The start chosen by the machine (fullspeed.design.start), after the
+     * fields above so that their places stay where the step reads them.
+     * Polarity by a bounded motion (fs_motion_test.h) instead of the pulses
+     * when motion.i_push > 0 (polarity.i_pulse is then 0; Ts taken from
+     * above; the push at most i_max less the carrier's peak). The I/f start
+     * (i_start > 0, fs_if_start.h): its damping's virtual resistance r_damp
+     * (ohm, 0: none) centred on the rotor's swing at w_swing (rad/s), the
+     * longest wait at w_handover for the observer, t_handover (s, 0: no
+     * limit; then FS_FAULT_START), and w_restart (el. rad/s, 0: never):
+     * running on the observer below it, with the reference below it too, the
+     * loops return to the I/f frame (the observer is not trusted at the
+     * speeds it has to pass through: a reversal) and hand over again at
+     * w_handover (> w_restart). */
+    fs_motion_test_config motion;
+    float r_damp, w_swing, t_handover, w_restart;
 } fs_drive_config;
 
 typedef struct {
@@ -442,6 +472,8 @@ typedef struct {
     float i_hf;              /* the rotating carrier current's peak, A: i_max less it bounds the fundamental */
     float lock_a;            /* the residual's low-pass pole */
     float lock_ri, lock_es, lock_eh;   /* low-passed: SMO current error / delta, SMO PLL error, injection error */
+    float t_quiet;           /* s: the injection's error joins the lock's residual once this has run out: after
+                                polarity detection, whose pulses or push disturbed the estimate, polarity.t_lock */
     float lock_ex;           /* low-passed: |SMO angle - blended angle| while the SMO is valid, rad */
     float w_over;            /* the overspeed stop on the loops' speed, el. rad/s: cfg.w_over; FS_DRIVE_NO_LIMIT
                                 without one and during a recovery's zero-current wait (fs_drive_protect.h) */
@@ -450,7 +482,6 @@ typedef struct {
     float t_left;            /* s left in FS_PHASE_RECOVER */
     float alpha;             /* its last output, rad */
     int phase;               /* fs_drive_phase */
-    float theta_if, w_if;    /* I/f frame */
     float theta_ol;          /* open-loop frame angle */
     bool pll_started;
     bool est_started;        /* the injection estimators have seen their first step */
@@ -490,6 +521,10 @@ typedef struct {
      * string literal ("smo.bw_pll", "i_max", "hfi"; fs_status_str tells
      * why); NULL after a successful one */
     const char *fail;
+    /* the start (fs_drive_start.c), past everything the run reads */
+    fs_motion_test mt;       /* polarity by motion (cfg.motion.i_push > 0) */
+    float mt_ff;             /* N m: the feed-forward of the motion test's push taken back out of the observers' loads */
+    fs_if_start ifs;         /* the I/f frame (cfg.i_start > 0) */
 } fs_drive;
 
 /* Every float field is refused when not finite (naming it), each field out of

@@ -6,9 +6,13 @@
 
 #include "fs_drive.h"
 
+/* A refusal names the config field or sub-block at fault (fs_drive.fail). */
+#define REFUSE(where, status) do { drv->fail = (where); return (status); } while (0)
+#define SUB(where, call) do { fs_status st_ = (call); if (st_ != FS_OK) REFUSE((where), st_); } while (0)
+
 static inline bool drive_starts(const fs_drive_config *c)
 {
-    return c->mode == FS_MODE_SPEED && c->angle_source == FS_ANGLE_SMO && c->i_start > 0.0f;
+    return FS_WITH_IF_START && c->mode == FS_MODE_SPEED && c->angle_source == FS_ANGLE_SMO && c->i_start > 0.0f;
 }
 
 static inline bool drive_weakens(const fs_drive_config *c)
@@ -19,6 +23,15 @@ static inline bool drive_weakens(const fs_drive_config *c)
 static inline bool drive_injects(const fs_drive_config *c)
 {
     return c->angle_source == FS_ANGLE_HFI || c->angle_source == FS_ANGLE_BLEND;
+}
+
+/* The polarity by the motion test (fs_motion_test.h), or else by pulses. */
+static inline bool drive_motion(const fs_drive_config *c) { return FS_WITH_MOTION_TEST && c->motion.i_push > 0.0f; }
+
+/* The polarity is detected before the injection's start: by pulses or by the motion test. */
+static inline bool drive_detects_polarity(const fs_drive_config *c)
+{
+    return c->polarity.i_pulse > 0.0f || drive_motion(c);
 }
 
 /* With an option off (fs_drive.h, FS_WITH_*) the predicate is constant false:
@@ -60,13 +73,26 @@ static inline float drive_torque_at(const fs_drive_config *c, float k_T, fs_dq i
 
 static inline float drive_torque(const fs_drive_config *c, fs_dq i) { return drive_torque_at(c, drive_torque_k(c), i); }
 
+/* The start's functions run before the loops close (FS_COLD, fs_math.h:
+ * kept apart from the step's code, which the firmware's link-time inlining
+ * would otherwise grow past its limits: with them inlined the blended step
+ * lost the monitor's inlining, +51 instructions a step on average).
+ * The start's units from the config (fs_drive_init, after the injection's),
+ * and their state afresh (fs_drive_reset). */
+fs_status fs_drive_start_init(fs_drive *drv, const fs_drive_config *cfg);
+void fs_drive_start_reset(fs_drive *drv);
 /* The injection estimators' first step (polarity detection first when
  * sensorless, else their angle from the encoder). */
 void fs_drive_start_estimators(fs_drive *drv, const fs_drive_in *in);
-/* Polarity detection done: the estimates turned by pi if it says so. */
-void fs_drive_polarity_done(fs_drive *drv);
+/* One step of the polarity detection (pulses or motion test): its current
+ * reference; the run on its decision (the estimates turned by pi if it says
+ * so), the halt on its refusal. */
+fs_dq fs_drive_polarity_step(fs_drive *drv);
 /* One step of the I/f start: its current reference, and the hand-over. */
 fs_dq fs_drive_if_step(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab);
+/* Running on the observer: back to the I/f frame when its speed and the
+ * reference are below w_restart. */
+void fs_drive_if_restart(fs_drive *drv, const fs_drive_in *in);
 /* The start sequence again after a loss of lock (false: none). */
 bool fs_drive_restart(fs_drive *drv);
 

@@ -21,6 +21,7 @@ fs_status fs_fw_init(fs_fw *fw, const fs_fw_config *cfg)
 
 void fs_fw_design(fs_fw_config *cfg, float bw_current, bool hold)
 {
+    if (!cfg) return;
     const float K = fs_minf(0.25f * bw_current, 1.5f * cfg->w_e_max);   /* held: fs_drive.h */
     if (!(cfg->gain > 0.0f)) cfg->gain = hold ? K / bw_current : 50.0f;
     if (!(cfg->bandwidth > 0.0f))

@@ -56,7 +56,7 @@ typedef struct {
 
 /* The gain and cutoff left 0 in cfg, designed from the current loop's
  * bandwidth and the top speed as fs_drive.h says, for the excess held by the
- * regulators or wound back (fs_fw_init then checks them). */
+ * regulators or wound back (fs_fw_init then checks them); a NULL cfg: nothing. */
 void fs_fw_design(fs_fw_config *cfg, float bw_current, bool hold);
 fs_status fs_fw_init(fs_fw *fw, const fs_fw_config *cfg);
 void fs_fw_reset(fs_fw *fw);

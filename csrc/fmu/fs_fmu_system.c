@@ -89,9 +89,8 @@ static const char *stop_name(int rc)
 int fs_fmu_step(fs_fmu *m, char *msg, int len)
 {
     hold_inputs(m);
-    const double t = fs_sim_time(m->sim);
-    int rows = 0;
-    const int rc = fs_sim_run(m->sim, t + FS_FMU_TS, m->row, 1, &rows);
+    int rows = 0;   /* one doStep is one control period */
+    const int rc = fs_sim_run_steps(m->sim, fs_sim_step_count(m->sim) + 1, m->row, 1, &rows);
     if (rc == FS_RUN_DONE) {
         fs_sim_plant_row(m->sim, m->row);
         fs_sim_dc_link(m->sim, &m->v[FS_VR_U_DC], &m->v[FS_VR_I_DC], &m->v[FS_VR_P_DC]);

@@ -48,6 +48,8 @@ fs_status fs_inverter_check(const fs_inverter_config *c)
     if (!(c->t_dead >= 0.0 && c->t_dead < 0.5 * c->T_pwm)) return FS_ERR_PARAM;
     if (!(c->u_on >= 0.0) || !isfinite(c->u_on)) return FS_ERR_PARAM;
     if (!(c->r_on >= 0.0) || !isfinite(c->r_on)) return FS_ERR_PARAM;
+    if (fs_device_check(&c->dev) != FS_OK) return FS_ERR_PARAM;
+    if (c->dev.enabled && (c->u_on != 0.0 || c->r_on != 0.0)) return FS_ERR_PARAM;
     return c->phases == 3 || c->phases == 5 ? FS_OK : FS_ERR_PARAM;
 }
 
@@ -105,10 +107,72 @@ void fs_inverter_segments(const fs_inverter_config *c, const double *duty, int h
     }
 }
 
+void fs_inverter_legs(const fs_inverter_config *c, const int *state, const double *i_ph, double *s, double *drop)
+{
+    const int nl = legs(c);
+    for (int k = 0; k < nl; ++k) {
+        const double i = i_ph[k];
+        if (state[k] < 0) {   /* dead time: a diode, on the rail opposite to the current's sign */
+            s[k] = i < 0.0;
+            drop[k] = c->dev.enabled ? fs_device_drop(&c->dev, 0, i) : sgn(i) * c->u_on + c->r_on * i;
+        } else {
+            s[k] = state[k];
+            drop[k] = c->dev.enabled ? fs_device_drop(&c->dev, fs_device_transistor(&c->dev, state[k], i), i)
+                                     : sgn(i) * c->u_on + c->r_on * i;
+        }
+    }
+}
+
+/* The dead time's volt-seconds per period of a leg at duty d (clipped to
+ * [0, 1]) carrying i, as the switching model cuts them, s. */
+static double dead_error(const fs_inverter_config *c, double d, double i)
+{
+    const double Th = 0.5 * c->T_pwm;
+    if (d > 0.0 && d < 1.0) {
+        if (i > 0.0) return -fmin(c->t_dead, d * Th);
+        if (i < 0.0) return fmin(c->t_dead, (1.0 - d) * Th);
+    }
+    return 0.0;
+}
+
+static double clip01(double d) { return d < 0.0 ? 0.0 : (d > 1.0 ? 1.0 : d); }
+
+void fs_inverter_mean_legs(const fs_inverter_config *c, const double *duty, const double *i_ph, double *s,
+                           double *drop)
+{
+    const int nl = legs(c);
+    for (int k = 0; k < nl; ++k) {
+        const double d = clip01(duty[k]), i = i_ph[k];
+        s[k] = d + dead_error(c, d, i) / c->T_pwm;
+        if (c->dev.enabled) {   /* each rail's conducting device for its share of the period */
+            const double up = fs_device_drop(&c->dev, fs_device_transistor(&c->dev, 1, i), i);
+            const double lo = fs_device_drop(&c->dev, fs_device_transistor(&c->dev, 0, i), i);
+            drop[k] = s[k] * up + (1.0 - s[k]) * lo;
+        } else {
+            drop[k] = sgn(i) * c->u_on + c->r_on * i;
+        }
+    }
+}
+
+double fs_inverter_commutations(const fs_inverter_config *c, const int *before, const int *after, const double *i_ph)
+{
+    if (!c->dev.enabled) return 0.0;
+    double E = 0.0;
+    for (int k = 0; k < legs(c); ++k)
+        if (before[k] >= 0 && after[k] != before[k]) E += fs_device_commutation(&c->dev, before[k], i_ph[k], c->u_dc);
+    return E;
+}
+
 /* Pole voltages (against the dc-link midpoint) of a switch state. */
 static void pole_voltages(const fs_inverter_config *c, int nl, const int *state, const double *i_ph,
                           double *v)
 {
+    if (c->dev.enabled) {
+        double s[FS_INV_MAX_LEGS], drop[FS_INV_MAX_LEGS];
+        fs_inverter_legs(c, state, i_ph, s, drop);
+        for (int k = 0; k < nl; ++k) v[k] = (s[k] - 0.5) * c->u_dc - drop[k];
+        return;
+    }
     for (int k = 0; k < nl; ++k) {
         int s = state[k];
         if (s < 0) s = i_ph[k] < 0.0;  /* diode: i > 0 flows through the lower one */
@@ -120,14 +184,14 @@ static void pole_voltages(const fs_inverter_config *c, int nl, const int *state,
 static void mean_pole_voltages(const fs_inverter_config *c, int nl, const double *duty,
                                const double *i_ph, double *v)
 {
-    const double Th = 0.5 * c->T_pwm;
+    if (c->dev.enabled) {
+        double s[FS_INV_MAX_LEGS], drop[FS_INV_MAX_LEGS];
+        fs_inverter_mean_legs(c, duty, i_ph, s, drop);
+        for (int k = 0; k < nl; ++k) v[k] = (s[k] - 0.5) * c->u_dc - drop[k];
+        return;
+    }
     for (int k = 0; k < nl; ++k) {
-        double d = duty[k] < 0.0 ? 0.0 : (duty[k] > 1.0 ? 1.0 : duty[k]);
-        double err = 0.0;  /* dead-time volt-seconds per period, as the switching model cuts them */
-        if (d > 0.0 && d < 1.0) {
-            if (i_ph[k] > 0.0) err = -fmin(c->t_dead, d * Th);
-            else if (i_ph[k] < 0.0) err = fmin(c->t_dead, (1.0 - d) * Th);
-        }
+        const double d = clip01(duty[k]), err = dead_error(c, d, i_ph[k]);
         v[k] = (d - 0.5 + err / c->T_pwm) * c->u_dc - sgn(i_ph[k]) * c->u_on - c->r_on * i_ph[k];
     }
 }

@@ -14,6 +14,14 @@
  *           carries the current, so the pole sits on the rail opposite to the
  *           current's sign. Each constant segment is integrated on its own.
  *
+ * Devices: ideal but for the drop sign(i) u_on + r_on i of whichever
+ * conducts, or (dev.enabled) the module's transistors and diodes
+ * (fs_losses.h): on each rail the one the current's sign picks (a diode in
+ * the dead time), in the averaged model each rail's for its share of the
+ * period. A leg's rail s (1 upper, 0 lower; its share of the period,
+ * averaged) and its drop give the converter's meters: the dc link passes
+ * u_dc sum s_k i_k, the devices dissipate sum drop_k i_k.
+ *
  * The load is star-connected without a neutral wire: a phase voltage is its
  * pole voltage less the mean of the pole voltages (no zero sequence). The
  * output is the stationary voltage of the fundamental plane (alpha, beta)
@@ -33,6 +41,7 @@
 #define FS_INVERTER_H
 
 #include "../control/fs_types.h"
+#include "fs_losses.h"
 
 typedef enum { FS_INV_AVERAGED = 0, FS_INV_SWITCHING = 1 } fs_inverter_kind;
 
@@ -44,11 +53,13 @@ typedef struct {
     double u_on;       /* device on-state drop, V (its threshold part) */
     double r_on;       /* device on-state resistance, ohm: the drop is sign(i) u_on + r_on i */
     int phases;        /* legs: 3 or 5 (5: five-phase; anything else is taken as 3) */
+    fs_device_config dev;   /* enabled: the module's devices instead of u_on, r_on (which must be 0) */
 } fs_inverter_config;
 
 /* FS_OK (0), or the status of the first field out of range or not finite:
  * FS_ERR_MODE (kind), FS_ERR_LIMIT (u_dc > 0), FS_ERR_TS (T_pwm > 0),
- * FS_ERR_PARAM (t_dead in [0, T_pwm / 2), u_on, r_on >= 0, phases 3 or 5). The
+ * FS_ERR_PARAM (t_dead in [0, T_pwm / 2), u_on, r_on >= 0, phases 3 or 5, a
+ * device fs_device_check refuses, or u_on, r_on not 0 with the devices). The
  * functions below take any config; this tells whether it is a sound one. */
 fs_status fs_inverter_check(const fs_inverter_config *c);
 
@@ -81,6 +92,17 @@ void fs_inverter_voltage(const fs_inverter_config *c, const int *state, const do
 /* Averaged model: mean stationary voltage over the period, both planes. */
 void fs_inverter_mean_voltage(const fs_inverter_config *c, const double *duty, const double *i_ph,
                               double *u_alpha, double *u_beta, double *u_x, double *u_y);
+/* Each leg's rail s (1 upper, 0 lower) and the drop of its conducting
+ * devices (signed as its current) in a segment's switch states, or over a
+ * period of the averaged model (s its mean: the duty less the dead time's
+ * share); c->phases entries each. */
+void fs_inverter_legs(const fs_inverter_config *c, const int *state, const double *i_ph, double *s, double *drop);
+void fs_inverter_mean_legs(const fs_inverter_config *c, const double *duty, const double *i_ph, double *s,
+                           double *drop);
+/* The devices' energy (fs_device_commutation, at u_dc) of the legs that
+ * leave a definite state (0 or 1) for another between `before` and `after`,
+ * at the phase currents then, J (0 without dev.enabled). */
+double fs_inverter_commutations(const fs_inverter_config *c, const int *before, const int *after, const double *i_ph);
 
 /* Five-phase VSD of five phase quantities (the zero sequence is dropped),
  * and its inverse with a given zero sequence. */

@@ -116,6 +116,7 @@ fs_status fs_pmsm_init(fs_pmsm *m, const fs_pmsm_config *cfg)
         && cfg->cog_order != 24)
         return FS_ERR_PARAM;
     if (m->harm && cfg->phases != 3) return FS_ERR_PARAM;
+    if (fs_iron_check(&cfg->iron) != FS_OK) return FS_ERR_PARAM;
     fs_mag_flux(&m->mag, 0.0, 0.0, &m->p0_d, &m->p0_q);
     m->inv_L_d3 = m->inv_L_q3 = 0.0;
     if (cfg->phases == 5) {
@@ -178,8 +179,9 @@ void fs_pmsm_set_temperature(fs_pmsm *m, double *x, double r, double k)
 }
 
 /* The three- and five-phase paths, and the three-phase one with spatial
- * harmonics, are one body specialised by constants `five` and `harm`, so
- * that the three-phase one does no more work than it ever did. */
+ * harmonics, each with or without the losses beyond the copper, are one
+ * body specialised by constants `five`, `harm` and `losses`, so that the
+ * three-phase one does no more work than it ever did. */
 #if defined(__GNUC__)
 #define FS_SPECIALISE static inline __attribute__((always_inline))
 #else
@@ -221,9 +223,24 @@ FS_SPECIALISE void currents3(const fs_pmsm *m, const double *x, double *i_d3, do
     *i_q3 = x[FS_X_PSI_Q3] * m->inv_L_q3;
 }
 
+/* The iron loss's drag at a state (fs_losses.h). */
+static double iron_drag(const fs_pmsm *m, const double *x)
+{
+    if (m->cfg.iron.P_ref == 0.0) return 0.0;   /* none: not even the flux's magnitude */
+    return fs_iron_torque(&m->cfg.iron, m->cfg.pole_pairs, x[FS_X_W_M], hypot(x[FS_X_PSI_D], x[FS_X_PSI_Q]));
+}
+
+void fs_pmsm_iron(const fs_pmsm *m, const double *x, double *P_fe, double *T_fe)
+{
+    const double psi = hypot(x[FS_X_PSI_D], x[FS_X_PSI_Q]);
+    *P_fe = m->cfg.iron.P_ref > 0.0 ? fs_iron_loss(&m->cfg.iron, m->cfg.pole_pairs * x[FS_X_W_M], psi) : 0.0;
+    *T_fe = iron_drag(m, x);
+}
+
+/* T_fe: the iron loss's drag (with losses; else 0), which a brake holds against as it holds friction. */
 FS_SPECIALISE void outputs(fs_pmsm *m, const double *x, const fs_pmsm_input *in, double cs, double sn,
-                           const int five, const int harm, double *i_d, double *i_q, double *i_d3,
-                           double *i_q3, double *T_e, double *T_shaft)
+                           const int five, const int harm, const double T_fe, double *i_d, double *i_q,
+                           double *i_d3, double *i_q3, double *T_e, double *T_shaft)
 {
     if (harm) {
         double dW;
@@ -244,7 +261,7 @@ FS_SPECIALISE void outputs(fs_pmsm *m, const double *x, const fs_pmsm_input *in,
     if (m->cfg.load_kind == FS_LOAD_SPEED_PI) T += load_machine_torque(m, x, in);
     if (m->cfg.load_kind == FS_LOAD_BRAKE) {
         const double w = x[FS_X_W_M];
-        T = brake_torque(&m->cfg, w, *T_e - friction(&m->cfg, w), in->T_load);
+        T = brake_torque(&m->cfg, w, *T_e - friction(&m->cfg, w) - T_fe, in->T_load);
     }
     *T_shaft = T;
 }
@@ -253,13 +270,14 @@ void fs_pmsm_outputs(fs_pmsm *m, const double *x, const fs_pmsm_input *in,
                      double *i_d, double *i_q, double *T_e, double *T_shaft)
 {
     double i_d3, i_q3;
+    const double T_fe = m->cfg.losses ? iron_drag(m, x) : 0.0;
     if (m->cfg.phases == 5) {
-        outputs(m, x, in, 0.0, 0.0, 1, 0, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
+        outputs(m, x, in, 0.0, 0.0, 1, 0, T_fe, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
     } else if (m->harm) {
         const double th = m->cfg.pole_pairs * x[FS_X_THETA_M];
-        outputs(m, x, in, cos(th), sin(th), 0, 1, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
+        outputs(m, x, in, cos(th), sin(th), 0, 1, T_fe, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
     } else {
-        outputs(m, x, in, 0.0, 0.0, 0, 0, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
+        outputs(m, x, in, 0.0, 0.0, 0, 0, T_fe, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
     }
 }
 
@@ -313,11 +331,12 @@ static void incremental_inverse(fs_pmsm *m, double psi_d, double psi_q, double G
 
 /* The right-hand side with the rotor angle's cosine and sine given. */
 FS_SPECIALISE void deriv_cs(fs_pmsm *m, const double *x, const fs_pmsm_input *in, double cs,
-                            double sn, const int five, const int harm, double *dx)
+                            double sn, const int five, const int harm, const int losses, double *dx)
 {
     const fs_pmsm_config *c = &m->cfg;
     double i_d, i_q, i_d3 = 0.0, i_q3 = 0.0, T_e, T_shaft;
-    outputs(m, x, in, cs, sn, five, harm, &i_d, &i_q, &i_d3, &i_q3, &T_e, &T_shaft);
+    const double T_fe = losses ? iron_drag(m, x) : 0.0;
+    outputs(m, x, in, cs, sn, five, harm, T_fe, &i_d, &i_q, &i_d3, &i_q3, &T_e, &T_shaft);
     double w_m = x[FS_X_W_M];  /* SPEED_IDEAL: follows dw_load, reset each sample */
     double w_e = c->pole_pairs * w_m;
     double u_d = cs * in->u_alpha + sn * in->u_beta;
@@ -351,18 +370,22 @@ FS_SPECIALISE void deriv_cs(fs_pmsm *m, const double *x, const fs_pmsm_input *in
         dx[FS_X_LOAD_I] = 0.0;
         break;
     case FS_LOAD_SPEED_PI:
-        dx[FS_X_W_M] = (T_e - T_shaft - friction(c, w_m)) / (c->J + c->J_load);
+        dx[FS_X_W_M] = losses ? (T_e - T_shaft - friction(c, w_m) - T_fe) / (c->J + c->J_load)
+                              : (T_e - T_shaft - friction(c, w_m)) / (c->J + c->J_load);
         dx[FS_X_LOAD_I] = m->k_i_load * (in->w_load - w_m);
         break;
     default:
-        dx[FS_X_W_M] = (T_e - T_shaft - friction(c, w_m)) / c->J;
+        dx[FS_X_W_M] = losses ? (T_e - T_shaft - friction(c, w_m) - T_fe) / c->J
+                              : (T_e - T_shaft - friction(c, w_m)) / c->J;
         dx[FS_X_LOAD_I] = 0.0;
     }
     dx[FS_X_THETA_M] = w_m;
+    double c3 = 0.0, s3 = 0.0;
     if (five) {
         /* cos and sin of 3 theta_e: (cs + j sn)^3 */
         double c2 = cs * cs, s2 = sn * sn;
-        double c3 = cs * (c2 - 3.0 * s2), s3 = sn * (3.0 * c2 - s2);
+        c3 = cs * (c2 - 3.0 * s2);
+        s3 = sn * (3.0 * c2 - s2);
         double u_d3 = c3 * in->u_x + s3 * in->u_y;
         double u_q3 = -s3 * in->u_x + c3 * in->u_y;
         double w_3 = 3.0 * w_e;
@@ -377,14 +400,34 @@ FS_SPECIALISE void deriv_cs(fs_pmsm *m, const double *x, const fs_pmsm_input *in
     dx[FS_X_E_AIRGAP] = T_e * w_m;
     dx[FS_X_UD_INT] = u_d;
     dx[FS_X_UQ_INT] = u_q;
+    if (losses) {
+        if (!five) dx[FS_X_PSI_D3] = dx[FS_X_PSI_Q3] = 0.0;   /* not a three-phase machine's: held */
+        dx[FS_X_E_FE] = T_fe * w_m;
+        dx[FS_X_E_MECH] = friction(c, w_m) * w_m;
+        /* an ideal speed load takes whatever the shaft gives beyond the speed's own change */
+        dx[FS_X_E_SHAFT] = (c->load_kind == FS_LOAD_SPEED_IDEAL ? T_e - friction(c, w_m) - T_fe - c->J * in->dw_load
+                                                                : T_shaft) * w_m;
+        dx[FS_X_I_A_INT] = cs * i_d - sn * i_q;
+        dx[FS_X_I_B_INT] = sn * i_d + cs * i_q;
+        dx[FS_X_I_X_INT] = five ? c3 * i_d3 - s3 * i_q3 : 0.0;
+        dx[FS_X_I_Y_INT] = five ? s3 * i_d3 + c3 * i_q3 : 0.0;
+    }
 }
 
 void fs_pmsm_deriv(fs_pmsm *m, const double *x, const fs_pmsm_input *in, double *dx)
 {
     double th = m->cfg.pole_pairs * x[FS_X_THETA_M];
-    if (m->cfg.phases == 5) deriv_cs(m, x, in, cos(th), sin(th), 1, 0, dx);
-    else if (m->harm) deriv_cs(m, x, in, cos(th), sin(th), 0, 1, dx);
-    else deriv_cs(m, x, in, cos(th), sin(th), 0, 0, dx);
+    const double cs = cos(th), sn = sin(th);
+    const int five = m->cfg.phases == 5;
+    if (m->cfg.losses) {
+        if (five) deriv_cs(m, x, in, cs, sn, 1, 0, 1, dx);
+        else if (m->harm) deriv_cs(m, x, in, cs, sn, 0, 1, 1, dx);
+        else deriv_cs(m, x, in, cs, sn, 0, 0, 1, dx);
+    } else {
+        if (five) deriv_cs(m, x, in, cs, sn, 1, 0, 0, dx);
+        else if (m->harm) deriv_cs(m, x, in, cs, sn, 0, 1, 0, dx);
+        else deriv_cs(m, x, in, cs, sn, 0, 0, 0, dx);
+    }
 }
 
 /* The right-hand side at a stage whose angle is the step's start angle
@@ -393,7 +436,7 @@ void fs_pmsm_deriv(fs_pmsm *m, const double *x, const fs_pmsm_input *in, double 
  * and by the library otherwise. */
 FS_SPECIALISE void deriv_stage(fs_pmsm *m, const double *x0, const double *y,
                                const fs_pmsm_input *in, double c0, double s0, const int five,
-                               const int harm, double *dx)
+                               const int harm, const int losses, double *dx)
 {
     double d = m->cfg.pole_pairs * (y[FS_X_THETA_M] - x0[FS_X_THETA_M]);
     double cd, sd;
@@ -405,32 +448,39 @@ FS_SPECIALISE void deriv_stage(fs_pmsm *m, const double *x0, const double *y,
         cd = cos(d);
         sd = sin(d);
     }
-    deriv_cs(m, y, in, c0 * cd - s0 * sd, s0 * cd + c0 * sd, five, harm, dx);
+    deriv_cs(m, y, in, c0 * cd - s0 * sd, s0 * cd + c0 * sd, five, harm, losses, dx);
 }
 
-/* RK4 over the first NX states (FS_X_N3: three phases, FS_X_N: five);
- * harm: the three-phase machine with its spatial harmonics. */
+/* RK4 over the first NX states (FS_X_N3: three phases, FS_X_N5: five;
+ * FS_X_N with the loss meters); harm: the three-phase machine with its
+ * spatial harmonics. */
 FS_SPECIALISE void rk4(fs_pmsm *m, double *x, const fs_pmsm_input *in, double h, const int five,
-                       const int harm)
+                       const int harm, const int losses)
 {
     enum { NX = FS_X_N };
-    const int nx = five ? FS_X_N : FS_X_N3;
+    const int nx = losses ? FS_X_N : (five ? FS_X_N5 : FS_X_N3);
     double k1[NX], k2[NX], k3[NX], k4[NX], y[NX];
     double th = m->cfg.pole_pairs * x[FS_X_THETA_M];
     double c0 = cos(th), s0 = sin(th);
-    deriv_cs(m, x, in, c0, s0, five, harm, k1);
+    deriv_cs(m, x, in, c0, s0, five, harm, losses, k1);
     for (int n = 0; n < nx; ++n) y[n] = x[n] + 0.5 * h * k1[n];
-    deriv_stage(m, x, y, in, c0, s0, five, harm, k2);
+    deriv_stage(m, x, y, in, c0, s0, five, harm, losses, k2);
     for (int n = 0; n < nx; ++n) y[n] = x[n] + 0.5 * h * k2[n];
-    deriv_stage(m, x, y, in, c0, s0, five, harm, k3);
+    deriv_stage(m, x, y, in, c0, s0, five, harm, losses, k3);
     for (int n = 0; n < nx; ++n) y[n] = x[n] + h * k3[n];
-    deriv_stage(m, x, y, in, c0, s0, five, harm, k4);
+    deriv_stage(m, x, y, in, c0, s0, five, harm, losses, k4);
     for (int n = 0; n < nx; ++n) x[n] += h / 6.0 * (k1[n] + 2.0 * k2[n] + 2.0 * k3[n] + k4[n]);
 }
 
 void fs_pmsm_rk4(fs_pmsm *m, double *x, const fs_pmsm_input *in, double h)
 {
-    if (m->cfg.phases == 5) rk4(m, x, in, h, 1, 0);
-    else if (m->harm) rk4(m, x, in, h, 0, 1);
-    else rk4(m, x, in, h, 0, 0);
+    if (m->cfg.losses) {
+        if (m->cfg.phases == 5) rk4(m, x, in, h, 1, 0, 1);
+        else if (m->harm) rk4(m, x, in, h, 0, 1, 1);
+        else rk4(m, x, in, h, 0, 0, 1);
+    } else {
+        if (m->cfg.phases == 5) rk4(m, x, in, h, 1, 0, 0);
+        else if (m->harm) rk4(m, x, in, h, 0, 1, 0);
+        else rk4(m, x, in, h, 0, 0, 0);
+    }
 }

@@ -19,7 +19,17 @@
  * or the speed imposed by a load machine (ideal, or a speed-controlled load
  * machine with a PI of finite bandwidth, as on the papers' test benches).
  * Energy meters (input, copper loss, air-gap power) are integrated alongside
- * the states so that the power balance can be checked exactly.
+ * the states so that the power balance can be checked exactly. With
+ * `losses`, the iron loss (fs_losses.h) is drawn from the shaft as a drag
+ * torque T_fe(w_m, |psi|):
+ *   J dw_m/dt = T_e - T_L - B w_m - T_c sat(w_m / w_c) - T_fe,
+ * and the meters of the shaft's side run too: E_FE = int T_fe w_m (iron),
+ * E_MECH = int (B w_m + T_c sat(w_m / w_c)) w_m (friction) and E_SHAFT =
+ * int T_L w_m (the load's work; an ideal speed load's torque is what the
+ * shaft gives beyond J dw_m/dt), so that E_AIRGAP = E_FE + E_MECH + E_SHAFT
+ * + the kinetic energy's change; and the stationary currents' integrals
+ * (I_A_INT, I_B_INT, and I_X_INT, I_Y_INT for five phases), from which a
+ * converter meters what it passes with coefficients held over a step.
  *
  * Spatial harmonics (three phases): the flux depends on the rotor angle
  * theta = theta_e as well. The magnet's harmonic flux h(theta) of orders
@@ -43,6 +53,7 @@
 #ifndef FS_PMSM_H
 #define FS_PMSM_H
 
+#include "fs_losses.h"
 #include "fs_magnetic.h"
 
 typedef enum {
@@ -72,10 +83,14 @@ typedef struct {
     double sal6[3], sal12[3]; /* the flux transform's (dd, qq, dq) terms of orders 6 and 12; |sal6| + |sal12| < 0.5 each */
     double T_cog;             /* cogging torque amplitude, N m */
     int cog_order;            /* its order per electrical turn: 6, 12, 18 or 24 (needed with T_cog != 0) */
+    /* losses beyond the copper (0: none, and no cost) */
+    fs_iron_config iron;      /* with `losses`: the iron loss drawn from the shaft (P_ref 0: none) */
+    int losses;               /* 1: the loss meters integrated (and the iron loss drawn) */
 } fs_pmsm_config;
 
 /* State vector layout: the first FS_X_N3 states are those of a
- * three-phase machine; a five-phase one adds the d3-q3 fluxes. The energy
+ * three-phase machine; a five-phase one adds the d3-q3 fluxes (FS_X_N5);
+ * the loss meters follow, integrated with `losses` only. The energy
  * meters E_IN = m/2 int (u_alpha i_alpha + u_beta i_beta + u_x i_x + u_y i_y),
  * E_CU = m/2 R int (i_d^2 + i_q^2 + i_d3^2 + i_q3^2) and E_AIRGAP = int T_e w_m
  * balance with the stored magnetic energy (fs_pmsm_energy). UD_INT and
@@ -84,9 +99,11 @@ enum {
     FS_X_PSI_D = 0, FS_X_PSI_Q, FS_X_W_M, FS_X_THETA_M, FS_X_LOAD_I,
     FS_X_E_IN, FS_X_E_CU, FS_X_E_AIRGAP, FS_X_UD_INT, FS_X_UQ_INT,
     FS_X_PSI_D3, FS_X_PSI_Q3,
+    FS_X_E_FE, FS_X_E_MECH, FS_X_E_SHAFT,
+    FS_X_I_A_INT, FS_X_I_B_INT, FS_X_I_X_INT, FS_X_I_Y_INT,
     FS_X_N
 };
-enum { FS_X_N3 = FS_X_PSI_D3 };
+enum { FS_X_N3 = FS_X_PSI_D3, FS_X_N5 = FS_X_E_FE };
 
 typedef struct {
     fs_pmsm_config cfg;
@@ -112,7 +129,8 @@ typedef struct {
     double tau_open;
 } fs_pmsm_input;
 
-/* FS_OK (0), or the status of the first field out of range or not finite:
+/* FS_OK (0), or the status of the first field out of range or not finite
+ * (FS_ERR_PARAM for an iron loss fs_iron_check refuses):
  * FS_ERR_POLE_PAIRS, FS_ERR_RS, FS_ERR_J (J > 0), FS_ERR_PARAM (B,
  * T_coulomb, J_load >= 0; w_coulomb > 0 with Coulomb friction or a brake;
  * load_bandwidth > 0 for SPEED_PI, finite always; phases 3 or 5),
@@ -134,6 +152,8 @@ void fs_pmsm_deriv(fs_pmsm *m, const double *x, const fs_pmsm_input *in, double 
 /* Currents (rotor frame), torque and shaft load torque of a state. */
 void fs_pmsm_outputs(fs_pmsm *m, const double *x, const fs_pmsm_input *in,
                      double *i_d, double *i_q, double *T_e, double *T_shaft);
+/* The iron loss (W) and its drag torque (N m) at a state. */
+void fs_pmsm_iron(const fs_pmsm *m, const double *x, double *P_fe, double *T_fe);
 /* Third-harmonic currents (d3-q3 frame) of a state; 0 for three phases. */
 void fs_pmsm_currents3(const fs_pmsm *m, const double *x, double *i_d3, double *i_q3);
 /* Stored magnetic energy m/2 (W(psi) + W3), W3 = (psi_d3 - psi_f3)^2/(2 L_d3)

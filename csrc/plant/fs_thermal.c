@@ -7,6 +7,7 @@ static int in_range(double x, double lo, double hi) { return x >= lo && x <= hi;
 
 fs_status fs_thermal_init(fs_thermal *th, const fs_thermal_config *cfg)
 {
+    if (!th || !cfg) return FS_ERR_NULL;
     th->cfg = *cfg;
     th->T_w = cfg->T_w0;
     th->T_m = cfg->T_m0;
@@ -15,8 +16,8 @@ fs_status fs_thermal_init(fs_thermal *th, const fs_thermal_config *cfg)
     if (!pos(cfg->R_wa) || !pos(cfg->R_wm) || !pos(cfg->R_ma) || !pos(cfg->C_w) || !pos(cfg->C_m))
         return FS_ERR_PARAM;
     if (!(cfg->time_scale >= 1.0) || !isfinite(cfg->time_scale)) return FS_ERR_PARAM;
-    if (!in_range(cfg->k_hyst, 0.0, 1.0) || !in_range(cfg->k_rotor, 0.0, 1.0)) return FS_ERR_PARAM;
-    if (!(cfg->P_fe_ref >= 0.0) || !isfinite(cfg->P_fe_ref) || !pos(cfg->w_fe_ref)) return FS_ERR_PARAM;
+    if (!in_range(cfg->k_rotor, 0.0, 1.0)) return FS_ERR_PARAM;
+    if (fs_iron_check(&cfg->iron) != FS_OK) return FS_ERR_PARAM;
     if (!(fabs(cfg->alpha_cu) < 0.1) || !(fabs(cfg->alpha_br) < 0.1)) return FS_ERR_PARAM;
     const double T[4] = {cfg->T_amb, cfg->T_ref, cfg->T_w0, cfg->T_m0};
     for (int k = 0; k < 4; ++k)
@@ -27,13 +28,6 @@ fs_status fs_thermal_init(fs_thermal *th, const fs_thermal_config *cfg)
         if (!(1.0 + cfg->alpha_br * (t - cfg->T_ref) > 0.0)) return FS_ERR_PARAM;
     }
     return FS_OK;
-}
-
-double fs_thermal_iron_loss(const fs_thermal *th, double w_e, double psi_over_psi_f)
-{
-    const fs_thermal_config *c = &th->cfg;
-    const double f = fabs(w_e) / c->w_fe_ref;
-    return c->P_fe_ref * psi_over_psi_f * psi_over_psi_f * (c->k_hyst * f + (1.0 - c->k_hyst) * f * f);
 }
 
 void fs_thermal_step(fs_thermal *th, double P_cu, double P_fe, double dt)

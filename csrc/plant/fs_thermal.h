@@ -5,14 +5,10 @@
  *   C_w dT_w/dt = P_cu + (1 - k_rotor) P_fe - (T_w - T_amb)/R_wa - (T_w - T_m)/R_wm
  *   C_m dT_m/dt =             k_rotor  P_fe - (T_m - T_amb)/R_ma + (T_w - T_m)/R_wm
  * The copper loss P_cu is the plant's own (its energy meter over each
- * control period, at the resistance of that period); the iron loss is a
- * Steinmetz-type split into hysteresis (proportional to the frequency) and
- * eddy currents (to its square), both to the square of the stator flux:
- *   P_fe = P_fe_ref (|psi| / psi_f)^2 [k_hyst |w_e|/w_fe_ref + (1 - k_hyst) (w_e/w_fe_ref)^2].
- * The iron loss heats the machine but is not drawn from its terminals (the
- * electrical model has no iron-loss resistance): below the copper loss at
- * the low speeds this model is run at, and a loss the controllers do not
- * model either.
+ * control period, at the resistance of that period); the iron loss P_fe is
+ * the machine's iron-loss model (fs_losses.h, the one the plant draws from
+ * the shaft when its losses are on) at the stator flux, evaluated by the
+ * caller with `iron`.
  *
  * The temperatures set the parameters:
  *   R_s = R_s,ref (1 + alpha_cu (T_w - T_ref)),
@@ -28,6 +24,7 @@
 #define FS_THERMAL_H
 
 #include "../control/fs_types.h"
+#include "fs_losses.h"
 
 typedef struct {
     int enabled;              /* 0: no thermal model (the fields below are ignored) */
@@ -38,9 +35,7 @@ typedef struct {
     double C_w, C_m;          /* heat capacities, J/K */
     double alpha_cu;          /* copper resistance coefficient, 1/K */
     double alpha_br;          /* magnet remanence coefficient, 1/K (< 0 for NdFeB) */
-    double P_fe_ref;          /* iron loss at w_fe_ref with |psi| = psi_f, W */
-    double w_fe_ref;          /* its electrical speed, rad/s */
-    double k_hyst;            /* hysteresis share of P_fe_ref, 0..1 */
+    fs_iron_config iron;      /* the machine's iron loss (psi_ref: the magnet's flux) */
     double k_rotor;           /* share of the iron loss in the rotor (heats the magnets), 0..1 */
     double time_scale;        /* >= 1: capacities divided by it */
 } fs_thermal_config;
@@ -51,15 +46,13 @@ typedef struct {
     double P_cu, P_fe;        /* the losses of the last step, W */
 } fs_thermal;
 
-/* FS_OK, or FS_ERR_PARAM for a field out of range or not finite
- * (resistances and capacities > 0, time_scale >= 1, shares in [0, 1],
- * P_fe_ref >= 0, w_fe_ref > 0, |alpha| < 0.1 / K, temperatures in
+/* FS_OK, FS_ERR_NULL for a NULL argument, or FS_ERR_PARAM for a field out
+ * of range or not finite (resistances and capacities > 0, time_scale >= 1,
+ * k_rotor in [0, 1], an iron loss fs_iron_check refuses,
+ * |alpha| < 0.1 / K, temperatures in
  * [-273.15, 1000] degC, and each parameter factor positive from -50 degC to
  * 300 degC). */
 fs_status fs_thermal_init(fs_thermal *th, const fs_thermal_config *cfg);
-/* Iron loss at electrical speed w_e with stator flux magnitude psi over the
- * machine's magnet flux psi_f, W. */
-double fs_thermal_iron_loss(const fs_thermal *th, double w_e, double psi_over_psi_f);
 /* One backward-Euler step of length dt with losses P_cu and P_fe, W. */
 void fs_thermal_step(fs_thermal *th, double P_cu, double P_fe, double dt);
 /* R_s / R_s,ref and remanence / remanence at T_ref at the present temperatures. */

@@ -55,6 +55,11 @@ struct fs_sim {
      * same state can differ in the last bit, so it is solved twice as before. */
     int cur_ok;
     double cur_ph[FS_INV_MAX_LEGS], cur_d, cur_q;
+    double e_dc0;            /* at the last sample: the source's meter (with the loss meters), J */
+    int losses;              /* cfg.plant.losses: the loss meters run */
+    int imc_real;            /* the matrix converter with devices, dead time or meters (imc_deriv_real) */
+    double e_dc, e_cond, e_rect, e_sw;   /* the converter's meters (fs_sim.h), J */
+    int leg_state[FS_INV_MAX_LEGS];      /* switching inverter, with meters: the legs' states in the last segment */
 };
 
 /* The runner passes drive duties to the inverter and phase currents back. */
@@ -230,9 +235,11 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
     if (ph != 3 && ph != 5) FAIL("plant.phases = %d: must be 3 or 5", ph);
     if (cfg->inverter.phases != ph)
         FAIL("inverter.phases = %d: must equal plant.phases (%d)", cfg->inverter.phases, ph);
-    fs_status ist = fs_inverter_check(&cfg->inverter);   /* what the messages above leave: kind, u_on */
+    fs_status ist = fs_inverter_check(&cfg->inverter);   /* what the messages above leave: kind, u_on, the devices */
     if (ist != FS_OK)
-        FAIL("inverter: kind = %d, u_on = %g: %s", cfg->inverter.kind, cfg->inverter.u_on, fs_status_str(ist));
+        FAIL("inverter: kind = %d, u_on = %g, devices %s: %s (a device's drops, energies and exponents >= 0, "
+             "I_ref, V_ref > 0; u_on, r_on 0 with them)", cfg->inverter.kind, cfg->inverter.u_on,
+             cfg->inverter.dev.enabled ? "on" : "off", fs_status_str(ist));
     if (cfg->drive.phases != ph)
         FAIL("controller.phases = %d: must equal plant.phases (%d)", cfg->drive.phases, ph);
     if (ph == 5) {
@@ -252,9 +259,9 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
         if (ph != 3) FAIL("plant.phases = %d: the matrix converter drives three phases", ph);
         if (cfg->inverter.kind != FS_INV_AVERAGED)
             FAIL("converter.inverter = switching: the matrix converter's inverter stage is averaged per rectifier interval");
-        if (cfg->inverter.t_dead != 0.0 || cfg->inverter.u_on != 0.0)
-            FAIL("converter.t_dead = %g, u_on = %g: the matrix converter model has no dead time or device drops; must be 0",
-                 cfg->inverter.t_dead, cfg->inverter.u_on);
+        if (cfg->inverter.u_on != 0.0 || cfg->inverter.r_on != 0.0)
+            FAIL("converter.u_on = %g, r_on = %g: the matrix converter's drops are its devices' (inverter.dev); must be 0",
+                 cfg->inverter.u_on, cfg->inverter.r_on);
         if (cfg->sampling != FS_SAMPLING_SINGLE) FAIL("timing.sampling: the matrix converter samples once per period (single)");
         if (fs_grid_check(&cfg->grid) != 0)
             FAIL("converter.grid: V_im, f_grid, L_f, R_f, C_f must be > 0 (got %g V, %g Hz, %g H, %g ohm, %g F)",
@@ -265,9 +272,14 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
         s->rect_next = s->rect_now;
     }
     s->phases = ph;
-    s->nx = ph == 5 ? FS_X_N : FS_X_N3;
+    s->nx = ph == 5 ? FS_X_N5 : FS_X_N3;
+    s->losses = cfg->plant.losses != 0;
+    s->imc_real = s->imc && (cfg->inverter.dev.enabled || cfg->inverter.t_dead > 0.0 || s->losses);
+    for (int k = 0; k < FS_INV_MAX_LEGS; ++k) s->leg_state[k] = -2;
     fs_status pst = fs_pmsm_init(&s->pmsm, &cfg->plant);
-    if (pst != FS_OK) FAIL("machine: %s", fs_status_str(pst));
+    if (pst != FS_OK)
+        FAIL("machine: %s%s", fs_status_str(pst), fs_iron_check(&cfg->plant.iron) != FS_OK
+             ? " (the iron loss: P_ref >= 0; with it w_ref, psi_ref, w_band > 0, k_hyst in [0, 1], beta in [1, 3])" : "");
     if (s->pmsm.harm && fc->open_phase)
         FAIL("faults.open_phase = %d: not modelled with spatial harmonics (machine [harmonics])", fc->open_phase);
     s->Tc = cfg->sampling == FS_SAMPLING_DOUBLE ? 0.5 * cfg->inverter.T_pwm : cfg->inverter.T_pwm;
@@ -324,9 +336,9 @@ static void thermal_period(fs_sim *s)
 {
     const double P_cu = (s->x[FS_X_E_CU] - s->e_cu_prev) / s->Tc;
     s->e_cu_prev = s->x[FS_X_E_CU];
-    const double psi_f0 = s->pmsm.mag.psi_f0;   /* P_fe_ref's flux; a machine without magnet: 1 */
-    const double psi = psi_f0 > 0.0 ? hypot(s->x[FS_X_PSI_D], s->x[FS_X_PSI_Q]) / psi_f0 : 1.0;
-    const double P_fe = fs_thermal_iron_loss(&s->thermal, s->pmsm.cfg.pole_pairs * s->x[FS_X_W_M], psi);
+    const fs_iron_config *fe = &s->thermal.cfg.iron;   /* psi_ref: the magnet's flux; a machine without magnet: at it */
+    const double psi = s->pmsm.mag.psi_f0 > 0.0 ? hypot(s->x[FS_X_PSI_D], s->x[FS_X_PSI_Q]) : fe->psi_ref;
+    const double P_fe = fe->P_ref > 0.0 ? fs_iron_loss(fe, s->pmsm.cfg.pole_pairs * s->x[FS_X_W_M], psi) : 0.0;
     fs_thermal_step(&s->thermal, P_cu, P_fe, s->Tc);
     thermal_apply(s);
 }
@@ -339,6 +351,15 @@ void fs_sim_destroy(fs_sim *s)
 }
 
 double fs_sim_time(const fs_sim *s) { return s ? (double)s->k * s->Tc : NAN; }
+long long fs_sim_step_count(const fs_sim *s) { return s ? s->k : -1; }
+
+long long fs_sim_steps(const fs_sim *s, double t)
+{
+    if (!s) return 0;
+    const double n = ceil(t / s->Tc - 0.5);
+    if (!(n > 0.0)) return 0;                  /* t <= Tc / 2, or NaN */
+    return n < 0x1p62 ? (long long)n : (long long)0x1p62;   /* beyond any duration the schema allows */
+}
 double fs_sim_stop_time(const fs_sim *s) { return s ? s->stop_time : NAN; }
 double fs_sim_adc_saturated_at(const fs_sim *s) { return s ? s->adc_sat_time : NAN; }
 
@@ -354,6 +375,34 @@ static int substeps(double T, double h_max)
     return isnan(n) ? 1 : (int)n;
 }
 
+/* The converter's meters (fs_sim.h) over a stretch in which each leg k sat
+ * on rail[k] (its mean, averaged) with its devices dropping drop[k]: the
+ * phase currents' integrals from the plant's stationary ones, which the
+ * caller cleared at the stretch's start. */
+static void meter_legs(fs_sim *s, const double *rail, const double *drop)
+{
+    const double *I = &s->x[FS_X_I_A_INT];
+    double dI[FS_INV_MAX_LEGS];
+    if (s->phases == 5) fs_inverter_vsd5_inverse(I[0], I[1], I[2], I[3], 0.0, dI);
+    else inv_clarke3(I[0], I[1], dI);
+    for (int k = 0; k < s->phases; ++k) {
+        s->e_dc += s->cfg.inverter.u_dc * rail[k] * dI[k];
+        s->e_cond += drop[k] * dI[k];
+    }
+}
+
+static void clear_current_integrals(fs_sim *s)
+{
+    for (int n = FS_X_I_A_INT; n <= FS_X_I_Y_INT; ++n) s->x[n] = 0.0;
+}
+
+/* Commutation energy, which the converter's source supplies. */
+static void commutations(fs_sim *s, double E)
+{
+    s->e_sw += E;
+    s->e_dc += E;
+}
+
 /* Integrate the plant over one control period with the duties now acting. */
 static void integrate_period(fs_sim *s, double t0)
 {
@@ -367,7 +416,7 @@ static void integrate_period(fs_sim *s, double t0)
     in.T_load = prof(s, P_T_LOAD, t0, NULL);
     in.w_load = prof(s, P_W_LOAD, t0, &slope);
     in.dw_load = slope;
-    double i_ph[FS_INV_MAX_LEGS];
+    double i_ph[FS_INV_MAX_LEGS], rail[FS_INV_MAX_LEGS], drop[FS_INV_MAX_LEGS];
     int halves = s->cfg.sampling == FS_SAMPLING_DOUBLE ? 1 : 2;
     int half0 = s->cfg.sampling == FS_SAMPLING_DOUBLE ? (int)(s->k & 1) : 0;
     for (int h = 0; h < halves; ++h) {
@@ -378,28 +427,49 @@ static void integrate_period(fs_sim *s, double t0)
             for (int n = 0; n < seg.n; ++n) {
                 phase_currents(s, s->x, i_ph, NULL, NULL);
                 fs_inverter_voltage(inv, seg.state[n], i_ph, &in.u_alpha, &in.u_beta, &in.u_x, &in.u_y);
+                if (s->losses) {   /* the edges at this segment's start, and its legs */
+                    commutations(s, fs_inverter_commutations(inv, s->leg_state, seg.state[n], i_ph));
+                    for (int k = 0; k < s->phases; ++k) s->leg_state[k] = seg.state[n][k];
+                    fs_inverter_legs(inv, seg.state[n], i_ph, rail, drop);
+                    clear_current_integrals(s);
+                }
                 int steps = substeps(seg.dt[n], s->cfg.h_max);
                 double hstep = seg.dt[n] / steps;
                 for (int m = 0; m < steps; ++m) fs_pmsm_rk4(&s->pmsm, s->x, &in, hstep);
+                if (s->losses) meter_legs(s, rail, drop);
             }
         } else {
             double Th = 0.5 * inv->T_pwm;
             int steps = substeps(Th, s->cfg.h_max);
             double hstep = Th / steps;
+            if (s->losses) {   /* one edge of each switching leg in the half period: low to high in the first */
+                int before[FS_INV_MAX_LEGS], after[FS_INV_MAX_LEGS];
+                for (int k = 0; k < s->phases; ++k) {
+                    const double d = s->duty_now[k];
+                    before[k] = d > 0.0 && d < 1.0 ? half == 1 : d >= 1.0;
+                    after[k] = d > 0.0 && d < 1.0 ? !before[k] : before[k];
+                }
+                phase_currents(s, s->x, i_ph, NULL, NULL);
+                commutations(s, fs_inverter_commutations(inv, before, after, i_ph));
+            }
             /* the mean voltage depends on the currents only through dead time
              * and drops: without them it is one value for the half period */
-            int ideal = inv->t_dead == 0.0 && inv->u_on == 0.0 && inv->r_on == 0.0;
+            int ideal = inv->t_dead == 0.0 && inv->u_on == 0.0 && inv->r_on == 0.0 && !inv->dev.enabled;
             if (ideal) {
                 for (int k = 0; k < FS_INV_MAX_LEGS; ++k) i_ph[k] = 0.0;
                 fs_inverter_mean_voltage(inv, s->duty_now, i_ph, &in.u_alpha, &in.u_beta, &in.u_x, &in.u_y);
+                if (s->losses) fs_inverter_mean_legs(inv, s->duty_now, i_ph, rail, drop);
             }
             for (int m = 0; m < steps; ++m) {
                 if (!ideal) {
                     phase_currents(s, s->x, i_ph, NULL, NULL);
                     fs_inverter_mean_voltage(inv, s->duty_now, i_ph, &in.u_alpha, &in.u_beta, &in.u_x,
                                              &in.u_y);
+                    if (s->losses) fs_inverter_mean_legs(inv, s->duty_now, i_ph, rail, drop);
                 }
+                if (s->losses) clear_current_integrals(s);
                 fs_pmsm_rk4(&s->pmsm, s->x, &in, hstep);
+                if (s->losses) meter_legs(s, rail, drop);
             }
         }
     }
@@ -414,12 +484,18 @@ static void integrate_period(fs_sim *s, double t0)
 typedef struct {
     double f_a, f_b;          /* Clarke of the duties */
     double w_a, w_b;          /* c_p - c_n */
+    /* imc_deriv_real: the stage as an inverter whose period is the
+     * interval (its dead time and devices), its duties, and the power its
+     * commutations take over the interval */
+    fs_inverter_config stage;
+    const double *f;
+    double p_sw;
 } imc_interval;
 
 static imc_interval imc_interval_of(const double *f, int p, int n)
 {
     double c_a[3] = {1.0, -0.5, -0.5}, c_b[3] = {0.0, 0.5 * sqrt(3.0), -0.5 * sqrt(3.0)};
-    imc_interval iv;
+    imc_interval iv = {0};
     iv.f_a = (2.0 * f[0] - f[1] - f[2]) / 3.0;
     iv.f_b = (f[1] - f[2]) / sqrt(3.0);
     iv.w_a = c_a[p] - c_a[n];
@@ -447,21 +523,82 @@ static void imc_deriv(fs_sim *s, double t, const double *x, const double *g, con
     dm[2] = 1.5 * pin.u_alpha - 0.5 * sqrt(3.0) * pin.u_beta;   /* u_A - u_B */
 }
 
+/* The rectifier path's drop at dc-link current i: two bidirectional
+ * switches, each a transistor and a diode in series (a MOSFET switch: two
+ * channels). */
+static double rectifier_drop(const fs_device_config *d, double i)
+{
+    if (!d->enabled) return 0.0;
+    return 2.0 * (fs_device_drop(d, 1, i) + fs_device_drop(d, d->kind == FS_DEV_MOSFET, i));
+}
+
+/* imc_deriv with the devices, the dead time and the meters (fs_sim.h):
+ * each leg k on the p rail for its share s_k of the interval (its duty less
+ * the dead time's share) with its devices' mean drop, the rectifier's drop
+ * taken from v_pn, and the commutations' power drawn from the filter. The
+ * meters beyond imc_deriv's: E_DC, E_RECT, E_COND, E_SW. */
+static void imc_deriv_real(fs_sim *s, double t, const double *x, const double *g, const imc_interval *iv,
+                           const fs_pmsm_input *in, double *dx, double *dg, double *dm)
+{
+    const double v_pn = iv->w_a * g[FS_GRID_X_VC_A] + iv->w_b * g[FS_GRID_X_VC_B];
+    double i_a, i_b, i_ph[3], rail[3], drop[3];
+    stator_current(s, x, &i_a, &i_b, NULL, NULL);
+    inv_clarke3(i_a, i_b, i_ph);
+    fs_inverter_mean_legs(&iv->stage, iv->f, i_ph, rail, drop);
+    double i_dc = 0.0, p_cond = 0.0;
+    for (int k = 0; k < 3; ++k) {
+        i_dc += rail[k] * i_ph[k];
+        p_cond += drop[k] * i_ph[k];
+    }
+    const double d_rect = rectifier_drop(&iv->stage.dev, i_dc), v_eff = v_pn - d_rect;
+    double v[3];
+    for (int k = 0; k < 3; ++k) v[k] = rail[k] * v_eff - drop[k];
+    fs_pmsm_input pin = *in;
+    pin.u_alpha = (2.0 * v[0] - v[1] - v[2]) / 3.0;
+    pin.u_beta = (v[1] - v[2]) / sqrt(3.0);
+    pin.u_x = pin.u_y = 0.0;
+    fs_pmsm_deriv(&s->pmsm, x, &pin, dx);
+    const double i_sw = v_pn > 0.0 ? iv->p_sw / v_pn : 0.0;   /* v_pn > 0 but at the grid's start */
+    double ig_a;
+    fs_grid_deriv(&s->cfg.grid, t, g, 2.0 / 3.0 * iv->w_a * (i_dc + i_sw), 2.0 / 3.0 * iv->w_b * (i_dc + i_sw), dg,
+                  &ig_a);
+    dm[0] = ig_a;
+    dm[1] = v_pn;
+    dm[2] = v[0] - v[1];   /* u_A - u_B */
+    dm[3] = v_pn * (i_dc + i_sw);
+    dm[4] = d_rect * i_dc;
+    dm[5] = p_cond;
+    dm[6] = v_pn * i_sw;
+}
+
 /* One RK4 step of the machine, the filter and the meters together. */
 static void imc_rk4(fs_sim *s, double t, const imc_interval *iv, const fs_pmsm_input *in, double h)
 {
-    enum { NX = FS_X_N, NG = FS_GRID_X_N };
-    const int nx = s->nx;
-    double kx[4][NX], kg[4][NG], km[4][3], x[NX], g[NG];
+    enum { NX = FS_X_N, NG = FS_GRID_X_N, NM = 7 };
+    const int nx = s->nx, nm = s->imc_real ? NM : 3;
+    double kx[4][NX], kg[4][NG], km[4][NM], x[NX], g[NG];
     const double c[4] = {0.0, 0.5, 0.5, 1.0};
     for (int st = 0; st < 4; ++st) {
         for (int k = 0; k < nx; ++k) x[k] = s->x[k] + (st ? c[st] * h * kx[st - 1][k] : 0.0);
+        if (s->losses)
+            for (int k = FS_X_N5; k < NX; ++k) x[k] = s->x[k] + (st ? c[st] * h * kx[st - 1][k] : 0.0);
         for (int k = 0; k < NG; ++k) g[k] = s->g[k] + (st ? c[st] * h * kg[st - 1][k] : 0.0);
-        imc_deriv(s, t + c[st] * h, x, g, iv, in, kx[st], kg[st], km[st]);
+        if (s->imc_real) imc_deriv_real(s, t + c[st] * h, x, g, iv, in, kx[st], kg[st], km[st]);
+        else imc_deriv(s, t + c[st] * h, x, g, iv, in, kx[st], kg[st], km[st]);
     }
     for (int k = 0; k < nx; ++k) s->x[k] += h / 6.0 * (kx[0][k] + 2.0 * kx[1][k] + 2.0 * kx[2][k] + kx[3][k]);
+    if (s->losses)
+        for (int k = FS_X_N5; k < NX; ++k) s->x[k] += h / 6.0 * (kx[0][k] + 2.0 * kx[1][k] + 2.0 * kx[2][k] + kx[3][k]);
     for (int k = 0; k < NG; ++k) s->g[k] += h / 6.0 * (kg[0][k] + 2.0 * kg[1][k] + 2.0 * kg[2][k] + kg[3][k]);
-    for (int k = 0; k < 3; ++k) s->g_int[k] += h / 6.0 * (km[0][k] + 2.0 * km[1][k] + 2.0 * km[2][k] + km[3][k]);
+    double dm[NM];
+    for (int k = 0; k < nm; ++k) dm[k] = h / 6.0 * (km[0][k] + 2.0 * km[1][k] + 2.0 * km[2][k] + km[3][k]);
+    for (int k = 0; k < 3; ++k) s->g_int[k] += dm[k];
+    if (s->imc_real) {
+        s->e_dc += dm[3];
+        s->e_rect += dm[4];
+        s->e_cond += dm[5];
+        s->e_sw += dm[6];
+    }
 }
 
 /* Matrix converter: the period's two rectifier intervals in turn. */
@@ -478,7 +615,25 @@ static void integrate_period_imc(fs_sim *s, double t0)
         const fs_imc_interval *r = &s->rect_now.iv[v];
         const double T = fmin(fmax((double)r->d, 0.0), 1.0) * s->Tc;
         if (T <= 0.0) continue;
-        const imc_interval iv = imc_interval_of(s->duty_now, r->p, r->n);
+        imc_interval iv = imc_interval_of(s->duty_now, r->p, r->n);
+        if (s->imc_real) {   /* the stage over this interval; its legs switch up and down once in it */
+            iv.stage = s->cfg.inverter;
+            iv.stage.T_pwm = T;
+            iv.f = s->duty_now;
+            double i_a, i_b, i_ph[3];
+            stator_current(s, s->x, &i_a, &i_b, NULL, NULL);
+            inv_clarke3(i_a, i_b, i_ph);
+            int low[3], high[3];   /* -1: a leg that does not switch */
+            for (int k = 0; k < 3; ++k) {
+                const int sw = s->duty_now[k] > 0.0 && s->duty_now[k] < 1.0;
+                low[k] = sw ? 0 : -1;
+                high[k] = sw ? 1 : -1;
+            }
+            iv.stage.u_dc = iv.w_a * s->g[FS_GRID_X_VC_A] + iv.w_b * s->g[FS_GRID_X_VC_B];
+            const double E = fs_inverter_commutations(&iv.stage, low, high, i_ph)
+                             + fs_inverter_commutations(&iv.stage, high, low, i_ph);
+            iv.p_sw = E / T;
+        }
         const int steps = substeps(T, s->cfg.h_max);
         const double h = T / steps;
         for (int m = 0; m < steps; ++m) {
@@ -547,6 +702,7 @@ static void sample(fs_sim *s, double t, fs_drive_in *din, double *i_ph, double *
     din->w_e_ref = (float)prof(s, P_W_E_REF, t, NULL);
     din->sensorless = prof(s, P_SENSORLESS, t, NULL) > 0.5;
     s->e_in0 = s->x[FS_X_E_IN];
+    s->e_dc0 = s->e_dc;
     s->p_cond0 = conduction_loss(s, i_ph);
 }
 
@@ -617,6 +773,13 @@ FS_SPECIALISE void row_plant(fs_sim *s, double t, double theta_e, const double *
     r[FS_CH_T_MAGNET * st] = s->thermal_on ? s->thermal.T_m : 0.0;
     r[FS_CH_R_S_TRUE * st] = s->pmsm.cfg.R_s;
     r[FS_CH_PSI_F_TRUE * st] = s->psi_f_true;
+    r[FS_CH_E_DC * st] = s->e_dc;
+    r[FS_CH_E_COND * st] = s->e_cond;
+    r[FS_CH_E_RECT * st] = s->e_rect;
+    r[FS_CH_E_SW * st] = s->e_sw;
+    r[FS_CH_E_FE * st] = s->losses ? s->x[FS_X_E_FE] : 0.0;
+    r[FS_CH_E_MECH * st] = s->losses ? s->x[FS_X_E_MECH] : 0.0;
+    r[FS_CH_E_SHAFT * st] = s->losses ? s->x[FS_X_E_SHAFT] : 0.0;
 }
 
 /* The drive's channels of a trace row: its inputs and outputs at this
@@ -706,13 +869,13 @@ static int advance(fs_sim *s, double t)
 /* The runner's loop: a recorded row goes to trace row-major (cols 0:
  * FS_CH_N doubles a row) or column-major (cols 1: channel c of row r at
  * trace[c * stride + r]). */
-FS_SPECIALISE int run(fs_sim *s, double t_end, double *trace, long stride, int max_rows, int *rows, const int cols)
+FS_SPECIALISE int run(fs_sim *s, long long k_end, double *trace, long stride, int max_rows, int *rows, const int cols)
 {
     if (!s || !rows || (!trace && max_rows > 0)) return FS_RUN_ERR_NULL;
     *rows = 0;
     if (s->stopped) return s->stopped;
     const fs_sim_config *c = &s->cfg;
-    while ((double)s->k * s->Tc < t_end - 0.5 * s->Tc) {
+    while (s->k < k_end) {
         int record = (s->k % c->decimation) == 0;
         if (record && *rows >= max_rows) return FS_RUN_BUFFER_FULL;
         double t = (double)s->k * s->Tc;
@@ -737,7 +900,8 @@ FS_SPECIALISE int run(fs_sim *s, double t_end, double *trace, long stride, int m
         }
         if (dout.fault != FS_FAULT_NONE) {   /* the drive halted: as a firmware would, stop (the PWM off) */
             s->stopped = dout.fault == FS_FAULT_POLARITY ? FS_STOP_POLARITY
-                       : dout.fault == FS_FAULT_OVERSPEED ? FS_STOP_OVERSPEED : FS_STOP_LOSS_OF_LOCK;
+                       : dout.fault == FS_FAULT_OVERSPEED ? FS_STOP_OVERSPEED
+                       : dout.fault == FS_FAULT_START ? FS_STOP_START : FS_STOP_LOSS_OF_LOCK;
             s->stop_time = t;
             return s->stopped;
         }
@@ -749,13 +913,18 @@ FS_SPECIALISE int run(fs_sim *s, double t_end, double *trace, long stride, int m
 
 int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
 {
-    return run(s, t_end, trace, 0, max_rows, rows, 0);
+    return fs_sim_run_steps(s, fs_sim_steps(s, t_end), trace, max_rows, rows);
 }
 
-int fs_sim_run_cols(fs_sim *s, double t_end, double *trace, long stride, int max_rows, int *rows)
+int fs_sim_run_steps(fs_sim *s, long long k_end, double *trace, int max_rows, int *rows)
+{
+    return run(s, k_end, trace, 0, max_rows, rows, 0);
+}
+
+int fs_sim_run_cols(fs_sim *s, long long k_end, double *trace, long stride, int max_rows, int *rows)
 {
     if (stride < max_rows || stride < 1) return FS_RUN_ERR_STRIDE;
-    return run(s, t_end, trace, stride, max_rows, rows, 1);
+    return run(s, k_end, trace, stride, max_rows, rows, 1);
 }
 
 int fs_sim_hold(fs_sim *s, int which, double value, double slope)
@@ -808,7 +977,8 @@ void fs_sim_dc_link(fs_sim *s, double *u_dc, double *i_dc, double *p_dc)
         double i_ph[FS_INV_MAX_LEGS];
         phase_currents(s, s->x, i_ph, NULL, NULL);
         u = s->imc ? s->g_int[1] / s->Tc : s->cfg.inverter.u_dc;
-        p = (s->x[FS_X_E_IN] - s->e_in0) / s->Tc + 0.5 * (s->p_cond0 + conduction_loss(s, i_ph));
+        p = s->losses ? (s->e_dc - s->e_dc0) / s->Tc   /* the source's meter: devices, commutations */
+                      : (s->x[FS_X_E_IN] - s->e_in0) / s->Tc + 0.5 * (s->p_cond0 + conduction_loss(s, i_ph));
     }
     if (u_dc) *u_dc = u;
     if (p_dc) *p_dc = p;

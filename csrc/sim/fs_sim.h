@@ -17,9 +17,26 @@
  * the dc-link current is sum(duty i), drawn from the two input phases on
  * the rails. The plant and the filter are integrated together, so the
  * input current is built from the switching functions and its spectrum is
- * the converter's. Neglected: the switching ripple inside an interval, the
- * rectifier's commutation (it switches at zero dc-link current, in the
- * inverter's zero vectors), device drops and dead time; single sampling.
+ * the converter's. With the module's devices (inverter.dev) the rectifier's
+ * path (two bidirectional switches, each a transistor and a diode in
+ * series) drops its voltage from v_pn, and each inverter-stage leg its
+ * devices' drop; with a dead time each leg loses it once per interval, as
+ * the averaged inverter does per period. Neglected: the switching ripple
+ * inside an interval and the rectifier's commutation (it switches at zero
+ * dc-link current, in the inverter's zero vectors: no switching loss);
+ * single sampling.
+ *
+ * Losses (plant.losses): the converter's meters run with the machine's
+ * (fs_pmsm.h). E_DC is the energy the converter takes from its source, the
+ * inverter's dc link (u_dc sum s_k i_k, fs_inverter.h) or the matrix
+ * converter's input capacitors (v_pn i_dc); E_COND its devices' conduction
+ * loss (the matrix converter's inverter stage), E_RECT the rectifier's,
+ * E_SW the commutation energies (fs_losses.h; each leg's at each edge, the
+ * matrix converter's stage once up and down per interval, at the interval's
+ * start). The source supplies E_SW too: the matrix converter draws it from
+ * its filter as a constant power over the interval. So, to the integrator's
+ * precision, E_DC = E_IN + E_COND + E_RECT + E_SW, and E_AIRGAP = E_FE +
+ * E_MECH + E_SHAFT + the kinetic energy's change.
  */
 #ifndef FS_SIM_H
 #define FS_SIM_H
@@ -125,6 +142,9 @@ enum {
      * magnet flux (psi_d at zero current), ohm and Wb */
     FS_CH_T_WINDING, FS_CH_T_MAGNET, FS_CH_R_S_TRUE, FS_CH_PSI_F_TRUE,
     FS_CH_R_S_HAT, FS_CH_PSI_F_HAT,   /* the controller's R_s and psi_f (online correction, fs_param_adapt.h) */
+    /* the loss meters (plant.losses; 0 without), J */
+    FS_CH_E_DC, FS_CH_E_COND, FS_CH_E_RECT, FS_CH_E_SW,
+    FS_CH_E_FE, FS_CH_E_MECH, FS_CH_E_SHAFT,
     FS_CH_N
 };
 
@@ -136,6 +156,7 @@ typedef enum {
     FS_STOP_LOSS_OF_LOCK = 4, /* an estimator lost track of the rotor (and, with recovery, was not re-acquired) */
     FS_STOP_POLARITY = 5,     /* the drive could not determine the magnet's polarity and refused to start */
     FS_STOP_OVERSPEED = 6,    /* the drive halted at its overspeed limit (fs_drive_protect.h) */
+    FS_STOP_START = 7,        /* the I/f start never handed over to the observer (fs_drive FS_FAULT_START) */
     FS_RUN_ERR_NULL = -1,     /* sim or rows (or trace, with max_rows > 0) is NULL: nothing run */
     FS_RUN_ERR_ORDER = -2,    /* fs_sim_actuate without an fs_sim_sample before it: nothing run */
     FS_RUN_ERR_STRIDE = -3    /* fs_sim_run_cols with a stride below 1 or max_rows: nothing run */
@@ -148,12 +169,24 @@ typedef struct fs_sim fs_sim;
 fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len);
 void fs_sim_destroy(fs_sim *sim);
 /* Advances to t_end, writing at most max_rows rows of FS_CH_N doubles into
- * trace; *rows receives the count. Returns an fs_run_status. */
+ * trace; *rows receives the count. Returns an fs_run_status. It runs until
+ * fs_sim_step_count reaches fs_sim_steps(sim, t_end): fs_sim_run_steps. */
 int fs_sim_run(fs_sim *sim, double t_end, double *trace, int max_rows, int *rows);
-/* fs_sim_run with the trace column-major: channel c of the call's row r at
- * trace[c * stride + r] (stride >= max_rows: each channel's samples are
+/* The same, to k_end control periods run in all (nothing when k_end <= fs_sim_step_count). */
+int fs_sim_run_steps(fs_sim *sim, long long k_end, double *trace, int max_rows, int *rows);
+/* fs_sim_run_steps with the trace column-major: channel c of the call's row
+ * r at trace[c * stride + r] (stride >= max_rows: each channel's samples are
  * contiguous, as the Python front keeps them); FS_RUN_ERR_STRIDE else. */
-int fs_sim_run_cols(fs_sim *sim, double t_end, double *trace, long stride, int max_rows, int *rows);
+int fs_sim_run_cols(fs_sim *sim, long long k_end, double *trace, long stride, int max_rows, int *rows);
+/* The control periods a run from 0 to t takes: the nearest whole number,
+ * ceil(t / Tc - 1/2), so that |n Tc - t| <= Tc / 2 (a remainder of exactly
+ * half a period is not run); 0 for t <= Tc / 2 or NaN. One rule for
+ * fs_sim_run and its callers, which count periods with it instead of
+ * comparing times (a loop waiting for the time to reach t would wait for
+ * ever when the remainder is under half a period). */
+long long fs_sim_steps(const fs_sim *sim, double t);
+/* The control periods run so far (fs_sim_time is this times Tc); -1 for a NULL sim. */
+long long fs_sim_step_count(const fs_sim *sim);
 /* Simulated time, s (NaN for a NULL sim, as the two below). */
 double fs_sim_time(const fs_sim *sim);
 /* Time of the stop, for a run that stopped (NaN otherwise). */
@@ -194,8 +227,9 @@ void fs_sim_plant_row(fs_sim *sim, double *row);
 /* The dc link over the last period: its voltage, V, and the mean current,
  * A, and power, W, drawn from it: the machine's input energy over the
  * period (exact, a state) plus the devices' conduction loss (u_on |i| +
- * r_on i^2 a leg, by the trapezoid over the period's ends). NaN before the
- * first period. */
+ * r_on i^2 a leg, by the trapezoid over the period's ends); with the loss
+ * meters (plant.losses) the source's own meter, devices and commutations in
+ * it. NaN before the first period. */
 void fs_sim_dc_link(fs_sim *sim, double *u_dc, double *i_dc, double *p_dc);
 
 #endif /* FS_SIM_H */

@@ -1,4 +1,4 @@
-/* fs-test-sources: plant/fs_inverter.c
+/* fs-test-sources: plant/fs_inverter.c plant/fs_losses.c
  *
  * fs_inverter (plant, double): the switching segments of both halves of a
  * carrier period (lengths add to T_pwm/2, states valid, commanded edges where

@@ -1,4 +1,4 @@
-/* fs-test-sources: plant/fs_pmsm.c plant/fs_magnetic.c plant/fs_inverter.c
+/* fs-test-sources: plant/fs_pmsm.c plant/fs_magnetic.c plant/fs_inverter.c plant/fs_losses.c
  *
  * fs_pmsm with five phases (plant, double): the third-harmonic plane d3-q3 of
  * Yu, Wang, Li, Energies 2022, eq. (1), beside the fundamental one.

@@ -1,4 +1,4 @@
-"""Command line: fullspeed run | list | sweep | reproduce | calibrate | export.
+"""Command line: fullspeed run | list | sweep | map | reproduce | calibrate | export.
 
 Exit status: 0 done; 1 a run that stopped (a protection, lost lock, an
 interrupt during the simulation) or a sweep with points not run; 2 bad input
@@ -24,14 +24,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .design.checks import polarity_blind
+from .design.start import polarity_blind
 from .design.report import design_report, envelope_report, scenario_envelope
 from .design.scenario import load_scenario, scenario_from_dict
-from .model.errors import ConfigError, EngineError, SimulationError
-from .model.files import file_name, json_safe, package_names, out_folder, out_path, path_kind, write_atomic, write_json, write_npz, write_with
+from .model.errors import ConfigError, EngineError, SimulationError, one_line
+from .model.files import (MAX_TOML_BYTES, claim, file_name, json_safe, out_file, out_folder, out_path, owned_folder,
+                          package_names, path_kind, safe_name, write_atomic, write_json, write_npz, write_with)
 from .model.machines import catalog_names
 from .model.reference import machine_template, reference_text, section_names
-from .model.schema import deep_merge, read_toml
+from .model.schema import deep_merge, parse_toml, read_toml
 
 # A command imports the layers above design when it runs (the simulator, the
 # workflows, the reproduction): `fullspeed list` or `schema` does not load
@@ -54,12 +55,16 @@ def _set_overrides(pairs: list[str] | None) -> dict:
         parts = key.strip().split(".")
         if not eq or not all(parts):
             raise ConfigError("--set", pair, "must be key=value with a dotted scenario key, e.g. controller.bw_speed=50")
+        if len(text.encode("utf-8", "surrogatepass")) > MAX_TOML_BYTES:
+            raise ConfigError(f"--set {key}", f"{len(text)} characters", f"at most {MAX_TOML_BYTES} bytes, as a file")
         try:
             value = tomllib.loads(f"v = {text}")["v"]
         except tomllib.TOMLDecodeError:
             if any(c in text for c in "[]{}\"'=") or not text.strip():
                 raise ConfigError(f"--set {key}", text, "is not a TOML value (a number, true/false, \"text\", [list] or {table})") from None
             value = text.strip()
+        except (ValueError, RecursionError):   # beyond the parser's limits (digits, depth): a file's one line
+            value = parse_toml(f"v = {text}", f"--set {key}", None)
         for k in reversed(parts):
             value = {k: value}
         out = deep_merge(out, value)
@@ -76,7 +81,21 @@ def run_verdict(res) -> list[str]:
     the drive in control."""
     m, out = res.metrics, []
     t_stop = res.stop_time if res.stop_time is not None else res.sim_time
-    if res.stop_reason == "polarity_undetermined":
+    if res.stop_reason == "polarity_undetermined" and (res.polarity or {}).get("method") == "motion":
+        p = res.polarity
+        why = ("the rotor turned on its own before or after the doublet (a load moves it)" if p["moved"] else
+               f"the estimate's spread asks a threshold of {p['threshold_deg']:.3g} el.deg, beyond the motion allowed"
+               if p["attempts"] == 0 else
+               f"the rotor turned {abs(p['turn_deg']):.3g} el.deg of the {p['threshold_deg']:.3g} needed at "
+               f"{p['i_push']:.3g} A, the largest push (held: stiction, a brake)")
+        out.append(f"stopped at t = {t_stop:.4f} s: polarity undetermined by the motion test ({why}): the drive refused "
+                   "to start sensorless")
+    elif res.stop_reason == "start_failed":
+        obs = res.scenario.data["observer"]
+        out.append(f"stopped at t = {t_stop:.4f} s: the I/f start waited observer.start_timeout = {obs['start_timeout']:.3g} s at "
+                   f"the hand-over speed ({obs['start_handover_rpm']:.4g} rpm) without the back-EMF observer agreeing with "
+                   "the frame: the rotor is not following it (pulled out by the load or the acceleration)")
+    elif res.stop_reason == "polarity_undetermined":
         p = res.polarity or {}
         why = "the pulses spun the rotor" if p.get("moved") else \
             f"margin {p.get('margin', 0):.2f} < 1 at {p.get('i_pulse', 0):.3g} A (D = {100 * p.get('d', 0):.2f} %)"
@@ -151,19 +170,24 @@ def _cmd_run(args) -> int:
     sc = load_scenario(args.scenario, overrides or None)
     out = out_folder(args.out) if args.out else out_path(OUT, sc.name, "name", sc.source)   # before the run, not after
     for w in sc.warnings:
-        print(f"fullspeed: warning: {w}", file=sys.stderr)
-    res = simulate(sc, progress=not args.quiet)
-    # metrics.json last: its presence marks the folder complete (an older one goes first)
-    (out / "metrics.json").unlink(missing_ok=True)
-    write_npz(out / "traces.npz", res.traces)
-    if args.mat:
-        write_with(out / "traces.mat", res.to_mat)
-    write_with(out / "run.png", lambda tmp: plot_run(res, tmp))
-    write_json(out / "metrics.json", json_safe(res.metrics), indent=2)
+        print(f"fullspeed: warning: {one_line(w)}", file=sys.stderr)
+    with claim(out):   # one run a folder: two would mix their files
+        res = simulate(sc, progress=not args.quiet)
+        # metrics.json last: its presence marks the folder complete (an older one goes first)
+        (out / "metrics.json").unlink(missing_ok=True)
+        write_npz(out / "traces.npz", res.traces)
+        if args.mat:
+            write_with(out / "traces.mat", res.to_mat)
+        write_with(out / "run.png", lambda tmp: plot_run(res, tmp))
+        write_json(out / "metrics.json", json_safe(res.metrics), indent=2)
     print(f"{res.scenario.name}: {res.sim_time:.3f} s simulated in {res.wall_time:.3f} s wall "
           f"= {res.speed_ratio:.1f} simulated s per wall s ({res.scenario.data['converter']['inverter']} inverter)")
     print("\n".join(summary_lines(res.metrics)))
-    if res.polarity is not None and res.polarity["stage"] == "done":
+    if res.polarity is not None and res.polarity["stage"] == "done" and res.polarity["method"] == "motion":
+        print(f"polarity: decided by the motion test, the estimate turned {res.polarity['turn_deg']:+.2f} el.deg "
+              f"(threshold {res.polarity['threshold_deg']:.2f}) at {res.polarity['i_push']:.3g} A"
+              + (" (the estimate turned by pi)" if res.polarity["flip"] else ""))
+    elif res.polarity is not None and res.polarity["stage"] == "done":
         print(f"polarity: decided with margin {res.polarity['margin']:.2f} at {res.polarity['i_pulse']:.3g} A"
               + (" (the estimate turned by pi)" if res.polarity["flip"] else ""))
     if res.metrics.get("ideal_hardware"):
@@ -192,7 +216,7 @@ def _cmd_design(args) -> int:
         sc = load_scenario(target, overrides)
     out = out_folder(args.out) if args.out else out_path(OUT, sc.name, "name", sc.source)
     for w in sc.warnings:
-        print(f"fullspeed: warning: {w}", file=sys.stderr)
+        print(f"fullspeed: warning: {one_line(w)}", file=sys.stderr)
     print(design_report(sc))
     from .design.figure import plot_envelope
     env, how = scenario_envelope(sc)
@@ -213,7 +237,7 @@ def _cmd_list(args) -> int:
 
 def _cmd_sweep(args) -> int:
     from .workflows.journal import JOURNAL, default_workers, read_journal
-    from .workflows.sweep import load_sweep_file, run_sweep
+    from .workflows.sweep import load_sweep_file, point_result_ok, run_sweep
 
 
 
@@ -233,10 +257,11 @@ def _cmd_sweep(args) -> int:
     t0 = time.perf_counter()
     resume = f"resume with: fullspeed sweep {args.file} --out {out}"
     try:
-        path, rows = run_sweep(sw, out, workers=args.workers, dask=args.dask, progress=not args.quiet,
-                               dask_timeout=args.dask_timeout)
+        with claim(out):
+            path, rows = run_sweep(sw, out, workers=args.workers, dask=args.dask, progress=not args.quiet,
+                                   dask_timeout=args.dask_timeout)
     except (KeyboardInterrupt, EngineError):
-        kept = len(read_journal(out / JOURNAL, n))
+        kept = len(read_journal(out / JOURNAL, n, point_result_ok))
         print(f"fullspeed: sweep stopped: {kept} of {n} points finished and kept in {out / JOURNAL}; {resume}",
               file=sys.stderr)
         raise
@@ -274,11 +299,44 @@ def _cmd_reproduce(args) -> int:
 
 
     out = out_folder(args.out)
-    rows = reproduce(args.paper, out, progress=not args.quiet)
+    with claim(out):
+        rows = reproduce(args.paper, out, progress=not args.quiet)
     n_pass = sum(r["pass"] for r in rows)
     n_meas = sum(r["value"] is not None for r in rows)
     print(f"{len(rows)} claims, {n_meas} measured, {n_pass} passing; wrote {out}/claims.json and {out}/report.md")
     return 0
+
+
+def _cmd_map(args) -> int:
+    from .workflows.effmap import TORQUE_FRACTIONS, efficiency_map
+    from .workflows.journal import JOURNAL
+
+
+    overrides = _set_overrides(args.set)
+    target = args.target
+    name = Path(target).stem if target.endswith(".toml") else target
+    out = out_folder(args.out) if args.out else out_path(OUT / "maps", name, "target", None)
+    torques = tuple(args.torques) if args.torques else TORQUE_FRACTIONS
+    print(f"map {target} -> {out}", file=sys.stderr)
+    try:
+        em = efficiency_map(target, out, speeds=args.speeds, torques=torques, top_rpm=args.top_rpm,
+                            overrides=overrides or None, workers=args.workers, progress=not args.quiet)
+    except KeyboardInterrupt:
+        print(f"fullspeed: map stopped: what finished is kept in {out / JOURNAL}; run the same command to resume",
+              file=sys.stderr)
+        raise
+    s = em.summary
+    print(f"{em.name}: {s['points']} points, {s['held']} held; module: {s.get('module') or 'ideal switches'}; "
+          f"iron loss: {s.get('iron_source') or 'none'}")
+    for key, label in (("eta_machine", "machine"), ("eta_converter", "converter"), ("eta_drive", "drive")):
+        p = s.get(f"{key}_peak")
+        if p:
+            print(f"peak {label} efficiency {100 * p['eta']:.2f} % at {p['speed_rpm']:.0f} rpm, {p['torque_Nm']:.1f} N m")
+    print("wrote " + ", ".join(str(p) for p in em.paths))
+    not_run = [r for r in em.rows if r.get("stop_reason") == "not run"]
+    if not_run:
+        print(f"fullspeed: {len(not_run)} points not run; run the same command again to run them", file=sys.stderr)
+    return 1 if not_run else 0
 
 
 def _cmd_calibrate(args) -> int:
@@ -288,14 +346,11 @@ def _cmd_calibrate(args) -> int:
 
 
 
-    if args.out:
-        target = Path(args.out)
-        if path_kind(target) == "dir":
-            raise ConfigError("--out", str(target), "is a folder; give the table's file name (a .toml)")
-        out_folder(target.parent)
+    if args.out:   # a file (a device or a FIFO there is refused, not replaced)
+        target = out_file(args.out)
     else:   # the machine's name makes the file's: checked before the calibration runs
         sc = load_scenario(args.scenario)
-        target = out_path(OUT, sc.machine.name, "machine.name", sc.source, suffix="-xsat.toml")
+        target = out_file(out_path(OUT, sc.machine.name, "machine.name", sc.source, suffix="-xsat.toml"), "machine.name")
     table, sc = xsat_table(args.scenario, i_q_max=args.i_q_max, points=args.points, speed_rpm=args.speed_rpm)
     path = write_table(table, target)
     print(f"{sc.machine.name} at {table['speed_rpm']:g} rpm held by the load machine:")
@@ -310,13 +365,16 @@ def _cmd_calibrate(args) -> int:
 
 
 def _cmd_identify(args) -> int:
-    from .workflows.identify import identify, print_identification, write_identification
+    from .workflows.identify import OUTPUTS, identify, print_identification, write_identification
 
 
     sc = load_scenario(args.scenario)
-    out = out_folder(args.out) if args.out else Path("out") / f"identify-{sc.machine.name}"
-    res = identify(sc, speed_frac=args.speed_frac, t_ramp=args.t_ramp)
-    paths = write_identification(res, sc, out)
+    # the folder is replaced as a whole (a failed identification leaves no earlier machine.toml): checked first
+    out = out_folder(args.out) if args.out else OUT / f"identify-{safe_name(sc.machine.name, 'machine.name', sc.source)}"
+    owned_folder(out, OUTPUTS)
+    with claim(out):
+        res = identify(sc, speed_frac=args.speed_frac, t_ramp=args.t_ramp)
+        paths = write_identification(res, sc, out)
     print_identification(res)
     print("wrote " + ", ".join(str(p) for p in paths))
     for line in res.failures():
@@ -329,7 +387,9 @@ def _cmd_export(args) -> int:
 
     if args.fmu or args.fmu_system:
         return _cmd_export_fmu(args)
-    paths = export(args.scenario, args.out, args.name, _set_overrides(args.set))
+    out = out_folder(args.out)
+    with claim(out):
+        paths = export(args.scenario, out, args.name, _set_overrides(args.set))
     print(f"wrote {' and '.join(str(p) for p in paths)}: the fs_drive_config of {args.scenario} "
           f"(compile the .c with csrc/control; fs_drive_init(&drive, &{args.name}))")
     return 0
@@ -342,7 +402,10 @@ def _cmd_export_fmu(args) -> int:
         raise ConfigError("--name", args.name, "names the C configuration of the plain export; an FMU is named after "
                           "its scenario (<name>-drive.fmu, <name>-system.fmu)")
     kinds = (["drive"] if args.fmu else []) + (["system"] if args.fmu_system else [])
-    for p in export_fmu(args.scenario, args.out, kinds, args.fmi, _set_overrides(args.set)):
+    out = out_folder(args.out)
+    with claim(out):
+        paths = export_fmu(args.scenario, out, kinds, args.fmi, _set_overrides(args.set))
+    for p in paths:
         print(f"wrote {p} (FMI {args.fmi}.0 co-simulation, {p.stat().st_size:,} B)")
     return 0
 
@@ -357,8 +420,9 @@ def _cmd_schema(args) -> int:
 
 def _cmd_new_machine(args) -> int:
 
-    path = Path(args.out or f"{file_name(args.name)}.toml")
-    if path.exists() and not args.force:
+    # a file (not a device, a FIFO or a folder), in a folder that takes one; the name's file name bounded
+    path = out_file(args.out) if args.out else out_file(out_path(".", file_name(args.name), "name", suffix=".toml"), "name")
+    if path_kind(path) is not None and not args.force:
         raise ConfigError("--out", str(path), "exists; --force to overwrite")
     write_atomic(path, machine_template(args.name))
     print(f"wrote {path}: fill in every \"?\"; `fullspeed schema machine` lists the optional fields")
@@ -406,6 +470,20 @@ def main(argv: list[str] | None = None) -> int:
     rp.add_argument("--out", default="out/reproduce")
     rp.add_argument("--quiet", action="store_true")
     rp.set_defaults(func=_cmd_reproduce)
+    mp = sub.add_parser("map", help="the efficiency map (machine, converter, drive) over the torque-speed envelope, losses by kind",
+                        description="Each point: the drive in speed mode holds a speed while a load torque ramps in, "
+                                    "every loss the machine file has acting and metered (its [converter] module, its "
+                                    "[losses] iron loss, friction). Writes map.csv, map.json and map.png; resumable.")
+    mp.add_argument("target", help="a scenario (speed mode) or a machine (catalog name or machine file: encoder, flux weakening)")
+    mp.add_argument("--speeds", type=int, default=8, help="speeds, evenly up to the top speed (default 8)")
+    mp.add_argument("--torques", type=float, nargs="+", metavar="F",
+                    help="torques as fractions of the envelope at each speed (default 0.1 0.25 0.4 0.55 0.7 0.85 0.97)")
+    mp.add_argument("--top-rpm", type=float, help="the map's top speed (default the scenario's observer top speed)")
+    mp.add_argument("--workers", type=int, help="local worker processes (default: the cores)")
+    mp.add_argument("--out", help="output folder (default out/maps/<target>); run again to resume")
+    mp.add_argument("--quiet", action="store_true", help="no progress bar")
+    mp.add_argument("--set", action="append", metavar="KEY=VALUE", help="as run's: a scenario field, repeatable")
+    mp.set_defaults(func=_cmd_map)
     cal = sub.add_parser("calibrate", help="measure the injection estimator's cross-saturation table (encoder in the loop)")
     cal.add_argument("scenario", help="a scenario with angle = \"hfi\" or \"blend\" (its machine, speed and injection)")
     cal.add_argument("--i-q-max", type=float, default=40.0, help="A: the table spans -i_q_max..i_q_max")
@@ -440,18 +518,18 @@ def main(argv: list[str] | None = None) -> int:
     nm.add_argument("--force", action="store_true", help="overwrite an existing file")
     nm.set_defaults(func=_cmd_new_machine)
     args = ap.parse_args(argv)
-    warnings.formatwarning = lambda msg, cat, *a, **k: f"fullspeed: warning: {msg}\n"   # one line, as the errors
+    warnings.formatwarning = lambda msg, cat, *a, **k: f"fullspeed: warning: {one_line(str(msg))}\n"   # one line, as the errors
     try:
         return args.func(args)
     except (ConfigError, SimulationError) as exc:
         if args.debug:
             raise
-        print(f"fullspeed: error: {exc}", file=sys.stderr)
+        print(f"fullspeed: error: {one_line(str(exc))}", file=sys.stderr)
         return 2
     except EngineError as exc:   # the workers or the cluster were lost: what finished is kept
         if args.debug:
             raise
-        print(f"fullspeed: error: {exc}", file=sys.stderr)
+        print(f"fullspeed: error: {one_line(str(exc))}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         print("fullspeed: interrupted", file=sys.stderr)
@@ -459,7 +537,7 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:   # a bug, not bad input: still one line, the traceback on request
         if args.debug:
             raise
-        text = " ".join(str(exc).split())[:300]
+        text = one_line(" ".join(str(exc).split()))[:300]
         print(f"fullspeed: internal error: {type(exc).__name__}: {text} (rerun with --debug for the traceback, "
               "and please report it)", file=sys.stderr)
         return 3

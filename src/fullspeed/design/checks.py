@@ -18,10 +18,12 @@ hardware.
   field and the likely mistake;
 - the speed loop against the observer whose speed it takes (a given
   controller.bw_speed above what design.scenario allows it);
-- polarity detection on a machine without the d-axis saturation asymmetry
-  it measures (linear magnetics), with a rotor so light that its pulses
-  spin it, or under a load that turns the rotor while the pulses make no
-  torque (fs_polarity.h): the drive will refuse to start sensorless.
+- polarity pulses on a machine without the d-axis saturation asymmetry
+  they measure (linear magnetics), pulses larger than the rotor and the
+  current loop tolerate (design.start), or a load that turns the rotor while
+  the pulses make no torque (fs_polarity.h): the drive will refuse to start
+  sensorless, or trip; an injection start on a saliency below the
+  injection's resolution (design.start).
 """
 from __future__ import annotations
 
@@ -38,6 +40,7 @@ from .envelope import OVERMODULATION, Limits
 from .machine import mtpa_torque
 from .magnetics import mtpa_locus, saliency_warnings
 from .rules import CARRIER_LOOP_ACTION_MAX, carrier_loop_action, control_period, u_linear
+from .start import POLARITY_LOAD, RESOLUTION_MIN, largest_on, polarity_blind
 
 # The bands of plausibility, each with its reason.
 TAU_E = (1e-5, 1.0)      # s, L_d / R_s: 10 us (a few-mH machine with a large R) .. 1 s (large machines reach 0.1 s)
@@ -60,10 +63,6 @@ COPPER = 0.5             # copper losses at rated current, of rated power: small
 # psi_f (Wb, peak phase flux linkage) from a datasheet's Ke (V per 1000 rpm, line-to-line rms), as the
 # machine template says it (model.reference.machine_template)
 KE_TO_PSI_F = "psi_f = Ke sqrt(2) / sqrt(3) / (p 2 pi 1000 / 60)"
-# the share of the detection's speed tolerance a load's acceleration may use: the estimate's
-# own lag and noise take the rest (yang2022's machine refused from 0.94 of it, at 1 N m)
-POLARITY_LOAD = 0.8
-SPIN = 4.0               # growth exponent of the pulses' torque on a rotor a pulse pair may reach (e^4 = 55x)
 
 
 def top_speed(m, u: float, T: float, i_d: float = 0.0) -> float:
@@ -118,27 +117,38 @@ def warnings_of(d: dict, m, bw_speed_given: bool = False) -> list[str]:
     if bw_speed_given:
         out += speed_loop_warning(d, m)
 
-    # polarity detection
-    pol, inj = d.get("polarity", {}), d.get("injection", {})
-    if ctl["angle"] in ("hfi", "blend") and pol.get("enabled") and ctl["mode"] in ("current", "speed"):
-        what = polarity_blind(m, pol.get("i_pulse") or 0.5 * ctl["i_max"])
-        if what:
+    # the start (design.start)
+    pol, inj, st = d.get("polarity", {}), d.get("injection", {}), d.get("start", {})
+    out += start_warnings(d, m)
+    if st.get("kind") == "motion" and not st["c"]["T_push"] > 2 * st["c"]["T_load"]:
+        out.append(f"start.i_push: the motion test's push, {st['i_push']:.4g} A, makes {st['c']['T_push']:.3g} N m, not above "
+                   f"twice the load and friction acting while it runs ({st['c']['T_load']:.3g} N m): the load would turn the "
+                   "rotor its own way and the test will refuse (stop reason polarity_undetermined); let the load act after "
+                   f"the start, or raise start.i_push towards {2.2 * st['c']['T_load'] / st['c']['T_push'] * st['i_push']:.3g} A")
+    if st.get("kind") == "pulses" and m.psi_f > 0:
+        safe = st["c"].get("pulse_safe", {})
+        i_safe = min(safe.get("still", math.inf), safe.get("reach", math.inf))
+        blind = polarity_blind(m, pol["i_pulse"])
+        if blind:
             out.append(f"polarity.enabled: polarity detection measures the d axis's saturation asymmetry, and {m.name}'s "
-                       f"{what}: the drive will refuse to start sensorless (stop reason polarity_undetermined); "
-                       "give [magnetic] its saturation, or start at a known angle (polarity.enabled = false)")
-        elif pol.get("i_pulse") and pol.get("t_pulse") and m.psi_f > 0:
-            lam = math.sqrt(0.5 * m.phases * m.pole_pairs ** 2 * m.psi_f * pol["i_pulse"] / m.J)
-            if lam * 2 * pol["t_pulse"] > SPIN:
-                out.append(f"polarity.t_pulse: the rotor is light for its pulses: {pol['i_pulse']:.3g} A a few degrees off the "
-                           f"axis spins it up within {SPIN / lam:.3g} s, shorter than a pulse pair ({2 * pol['t_pulse']:.3g} s); "
-                           "the detection will likely refuse (stop reason polarity_undetermined)")
-        if not what and d["load"]["kind"] == "torque" and pol.get("t_lock") is not None and pol.get("t_pulse"):
+                       f"{blind}: the drive will refuse to start sensorless (stop reason polarity_undetermined); "
+                       "give [magnetic] its saturation, start at a known angle (polarity.enabled = false), or let the start "
+                       "turn the rotor (start.method = \"designed\" or \"motion\", start.allow_motion = true)")
+        elif pol["i_pulse"] > 1.0001 * i_safe:
+            why = ("the rotor's inertia: its torque on an estimate a few degrees off the axis spins the rotor within a "
+                   "pulse, and the detection will refuse (stop reason polarity_undetermined)"
+                   if safe["still"] <= safe["reach"] else
+                   "the current loop's reach: the step from +i to -i on the d axis's saturated incremental inductance, "
+                   "with the carrier, passes 0.9 of the trip level (stop reason overcurrent)")
+            out.append(f"polarity.i_pulse: {pol['i_pulse']:.4g} A is beyond what {m.name} tolerates, {why}; "
+                       f"polarity.i_pulse = {i_safe:.3g} A would not (or leave it to the design)")
+        if not blind and d["load"]["kind"] == "torque" and pol.get("t_lock") is not None and pol.get("t_pulse"):
             # the pulses make no torque: a load acting before the first pair
             # ends accelerates the rotor, and a pair whose half-pulse mean
             # speeds differ by more than w_max (a tenth of the positive
             # carrier's filter band, fs_polarity.h) decides nothing
             t_pol = pol["t_lock"] + 2 * pol["t_pulse"]
-            T_pol = _largest_on(d["load"]["torque"], t_pol)
+            T_pol = largest_on(d["load"]["torque"], t_pol)
             dw = m.pole_pairs * max(T_pol - m.T_coulomb, 0.0) / m.J * 0.5 * pol["t_pulse"]
             w_max = 0.1 * _w_b_p(d, m)   # FS_POLARITY_W_MAX_PER_FILTER of the filter's band
             if w_max > 0 and dw > POLARITY_LOAD * w_max:
@@ -406,7 +416,12 @@ def torque_warnings(m) -> list[str]:
                    + (f"likely the rated current given as rms (peak {math.sqrt(2) * m.i_rated:.4g} A)" if rms
                       else "check psi_f (Wb), the rated current (A peak) and torque (N m)"))
     k_t = 0.5 * m.phases * m.pole_pairs * m.psi_f * m.i_rated / m.T_rated
-    if m.psi_f > 0 and k_t < K_T_MAGNET and not (r is not None and r < K_T_TOTAL[0]):
+    # the magnet alone stands in for the total where linear inductances (unsaturated, small-signal) overstate the
+    # reluctance torque: the trial's Prius at an rms current still makes 1.22 x on them. A flux map's torque is
+    # the machine's own, saturation in it, and the total decides: a PM-assisted synchronous reluctance machine
+    # makes most of its torque from saliency (SyR-e's THOR: magnet 0.46 of 1.0 x rated)
+    linear = m.magnetic.get("model") != "fluxmap"
+    if linear and m.psi_f > 0 and k_t < K_T_MAGNET and not (r is not None and r < K_T_TOTAL[0]):
         out.append(f"machine.rated.current: the magnet's torque at rated current, (phases/2) p psi_f i_rated = {k_t:.3g} x the "
                    f"rated torque, below {K_T_MAGNET:g}: likely the rated current given as rms (peak = rms x sqrt 2 = "
                    f"{math.sqrt(2) * m.i_rated:.4g} A), or check psi_f (Wb) and the torque (N m)")
@@ -447,11 +462,6 @@ def speed_loop_warning(d: dict, m) -> list[str]:
             "and can cost lock: leave bw_speed to the design or raise the observer's bandwidth"]
 
 
-# the incremental L_d asymmetry below which the detection cannot decide: its
-# 5 % floor on the carrier amplitude (fs_polarity.h) needs about that much
-POLARITY_ASYMMETRY = 0.05
-
-
 def _w_b_p(d: dict, m) -> float:
     """The positive carrier's filter band, rad/s, as fs_hfi_init designs it."""
     L_d, L_q = injection_inductances(controller_model(d["controller"], m))
@@ -484,38 +494,16 @@ def carrier_loop_warning(d: dict, m) -> list[str]:
             f"standstill; keep bw_current <= {lo:.4g} rad/s, or leave injection.f_h to the design (it rises with bw_current)"]
 
 
-def _largest_on(profile, t_end: float) -> float:
-    """The largest magnitude of a piecewise-linear profile (times, values;
-    held beyond its ends) over [0, t_end]."""
-    t, y = profile
-    ts = [0.0, t_end, *(tk for tk in t if 0.0 < tk < t_end)]
-    return max(abs(float(np.interp(tk, t, y))) for tk in ts) if len(t) else 0.0
-
-
-def polarity_blind(m, i_pulse: float) -> str | None:
-    """Why polarity detection cannot decide on machine m at pulses of i_pulse
-    (what its magnetics lack, as "<m.name>'s ..." completes it), or None."""
-    if m.magnetic["model"] == "linear":
-        return "magnetics are linear"
-    asym = d_asymmetry(m, i_pulse)
-    if asym is not None and asym < POLARITY_ASYMMETRY:
-        return f"flux map's incremental L_d differs by only {asym:.1%} between -i_pulse and +i_pulse"
-    return None
-
-
-def d_asymmetry(m, i_pulse: float) -> float | None:
-    """A flux map's incremental L_d at -i_pulse against +i_pulse (i_q = 0),
-    relative: what polarity detection decides on; None without a map."""
-    if m.magnetic.get("model") != "fluxmap":
-        return None
-    i_d, i_q, psi_d = (np.asarray(m.magnetic[k], float) for k in ("i_d", "i_q", "psi_d"))
-    col = np.array([np.interp(0.0, i_q, row) for row in psi_d])     # psi_d(i_d) at i_q = 0
-    h = 0.25 * i_pulse
-
-    def L(i):   # the incremental L_d at i (the map's range clamps it)
-        return (np.interp(i + h, i_d, col) - np.interp(i - h, i_d, col)) / (2 * h)
-    lo, hi = L(-i_pulse), L(i_pulse)
-    return abs(lo - hi) / max(lo, hi) if max(lo, hi) > 0 else 0.0
+def start_warnings(d: dict, m) -> list[str]:
+    """The start the design kept where the machine asked for another: an
+    injection start on a saliency below the injection's resolution."""
+    st = d.get("start", {})
+    res = st.get("c", {}).get("resolution")
+    if st.get("kind") in ("pulses", "motion", "known") and res is not None and res < RESOLUTION_MIN:
+        return [f"start.method: the injection's resolution on {m.name} is {res:.2f} of what its carrier's design wants "
+                f"(below {RESOLUTION_MIN:g}: too little saliency); its angle at standstill will be noisy or lost: "
+                "start.method = \"designed\" with start.allow_motion = true starts I/f into the back-EMF observer instead"]
+    return []
 
 
 def ideal_hardware(d: dict) -> list[str]:

@@ -25,6 +25,32 @@ ESTIMATOR_FORMS = {
 }
 
 
+# the starts design.start chooses, as the report names them
+START_NAMES = {"pulses": "injection, the magnet's polarity by d-current pulses (fs_polarity.h)",
+               "motion": "injection, the magnet's polarity by a bounded motion test (fs_motion_test.h)",
+               "if": "an I/f start into the back-EMF observer (fs_if_start.h)",
+               "known": "at a known angle (no polarity detection)",
+               "sensor": "on the encoder (or the true angle) until observer.handover",
+               "none": "none (no closed loop)"}
+
+
+def start_lines(sc: Scenario) -> list[str]:
+    """The start the design chose (design.start), why, and the rotor's
+    largest turn it allows before the loops close."""
+    st = sc.data.get("start", {})
+    kind = st.get("kind")
+    if kind is None:
+        return []
+    out = [f"start (start.method = {st['method']}, allow_motion = {str(st['allow_motion']).lower()}): {START_NAMES[kind]}",
+           *(f"  {w}" for w in textwrap.wrap(f"why: {st['reason']}", 110))]
+    bound = st.get("c", {}).get("bound_deg")
+    if bound is not None:
+        p = sc.machine.pole_pairs
+        out.append(f"  the rotor turns by at most {bound:.4g} el.deg ({bound / p:.4g} deg mechanical) before the loops close "
+                   "on the estimate")
+    return out
+
+
 def design_report(sc: Scenario) -> str:
     """The designed (and given) settings of a scenario, one a line with its
     reason: what `fullspeed design` prints."""
@@ -37,6 +63,7 @@ def design_report(sc: Scenario) -> str:
     lines.append(f"scenario {sc.name}:")
     for k, v in sc.design.items():
         lines.append(f"  {k:<22s} {v.value:12.5g} {v.unit:<6s} {'given' if v.given else 'designed'}: {v.reason}")
+    lines += start_lines(sc)
     forms = ESTIMATOR_FORMS.get(sc.data["controller"]["angle"], ())
     if forms:
         lines.append(f"estimators (controller.angle = {sc.data['controller']['angle']}; each can be set in the scenario):")

@@ -18,6 +18,9 @@ from ..model.units import rpm_to_rad_s
 from .checks import warnings_of
 from .controller import controller_model, hfi_design, injection_inductances
 from .machine import design_machine, mtpa_torque
+from .magnetics import controller_values
+from .start import (POLARITY_ASYMMETRY, RESOLUTION_MIN, design_if, design_motion, design_pulses, injection_resolution,
+                    polarity_blind)
 from .rules import (Value, control_period, design_band, design_carrier, design_injection, design_observer_pll,
                     design_overspeed, machine_values, u_linear)
 from .xcomp import check_table_settings
@@ -55,6 +58,7 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
             notes[f"controller.{key}"] = m.design[key]
         else:
             notes[f"controller.{key}"] = Value(ctl[key], m.design[key].unit, "given in the scenario", True)
+    notes.update(_choose_start(d, m, source))
     obs = d["observer"]
     band = _band(d, m)
     if obs["bw_pll"] is None:
@@ -119,19 +123,9 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
             raise ConfigError("observer.start", "if", "needs controller.mode = \"speed\" and controller.angle = \"smo\"", source)
         if obs["handover"] != 0.0:
             raise ConfigError("observer.handover", obs["handover"], "must be 0 with start = \"if\" (sensorless from t = 0)", source)
-        if obs["i_start"] is None:
-            obs["i_start"] = 0.5 * ctl["i_max"]
-        if obs["i_start"] > ctl["i_max"]:
+        if obs["i_start"] is not None and obs["i_start"] > ctl["i_max"]:
             raise ConfigError("observer.i_start", obs["i_start"], f"must be <= controller.i_max ({ctl['i_max']:g} A)", source)
-        if obs["start_handover_rpm"] is None:
-            obs["start_handover_rpm"] = 2.0 * obs["valid_rpm"]
-        if obs["start_accel_rpm_s"] is None:
-            # a quarter of the torque the start current makes at a 90 deg load angle
-            T = 0.25 * 1.5 * m.pole_pairs * m.psi_f * obs["i_start"]
-            obs["start_accel_rpm_s"] = T / m.J * 60 / (2 * math.pi)
-        for key, why in (("start_handover_rpm", "twice valid_rpm"), ("start_accel_rpm_s", "from the magnet flux psi_f")):
-            if not obs[key] > 0:   # a default that came out 0: the I/f start would never hand over
-                raise ConfigError(f"observer.{key}", obs[key], f"must be > 0 (the default is {why}): set it", source)
+        notes.update(design_if(d, m, source, bw_speed_given="bw_speed" in data.get("controller", {}) or m.design["bw_speed"].given))
     if d["injection"]["leak"] is None:   # the filter the observer is designed for (fs_hfi.h)
         d["injection"]["leak"] = "remove" if d["injection"]["tracking"] == "lag" else "keep"
     if ctl["angle"] in ("hfi", "blend"):
@@ -168,6 +162,8 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
                              "of a radian at the top speed, is shorter: check R_s, L_d, L_q and observer.top_speed_rpm)"), source)
     if ctl["i_max"] >= m.bench["i_trip"]:
         raise ConfigError("controller.i_max", ctl["i_max"], f"must be below the trip level bench.i_trip ({m.bench['i_trip']:g} A)", source)
+    if d["duration"] < Ts:   # the run counts whole periods (fs_sim_steps): a shorter one would run none
+        raise ConfigError("duration", d["duration"], f"must be at least one control period ({Ts:g} s)", source)
     rows = d["duration"] / (Ts * d["trace"]["decimation"])
     if rows * TRACE_ROW_BYTES > TRACE_MAX_BYTES:
         need = math.ceil(d["duration"] / Ts * TRACE_ROW_BYTES / TRACE_MAX_BYTES)
@@ -260,10 +256,12 @@ def _imc_fields(d: dict, m: Machine, source) -> None:
     if conv["inverter"] == "switching":
         raise ConfigError("converter.inverter", "switching", "must be \"averaged\" with kind = \"imc\" (the inverter stage is averaged per rectifier interval)", source)
     conv["inverter"] = "averaged"
-    for key in ("t_dead", "u_on"):
+    for key in ("u_on", "r_on"):
         if conv[key]:
-            raise ConfigError(f"converter.{key}", conv[key], "must be 0 with kind = \"imc\" (the model has no dead time or device drops)", source)
-    conv["t_dead"] = 0.0
+            raise ConfigError(f"converter.{key}", conv[key], "must be 0 with kind = \"imc\" (its devices' drops are the "
+                              "machine's [converter] module's, with losses.devices)", source)
+    if conv["t_dead"] is None:   # the ideal converter of the paper's modulator (not the bench's inverter dead time)
+        conv["t_dead"] = 0.0
     if tim["sampling"] == "double":
         raise ConfigError("timing.sampling", "double", "must be \"single\" with kind = \"imc\"", source)
     tim["sampling"] = "single"
@@ -274,6 +272,81 @@ def _imc_fields(d: dict, m: Machine, source) -> None:
     i_max = ctl["i_max"] or b["i_max"]
     if ctl["depth_control"] and ctl["i_lim"] > i_max:
         raise ConfigError("controller.i_lim", ctl["i_lim"], f"must be <= controller.i_max ({i_max:g} A)", source)
+
+
+def _injection_saliency(d: dict, m: Machine) -> tuple[float, float]:
+    """The inductances an injection's carrier sees, as the datasheet gives
+    them: a flux map's incremental ones at half the rated current on its
+    MTPA locus, else the machine's. Not the scenario's *_scale: those are a
+    controller's errors on purpose, which the design (as the carrier's, from
+    the machine's values) does not know of (B-ROBUST's +-20 % on L_d and L_q
+    put yang2022's L_q/L_d of 1.4 at 1.04 and chose an I/f start for it)."""
+    if m.magnetic["model"] == "fluxmap":
+        cv = controller_values(m.magnetic, d["controller"]["i_max"], m.i_rated, m.phases, m.pole_pairs)
+        return cv["L_d_hf"], cv["L_q_hf"]
+    return m.L_d, m.L_q
+
+
+def _choose_start(d: dict, m: Machine, source) -> dict:
+    """The start the machine gets (design.start): d["start"]["kind"] one of
+    pulses, motion (settled in _injection_fields, which designs them), if,
+    known (the angle taken as known: polarity detection off, the square
+    wave), sensor (the encoder until the hand-over), none (no closed loop),
+    with its reason; a blend on a machine whose saliency the injection cannot
+    use becomes the back-EMF observer with an I/f start."""
+    ctl, obs, st = d["controller"], d["observer"], d["start"]
+    st["c"] = {}
+    angle, closed = ctl["angle"], ctl["mode"] in ("current", "speed")
+    method, motion = st["method"], st["allow_motion"]
+    if angle == "smo" and method == "if" and obs["handover"] == 0.0:
+        obs["start"] = "if"
+    if not closed or angle in ("encoder", "true"):
+        st["kind"], st["reason"] = ("sensor" if closed else "none"), "the loops do not start on an estimate"
+        return {}
+    if angle == "smo":
+        if obs["start"] == "if" and not motion:
+            raise ConfigError("start.allow_motion", False, "forbids the I/f start (observer.start = \"if\"): it turns the rotor", source)
+        st["kind"] = "if" if obs["start"] == "if" else "sensor"
+        st["reason"] = ("observer.start = \"if\": the back-EMF observer sees nothing at standstill" if st["kind"] == "if"
+                        else f"the encoder until observer.handover ({obs['handover']:g} s)")
+        return {}
+    if angle == "swvi":
+        st["kind"], st["reason"] = "known", "the square wave has no polarity detection: the rotor within 90 el.deg of the estimate"
+        return {}
+    L_d, L_q = _injection_saliency(d, m)
+    inj = d["injection"]
+    f_h = inj["f_h"] or m.extra.get("injection", {}).get("f_h") or _carrier(d, m).value
+    ratio, what = injection_resolution(L_d, L_q, f_h, _bench_of(d, m), ctl["i_max"])
+    # a carrier given (the scenario's injection.u_h, or the machine's) is the scenario's choice of the injection:
+    # the design keeps it (its own checks then apply to it) and says how well it resolves
+    carrier_given = inj["u_h"] is not None or "u_h" in m.extra.get("injection", {})
+    usable = ratio >= RESOLUTION_MIN or carrier_given
+    st["c"]["resolution"] = ratio
+    sal = f"L_q/L_d = {L_q / L_d:.3g} ({what}: {ratio:.2f}, {'at least' if ratio >= RESOLUTION_MIN else 'below'} {RESOLUTION_MIN:g})"
+    if method == "if" or (method == "designed" and motion and not usable):
+        if not motion:
+            raise ConfigError("start.allow_motion", False, "forbids the I/f start (start.method = \"if\"): it turns the rotor", source)
+        if angle == "hfi":
+            raise ConfigError("controller.angle", "hfi", f"{m.name} is not salient enough for the injection, {sal}: "
+                              "use \"blend\" (it then starts I/f into the back-EMF observer) or \"smo\" with observer.start = \"if\"", source)
+        if ctl["mode"] != "speed":
+            raise ConfigError("controller.mode", ctl["mode"], f"must be \"speed\" for the I/f start the machine needs ({sal})", source)
+        ctl["angle"], obs["start"] = "smo", "if"
+        st["kind"] = "if"
+        st["reason"] = ("start.method = \"if\"" if method == "if" else
+                        f"no saliency the injection can use, {sal}: the back-EMF observer alone (controller.angle blend -> smo), "
+                        "from standstill by an I/f start")
+        return {}
+    if not d["polarity"]["enabled"]:
+        st["kind"], st["reason"] = "known", "polarity.enabled = false: the rotor's angle taken as the estimate's"
+    elif method == "motion" and not motion:
+        raise ConfigError("start.allow_motion", False, "forbids the motion test (start.method = \"motion\"): it turns the rotor", source)
+    else:
+        st["kind"] = "pulses" if not motion else {"pulses": "pulses", "motion": "motion"}.get(method, "designed")
+        st["reason"] = f"the injection uses the saliency, {sal}" + (
+            "" if ratio >= RESOLUTION_MIN else "; the carrier is given" if carrier_given and motion and method == "designed"
+            else "; start.allow_motion = false or a named method keeps it")
+    return {}
 
 
 def _injection_fields(d: dict, m: Machine, source, bw_speed_given: bool = True, designed_pll=None) -> None:
@@ -333,6 +406,8 @@ def _injection_fields(d: dict, m: Machine, source, bw_speed_given: bool = True, 
             raise ConfigError("polarity.t_pulse", pol["t_pulse"], f"must be >= {t_pulse_min:.3g} s: 6 / w_b_p, the carrier amplitude settles in each pulse's first half", source)
     if inj["xcomp"] is not None:
         inj["xcomp"] = xcomp_table(inj["xcomp"], source)
+    if pol["enabled"] and d["start"]["kind"] in ("designed", "pulses", "motion"):
+        d["_notes"].update(_polarity_start(d, m, i_hf, h, u_lin, source))
     if pol["i_pulse"] is None:
         pol["i_pulse"] = 0.5 * ctl["i_max"]
     if pol["i_pulse"] > ctl["i_max"]:
@@ -352,6 +427,31 @@ def _injection_fields(d: dict, m: Machine, source, bw_speed_given: bool = True, 
             inj["stop_rpm"] = 1.2 * bl["upper_rpm"]
         if not 0.9 * inj["stop_rpm"] >= bl["upper_rpm"]:
             raise ConfigError("injection.stop_rpm", inj["stop_rpm"], f"must be >= upper_rpm / 0.9 = {bl['upper_rpm'] / 0.9:g} (the injection resumes at 0.9 x stop_rpm)", source)
+
+
+def _polarity_start(d: dict, m: Machine, i_hf: float, h, u_lin: float, source) -> dict:
+    """The polarity detection the machine gets (design.start): the pulses,
+    designed safe for the rotor and the current loop, where the d axis
+    saturates asymmetrically at the largest of them; else the motion test."""
+    ctl, pol, st = d["controller"], d["polarity"], d["start"]
+    notes: dict = {}
+    if st["kind"] in ("designed", "pulses"):
+        given = {k: pol[k] for k in ("i_pulse", "i_pulse_max")}
+        notes = design_pulses(d, m, controller_model(ctl, m), i_hf, h, u_lin)
+        i_top = pol["i_pulse_max"] or max(ctl["i_max"] - i_hf, pol["i_pulse"])
+        blind = polarity_blind(m, i_top) if st["kind"] == "designed" else None
+        if blind:   # nothing for the pulses to decide on at any pulse the rotor and the loop tolerate
+            pol.update(given)
+            notes = {}
+            st["kind"] = "motion"
+            st["reason"] += f"; {m.name}'s {blind} (at {i_top:.4g} A): no asymmetry for the pulses, a bounded motion test"
+        else:
+            st["kind"] = "pulses"
+            if st["method"] == "designed":
+                st["reason"] += f"; the d axis saturates asymmetrically at the pulses (design.start: {POLARITY_ASYMMETRY:.0%} needed)"
+    if st["kind"] == "motion":
+        notes.update(design_motion(d, m, i_hf, h.cfg.obs.bandwidth, h.cfg.w_b_n))
+    return notes
 
 
 def _check_carrier(f_h: float, Ts: float, source) -> None:

@@ -20,7 +20,7 @@ class ConfigError(ValueError):
         shown = _clip(_repr(value), 60)
         # one line whatever the input holds (a quoted TOML key may contain a newline)
         text = f"{where}{_clip(str(field), 200)} = {shown}: {allowed}"
-        super().__init__(text.replace("\r", "\\r").replace("\n", "\\n"))
+        super().__init__(one_line(text))
 
 
 class MissingFields(ConfigError):
@@ -48,11 +48,27 @@ class MissingFields(ConfigError):
         text = "; ".join(parts) + (f" ({note})" if note else "")
         self.field, self.value, self.source = field, "missing", source
         self.allowed = text[len(f"{source}: "):] if source and text.startswith(f"{source}: ") else text
-        ValueError.__init__(self, text.replace("\r", "\\r").replace("\n", "\\n"))
+        ValueError.__init__(self, one_line(text))
 
     def noted(self, note: str) -> "MissingFields":
         """The same fields, with where they were found appended."""
         return MissingFields(self.entries, note)
+
+
+_BREAKS = {0x0A: "\\n", 0x0D: "\\r", 0x09: "\\t"}
+
+
+def one_line(text: str) -> str:
+    """text as one line of a terminal: the characters that end a line
+    (\\n, \\r, form feed, \\u2028...) or drive the terminal (ESC, the other
+    controls) written as escapes, whatever a path or a name from the input
+    holds."""
+    def esc(ch: str) -> str:
+        o = ord(ch)
+        if o < 0x20 or 0x7F <= o < 0xA0 or o in (0x2028, 0x2029):
+            return _BREAKS.get(o) or (f"\\x{o:02x}" if o < 0x100 else f"\\u{o:04x}")
+        return ch
+    return "".join(esc(ch) for ch in text)
 
 
 def _repr(value) -> str:

@@ -14,15 +14,25 @@ their folder.
   ConfigError naming the field.
 - out_folder: an output folder given by the user, checked before the work
   (not a file, creatable, writable), or a ConfigError naming the option.
+- out_file: an output file given by the user: nothing there or a regular
+  file (a device, FIFO, socket or folder at the path is refused: a writer
+  renames its file over the path), in a folder out_folder accepts.
+- claim: an output folder held by one command at a time (an advisory lock
+  on the folder), so that two runs into one folder cannot mix their files.
+- replace_folder: a folder of several files put in place as a whole.
 - json_safe: what a JSON file holds of a value (NaN and infinities as null,
   NumPy scalars as numbers).
 """
 from __future__ import annotations
 
+import contextlib
+import ctypes
+import errno
 import json
 import math
 import os
 import re
+import shutil
 import stat
 import tempfile
 from collections.abc import Callable
@@ -32,6 +42,11 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ConfigError
+
+try:
+    import fcntl
+except ImportError:   # not on POSIX: folders are not claimed (files.claim)
+    fcntl = None
 
 MAX_TOML_BYTES = 64 * 2**20   # a scenario with a 10^6-pair profile is 20 MB; the parser holds ~10x its text
 MAX_NAME_BYTES = 200          # below the 255-byte file-name limit of common file systems, room for a suffix
@@ -79,7 +94,9 @@ def read_bounded(path: str | Path, field: str, source: str | None = None, limit:
         os.set_blocking(fd, True)
         with os.fdopen(fd, "rb") as f:
             fd = -1   # closed by f
-            data = f.read(limit + 1)
+            data = f.read(st.st_size + 1)   # the size it has (read(limit) would allocate the limit)
+            if len(data) > st.st_size:      # it grew since: on to the limit
+                data += f.read(limit + 1 - len(data))
     finally:
         if fd >= 0:
             os.close(fd)
@@ -158,6 +175,34 @@ def out_folder(path: str | Path, field: str = "--out") -> Path:
     return path
 
 
+def _not_a_file(path: Path) -> str | None:
+    """Why an output cannot be renamed over what is at path (the link
+    itself, not what a symbolic link points to: a rename replaces the
+    link); None for nothing there, a regular file or a link."""
+    try:
+        mode = os.lstat(path).st_mode
+    except (OSError, ValueError):
+        return None
+    if stat.S_ISDIR(mode):
+        return "is a folder"
+    if not (stat.S_ISREG(mode) or stat.S_ISLNK(mode)):
+        return "is not a regular file (a device, FIFO or socket) and is not replaced"
+    return None
+
+
+def out_file(path: str | Path, field: str = "--out") -> Path:
+    """An output file given by the user, checked before the work: nothing
+    at the path, or a regular file to be replaced; in a folder that exists
+    or can be made and takes a file (out_folder). Else a ConfigError
+    naming the field."""
+    path = Path(path)
+    why = _not_a_file(path)
+    if why:
+        raise ConfigError(field, str(path), f"{why}; give a file name")
+    out_folder(path.parent, field)
+    return path
+
+
 def _fsync_dir(folder: Path) -> None:
     try:
         fd = os.open(folder, os.O_RDONLY)
@@ -180,6 +225,9 @@ def write_with(path: str | Path, write: Callable[[Path], object]) -> Path | None
     was."""
     path = Path(path)
     folder = path.parent
+    why = _not_a_file(path)
+    if why:   # os.replace would put the file in place of a device node (as root: /dev/null)
+        raise ConfigError("output", str(path), f"{why}; remove it or write elsewhere")
     folder.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{path.name[:100]}.", suffix=".tmp" + path.suffix)
     os.close(fd)
@@ -197,6 +245,126 @@ def write_with(path: str | Path, write: Callable[[Path], object]) -> Path | None
         raise
     _fsync_dir(folder)
     return path
+
+
+@contextlib.contextmanager
+def claim(folder: str | Path, field: str = "--out"):
+    """The output folder held by this command until the block ends: an
+    exclusive advisory lock (flock) on the folder itself, taken at once or
+    refused with a ConfigError, so that two runs into one folder cannot
+    leave one's traces beside the other's metrics. The folder is made if
+    missing, and removed again (with the parents made for it) when the block
+    raises and leaves it empty: a refused run leaves no folder behind. The
+    lock ends with the process, however it ends; a file system that takes
+    no locks (some network mounts) leaves the folder unclaimed."""
+    folder = Path(folder)
+    made, up = [], folder
+    while path_kind(up) is None and up != up.parent:
+        made.append(up)
+        up = up.parent
+    folder.mkdir(parents=True, exist_ok=True)
+    try:
+        fd = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0) | getattr(os, "O_CLOEXEC", 0))
+    except OSError:   # a folder one may write but not read: not claimed
+        fd = -1
+    try:
+        if fcntl is not None and fd >= 0:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                raise ConfigError(field, str(folder), "is in use by another fullspeed command (one at a time per "
+                                  "folder): wait for it to end, or give another folder") from None
+            except OSError:
+                pass
+        try:
+            yield folder
+        except BaseException:
+            for d in made:   # the deepest first; a folder something was written into stays
+                try:
+                    d.rmdir()
+                except OSError:
+                    break
+            raise
+    finally:
+        if fd >= 0:
+            os.close(fd)
+
+
+def owned_folder(folder: str | Path, names, field: str = "--out") -> Path:
+    """A folder replace_folder may replace: missing, or holding nothing but
+    `names` (and the temporary files of their writes cut short), and not the working
+    folder or one above it. Else a ConfigError: the other files would go."""
+    folder = Path(folder)
+    kind = path_kind(folder)
+    if kind is None:
+        return folder
+    if kind != "dir":
+        raise ConfigError(field, str(folder), "is a file, not a folder; give a folder (created if missing)")
+    if Path.cwd().resolve().is_relative_to(folder.resolve()):
+        raise ConfigError(field, str(folder), "holds the working folder; its files are replaced as a whole: give a subfolder")
+    ours = lambda n: n in names or any(n.startswith(f".{k}.") and ".tmp" in n for k in names)   # noqa: E731 (a write's leftover)
+    other = sorted(n for n in os.listdir(folder) if not ours(n))
+    if other:
+        shown = ", ".join(other[:5]) + (f" and {len(other) - 5} more" if len(other) > 5 else "")
+        raise ConfigError(field, str(folder), f"holds files of something else ({shown}); the folder is replaced as a "
+                          "whole: give a new folder")
+    return folder
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Swap two paths in one step (Linux renameat2 RENAME_EXCHANGE); False
+    where the system or the file system cannot."""
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        renameat2 = libc.renameat2
+    except (OSError, AttributeError):
+        return False
+    renameat2.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
+    AT_FDCWD, RENAME_EXCHANGE = -100, 2
+    if renameat2(AT_FDCWD, os.fsencode(a), AT_FDCWD, os.fsencode(b), RENAME_EXCHANGE) == 0:
+        return True
+    err = ctypes.get_errno()
+    if err in (errno.EINVAL, errno.ENOSYS, errno.EOPNOTSUPP):
+        return False
+    raise OSError(err, os.strerror(err), str(b))
+
+
+def replace_folder(folder: str | Path, files: dict[str, str | bytes], owned=(), field: str = "--out") -> list[Path]:
+    """A folder of several files put in place as a whole: written (each
+    fsynced) into a fresh folder beside it, which then takes the old one's
+    place in one rename (an exchange, where the system has one; else two
+    renames, between which a kill leaves the new folder and the old one
+    hidden beside the path). A kill at any instant leaves the old set or the
+    new set, never a mix; the old files are gone after, including those the
+    new set does not have. The folder must be one owned_folder accepts: it
+    holds nothing but these files and the `owned` names."""
+    folder = owned_folder(folder, [*files, *owned], field)
+    parent = folder.parent
+    parent.mkdir(parents=True, exist_ok=True)
+    new = Path(tempfile.mkdtemp(dir=parent, prefix=f".{folder.name[:100]}.", suffix=".new"))
+    try:
+        for name, data in files.items():
+            write_atomic(new / name, data)
+        os.chmod(new, 0o777 & ~_umask())
+        if path_kind(folder) is None:
+            os.rename(new, folder)
+        elif _exchange(new, folder):   # new now holds the old files
+            shutil.rmtree(new, ignore_errors=True)
+        else:
+            old = Path(tempfile.mkdtemp(dir=parent, prefix=f".{folder.name[:100]}.", suffix=".old"))
+            os.rename(folder, old / "x")
+            try:
+                os.rename(new, folder)
+            except BaseException:   # the old set back in its place
+                os.rename(old / "x", folder)
+                raise
+            finally:
+                shutil.rmtree(old, ignore_errors=True)
+    except BaseException:
+        shutil.rmtree(new, ignore_errors=True)
+        raise
+    _fsync_dir(parent)
+    return [folder / name for name in files]
 
 
 def write_atomic(path: str | Path, data: str | bytes) -> Path:

@@ -23,13 +23,14 @@ from __future__ import annotations
 import csv
 import hashlib
 import math
-import re
+import struct
+import zlib
 from pathlib import Path
 
 import numpy as np
 
 from .errors import ConfigError
-from .files import read_text   # a regular file, bounded (a FIFO or /dev/zero is refused)
+from .files import path_kind, read_bounded, read_text   # a regular file, bounded (a FIFO or /dev/zero is refused)
 
 # column name -> the names it may have in a file (lower case, no spaces)
 COLUMNS = {"i_d": ("i_d", "id"), "i_q": ("i_q", "iq"), "psi_d": ("psi_d", "psid", "fd", "flux_d"),
@@ -40,6 +41,8 @@ UNITS = {"A": {"a": 1.0, "ka": 1e3, "ma": 1e-3},
          "N m": {"nm": 1.0, "n.m": 1.0, "n*m": 1.0}}
 SI = {"i_d": "A", "i_q": "A", "psi_d": "Wb", "psi_q": "Wb", "torque": "N m"}
 MAX_POINTS = 1000            # per axis, as the machine file's map (machines._check_fluxmap)
+MAX_MAT_UNPACKED = 256 * 2**20   # B: a .mat map's variables decompressed (SyR-e's motorModel is a few MB)
+MAT_VARIABLES = ("motorModel", "Id", "Iq", "Fd", "Fq", "T")   # all a map is read from
 
 # [electrical] against the map at zero current: the magnet's flux is what a
 # datasheet's back-EMF constant gives, to a few %; the inductances are given
@@ -53,14 +56,28 @@ class FluxMapWarning(UserWarning):
     """[electrical] and the flux map disagree (one line: the plant follows the map)."""
 
 
+def _split_header(name: str) -> tuple[str, str] | None:
+    """'psi_d [mWb]' -> ('psi_d', 'mWb'); 'i_d' -> ('i_d', ''); None for a
+    name that is not `words [unit]` or `words (unit)`. One scan of the text
+    (a regular expression for this backtracks: cubic in a run of spaces)."""
+    s = name.strip()
+    k = next((i for i, ch in enumerate(s) if ch in "[("), -1)
+    if k < 0:
+        return (s, "") if s else None
+    base, rest = s[:k].strip(), s[k + 1:]
+    if not base or not rest or rest[-1] not in "])" or any(ch in "])" for ch in rest[:-1]):
+        return None
+    return base, rest[:-1].strip()
+
+
 def _header(name: str, field: str, source) -> tuple[str, float]:
     """'psi_d [mWb]' -> ('psi_d', 1e-3)."""
-    m = re.fullmatch(r"\s*([^\[\(]+?)\s*(?:[\[\(]\s*([^\]\)]*?)\s*[\]\)])?\s*", name)
-    base = m.group(1).lower().replace(" ", "") if m else name
+    m = _split_header(name)
+    base = m[0].lower().replace(" ", "") if m else name
     col = next((k for k, names in COLUMNS.items() if base in names), None)
     if col is None:
         return "", 0.0   # a column this reader does not use
-    unit = (m.group(2) or "").lower().replace(" ", "")
+    unit = m[1].lower().replace(" ", "")
     if not unit:
         raise ConfigError(field, name, f"needs its unit in the header, e.g. '{col} [{SI[col]}]'", source)
     factor = UNITS[SI[col]].get(unit)
@@ -71,16 +88,21 @@ def _header(name: str, field: str, source) -> tuple[str, float]:
 
 def read_csv(path: Path, field: str, source=None) -> dict[str, np.ndarray]:
     """The columns of a flux-map CSV, in SI, as flat arrays."""
-    text = read_text(path, field, source)
+    text = read_text(path, field, source).removeprefix("\ufeff")   # the byte-order mark of Excel's "CSV UTF-8"
     lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
-    rows = list(csv.reader(lines))
+    try:
+        rows = list(csv.reader(lines))
+    except csv.Error as exc:   # a field over csv's limit (131,072 characters), a NUL
+        raise ConfigError(field, str(path), f"is not a flux-map CSV: {exc}", source) from None
     if len(rows) < 5:
         raise ConfigError(field, str(path), "must hold a header and at least 4 rows (a 2 x 2 grid)", source)
     cols = [_header(h, field, source) for h in rows[0]]
     have = {c for c, _ in cols}
     missing = [c for c in ("i_d", "i_q", "psi_d", "psi_q") if c not in have]
     if missing:
-        raise ConfigError(field, str(path), f"has no column {', '.join(missing)} (header: {', '.join(rows[0])})", source)
+        header = ", ".join(rows[0])
+        header = header if len(header) <= 120 else header[:117] + "..."
+        raise ConfigError(field, str(path), f"has no column {', '.join(missing)} (header: {header})", source)
     out: dict[str, list] = {c: [] for c in have if c}
     for n, row in enumerate(rows[1:], start=2):
         if len(row) != len(cols):
@@ -98,34 +120,128 @@ def read_csv(path: Path, field: str, source=None) -> dict[str, np.ndarray]:
     return {c: np.asarray(v) for c, v in out.items()}
 
 
+def _mat5_name(head: bytes, order: str) -> str | None:
+    """The name of a MAT 5 matrix element from its first bytes (the tag,
+    the array flags, the dimensions, the name), or None before it is whole."""
+    def tag(at: int):
+        if len(head) < at + 8:
+            return None
+        kind, size = struct.unpack_from(order + "II", head, at)
+        if kind >> 16:   # the small element format: the size in the upper half, the data in the tag
+            return kind & 0xFFFF, kind >> 16, at + 4, at + 8
+        return kind, size, at + 8, at + 8 + (size + 7) // 8 * 8
+    at = 8   # past the matrix's own tag
+    for _ in range(2):   # array flags, dimensions
+        t = tag(at)
+        if t is None:
+            return None
+        at = t[3]
+    t = tag(at)
+    if t is None or len(head) < t[2] + t[1]:
+        return None
+    return head[t[2]:t[2] + t[1]].decode("latin1")
+
+
+def _mat_variables(data: bytes, names: tuple[str, ...], field: str, path: Path, source) -> list[str]:
+    """Which of `names` a MATLAB file holds, having checked that they take at
+    most MAX_MAT_UNPACKED bytes once decompressed (a compressed variable of
+    zeros grows a thousandfold: 6 MB of file, 6 GB of memory): one pass over
+    the file's elements, the others decompressed only as far as their name.
+    Version 4 files are not compressed: their size is bounded by the file's."""
+    from io import BytesIO
+
+    from scipy.io.matlab import matfile_version
+
+    if matfile_version(BytesIO(data))[0] != 1:   # 0: version 4; 2: HDF5 (v7.3), which loadmat refuses
+        return list(names)
+    order = "<" if data[126:128] == b"IM" else ">"
+    found, left, at = [], MAX_MAT_UNPACKED, 128
+    while at + 8 <= len(data) and left >= 0:
+        kind, size = struct.unpack_from(order + "II", data, at)
+        body, at = data[at + 8:at + 8 + size], at + 8 + size
+        if kind != 15:   # not miCOMPRESSED: its bytes are in the file, bounded by its size
+            name = _mat5_name(data[at - size - 8:at], order)
+            if name in names:
+                found.append(name)
+                left -= size
+            continue
+        z, rest, head, name = zlib.decompressobj(), body, b"", None
+        try:
+            while rest and not z.eof and left >= 0:
+                chunk = z.decompress(rest, 4096 if name is None else 2**24)   # the name first, then in 16 MiB pieces
+                rest = z.unconsumed_tail
+                if name is None:
+                    head += chunk[:4096]
+                    name = _mat5_name(head, order)
+                    if name is not None and name not in names:
+                        break   # not read: loadmat skips it (variable_names)
+                    if name is not None:
+                        found.append(name)
+                if name is not None:
+                    left -= len(chunk)
+        except zlib.error:
+            break   # loadmat says what is wrong with it
+    if left < 0:
+        raise ConfigError(field, str(path), f"holds more than {MAX_MAT_UNPACKED // 2**20} MiB of data once decompressed in "
+                          f"the variables a flux map is read from ({', '.join(found)}); a map takes a few MB", source)
+    return found
+
+
 def read_mat(path: Path, field: str, source=None) -> dict[str, np.ndarray]:
-    """A SyR-e map (.mat), turned to the PMSM convention, as flat arrays."""
+    """A SyR-e map (.mat), turned to the PMSM convention, as flat arrays: the
+    file at most MAX_TOML_BYTES, only the variables a map is read from
+    decompressed, and those at most MAX_MAT_UNPACKED bytes."""
+    from io import BytesIO
+
     try:
         from scipy.io import loadmat
     except ImportError:
         raise ConfigError(field, str(path), "reading a .mat flux map needs scipy (pip install scipy); or give the map as CSV", source) from None
+    data = read_bounded(path, field, source)
     try:
-        mat = loadmat(str(path))
+        names = _mat_variables(data, MAT_VARIABLES, field, path, source)
+        mat = loadmat(BytesIO(data), variable_names=names)
+    except ConfigError:
+        raise
     except Exception as exc:   # scipy raises several kinds for a bad file
-        raise ConfigError(field, str(path), f"is not a MATLAB file scipy can read: {exc}", source) from None
+        why = " ".join(str(exc).split())[:160] or "no reason given"
+        raise ConfigError(field, str(path), f"is not a MATLAB file scipy can read: {type(exc).__name__}: {why}", source) from None
     if "motorModel" in mat:
         try:
             fm = mat["motorModel"][0, 0]["FluxMap_dq"][0, 0]
-            get = lambda k: np.asarray(fm[k], dtype=float)   # noqa: E731
-        except (KeyError, ValueError, IndexError):
+            fm["Id"]   # a structure, not a number
+            get = lambda k: fm[k]   # noqa: E731
+        except (KeyError, ValueError, IndexError, TypeError):
             raise ConfigError(field, str(path), "has a motorModel without FluxMap_dq (Id, Iq, Fd, Fq)", source) from None
     else:
-        get = lambda k: np.asarray(mat[k], dtype=float)   # noqa: E731
-    try:
-        Id, Iq, Fd, Fq = (get(k) for k in ("Id", "Iq", "Fd", "Fq"))
-    except (KeyError, ValueError):
-        raise ConfigError(field, str(path), "must hold Id, Iq, Fd and Fq (SyR-e's FluxMap_dq or idiq_fdfq layout)", source) from None
-    out = {"i_d": -Iq.ravel(), "i_q": Id.ravel(), "psi_d": -Fq.ravel(), "psi_q": Fd.ravel()}
-    try:
-        out["torque"] = get("T").ravel()
-    except (KeyError, ValueError):
-        pass
+        get = lambda k: mat[k]   # noqa: E731
+    out = {}
+    for col, key, sign in (("i_d", "Iq", -1.0), ("i_q", "Id", 1.0), ("psi_d", "Fq", -1.0), ("psi_q", "Fd", 1.0),
+                           ("torque", "T", 1.0)):
+        try:
+            raw = get(key)
+        except (KeyError, ValueError, IndexError, TypeError):
+            if col == "torque":
+                continue
+            raise ConfigError(field, str(path), "must hold Id, Iq, Fd and Fq (SyR-e's FluxMap_dq or idiq_fdfq layout)", source) from None
+        out[col] = sign * _mat_array(raw, key, field, path, source)
+    sizes = {k: v.size for k, v in out.items()}
+    if len(set(sizes.values())) != 1:
+        raise ConfigError(field, str(path), "Id, Iq, Fd, Fq (and T) must have as many values each: "
+                          + ", ".join(f"{k} {n}" for k, n in sizes.items()), source)
     return out
+
+
+def _mat_array(raw, key: str, field: str, path: Path, source) -> np.ndarray:
+    """One matrix of a .mat map as finite real numbers, flat."""
+    a = np.asarray(raw)
+    if a.dtype.kind not in "biuf" or a.size > MAX_POINTS**2:
+        what = f"{a.size} values" if a.dtype.kind in "biuf" else f"of type {a.dtype}"
+        raise ConfigError(f"{field} {key}", what, f"must be a real matrix of at most {MAX_POINTS} x {MAX_POINTS} numbers", source)
+    a = a.astype(float).ravel()
+    if not np.isfinite(a).all():
+        raise ConfigError(f"{field} {key}", str(path), "must be finite (it holds NaN or infinite values)", source)
+    return a
 
 
 def _grid(cols: dict[str, np.ndarray], field: str, source) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
@@ -179,8 +295,12 @@ def load_map(path: str | Path, field: str, source=None) -> dict:
     """A flux-map file as [magnetic] fields: model, i_d, i_q, psi_d, psi_q
     (even grids, rows in i_d), torque where given, and source."""
     p = Path(path)
-    if not p.is_file():
+    kind = path_kind(p)
+    if kind is None:
         raise ConfigError(field, str(p), "file not found", source)
+    if kind != "file":
+        raise ConfigError(field, str(p), "is a folder, not a flux map" if kind == "dir" else
+                          "is not a regular file (a device, FIFO or socket); give the map's file", source)
     reader = {".csv": read_csv, ".mat": read_mat}.get(p.suffix.lower())
     if reader is None:
         raise ConfigError(field, str(p), "must be a .csv or a .mat (SyR-e) flux map", source)
@@ -194,7 +314,7 @@ def load_map(path: str | Path, field: str, source=None) -> dict:
     if uneven:
         notes.append("resampled bilinearly to an even grid")
     i_d, i_q, tabs = resample(i_d, i_q, tabs)
-    digest = hashlib.sha256(p.read_bytes()).hexdigest()[:12]
+    digest = hashlib.sha256(read_bounded(p, field, source)).hexdigest()[:12]
     out = {"model": "fluxmap", "i_d": i_d.tolist(), "i_q": i_q.tolist(),
            "psi_d": tabs["psi_d"].tolist(), "psi_q": tabs["psi_q"].tolist(),
            "source": f"{p.name} (sha256 {digest}): " + "; ".join(notes)}

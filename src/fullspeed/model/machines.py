@@ -69,10 +69,48 @@ THERMAL = {
     "C_w": POS(hi=1e9, doc="J/K, winding node"), "C_m": POS(hi=1e9, doc="J/K, magnet node"),
     "alpha_cu": F(0.00393, lo=-0.05, hi=0.05, doc="1/K, copper's resistance coefficient"),
     "alpha_br": F(-0.0012, lo=-0.05, hi=0.05, doc="1/K, the magnet's remanence coefficient"),
-    "P_fe_ref": NONNEG(0.0, hi=1e9, doc="W, iron loss at speed_fe_rpm with the magnet's flux"),
-    "speed_fe_rpm": POS(1000.0, hi=1e6, doc="the speed P_fe_ref is at"), "k_hyst": F(0.7, lo=0.0, hi=1.0, doc="hysteresis share of P_fe_ref"),
-    "k_rotor": F(0.1, lo=0.0, hi=1.0, doc="share of the iron loss in the rotor (heats the magnets)"),
+    "k_rotor": F(0.1, lo=0.0, hi=1.0, doc="share of the iron loss ([losses]) in the rotor (heats the magnets)"),
     "reasons": NOTES(doc="why each value (text)"),
+}
+
+# The iron loss (csrc/plant/fs_losses.h), for the thermal model's heat and,
+# where a scenario draws it ([losses] iron), the plant's drag: hysteresis and
+# eddy currents, P_fe = P_fe_ref [k_hyst f r^beta + (1 - k_hyst) f^2 r^2],
+# f the speed over speed_fe_rpm, r the stator flux over psi_f. The
+# mechanical losses are [mechanical] B and T_coulomb.
+LOSSES = {
+    "P_fe_ref": NONNEG(hi=1e9, doc="W, iron loss at speed_fe_rpm with the magnet's flux"),
+    "speed_fe_rpm": POS(hi=1e6, doc="the speed P_fe_ref is at"),
+    "k_hyst": F(lo=0.0, hi=1.0, doc="hysteresis share of P_fe_ref (the rest: eddy currents)"),
+    "beta": F(2.0, lo=1.0, hi=3.0, doc="the hysteresis loss's flux exponent (Steinmetz; the eddy loss's is 2)"),
+    "source": S(doc="where the coefficients come from: a published source, or \"assumed\" and how they were formed"),
+    "reasons": NOTES(doc="why each value (text)"),
+}
+
+# The converter's power semiconductors (csrc/plant/fs_losses.h): a named
+# module's transistor and diode, each the straight line of its output
+# characteristic (threshold and slope resistance) at the junction
+# temperature of the values, and the commutation energies at (I_ref,
+# V_ref), scaled by power laws of the current and the voltage. The matrix
+# converter's rectifier and inverter stages use the same devices.
+CONVERTER = {
+    "module": S(doc="the module the values come from: maker and part number"),
+    "source": S(doc="its datasheet (and revision), the junction temperature the values are at, what was derived"),
+    "kind": C("igbt", "mosfet", default="igbt", doc="mosfet: the channel conducts both ways, its body diode only in the dead time"),
+    "u_t": NONNEG(hi=100.0, doc="V, the transistor's threshold (V_CE0; a MOSFET: 0)"),
+    "r_t": NONNEG(hi=100.0, doc="ohm, the transistor's slope resistance (r_CE; a MOSFET: R_DS(on))"),
+    "u_d": NONNEG(hi=100.0, doc="V, the diode's threshold (V_F0)"),
+    "r_d": NONNEG(hi=100.0, doc="ohm, the diode's slope resistance"),
+    "E_on": NONNEG(hi=100.0, doc="J, the transistor's turn-on energy at I_ref and V_ref"),
+    "E_off": NONNEG(hi=100.0, doc="J, its turn-off energy there"),
+    "E_rr": NONNEG(hi=100.0, doc="J, the diode's reverse-recovery energy there"),
+    "I_ref": POS(hi=1e6, doc="A, the current of the datasheet's energies"),
+    "V_ref": POS(hi=1e6, doc="V, their voltage"),
+    "k_i_t": F(1.0, lo=0.0, hi=3.0, doc="the transistor energies' current exponent (Semikron's application manual: about 1)"),
+    "k_v_t": F(1.35, lo=0.0, hi=3.0, doc="their voltage exponent (IGBTs: 1.3 to 1.4)"),
+    "k_i_d": F(0.6, lo=0.0, hi=3.0, doc="the recovery energy's current exponent (about 0.6)"),
+    "k_v_d": F(0.6, lo=0.0, hi=3.0, doc="its voltage exponent (about 0.6)"),
+    "reasons": NOTES(doc="why each value, and how it was read or derived (text)"),
 }
 
 # Spatial harmonics (csrc/plant/fs_pmsm.h): the back-EMF's harmonics of
@@ -98,7 +136,8 @@ INJECTION = {
 }
 # the same names as the scenario's [blending], which overrides them
 BLENDING = {"lower_rpm": NONNEG(None, hi=1e6, doc="default designed"), "upper_rpm": POS(None, hi=1e6, doc="default designed")}
-RENAMED = {"blending.omega_lower_rpm": "blending.lower_rpm", "blending.omega_upper_rpm": "blending.upper_rpm"}
+RENAMED = {"blending.omega_lower_rpm": "blending.lower_rpm", "blending.omega_upper_rpm": "blending.upper_rpm",
+           **{f"thermal.{k}": f"losses.{k}" for k in ("P_fe_ref", "speed_fe_rpm", "k_hyst")}}
 PAPER_GAINS = {k: (POS if k in ("current_kp_d", "current_kp_q", "speed_kp") else NONNEG)(None, hi=1e9, doc="optional: as printed, V/A, V/(A s), A s/rad, A/rad") for k in (   # the PIs need k_p > 0
     "current_kp_d", "current_ki_d", "current_kp_q", "current_ki_q", "speed_kp", "speed_ki", "pll_kp", "pll_ki")}
 BENCH_EXPERIMENT = {k: POS(None, hi=1e6, doc="optional: the experiment's value (SI)") for k in ("u_grid_ll_rms", "f_grid", "u_dc", "u_dc_min", "i_max", "i_lim")}
@@ -121,6 +160,8 @@ MACHINE = {
     "third_harmonic": Spec("any", None, doc="five phases: L_d3, L_q3 (H) and psi_f3 (Wb) of the third-harmonic plane"),
     "thermal": T(THERMAL, default=None, doc="the two-node thermal model (csrc/plant/fs_thermal.h), used where a scenario enables it"),
     "harmonics": T(HARMONICS, default=None, doc="spatial harmonics (csrc/plant/fs_pmsm.h), used where a scenario enables them"),
+    "losses": T(LOSSES, default=None, doc="the iron loss (csrc/plant/fs_losses.h): heat for [thermal], a drag where a scenario's [losses] iron is on"),
+    "converter": T(CONVERTER, default=None, doc="the converter's module (csrc/plant/fs_losses.h), acting where a scenario's [losses] devices is on"),
     "bench_experiment": T(BENCH_EXPERIMENT, default=None, doc="a paper's experimental bench, where it differs"), "derivations": NOTES(doc="how values were derived (text)"),
 }
 
@@ -154,6 +195,8 @@ class Machine:
     psi_f3: float = 0.0     # Wb
     thermal: dict | None = None   # [thermal] as validated (THERMAL), None without one
     harmonics: dict | None = None  # [harmonics] as validated (HARMONICS), None without one
+    losses: dict | None = None     # [losses] as validated (LOSSES), None without one
+    converter: dict | None = None  # [converter] as validated (CONVERTER), None without one
     # the bench's limits and bandwidths as given or designed (design.rules.Value, by key;
     # empty until design.machine.design_machine has formed them)
     design: dict = field(default_factory=dict)
@@ -163,6 +206,16 @@ class Machine:
 
 def catalog_names() -> list[str]:
     return package_names("machines")
+
+
+# The catalog's machines that are the papers' (and the bench's peer), beside the published ones
+PAPER_MACHINES = ("motulator-2kw-ipmsm", "yang2022", "yu2022", "zou2021")
+
+
+def published_machines() -> list[str]:
+    """The catalog's published machines (src/fullspeed/machines: each value with
+    its source), the papers' left out: what claim B-REAL runs."""
+    return [n for n in catalog_names() if n not in PAPER_MACHINES]
 
 
 def catalog_data(name: str, source: str | None = None) -> dict:
@@ -223,7 +276,7 @@ def parse_machine(data: dict, source: str | None = None, prefix: str = "machine"
         T_rated=r["torque"], i_rated=r["current"], w_m_rated=rpm_to_rad_s(r["speed_rpm"]), u_rated=r["voltage"],
         magnetic=d["magnetic"], bench=b, extra=extra, source=d["source"], description=d["description"],
         L_d3=th["L_d3"], L_q3=th["L_q3"], psi_f3=th["psi_f3"], thermal=d["thermal"],
-        harmonics=d["harmonics"], origin=source, prefix=prefix,
+        harmonics=d["harmonics"], losses=d["losses"], converter=d["converter"], origin=source, prefix=prefix,
     )
 
 

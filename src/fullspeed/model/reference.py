@@ -7,7 +7,7 @@ from collections.abc import Iterator
 
 from .machines import MACHINE
 from .scenario import SCENARIO
-from .schema import MISSING, Spec, range_text, unit_and_meaning
+from .schema import MISSING, Spec, range_text, toml_string, unit_and_meaning
 
 KIND = {"float": "number", "int": "integer", "bool": "true/false", "str": "string", "choice": "choice",
         "profile": "number or [[t_s, value], ...]", "numbers": "list of numbers", "notes": "table of strings",
@@ -118,7 +118,8 @@ def machine_template(name: str) -> str:
     its unit, range and meaning in a comment; the value to fill in is "?"
     (refused until it is). Everything with a default or a design is left
     out: `fullspeed schema machine` lists it."""
-    lines = [f"# Machine {name}: fill in every \"?\" (the datasheet's values). Everything else has a",
+    quoted = toml_string(name)   # escaped: a quote or a newline in the name cannot add keys
+    lines = [f"# Machine {quoted}: fill in every \"?\" (the datasheet's values). Everything else has a",
              "# default or is designed from these; `fullspeed schema machine` lists all fields.",
              "# SI units; speeds in mechanical rpm; currents and voltages peak phase values."]
 
@@ -126,7 +127,7 @@ def machine_template(name: str) -> str:
         unit, meaning = unit_and_meaning(k, s)
         rng = range_text(s)
         note = "; ".join(x for x in (unit, rng, meaning) if x)
-        value = f'"{name}"' if k == "name" else '"?"'
+        value = quoted if k == "name" else '"?"'
         return "\n".join([f"{k} = {value}" + (f"    # {note}" if note else ""), *TEMPLATE_NOTES.get(k, [])])
 
     tables = []

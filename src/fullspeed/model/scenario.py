@@ -116,10 +116,25 @@ SCENARIO = {
                       "bandwidth follows the EMF (fs_smo.h); paper: the SMO and PLL of yang2022 sec. 2 (its scenarios pin it)"),
         # how the sensorless drive starts: on the encoder until `handover`, or
         # sensorless from standstill with an I/f start
-        "start": C("encoder", "if", default="encoder", doc="sensorless start: on the encoder until handover, or I/f from standstill"),
-        "i_start": POS(None, hi=1e5, doc="A; default half of i_max"),
-        "start_accel_rpm_s": POS(None, hi=1e9, doc="frame acceleration; default from a quarter of the start current's torque"),
+        "start": C("encoder", "if", default="encoder", doc="sensorless start: on the encoder until handover, or I/f from standstill (fs_if_start.h)"),
+        "i_start": POS(None, hi=1e5, doc="A, the I/f frame's d current; default half of i_max, or what carries the load at 45 el.deg with a quarter to spare (at most 0.8 i_max)"),
+        "start_accel_rpm_s": POS(None, hi=1e9, doc="frame acceleration; default the start current's torque left beside the load, at most a quarter of it, over J"),
         "start_handover_rpm": POS(None, hi=1e6, doc="the loops take the observer here; default twice valid_rpm"),
+        "start_damping": NONNEG(0.7, hi=10.0, doc="the damping ratio of the rotor's swing about the I/f frame, by the EMF it makes (fs_if_start.h); 0: none"),
+        "start_timeout": POS(None, hi=1e4, doc="s, the longest wait at the hand-over speed for the observer, then the run stops (start_failed); default 100 / bw_pll, at least 0.5 s"),
+        "restart_rpm": NONNEG(None, hi=1e6, doc="below this, with the reference below it too, the loops return from the observer to the I/f frame (a reversal through zero); default 0.75 x start_handover_rpm; 0: never"),
+    }, default={}),
+    # the sensorless start from standstill with injection (hfi, blend) or
+    # without (design.start): chosen by the machine unless named here
+    "start": T({
+        "method": C("designed", "pulses", "motion", "if", default="designed",
+                    doc="designed: polarity pulses where the d axis saturates asymmetrically, else a bounded motion test "
+                        "where the injection has saliency to use, else (angle blend) an I/f start into the back-EMF "
+                        "observer; pulses, motion or if to name one"),
+        "allow_motion": B(True, doc="false: no start that turns the rotor (the motion test, the I/f start): the polarity "
+                                    "pulses, which refuse to start where they cannot decide (stop reason polarity_undetermined)"),
+        "i_push": POS(None, hi=1e5, doc="A, the motion test's q-current push; default designed from J, psi_f and the load (fs_motion_test.h)"),
+        "turn_deg": POS(None, hi=20.0, doc="el.deg, the injection estimate's turn that decides the motion test; default 4 (doubled where the estimate is noisier)"),
     }, default={}),
     # HF voltage injection: rotating (yang2022 sec. 3) for angle = "hfi" or
     # "blend", square-wave (yu2022 sec. 2) for angle = "swvi"
@@ -190,6 +205,14 @@ SCENARIO = {
         "T_amb": F(None, lo=-50.0, hi=300.0, doc="degC; default the machine's"),
         "T_winding0": F(None, lo=-50.0, hi=300.0, doc="degC; default the ambient"),
         "T_magnet0": F(None, lo=-50.0, hi=300.0, doc="degC; default the ambient"),
+    }, default={}),
+    # where the power goes: the converter's devices and the machine's iron loss act on the plant, every loss metered
+    # (csrc/plant/fs_losses.h; the trace's E_dc, E_cond, E_rect, E_sw, E_fe, E_mech, E_shaft)
+    "losses": T({
+        "devices": B(False, doc="the machine's [converter] module: its conduction drops act on the plant, its commutation "
+                                "energies are drawn from the converter's source (false: ideal switches, or converter.u_on, r_on)"),
+        "iron": B(False, doc="the machine's [losses] iron loss drawn from the shaft as a drag torque"),
+        "trace": B(False, doc="run the loss meters also with neither (on with either)"),
     }, default={}),
     # the machine's spatial harmonics (its [harmonics] table, csrc/plant/fs_pmsm.h)
     "harmonics": T({"enabled": B(False, doc="the flux depends on the rotor angle: back-EMF and saliency harmonics, cogging")},
@@ -279,6 +302,7 @@ def parse_scenario(data: dict, source: str | None = None) -> tuple[dict, Machine
     _per_unit(d, data, m, source)
     _fault_fields(d, m, source)
     _thermal_fields(d, m, source)
+    _losses_fields(d, m, source)
     if d["controller"]["xy_control"] and m.phases != 5:
         raise ConfigError("controller.xy_control", True, "needs a five-phase machine (the x-y plane)", source)
     steady = d["metrics"]["steady"]
@@ -324,6 +348,21 @@ def _thermal_fields(d: dict, m: Machine, source) -> None:
     for key in ("T_winding0", "T_magnet0"):
         if th[key] is None:
             th[key] = th["T_amb"]
+
+
+def _losses_fields(d: dict, m: Machine, source) -> None:
+    los, conv = d["losses"], d["converter"]
+    if los["devices"]:
+        if m.converter is None:
+            raise ConfigError("losses.devices", True, f"needs a [converter] table in the machine {m.name}: the module's "
+                              "datasheet values (fullspeed schema machine.converter)", source)
+        for key in ("u_on", "r_on"):
+            if conv[key]:
+                raise ConfigError(f"converter.{key}", conv[key], "must be 0 with losses.devices (the drops are the "
+                                  "module's, machine [converter]: one setting in one place)", source)
+    if los["iron"] and m.losses is None:
+        raise ConfigError("losses.iron", True, f"needs a [losses] table in the machine {m.name}: its iron loss "
+                          "coefficients (fullspeed schema machine.losses)", source)
 
 
 def _fault_fields(d: dict, m: Machine, source) -> None:

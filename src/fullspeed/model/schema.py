@@ -323,6 +323,22 @@ def even_grid(xs: list) -> bool:
     return bool(steps) and steps[0] > 0 and all(math.isclose(x, steps[0], rel_tol=1e-6, abs_tol=1e-9) for x in steps)
 
 
+def toml_string(s: str) -> str:
+    """s as a TOML basic string that tomllib reads back as s: quotes,
+    backslashes and the control characters (DEL too) escaped, every other
+    character written as it is (JSON's surrogate pairs for characters
+    beyond the BMP are not TOML); a lone surrogate, which UTF-8 cannot
+    hold, becomes U+FFFD."""
+    def one(ch: str) -> str:
+        o = ord(ch)
+        if ch in '"\\':
+            return "\\" + ch
+        if o < 0x20 or o == 0x7F:
+            return f"\\u{o:04X}"
+        return "\ufffd" if 0xD800 <= o <= 0xDFFF else ch
+    return '"' + "".join(one(ch) for ch in s) + '"'
+
+
 def parse_toml(text: str, field: str, source: str | None) -> dict:
     """TOML text as a table; a syntax error becomes a ConfigError."""
     try:

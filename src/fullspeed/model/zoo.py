@@ -8,7 +8,10 @@ PWM, half of them with magnetic saturation (self-saturation of the d axis,
 which polarity detection needs, and cross-saturation), dead time, current
 sensor noise and 12-bit quantization. A scenario names one as
 `machine = { zoo = k }` (and `zoo_seed`); the catalog sweep `beyond-zoo`
-runs them all (claim B-ZOO).
+runs the first SIZE (claim B-ZOO). From SIZE on the machines are the
+low-saliency family, L_q/L_d 1.0..1.2 (surface magnets, hub motors: what
+an injection cannot use), drawn otherwise alike: the draws of the first
+SIZE are not changed by it (claim B-START runs some of them).
 
 How each quantity is drawn, and why:
 - power P log-uniform 100 W..50 kW; rated speed log-uniform 1000..6000 rpm
@@ -62,7 +65,7 @@ def machine(k: int, seed: int = SEED) -> dict:
     psi_f = rng.uniform(0.5, 0.8) * u_lin / w_e
     i_rated = T / (1.5 * p * psi_f) * rng.uniform(0.8, 1.0)
     L_q = rng.uniform(0.2, 0.5) * u_lin / (w_e * i_rated)
-    xi = rng.uniform(1.2, 3.5)
+    xi = rng.uniform(1.2, 3.5) if k < SIZE else rng.uniform(1.0, 1.2)   # the same draw: the first SIZE unchanged
     L_d = L_q / xi
     R_s = rng.uniform(0.01, 0.05) * (1.0 - 0.5 * math.log10(P / 100.0) / math.log10(500.0)) * P / (1.5 * i_rated ** 2)
     J = rng.uniform(0.05, 0.4) * T / w_m
@@ -72,7 +75,7 @@ def machine(k: int, seed: int = SEED) -> dict:
     i_max = 1.5 * i_rated   # the designed limit (fullspeed.design.rules): the noise's scale
     lsb = 2 * 1.2 * 1.25 * i_max / 4096
     m = {
-        "name": f"zoo-{seed}-{k}", "kind": "ipmsm", "phases": 3, "pole_pairs": p,
+        "name": f"zoo-{seed}-{k}", "kind": "spmsm" if xi < 1.05 else "ipmsm", "phases": 3, "pole_pairs": p,
         "description": f"zoo machine {k} (seed {seed}): {P / 1e3:.3g} kW, {n_rated:.0f} rpm, {u_dc:.0f} V, "
                        f"L_q/L_d {xi:.2f}, {'saturating' if saturates else 'linear magnetics'}",
         "source": f"fullspeed.model.zoo.machine({k}, seed={seed})",

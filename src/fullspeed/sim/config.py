@@ -95,6 +95,7 @@ def build_config(sc: Scenario):
         pl.L_d3, pl.L_q3, pl.psi_f3 = m.L_d3, m.L_q3, m.psi_f3
 
     _set_thermal(cfg.thermal, m, d["thermal"])
+    _set_losses(cfg, m, d["losses"])
     if d["harmonics"]["enabled"]:
         _set_harmonics(pl, m)
 
@@ -146,7 +147,9 @@ def build_config(sc: Scenario):
     dc.i_max, dc.T_max = ctl["i_max"], ctl["T_max"]
     dc.bw_current, dc.bw_speed, dc.bw_pll = ctl["bw_current"], ctl["bw_speed"], ctl["bw_pll"]
     dc.cc_internal_model = 1 if ctl["gains"] == "internal_model" else 0
-    dc.t_dead_comp = conv["t_dead"] if ctl["dead_time_comp"] else 0.0
+    # the matrix converter's stage loses its dead time in each of the period's two intervals (fs_sim.h): the
+    # compensation's one offset per period is twice the dead time (exact when the intervals' volt-seconds are equal)
+    dc.t_dead_comp = (2.0 if imc else 1.0) * conv["t_dead"] if ctl["dead_time_comp"] else 0.0
     dc.i_dead_band = ctl["i_dead_band"]
     dc.dt_predict = 1 if ctl["dead_time_predict"] else 0
     if ctl["xy_control"]:   # the same bandwidth as the fundamental's loops
@@ -180,6 +183,10 @@ def build_config(sc: Scenario):
         dc.i_start = obs["i_start"]
         dc.a_start = p * rpm_to_rad_s(obs["start_accel_rpm_s"])
         dc.w_handover = p * rpm_to_rad_s(obs["start_handover_rpm"])
+        c = d["start"]["c"]
+        dc.r_damp, dc.w_swing = c.get("r_damp", 0.0), c.get("w_swing", 0.0)
+        dc.t_handover = obs["start_timeout"]
+        dc.w_restart = p * rpm_to_rad_s(obs["restart_rpm"])
     if ctl["angle"] in ("hfi", "blend"):
         _set_injection(dc, d, p)
     if ctl["angle"] == "swvi":
@@ -235,9 +242,35 @@ def _set_thermal(tc, m, th: dict) -> None:
     mt = m.thermal
     tc.T_amb, tc.T_ref, tc.T_w0, tc.T_m0 = th["T_amb"], mt["T_ref"], th["T_winding0"], th["T_magnet0"]
     tc.R_wa, tc.R_wm, tc.R_ma, tc.C_w, tc.C_m = (mt[k] for k in ("R_wa", "R_wm", "R_ma", "C_w", "C_m"))
-    tc.alpha_cu, tc.alpha_br, tc.P_fe_ref = mt["alpha_cu"], mt["alpha_br"], mt["P_fe_ref"]
-    tc.w_fe_ref = m.pole_pairs * rpm_to_rad_s(mt["speed_fe_rpm"])
-    tc.k_hyst, tc.k_rotor, tc.time_scale = mt["k_hyst"], mt["k_rotor"], th["time_scale"]
+    tc.alpha_cu, tc.alpha_br = mt["alpha_cu"], mt["alpha_br"]
+    _set_iron(tc.iron, m)
+    tc.k_rotor, tc.time_scale = mt["k_rotor"], th["time_scale"]
+
+
+def _set_iron(fe, m) -> None:
+    """The machine's [losses] iron loss (fs_losses.h; none without one)."""
+    if m.losses is None:
+        return
+    lo = m.losses
+    fe.P_ref, fe.k_hyst, fe.beta = lo["P_fe_ref"], lo["k_hyst"], lo["beta"]
+    fe.w_ref = m.pole_pairs * rpm_to_rad_s(lo["speed_fe_rpm"])
+    fe.psi_ref = m.psi_f if m.psi_f > 0 else 1.0   # a machine without magnet: its loss at any flux
+    # the hysteresis drag's linear band around standstill: 1 % of the loss's speed, far below any operating point
+    fe.w_band = 0.01 * rpm_to_rad_s(lo["speed_fe_rpm"])
+
+
+def _set_losses(cfg, m, los: dict) -> None:
+    """The scenario's [losses] (checked by model.scenario): the module's
+    devices into the converter, the iron loss into the plant, the meters."""
+    cfg.plant.losses = 1 if los["devices"] or los["iron"] or los["trace"] else 0
+    if los["iron"]:
+        _set_iron(cfg.plant.iron, m)
+    if los["devices"]:
+        cv, dev = m.converter, cfg.inverter.dev
+        dev.enabled = 1
+        dev.kind = lib.FS_DEV_MOSFET if cv["kind"] == "mosfet" else lib.FS_DEV_IGBT
+        for key in ("u_t", "r_t", "u_d", "r_d", "E_on", "E_off", "E_rr", "I_ref", "V_ref", "k_i_t", "k_v_t", "k_i_d", "k_v_d"):
+            setattr(dev, key, cv[key])
 
 
 def _set_injection(dc, d: dict, p: int) -> None:
@@ -260,7 +293,12 @@ def _set_injection(dc, d: dict, p: int) -> None:
         dc.blend.obs.bandwidth = bl["bw_observer"] or 0.0
         dc.blend.gate = bl["gate"]
         dc.w_inject_max = p * rpm_to_rad_s(inj["stop_rpm"])
-    if pol["enabled"]:
+    st = d["start"]
+    if pol["enabled"] and st["kind"] == "motion":
+        mc, c = dc.motion, st["c"]
+        mc.i_push, mc.i_push_max, mc.t_lock, mc.t_push = st["i_push"], c["i_push_max"], c["t_lock"], c["t_push"]
+        mc.theta_dec, mc.theta_max = math.radians(st["turn_deg"]), math.radians(c["theta_max_deg"])
+    elif pol["enabled"]:
         dc.polarity.i_pulse, dc.polarity.t_lock, dc.polarity.t_pulse = pol["i_pulse"], pol["t_lock"], pol["t_pulse"]
         dc.polarity.i_pulse_max = pol["i_pulse_max"] or 0.0   # 0: up to i_max less the carrier's peak
 

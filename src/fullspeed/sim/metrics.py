@@ -1,6 +1,7 @@
 """Metrics of a run, all measured from its traces."""
 from __future__ import annotations
 
+import bisect
 import math
 
 import numpy as np
@@ -101,6 +102,12 @@ def _steady_planned(res) -> tuple[tuple[float, float] | None, str]:
 
 def window_mask(t: np.ndarray, t0: float, t1: float) -> np.ndarray:
     return (t >= t0 - 1e-12) & (t <= t1 + 1e-12)
+
+
+def window_slice(t: np.ndarray, t0: float, t1: float) -> slice:
+    """window_mask of rising times as a slice: found by bisection, so that
+    one window costs log(len(t)) and not len(t)."""
+    return slice(int(np.searchsorted(t, t0 - 1e-12, "left")), int(np.searchsorted(t, t1 + 1e-12, "right")))
 
 
 def angle_error_stats(err_rad: np.ndarray) -> dict:
@@ -206,15 +213,18 @@ def step_metrics(res) -> list[dict]:
     t_end = float(t[-1])
 
     def window(c):
-        """From the change to the next one: an empty mask for a change after the run's end."""
-        nxt = [s for s in starts if s >= c[1] - 1e-12 and s > c[0]]
-        m = window_mask(t, c[0], min(nxt[0], t_end) if nxt else t_end)
-        return m
+        """From the change to the next start (the first s > c[0] with s >
+        c[1] - 1e-12, by bisection: a profile of n changes costs n log n, not
+        n^2): an empty slice for a change after the run's end."""
+        lo = c[1] - 1e-12
+        k = bisect.bisect_right(starts, c[0]) if lo <= c[0] else bisect.bisect_left(starts, lo)
+        return window_slice(t, c[0], min(starts[k], t_end) if k < len(starts) else t_end)
 
     w_floor = SPEED_FLOOR * sc.machine.w_m_rated
     injecting = d["controller"]["angle"] in ("hfi", "blend", "swvi")
     n_carrier = round(1.0 / (d["injection"]["f_h"] * float(t[1] - t[0]))) if injecting else 0
     out = []
+    seen: dict[str, np.ndarray] = {}   # each channel as measured (averaged once, not per change)
     for name, ch, ref_ch, unit in refs:
         to_si = rpm_to_rad_s(1.0) if unit == "rpm" else 1.0
         for c in _changes(d["references"][name]):
@@ -224,10 +234,13 @@ def step_metrics(res) -> list[dict]:
             y0, y1 = c[2] * to_si, c[3] * to_si
             band = max(SETTLE_BAND * abs(y1 - y0), w_floor if unit == "rpm" else 0.0)
             r = {"kind": "reference", "signal": ch, "t": c[0], "ramp": c[1] - c[0], "from": c[2], "to": c[3], "unit": unit}
-            y = np.asarray(tr[ch])
+            if ch not in seen:
+                seen[ch] = np.asarray(tr[ch])
+                if unit == "A" and n_carrier > 1:
+                    # the carrier's current would read as overshoot: its one-period mean (adds up to a period to the times)
+                    seen[ch] = np.convolve(seen[ch], np.full(n_carrier, 1.0 / n_carrier), mode="same")
+            y = seen[ch]
             if unit == "A" and n_carrier > 1:
-                # the carrier's current would read as overshoot: its one-period mean (adds up to a period to the times)
-                y = np.convolve(y, np.full(n_carrier, 1.0 / n_carrier), mode="same")
                 r["averaged_over"] = n_carrier * float(t[1] - t[0])
             r.update(step_response(t[m], y[m], c[0], y0, y1, band))
             if r["final"] is not None:
@@ -235,25 +248,38 @@ def step_metrics(res) -> list[dict]:
             out.append(r)
     load = d["load"]
     if mode == "speed" and load["kind"] in ("torque", "brake"):
-        ref_changes = [c for name, *_ in refs for c in _changes(d["references"][name])]
+        # the reference changes by their ends, with the earliest start among those ending later: the first change
+        # overlapping a window by bisection (a profile of n changes costs n log n, not n^2)
+        by_end = sorted((c for name, *_ in refs for c in _changes(d["references"][name])), key=lambda c: c[1])
+        ends = [c[1] for c in by_end]
+        first_after = by_end[:]
+        for k in range(len(by_end) - 2, -1, -1):
+            first_after[k] = min(by_end[k], first_after[k + 1], key=lambda c: c[0])
+
+        def first_busy(t0, t1):
+            """The earliest reference change overlapping (t0, t1), or None."""
+            k = bisect.bisect_right(ends, t0)
+            return first_after[k] if k < len(by_end) and first_after[k][0] < t1 else None
+
         for c in _changes(load["torque"]):
             if c[0] >= t_end:
                 continue
             m = window(c)
-            e = np.asarray(tr["w_m"])[m] - np.asarray(tr["w_m_ref"])[m]
+            w_ref = np.asarray(tr["w_m_ref"])[m]
+            e = np.asarray(tr["w_m"])[m] - w_ref
             up = abs(c[3]) > abs(c[2])
             sign = -1.0 if c[3] > c[2] else 1.0     # more load torque pulls the speed down
             if load["kind"] == "brake":              # a brake acts against the motion
-                sign *= float(np.sign(np.mean(tr["w_m_ref"][m]))) or 1.0
+                sign *= float(np.sign(np.mean(w_ref))) or 1.0
             name = "dip" if up else "rise"           # towards the load's pull, or away from it (less load)
             r = {"kind": "load", "signal": "w_m", "t": c[0], "ramp": c[1] - c[0], "from": c[2], "to": c[3], "unit": "N m",
                  "response": name, f"{name}_rpm": None, f"t_{name}": None, "recovery_time": None}
             # the load's response: over its change and the loop's settling time after it, where no
             # reference changes (a ramp's tracking error is not the load's)
             t_resp = c[1] + settle
-            busy = [rc for rc in ref_changes if rc[0] < t_resp and rc[1] > c[0]]
+            busy = first_busy(c[0], t_resp)
             if busy:
-                r["note"] = (f"the speed reference changes from {busy[0][0]:g} to {busy[0][1]:g} s: the load's response "
+                r["note"] = (f"the speed reference changes from {busy[0]:g} to {busy[1]:g} s: the load's response "
                              "cannot be told from the ramp's tracking")
                 out.append(r)
                 continue
@@ -263,7 +289,7 @@ def step_metrics(res) -> list[dict]:
                 k = int(np.argmax(np.where(near, dev, -np.inf)))
                 r[f"{name}_rpm"] = rad_s_to_rpm(float(max(dev[k], 0.0)))
                 r[f"t_{name}"] = float(t[m][k])
-            band = np.maximum(SETTLE_BAND * np.abs(np.asarray(tr["w_m_ref"])[m]), w_floor)
+            band = np.maximum(SETTLE_BAND * np.abs(w_ref), w_floor)
             r["recovery_time"] = _settled_from(t[m], np.abs(e) > band, c[0])
             if r["recovery_time"] is None:
                 r["note"] = "the speed did not return within its band before the next change"
@@ -398,6 +424,31 @@ def job_checks(res) -> dict:
         out["speed_end"] = {"speed_rpm": rad_s_to_rpm(w), "ref_rpm": rad_s_to_rpm(w_ref), "band_rpm": rad_s_to_rpm(band),
                             "window": [float(t[m][0]), float(t[m][-1])], "far": abs(w - w_ref) > band}
     return out
+# the starts after which the loops run on an estimate from standstill (design.start)
+START_KINDS = {"pulses": "polarity pulses", "motion": "motion test", "if": "I/f start", "known": "at a known angle"}
+
+
+def start_motion(res) -> dict | None:
+    """The rotor's motion before the loops first run on an estimate
+    (SENSORLESS_STAGES): its largest turn from where it stood, el.deg and
+    mechanical degrees, its largest speed, rpm, until when (None: the loops
+    never did), and the bound the start's design gives for it (el.deg; None
+    where it has none). None for a run that does not start sensorless."""
+    st = res.scenario.data.get("start", {})
+    kind = st.get("kind")
+    tr = res.traces
+    t = np.asarray(tr["t"])
+    if kind not in START_KINDS or t.size == 0:
+        return None
+    on = np.isin(np.asarray(tr["stage"]).astype(int), SENSORLESS_STAGES)
+    on = on & np.r_[on[1:], False]   # for two samples at least: the step a start halts in reads as one
+    k = int(np.argmax(on)) if on.any() else t.size - 1
+    theta = np.unwrap(np.asarray(tr["theta_e"])[: k + 1])
+    turn = float(np.degrees(np.max(np.abs(theta - theta[0]))))
+    p = res.scenario.machine.pole_pairs
+    return {"kind": kind, "until": float(t[k]) if on.any() else None, "turn_deg": turn, "turn_deg_mech": turn / p,
+            "speed_max_rpm": rad_s_to_rpm(float(np.max(np.abs(np.asarray(tr["w_m"])[: k + 1])))),
+            "bound_deg": st.get("c", {}).get("bound_deg")}
 
 
 def compute_metrics(res) -> dict:
@@ -437,6 +488,9 @@ def compute_metrics(res) -> dict:
         out["faults"] = faults
     out["steps"] = step_metrics(res)
     out["stages"] = stage_metrics(tr)
+    motion = start_motion(res)
+    if motion is not None:
+        out["start_motion"] = motion
     if not m.any():
         return out
     mode = res.scenario.data["controller"]["mode"]
@@ -451,8 +505,49 @@ def compute_metrics(res) -> dict:
         out["i_q_error_rms"] = float(np.sqrt(np.mean((tr["i_q_ref"][m] - tr["i_q"][m]) ** 2)))
     out["T_e_mean"] = float(np.mean(tr["T_e"][m]))
     out["T_e_pp"] = float(np.ptp(tr["T_e"][m]))
+    power = power_metrics(res, m)
+    if power is not None:
+        out["power"] = power
     out["theta_err_deg"] = angle_error_stats(tr["theta_err"][m])
     out["est_err_deg"] = angle_error_stats(tr["est_err"][m])
+    return out
+
+
+# the loss meters (fs_sim.h) by kind: the machine's, then the converter's
+LOSS_METERS = {"P_cu_W": ("E_cu", "copper"), "P_fe_W": ("E_fe", "iron"), "P_mech_W": ("E_mech", "friction"),
+               "P_cond_W": ("E_cond", "conduction"), "P_sw_W": ("E_sw", "commutation"),
+               "P_rect_W": ("E_rect", "rectifier"), "P_filter_W": ("E_rf", "input filter")}
+
+
+def power_metrics(res, m: np.ndarray) -> dict | None:
+    """Where the power goes over the window m, from the loss meters (the
+    scenario's [losses] on; else None): the converter's source's power (the
+    dc link's, or the grid's for the matrix converter), the machine's
+    terminals', the shaft's, each loss, and the efficiencies (motoring:
+    out over in; generating: the other way)."""
+    if not any(res.scenario.data["losses"].values()):
+        return None
+    tr, t = res.traces, res.traces["t"]
+    k = np.flatnonzero(m)
+    if k.size < 2 or not t[k[-1]] > t[k[0]]:
+        return None
+    dt = t[k[-1]] - t[k[0]]
+
+    def power(ch):
+        return float((tr[ch][k[-1]] - tr[ch][k[0]]) / dt)
+
+    imc = res.scenario.data["converter"]["kind"] == "imc"
+    out = {"P_source_W": power("E_grid" if imc else "E_dc"), "P_in_W": power("E_in"), "P_shaft_W": power("E_shaft")}
+    out.update({key: power(ch) if key != "P_filter_W" or imc else 0.0 for key, (ch, _) in LOSS_METERS.items()})
+
+    def eta(a, b):   # a upstream of b
+        if a > 0.0 and b > 0.0:
+            return b / a
+        return a / b if a < 0.0 and b < 0.0 else None
+
+    out["eta_machine"] = eta(out["P_in_W"], out["P_shaft_W"])
+    out["eta_converter"] = eta(out["P_source_W"], out["P_in_W"])
+    out["eta_drive"] = eta(out["P_source_W"], out["P_shaft_W"])
     return out
 
 
@@ -466,6 +561,13 @@ def summary_lines(metrics: dict) -> list[str]:
     if metrics.get("speed_error_pct") is not None:
         lines.append(f"  speed {metrics['speed_rpm']:.2f} rpm against {metrics['speed_ref_rpm']:.2f} rpm: "
                      f"error {metrics['speed_error_pct']:+.4f} %")
+    p = metrics.get("power")
+    if p is not None:
+        losses = ", ".join(f"{label} {p[key]:.4g}" for key, (_, label) in LOSS_METERS.items() if p[key] != 0.0)
+        effs = ", ".join(f"{k} {100 * p[f'eta_{k}']:.2f} %" for k in ("machine", "converter", "drive")
+                         if p[f"eta_{k}"] is not None)
+        lines.append(f"  power: source {p['P_source_W']:.4g} W, machine terminals {p['P_in_W']:.4g} W, shaft "
+                     f"{p['P_shaft_W']:.4g} W; losses (W): {losses}" + (f"; efficiency {effs}" if effs else ""))
     if isinstance(metrics.get("theta_err_deg"), dict) and metrics["theta_err_deg"]["mean"] is not None:
         e = metrics["theta_err_deg"]
         lines.append(f"  angle error (true - used) mean {e['mean']:+.2f}, peak-to-peak {e['pp']:.2f}, max |.| {e['max']:.2f} el.deg")
@@ -495,6 +597,13 @@ def summary_lines(metrics: dict) -> list[str]:
     if metrics.get("sensorless_err_deg_max") is not None:
         lines.append(f"largest angle error while sensorless (the stages start, injection, blend, backemf, flux_weakening; "
                      f"outside 50 ms after each step): {metrics['sensorless_err_deg_max']:.2f} el.deg")
+    sm = metrics.get("start_motion")
+    if sm is not None:
+        until = f"before the loops ran on the estimate at {sm['until']:.4f} s" if sm["until"] is not None \
+            else "and the loops never ran on the estimate"
+        bound = f" (the start's bound {sm['bound_deg']:.1f} el.deg)" if sm.get("bound_deg") is not None else ""
+        lines.append(f"start ({START_KINDS[sm['kind']]}): the rotor turned {sm['turn_deg']:.2f} el.deg "
+                     f"({sm['turn_deg_mech']:.2f} deg mechanical), at most {sm['speed_max_rpm']:.1f} rpm, {until}{bound}")
     lines += lock_lines(metrics)
     return lines
 
@@ -583,6 +692,7 @@ def fault_report(res) -> dict | None:
 METRIC_NAMES = (
     "stop_reason", "stop_time", "sim_time", "wall_time", "speed_ratio", "i_phase_max",
     "lock_lost_at", "recoveries", "true_loss_at", "silent_failure", "sensorless_err_deg_max",
+    "start_motion.kind", "start_motion.turn_deg", "start_motion.speed_max_rpm", "start_motion.bound_deg",
     "speed_ref_rpm", "speed_rpm", "speed_error_pct", "i_d_error_rms", "i_q_error_rms",
     "T_e_mean", "T_e_pp",
     "theta_err_deg.mean", "theta_err_deg.pp", "theta_err_deg.max",

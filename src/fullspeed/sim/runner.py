@@ -27,6 +27,7 @@ CHANNELS = [
     "i_grid_a", "v_pn", "u_ab", "alpha", "E_grid", "E_rf", "W_filter",
     "lock_resid", "lock_lost", "stage", "recoveries", "u_dc",
     "T_winding", "T_magnet", "R_s_true", "psi_f_true", "R_s_hat", "psi_f_hat",
+    "E_dc", "E_cond", "E_rect", "E_sw", "E_fe", "E_mech", "E_shaft",
 ]
 assert len(CHANNELS) == lib.FS_CH_N, "channel names out of step with fs_sim.h"
 
@@ -42,7 +43,8 @@ UNITS = {
                      "lock_resid", "lock_lost", "recoveries"), "1"),
     **dict.fromkeys(("w_m_ref", "w_m_hat", "w_m_est"), "rad/s"),
     **dict.fromkeys(("theta_hat", "theta_err", "theta_est", "est_err"), "rad"),
-    **dict.fromkeys(("E_in", "E_cu", "E_airgap", "W_mag", "E_grid", "E_rf", "W_filter"), "J"),
+    **dict.fromkeys(("E_in", "E_cu", "E_airgap", "W_mag", "E_grid", "E_rf", "W_filter",
+                     "E_dc", "E_cond", "E_rect", "E_sw", "E_fe", "E_mech", "E_shaft"), "J"),
     "stage": "name",
     "T_winding": "degC", "T_magnet": "degC", "R_s_true": "ohm", "R_s_hat": "ohm", "psi_f_true": "Wb", "psi_f_hat": "Wb",
 }
@@ -55,6 +57,7 @@ STOP_REASONS = {
     lib.FS_STOP_LOSS_OF_LOCK: "loss_of_lock",
     lib.FS_STOP_POLARITY: "polarity_undetermined",
     lib.FS_STOP_OVERSPEED: "overspeed",
+    lib.FS_STOP_START: "start_failed",
 }
 
 @dataclass
@@ -158,21 +161,34 @@ class Simulation:
     def time(self) -> float:
         return lib.fs_sim_time(self._sim)
 
+    @property
+    def step_count(self) -> int:
+        """Control periods run so far."""
+        return lib.fs_sim_step_count(self._sim)
+
+    def steps(self, t: float) -> int:
+        """The control periods a run to t takes (fs_sim_steps: the nearest
+        whole number, |n Tc - t| <= Tc / 2), the count advance(t) stops at."""
+        return lib.fs_sim_steps(self._sim, t)
+
     def advance(self, t_end: float) -> str:
-        """Run to t_end (or a stop). Returns the status: running, done or a stop reason."""
+        """Run to t_end (or a stop): to steps(t_end) periods. Returns the status: running, done or a stop reason."""
+        return self.advance_steps(self.steps(t_end))
+
+    def advance_steps(self, k_end: int) -> str:
+        """Run until k_end control periods have run in all (or a stop). Returns the status."""
         rows = self._rows
-        Tc = self._cfg.drive.Ts
         dec = self._cfg.decimation
         while True:
             self._n += rows[0]; rows[0] = 0   # noqa: E702 (no call or jump between the two: no signal handler runs there)
             cap = self._buf.shape[1]
-            need = self._n + int((t_end - self.time) / (Tc * dec)) + 2
+            need = self._n + max(0, k_end - self.step_count) // dec + 2
             if need > cap:
                 grown = np.empty((lib.FS_CH_N, max(need, 2 * cap)))
                 grown[:, : self._n] = self._buf[:, : self._n]
                 self._buf, cap = grown, grown.shape[1]
             ptr = ffi.cast("double *", self._buf.ctypes.data) + self._n
-            rc = lib.fs_sim_run_cols(self._sim, t_end, ptr, cap, cap - self._n, rows)
+            rc = lib.fs_sim_run_cols(self._sim, k_end, ptr, cap, cap - self._n, rows)
             self._n += rows[0]; rows[0] = 0   # noqa: E702
             if rc == lib.FS_RUN_BUFFER_FULL:
                 continue
@@ -187,16 +203,28 @@ class Simulation:
         return None if math.isnan(t) else t
 
     def polarity(self) -> dict | None:
-        """The polarity detection's outcome (fs_polarity.h): its stage, the
-        relative difference D of the last pulse pair and its margin (>= 1
-        decides), the pairs run, the last pulse; None without detection."""
+        """The polarity detection's outcome: by pulses (fs_polarity.h) its
+        stage, the relative difference D of the last pulse pair and its
+        margin (>= 1 decides), the pairs run, the last pulse; by the motion
+        test (fs_motion_test.h, method "motion") its stage, the estimate's
+        turn and the threshold it had to reach (el.deg), the pushes run, the
+        last push; None without detection."""
         drv = lib.fs_sim_drive(self._sim)
-        if drv.cfg.polarity.i_pulse <= 0.0 or drv.cfg.angle_source not in (lib.FS_ANGLE_HFI, lib.FS_ANGLE_BLEND):
+        if drv.cfg.angle_source not in (lib.FS_ANGLE_HFI, lib.FS_ANGLE_BLEND):
+            return None
+        if drv.cfg.motion.i_push > 0.0:
+            mt = drv.mt
+            stages = {lib.FS_MOTION_LOCK: "lock", lib.FS_MOTION_PUSH: "doublet", lib.FS_MOTION_SETTLE: "settle",
+                      lib.FS_MOTION_DONE: "done", lib.FS_MOTION_UNDETERMINED: "undetermined"}
+            return {"method": "motion", "stage": stages.get(mt.stage, str(mt.stage)), "turn_deg": math.degrees(mt.turn),
+                    "threshold_deg": math.degrees(mt.threshold), "attempts": int(mt.attempts), "i_push": float(mt.i_now),
+                    "flip": bool(mt.flip), "moved": bool(mt.moved)}
+        if drv.cfg.polarity.i_pulse <= 0.0:
             return None
         p = drv.pol
         stages = {lib.FS_POLARITY_LOCK: "lock", lib.FS_POLARITY_POS: "pulse", lib.FS_POLARITY_NEG: "pulse",
                   lib.FS_POLARITY_DONE: "done", lib.FS_POLARITY_UNDETERMINED: "undetermined"}
-        return {"stage": stages.get(p.stage, str(p.stage)), "d": float(p.d), "margin": float(p.margin),
+        return {"method": "pulses", "stage": stages.get(p.stage, str(p.stage)), "d": float(p.d), "margin": float(p.margin),
                 "attempts": int(p.attempts), "i_pulse": float(p.i_now), "flip": bool(p.flip), "moved": bool(p.moved)}
 
     def halt(self) -> dict | None:
@@ -204,7 +232,8 @@ class Simulation:
         fault, and for a loss of lock the back-EMF its zero-current wait last
         measured, V, and the speed that says by the controller's magnet flux."""
         drv = lib.fs_sim_drive(self._sim)
-        faults = {lib.FS_FAULT_POLARITY: "polarity", lib.FS_FAULT_LOCK: "lock", lib.FS_FAULT_OVERSPEED: "overspeed"}
+        faults = {lib.FS_FAULT_POLARITY: "polarity", lib.FS_FAULT_LOCK: "lock", lib.FS_FAULT_OVERSPEED: "overspeed",
+                  lib.FS_FAULT_START: "start"}
         if drv.phase != lib.FS_PHASE_HALT:
             return None
         c = drv.cfg
@@ -234,8 +263,11 @@ def simulate(scenario: Scenario | str, progress: bool = False, chunk: float | No
     sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario, overrides)
     sim = Simulation(sc)
     T = sc.duration
+    # periods, counted once by the C core's rule (fs_sim_steps): the loop ends
+    # whatever the remainder of T after its last whole period
+    n_end = sim.steps(T)
     grow = chunk is None and not progress
-    chunk = chunk or max(T / 100.0, 1e-3)
+    n_chunk = max(1, sim.steps(chunk or max(T / 100.0, 1e-3)))
     bar = None
     if progress:
         from tqdm import tqdm
@@ -244,13 +276,13 @@ def simulate(scenario: Scenario | str, progress: bool = False, chunk: float | No
     t0 = time.perf_counter()
     status = "running"
     try:
-        while sim.time < T - 1e-12 and status == "running":
+        while sim.step_count < n_end and status == "running":
             before, w0 = sim.time, time.perf_counter()
-            status = sim.advance(min(sim.time + chunk, T))
+            status = sim.advance_steps(min(sim.step_count + n_chunk, n_end))
             if bar is not None:
                 bar.update(sim.time - before)
             elif grow and time.perf_counter() - w0 < CHUNK_WALL_S:
-                chunk *= 2.0
+                n_chunk *= 2
     except KeyboardInterrupt:
         status = "interrupted"
     finally:

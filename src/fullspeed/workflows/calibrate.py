@@ -31,7 +31,6 @@ the field (the machine, the carrier, the filters): design.xcomp.check_table_sett
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -41,6 +40,7 @@ from ..design.xcomp import table_settings
 from ..model.errors import ConfigError
 from ..model.files import write_atomic
 from ..model.scenario import Scenario
+from ..model.schema import toml_string
 from ..model.units import rad_s_to_rpm
 from ..sim.metrics import window_mask
 from ..sim.runner import simulate
@@ -199,14 +199,8 @@ def _check_lock_at_zero(res, sc: Scenario) -> None:
                                f"encoder at {T_START:g} s (> {LOCK_DEG:g}); no table written", sc.source)
 
 
-def _toml_str(s: str) -> str:
-    """A TOML basic string: JSON's escapes, but characters outside the BMP
-    written as they are (JSON's surrogate pairs are not valid TOML)."""
-    return json.dumps(s, ensure_ascii=False)
-
-
 def _toml_value(v) -> str:
-    return _toml_str(v) if isinstance(v, str) else f"{v:.9g}"
+    return toml_string(v) if isinstance(v, str) else f"{v:.9g}"
 
 
 def write_table(table: dict, path: Path) -> Path:
@@ -217,7 +211,7 @@ def write_table(table: dict, path: Path) -> Path:
         return "[" + ", ".join(f"{x:g}" for x in xs) + "]"
     text = ("# Cross-saturation table of the HF injection estimator (fullspeed calibrate)\n"
             "[xcomp]\n"
-            f"source = {_toml_str(table['source'])}\n"
+            f"source = {toml_string(table['source'])}\n"
             + f"i_q = {arr(table['i_q'])}              # A\n"
             f"delta_deg = {arr(table['delta_deg'])}    # el.deg, theta_hat - theta_r uncompensated\n")
     if table.get("settings"):

@@ -14,6 +14,22 @@ an edit here (it is then described by its header comment and "set by
 fullspeed.sim.build_config"). Floats are written with 9 significant digits,
 which round-trips every float32 exactly.
 
+Text from the input (the scenario's and the machine's names, the
+scenario's path) reaches the files only inside comments, reduced to
+printable ASCII without '*' and '\\' (c_comment): no name can close a
+comment, continue a line or carry a character that displays otherwise
+than it compiles. The constant's name (--name) must be a C identifier that
+no keyword, no identifier of the C library or of the project (fs_*.h), and
+no name C reserves takes, and neither may the macros made from it
+(NAME_H, NAME_SIZE, NAME_EXPORT_ID). The configuration is handed to
+fs_drive_init before anything is written: what the drive would refuse at
+start-up is refused here, in the line `fullspeed run` gives.
+
+The two files are bound to each other: the header defines NAME_EXPORT_ID,
+a hash of the export, and the source refuses to compile (#error) with
+another header, so that a pair mixed by a kill between the two renames, or
+by copying one file of two exports, cannot be built into a firmware.
+
 Two checks that header and library agree: the .c file static-asserts the size
 of fs_drive_config and the offset of every field it initializes (a header
 changed since the export fails to compile, naming the field), and the
@@ -23,15 +39,16 @@ version refuses it, drv->fail = "config_size").
 """
 from __future__ import annotations
 
+import hashlib
 import math
 import re
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
 
-from .._core import ffi
+from .._core import ffi, lib
 from ..design.scenario import load_scenario
-from ..model.errors import ConfigError
+from ..model.errors import ConfigError, SimulationError
 from ..model.files import out_folder, write_atomic
 from ..model.scenario import Scenario
 from ..model.schema import parse_toml, read_toml
@@ -63,6 +80,10 @@ KEYS = {
     "lock_time": "controller.lock_time", "lock_recover": "controller.lock", "t_recover": "controller.recover_time",
     "lock_retries": "controller.lock_retries", "w_over": "controller.overspeed_rpm",
     "i_start": "observer.i_start", "a_start": "observer.start_accel_rpm_s", "w_handover": "observer.start_handover_rpm",
+    "r_damp": "observer.start_damping", "w_swing": "observer.start_damping", "t_handover": "observer.start_timeout",
+    "w_restart": "observer.restart_rpm", "motion.i_push": "start.i_push", "motion.i_push_max": "start.i_push",
+    "motion.t_lock": "polarity.t_lock",   # and the observer's pull-in (design.start) "motion.t_push": "start.i_push", "motion.theta_dec": "start.turn_deg",
+    "motion.theta_max": "start.turn_deg",
     "hfi.u_h": "injection.u_h", "hfi.w_h": "injection.f_h", "hfi.w_b_p": "injection.bw_filter_p",
     "hfi.w_b_n": "injection.bw_filter_n", "hfi.obs.bandwidth": "injection.bw_observer", "hfi.xcomp": "injection.xcomp",
     "hfi.leak": "injection.leak", "hfi.lag": "injection.tracking", "dt_predict": "controller.dead_time_predict",
@@ -82,7 +103,84 @@ CHOICES = {"fw_hold", "cc_internal_model", "lock_recover", "dt_predict", "hfi.le
            "blend.gate", "swvi.carrier_off", "imc_depth", "delay"}
 # The blocks only some angle sources or converters read: the others carry their defaults unread
 USED_BY = {"smo.": ("smo", "blend"), "hfi.": ("hfi", "blend"), "blend.": ("blend",), "polarity.": ("hfi", "blend"),
+           "motion.": ("hfi", "blend"),
            "swvi.": ("swvi",)}
+
+
+# -- names: what --name may be, what a comment may hold --------------------------
+
+C_KEYWORDS = frozenset("""
+    auto break case char const continue default do double else enum extern float for goto if inline int long
+    register restrict return short signed sizeof static struct switch typedef union unsigned void volatile while
+    _Alignas _Alignof _Atomic _BitInt _Bool _Complex _Decimal128 _Decimal32 _Decimal64 _Generic _Imaginary
+    _Noreturn _Static_assert _Thread_local alignas alignof bool constexpr false nullptr static_assert
+    thread_local true typeof typeof_unqual asm fortran""".split())   # C23's too, and the common extensions
+# What the generated files include (<math.h>, <stddef.h>; <stdint.h> and
+# <stdbool.h> through fs_types.h) declares or defines, with glibc's extras of
+# <math.h> (compiled as gnu11, without -std=c*), and the names a program
+# must not give an object (main, errno, the standard streams).
+_MATH = """acos asin atan atan2 cos sin tan acosh asinh atanh cosh sinh tanh exp exp2 expm1 frexp ilogb ldexp log
+    log10 log1p log2 logb modf scalbn scalbln cbrt fabs hypot pow sqrt erf erfc lgamma tgamma ceil floor nearbyint
+    rint lrint llrint round lround llround trunc fmod remainder remquo copysign nan nextafter nexttoward fdim fmax
+    fmin fma exp10 pow10 drem gamma significand scalb sincos finite isinf isnan j0 j1 jn y0 y1 yn lgamma_r""".split()
+C_LIBRARY = frozenset([*_MATH, *(f + s for f in _MATH for s in "fl"), *"""
+    NULL offsetof size_t ptrdiff_t wchar_t max_align_t nullptr_t unreachable main errno assert stdin stdout stderr
+    EOF NAN INFINITY HUGE_VAL HUGE_VALF HUGE_VALL FP_NAN FP_INFINITE FP_ZERO FP_SUBNORMAL FP_NORMAL FP_FAST_FMA
+    FP_FAST_FMAF FP_FAST_FMAL FP_ILOGB0 FP_ILOGBNAN MATH_ERRNO MATH_ERREXCEPT math_errhandling float_t double_t
+    fpclassify isfinite isnormal signbit isgreater isgreaterequal isless islessequal islessgreater isunordered
+    M_E M_LOG2E M_LOG10E M_LN2 M_LN10 M_PI M_PI_2 M_PI_4 M_1_PI M_2_PI M_2_SQRTPI M_SQRT2 M_SQRT1_2 MAXFLOAT
+    signgam true false bool __bool_true_false_are_defined""".split()])
+# Whole families of names: what <stdint.h> and <math.h> define by pattern,
+# and what C reserves at file scope (a leading underscore, C11 7.1.3).
+C_FAMILIES = re.compile(r"_.*|u?int\w*_t|U?INT\w*_(?:MAX|MIN|C|WIDTH)|(?:SIZE|PTRDIFF|SIG_ATOMIC|WCHAR|WINT)_(?:MAX|MIN|WIDTH)"
+                        r"|(?:FP|MATH)_[A-Z].*")
+# The C library's headers: NAME.h beside the source would shadow one of them (-I the export's folder)
+C_HEADERS = frozenset("""assert complex ctype errno fenv float inttypes iso646 limits locale math setjmp signal
+    stdalign stdarg stdatomic stdbit stdbool stdckdint stddef stdint stdio stdlib stdnoreturn string tgmath threads
+    time uchar wchar wctype""".split())
+
+
+@lru_cache(maxsize=1)
+def project_names(control: Path = CONTROL) -> frozenset[str]:
+    """The identifiers of the C core the generated files see: its functions,
+    enum constants and types (as the cffi module has them), the macros and
+    include guards of its headers."""
+    typedefs, structs, _unions = ffi.list_types()
+    names = set(dir(lib)) | set(typedefs) | set(structs)
+    for h in Path(control).glob("*.h"):
+        names.update(re.findall(r"^\s*#\s*(?:define|ifndef|ifdef)\s+(\w+)", h.read_text(), re.M))
+    return frozenset(names)
+
+
+def check_name(name) -> str:
+    """--name as the constant's name, or a ConfigError saying why not."""
+    def refuse(why: str):
+        raise ConfigError("--name", name, f"{why}; choose another C identifier", None)
+
+    if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]{0,62}", name):
+        refuse("must be a C identifier (letters, digits, _; not starting with a digit; at most 63)")
+    if name in C_HEADERS or (CONTROL / f"{name}.h").exists():
+        refuse(f"{name}.h would shadow the {'C library' if name in C_HEADERS else 'C core'}'s header of that name")
+    for n in (name, f"{name.upper()}_H", f"{name.upper()}_SIZE", f"{name.upper()}_EXPORT_ID"):
+        what = "it" if n == name else f"the macro {n} made from it"
+        if n in C_KEYWORDS:
+            refuse(f"{what} is a C keyword")
+        if n in C_LIBRARY:
+            refuse(f"{what} is declared or defined by the C library the files include")
+        if n in project_names():
+            refuse(f"{what} is an identifier of the C core (csrc/control)")
+        if C_FAMILIES.fullmatch(n):
+            refuse(f"{what} is of a family of names C reserves, or <stdint.h> or <math.h> defines")
+    return name
+
+
+def c_comment(text) -> str:
+    """Text from the input for a /* */ comment: printable ASCII, with '*'
+    and '\\' written '_', '??' written '?_' (no trigraph) and any other
+    character <U+XXXX> (a newline, a bidirectional control): it cannot end
+    the comment, splice a line or display as what it is not."""
+    out = (("_" if ch in "*\\" else ch) if 32 <= ord(ch) < 127 else f"<U+{ord(ch):04X}>" for ch in str(text))
+    return "".join(out).replace("??", "?_")
 
 
 # -- the header comments: what each field is, with its unit -------------------
@@ -288,26 +386,42 @@ def render(sc: Scenario, name: str, overrides: dict | None = None) -> tuple[str,
         what = comments.get((struct, field), "")
         if path is None:   # a sub-block: its fields say where they came from
             return what or field
-        origin = _origin(path, value, sc, raw, overrides)
+        origin = c_comment(_origin(path, value, sc, raw, overrides))   # it holds the machine's and scenario's names
         return f"{what}; {origin}" if what else origin
 
-    guard = f"{name.upper()}_H"
+    guard, NAME = f"{name.upper()}_H", name.upper()
     size = ffi.sizeof("fs_drive_config")
-    banner = (f"/* Generated by `fullspeed export {sc.name}`: the fs_drive_config the simulation of\n"
-              f" * scenario {sc.name} ({sc.source or 'a scenario table'}) hands to fs_drive_init, byte for byte.\n"
-              f" * Machine {sc.machine.name}; do not edit: change the scenario and export again. */\n")
-    header = (banner + f"#ifndef {guard}\n#define {guard}\n\n#include \"fs_drive.h\"\n\n"
-              f"/* sizeof(fs_drive_config) when exported; {name}.config_size holds it too and\n"
-              f" * fs_drive_init refuses the configuration if the library's differs */\n"
-              f"#define {name.upper()}_SIZE {size}u\n\n"
-              f"extern const fs_drive_config {name};\n\n#endif /* {guard} */\n")
+    banner = (f"/* Generated by `fullspeed export {c_comment(sc.name)}`: the fs_drive_config the simulation of\n"
+              f" * scenario {c_comment(sc.name)} ({c_comment(sc.source or 'a scenario table')}) hands to fs_drive_init, "
+              f"byte for byte.\n * Machine {c_comment(sc.machine.name)}; do not edit: change the scenario and export again. */\n")
     body = _initializer(ffi.typeof("fs_drive_config"), dc[0], "", "    ", describe)
-    source = (banner + f"#include <math.h>\n#include <stddef.h>\n#include \"{name}.h\"\n\n"
-              "/* The layout this configuration was written for: a header that changed since\n"
+    config = ("/* The layout this configuration was written for: a header that changed since\n"
               " * the export fails here, naming the field. */\n"
               + "\n".join(layout_asserts("fs_drive_config")) + "\n\n"
               f"const fs_drive_config {name} = {{\n" + "\n".join(body) + "\n};\n")
+    export_id = hashlib.sha256((banner + name + config).encode()).hexdigest()[:8]
+    header = (banner + f"#ifndef {guard}\n#define {guard}\n\n#include \"fs_drive.h\"\n\n"
+              f"/* sizeof(fs_drive_config) when exported; {name}.config_size holds it too and\n"
+              f" * fs_drive_init refuses the configuration if the library's differs */\n"
+              f"#define {NAME}_SIZE {size}u\n"
+              f"/* this export: {name}.c compiles only with the header exported with it */\n"
+              f"#define {NAME}_EXPORT_ID 0x{export_id}u\n\n"
+              f"extern const fs_drive_config {name};\n\n#endif /* {guard} */\n")
+    source = (banner + f"#include <math.h>\n#include <stddef.h>\n#include \"{name}.h\"\n\n"
+              f"#if !defined({NAME}_EXPORT_ID) || {NAME}_EXPORT_ID != 0x{export_id}u\n"
+              f"#error \"{name}.h is not the header exported with {name}.c (another export, or one cut short): export again\"\n"
+              "#endif\n\n" + config)
     return header, source
+
+
+def check_drive(dc, sc: Scenario) -> None:
+    """fs_drive_init on the configuration as exported: a SimulationError in
+    the words of fs_sim_create (what `fullspeed run` says) if it is refused."""
+    drv = ffi.new("fs_drive *")
+    st = lib.fs_drive_init(drv, dc)
+    if st != lib.FS_OK:
+        fail = ffi.string(drv.fail).decode() if drv.fail != ffi.NULL else "?"
+        raise SimulationError(f"{sc.source or sc.name}: controller.{fail}: {ffi.string(lib.fs_status_str(st)).decode()}")
 
 
 def _write(path: Path, text: str) -> None:
@@ -317,9 +431,11 @@ def _write(path: Path, text: str) -> None:
 def export(scenario, out: str | Path, name: str = "fs_config", overrides: dict | None = None) -> list[Path]:
     """Write out/<name>.h and out/<name>.c for a scenario (name, path or
     Scenario; a name or path with the overrides, as `--set` gives them)."""
-    if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]{0,62}", name or ""):
-        raise ConfigError("--name", name, "must be a C identifier (letters, digits, _; not starting with a digit)", None)
+    check_name(name)
     sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario, overrides or None)
+    dc, keep = drive_config(sc)
+    check_drive(dc, sc)   # as exported: the bytes render writes are build_config's, as these
+    del keep
     header, source = render(sc, name, overrides)
     out = out_folder(out)
     paths = [out / f"{name}.h", out / f"{name}.c"]

@@ -7,10 +7,7 @@ Each quantity comes with its status and, when it failed, the reason and the
 step; no value is reported without a status."""
 from __future__ import annotations
 
-import json
 import math
-import os
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,7 +18,9 @@ from .._core import ffi, lib
 from ..design.machine import machine_from_dict
 from ..design.scenario import load_scenario, scenario_from_dict
 from ..model.errors import ConfigError, SimulationError
+from ..model.files import replace_folder
 from ..model.scenario import Scenario
+from ..model.schema import toml_string
 from ..model.zoo import SEED as ZOO_SEED
 from ..model.zoo import machine as zoo_machine
 from ..sim.config import build_config, set_fluxmap
@@ -198,7 +197,7 @@ def _toml_value(v) -> str:
     if isinstance(v, float):
         return repr(v) if math.isfinite(v) else ("nan" if math.isnan(v) else ("inf" if v > 0 else "-inf"))
     if isinstance(v, str):
-        return json.dumps(v)
+        return toml_string(v)
     if isinstance(v, (list, tuple)):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
     raise TypeError(type(v))
@@ -213,17 +212,6 @@ def _toml(tables: dict[str, dict]) -> str:
             if v is not None:
                 out.append(f"{k} = {_toml_value(v)}")
     return "\n".join(out).lstrip() + "\n"
-
-
-def _write_atomic(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def report_tables(res: Identification) -> dict[str, dict]:
@@ -281,17 +269,20 @@ def _machine_toml(tab: dict) -> str:
     return _toml({"": top, **subs})
 
 
+OUTPUTS = ("identification.toml", "machine.toml")   # what an identification's folder holds
+
+
 def write_identification(res: Identification, sc: Scenario, out: Path) -> list[Path]:
     """identification.toml (every quantity with its status) and, when the
-    electrical and mechanical quantities are all identified, machine.toml."""
-    out.mkdir(parents=True, exist_ok=True)
-    paths = [out / "identification.toml"]
-    _write_atomic(paths[0], _toml(report_tables(res)))
+    electrical and mechanical quantities are all identified, machine.toml:
+    the folder replaced as a whole (files.replace_folder), so that it never
+    pairs one identification's report with another's machine, and a failed
+    identification leaves no machine.toml of an earlier one."""
+    files = {OUTPUTS[0]: _toml(report_tables(res))}
     tab = machine_table(res, sc)
     if tab is not None:
-        paths.append(out / "machine.toml")
-        _write_atomic(paths[1], _machine_toml(tab))
-    return paths
+        files[OUTPUTS[1]] = _machine_toml(tab)
+    return replace_folder(out, files, OUTPUTS)
 
 
 def print_identification(res: Identification) -> None:

@@ -18,6 +18,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import select
 import signal
 import sys
 import threading
@@ -57,11 +58,13 @@ def _identity(fn: Callable, tasks: list[dict]) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def read_journal(path: Path, n: int) -> dict[int, dict]:
+def read_journal(path: Path, n: int, check: Callable[[dict], bool] | None = None) -> dict[int, dict]:
     """The finished tasks by index. A line cut short by a kill is dropped and
     the file truncated to its last whole line, so appends stay well formed.
     A line that is not a task's result (garbage, NULs, a record without a
-    result table) is skipped: its task runs again."""
+    result table, a result `check` refuses: a hand-edited or foreign line
+    with wrong types or without what the task returns) is skipped: its task
+    runs again."""
     kind = path_kind(path)
     if kind is None:
         return {}
@@ -81,7 +84,8 @@ def read_journal(path: Path, n: int) -> dict[int, dict]:
         if not isinstance(rec, dict):
             continue
         k, result = rec.get("task"), rec.get("result")
-        if type(k) is int and 0 <= k < n and k not in done and isinstance(result, dict):
+        if type(k) is int and 0 <= k < n and k not in done and isinstance(result, dict) \
+                and (check is None or check(result)):
             done[k] = result
     return done
 
@@ -132,9 +136,35 @@ class _Interrupts:
             signal.signal(signal.SIGINT, self._prev)
 
 
-def _ignore_sigint() -> None:
-    """Worker processes leave Ctrl-C to the parent, which stops them."""
+def _worker_init(parent: int) -> None:
+    """Worker processes leave Ctrl-C to the parent, which stops them, and
+    end when the parent ends, however it ends (kill -9, the OOM killer):
+    nothing else would wake them (each holds its queue's writing end as
+    well), and the forkserver and the resource tracker, which live as long
+    as a worker holds their pipes, end after them."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    threading.Thread(target=_exit_with, args=(parent,), daemon=True, name="fullspeed-parent-watch").start()
+
+
+def _exit_with(pid: int) -> None:
+    """Wait for process pid to end (a pidfd on Linux, else a poll each
+    second), then end this process."""
+    try:
+        fd = os.pidfd_open(pid)
+    except (AttributeError, OSError):   # not Linux >= 5.3, or pid already gone
+        fd = None
+    if fd is not None:
+        select.select([fd], [], [])     # readable once the process has ended
+    else:
+        while True:
+            try:
+                os.kill(pid, 0)
+            except ProcessLookupError:
+                break
+            except PermissionError:     # alive, another user's: not ours to end
+                pass
+            time.sleep(1.0)
+    os._exit(1)
 
 
 def _stop(pool) -> None:
@@ -188,7 +218,8 @@ def _local(fn, tasks: dict[int, dict], workers: int):
     ctx = multiprocessing.get_context("forkserver")
     todo = dict(tasks)
     for attempt in range(MAX_POOL_RESTARTS + 1):
-        pool = ProcessPoolExecutor(max_workers=min(workers, len(todo)), mp_context=ctx, initializer=_ignore_sigint)
+        pool = ProcessPoolExecutor(max_workers=min(workers, len(todo)), mp_context=ctx, initializer=_worker_init,
+                                   initargs=(os.getpid(),))
         broken = False
         try:
             futures = {pool.submit(guarded, fn, task): k for k, task in todo.items()}
@@ -279,7 +310,9 @@ def run_tasks(fn: Callable[[dict], dict], tasks: list[dict], out: Path, workers:
     """Every task's result, in the tasks' order; resumes from out's journal.
 
     fn must be importable by name (a module-level function) so that worker
-    processes can run it. fresh: forget an earlier journal in out.
+    processes can run it; its attribute journal_check, where it has one,
+    says which journaled results are its own (read_journal). fresh: forget
+    an earlier journal in out.
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -294,7 +327,7 @@ def run_tasks(fn: Callable[[dict], dict], tasks: list[dict], out: Path, workers:
     new = {"identity": ident, "tasks": len(tasks)}
     if old != new:   # written once, atomically: a kill here leaves the old stamp or the new one
         write_json(stamp, new)
-    done = read_journal(journal, len(tasks))
+    done = read_journal(journal, len(tasks), getattr(fn, "journal_check", None))
     todo = {k: t for k, t in enumerate(tasks) if k not in done}
     workers = workers or default_workers()
     if workers < 1:

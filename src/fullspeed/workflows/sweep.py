@@ -319,7 +319,30 @@ def run_point(task: dict) -> dict:
     return out
 
 
+def point_result_ok(result: dict) -> bool:
+    """A result as run_point (or journal.guarded, for a point that raised)
+    returns it: stop_reason a string; a finished point's wall_s a number;
+    every other value of its column's type (text, a flag, a count, a
+    number) or empty. A journal line that is not is run again, instead of
+    an empty row or a table that cannot be written."""
+    if not isinstance(result.get("stop_reason"), str):
+        return False
+    if result["stop_reason"] != "error" and not _real(result.get("wall_s")):
+        return False
+    for k, v in result.items():
+        ok = (isinstance(v, str) if k in ("stop_reason", "error") else isinstance(v, bool) if k == "silent_failure"
+              else type(v) is int if k == "recoveries" else _real(v))
+        if v is not None and not ok:
+            return False
+    return True
+
+
+def _real(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
 run_point.journal_name = "fullspeed.sweep.run_point"   # its module before the layers (journal._identity)
+run_point.journal_check = point_result_ok
 
 
 def columns(sw: Sweep) -> list[str]:
@@ -416,6 +439,6 @@ def load_sweep(folder: str | Path):
     if not meta.exists():
         raise ConfigError("folder", str(folder), "holds no sweep (no results table, no sweep.json)")
     info = json.loads(meta.read_text())
-    done = read_journal(folder / JOURNAL, len(info["points"]))
+    done = read_journal(folder / JOURNAL, len(info["points"]), point_result_ok)
     rows = [{"point": k, **info["points"][k], **r} for k, r in sorted(done.items())]
     return pd.DataFrame(rows, columns=info["columns"])

@@ -64,8 +64,6 @@ def xcomp_3ph(out: Path) -> Measurement:
 
 # Claims whose work is still open: listed with the reason, never left out.
 NOT_YET.update({
-    "B-REAL": "the catalog of published machines and the controller on their flux maps are not built yet (issue 33)",
-    "B-START": "the start chosen by the machine (alignment, I/f, a motion test) is not built yet (issue 34)",
     "B-MAPID": "the identification of the flux map is not built yet (issue 35)",
 })
 
@@ -424,8 +422,8 @@ def ident(out: Path) -> Measurement:
                         if s[q]["p95"] is not None)
             + f". {s['failed_pct']:.1f} % failed, {s['failed_with_reason']} of them each quantity with its step and "
               "reason" + (": " + json.dumps(s["failures"])[:400] if s["failures"] else "")
-            + ". Rows in B-IDENT.json. Then sensorless (scenario beyond-zoo, the zoo's saturating machines; the "
-              "linear ones refuse to start by their polarity detection) on the true and on the identified parameters "
+            + ". Rows in B-IDENT.json. Then sensorless (scenario beyond-zoo, the zoo's saturating machines, whose "
+              "polarity pulses read the saturation's asymmetry) on the true and on the identified parameters "
               f"(controller.*_scale): lock kept (completed, nothing flagged, no true loss) in {sl['kept_true']} and "
               f"{sl['kept_identified']} of {sl['machines']}" + (f"; the machines whose outcome differs: {sl['differ']}"
                                                                  if sl["differ"] else "") + ".")

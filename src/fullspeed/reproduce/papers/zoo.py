@@ -61,8 +61,9 @@ def zoo_claim(out: Path) -> Measurement:
             "rated). success: completed, no loss of lock flagged, largest angle error in the sensorless stages below "
             "15 el.deg outside the 50 ms after each step; flagged: a stop reason or a loss of lock the drive flagged; "
             "silent: 90 el.deg off for 20 ms net (the simulation's truth) and nothing flagged; off: none of these, the "
-            "error above 15 el.deg. Linear machines are refused by the polarity detection, as they must be (no "
-            "saturation asymmetry to measure). Saturating machines not successful: " + (", ".join(off) or "none") + ".")
+            "error above 15 el.deg. Linear machines have no saturation asymmetry for the polarity pulses: they start by "
+            "the bounded motion test the design chooses for them (design.start, fs_motion_test.h; claim B-START measures the "
+            "starts), and are counted apart. Saturating machines not successful: " + (", ".join(off) or "none") + ".")
     return Measurement(s, ok, note, [fig])
 
 

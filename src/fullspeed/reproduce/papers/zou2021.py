@@ -147,9 +147,21 @@ def _held(name: str, overrides: dict, n: float, T: float) -> bool:
     return abs(float(np.mean(rad_s_to_rpm(res["w_m"][m]))) - n) < 0.01 * n
 
 
-def max_speed(name: str, overrides: dict, T: float, lo: float, hi: float, tol: float = 5.0) -> float:
-    """The highest speed held under T, by bisection over runs (rpm)."""
-    if not _held(name, overrides, lo, T):
+HINT_BAND = 0.07   # the search starts within +-7 % of the analytic limit (the envelopes lie within 1.5 % of it)
+
+
+def max_speed(name: str, overrides: dict, T: float, lo: float, hi: float, tol: float = 5.0,
+              hint: float | None = None) -> float:
+    """The highest speed held under T, by bisection over runs (rpm); with
+    the analytic limit as a hint, within HINT_BAND of it when the band
+    brackets the held speed (two runs say so), else over [lo, hi]."""
+    if hint is not None and math.isfinite(hint):
+        a, b = max(lo, (1.0 - HINT_BAND) * hint), min(hi, (1.0 + HINT_BAND) * hint)
+        if a < b and _held(name, overrides, a, T) and not _held(name, overrides, b, T):
+            lo, hi = a, b
+        elif not _held(name, overrides, lo, T):
+            return math.nan
+    elif not _held(name, overrides, lo, T):
         return math.nan
     while hi - lo > tol:
         mid = 0.5 * (lo + hi)
@@ -162,7 +174,8 @@ def max_speed(name: str, overrides: dict, T: float, lo: float, hi: float, tol: f
 
 def envelope_point(task: dict) -> dict:
     """One point of an envelope (a sweep task): the highest speed held."""
-    return {"rpm": max_speed(task["scenario"], task["overrides"], task["T"], task["lo"], task["hi"])}
+    return {"rpm": max_speed(task["scenario"], task["overrides"], task["T"], task["lo"], task["hi"],
+                             hint=task.get("hint"))}
 
 
 def envelopes(name: str, torques: list[float], extra: dict, lo: float, hi: float, out: Path,
@@ -172,7 +185,12 @@ def envelopes(name: str, torques: list[float], extra: dict, lo: float, hi: float
     tasks = []
     for key, ov in strategies.items():
         merged = deep_merge(extra, ov)
-        tasks += [{"scenario": name, "overrides": merged, "T": T, "lo": lo, "hi": hi} for T in torques]
+        sc = load_scenario(name, merged)
+        ctl, conv = sc.data["controller"], sc.data["converter"]
+        V = VTR[conv["modulation"]] * conv["grid_ll_rms"] * math.sqrt(2.0 / 3.0)
+        I = ctl["i_max"] if ctl["flux_weakening"] else None
+        tasks += [{"scenario": name, "overrides": merged, "T": T, "lo": lo, "hi": hi,
+                   "hint": limit_rpm(sc.machine, T, V, I)} for T in torques]
     res = run_tasks(envelope_point, tasks, out, fresh=True)
     rpm = [r["rpm"] if r.get("rpm") is not None else math.nan for r in res]
     n = len(torques)
@@ -398,40 +416,108 @@ def _bench_limits(name: str, torques: list[float], overrides: dict | None = None
                   ctl["i_max"], ctl["i_lim"])
 
 
+# The paper's two benches (Figs. 9 and 15): the simulation's 380 V with I_max 15 A at the regions' 10 N m, and
+# the prototype's 150 V with I_max 8.8 A at its 5 N m (sec. 6.1); the load torque, the search's bounds, I_lim.
+# Both on the plant with the IMC's devices (the envelopes of Fig. 9 over six torques run on ideal switches, which
+# moves their gains by less than a point: the speed-range scenario leaves the devices out to keep the search lean).
+DEVICES = {"losses": {"devices": True}}
+SIM_BENCH = {"overrides": DEVICES, "T": 10.0, "lo": 500.0, "hi": 3000.0, "i_lim": 12.0}
+PROTOTYPE = {"overrides": {**DEVICES, "converter": {"grid_ll_rms": 150.0},
+                           "controller": {"i_max": 8.8, "i_lim": 6.0, "fw_top_speed_rpm": 600.0}},
+             "T": 5.0, "lo": 100.0, "hi": 1200.0, "i_lim": 6.0}
+
+
+def at_i_lim(i_lim: float) -> dict:
+    """B and C held at I_lim: the current limit at I_lim, PART_2's threshold 0.5 A below it."""
+    return {"controller": {"i_max": i_lim, "i_lim": i_lim - 0.5}}
+
+
+def ilim_strategies(i_lim: float) -> dict:
+    """The over-modulating reading: i_d = 0 in OM-I, B and C held at I_lim."""
+    return {"id0_om1": ID0_OM1, "part1_ilim": deep_merge(PART1_ONLY, at_i_lim(i_lim)), "part12_ilim": at_i_lim(i_lim)}
+
+
+@lru_cache(maxsize=None)
+def _prototype_envelopes(out: Path) -> dict:
+    """The prototype bench's envelopes at 5 N m under both readings (Z-EXP's and Z-SPEEDRANGE's table)."""
+    b = PROTOTYPE
+    env = envelopes("zou2021-speed-range", [b["T"]], b["overrides"], b["lo"], b["hi"], sweep_dir(out, "Z-EXP"),
+                    {**STRATEGIES, **ilim_strategies(b["i_lim"])})
+    return {k: v[0] for k, v in env.items()}
+
+
+def reading_gains(env: dict) -> dict:
+    """The gains (%) of B and C over A under each reading, from one bench's envelopes at one torque."""
+    def gain(key, base):
+        return 100.0 * (env[key] / env[base] - 1.0)
+    return {"linear i_d = 0, B and C to I_max": (gain("part1", "id0"), gain("part12", "id0")),
+            "OM-I i_d = 0, B and C held at I_lim": (gain("part1_ilim", "id0_om1"), gain("part12_ilim", "id0_om1"))}
+
+
+def within(g: tuple) -> bool:
+    """+30 % / +35 %, each within 5 points (CLAIMS.md)."""
+    return abs(g[0] - 30.0) <= 5.0 and abs(g[1] - 35.0) <= 5.0
+
+
 @register("Z-SPEEDRANGE")
 def speed_range(out: Path) -> Measurement:
     torques, env = _envelopes_sim(out)
     g1, g12 = _gains(torques, env, 10.0)
     k = torques.index(10.0)
     lim = _bench_limits("zou2021-speed-range", torques)
-    value = {"gain_part1_pct": g1, "gain_part12_pct": g12, "torque_Nm": 10.0,
-             "gains_over_id0_with_om1_pct": _gains(torques, env, 10.0, "id0_om1"),
+    b = SIM_BENCH
+    sim = {key: v[0] for key, v in envelopes("zou2021-speed-range", [b["T"]], b["overrides"], b["lo"], b["hi"],
+                                            sweep_dir(out, "Z-SPEEDRANGE-devices"),
+                                            {**STRATEGIES, **ilim_strategies(b["i_lim"])}).items()}
+    proto = _prototype_envelopes(out)
+    table = {"simulation: 380 V, I_max 15 A, 10 N m": reading_gains(sim),
+             "prototype: 150 V, I_max 8.8 A, 5 N m": reading_gains(proto)}
+    table_sim_text = table["simulation: 380 V, I_max 15 A, 10 N m"]["linear i_d = 0, B and C to I_max"]
+    value = {"gain_part1_pct": table_sim_text[0], "gain_part12_pct": table_sim_text[1], "torque_Nm": 10.0,
+             "gains_ideal_switches_pct": (g1, g12),
+             "gains_by_reading_and_bench_pct": table,
+             "envelopes_by_reading_rpm": {"simulation": sim, "prototype": proto},
              "gain_part1_wound_back_pct": 100.0 * (env["part1_wound_back"][k] / env["id0"][k] - 1.0),
              "limit_gains_at_10Nm_pct": limit_gains(lim, k),
              "envelopes_rpm": env, "limits_rpm": lim, "torques_Nm": torques,
              "gains_per_torque_pct": {f"{T:g}": _gains(torques, env, T) for T in torques}}
     value["envelope_dev_from_limit_pct"] = {
         key: max(100.0 * abs(x / y - 1.0) for x, y in zip(env[key], lim[key])) for key in ("id0", "part1", "part12")}
-    wide = _bench_limits("zou2021-speed-range", [2.5, 20.0])
-    g_wide = [100.0 * (wide["part1"][j] / wide["id0"][j] - 1.0) for j in (0, 1)]
-    ok = abs(g1 - 30.0) <= 5.0 and abs(g12 - 35.0) <= 5.0
+    ok = within(table_sim_text)
     fig_name = _figure_envelopes(torques, env, lim, out / "Z-SPEEDRANGE.png",
                                  "Torque-speed envelopes, 380 V input (Fig. 9), on the voltage and current limits")
-    note = ("Each point: the highest speed reference the drive holds within 1 % over 0.2 s after a 0.4 s ramp "
-            "under the load torque, by bisection over runs (5 rpm). Reading (module docstring): A is i_d = 0 in "
-            "the linear region (sec. 2 switches the inverter to over-modulation only with PART_1; Table 1, the "
-            "abstract's 'MTPA method'); B is PART_1 with CASE 1 (OM-I), C PART_1 + PART_2 (I_lim 12 A); the "
-            "current limit is eq. (24)'s I_max = 15 A; PART_1's excess held by the paper's internal-model "
-            "regulators (eq. (26), fs_fw.h). The gains are at 10 N m (the regions' load). What decides them: "
-            "the measured envelopes lie on the machine's analytic limits (limits_rpm: eq. (22) with R_s in "
-            "steady state, the VTR of eq. (20) and the current circle; envelope_dev_from_limit_pct): PART_1 "
-            f"runs to I_max. On Table 2's machine those limits give B +{min(g_wide):.0f} to +{max(g_wide):.0f} % "
-            "over a linear i_d = 0 from 2.5 to 20 N m, so +30 % cannot come from this reading; the paper's own "
-            f"Region C holds 1750 rpm at 10 N m, +{100.0 * (1750.0 / lim['id0'][k] - 1.0):.0f} % over the linear "
-            f"i_d = 0 limit ({lim['id0'][k]:.0f} rpm). The paper's 30 % and 35 % are what the "
-            "limits give over an i_d = 0 that over-modulates (OM-I) with PART_1 and PART_2 held at I_lim "
-            "(limit_gains_at_10Nm_pct), a reading the text does not support. With the excess wound back "
-            "(gain_part1_wound_back_pct) the standing q-current error fills the circle early and B ends lower.")
+    m = load_scenario("zou2021-speed-range").machine
+    ratio = {b: I * m.L_d / m.psi_f for b, I in (("simulation", 15.0), ("prototype", 8.8))}
+    rows = []
+    for bench, gains in table.items():
+        for reading, g in gains.items():
+            rows.append(f"{bench}, {reading}: +{g[0]:.1f} / +{g[1]:.1f} % ({'within' if within(g) else 'outside'})")
+    sim_g, proto_g = table.values()
+    both = [r for r in sim_g if within(sim_g[r]) and within(proto_g[r])]
+    note = ("Each envelope point: the highest speed reference the drive holds within 1 % over 0.2 s after a 0.4 s "
+            "ramp under the load torque, by bisection over runs (5 rpm). The table's envelopes run on the plant "
+            "with the IMC's devices (the machine's [converter] module); those of the figure, over six torques, "
+            "on ideal switches (gains_ideal_switches_pct at 10 N m, against the devices' gain_part1_pct, "
+            "gain_part12_pct: the drops move every curve alike). Curve A is i_d = 0, B PART_1 (OM-I), C PART_1 + PART_2; "
+            "PART_1's excess held by the paper's internal-model regulators (eq. (26), fs_fw.h). The paper does "
+            "not say whether A over-modulates, nor whether B and C run to I_max or are held at I_lim; its text "
+            "favours a linear A (sec. 2, Table 1, the abstract's 'MTPA method') and says nothing of B at I_lim "
+            "(sec. 4.4 takes C past I_lim toward I_max), while its Region C (1750 rpm at 10 N m, "
+            f"+{100.0 * (1750.0 / lim['id0'][k] - 1.0):.0f} % over the linear A's {lim['id0'][k]:.0f} rpm limit) "
+            "argues for an over-modulating A. Both readings on both of the paper's benches "
+            "(gains_by_reading_and_bench_pct; the same sentence, +30 % / +35 %, is in sec. 5.2 and sec. 6.2): "
+            + "; ".join(rows) + ". "
+            + ("No one reading is within 5 points on both benches: " if not both else
+               f"Only {', '.join(both)} is within 5 points on both benches: ")
+            + "the flux-weakening gain follows I_max L_s / psi_f, the share of the magnet's flux the current can "
+            f"cancel: {ratio['simulation']:.2f} in the simulation and {ratio['prototype']:.2f} on the prototype, on "
+            "Table 2's machine, so a reading that gives the paper's numbers on one bench misses them on the "
+            "other. The claim is scored on the text's reading (linear A, the simulation bench, gain_part1_pct, "
+            "gain_part12_pct); the measured envelopes lie on the machine's analytic limits (limits_rpm: eq. (22) "
+            "with R_s in steady state, the VTR of eq. (20) and the current circle; envelope_dev_from_limit_pct). "
+            "With the excess "
+            "wound back (gain_part1_wound_back_pct) the standing q-current error fills the circle early and B "
+            "ends lower.")
     return Measurement(value, ok, note, [fig_name])
 
 
@@ -481,11 +567,31 @@ def iq_error(res: Result) -> float:
     return float(np.mean(res["i_q_ref"][m] - res["i_q"][m]))
 
 
-def _figure_thd(c: Result, wb: Result, sweep: list[dict], thd_b: float, path: Path) -> str:
-    """Left: Region C's q current under the two readings of PART_1. Right:
+DROPS = ("u_t", "r_t", "u_d", "r_d")       # the module's conduction parameters (machine [converter])
+DROP_SCALES = (0.0, 0.5, 1.0, 1.5, 2.0)    # Z-THD-TREND: the module's drops scaled (0: ideal switches)
+I_DROPS = 12.0                             # A: the regions' current, at which the drops are quoted
+
+
+def scaled_drops(k: float) -> dict:
+    """Overrides that scale the machine's module's conduction drops by k."""
+    cv = load_scenario("zou2021-region-c").machine.converter
+    return {"machine": {"converter": {key: k * cv[key] for key in DROPS}}}
+
+
+def drops_at(k: float, i: float = I_DROPS) -> dict:
+    """The drops at current i with the module's scaled by k, V: an IGBT, a diode, and the rectifier's path
+    (two bidirectional switches, each an IGBT and a diode)."""
+    cv = load_scenario("zou2021-region-c").machine.converter
+    igbt, diode = k * (cv["u_t"] + cv["r_t"] * i), k * (cv["u_d"] + cv["r_d"] * i)
+    return {"igbt_V": igbt, "diode_V": diode, "rectifier_path_V": 2.0 * (igbt + diode)}
+
+
+def _figure_thd(c: Result, wb: Result, sweep: list[dict], drops: list[dict], thd_b: float, path: Path) -> str:
+    """Left: Region C's q current under the two readings of PART_1. Middle:
     Region C's grid-current THD against the depth angle PART_2 holds (I_lim
-    lowered step by step), beside Region B's and the paper's values."""
-    fig, ax = plt.subplots(1, 2, figsize=(12, 4.5))
+    lowered step by step). Right: Regions B's and C's THD against the
+    devices' drops (the module's scaled); the paper's values beside."""
+    fig, ax = plt.subplots(1, 3, figsize=(16, 4.5))
     for res, label, c_ in ((c, "excess held (eq. (26))", "C0"), (wb, "excess wound back", "C3")):
         t = res["t"]
         ax[0].plot(t, res["i_q_ref"], color=c_, lw=1.2, label=f"i_q*, {label}")
@@ -500,14 +606,41 @@ def _figure_thd(c: Result, wb: Result, sweep: list[dict], thd_b: float, path: Pa
         ax[1].annotate(f"{p['i_lim_A']:g}", (p["alpha_mean_rad"], p["thd_pct"]), fontsize=7,
                        textcoords="offset points", xytext=(4, -10))
     ax[1].axhline(thd_b, color="C1", ls="--", label=f"Region B, model ({thd_b:.1f} %)")
-    ax[1].axhline(PAPER_THD["B"], color="C1", ls=":", label=f"Region B, paper ({PAPER_THD['B']} %)")
-    ax[1].axhline(PAPER_THD["C"], color="C2", ls=":", label=f"Region C, paper ({PAPER_THD['C']} %)")
     ax[1].set_xlabel("mean depth angle alpha over the steady window (rad)")
-    ax[1].set_ylabel("grid current THD (%)")
-    ax[1].legend(fontsize=7)
-    for x in ax:
-        x.grid(True, alpha=0.3)
-    return save_figure(fig, path, "Region C: PART_1's q-current error and the THD the depth angle sets")
+    x = [p["rectifier_path_V"] for p in drops]
+    ax[2].plot(x, [p["thd_C_pct"] for p in drops], "o-", color="C2", label="Region C")
+    ax[2].plot(x, [p["thd_B_pct"] for p in drops], "s-", color="C1", label="Region B")
+    for p in drops:
+        ax[2].annotate(f"x{p['scale']:g}", (p["rectifier_path_V"], p["thd_C_pct"]), fontsize=7,
+                       textcoords="offset points", xytext=(4, -10))
+    ax[2].set_xlabel(f"the rectifier path's drop at {I_DROPS:g} A (V; labels: the module's drops x)")
+    for a_ in ax[1:]:
+        a_.axhline(PAPER_THD["B"], color="C1", ls=":", label=f"Region B, paper ({PAPER_THD['B']} %)")
+        a_.axhline(PAPER_THD["C"], color="C2", ls=":", label=f"Region C, paper ({PAPER_THD['C']} %)")
+        a_.set_ylabel("grid current THD (%)")
+        a_.legend(fontsize=7)
+    for x_ in ax:
+        x_.grid(True, alpha=0.3)
+    return save_figure(fig, path, "Region C: PART_1's q-current error, and the THD the depth angle and the devices set")
+
+
+def rectifier_drop(res: Result) -> dict:
+    """The rectifier's mean dc-link current and drop over the steady window, from the loss meters: the
+    current the converter's input power over the mean v_pn, the drop its loss over that current."""
+    t0, t1 = res.scenario.data["metrics"]["steady"]
+    m = window_mask(res["t"], t0, t1)
+    k0, k1 = np.flatnonzero(m)[[0, -1]]
+    i_dc = (res["E_dc"][k1] - res["E_dc"][k0]) / (res["t"][k1] - res["t"][k0]) / float(np.mean(res["v_pn"][m]))
+    return {"i_dc_A": float(i_dc), "rectifier_V": float((res["E_rect"][k1] - res["E_rect"][k0])
+                                                        / (res["t"][k1] - res["t"][k0]) / i_dc)}
+
+
+def crossing(xs: list[float], ys: list[float]) -> float | None:
+    """The first x where y (linear between the points) rises through 0, or None."""
+    for (x0, y0), (x1, y1) in zip(zip(xs, ys), zip(xs[1:], ys[1:])):
+        if y0 < 0.0 <= y1:
+            return x0 + (x1 - x0) * (-y0) / (y1 - y0)
+    return None
 
 
 @register("Z-THD-TREND")
@@ -525,29 +658,66 @@ def thd_trend(out: Path) -> Measurement:
     for i_lim in (12.0, 11.5, 11.0, 10.5, 10.0):
         st = region_stats(c if i_lim == 12.0 else run("zou2021-region-c", {"controller": {"i_lim": i_lim}}))
         sweep.append({"i_lim_A": i_lim, "alpha_mean_rad": st["alpha_mean_rad"], "thd_pct": st["thd_pct"]})
+    drops = []
+    for k in DROP_SCALES:
+        if k == 1.0:
+            st_b, st_k = region_stats(runs["B"]), st_c
+        else:
+            st_b = region_stats(run("zou2021-region-b", scaled_drops(k)))
+            st_k = region_stats(run("zou2021-region-c", scaled_drops(k)))
+        drops.append({"scale": k, **drops_at(k), "thd_B_pct": st_b["thd_pct"], "thd_C_pct": st_k["thd_pct"],
+                      "alpha_C_mean_rad": st_k["alpha_mean_rad"]})
+    k_x = crossing([p["scale"] for p in drops], [p["thd_C_pct"] - p["thd_B_pct"] for p in drops])
+    dead = {key: region_stats(run(f"zou2021-region-{key.lower()}", {"converter": {"t_dead": 2e-6}}))
+            for key in "BC"}
+    cv = c.scenario.machine.converter
+    eff = rectifier_drop(c)
     value = {**{f"thd_{k}_pct": v for k, v in thds.items()}, **{f"ratio_{k}": v for k, v in ratios.items()},
+             "module": cv["module"], "drops_at_12A_V": drops_at(1.0), "rectifier_in_region_C": eff,
              "alpha_C_mean_rad": st_c["alpha_mean_rad"],
              "i_ref_C_A": float(np.mean(np.hypot(c["i_d_ref"][m], c["i_q_ref"][m]))), "i_lim_A": 12.0,
+             "thd_against_drops": drops,
+             "drop_scale_where_C_passes_B": k_x,
+             "drops_at_12A_where_C_passes_B_V": drops_at(k_x) if k_x is not None else None,
+             "thd_B_C_with_2us_dead_time_pct": (dead["B"]["thd_pct"], dead["C"]["thd_pct"]),
              "iq_error_C_A": iq_error(c), "iq_error_C_wound_back_A": iq_error(wb),
              "thd_C_wound_back_pct": st_wb["thd_pct"], "alpha_C_wound_back_rad": st_wb["alpha_mean_rad"],
              "thd_C_against_alpha": sweep}
     ok = thds["A"] < thds["B"] < thds["C"] and all(0.6 <= r <= 1.4 for r in ratios.values())
-    fig_name = _figure_thd(c, wb, sweep, thds["B"], out / "Z-THD-TREND.png")
-    note = (f"THD of the grid current (harmonics 2..{H_MAX}) in the three regions' steady windows. The paper "
-            "leaves out what sets these values: the grid's impedance (here stiff), the filter's damping "
-            "topology (here R parallel to L), the switching sequence inside a period and the THD's harmonic "
-            "range; the model neglects the switching ripple inside a rectifier interval and device drops. "
-            "What decides the order: Region C's THD is set by the depth angle PART_2 holds (thd_C_against_alpha, "
-            "Region C with I_lim lowered; the figure's right: it rises with alpha, CASE 2's 5th and 7th "
-            "harmonics). With PART_1's excess held (eq. (26)) the q current has no standing error "
-            "(iq_error_C_A) and 1750 rpm at 10 N m needs about I_lim of current with CASE 1 alone, so PART_2 "
-            "holds |i*| (i_ref_C_A) at I_lim with a small alpha (alpha_C_mean_rad) and Region C's THD stays "
-            "below Region B's; the paper's 23.54 % sits at about half the depth. With the excess wound back the "
-            "standing error (iq_error_C_wound_back_A) raises |i*| above I_lim, alpha saturates at pi/6 and the "
-            "THD overshoots the paper's (thd_C_wound_back_pct). Region B's THD is high for its alpha = 0: at "
-            "1500 rpm the output frequency equals the grid's, so the inverter stage's power ripple at 6 f_o = "
-            "300 Hz lands on the grid current's 250 and 350 Hz lines with the rectifier's own (the paper's "
-            "250 and 350 Hz, the model's largest there); at 1750 rpm it lands on 300 and 400 Hz.")
+    fig_name = _figure_thd(c, wb, sweep, drops, thds["B"], out / "Z-THD-TREND.png")
+    d1 = drops_at(1.0)
+    order = " < ".join(f"{k} {thds[k]:.1f} %" for k in sorted(thds, key=thds.get))
+    note = (f"THD of the grid current (harmonics 2..{H_MAX}) in the three regions' steady windows, on the plant "
+            f"with the IMC's devices: {cv['module']} at 125 degC (machine [converter]; at the regions' 12 A "
+            f"{d1['igbt_V']:.2f} V an IGBT, {d1['diode_V']:.2f} V a diode, {d1['rectifier_path_V']:.2f} V on the "
+            f"rectifier's path of two IGBTs and two diodes). Measured: {order}; ratios to the paper "
+            f"{ratios['A']:.2f} / {ratios['B']:.2f} / {ratios['C']:.2f}. What decides the order: Region C's THD "
+            "is set by the depth angle PART_2 holds (thd_C_against_alpha: it rises with alpha, CASE 2's 5th and "
+            "7th harmonics), and 1750 rpm at 10 N m sits so close to what PART_1 reaches at I_lim with CASE 1 "
+            "that a few volts of the converter's own drop set that angle (thd_against_drops, the figure's right: "
+            "the module's drops scaled from ideal switches to twice). Ideal switches leave alpha at "
+            f"{drops[0]['alpha_C_mean_rad']:.3f} rad and THD(C) {drops[0]['thd_C_pct']:.1f} %; the module's "
+            f"drops raise them to {st_c['alpha_mean_rad']:.3f} rad and {thds['C']:.1f} %; "
+            + (f"THD(C) passes THD(B) at {k_x:.2f} x the module's drops ({drops_at(k_x)['rectifier_path_V']:.2f} V "
+               f"on the rectifier's path, {drops_at(k_x)['igbt_V']:.2f} V an IGBT at 12 A). "
+               if k_x is not None else "THD(C) stays below THD(B) up to twice the module's drops. ")
+            + f"(The rectifier carries the dc link's current, {eff['i_dc_A']:.1f} A in Region C's mean, so its "
+            f"path drops {eff['rectifier_V']:.2f} V there.) "
+            + ("So the order holds with this module. " if ok else
+               "So with this module at its datasheet's 125 degC the order B < C does not hold, and the claim "
+               "fails on the measured THD(C) < THD(B); at 150 degC its V_CEsat rises from 2.15 to 2.25 V, not "
+               "the third more the order needs. ")
+            + "A 2 us dead time in the stage (its compensation on) moves B and C to "
+            f"{dead['B']['thd_pct']:.1f} and {dead['C']['thd_pct']:.1f} % "
+            "(thd_B_C_with_2us_dead_time_pct): in over-modulation one or two legs are clamped and do not "
+            "switch. The paper leaves out what else sets these values: the grid's impedance (here stiff), the "
+            "filter's damping topology (here R parallel to L), the switching sequence inside a period and the "
+            "THD's harmonic range; the model neglects the switching ripple inside a rectifier interval. With "
+            "PART_1's excess wound back the standing q-current error (iq_error_C_wound_back_A) raises |i*| "
+            "above I_lim, alpha saturates at pi/6 and the THD overshoots the paper's (thd_C_wound_back_pct). "
+            "Region B's THD is high for its alpha = 0: at 1500 rpm the output frequency equals the grid's, so "
+            "the inverter stage's power ripple at 6 f_o = 300 Hz lands on the grid current's 250 and 350 Hz "
+            "lines with the rectifier's own (the paper's 250 and 350 Hz); at 1750 rpm it lands on 300 and 400 Hz.")
     return Measurement(value, ok, note, [fig_name])
 
 
@@ -573,18 +743,21 @@ def rise(out: Path) -> Measurement:
     return Measurement(value, ok, note, [fig_name])
 
 
-def _figure_experiment(part1: Result, both: Result, i_lim: float, i_max: float, path: Path) -> str:
+def _figure_experiment(runs: dict, i_lim: float, i_max: float, path: Path) -> str:
     """Like Fig. 16: speed, |i_s| against I_lim and I_max, the depth angle
-    and where the inverter stage over-modulates, PART_1 alone and with PART_2."""
-    fig, ax = plt.subplots(4, 1, figsize=(8, 8), sharex=True)
-    for res, label in ((part1, "PART_1"), (both, "PART_1 + PART_2")):
+    and where the inverter stage over-modulates, PART_1 alone and with
+    PART_2, on the bench as specified and on the calibrated one."""
+    fig, ax = plt.subplots(4, 1, figsize=(8, 9), sharex=True)
+    styles = ("-", "--")
+    for (label, res), c_ in zip(runs.items(), ("C0", "C1", "C2", "C3")):
         t = res["t"]
-        m = window_mask(t, 0.19, 0.3)
-        ax[0].plot(t[m], rad_s_to_rpm(res["w_m"][m]), label=label)
-        ax[1].plot(t[m], np.hypot(res["i_d"][m], res["i_q"][m]), lw=0.7, label=label)
-        ax[2].plot(t[m], res["alpha"][m], label=label)
-        ax[3].plot(t[m], res["overmod"][m], lw=0.7, label=label)
-    for y in (200.0 + 0.1 * 350.0, 200.0 + 0.9 * 350.0):
+        m = window_mask(t, 0.19, 0.32)
+        ls = styles[0] if "150 V" in label else styles[1]
+        ax[0].plot(t[m], rad_s_to_rpm(res["w_m"][m]), ls, color=c_, label=label)
+        ax[1].plot(t[m], np.hypot(res["i_d"][m], res["i_q"][m]), ls, color=c_, lw=0.7, label=label)
+        ax[2].plot(t[m], res["alpha"][m], ls, color=c_, label=label)
+        ax[3].plot(t[m], res["overmod"][m], ls, color=c_, lw=0.7, label=label)
+    for y in (200.0 + 0.1 * 350.0, 200.0 + 0.9 * 350.0, 200.0 + 0.98 * 350.0):
         ax[0].axhline(y, color="k", ls=":", lw=0.7)
     ax[1].axhline(i_lim, color="k", ls="--", lw=0.7, label="I_lim")
     ax[1].axhline(i_max, color="k", ls=":", lw=0.7, label="I_max")
@@ -594,7 +767,7 @@ def _figure_experiment(part1: Result, both: Result, i_lim: float, i_max: float, 
     ax[3].set_ylabel("over-modulating")
     ax[3].set_xlabel("time (s)")
     grid_and_legends(ax)
-    return save_figure(fig, path, "150 V bench: 200 -> 550 rpm at 5 N m (Fig. 16); dotted: the 10 % and 90 % speeds")
+    return save_figure(fig, path, "Prototype bench: 200 -> 550 rpm at 5 N m (Fig. 16); dotted: the 10, 90 and 98 % speeds")
 
 
 def _rise_window(res: Result, n0: float, n1: float) -> np.ndarray:
@@ -606,38 +779,135 @@ def _rise_window(res: Result, n0: float, n1: float) -> np.ndarray:
     return np.arange(k0, k1 + 1)
 
 
+def time_to(res: Result, t_step: float, n0: float, n1: float, share: float = 0.98) -> float:
+    """From the step until the speed first reaches n0 + share (n1 - n0), s; nan if never."""
+    t, n = res["t"], rad_s_to_rpm(res["w_m"])
+    k = np.flatnonzero((t >= t_step) & (n >= n0 + share * (n1 - n0)))
+    return float(t[k[0]] - t_step) if k.size else math.nan
+
+
+def _exp(v_ll: float, variant: dict | None = None, speed_rpm: float = 550.0) -> Result:
+    """The prototype's test (zou2021-experiment) at grid voltage v_ll, line-line rms."""
+    ov = {"converter": {"grid_ll_rms": v_ll},
+          "references": {"speed_rpm": [[0.0, 200.0], [0.2, 200.0], [0.2, speed_rpm], [0.6, speed_rpm]]}}
+    return run("zou2021-experiment", deep_merge(ov, variant or {}))
+
+
+def _steady(res: Result) -> dict:
+    m = window_mask(res["t"], 0.4, 0.6)
+    return {"speed_rpm": float(np.mean(rad_s_to_rpm(res["w_m"][m]))), "alpha_rad": float(np.mean(res["alpha"][m])),
+            "i_s_A": float(np.mean(np.hypot(res["i_d"][m], res["i_q"][m]))), "i_d_A": float(np.mean(res["i_d"][m]))}
+
+
+def _bisect(ok, lo: float, hi: float, tol: float = 0.25) -> float:
+    """The boundary between ok(lo) and not ok(hi) (either side may be the true one), to tol."""
+    want = ok(lo)
+    while hi - lo > tol:
+        mid = 0.5 * (lo + hi)
+        if ok(mid) == want:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+CAL_RANGE = (100.0, 150.0)   # V line-line rms: the calibration's search, from 2/3 of the prototype's 150 V to it
+
+
+def calibrate_bench() -> dict:
+    """The prototype's effective voltage from its reported operating point
+    (Fig. 16, sec. 6.3: at 550 rpm and 5 N m "the stator current is greater
+    than I_lim, PART_2 plays its role"): the band of grid voltages at which
+    the drive with PART_1 + PART_2 holds 550 rpm under 5 N m with PART_2
+    acting (alpha > 0) in the steady state, by bisection over runs on the
+    plant with its devices; the calibrated bench is the band's middle."""
+    def acts(v):
+        return _steady(_exp(v))["alpha_rad"] > 1e-3
+
+    def holds(v):
+        return abs(_steady(_exp(v))["speed_rpm"] - 550.0) < 0.01 * 550.0
+
+    lo, hi = CAL_RANGE
+    if acts(hi) or not acts(lo) or holds(lo) or not holds(hi):
+        raise ValueError(f"the calibration's range {lo:g}..{hi:g} V does not bracket PART_2's onset and the "
+                         "550 rpm limit")
+    v_hi = _bisect(acts, lo, hi)          # below it PART_2 acts
+    v_lo = _bisect(holds, hi, lo)         # above it the drive holds 550 rpm
+
+    def weakens(v):   # Fig. 18: PART_1 alone weakens the flux at 400 rpm and 5 N m
+        return _steady(_exp(v, PART1_ONLY, speed_rpm=400.0))["i_d_A"] < -0.1
+
+    v_18 = _bisect(weakens, lo, hi) if weakens(lo) and not weakens(hi) else math.nan
+    return {"band_V": (v_lo, v_hi), "grid_ll_rms_V": 0.5 * (v_lo + v_hi), "fig18_below_V": v_18}
+
+
+def _rise_stats(part1: Result, both: Result) -> dict:
+    t1, t12 = rise_time(part1, 0.2, 200.0, 550.0), rise_time(both, 0.2, 200.0, 550.0)
+    d1, d12 = time_to(part1, 0.2, 200.0, 550.0), time_to(both, 0.2, 200.0, 550.0)
+    return {"rise_part1_s": t1, "rise_part12_s": t12, "rise_shorter_pct": 100.0 * (1.0 - t12 / t1),
+            "to_98pct_part1_s": d1, "to_98pct_part12_s": d12, "to_98pct_shorter_pct": 100.0 * (1.0 - d12 / d1)}
+
+
 @register("Z-EXP")
 def experiment(out: Path) -> Measurement:
-    bench = {"converter": {"grid_ll_rms": 150.0}, "controller": {"i_max": 8.8, "i_lim": 6.0, "fw_top_speed_rpm": 600.0}}
-    torques = [5.0]
-    env = envelopes("zou2021-speed-range", torques, bench, 100.0, 1200.0, sweep_dir(out, "Z-EXP"))
-    g1, g12 = _gains(torques, env, 5.0)
-    lim = _bench_limits("zou2021-speed-range", torques, bench)
+    b = PROTOTYPE
+    env = _prototype_envelopes(out)
+    g1, g12 = reading_gains(env)["linear i_d = 0, B and C to I_max"]
+    lim = _bench_limits("zou2021-speed-range", [b["T"]], b["overrides"])
     both = run("zou2021-experiment")
     part1 = run("zou2021-experiment", PART1_ONLY)
-    t1, t12 = rise_time(part1, 0.2, 200.0, 550.0), rise_time(both, 0.2, 200.0, 550.0)
+    spec = _rise_stats(part1, both)
     s1, s12 = settling_time(part1, 0.2, 550.0), settling_time(both, 0.2, 550.0)
-    i_s = float(np.mean(np.hypot(both["i_d"], both["i_q"])[window_mask(both["t"], 0.4, 0.6)]))
+    st = _steady(both)
     k = _rise_window(both, 200.0, 550.0)
-    value = {"gain_part1_pct": g1, "gain_part12_pct": g12, "envelopes_rpm_at_5Nm": {k_: v[0] for k_, v in env.items()},
-             "limits_rpm_at_5Nm": {k_: v[0] for k_, v in lim.items()},
-             "rise_part1_s": t1, "rise_part12_s": t12, "settling_2pct_part1_s": s1, "settling_2pct_part12_s": s12,
+    cal = calibrate_bench()
+    v = cal["grid_ll_rms_V"]
+    both_c, part1_c = _exp(v), _exp(v, PART1_ONLY)
+    st_c = _steady(both_c)
+    calibrated = {**cal, **_rise_stats(part1_c, both_c), "i_s_steady_A": st_c["i_s_A"],
+                  "alpha_steady_rad": st_c["alpha_rad"], "fraction_of_150V": v / 150.0}
+    value = {"gain_part1_pct": g1, "gain_part12_pct": g12, "envelopes_rpm_at_5Nm": env,
+             "limits_rpm_at_5Nm": {k_: v_[0] for k_, v_ in lim.items()},
+             **spec, "settling_2pct_part1_s": s1, "settling_2pct_part12_s": s12,
              "overmod_share_in_rise": float(np.mean(both["overmod"][k])),
              "alpha_mean_in_rise_rad": float(np.mean(both["alpha"][k])),
-             "i_s_steady_A": i_s, "alpha_max_run_rad": float(np.max(both["alpha"]))}
-    ok = abs(g1 - 30.0) <= 5.0 and abs(g12 - 35.0) <= 5.0 and t12 < t1
-    fig_name = _figure_experiment(part1, both, 6.0, 8.8, out / "Z-EXP.png")
-    note = ("The prototype's conditions (sec. 6.1): 150 V input, I_max 8.8 A, I_lim 6 A, on Table 2's machine; "
-            "the envelope search of Z-SPEEDRANGE at 5 N m (the same reading: linear i_d = 0 baseline, the "
-            "current limit I_max, PART_1's excess held), and the rise time (10-90 %) and 2 % settling time of "
-            "the 200 -> 550 rpm step (Fig. 16). The envelopes match the paper's +30 % / +35 % and lie on the "
-            "analytic limits (limits_rpm_at_5Nm). What decides the rise time: the 10-90 % rise is spent at the "
-            "current limit (8.8 A, 27 N m) below the voltage limit, so the inverter stage over-modulates in only "
-            "overmod_share_in_rise of it and the voltage PART_2 adds changes nothing "
-            "(alpha_mean_in_rise_rad is the step's first 8 ms, where a transient of flux-weakening current "
-            "opens its gate); both strategies rise alike. The end of the approach, where the voltage limits, "
-            "runs below I_lim, so PART_2 stays off there too: the two settle alike (their 2 % settling times "
-            "differ by where the speed ripple last crosses the band). The prototype is not Table 2's machine "
-            "at 150 V: its Region B (Fig. 18) needs flux weakening at 400 rpm and 5 N m, where this machine's "
-            f"linear limit is {lim['id0'][0]:.0f} rpm, so its rise meets the voltage limit much earlier.")
+             "i_s_steady_A": st["i_s_A"], "alpha_max_run_rad": float(np.max(both["alpha"])),
+             "calibrated_bench": calibrated}
+    ok = abs(g1 - 30.0) <= 5.0 and abs(g12 - 35.0) <= 5.0 and spec["rise_part12_s"] < spec["rise_part1_s"]
+    fig_name = _figure_experiment({"150 V, PART_1": part1, "150 V, PART_1 + PART_2": both,
+                                   f"{v:.1f} V, PART_1": part1_c, f"{v:.1f} V, PART_1 + PART_2": both_c},
+                                  6.0, 8.8, out / "Z-EXP.png")
+    c = calibrated
+
+    def ms(x):
+        return f"{1e3 * x:.1f} ms" if math.isfinite(x) else "not reached"
+
+    fig18 = (f"Fig. 18's flux weakening by PART_1 at 400 rpm and 5 N m needs the voltage below {c['fig18_below_V']:.1f} V, "
+             + ("inside the band" if c["fig18_below_V"] >= c["band_V"][0] else "below the band: the paper's figures "
+                "do not meet at one effective voltage on Table 2's machine")
+             if math.isfinite(c["fig18_below_V"]) else "PART_1 alone does not weaken the flux at 400 rpm in the range")
+    note = ("The prototype's conditions (sec. 6.1): 150 V input, I_max 8.8 A, I_lim 6 A, on Table 2's machine, "
+            "the plant with the IMC's devices; the envelope search of Z-SPEEDRANGE at 5 N m (the text's reading: "
+            "linear i_d = 0 baseline, the current limit I_max, PART_1's excess held), and the 200 -> 550 rpm step "
+            "of Fig. 16 measured by its 10-90 % rise and by the time to 98 % of the step. As specified, the "
+            f"speed range passes (+{g1:.1f} / +{g12:.1f} %) and the rise does not: {1e3 * spec['rise_part1_s']:.1f} ms "
+            f"with PART_1 and {1e3 * spec['rise_part12_s']:.1f} ms with PART_2 (to 98 %: "
+            f"{1e3 * spec['to_98pct_part1_s']:.1f} / {1e3 * spec['to_98pct_part12_s']:.1f} ms). What decides it: "
+            "the rise is spent at the current limit (8.8 A) below the voltage limit (the inverter stage "
+            "over-modulates in overmod_share_in_rise of it), and at 550 rpm the drive needs "
+            f"{st['i_s_A']:.1f} A, far below I_lim, so PART_2 has nothing to do: this machine at 150 V has more "
+            "voltage than the prototype had (its Region B, Fig. 18, needs flux weakening at 400 rpm and 5 N m, "
+            f"where this machine's linear limit is {lim['id0'][0]:.0f} rpm). Beside it, the bench calibrated to "
+            "the paper's reported operating point: Fig. 16 and sec. 6.3 put the steady 550 rpm at 5 N m at a "
+            "current above I_lim with PART_2 acting; by bisection over runs the grid voltages at which that "
+            f"holds span {c['band_V'][0]:.1f} to {c['band_V'][1]:.1f} V (below, 550 rpm is not held; above, "
+            f"alpha stays 0), and the calibrated bench is their middle, {v:.1f} V ({100 * c['fraction_of_150V']:.0f} % "
+            f"of 150 V: what the prototype's supply, cabling and devices would have left; {fig18}). There the steady "
+            f"current is {c['i_s_steady_A']:.2f} A with alpha {c['alpha_steady_rad']:.2f} rad, and PART_2 changes "
+            f"the 10-90 % rise from {ms(c['rise_part1_s'])} to {ms(c['rise_part12_s'])} ({c['rise_shorter_pct']:.1f} % "
+            f"shorter; paper: 4.8 %) and the time to 98 % from {ms(c['to_98pct_part1_s'])} to "
+            f"{ms(c['to_98pct_part12_s'])}. The 10-90 % rise is "
+            "a poor measure here: its 90 % point (515 rpm) sits at the voltage limit's knee, so it jumps with a "
+            "volt of supply; the time to 98 % is the approach PART_2 shortens. The calibration is to the "
+            "paper's figures, not to a stated number: the claim is scored as specified.")
     return Measurement(value, ok, note, [fig_name])

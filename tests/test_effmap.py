@@ -1,0 +1,95 @@
+"""`fullspeed map`: the analytic envelope against its closed form, the map's
+powers closing on its losses, what a point not held reports, and the
+refusals."""
+import copy
+import csv
+import json
+import math
+import os
+import subprocess
+import sys
+
+import pytest
+
+from fullspeed.design.machine import machine_from_dict
+from fullspeed.model.errors import ConfigError
+from fullspeed.model.machines import catalog_data
+from fullspeed.model.units import rpm_to_rad_s
+from fullspeed.workflows.effmap import efficiency_map, envelope
+
+from conftest import MACHINE
+from test_losses import CONV, IRON
+from tomlw import dumps
+
+LOSS_KEYS = ("P_cu_W", "P_fe_W", "P_mech_W", "P_cond_W", "P_sw_W", "P_rect_W", "P_filter_W")
+
+
+def test_envelope_is_the_current_circle_meeting_the_voltage_circle():
+    """A surface-magnet machine without resistance: below base speed the
+    current circle's torque, 3/2 p psi_f i_max; above it the intersection
+    of |i| = i_max and |psi_f + j L i| = u / w, i_d = ((u/w)^2 - psi_f^2 -
+    L^2 I^2) / (2 psi_f L)."""
+    d = copy.deepcopy(catalog_data("zou2021"))
+    d["electrical"]["R_s"] = 0.0
+    m = machine_from_dict(d)
+    I, u, L, psi, p = 15.0, 250.0, m.L_d, m.psi_f, m.pole_pairs
+    n = [500.0, 1400.0]
+    T = envelope(m, n, I, u, n_i=400, n_angle=2001)
+    assert T[0] == pytest.approx(1.5 * p * psi * I, rel=1e-3)
+    w = p * rpm_to_rad_s(n[1])
+    i_d = ((u / w) ** 2 - psi ** 2 - (L * I) ** 2) / (2 * psi * L)
+    assert -I < i_d < 0.0   # flux weakening, the current still on its circle
+    assert T[1] == pytest.approx(1.5 * p * psi * math.sqrt(I * I - i_d * i_d), rel=5e-3)
+
+
+def machine_file(tmp_path):
+    m = copy.deepcopy(MACHINE)
+    m.update(converter=CONV, losses=IRON, mechanical={"J": 1.87e-3, "B": 2e-4, "T_coulomb": 0.03})
+    f = tmp_path / "m.toml"
+    f.write_text(dumps(m))
+    return f
+
+
+def test_map_powers_close_on_the_losses_and_points_beyond_reach_say_so(tmp_path):
+    """Each held point: the source's power = the shaft's + every loss (the
+    window's stored energy is steady to 1 %), the efficiencies are the
+    powers' ratios; the summary's peaks are the table's; a point the drive
+    cannot hold (its torque limit below the load) has no efficiency."""
+    em = efficiency_map(str(machine_file(tmp_path)), tmp_path / "map", speeds=2, torques=(0.3, 0.9),
+                        top_rpm=2000.0, workers=1, overrides={"controller": {"T_max": 2.0}})
+    rows = em.rows
+    assert [r["speed_rpm"] for r in rows] == [1000.0, 1000.0, 2000.0, 2000.0]
+    assert [r["torque_Nm"] < 2.0 for r in rows] == [True, False, True, False]
+    held = [r for r in rows if r["held"]]
+    assert [r["torque_Nm"] < 2.0 for r in held] == [True, True]
+    for r in held:
+        losses = sum(r[k] for k in LOSS_KEYS)
+        assert r["P_source_W"] == pytest.approx(r["P_shaft_W"] + losses, rel=0.01)
+        assert min(r["P_cu_W"], r["P_fe_W"], r["P_mech_W"], r["P_cond_W"], r["P_sw_W"]) > 0.0
+        assert r["eta_drive"] == pytest.approx(r["eta_machine"] * r["eta_converter"], rel=1e-9)
+        assert 0.3 < r["eta_drive"] < 1.0
+        assert r["torque_Nm"] * rpm_to_rad_s(r["speed_rpm"]) == pytest.approx(r["P_shaft_W"], rel=0.01)
+    assert all(r["eta_drive"] is None and r["speed_mean_rpm"] < 0.99 * r["speed_rpm"] for r in rows if not r["held"])
+    best = max(held, key=lambda r: r["eta_drive"])
+    assert em.summary["eta_drive_peak"]["eta"] == best["eta_drive"]
+    table = list(csv.DictReader(open(tmp_path / "map" / "map.csv")))
+    assert len(table) == 4 and float(table[0]["torque_Nm"]) == pytest.approx(rows[0]["torque_Nm"])
+    assert json.loads((tmp_path / "map" / "map.json").read_text())["summary"]["held"] == 2
+    assert (tmp_path / "map" / "map.png").stat().st_size > 20_000
+
+
+def test_map_refuses_what_is_not_a_speed_drive(tmp_path):
+    with pytest.raises(ConfigError, match="controller.mode"):
+        efficiency_map("yang2022-hfi-iqstep", tmp_path / "m", speeds=2)
+    with pytest.raises(ConfigError, match="--speeds"):
+        efficiency_map("yang2022", tmp_path / "m", speeds=1)
+
+
+def test_map_command_prints_the_peaks(tmp_path):
+    p = subprocess.run([sys.executable, "-m", "fullspeed", "map", str(machine_file(tmp_path)), "--speeds", "2",
+                        "--torques", "0.5", "--top-rpm", "2000", "--workers", "1", "--out", str(tmp_path / "o"),
+                        "--quiet"], capture_output=True, text=True, timeout=300,
+                       env={**os.environ, "PYTHONWARNINGS": "ignore"})
+    assert p.returncode == 0, p.stderr
+    assert "peak drive efficiency" in p.stdout and "module: test module" in p.stdout
+    assert (tmp_path / "o" / "map.csv").exists()
