@@ -5,9 +5,11 @@ sample, the metrics and the stop of a set of scenarios, hashed.
 The set: every catalog scenario, and variants that take the paths the
 catalog leaves out (the switching inverter on the bench's example, current
 noise, a sensor fault, an open phase, a dc-link sag, the thermal model, a
-coarse trace decimation) and the examples' own machine (a flux map). Run it
-before the change with --write FILE and after it with --check FILE: it
-prints the scenarios whose hashes moved and exits 1 if any did.
+coarse trace decimation, the loss meters with the devices and the iron
+loss on the switching and the averaged inverter) and the examples' own
+machine (a flux map). Run it before the change with --write FILE and after
+it with --check FILE: it prints the scenarios whose hashes moved and exits
+1 if any did.
 
 Usage: python bench/trace_hashes.py --write FILE | --check FILE [--only NAME,...]
 """
@@ -32,6 +34,10 @@ VARIANTS = {
     "bench-motulator-2kw:open-phase": ("bench-motulator-2kw", {"faults": {"open_phase": "b", "t_open": 1.2}}),
     "bench-motulator-2kw:dc-sag": ("bench-motulator-2kw", {"faults": {"u_dc_scale": [[0.0, 1.0], [1.0, 1.0], [1.05, 0.7],
                                                                                     [1.6, 0.7]]}}),
+    "yang2022-encoder-speedstep:losses": ("yang2022-encoder-speedstep", {"losses": {"devices": True, "iron": True}}),
+    "yang2022-encoder-speedstep:losses-averaged": ("yang2022-encoder-speedstep",
+                                                   {"converter": {"inverter": "averaged"},
+                                                    "losses": {"devices": True, "iron": True}}),
     "own-machine:full-range": (str(ROOT / "examples" / "own-machine" / "my48v-full-range.toml"), {}),
     "lock-loss": (str(ROOT / "examples" / "lock-loss" / "lock-loss.toml"), {}),
 }
