@@ -54,6 +54,16 @@ WARM_RUNS = 2                # runs every driver makes first: simulate() and the
 
 # --- the driver callgrind runs ---------------------------------------------------
 
+def advance_all(sim, T: float) -> str:
+    """The chunked advance of simulate() (chunks of T / 100, counted in
+    periods by the core's rule), without the metrics: the run's status."""
+    n_end, st = sim.steps(T), "running"
+    n_chunk = max(1, sim.steps(max(T / 100.0, 1e-3)))
+    while sim.step_count < n_end and st == "running":
+        st = sim.advance_steps(min(sim.step_count + n_chunk, n_end))
+    return st
+
+
 def driver(what: str, inverter: str, n: int) -> None:
     import fullspeed.sim as fs
     from fullspeed.design.scenario import load_scenario
@@ -65,10 +75,7 @@ def driver(what: str, inverter: str, n: int) -> None:
 
     def bare(s):     # the C loop as simulate() drives it, without the metrics
         sim = Simulation(s)
-        n_end, st = sim.steps(s.duration), "running"
-        n_chunk = max(1, sim.steps(max(s.duration / 100.0, 1e-3)))
-        while sim.step_count < n_end and st == "running":
-            st = sim.advance_steps(min(sim.step_count + n_chunk, n_end))
+        advance_all(sim, s.duration)
         return sim
 
     res = fs.simulate(sc)          # warm-up, in every driver
@@ -175,9 +182,7 @@ def wall_parts(inverter: str, runs: int) -> dict:
     for _ in range(runs):
         sim = Simulation(sc)
         t0 = time.perf_counter()
-        st = "running"
-        while sim.time < sc.duration - 1e-12 and st == "running":
-            st = sim.advance(min(sim.time + max(sc.duration / 100.0, 1e-3), sc.duration))
+        st = advance_all(sim, sc.duration)
         t1 = time.perf_counter()
         res = Result(sc, sim.traces(), st, sim.stop_time, t1 - t0, sim.time)
         t2 = time.perf_counter()
