@@ -5,13 +5,13 @@
 #include <stddef.h>
 #include "fs_config.h"
 
-#if !defined(FS_CONFIG_EXPORT_ID) || FS_CONFIG_EXPORT_ID != 0xef6ac35cu
+#if !defined(FS_CONFIG_EXPORT_ID) || FS_CONFIG_EXPORT_ID != 0x2faf4f4bu
 #error "fs_config.h is not the header exported with fs_config.c (another export, or one cut short): export again"
 #endif
 
 /* The layout this configuration was written for: a header that changed since
  * the export fails here, naming the field. */
-_Static_assert(sizeof(fs_drive_config) == 1808u, "fs_drive_config: size differs from the exported layout");
+_Static_assert(sizeof(fs_drive_config) == 1840u, "fs_drive_config: size differs from the exported layout");
 _Static_assert(offsetof(fs_drive_config, config_size) == 0u, "fs_drive_config.config_size moved");
 _Static_assert(offsetof(fs_drive_config, phases) == 4u, "fs_drive_config.phases moved");
 _Static_assert(offsetof(fs_drive_config, mode) == 8u, "fs_drive_config.mode moved");
@@ -175,22 +175,30 @@ _Static_assert(offsetof(fs_drive_config, ident.i_max) == 1744u, "fs_drive_config
 _Static_assert(offsetof(fs_drive_config, ident.w_spin) == 1748u, "fs_drive_config.ident.w_spin moved");
 _Static_assert(offsetof(fs_drive_config, ident.t_ramp) == 1752u, "fs_drive_config.ident.t_ramp moved");
 _Static_assert(offsetof(fs_drive_config, ident.u_dc_min) == 1756u, "fs_drive_config.ident.u_dc_min moved");
-_Static_assert(offsetof(fs_drive_config, motion) == 1760u, "fs_drive_config.motion moved");
-_Static_assert(offsetof(fs_drive_config, motion.Ts) == 1760u, "fs_drive_config.motion.Ts moved");
-_Static_assert(offsetof(fs_drive_config, motion.i_push) == 1764u, "fs_drive_config.motion.i_push moved");
-_Static_assert(offsetof(fs_drive_config, motion.i_push_max) == 1768u, "fs_drive_config.motion.i_push_max moved");
-_Static_assert(offsetof(fs_drive_config, motion.t_lock) == 1772u, "fs_drive_config.motion.t_lock moved");
-_Static_assert(offsetof(fs_drive_config, motion.t_push) == 1776u, "fs_drive_config.motion.t_push moved");
-_Static_assert(offsetof(fs_drive_config, motion.t_settle) == 1780u, "fs_drive_config.motion.t_settle moved");
-_Static_assert(offsetof(fs_drive_config, motion.theta_dec) == 1784u, "fs_drive_config.motion.theta_dec moved");
-_Static_assert(offsetof(fs_drive_config, motion.theta_max) == 1788u, "fs_drive_config.motion.theta_max moved");
-_Static_assert(offsetof(fs_drive_config, r_damp) == 1792u, "fs_drive_config.r_damp moved");
-_Static_assert(offsetof(fs_drive_config, w_swing) == 1796u, "fs_drive_config.w_swing moved");
-_Static_assert(offsetof(fs_drive_config, t_handover) == 1800u, "fs_drive_config.t_handover moved");
-_Static_assert(offsetof(fs_drive_config, w_restart) == 1804u, "fs_drive_config.w_restart moved");
+_Static_assert(offsetof(fs_drive_config, ident.standstill_only) == 1760u, "fs_drive_config.ident.standstill_only moved");
+_Static_assert(offsetof(fs_drive_config, ident.locked) == 1764u, "fs_drive_config.ident.locked moved");
+_Static_assert(offsetof(fs_drive_config, ident.skip_map) == 1768u, "fs_drive_config.ident.skip_map moved");
+_Static_assert(offsetof(fs_drive_config, ident.i_test) == 1772u, "fs_drive_config.ident.i_test moved");
+_Static_assert(offsetof(fs_drive_config, ident.t_level) == 1776u, "fs_drive_config.ident.t_level moved");
+_Static_assert(offsetof(fs_drive_config, ident.psi_f_hint) == 1780u, "fs_drive_config.ident.psi_f_hint moved");
+_Static_assert(offsetof(fs_drive_config, ident.J_hint) == 1784u, "fs_drive_config.ident.J_hint moved");
+_Static_assert(offsetof(fs_drive_config, ident.motion_max) == 1788u, "fs_drive_config.ident.motion_max moved");
+_Static_assert(offsetof(fs_drive_config, motion) == 1792u, "fs_drive_config.motion moved");
+_Static_assert(offsetof(fs_drive_config, motion.Ts) == 1792u, "fs_drive_config.motion.Ts moved");
+_Static_assert(offsetof(fs_drive_config, motion.i_push) == 1796u, "fs_drive_config.motion.i_push moved");
+_Static_assert(offsetof(fs_drive_config, motion.i_push_max) == 1800u, "fs_drive_config.motion.i_push_max moved");
+_Static_assert(offsetof(fs_drive_config, motion.t_lock) == 1804u, "fs_drive_config.motion.t_lock moved");
+_Static_assert(offsetof(fs_drive_config, motion.t_push) == 1808u, "fs_drive_config.motion.t_push moved");
+_Static_assert(offsetof(fs_drive_config, motion.t_settle) == 1812u, "fs_drive_config.motion.t_settle moved");
+_Static_assert(offsetof(fs_drive_config, motion.theta_dec) == 1816u, "fs_drive_config.motion.theta_dec moved");
+_Static_assert(offsetof(fs_drive_config, motion.theta_max) == 1820u, "fs_drive_config.motion.theta_max moved");
+_Static_assert(offsetof(fs_drive_config, r_damp) == 1824u, "fs_drive_config.r_damp moved");
+_Static_assert(offsetof(fs_drive_config, w_swing) == 1828u, "fs_drive_config.w_swing moved");
+_Static_assert(offsetof(fs_drive_config, t_handover) == 1832u, "fs_drive_config.t_handover moved");
+_Static_assert(offsetof(fs_drive_config, w_restart) == 1836u, "fs_drive_config.w_restart moved");
 
 const fs_drive_config fs_config = {
-    .config_size = 1808u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator set it, and fs_drive_init refuses a configuration ...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
+    .config_size = 1840u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator set it, and fs_drive_init refuses a configuration ...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
     .phases = 3,   /* 3, or 5: the fundamental plane of the VSD, nearest-four-vector PWM; machine yang2022: phases */
     .mode = FS_MODE_SPEED,   /* fs_drive_mode; scenario beyond-full-range: [controller] mode */
     .angle_source = FS_ANGLE_BLEND,   /* fs_angle_source; scenario beyond-full-range: [controller] angle */
@@ -458,6 +466,14 @@ const fs_drive_config fs_config = {
         .w_spin = 0.0f,   /* el. rad/s: the running steps' speed (lowered to half the voltage limit); 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .t_ramp = 0.0f,   /* s: the I/f ramp from 0 to w_spin (the inertia is not known before); 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .u_dc_min = 0.0f,   /* V: below this link voltage the sequence does not start (0: 1 V); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .standstill_only = 0,   /* 1: the rotor may not turn: the standstill steps only; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .locked = 0,   /* 1: the rotor is held (a brake, a locked shaft): standstill steps only, no motion bound; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .skip_map = 0,   /* 1: no flux map (MAP, DCURVE); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .i_test = 0.0f,   /* A: the levels' top current (0: 0.6 i_max); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .t_level = 0.0f,   /* s: the top levels' window per sign (0: 0.1 s); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .psi_f_hint = 0.0f,   /* Wb, kg m^2, the nameplate's: size the map's q sweeps against the rotor's motion (0: unknown); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .J_hint = 0.0f,   /* Wb, kg m^2, the nameplate's: size the map's q sweeps against the rotor's motion (0: unknown); 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .motion_max = 0.0f,   /* el. rad: the map's q sweeps' motion bound (0: 1 el.deg); 0: taken from the drive's fields or designed by fs_drive_init, or off */
     },
     .motion = {   /* The start chosen by the machine (fullspeed.design.start), after the fields above so that their places stay where the step reads them. Polarity by a bounded ... */
         .Ts = 0.0f,   /* sampling period, s; 0: taken from the drive's fields or designed by fs_drive_init, or off */

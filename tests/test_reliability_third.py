@@ -360,7 +360,8 @@ def test_f3_an_identification_cut_short_while_writing_leaves_the_earlier_pair(tm
         return real(path, data)
     monkeypatch.setattr(files, "write_atomic", killed)
     monkeypatch.setattr(idf, "identify", _fake_identify(True))
-    monkeypatch.setattr(idf, "_machine_toml", lambda tab: "# another identification\n" + idf.toml_string(str(tab)))
+    # another identification's machine file, one the loader takes (identify loads it back before writing)
+    monkeypatch.setattr(idf, "_machine_toml", lambda tab, real=idf._machine_toml: "# another identification\n" + real(tab))
     assert main(["identify", "yang2022-encoder-speedstep", "--out", str(out)]) == 130
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")], "the half-written folder was left"

@@ -46,6 +46,7 @@ HEADERS = [
     "control/fs_lock.h",
     "control/fs_monitor.h",
     "control/fs_imc.h",
+    "control/fs_mapid.h",
     "control/fs_ident.h",
     "control/fs_drive.h",
     "plant/fs_losses.h",

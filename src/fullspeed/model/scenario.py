@@ -217,6 +217,31 @@ SCENARIO = {
     # the machine's spatial harmonics (its [harmonics] table, csrc/plant/fs_pmsm.h)
     "harmonics": T({"enabled": B(False, doc="the flux depends on the rotor angle: back-EMF and saliency harmonics, cogging")},
                    default={}),
+    # `fullspeed identify`: the drive's self-commissioning (csrc/control/fs_ident.h) on this scenario's
+    # machine and bench; the scenario's own controller, references and load are not used
+    "identify": T({
+        "may_turn": B(True, doc="the rotor may turn: after the standstill steps an I/f spin measures psi_f, the map's d axis "
+                                "at speed, J and friction; false: standstill steps only (psi_f, J and friction from the "
+                                "machine file, marked not identified), and a free rotor whose polarity they cannot see "
+                                "(no saturation asymmetry) is refused: it needs locked = true"),
+        "locked": B(False, doc="the rotor is locked (a brake, a fixture): standstill steps only, the map's q sweeps without "
+                               "a motion bound; the simulation holds the shaft at zero speed"),
+        "map": B(True, doc="identify the flux map psi_d(i_d, i_q), psi_q(i_d, i_q) over the current limit's disc: "
+                           "fluxmap.csv beside machine.toml (the grid) and fluxmap-measured.csv (the points read)"),
+        "i_test": POS(None, hi=1e5, doc="A, the standstill levels' top d current (R_s and the inverter's error); default 0.6 x "
+                                        "the current limit; on a free rotor on its north pole only and at most half of "
+                                        "psi_f / (L_q - L_d) (the magnet's pull then beats the reluctance torque's push); "
+                                        "polarity unknown and locked, at +i and -i"),
+        "t_level": POS(None, hi=10.0, doc="s, the top three levels' window per sign (the others half of it); default 0.1, "
+                                          "at least 100 control periods"),
+        "motion_max_deg": F(1.0, lo=0.0, hi=90.0, lo_open=True,
+                            doc="el.deg, the swing the map's q sweeps may give a free rotor: their rise is sized from the "
+                                "machine file's psi_f and J, their amplitude lowered where the voltage cannot rise faster"),
+        "speed_frac": F(0.3, lo=0.0, hi=1.0, lo_open=True, doc="the running steps' speed, as a fraction of rated (lowered where the "
+                                                               "back-EMF would pass half the linear voltage)"),
+        "t_ramp": POS(1.0, hi=1e3, doc="s, the I/f ramp to that speed (at least 100 control periods)"),
+        "t_limit": POS(30.0, hi=1e4, doc="s simulated before the identification counts as stuck (reported with its step)"),
+    }, default={}),
     "trace": T({"decimation": I(1, 1, 10**6, doc="record every n-th control period")}, default={}),
     "metrics": T({"steady": Spec("any", None, doc="[t_start, t_end] s, the steady window; default the last flat stretch of the references and load after the loop settles (fullspeed.sim.metrics)")}, default={}),
 }

@@ -1,6 +1,7 @@
 """Beyond the papers: one sensorless drive over the whole speed range
 (B-FULLRANGE), its robustness to parameter error (B-ROBUST), the
-self-commissioning over the machine zoo (B-IDENT),
+self-commissioning over the machine zoo (B-IDENT) and its flux map
+(B-MAPID),
 cross-saturation compensation of the rotating injection (B-XCOMP-3PH),
 yu2022's square-wave injection on the three-phase machine (B-SWVI-3PH),
 the loss-of-lock monitor's campaign (B-LOCK), and the drive on a machine
@@ -19,9 +20,9 @@ from ...model.units import rad_s_to_rpm
 from ...sim.metrics import STAGES, stage_changes, window_mask
 from ...workflows import lock_campaign
 from ...workflows.calibrate import write_table, xsat_table
-from ...workflows.identify import GOALS_PCT, campaign_summary, sensorless_on_identified, zoo_campaign
+from ...workflows.identify import GOALS_PCT, MAP_GOAL_PCT, campaign_summary, map_summary, sensorless_on_identified, zoo_campaign
 from ...workflows.sweep import load_sweep_file, run_sweep
-from ..registry import NOT_YET, Measurement, register
+from ..registry import Measurement, register
 from .common import (error_stats, figure_angle, figure_dynamic, grid_and_legends, lock_held, plt,
                      run, save_figure, sweep_dir)
 
@@ -60,12 +61,6 @@ def xcomp_3ph(out: Path) -> Measurement:
             "scenario file uses the table shipped in fullspeed/calibration/yang2022-xsat.toml; "
             "table_vs_shipped_max_diff is how far this run's calibration is from it.")
     return Measurement(value, ok, note, [fig])
-
-
-# Claims whose work is still open: listed with the reason, never left out.
-NOT_YET.update({
-    "B-MAPID": "the identification of the flux map is not built yet (issue 35)",
-})
 
 
 # B-SWVI-3PH: the run's error is taken from T_SWVI on: the rotor starts 50
@@ -391,9 +386,10 @@ def lock(out: Path) -> Measurement:
     return Measurement(value, bool(ok), note, [fig])
 
 
-# B-IDENT: the whole zoo, about 50 s on two idle cores (an identification
-# takes 3-8 s simulated, about 1 s wall in one process); lower it for a
-# sample if the reproduction's time budget needs it.
+# B-IDENT: the whole zoo, about 47 s on two idle cores (an identification
+# takes 4-12 s simulated, 6 s the median, its flux map's steps included;
+# about 0.5 s wall in one process); lower it for a sample if the
+# reproduction's time budget needs it.
 IDENT_SAMPLE = 100
 
 
@@ -428,3 +424,48 @@ def ident(out: Path) -> Measurement:
               f"{sl['kept_identified']} of {sl['machines']}" + (f"; the machines whose outcome differs: {sl['differ']}"
                                                                  if sl["differ"] else "") + ".")
     return Measurement(value, within and named and as_often, note)
+
+
+# B-MAPID: the zoo's saturating machines are its even indices; MAPID_SAMPLE of
+# them (k = 0, 2, ..): the fewest whose 95th percentile is not the worst alone
+# (numpy's interpolation puts it between the two largest of 20), about 8 s on
+# two idle cores. The published catalog's flux-map machines are not in the
+# campaign yet: on a free shaft their standstill steps do not hold the rotor
+# (prius2004-mg2, syre-thor, baldor-ecs101m0h7ef4 turn it in LEVELS); locked,
+# they are identified (identify's [identify] locked = true).
+MAPID_SAMPLE = 20
+MAPID_PENDING = ("the second half (the identified map in the controller keeps the sensorless error within 1 el.deg "
+                 "of the true map's on B-REAL's scenario) is not yet measured: the controller runs on flux maps and "
+                 "B-REAL's scenario exists (issue 33), but B-REAL's scenario has not been run on the identified maps "
+                 "beside the true ones, and the catalog's machines are not yet identified on a free shaft (issue 35)")
+
+
+@register("B-MAPID")
+def mapid(out: Path) -> Measurement:
+    ks = range(0, 2 * MAPID_SAMPLE, 2)
+    rows = zoo_campaign(ks, out / "B-MAPID-runs")
+    s = map_summary(rows)
+    path = out / "B-MAPID.json"
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(json.dumps({"summary": s, "rows": [{k: r.get(k) for k in ("k", "machine", "description", "ended_in",
+                                                                             "status", "reason", "map", "motion", "times")}
+                                                      for r in rows]}, indent=1, default=str))
+    tmp.replace(path)
+    value = {"rms_p95_pct": s["p95"], "rms_p50_pct": s["p50"], "rms_max_pct": s["max"],
+             "constant_model_rms_p95_pct": s["constant_p95"], "machines": s["machines"], "identified": s["identified"],
+             "sensorless_within_1_deg": None}
+    first = s["identified"] == s["machines"] and s["p95"] is not None and s["p95"] <= MAP_GOAL_PCT
+    times = [r["times"]["quantities"]["map"] for r in rows if r.get("times")]
+    note = (f"First half: fullspeed.workflows.identify.zoo_campaign on the zoo's saturating machines k = 0, 2, .., "
+            f"{2 * MAPID_SAMPLE - 2} (seed of fullspeed.model.zoo), each from a seeded random rotor angle on its own bench "
+            "(switching inverter with dead time, 12-bit quantization, sensor noise), a free shaft with its friction: "
+            "the map identified at standstill (fs_mapid.h: a d sweep and q sweeps at 7 d levels, each of zero torque "
+            "impulse and sized against the rotor's motion from the machine file's psi_f and J) and its d axis at speed "
+            "(steady voltage equations), held against the plant's magnetics on 1,257 points of the current limit's "
+            f"disc. RMS error, % of psi_f, p50 / p95 / worst: {s['p50']:.2f} / {s['p95']:.2f} / {s['max']:.2f} "
+            f"({s['identified']} of {s['machines']} identified"
+            + (f"; not: {json.dumps(s['not_identified'])[:300]}" if s["not_identified"] else "")
+            + f"); the constant L_d, L_q, psi_f the map replaces: p50 {s['constant_p50']:.2f}, p95 {s['constant_p95']:.2f}. "
+            + (f"The map's steps take {np.median(times):.2f} s on the drive (median; MAP, CHECK and DCURVE). " if times else "")
+            + f"First half {'met' if first else 'not met'}. Pass stays false: {MAPID_PENDING}. Rows in B-MAPID.json.")
+    return Measurement(value, False, note)

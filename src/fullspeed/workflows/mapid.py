@@ -1,0 +1,214 @@
+"""The flux map the drive's identification read (csrc/control/fs_mapid.h),
+made a map the loader takes (model/fluxmap.py), and held against the truth.
+
+The drive reads, at standstill, psi_d(i_d, 0) - psi_f at i_d = k i_max / 4
+(k = -4..4, the d sweep), and at the d levels k = -3..3 psi_q(i_d, j i_max / 8)
+and psi_d(i_d, j i_max / 8) - psi_d(i_d, 0) (j = 1..8, the q sweeps, as far
+as the disc and the rotor's motion let them go); where the rotor may turn,
+psi_d(i_d, 0) at speed from the steady voltage equations (absolute: no
+psi_f needed). The grid is i_d = k i_max / 4 by i_q = j i_max / 8, j = -8..8
+(psi_q odd and psi_d even in i_q); each point is "measured", "at speed" or
+"extrapolated" (outside the disc, or beyond what the sweeps reached: along
+i_q from the last two points read, the rows at +-i_max from their
+neighbours').
+"""
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+
+from ..design.start import POLARITY_ASYMMETRY, d_asymmetry
+from ..model.fluxmap import interp
+
+ND, NQ = 9, 8          # fs_mapid.h: FS_MAPID_ND, FS_MAPID_NQ
+GOAL_PCT = 3.0         # claim B-MAPID: the RMS error over the disc within 3 % of psi_f
+
+
+def readings(ident) -> dict:
+    """The map's readings from a drive's fs_ident (its fs_mapid's result and
+    DCURVE's), as plain lists (a journal row holds them)."""
+    m, r = ident.map.res, ident.res
+    return {"dpsi_d": list(m.dpsi_d), "n_d": list(m.n_d), "asym": m.asym, "flipped": int(m.flipped),
+            "decided": int(m.decided), "L_pos": m.L_pos, "L_neg": m.L_neg,
+            "psi_q": [list(r) for r in m.psi_q], "dpsi_dq": [list(r) for r in m.dpsi_dq],
+            "i_d_at": [list(r) for r in m.i_d_at], "n_q": [list(r) for r in m.n_q],
+            "i_q_amp": list(m.i_q_amp), "limit": list(m.limit), "motion": list(m.motion),
+            "impulse_left": list(m.impulse_left), "d_amp": m.d_amp, "d_limit": m.d_limit, "d_growth": m.d_growth,
+            "axis_offset": m.axis_offset,
+            "psi_d_w": list(r.psi_d_w), "i_d_w": list(r.i_d_w), "w_d_w": list(r.w_d_w)}
+
+
+def assemble(rd: dict, i_max: float, psi_f: float, L_d: float) -> dict:
+    """The grid (the loader's layout: i_d, i_q axes, psi_d[k][l], psi_q[k][l])
+    and each point's source, from the readings; psi_f anchors the standstill
+    d sweep where the speed did not read a level; L_d moves a q reading from
+    the d current it was taken at to its level."""
+    i_d = np.array([0.25 * (k - ND // 2) * i_max for k in range(ND)])
+    i_q = np.array([(j - NQ) * i_max / NQ for j in range(2 * NQ + 1)])
+    psi_d, psi_q = np.full((ND, 2 * NQ + 1), np.nan), np.full((ND, 2 * NQ + 1), np.nan)
+    src = np.full((ND, 2 * NQ + 1), "extrapolated", dtype=object)
+    # the d axis: at speed where read (absolute), else the standstill sweep on psi_f
+    d0 = np.array([psi_f + rd["dpsi_d"][k] if rd["n_d"][k] else np.nan for k in range(ND)])
+    speed = np.array([rd["psi_d_w"][k] if rd["w_d_w"][k] else np.nan for k in range(ND)])
+    speed[ND // 2] = psi_f
+    axis = np.where(np.isfinite(speed), speed, d0)
+    read = np.isfinite(axis)
+    for k in range(ND):
+        if read[k]:
+            src[k, NQ] = "at speed" if np.isfinite(speed[k]) and k != ND // 2 else "measured"
+    if read.sum() >= 2:   # the ends the sweeps did not reach: along the axis from the last two read
+        idx = np.flatnonzero(read)
+        for k in np.flatnonzero(~read):
+            a, b = (idx[:2] if k < idx[0] else idx[-2:]) if (k < idx[0] or k > idx[-1]) else (idx[idx < k][-1], idx[idx > k][0])
+            axis[k] = axis[a] + (axis[b] - axis[a]) * (k - a) / (b - a)
+    psi_d[:, NQ], psi_q[:, NQ] = axis, 0.0
+    slope = np.gradient(axis, i_d) if np.isfinite(axis).all() else np.full(ND, L_d)
+    for k in range(ND):
+        for j in range(1, NQ + 1):
+            if not rd["n_q"][k][j - 1]:
+                continue
+            shift = i_d[k] - rd["i_d_at"][k][j - 1]   # the held d current a little off its level
+            pd = axis[k] + rd["dpsi_dq"][k][j - 1] + slope[k] * shift
+            pq = rd["psi_q"][k][j - 1]
+            for side in (1, -1):
+                psi_d[k, NQ + side * j], psi_q[k, NQ + side * j] = pd, side * pq
+                src[k, NQ + side * j] = "measured"
+    _fill(psi_d, psi_q, src)
+    return {"i_d": i_d, "i_q": i_q, "psi_d": psi_d, "psi_q": psi_q, "source": src}
+
+
+def _fill(psi_d, psi_q, src) -> None:
+    """What was not read: along i_q, psi_q from the row's last two points
+    (linear: the incremental L_q there) and psi_d held at its last (the
+    cross-saturation's change beyond the sweep is not known; a line through
+    two readings a grid step apart, carried five steps on, multiplies their
+    noise: 26 % of psi_f on the locked Prius-like machine whose sweeps reached
+    35 A of 250); then whole rows from the nearest row read (its changes
+    along i_q)."""
+    for k in range(ND):
+        have = [j for j in range(1, NQ + 1) if src[k, NQ + j] != "extrapolated"]
+        if not have or not np.isfinite(psi_d[k, NQ]):
+            continue
+        j1 = have[-1]
+        j0 = have[-2] if len(have) > 1 else 0
+        for j in range(1, NQ + 1):
+            if j in have:
+                continue
+            f = (j - j0) / (j1 - j0)
+            for side in (1, -1):
+                a, b = NQ + side * j0, NQ + side * j1
+                psi_d[k, NQ + side * j] = psi_d[k, b]
+                psi_q[k, NQ + side * j] = psi_q[k, a] + f * (psi_q[k, b] - psi_q[k, a])
+    rows = [k for k in range(ND) if np.isfinite(psi_d[k]).all()]
+    for k in range(ND):
+        if k in rows or not rows:
+            continue
+        near = min(rows, key=lambda r: abs(r - k))
+        base = psi_d[k, NQ] if np.isfinite(psi_d[k, NQ]) else psi_d[near, NQ]
+        psi_d[k] = base + psi_d[near] - psi_d[near, NQ]
+        psi_q[k] = psi_q[near]
+        for j in range(2 * NQ + 1):
+            if j != NQ or not np.isfinite(psi_d[k, NQ]):
+                src[k, j] = "extrapolated"
+
+
+def disc_points(i_max: float, n: int = 41) -> tuple[np.ndarray, np.ndarray]:
+    """An even grid of currents within the current limit's disc (41 x 41
+    over the square: 1,257 points inside)."""
+    g = np.linspace(-i_max, i_max, n)
+    a, b = np.meshgrid(g, g, indexing="ij")
+    inside = a * a + b * b <= i_max * i_max * (1 + 1e-9)
+    return a[inside], b[inside]
+
+
+def map_errors(grid: dict, true_flux, psi_f: float, i_max: float) -> dict:
+    """RMS and largest error of the identified map (bilinear on its grid, as
+    the loader's map is read) against the true fluxes over the disc, % of
+    psi_f: psi_d, psi_q and both together (the claim's figure)."""
+    a, b = disc_points(i_max)
+    mag = {"i_d": grid["i_d"], "i_q": grid["i_q"], "psi_d": grid["psi_d"], "psi_q": grid["psi_q"]}
+    td, tq = true_flux(a, b)
+    ed = (interp(mag, "psi_d", a, b) - td) / psi_f
+    eq = (interp(mag, "psi_q", a, b) - tq) / psi_f
+    return {"rms_pct": 100.0 * math.sqrt(float(np.mean(np.r_[ed, eq] ** 2))),
+            "rms_d_pct": 100.0 * math.sqrt(float(np.mean(ed ** 2))), "rms_q_pct": 100.0 * math.sqrt(float(np.mean(eq ** 2))),
+            "max_pct": 100.0 * float(np.max(np.abs(np.r_[ed, eq]))), "points": int(a.size)}
+
+
+def constant_errors(L_d: float, L_q: float, psi_f_id: float, true_flux, psi_f: float, i_max: float) -> dict:
+    """The same for the constant-parameter model of the identified L_d, L_q,
+    psi_f (psi_d = psi_f + L_d i_d, psi_q = L_q i_q): what the map adds."""
+    a, b = disc_points(i_max)
+    td, tq = true_flux(a, b)
+    ed, eq = (psi_f_id + L_d * a - td) / psi_f, (L_q * b - tq) / psi_f
+    return {"rms_pct": 100.0 * math.sqrt(float(np.mean(np.r_[ed, eq] ** 2))),
+            "max_pct": 100.0 * float(np.max(np.abs(np.r_[ed, eq])))}
+
+
+def true_grid(true_flux, i_max: float) -> dict:
+    """The true fluxes on the identified map's grid (for its asymmetry)."""
+    i_d = np.array([0.25 * (k - ND // 2) * i_max for k in range(ND)])
+    i_q = np.array([(j - NQ) * i_max / NQ for j in range(2 * NQ + 1)])
+    a, b = np.meshgrid(i_d, i_q, indexing="ij")
+    td, tq = true_flux(a.ravel(), b.ravel())
+    return {"i_d": i_d, "i_q": i_q, "psi_d": td.reshape(a.shape), "psi_q": tq.reshape(a.shape)}
+
+
+def asymmetry(grid: dict, i_pulse: float) -> float | None:
+    """The d-axis asymmetry polarity detection decides on (design.start:
+    the incremental L_d at -i_pulse against +i_pulse), of a map's grid."""
+    mag = {"model": "fluxmap", "i_d": list(grid["i_d"]), "i_q": list(grid["i_q"]),
+           "psi_d": np.asarray(grid["psi_d"]).tolist()}
+    return d_asymmetry(SimpleNamespace(magnetic=mag), i_pulse)
+
+
+def polarity_report(grid: dict, truth: dict | None, i_pulse: float) -> dict:
+    """The identified map's d-axis asymmetry at the polarity pulses, the
+    truth's, and whether it reaches what polarity detection needs."""
+    ident = asymmetry(grid, i_pulse)
+    out = {"i_pulse": i_pulse, "asymmetry": ident, "needed": POLARITY_ASYMMETRY,
+           "decides": bool(ident is not None and ident >= POLARITY_ASYMMETRY)}
+    if truth is not None:
+        out["asymmetry_truth"] = asymmetry(truth, i_pulse)
+    return out
+
+
+def csv_text(grid: dict, machine: str) -> str:
+    """The grid as the CSV the loader reads (model/fluxmap.py), each point's
+    source in the comment above it."""
+    lines = [f"# {machine}: flux map identified by `fullspeed identify` (csrc/control/fs_mapid.h)",
+             "# peak phase currents and flux linkages, magnet on +d (amplitude-invariant dq)",
+             "# source of each row's point: m measured (standstill sweeps), s at speed (steady voltage equations),",
+             "# e extrapolated (outside the current limit's disc, or beyond what the sweeps reached)",
+             "i_d [A],i_q [A],psi_d [Wb],psi_q [Wb]"]
+    code = {"measured": "m", "at speed": "s", "extrapolated": "e"}
+    for k, a in enumerate(grid["i_d"]):
+        lines.append("# " + "".join(code[s] for s in grid["source"][k]))
+        for j, b in enumerate(grid["i_q"]):
+            lines.append(f"{a:.9g},{b:.9g},{grid['psi_d'][k, j]:.9g},{grid['psi_q'][k, j]:.9g}")
+    return "\n".join(lines) + "\n"
+
+
+def measured_csv_text(rd: dict, i_max: float, psi_f: float, machine: str) -> str:
+    """The points as the drive read them (before the grid): the d axis at
+    standstill (relative to psi_f, here added) and at speed, and each q
+    sweep's points at the d current they were read at."""
+    lines = [f"# {machine}: the points `fullspeed identify` read (fluxmap.csv is the grid made of them)",
+             "# method: standstill d sweep (psi_d on psi_f), at speed (steady voltage equations), standstill q sweep",
+             "method,i_d [A],i_q [A],psi_d [Wb],psi_q [Wb]"]
+    for k in range(ND):
+        a = 0.25 * (k - ND // 2) * i_max
+        if rd["n_d"][k]:
+            lines.append(f"standstill d sweep,{a:.9g},0,{psi_f + rd['dpsi_d'][k]:.9g},0")
+        if rd["w_d_w"][k]:
+            lines.append(f"at speed,{rd['i_d_w'][k]:.9g},0,{rd['psi_d_w'][k]:.9g},0")
+    for k in range(ND):
+        base = rd["psi_d_w"][k] if rd["w_d_w"][k] else psi_f + rd["dpsi_d"][k]
+        for j in range(1, NQ + 1):
+            if rd["n_q"][k][j - 1]:
+                b = j * i_max / NQ
+                lines.append(f"standstill q sweep,{rd['i_d_at'][k][j - 1]:.9g},{b:.9g},"
+                             f"{base + rd['dpsi_dq'][k][j - 1]:.9g},{rd['psi_q'][k][j - 1]:.9g}")
+    return "\n".join(lines) + "\n"
