@@ -1,5 +1,6 @@
-"""fullspeed's benchmarks in one command: wall time against motulator, the
-drive step's instructions per control step, the Cortex-M4F build, the
+"""fullspeed's benchmarks in one command: wall time against motulator and
+motulator-export's native C, where fullspeed's time goes per simulated
+sample (breakdown.py), the drive step's instructions per control step, the Cortex-M4F build, the
 position estimators against motulator on its own examples, the
 drive step run on an emulated Cortex-M4F (processor in the loop: per mode
 the target's instructions per step, stack, RAM and the replay's largest
@@ -11,7 +12,8 @@ what it needs (a Python >= 3.12 for motulator, valgrind, the ARM
 toolchain, QEMU). The report is printed, and written to --out as JSON
 (bench.json) beside the printout (bench.txt).
 
-Usage: python bench/run.py [--repeat N] [--steps N] [--out DIR] [--only wall,estimators,instructions,firmware,pil,effects]
+Usage: python bench/run.py [--repeat N] [--steps N] [--out DIR]
+                          [--only wall,breakdown,estimators,instructions,firmware,pil,effects]
 """
 from __future__ import annotations
 
@@ -23,6 +25,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
+import breakdown  # noqa: E402
 import effects  # noqa: E402
 import estimators  # noqa: E402
 import firmware  # noqa: E402
@@ -30,12 +33,12 @@ import instructions  # noqa: E402
 import pil  # noqa: E402
 import wall  # noqa: E402
 
-PARTS = ("wall", "estimators", "instructions", "firmware", "pil", "effects")
+PARTS = ("wall", "breakdown", "estimators", "instructions", "firmware", "pil", "effects")
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeat", type=int, default=3, help="wall: runs per side and pair (default 3)")
+    ap.add_argument("--repeat", type=int, default=3, help="wall: rounds of the three engines (default 3)")
     ap.add_argument("--steps", type=int, default=20000, help="instructions: measured steps (default 20000)")
     ap.add_argument("--out", type=Path, default=Path("out/bench"), help="where bench.json goes (default out/bench)")
     ap.add_argument("--only", default=",".join(PARTS), help="comma-separated parts to run (default all)")
@@ -53,6 +56,9 @@ def main(argv: list[str] | None = None) -> int:
         if part == "wall":
             rep = wall.wall_report(a.repeat)
             text = wall.format_report(rep)
+        elif part == "breakdown":
+            rep = breakdown.breakdown_report()
+            text = breakdown.format_report(rep)
         elif part == "effects":
             rep = effects.effects_report(a.repeat)
             text = effects.format_report(rep)

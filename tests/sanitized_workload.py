@@ -73,6 +73,16 @@ def run_to(sim, t_end: float, max_rows: int):
     return rc, buf[: rows[0]].copy()
 
 
+def run_cols_to(sim, t_end: float, max_rows: int):
+    """fs_sim_run_cols into a column-major buffer of exactly max_rows rows a
+    channel (stride max_rows); the rows returned row-major, as run_to's."""
+    buf = np.full((lib.FS_CH_N, max(max_rows, 1)), np.nan)
+    rows = ffi.new("int *")
+    rc = lib.fs_sim_run_cols(sim, lib.fs_sim_steps(sim, t_end), ffi.cast("double *", buf.ctypes.data),
+                             max(max_rows, 1), max_rows, rows)
+    return rc, buf[:, : rows[0]].T.copy()
+
+
 def run_scenarios() -> None:
     for name in scenario_names():
         r = simulate(load_scenario(name))
@@ -381,7 +391,7 @@ def polarity_init_refuses_step_counts_beyond_int():
 
 # --- advancing in small chunks into a tiny trace buffer ---------------------
 
-def _chunked(cfg, T: float, dt: float, max_rows: int):
+def _chunked(cfg, T: float, dt: float, max_rows: int, run=run_to):
     ptr, err = create(cfg)
     assert ptr != ffi.NULL, err
     sim = ffi.gc(ptr, lib.fs_sim_destroy)
@@ -389,7 +399,7 @@ def _chunked(cfg, T: float, dt: float, max_rows: int):
     while lib.fs_sim_step_count(sim) < lib.fs_sim_steps(sim, T):   # periods, as fs_sim_run counts them
         t_end = min(t_end + dt, T)
         while True:
-            rc, tr = run_to(sim, t_end, max_rows)
+            rc, tr = run(sim, t_end, max_rows)
             parts.append(tr)
             if rc != lib.FS_RUN_BUFFER_FULL:
                 break
@@ -425,6 +435,22 @@ def run_in_small_chunks_into_a_tiny_buffer_matches_one_run():
         rc, tr = run_to(sim, T, 0)
         assert rc == lib.FS_RUN_BUFFER_FULL and tr.shape[0] == 0 and lib.fs_sim_time(sim) == 0.0
         out[name] = {"rows": expect, "buffer_full": fulls}
+    return out
+
+
+@check
+def columns_in_small_chunks_into_exact_buffers_match_the_rows():
+    out = {}
+    for name, dec in (("yang2022-blend-iqstep", 7), ("zou2021-region-a", 3), ("yu2022-startup", 2)):
+        cfg, keep = config(name)
+        cfg.decimation = dec
+        T = 0.05
+        n = -(-math.ceil(round(T / cfg.drive.Ts, 6) - 0.5) // dec)
+        rows, _ = _chunked(cfg, T, T, n)
+        for dt, max_rows in ((T, n), (0.37 * cfg.drive.Ts, 1), (5.3 * dec * cfg.drive.Ts, 2)):
+            cols, _ = _chunked(cfg, T, dt, max_rows, run=run_cols_to)
+            assert cols.tobytes() == rows.tobytes(), (name, dt, max_rows)
+        out[name] = {"rows": n}
     return out
 
 

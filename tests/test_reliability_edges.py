@@ -550,7 +550,7 @@ def test_xcomp_eval_does_not_read_a_table_its_check_refuses():
 # --- 42, 43: Ctrl-C during a run and during its writing ----------------------------
 
 class _InterruptAfterRun:
-    """fullspeed.sim's lib with fs_sim_run_steps (what the runner calls)
+    """fullspeed.sim's lib with fs_sim_run_cols (what the runner calls)
     raising KeyboardInterrupt as it returns on its n-th call: where a real
     Ctrl-C lands (the C call returns, the interpreter then runs the signal
     handler)."""
@@ -561,8 +561,8 @@ class _InterruptAfterRun:
     def __getattr__(self, name):
         return getattr(self._lib, name)
 
-    def fs_sim_run_steps(self, *args):
-        rc = self._lib.fs_sim_run_steps(*args)
+    def fs_sim_run_cols(self, *args):
+        rc = self._lib.fs_sim_run_cols(*args)
         self.calls += 1
         if self.calls == self._n:
             raise KeyboardInterrupt

@@ -10,8 +10,9 @@
 enum { P_W_M_REF, P_I_D_REF, P_I_Q_REF, P_U_D_REF, P_U_Q_REF, P_W_E_REF, P_T_LOAD, P_W_LOAD, P_SENSORLESS,
        P_U_DC_SCALE, P_N };
 /* fs_sim_hold's indices are these */
-typedef char fs_sim_profile_check[(P_W_M_REF == FS_SIM_W_M_REF && P_T_LOAD == FS_SIM_T_LOAD && P_W_LOAD == FS_SIM_W_LOAD
-                                   && P_U_DC_SCALE == FS_SIM_U_DC_SCALE && P_N == FS_SIM_PROFILES) ? 1 : -1];
+typedef char fs_sim_profile_check[((int)P_W_M_REF == (int)FS_SIM_W_M_REF && (int)P_T_LOAD == (int)FS_SIM_T_LOAD
+                                   && (int)P_W_LOAD == (int)FS_SIM_W_LOAD && (int)P_U_DC_SCALE == (int)FS_SIM_U_DC_SCALE
+                                   && (int)P_N == (int)FS_SIM_PROFILES) ? 1 : -1];
 
 struct fs_sim {
     fs_sim_config cfg;
@@ -45,6 +46,15 @@ struct fs_sim {
     double held_y[P_N], held_slope[P_N];
     int sampled;             /* fs_sim_sample ran and fs_sim_actuate has not */
     double e_in0, p_cond0;   /* at the last sample: the input energy meter, J, and the devices' conduction loss, W */
+    double theta_e;          /* at the last sample: the true electrical angle, wrapped (its trace row's) */
+    /* The phase and rotor-frame currents of the state as it is, computed by
+     * the overcurrent check at the end of a period and taken by the next
+     * sample instead of computing them again (the same function of the same
+     * state: the same bits). Not with a flux map, whose current solve starts
+     * from its last solution (fs_mag_current's hint): a second solve of the
+     * same state can differ in the last bit, so it is solved twice as before. */
+    int cur_ok;
+    double cur_ph[FS_INV_MAX_LEGS], cur_d, cur_q;
     double e_dc0;            /* at the last sample: the source's meter (with the loss meters), J */
     int losses;              /* cfg.plant.losses: the loss meters run */
     int imc_real;            /* the matrix converter with devices, dead time or meters (imc_deriv_real) */
@@ -67,11 +77,29 @@ static double prof(fs_sim *s, int p, double t, double *slope)
 
 static double pi_const(void) { return 3.14159265358979323846; }
 
+/* fmod(x, y) for y > 0, bit for bit, without the library call where |x| <
+ * 2 y (an angle wrapped once a sample never leaves that band): fmod is exact
+ * (x - n y for n = trunc(x / y)), so it is x itself for |x| < y, and for y
+ * <= |x| < 2 y it is x -+ y, which the subtraction gives exactly (Sterbenz:
+ * y / 2 <= |x| <= 2 y), with fmod's sign (x's) where that is zero. NaN,
+ * infinities and the rest take fmod. */
+static double fmod_near(double x, double y)
+{
+    if (x >= 0.0) {
+        if (x < y) return x;
+        if (x < 2.0 * y) return x - y;
+    } else if (x > -2.0 * y) {
+        if (x > -y) return x;
+        return x == -y ? -0.0 : x + y;   /* fmod keeps x's sign: -y gives -0 */
+    }
+    return fmod(x, y);
+}
+
 static double wrap_pi(double x)
 {
     const double PI = pi_const();
     if (x > -PI && x <= PI) return x;
-    x = fmod(x + PI, 2.0 * PI);
+    x = fmod_near(x + PI, 2.0 * PI);
     if (x <= 0.0) x += 2.0 * PI;
     return x - PI;
 }
@@ -642,7 +670,13 @@ static void sample(fs_sim *s, double t, fs_drive_in *din, double *i_ph, double *
     if (!s->imc && (s->prof[P_U_DC_SCALE].n > 0 || s->held[P_U_DC_SCALE]))
         s->cfg.inverter.u_dc = s->u_dc0 * prof(s, P_U_DC_SCALE, t, NULL);
 
-    phase_currents(s, s->x, i_ph, i_d, i_q);
+    if (s->cur_ok) {
+        for (int k = 0; k < FS_INV_MAX_LEGS; ++k) i_ph[k] = s->cur_ph[k];
+        *i_d = s->cur_d;
+        *i_q = s->cur_q;
+    } else {
+        phase_currents(s, s->x, i_ph, i_d, i_q);
+    }
     for (int k = 0; k < s->phases; ++k) din->i_ph[k] = (float)adc(s, k, i_ph[k], t);
     for (int k = s->phases; k < FS_PHASES_MAX; ++k) din->i_ph[k] = 0.0f;
     din->u_dc = (float)c->inverter.u_dc;
@@ -657,7 +691,8 @@ static void sample(fs_sim *s, double t, fs_drive_in *din, double *i_ph, double *
     if (!(c->fault.t_encoder_stop > 0.0 && t >= c->fault.t_encoder_stop))
         s->theta_enc_held = (float)encoder(s, s->x[FS_X_THETA_M]);
     din->theta_m_enc = s->theta_enc_held;
-    din->theta_e_ext = (float)wrap_pi(p * s->x[FS_X_THETA_M]);
+    s->theta_e = wrap_pi(p * s->x[FS_X_THETA_M]);
+    din->theta_e_ext = (float)s->theta_e;
     din->w_e_ext = (float)(p * s->x[FS_X_W_M]);
     din->w_m_ref = (float)prof(s, P_W_M_REF, t, NULL);
     din->i_d_ref = (float)prof(s, P_I_D_REF, t, NULL);
@@ -683,9 +718,20 @@ static void command(fs_sim *s, const float *duty, const fs_imc_rect *rect)
     }
 }
 
-/* The plant's channels of a trace row at time t (the state as it is; u_dc
- * the dc link sampled at t), the drive's left as they are. */
-static void row_plant(fs_sim *s, double t, const double *i_ph, double i_d, double i_q, double u_dc, double *r)
+/* A trace row's channels go to r[FS_CH_* * st]: st 1 row-major, else the
+ * column-major trace's stride. The row writers are specialised by it (the
+ * row-major one multiplies by no stride). */
+#if defined(__GNUC__)
+#define FS_SPECIALISE static inline __attribute__((always_inline))
+#else
+#define FS_SPECIALISE static inline
+#endif
+
+/* The plant's channels of a trace row at time t (the state as it is, its
+ * wrapped electrical angle theta_e; u_dc the dc link sampled at t), the
+ * drive's left as they are. */
+FS_SPECIALISE void row_plant(fs_sim *s, double t, double theta_e, const double *i_ph, double i_d, double i_q,
+                             double u_dc, double *r, const long st)
 {
     const fs_sim_config *c = &s->cfg;
     fs_pmsm_input pin = {0};
@@ -693,85 +739,89 @@ static void row_plant(fs_sim *s, double t, const double *i_ph, double i_d, doubl
     pin.w_load = prof(s, P_W_LOAD, t, NULL);
     double Te, Tl, id2, iq2;
     fs_pmsm_outputs(&s->pmsm, s->x, &pin, &id2, &iq2, &Te, &Tl);
-    r[FS_CH_T] = t;
-    r[FS_CH_THETA_E] = wrap_pi(c->plant.pole_pairs * s->x[FS_X_THETA_M]);
-    r[FS_CH_W_M] = s->x[FS_X_W_M];
-    r[FS_CH_PSI_D] = s->x[FS_X_PSI_D];
-    r[FS_CH_PSI_Q] = s->x[FS_X_PSI_Q];
-    r[FS_CH_I_D] = i_d;
-    r[FS_CH_I_Q] = i_q;
-    r[FS_CH_I_A] = i_ph[0];
-    r[FS_CH_I_B] = i_ph[1];
-    r[FS_CH_I_C] = i_ph[2];
-    r[FS_CH_T_E] = Te;
-    r[FS_CH_T_L] = Tl;
-    r[FS_CH_U_D] = s->k > 0 ? s->x[FS_X_UD_INT] / s->Tc : 0.0;
-    r[FS_CH_U_Q] = s->k > 0 ? s->x[FS_X_UQ_INT] / s->Tc : 0.0;
-    r[FS_CH_E_IN] = s->x[FS_X_E_IN];
-    r[FS_CH_E_CU] = s->x[FS_X_E_CU];
-    r[FS_CH_E_AIRGAP] = s->x[FS_X_E_AIRGAP];
-    r[FS_CH_W_MAG] = fs_pmsm_energy(&s->pmsm, s->x);
-    fs_pmsm_currents3(&s->pmsm, s->x, &r[FS_CH_I_D3], &r[FS_CH_I_Q3]);
+    r[FS_CH_T * st] = t;
+    r[FS_CH_THETA_E * st] = theta_e;
+    r[FS_CH_W_M * st] = s->x[FS_X_W_M];
+    r[FS_CH_PSI_D * st] = s->x[FS_X_PSI_D];
+    r[FS_CH_PSI_Q * st] = s->x[FS_X_PSI_Q];
+    r[FS_CH_I_D * st] = i_d;
+    r[FS_CH_I_Q * st] = i_q;
+    r[FS_CH_I_A * st] = i_ph[0];
+    r[FS_CH_I_B * st] = i_ph[1];
+    r[FS_CH_I_C * st] = i_ph[2];
+    r[FS_CH_T_E * st] = Te;
+    r[FS_CH_T_L * st] = Tl;
+    r[FS_CH_U_D * st] = s->k > 0 ? s->x[FS_X_UD_INT] / s->Tc : 0.0;
+    r[FS_CH_U_Q * st] = s->k > 0 ? s->x[FS_X_UQ_INT] / s->Tc : 0.0;
+    r[FS_CH_E_IN * st] = s->x[FS_X_E_IN];
+    r[FS_CH_E_CU * st] = s->x[FS_X_E_CU];
+    r[FS_CH_E_AIRGAP * st] = s->x[FS_X_E_AIRGAP];
+    r[FS_CH_W_MAG * st] = fs_pmsm_energy(&s->pmsm, s->x);
+    double i_d3, i_q3;
+    fs_pmsm_currents3(&s->pmsm, s->x, &i_d3, &i_q3);
+    r[FS_CH_I_D3 * st] = i_d3;
+    r[FS_CH_I_Q3 * st] = i_q3;
     const int imc_mean = s->imc && s->k > 0;
-    r[FS_CH_I_GRID_A] = imc_mean ? s->g_int[0] / s->Tc : 0.0;
-    r[FS_CH_V_PN] = imc_mean ? s->g_int[1] / s->Tc : 0.0;
-    r[FS_CH_U_AB] = imc_mean ? s->g_int[2] / s->Tc : 0.0;
-    r[FS_CH_E_GRID] = s->imc ? s->g[FS_GRID_X_E_GRID] : 0.0;
-    r[FS_CH_E_RF] = s->imc ? s->g[FS_GRID_X_E_RF] : 0.0;
-    r[FS_CH_W_FILTER] = s->imc ? fs_grid_energy(&c->grid, s->g) : 0.0;
-    r[FS_CH_U_DC] = u_dc;
-    r[FS_CH_T_WINDING] = s->thermal_on ? s->thermal.T_w : 0.0;
-    r[FS_CH_T_MAGNET] = s->thermal_on ? s->thermal.T_m : 0.0;
-    r[FS_CH_R_S_TRUE] = s->pmsm.cfg.R_s;
-    r[FS_CH_PSI_F_TRUE] = s->psi_f_true;
-    r[FS_CH_E_DC] = s->e_dc;
-    r[FS_CH_E_COND] = s->e_cond;
-    r[FS_CH_E_RECT] = s->e_rect;
-    r[FS_CH_E_SW] = s->e_sw;
-    r[FS_CH_E_FE] = s->losses ? s->x[FS_X_E_FE] : 0.0;
-    r[FS_CH_E_MECH] = s->losses ? s->x[FS_X_E_MECH] : 0.0;
-    r[FS_CH_E_SHAFT] = s->losses ? s->x[FS_X_E_SHAFT] : 0.0;
+    r[FS_CH_I_GRID_A * st] = imc_mean ? s->g_int[0] / s->Tc : 0.0;
+    r[FS_CH_V_PN * st] = imc_mean ? s->g_int[1] / s->Tc : 0.0;
+    r[FS_CH_U_AB * st] = imc_mean ? s->g_int[2] / s->Tc : 0.0;
+    r[FS_CH_E_GRID * st] = s->imc ? s->g[FS_GRID_X_E_GRID] : 0.0;
+    r[FS_CH_E_RF * st] = s->imc ? s->g[FS_GRID_X_E_RF] : 0.0;
+    r[FS_CH_W_FILTER * st] = s->imc ? fs_grid_energy(&c->grid, s->g) : 0.0;
+    r[FS_CH_U_DC * st] = u_dc;
+    r[FS_CH_T_WINDING * st] = s->thermal_on ? s->thermal.T_w : 0.0;
+    r[FS_CH_T_MAGNET * st] = s->thermal_on ? s->thermal.T_m : 0.0;
+    r[FS_CH_R_S_TRUE * st] = s->pmsm.cfg.R_s;
+    r[FS_CH_PSI_F_TRUE * st] = s->psi_f_true;
+    r[FS_CH_E_DC * st] = s->e_dc;
+    r[FS_CH_E_COND * st] = s->e_cond;
+    r[FS_CH_E_RECT * st] = s->e_rect;
+    r[FS_CH_E_SW * st] = s->e_sw;
+    r[FS_CH_E_FE * st] = s->losses ? s->x[FS_X_E_FE] : 0.0;
+    r[FS_CH_E_MECH * st] = s->losses ? s->x[FS_X_E_MECH] : 0.0;
+    r[FS_CH_E_SHAFT * st] = s->losses ? s->x[FS_X_E_SHAFT] : 0.0;
 }
 
-/* The drive's channels of a trace row: its inputs and outputs at this sample. */
-static void row_drive(const fs_sim *s, const fs_drive_in *din, const fs_drive_out *dout, double *r)
+/* The drive's channels of a trace row: its inputs and outputs at this
+ * sample (theta_e: the true angle, as row_plant wrote it). */
+FS_SPECIALISE void row_drive(const fs_sim *s, double theta_e, const fs_drive_in *din, const fs_drive_out *dout,
+                             double *r, const long st)
 {
     const fs_sim_config *c = &s->cfg;
     const int p = c->plant.pole_pairs;
-    const double theta_e = r[FS_CH_THETA_E];
-    r[FS_CH_DUTY_A] = dout->duty[0];
-    r[FS_CH_DUTY_B] = dout->duty[1];
-    r[FS_CH_DUTY_C] = dout->duty[2];
-    r[FS_CH_W_M_REF] = din->w_m_ref;
-    r[FS_CH_I_D_REF] = dout->i_d_ref;
-    r[FS_CH_I_Q_REF] = dout->i_q_ref;
-    r[FS_CH_T_REF] = dout->T_ref;
-    r[FS_CH_I_D_HAT] = dout->i_d;
-    r[FS_CH_I_Q_HAT] = dout->i_q;
-    r[FS_CH_U_D_REF] = dout->u_d;
-    r[FS_CH_U_Q_REF] = dout->u_q;
-    r[FS_CH_THETA_HAT] = dout->theta_e;
-    r[FS_CH_W_M_HAT] = dout->w_e / p;
-    r[FS_CH_THETA_ERR] = wrap_pi(theta_e - dout->theta_e);
-    r[FS_CH_OVERMOD] = dout->over_modulation;
-    r[FS_CH_THETA_EST] = dout->theta_est;
-    r[FS_CH_W_M_EST] = dout->w_est / p;
-    r[FS_CH_EST_VALID] = dout->est_valid;
-    r[FS_CH_EST_ERR] = wrap_pi(theta_e - dout->theta_est);
-    r[FS_CH_PHASE] = dout->phase;
-    r[FS_CH_I_D_FW] = dout->i_d_fw;
-    r[FS_CH_G_W] = dout->g_w;
-    r[FS_CH_INJECT] = dout->injecting;
-    r[FS_CH_I_HF_D] = dout->i_hf_d;
-    r[FS_CH_I_HF_Q] = dout->i_hf_q;
-    r[FS_CH_ALPHA] = dout->alpha;
-    r[FS_CH_LOCK_RESID] = dout->lock_resid;
-    r[FS_CH_LOCK_LOST] = dout->lock_lost;
-    r[FS_CH_STAGE] = dout->stage;
-    r[FS_CH_RECOVERIES] = dout->recoveries;
+    r[FS_CH_DUTY_A * st] = dout->duty[0];
+    r[FS_CH_DUTY_B * st] = dout->duty[1];
+    r[FS_CH_DUTY_C * st] = dout->duty[2];
+    r[FS_CH_W_M_REF * st] = din->w_m_ref;
+    r[FS_CH_I_D_REF * st] = dout->i_d_ref;
+    r[FS_CH_I_Q_REF * st] = dout->i_q_ref;
+    r[FS_CH_T_REF * st] = dout->T_ref;
+    r[FS_CH_I_D_HAT * st] = dout->i_d;
+    r[FS_CH_I_Q_HAT * st] = dout->i_q;
+    r[FS_CH_U_D_REF * st] = dout->u_d;
+    r[FS_CH_U_Q_REF * st] = dout->u_q;
+    r[FS_CH_THETA_HAT * st] = dout->theta_e;
+    r[FS_CH_W_M_HAT * st] = dout->w_e / p;
+    r[FS_CH_THETA_ERR * st] = wrap_pi(theta_e - dout->theta_e);
+    r[FS_CH_OVERMOD * st] = dout->over_modulation;
+    r[FS_CH_THETA_EST * st] = dout->theta_est;
+    r[FS_CH_W_M_EST * st] = dout->w_est / p;
+    r[FS_CH_EST_VALID * st] = dout->est_valid;
+    r[FS_CH_EST_ERR * st] = wrap_pi(theta_e - dout->theta_est);
+    r[FS_CH_PHASE * st] = dout->phase;
+    r[FS_CH_I_D_FW * st] = dout->i_d_fw;
+    r[FS_CH_G_W * st] = dout->g_w;
+    r[FS_CH_INJECT * st] = dout->injecting;
+    r[FS_CH_I_HF_D * st] = dout->i_hf_d;
+    r[FS_CH_I_HF_Q * st] = dout->i_hf_q;
+    r[FS_CH_ALPHA * st] = dout->alpha;
+    r[FS_CH_LOCK_RESID * st] = dout->lock_resid;
+    r[FS_CH_LOCK_LOST * st] = dout->lock_lost;
+    r[FS_CH_STAGE * st] = dout->stage;
+    r[FS_CH_RECOVERIES * st] = dout->recoveries;
     const int adapt = c->drive.adapt.T_f > 0.0f;
-    r[FS_CH_R_S_HAT] = adapt ? s->drive.adapt.R_s : c->drive.R_s;
-    r[FS_CH_PSI_F_HAT] = adapt ? s->drive.adapt.psi_f : c->drive.psi_f;
+    r[FS_CH_R_S_HAT * st] = adapt ? s->drive.adapt.R_s : c->drive.R_s;
+    r[FS_CH_PSI_F_HAT * st] = adapt ? s->drive.adapt.psi_f : c->drive.psi_f;
 }
 
 /* The plant over the period from the sample at t with the duties acting,
@@ -779,6 +829,7 @@ static void row_drive(const fs_sim *s, const fs_drive_in *din, const fs_drive_ou
 static int advance(fs_sim *s, double t)
 {
     const fs_sim_config *c = &s->cfg;
+    s->cur_ok = 0;
     s->x[FS_X_UD_INT] = s->x[FS_X_UQ_INT] = 0.0;
     if (s->imc) integrate_period_imc(s, t); else integrate_period(s, t);
     if (s->thermal_on) thermal_period(s);
@@ -787,20 +838,23 @@ static int advance(fs_sim *s, double t)
         s->rect_now = s->rect_next;
     }
     ++s->k;
-    s->x[FS_X_THETA_M] = fmod(s->x[FS_X_THETA_M], 2.0 * pi_const());
+    s->x[FS_X_THETA_M] = fmod_near(s->x[FS_X_THETA_M], 2.0 * pi_const());
 
-    int finite = 1;
-    for (int n = 0; n < FS_GRID_X_N; ++n) finite = finite && isfinite(s->g[n]);
-    for (int n = 0; n < s->nx; ++n) {
-        if (!isfinite(s->x[n]) || !finite) {
-            s->stopped = FS_STOP_NAN;
-            s->stop_time = fs_sim_time(s);
-            return s->stopped;
-        }
+    /* all states finite: x * 0 is 0 for a finite x and NaN for an infinite
+     * or NaN one, so the sum is 0 or NaN (the filter's states move only with
+     * the matrix converter) */
+    double zero = 0.0;
+    if (s->imc) for (int n = 0; n < FS_GRID_X_N; ++n) zero += s->g[n] * 0.0;
+    for (int n = 0; n < s->nx; ++n) zero += s->x[n] * 0.0;
+    if (zero != 0.0) {
+        s->stopped = FS_STOP_NAN;
+        s->stop_time = fs_sim_time(s);
+        return s->stopped;
     }
     if (c->i_trip > 0.0) {
-        double i_ph[FS_INV_MAX_LEGS];
-        phase_currents(s, s->x, i_ph, NULL, NULL);
+        double *i_ph = s->cur_ph;
+        phase_currents(s, s->x, i_ph, &s->cur_d, &s->cur_q);
+        s->cur_ok = s->pmsm.mag.cfg.kind != FS_MAG_FLUXMAP;
         for (int k = 0; k < s->phases; ++k) {
             if (fabs(i_ph[k]) > c->i_trip) {
                 s->stopped = FS_STOP_OVERCURRENT;
@@ -812,12 +866,10 @@ static int advance(fs_sim *s, double t)
     return FS_RUN_DONE;
 }
 
-int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
-{
-    return fs_sim_run_steps(s, fs_sim_steps(s, t_end), trace, max_rows, rows);
-}
-
-int fs_sim_run_steps(fs_sim *s, long long k_end, double *trace, int max_rows, int *rows)
+/* The runner's loop: a recorded row goes to trace row-major (cols 0:
+ * FS_CH_N doubles a row) or column-major (cols 1: channel c of row r at
+ * trace[c * stride + r]). */
+FS_SPECIALISE int run(fs_sim *s, long long k_end, double *trace, long stride, int max_rows, int *rows, const int cols)
 {
     if (!s || !rows || (!trace && max_rows > 0)) return FS_RUN_ERR_NULL;
     *rows = 0;
@@ -835,9 +887,10 @@ int fs_sim_run_steps(fs_sim *s, long long k_end, double *trace, int max_rows, in
         fs_drive_step(&s->drive, &din, &dout);
         command(s, dout.duty, &dout.rect);
         if (record) {
-            double *r = trace + (size_t)(*rows) * FS_CH_N;
-            row_plant(s, t, i_ph, i_d, i_q, din.u_dc, r);
-            row_drive(s, &din, &dout, r);
+            const long st = cols ? stride : 1;
+            double *r = cols ? trace + *rows : trace + (size_t)(*rows) * FS_CH_N;
+            row_plant(s, t, s->theta_e, i_ph, i_d, i_q, din.u_dc, r, st);
+            row_drive(s, s->theta_e, &din, &dout, r, st);
             ++*rows;
         }
         if (c->lock_stop && dout.lock_lost) {
@@ -856,6 +909,22 @@ int fs_sim_run_steps(fs_sim *s, long long k_end, double *trace, int max_rows, in
         if (st != FS_RUN_DONE) return st;
     }
     return FS_RUN_DONE;
+}
+
+int fs_sim_run(fs_sim *s, double t_end, double *trace, int max_rows, int *rows)
+{
+    return fs_sim_run_steps(s, fs_sim_steps(s, t_end), trace, max_rows, rows);
+}
+
+int fs_sim_run_steps(fs_sim *s, long long k_end, double *trace, int max_rows, int *rows)
+{
+    return run(s, k_end, trace, 0, max_rows, rows, 0);
+}
+
+int fs_sim_run_cols(fs_sim *s, long long k_end, double *trace, long stride, int max_rows, int *rows)
+{
+    if (stride < max_rows || stride < 1) return FS_RUN_ERR_STRIDE;
+    return run(s, k_end, trace, stride, max_rows, rows, 1);
 }
 
 int fs_sim_hold(fs_sim *s, int which, double value, double slope)
@@ -898,7 +967,7 @@ void fs_sim_plant_row(fs_sim *s, double *row)
     if (!s->imc && (s->prof[P_U_DC_SCALE].n > 0 || s->held[P_U_DC_SCALE]))
         u_dc = s->u_dc0 * prof(s, P_U_DC_SCALE, t, NULL);
     if (s->imc && s->k > 0) u_dc = (float)(s->g_int[1] / s->Tc);   /* as the drive samples it */
-    row_plant(s, t, i_ph, i_d, i_q, (float)u_dc, row);
+    row_plant(s, t, wrap_pi(s->cfg.plant.pole_pairs * s->x[FS_X_THETA_M]), i_ph, i_d, i_q, (float)u_dc, row, 1);
 }
 
 void fs_sim_dc_link(fs_sim *s, double *u_dc, double *i_dc, double *p_dc)

@@ -158,7 +158,8 @@ typedef enum {
     FS_STOP_OVERSPEED = 6,    /* the drive halted at its overspeed limit (fs_drive_protect.h) */
     FS_STOP_START = 7,        /* the I/f start never handed over to the observer (fs_drive FS_FAULT_START) */
     FS_RUN_ERR_NULL = -1,     /* sim or rows (or trace, with max_rows > 0) is NULL: nothing run */
-    FS_RUN_ERR_ORDER = -2     /* fs_sim_actuate without an fs_sim_sample before it: nothing run */
+    FS_RUN_ERR_ORDER = -2,    /* fs_sim_actuate without an fs_sim_sample before it: nothing run */
+    FS_RUN_ERR_STRIDE = -3    /* fs_sim_run_cols with a stride below 1 or max_rows: nothing run */
 } fs_run_status;
 
 typedef struct fs_sim fs_sim;
@@ -173,6 +174,10 @@ void fs_sim_destroy(fs_sim *sim);
 int fs_sim_run(fs_sim *sim, double t_end, double *trace, int max_rows, int *rows);
 /* The same, to k_end control periods run in all (nothing when k_end <= fs_sim_step_count). */
 int fs_sim_run_steps(fs_sim *sim, long long k_end, double *trace, int max_rows, int *rows);
+/* fs_sim_run_steps with the trace column-major: channel c of the call's row
+ * r at trace[c * stride + r] (stride >= max_rows: each channel's samples are
+ * contiguous, as the Python front keeps them); FS_RUN_ERR_STRIDE else. */
+int fs_sim_run_cols(fs_sim *sim, long long k_end, double *trace, long stride, int max_rows, int *rows);
 /* The control periods a run from 0 to t takes: the nearest whole number,
  * ceil(t / Tc - 1/2), so that |n Tc - t| <= Tc / 2 (a remainder of exactly
  * half a period is not run); 0 for t <= Tc / 2 or NaN. One rule for

@@ -146,9 +146,10 @@ class Simulation:
         if ptr == ffi.NULL:
             raise SimulationError(f"{scenario.source or scenario.name}: {ffi.string(err).decode()}")
         self._sim = ffi.gc(ptr, lib.fs_sim_destroy)
-        # one row-major buffer the C runner writes into, grown by doubling
+        # one buffer the C runner writes into, a row per channel (each
+        # channel's samples contiguous: the metrics read them so), grown by doubling
         rows = int(scenario.duration / (self._cfg.drive.Ts * self._cfg.decimation)) + 2
-        self._buf = np.empty((rows, lib.FS_CH_N))
+        self._buf = np.empty((lib.FS_CH_N, rows))
         self._n = 0
         # rows the C runner wrote in its last call and that are not in _n yet:
         # a Ctrl-C raised as fs_sim_run returns leaves them here, not lost
@@ -180,14 +181,14 @@ class Simulation:
         dec = self._cfg.decimation
         while True:
             self._n += rows[0]; rows[0] = 0   # noqa: E702 (no call or jump between the two: no signal handler runs there)
+            cap = self._buf.shape[1]
             need = self._n + max(0, k_end - self.step_count) // dec + 2
-            if need > len(self._buf):
-                grown = np.empty((max(need, 2 * len(self._buf)), lib.FS_CH_N))
-                grown[: self._n] = self._buf[: self._n]
-                self._buf = grown
-            free = len(self._buf) - self._n
-            ptr = ffi.cast("double *", self._buf.ctypes.data) + self._n * lib.FS_CH_N
-            rc = lib.fs_sim_run_steps(self._sim, k_end, ptr, free, rows)
+            if need > cap:
+                grown = np.empty((lib.FS_CH_N, max(need, 2 * cap)))
+                grown[:, : self._n] = self._buf[:, : self._n]
+                self._buf, cap = grown, grown.shape[1]
+            ptr = ffi.cast("double *", self._buf.ctypes.data) + self._n
+            rc = lib.fs_sim_run_cols(self._sim, k_end, ptr, cap, cap - self._n, rows)
             self._n += rows[0]; rows[0] = 0   # noqa: E702
             if rc == lib.FS_RUN_BUFFER_FULL:
                 continue
@@ -240,9 +241,16 @@ class Simulation:
         return {"fault": faults.get(drv.fault, str(drv.fault)), "emf_V": float(drv.e_rec), "emf_rpm": w * 60.0 / (2.0 * math.pi)}
 
     def traces(self) -> dict[str, np.ndarray]:
-        """Each channel as a view into the buffer (strided, no copy)."""
+        """Each channel as a view into the buffer (contiguous, no copy)."""
         self._n += self._rows[0]; self._rows[0] = 0   # noqa: E702 (rows of a call a Ctrl-C cut off)
-        return dict(zip(CHANNELS, self._buf[: self._n].T))
+        return dict(zip(CHANNELS, self._buf[:, : self._n]))
+
+
+# Without a progress bar or a chunk asked for, the chunks of simulated time
+# double while one takes less wall time than this: a short run is a few C
+# calls (each a few microseconds of Python), and Ctrl-C still lands within
+# about twice this.
+CHUNK_WALL_S = 0.05
 
 
 def simulate(scenario: Scenario | str, progress: bool = False, chunk: float | None = None,
@@ -250,6 +258,7 @@ def simulate(scenario: Scenario | str, progress: bool = False, chunk: float | No
     """Run a scenario (object, catalog name or TOML path) to its end or to a stop.
 
     An interrupt (Ctrl-C) ends the run early and keeps what was computed.
+    The chunks (simulated seconds a C call) change nothing in the result.
     """
     sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario, overrides)
     sim = Simulation(sc)
@@ -257,6 +266,7 @@ def simulate(scenario: Scenario | str, progress: bool = False, chunk: float | No
     # periods, counted once by the C core's rule (fs_sim_steps): the loop ends
     # whatever the remainder of T after its last whole period
     n_end = sim.steps(T)
+    grow = chunk is None and not progress
     n_chunk = max(1, sim.steps(chunk or max(T / 100.0, 1e-3)))
     bar = None
     if progress:
@@ -267,10 +277,12 @@ def simulate(scenario: Scenario | str, progress: bool = False, chunk: float | No
     status = "running"
     try:
         while sim.step_count < n_end and status == "running":
-            before = sim.time
+            before, w0 = sim.time, time.perf_counter()
             status = sim.advance_steps(min(sim.step_count + n_chunk, n_end))
             if bar is not None:
                 bar.update(sim.time - before)
+            elif grow and time.perf_counter() - w0 < CHUNK_WALL_S:
+                n_chunk *= 2
     except KeyboardInterrupt:
         status = "interrupted"
     finally:

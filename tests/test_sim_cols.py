@@ -1,0 +1,101 @@
+"""The column-major trace (fs_sim_run_cols) and the runner's chunks.
+
+What could be wrong: a channel written to the wrong column or row, a call
+that runs on past its buffer or with a stride that would overlap channels,
+a grown buffer that loses the rows before it, and chunks (the C calls a
+run is cut into) that change the result or do not grow as promised. The
+row-major fs_sim_run is the reference: both layouts must hold the same
+bits.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import fullspeed.sim.runner as runner
+from fullspeed._core import ffi, lib
+from fullspeed.design.scenario import load_scenario
+
+SC = load_scenario("bench-motulator-2kw", {"duration": 0.05, "trace": {"decimation": 3}, "metrics": {"steady": None}})
+
+
+def rows_major(sc, t_end, n):
+    sim = runner.Simulation(sc)
+    buf, rows = np.full((n, lib.FS_CH_N), np.nan), ffi.new("int *")
+    rc = lib.fs_sim_run(sim._sim, t_end, ffi.cast("double *", buf.ctypes.data), n, rows)
+    return rc, buf[: rows[0]]
+
+
+def test_columns_hold_the_row_major_trace_bit_for_bit_across_calls():
+    rc, ref = rows_major(SC, SC.duration, 200)
+    assert rc == lib.FS_RUN_DONE and len(ref) > 100
+    sim = runner.Simulation(SC)
+    stride = len(ref) + 7                     # a stride beyond the rows: the tail stays untouched
+    buf, rows, n = np.full((lib.FS_CH_N, stride), np.nan), ffi.new("int *"), 0
+    for t_end in (0.011, 0.02, SC.duration):  # three calls, each writing after the last
+        ptr = ffi.cast("double *", buf.ctypes.data) + n
+        assert lib.fs_sim_run_cols(sim._sim, sim.steps(t_end), ptr, stride, stride - n, rows) == lib.FS_RUN_DONE
+        n += rows[0]
+    assert n == len(ref)
+    assert buf[:, :n].tobytes() == np.ascontiguousarray(ref.T).tobytes()
+    assert np.isnan(buf[:, n:]).all()
+
+
+def test_a_full_buffer_stops_the_call_and_the_next_goes_on():
+    _, ref = rows_major(SC, SC.duration, 200)
+    sim = runner.Simulation(SC)
+    stride = len(ref)
+    buf, rows = np.full((lib.FS_CH_N, stride), np.nan), ffi.new("int *")
+    base = ffi.cast("double *", buf.ctypes.data)
+    assert lib.fs_sim_run_cols(sim._sim, sim.steps(SC.duration), base, stride, 10, rows) == lib.FS_RUN_BUFFER_FULL
+    assert rows[0] == 10 and np.isnan(buf[:, 10:]).all()
+    assert lib.fs_sim_run_cols(sim._sim, sim.steps(SC.duration), base + 10, stride, stride - 10, rows) == lib.FS_RUN_DONE
+    assert buf.tobytes() == np.ascontiguousarray(ref.T).tobytes()
+
+
+def test_a_stride_below_the_rows_is_refused_before_any_step():
+    sim = runner.Simulation(SC)
+    buf, rows = np.zeros((lib.FS_CH_N, 8)), ffi.new("int *")
+    ptr = ffi.cast("double *", buf.ctypes.data)
+    assert lib.fs_sim_run_cols(sim._sim, sim.steps(SC.duration), ptr, 4, 8, rows) == lib.FS_RUN_ERR_STRIDE
+    assert lib.fs_sim_run_cols(sim._sim, sim.steps(SC.duration), ptr, 0, 0, rows) == lib.FS_RUN_ERR_STRIDE
+    assert lib.fs_sim_time(sim._sim) == 0.0 and not buf.any()
+    assert lib.fs_sim_run_cols(ffi.NULL, 100, ptr, 8, 8, rows) == lib.FS_RUN_ERR_NULL
+
+
+def test_the_runner_grows_its_buffer_without_losing_rows():
+    _, ref = rows_major(SC, 2 * SC.duration, 400)
+    sim = runner.Simulation(SC)               # its buffer is sized for SC.duration
+    cap = sim._buf.shape[1]
+    assert sim.advance(2 * SC.duration) == "running"
+    assert sim._buf.shape[1] > cap
+    tr = sim.traces()
+    assert all(v.flags.c_contiguous for v in tr.values())
+    assert np.stack([tr[c] for c in runner.CHANNELS]).tobytes() == np.ascontiguousarray(ref.T).tobytes()
+
+
+class _Counting:
+    def __init__(self):
+        self.calls = 0
+
+    def __getattr__(self, name):
+        return getattr(lib, name)
+
+    def fs_sim_run_cols(self, *args):
+        self.calls += 1
+        return lib.fs_sim_run_cols(*args)
+
+
+@pytest.mark.parametrize("wall_s, calls", [(float("inf"), 7), (0.0, 100)])
+def test_chunks_double_while_fast_and_change_nothing(monkeypatch, wall_s, calls):
+    sc = load_scenario("bench-motulator-2kw", {"duration": 0.2, "metrics": {"steady": None}})
+    fixed = runner.simulate(sc, chunk=sc.duration / 100)
+    counting = _Counting()
+    monkeypatch.setattr(runner, "lib", counting)
+    monkeypatch.setattr(runner, "CHUNK_WALL_S", wall_s)
+    res = runner.simulate(sc)
+    # T/100 doubling: 1 + 2 + ... + 64 = 127 hundredths, the seventh call ends the run; never faster: 100
+    assert counting.calls == calls
+    assert res.stop_reason == fixed.stop_reason == "done"
+    for ch in runner.CHANNELS:
+        assert res[ch].tobytes() == fixed[ch].tobytes(), ch
