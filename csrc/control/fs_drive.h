@@ -86,7 +86,7 @@
  * Timing and re-entrancy. fs_drive_step must complete within Ts of its
  *   sampling instant, before the next update event. On a Cortex-M4F at
  *   -O2 a step takes about 1,290-2,930 instructions on average by angle
- *   source, 4,140 at most (the blend); 2,490 on average and 3,510 at most
+ *   source, 4,140 at most (the blend); 2,489 on average and 3,509 at most
  *   over the blended full-range run in the firmware's build (-flto):
  *   bench/pil.py measures it per mode. It
  *   touches only *drv, *in and *out (no globals, no heap): instances are
@@ -150,8 +150,8 @@
  * fs_dtcomp_step computes the usual compensation, which is then the same): a commissioning
  * build keeps FS_WITH_IDENT, a production build leaves it out; one whose machine's
  * polarity pulses decide (its d axis saturates) leaves out the starts that turn the rotor,
- * FS_WITH_MOTION_TEST and FS_WITH_IF_START (2,944 B of flash at -O2 with their glue: the
- * blended image 34,916 B with them, 31,972 B without, bench/firmware.py). */
+ * FS_WITH_MOTION_TEST and FS_WITH_IF_START (3,380 B of flash at -O2 with their glue: the
+ * blended image 35,424 B with them, 32,044 B without, bench/firmware.py). */
 #ifndef FS_WITH_IMC
 #define FS_WITH_IMC 1
 #endif
