@@ -60,6 +60,18 @@ int fs_fmu_start(fs_fmu *m, char *msg, int len)
     return FS_FMU_OK;
 }
 
+/* fs_drive_fault, as the model description says (workflows/fmu.py) */
+static const char *fault_name(int fault)
+{
+    switch (fault) {
+    case FS_FAULT_POLARITY: return "polarity undetermined";
+    case FS_FAULT_LOCK: return "lock lost and not re-acquired";
+    case FS_FAULT_OVERSPEED: return "overspeed";
+    case FS_FAULT_START: return "the I/f start never handed over";
+    default: return "unknown";
+    }
+}
+
 int fs_fmu_step(fs_fmu *m, char *msg, int len)
 {
     double *v = m->v;
@@ -95,7 +107,7 @@ int fs_fmu_step(fs_fmu *m, char *msg, int len)
     v[FS_VR_FAULT] = out.fault;
     v[FS_VR_LOCK_LOST] = out.lock_lost;
     if (out.fault != FS_FAULT_NONE && fault_before == 0.0)
-        snprintf(msg, (size_t)len, "the drive halted: fault %d (polarity undetermined): the PWM must be turned off",
-                 out.fault);
+        snprintf(msg, (size_t)len, "the drive halted: fault %d (%s): the PWM must be turned off", out.fault,
+                 fault_name(out.fault));
     return FS_FMU_OK;
 }

@@ -82,6 +82,8 @@ static const char *stop_name(int rc)
     case FS_STOP_OVERCURRENT: return "overcurrent: a phase current beyond the trip level";
     case FS_STOP_LOSS_OF_LOCK: return "loss of lock: the drive's monitor flagged it";
     case FS_STOP_POLARITY: return "polarity undetermined: the drive refused to start";
+    case FS_STOP_OVERSPEED: return "overspeed: the drive halted at its overspeed limit";
+    case FS_STOP_START: return "start failed: the I/f start never handed over to the observer";
     default: return "stopped";
     }
 }

@@ -183,9 +183,11 @@ DRIVE = [TIME] + [
     Var("i_d_cmd", "Real", "output", "A", "the d-current reference the loops follow"),
     Var("i_q_cmd", "Real", "output", "A", "the q-current reference the loops follow"),
     Var("T_ref", "Real", "output", "N.m", "the torque reference"),
-    Var("stage", "Integer", "output", None, "operating stage (fs_drive_stage: 2 polarity, 4 injection, 5 blend, "
-        "6 back-EMF, 7 flux weakening, 8 recovery)", start=0),
-    Var("fault", "Integer", "output", None, "the drive refused to go on (1: polarity undetermined): turn the PWM off", start=0),
+    Var("stage", "Integer", "output", None, "operating stage (fs_drive_stage: 1 encoder, 2 polarity, 3 I/f start, "
+        "4 injection, 5 blend, 6 back-EMF, 7 flux weakening, 8 recovery)", start=0),
+    Var("fault", "Integer", "output", None, "the drive refused to go on (fs_drive_fault: 1 polarity undetermined, "
+        "2 lock lost and not re-acquired, 3 overspeed, 4 the I/f start never handed over): turn the PWM off",
+        start=0),
     Var("lock_lost", "Boolean", "output", None, "the loss-of-lock monitor latched: turn the PWM off", start=False),
 ]
 # The closed loop: the runner's sample and period a doStep (csrc/fmu/fs_fmu_system.c)
@@ -219,7 +221,7 @@ SYSTEM = [TIME, *REFERENCES] + [
     Var("stage", "Integer", "output", None, f"the drive's operating stage (fs_drive_stage), {AT_SAMPLE}", channel="stage"),
     Var("lock_lost", "Boolean", "output", None, f"the drive's loss-of-lock flag, {AT_SAMPLE}", channel="lock_lost"),
     Var("stop", "Integer", "output", None, "0 running; else why the closed loop stopped (fs_run_status: 2 NaN, "
-        "3 overcurrent, 4 loss of lock, 5 polarity undetermined)"),
+        "3 overcurrent, 4 loss of lock, 5 polarity undetermined, 6 overspeed, 7 start failed)"),
 ]
 MODELS = {"drive": DRIVE, "system": SYSTEM}
 
