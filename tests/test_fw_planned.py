@@ -9,6 +9,8 @@ trim had wound past it; the Anaheim BLY171D held 0.87 at 2 x base while the
 trim could only deepen the weakening (the resistive drop planned as
 R_s |i| left 1 % of the voltage unused)."""
 import math
+import tomllib
+from importlib import resources
 
 import pytest
 
@@ -49,3 +51,15 @@ def test_the_method_is_refused_where_it_cannot_act():
     # both are accepted where they act
     scenario_from_dict(_held("anaheim-bly171d", {"fw_method": "feedback", "fw_gain": 2.0}))
     scenario_from_dict(_held("anaheim-bly171d", {}))
+
+
+def test_the_default_method_follows_the_converter():
+    """The plan's voltage limit is a three-phase inverter's: the matrix converter (zou2021) takes the
+    feedback by default and refuses the plan by name; a three-phase inverter takes the plan."""
+    d = tomllib.loads(resources.files("fullspeed").joinpath("scenarios/zou2021-region-b.toml").read_text())
+    del d["controller"]["fw_method"]
+    assert scenario_from_dict(d).data["controller"]["fw_method"] == "feedback"
+    d["controller"]["fw_method"] = "planned"
+    with pytest.raises(ConfigError, match=r"^.*controller\.fw_method = 'planned': must be \"feedback\" with five phases or the matrix converter"):
+        scenario_from_dict(d)
+    assert scenario_from_dict(_held("anaheim-bly171d", {})).data["controller"]["fw_method"] == "planned"

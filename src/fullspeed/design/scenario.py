@@ -105,6 +105,16 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         tim["h_max"] = min(0.2 * tau, 0.2 / w_top if w_top > 0 else math.inf, 1e-3)   # w_top underflows to 0 at 5e-324 rpm
         if conv["kind"] == "imc":   # and a fifth of a radian of the input filter's resonance
             tim["h_max"] = min(tim["h_max"], 0.2 * math.sqrt(conv["l_filter"] * conv["c_filter"]))
+    vsi3 = m.phases == 3 and conv["kind"] != "imc"   # the plan's voltage limit is the three-phase VSI's (fs_fwmap.h)
+    if ctl["flux_weakening"] and m.magnetic["model"] == "fluxmap" and not vsi3:
+        raise ConfigError("controller.flux_weakening", True, "needs a three-phase inverter on a machine with a flux "
+                          "map: its flux weakening is planned on the map within that inverter's voltage limit "
+                          "(fs_fwmap.h)", source)
+    if ctl["fw_method"] is None:
+        ctl["fw_method"] = "planned" if vsi3 else "feedback"
+    if ctl["flux_weakening"] and ctl["fw_method"] == "planned" and not vsi3:
+        raise ConfigError("controller.fw_method", "planned", "must be \"feedback\" with five phases or the matrix "
+                          "converter: the plan's voltage limit is a three-phase inverter's (fs_fwmap.h)", source)
     if ctl["flux_weakening"] and m.magnetic["model"] == "fluxmap" and ctl["fw_method"] == "feedback":
         raise ConfigError("controller.fw_method", "feedback", "must be \"planned\" on a machine with a flux map: the "
                           "drive plans its flux weakening on the map within the voltage limit (fs_fwmap.h)", source)

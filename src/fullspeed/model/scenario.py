@@ -73,8 +73,9 @@ SCENARIO = {
         "psi_f_scale": F(1.0, lo=0.01, hi=100.0, doc="the controller's psi_f over the machine's"),
         "J_scale": F(1.0, lo=0.01, hi=100.0, doc="the controller's J over the machine's"),
         "flux_weakening": B(False, doc="speed mode: flux weakening above the base speed (fw_method says how)"),
-        "fw_method": C("planned", "feedback", default="planned",
-                       doc="\"planned\": the current references within the voltage limit at each speed, planned on the "
+        "fw_method": C("planned", "feedback", default=None,
+                       doc="default planned on a three-phase inverter, feedback with five phases or the matrix "
+                           "converter (the plan's voltage limit is the three-phase VSI's); \"planned\": the current references within the voltage limit at each speed, planned on the "
                            "machine's flux map (fs_fwmap.h; a machine given by L_d, L_q, psi_f: the map those make), with "
                            "a trim on the voltage asked; \"feedback\": zou2021's PART_1, a d current from the voltage "
                            "error on top of MTPA (fs_fw.h; fw_top_speed_rpm, fw_gain, fw_cutoff and fw_excess are its), "
