@@ -305,6 +305,38 @@ def test_no_voltage_for_a_carrier_is_named_with_its_cause():
     with pytest.raises(ConfigError) as e:
         scenario(m)
     msg = str(e.value)
-    assert "injection.u_h" in msg and "no voltage left for a carrier" in msg and "units" in msg, msg
+    assert "injection.u_h" in msg and "no voltage left for a carrier" in msg and "below the machine's rated" in msg, msg
     assert "f_h" not in msg, msg
     assert scenario(DATASHEET).data["injection"]["u_h"] > 0.0
+
+
+def test_a_carrier_taken_from_the_fundamental_where_the_band_passes_base_speed():
+    """The new-user trial's 2004 Prius MG2 with its unsaturated L_q: at the
+    band's top and i_max the fundamental alone needs more than the link
+    (its base speed at i_max lies below the band), yet the machine makes
+    its rated torque there with a carrier beside it. The carrier is taken
+    from the fundamental (at most half the shared voltage), the design says
+    what it costs, and the refusal comes only where the rated torque cannot
+    be made while injecting."""
+    from fullspeed.design.envelope import envelope, torque_at
+    from fullspeed.design.rules import U_H_SHARE, U_H_TAKEN_MAX, u_linear
+    prius = {"name": "prius2004", "kind": "ipmsm", "pole_pairs": 4,
+             "electrical": {"R_s": 0.077, "L_d": 2.26e-3, "L_q": 6.15e-3, "psi_f": 0.1607},
+             "mechanical": {"J": 0.035}, "rated": {"torque": 400.0, "current": 250.0, "speed_rpm": 1200.0},
+             "bench": {"u_dc": 500.0, "f_pwm": 10e3, "t_dead": 3e-6, "noise_i": 0.3}}
+    sc = scenario(prius)
+    u_h = sc.data["injection"]["u_h"]
+    u_share = U_H_SHARE * u_linear(500.0, 3)
+    assert 0.0 < u_h <= U_H_TAKEN_MAX * u_share
+    why = sc.design["injection.u_h"].reason
+    assert why.startswith("taken from the fundamental") and "the drive makes at most" in why, why
+    # the torque it names is the envelope's at the voltage the carrier leaves, at the band's top
+    T_named = float(why.split("makes at most ")[1].split(" N m")[0])
+    w_top = sc.data["blending"]["upper_rpm"] * math.pi / 30
+    T_all = torque_at(envelope(sc.machine, 500.0, sc.data["controller"]["i_max"], w_end=2 * w_top), w_top)
+    assert 400.0 <= T_named < T_all
+    # the same machine on a link that leaves less than its rated torque while injecting: refused, naming it
+    from fullspeed.model.errors import ConfigError
+    with pytest.raises(ConfigError) as e:
+        scenario({**prius, "bench": {**prius["bench"], "u_dc": 150.0}})
+    assert "below the machine's rated 400 N m" in str(e.value), str(e.value)

@@ -68,6 +68,12 @@ I_N_NOISE = 10               # and 10 noise deviations
 I_N_PER_I_MAX = 0.02         # and 2 % of i_max (ideal sensors)
 U_H_SHARE = 0.85             # carrier and fundamental within 85 % of the linear limit
 I_HF_PER_I_MAX = 0.2         # the carrier current's peak, I_p + I_n, at most 20 % of i_max
+# Where the fundamental at the band's top and i_max leaves no voltage (a machine whose base speed at i_max is
+# below the band's top, as the 2004 Prius MG2 with its unsaturated L_q: 265 V of 245 V at 405 rpm and 250 A) the
+# carrier takes its wanted amplitude from the fundamental there, at most half the shared voltage: the torque at
+# the band's top while injecting is then the envelope's at the voltage left (the planned flux weakening keeps the
+# carrier's room, fs_drive.c), and the fundamental keeps at least half the voltage
+U_H_TAKEN_MAX = 0.5
 PLL_PER_W_E_LOWER = 3
 # The current loop's action on the negative carrier's sidebands (carrier_loop_action) at most this: the
 # designed point (bw_current 2 pi f_s / 20 against f_s / 10, 1.5 Ts of delay) gives 0.63..0.66 on the
@@ -215,11 +221,15 @@ def design_injection(m, b: dict, i_max: float, w_m_upper: float, carrier: Value)
     u_room = (u_share - u_f) * sinc
     u_cur = I_HF_PER_I_MAX * i_max / i_p_per_v
     u_h = min(u_want, u_room, u_cur)
-    if u_room <= 0.0:   # nothing to inject with: the scenario refuses it, naming this
-        why = (f"no voltage left for a carrier: the fundamental needs {u_f:.4g} V at the upper blending speed "
-               f"({rad_s_to_rpm(w_m_upper):.4g} rpm) and i_max, of the {u_share:.4g} V the link leaves it "
-               "(check R_s, L_q and psi_f, and their units)")
-    elif u_h == u_want:
+    if u_room <= 0.0:   # no room at i_max: the carrier takes its voltage from the fundamental's torque there
+        u_h = min(u_want, u_cur, U_H_TAKEN_MAX * u_share * sinc)
+        held = "its negative-sequence current I_n = {:.3g} A, {}".format(u_h * i_n_per_v, what if u_h == u_want else
+                                                                         f"below the wanted {what} ({i_n:.3g} A)")
+        short = (f"the fundamental at the upper blending speed ({rad_s_to_rpm(w_m_upper):.4g} rpm) and i_max needs "
+                 f"{u_f:.4g} V of the {u_share:.4g} V the link leaves carrier and fundamental")
+        return {"f_h": carrier, "u_h": Value(u_h, "V", f"taken from the fundamental: {short}; {held}"),
+                "u_taken": Value(u_h / sinc, "V", short)}
+    if u_h == u_want:
         why = f"its negative-sequence current I_n = {i_n:.3g} A is {what}, eq. (24)"
     else:
         limit = "the voltage left beside the fundamental at the upper blending speed and i_max" if u_h == u_room \

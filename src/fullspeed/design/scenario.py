@@ -14,8 +14,9 @@ from .._core import ffi, lib
 from ..model.errors import ConfigError
 from ..model.machines import Machine
 from ..model.scenario import Scenario, parse_scenario, scenario_data, xcomp_table
-from ..model.units import rpm_to_rad_s
+from ..model.units import rad_s_to_rpm, rpm_to_rad_s
 from .checks import warnings_of
+from .envelope import envelope, torque_at
 from .controller import controller_model, hfi_design, injection_inductances
 from .machine import design_machine, mtpa_torque
 from .magnetics import controller_values
@@ -377,6 +378,8 @@ def _injection_fields(d: dict, m: Machine, source, bw_speed_given: bool = True, 
     designed = design_injection(machine_values(m), _bench_of(d, m), ctl["i_max"], rpm_to_rad_s(band["upper_rpm"].value),
                                    _carrier(d, m))
     _machine_injection(inj, m, ("u_h", "f_h"), source, designed)
+    if "u_taken" in designed and inj.get("_notes", {}).get("injection.u_h") is designed["u_h"]:
+        inj["_notes"]["injection.u_h"] = _carrier_cost(d, m, band["upper_rpm"].value, designed, source)
     if not inj["u_h"] > 0.0:   # designed as nothing (fs_hfi_init would refuse it, blaming the carrier's frequency)
         raise ConfigError("injection.u_h", inj["u_h"], f"must be > 0 V: {designed['u_h'].reason}", source)
     d.setdefault("_notes", {}).update(inj.pop("_notes", {}))
@@ -497,6 +500,25 @@ def _check_saliency(ctl: dict, m: Machine, source) -> None:
         else:
             why = f"{whose} L_d = {L_d:g} H within 1 % of L_q = {L_q:g} H (no saliency to design the estimator for)"
         raise ConfigError("controller.angle", ctl["angle"], f"injection needs a salient machine: {why}", source)
+
+
+def _carrier_cost(d: dict, m: Machine, upper_rpm: float, designed: dict, source) -> Value:
+    """The designed carrier's note with what it costs where it was taken
+    from the fundamental: the envelope's torque at the band's top with and
+    without the carrier's voltage."""
+    b, i_max = _bench_of(d, m), d["controller"]["i_max"]
+    u_lin = u_linear(b["u_dc"], m.phases)
+    w_m = rpm_to_rad_s(upper_rpm)
+    T_all = torque_at(envelope(m, b["u_dc"], i_max, w_end=2 * w_m), w_m)
+    T_inj = torque_at(envelope(m, b["u_dc"], i_max, u_max=u_lin - designed["u_taken"].value, w_end=2 * w_m), w_m)
+    v = designed["u_h"]
+    if T_inj < m.T_rated:   # the machine makes its rated torque up to its rated speed; the band lies well below it
+        raise ConfigError("injection.u_h", "designed", (
+            f"no voltage left for a carrier: {designed['u_taken'].reason}; with the carrier's "
+            f"{designed['u_taken'].value:.4g} V taken from it the drive makes at most {T_inj:.4g} N m there, below the "
+            f"machine's rated {m.T_rated:.4g} N m (made up to its rated {rad_s_to_rpm(m.w_m_rated):.4g} rpm)"), source)
+    return Value(v.value, v.unit, f"{v.reason}; while injecting there the drive makes at most {T_inj:.4g} N m of the "
+                                  f"envelope's {T_all:.4g} N m at i_max (the planned flux weakening keeps the carrier's room)")
 
 
 def _machine_injection(inj: dict, m: Machine, keys, source, designed: dict | None = None) -> None:
