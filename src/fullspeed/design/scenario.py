@@ -13,7 +13,7 @@ from pathlib import Path
 from .._core import ffi, lib
 from ..model.errors import ConfigError
 from ..model.machines import Machine
-from ..model.scenario import Scenario, parse_scenario, scenario_data, xcomp_table
+from ..model.scenario import Scenario, parse_scenario, plant_machine, scenario_data, xcomp_table
 from ..model.units import rad_s_to_rpm, rpm_to_rad_s
 from .checks import warnings_of
 from .envelope import envelope, torque_at
@@ -198,7 +198,9 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
             notes[f"injection.{key}"] = Value(d["injection"][key], "", "given in the machine file or the scenario", True)
     notes.update(d.pop("_notes", {}))
     warnings = warnings_of(d, m, bw_speed_given="bw_speed" in data.get("controller", {})) + check_table_settings(d, m.name, source)
-    return Scenario(name=d["name"], machine=m, data=d, source=source, design=notes, warnings=warnings)
+    pm = plant_machine(d, m, source)
+    return Scenario(name=d["name"], machine=m, data=d, source=source, design=notes, warnings=warnings,
+                    plant=design_machine(pm) if pm is not None else None)
 
 
 def _largest_speed_rpm(d: dict) -> float:

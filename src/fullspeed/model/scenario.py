@@ -22,6 +22,10 @@ SCENARIO = {
     "paper": S("", doc="the paper it reproduces, if any"),
     "duration": POS(hi=1e4, doc="simulated time, s"),
     "machine": Spec("any", MISSING, doc="a catalog name, a machine file (.toml), or a table: the fields of [machine] below, or catalog = \"name\" and the fields to override"),
+    "plant_machine": Spec("any", None, doc="the machine the simulation turns where it is not `machine`, the one the drive knows and is "
+                          "designed from (an identified machine file there, the true machine here): given as `machine` is; "
+                          "its phases and pole pairs must be the machine's. Its windings, magnetics and mechanics are the "
+                          "plant's; the converter, the sensors, the losses, the heating and the harmonics stay `machine`'s"),
     "converter": T({
         "kind": C("inverter", "imc", default="inverter",
                   doc="imc: the indirect matrix converter of zou2021 (grid, LC filter, rectifier and inverter stages)"),
@@ -266,6 +270,7 @@ class Scenario:
     # cannot see)
     design: dict = field(default_factory=dict)
     warnings: list = field(default_factory=list)
+    plant: Machine | None = None   # the machine the simulation turns where it is not `machine` (plant_machine)
 
     @property
     def duration(self) -> float:
@@ -311,6 +316,20 @@ def _machine_of(raw, source) -> Machine:
         base = catalog_data(name, source)
         return parse_machine(deep_merge(base, raw), source)
     return parse_machine(raw, source)
+
+
+def plant_machine(d: dict, m: Machine, source: str | None = None) -> Machine | None:
+    """The scenario's plant_machine, parsed (None where it has none): the
+    machine the simulation turns in place of m, with m's phases and pole
+    pairs (a drive designed for another pole count is another drive)."""
+    if d.get("plant_machine") is None:
+        return None
+    pm = _machine_of(d["plant_machine"], source)
+    for key in ("phases", "pole_pairs"):
+        if getattr(pm, key) != getattr(m, key):
+            raise ConfigError(f"plant_machine.{key}", getattr(pm, key), f"must be the machine's ({getattr(m, key)}): "
+                              "the drive is designed for that machine", source)
+    return pm
 
 
 def parse_scenario(data: dict, source: str | None = None) -> tuple[dict, Machine]:

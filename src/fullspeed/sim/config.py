@@ -73,16 +73,18 @@ def build_config(sc: Scenario):
     conv, tim, sen, ctl, load, ref = (d[k] for k in ("converter", "timing", "sensors", "controller", "load", "references"))
     cfg = keep(ffi.new("fs_sim_config *"))
     pl = cfg.plant
-    pl.pole_pairs = m.pole_pairs
-    pl.R_s = m.R_s
-    mag = m.magnetic
-    pl.mag.kind = MAGNETIC[mag["model"]]
-    pl.mag.L_d, pl.mag.L_q, pl.mag.psi_f = m.L_d, m.L_q, m.psi_f
+    pm = sc.plant or m   # the machine the simulation turns: the scenario's plant_machine, else the drive's
+    pl.pole_pairs = pm.pole_pairs
+    pl.R_s = pm.R_s
+    pmag = pm.magnetic
+    pl.mag.kind = MAGNETIC[pmag["model"]]
+    pl.mag.L_d, pl.mag.L_q, pl.mag.psi_f = pm.L_d, pm.L_q, pm.psi_f
     for k in ("a_dd", "a_qq", "a_dq", "S", "T", "U", "V"):
-        setattr(pl.mag, k, mag[k])
-    if mag["model"] == "fluxmap":
-        set_fluxmap(pl.mag, mag, keep)
-    pl.J, pl.B, pl.T_coulomb = m.J, m.B, m.T_coulomb
+        setattr(pl.mag, k, pmag[k])
+    if pmag["model"] == "fluxmap":
+        set_fluxmap(pl.mag, pmag, keep)
+    pl.J, pl.B, pl.T_coulomb = pm.J, pm.B, pm.T_coulomb
+    mag = m.magnetic
     pl.w_coulomb = 1e-2
     pl.load_kind = {"torque": lib.FS_LOAD_TORQUE, "speed": lib.FS_LOAD_SPEED_IDEAL, "speed_pi": lib.FS_LOAD_SPEED_PI,
                     "brake": lib.FS_LOAD_BRAKE}[load["kind"]]
