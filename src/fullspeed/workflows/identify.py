@@ -646,9 +646,11 @@ def print_identification(res: Identification) -> None:
 
 # ---- the zoo campaign (claim B-IDENT) ----
 
-def zoo_identification(k: int, seed: int | None = None) -> dict:
+def zoo_identification(k: int, seed: int | None = None, folder: str | None = None) -> dict:
     """Identify zoo machine k (fullspeed.model.zoo) from a seeded initial rotor
-    angle: one row of the campaign, every quantity with its status."""
+    angle: one row of the campaign, every quantity with its status; with a
+    folder, the identification written there as `identify` writes it
+    (row["machine_file"]: its machine.toml, None where none was written)."""
     seed = ZOO_SEED if seed is None else seed
     theta0 = float(np.random.default_rng([seed, k, 25]).uniform(-180.0, 180.0))   # the rotor rests anywhere
     sc = scenario_from_dict({"name": f"identify-zoo-{seed}-{k}", "duration": 1.0,
@@ -669,26 +671,32 @@ def zoo_identification(k: int, seed: int | None = None) -> dict:
         row["map"] = {"rms_pct": e["rms_pct"], "rms_d_pct": e["rms_d_pct"], "rms_q_pct": e["rms_q_pct"], "max_pct": e["max_pct"],
                       "constant_rms_pct": res.map.get("constant_errors", {}).get("rms_pct"), "points": res.map["points"],
                       "asymmetry": pol["asymmetry"], "asymmetry_truth": pol.get("asymmetry_truth")}
+    if folder is not None:
+        write_identification(res, sc, Path(folder))
+        written = res.details["machine_file"]["written"]
+        row["machine_file"] = str(Path(folder) / OUTPUTS[1]) if written else None
     return row
 
 
 def _zoo_task(task: dict) -> dict:
     """journal.run_tasks' worker: one zoo machine (a refusal comes back as a
     row with stop_reason "error" and its reason: journal.guarded)."""
-    return zoo_identification(task["k"], task["seed"])
+    return zoo_identification(task["k"], task["seed"], task.get("folder"))
 
 
 _zoo_task.journal_name = "fullspeed.identify._zoo_task"   # its module before the layers (journal._identity)
 
 
 def zoo_campaign(ks, out: Path, seed: int | None = None, workers: int | None = None,
-                 progress: bool = False, fresh: bool = True) -> list[dict]:
+                 progress: bool = False, fresh: bool = True, keep=()) -> list[dict]:
     """The identification of zoo machines ks, in parallel processes,
     journaled in out (workflows.journal: a killed campaign resumes with
-    fresh=False). A machine that could not be run is a row with its reason."""
-    ks = [int(k) for k in ks]
-    results = run_tasks(_zoo_task, [{"k": k, "seed": seed} for k in ks], out, workers=workers,
-                        progress=progress, fresh=fresh, desc="identify")
+    fresh=False). A machine that could not be run is a row with its reason.
+    The machines in keep have their identification written in
+    out/machines/zoo-<k> (zoo_identification's folder)."""
+    ks, keep = [int(k) for k in ks], {int(k) for k in keep}
+    tasks = [{"k": k, "seed": seed, **({"folder": str(out / "machines" / f"zoo-{k}")} if k in keep else {})} for k in ks]
+    results = run_tasks(_zoo_task, tasks, out, workers=workers, progress=progress, fresh=fresh, desc="identify")
     rows = []
     for k, r in zip(ks, results):
         if r is None or r.get("stop_reason") == "error":

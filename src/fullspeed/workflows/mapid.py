@@ -187,7 +187,8 @@ def csv_text(grid: dict, machine: str) -> str:
     for k, a in enumerate(grid["i_d"]):
         lines.append("# " + "".join(code[s] for s in grid["source"][k]))
         for j, b in enumerate(grid["i_q"]):
-            lines.append(f"{a:.9g},{b:.9g},{grid['psi_d'][k, j]:.9g},{grid['psi_q'][k, j]:.9g}")
+            # the currents as they are (17 digits): the grid must reach i_max as machine.toml gives it
+            lines.append(f"{a:.17g},{b:.17g},{grid['psi_d'][k, j]:.9g},{grid['psi_q'][k, j]:.9g}")
     return "\n".join(lines) + "\n"
 
 

@@ -18,13 +18,14 @@ sensorless, the same run holds what the encoder holds, within 5 % of it.
 """
 from __future__ import annotations
 
+import copy
 import math
 from pathlib import Path
 
 import numpy as np
 
 from ...design.envelope import envelope, torque_at
-from ...design.machine import load_machine
+from ...design.machine import load_machine, machine_from_dict
 from ...design.scenario import scenario_from_dict
 from ...model.errors import ConfigError
 from ...model.machines import published_machines
@@ -69,7 +70,7 @@ def held_speeds(env) -> list[float]:
     return [b * env.w_base for b in BELOW] + list(np.linspace(env.w_base, w_hi, 4)[1:])
 
 
-def sensorless_angle(name: str) -> tuple[str | None, str | None]:
+def sensorless_angle(name: str | dict) -> tuple[str | None, str | None]:
     """The sensorless angle the design accepts for machine `name`: blend
     (injection below the band, the back-EMF observer above), else the
     back-EMF observer alone with the start the design chooses; None and
@@ -77,17 +78,19 @@ def sensorless_angle(name: str) -> tuple[str | None, str | None]:
     refusals = []
     for angle in ("blend", "smo"):
         try:
-            scenario_from_dict(real_scenario(name, angle)[0], f"B-REAL {name}")
+            scenario_from_dict(real_scenario(name, angle)[0], f"B-REAL {name if isinstance(name, str) else name.get('name')}")
             return angle, None
         except ConfigError as exc:
             refusals.append(str(exc))
     return None, " / ".join(refusals)
 
 
-def real_scenario(name: str, angle: str = "blend") -> tuple[dict, dict]:
+def real_scenario(name: str | dict, angle: str = "blend") -> tuple[dict, dict]:
     """The full-range scenario of catalog machine `name` (TOML data) and what
-    it was built from (base and top speed, the load step's torque)."""
-    m = load_machine(name)
+    it was built from (base and top speed, the load step's torque); name may
+    be a machine file's path, or a machine table (a zoo machine's)."""
+    m = load_machine(name) if isinstance(name, str) else machine_from_dict(copy.deepcopy(name))
+    label = m.name if isinstance(name, dict) else Path(name).stem if name.endswith(".toml") else name
     env = envelope(m, m.bench["u_dc"], m.bench["i_max"], w_end=4.0 * m.w_m_rated)
     T_half = 0.5 * m.T_rated
     w_top, why = _top(env, T_half)
@@ -101,7 +104,7 @@ def real_scenario(name: str, angle: str = "blend") -> tuple[dict, dict]:
     t3, t4 = t2 + 0.2, t2 + 0.2 + t_acc
     dur = round(t4 + 0.4, 3)
     top, rev = rad_s_to_rpm(w_top), -0.3 * rad_s_to_rpm(env.w_base)
-    data = {"name": f"real-{name}-{angle}", "duration": dur, "machine": name,
+    data = {"name": f"real-{label}-{angle}", "duration": dur, "machine": copy.deepcopy(name),
             "controller": {"mode": "speed", "angle": angle, "flux_weakening": True},
             "references": {"speed_rpm": [[0.0, 0.0], [t0, 0.0], [t1, top], [t3, top], [t4, rev], [dur, rev]]},
             "load": {"kind": "torque", "torque": [[0.0, 0.0], [0.2, 0.0], [0.35, T_half], [t_step, T_half],
