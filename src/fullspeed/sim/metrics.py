@@ -330,14 +330,18 @@ def step_times(tr, channels=("w_m_ref", "T_L", "i_d_ref", "i_q_ref")) -> list[fl
     return sorted(out)
 
 
-def sensorless_error_max(tr, after_step: float = 0.05, t_from: float = 0.0) -> float | None:
+def sensorless_error_max(tr, after_step: float = 0.05, t_from: float = 0.0,
+                         stages: tuple = TORQUE_STAGES) -> float | None:
     """The largest |angle error| (el.deg) while the loops make torque on an
     angle they did not measure (TORQUE_STAGES, from t_from: the hand-over
     from the encoder), outside the `after_step` s after each step of a
     reference or the load and after each entry from a stage without
-    (polarity detection, a recovery); None if the run never ran sensorless."""
+    (polarity detection, a recovery); None if the run never ran sensorless.
+    stages = SENSORLESS_STAGES: the loops on an estimate only (an I/f
+    start's frame, which the rotor follows at its load angle, left out,
+    and the 50 ms after its hand-over with it)."""
     t = np.asarray(tr["t"])
-    on = np.isin(np.asarray(tr["stage"]).astype(int), TORQUE_STAGES) & (t >= t_from - 1e-12)
+    on = np.isin(np.asarray(tr["stage"]).astype(int), stages) & (t >= t_from - 1e-12)
     entries = [float(t[k + 1]) for k in np.flatnonzero(on[1:] & ~on[:-1])]
     keep = on.copy()
     for t0 in step_times(tr) + entries:

@@ -30,6 +30,7 @@ from ...design.scenario import scenario_from_dict
 from ...model.errors import ConfigError
 from ...model.machines import published_machines
 from ...model.units import rad_s_to_rpm
+from ...sim.metrics import SENSORLESS_STAGES, sensorless_error_max, sensorless_from
 from ...sim.runner import simulate
 from ...workflows.journal import run_tasks
 from ..registry import Measurement, register
@@ -43,6 +44,7 @@ TOP_SHARE = 0.9          # the speeds above base reach 2 x base or this share of
 HOLD = 0.3              # s: each speed held; the torque is its mean over the last half
 START = 0.3             # s: the drive's start at standstill (the polarity test: 0.2 s on the Baldor) before the load machine turns the shaft
 RAMP_MIN = 0.1          # s: the shortest ramp to a held speed
+IF_WAIT = 0.5           # of the I/f start's timeout: the shaft at its hand-over speed while the observer converges
 
 
 def _top(env, T_half: float) -> tuple[float, str]:
@@ -124,11 +126,18 @@ def run_machine(task: dict) -> dict:
     res = simulate(sc)
     mt = res.metrics
     steady = mt.get("theta_err_deg", {}) or {}
-    return {"machine": name, "angle": angle, "refused": None, "stop_reason": res.stop_reason,
-            "lock_lost_at": mt.get("lock_lost_at"),
-            "err_max": mt.get("sensorless_err_deg_max"), "steady_mean": steady.get("mean"),
-            "stages": mt.get("stages"),
-            **info}
+    row = {"machine": name, "angle": angle, "refused": None, "stop_reason": res.stop_reason,
+           "lock_lost_at": mt.get("lock_lost_at"), "start": sc.data["start"]["kind"],
+           "err_max": mt.get("sensorless_err_deg_max"), "steady_mean": steady.get("mean"),
+           "stages": mt.get("stages"), **info}
+    if row["start"] == "if":
+        # a machine without usable saliency starts by I/f (the start's claim, B-START): its frame is no
+        # estimate, the rotor follows it at its load angle; the estimator's error counts from its hand-over
+        # on, the start's motion against its designed bound beside it
+        sm = mt.get("start_motion") or {}
+        row.update(err_max=sensorless_error_max(res.traces, t_from=sensorless_from(sc), stages=SENSORLESS_STAGES),
+                   if_err_max=mt.get("sensorless_err_deg_max"), turn_deg=sm.get("turn_deg"), bound_deg=sm.get("bound_deg"))
+    return row
 
 
 def held_scenario(name: str, rpm: float, angle: str) -> dict:
@@ -144,11 +153,26 @@ def held_scenario(name: str, rpm: float, angle: str) -> dict:
     t0 = START
     t1 = t0 + max(RAMP_MIN, m.J * w / m.T_rated)
     dur = round(t1 + HOLD, 3)
-    return {"name": f"real-held-{name}", "duration": dur, "machine": name,
+    data = {"name": f"real-held-{name}", "duration": dur, "machine": name,
             "controller": {"mode": "speed", "angle": angle, "flux_weakening": True},
             "references": {"speed_rpm": 1.2 * rpm},
             "load": {"kind": "speed", "speed_rpm": [[0.0, 0.0], [t0, 0.0], [t1, rpm], [dur, rpm]]},
             "metrics": {"steady": [t1 + 0.5 * HOLD, dur]}}
+    if angle != "encoder":
+        ob = scenario_from_dict(data, f"B-REAL {name}").data["observer"]
+        if ob["start"] == "if":
+            # an I/f start turns the rotor with its frame: a shaft held still would hold the rotor off it,
+            # so the load machine turns it as the frame does (from standstill at the start's acceleration
+            # to its hand-over speed, where the frame waits for the observer: IF_WAIT of the start's
+            # timeout) and on from there as for every machine
+            n_h = ob["start_handover_rpm"]
+            t_h = n_h / ob["start_accel_rpm_s"]
+            t_w = t_h + IF_WAIT * ob["start_timeout"]
+            t1 = t_w + max(RAMP_MIN, m.J * w / m.T_rated)
+            dur = round(t1 + HOLD, 3)
+            data.update(duration=dur, metrics={"steady": [t1 + 0.5 * HOLD, dur]},
+                        load={"kind": "speed", "speed_rpm": [[0.0, 0.0], [t_h, n_h], [t_w, n_h], [t1, rpm], [dur, rpm]]})
+    return data
 
 
 def held_torque(task: dict) -> dict:
@@ -170,7 +194,9 @@ def held_torque(task: dict) -> dict:
 def _machine_ok(r: dict) -> bool:
     if r.get("refused"):
         return True   # refused before the start, naming the cause
-    return (r["stop_reason"] == "done" and r["lock_lost_at"] is None and r["err_max"] is not None
+    start_ok = r.get("start") != "if" or (r.get("turn_deg") is not None and r.get("bound_deg") is not None
+                                         and r["turn_deg"] <= r["bound_deg"])
+    return (r["stop_reason"] == "done" and r["lock_lost_at"] is None and r["err_max"] is not None and start_ok
             and r["err_max"] < ANGLE_MAX and r["steady_mean"] is not None and abs(r["steady_mean"]) < STEADY_MEAN)
 
 
@@ -224,8 +250,10 @@ def real(out: Path) -> Measurement:
     def run_text(r):
         if r.get("refused"):
             return f"refused: {r['refused']}"
+        start = (f" (I/f start: its load angle up to {_deg(r.get('if_err_max'))}, the rotor turned {_deg(r.get('turn_deg'))} "
+                 f"of its bound {_deg(r.get('bound_deg'))} el.deg)" if r.get("start") == "if" else "")
         return (f"{r.get('angle')}: {r.get('stop_reason')}, max {_deg(r.get('err_max'))}, steady mean "
-                f"{_deg(r.get('steady_mean'))} el.deg")
+                f"{_deg(r.get('steady_mean'))} el.deg{start}")
 
     def held_text(v):
         return ", ".join(f"{x['rpm']:.0f} rpm {_nm(x['T_encoder'])}/{_nm(x['T_sensorless'])} of {_nm(x['T_envelope'])}"
@@ -233,7 +261,10 @@ def real(out: Path) -> Measurement:
 
     note = (f"{len(rows)} published machines. Sensorless full range (max |error| < {ANGLE_MAX:g} el.deg outside the "
             f"50 ms after each step, |steady mean| < {STEADY_MEAN:g}): {n_run} run, {n_ref} refused before the start "
-            f"naming the cause. Torque held at six speeds (encoder within {HELD_TOL:.0%} of the envelope, sensorless "
+            "naming the cause. A machine without saliency the injection can use starts by I/f (the start's claim, "
+            "B-START; issue 33 puts it there): its frame is no estimate, so its error counts from the hand-over to "
+            "the back-EMF observer on, the start's turn within its designed bound, the I/f's load angle reported; "
+            f"its held runs turn the shaft with the I/f's frame until the hand-over. Torque held at six speeds (encoder within {HELD_TOL:.0%} of the envelope, sensorless "
             f"within {HELD_TOL:.0%} of the encoder): {n_held}. Per machine: " + "; ".join(
                 f"{n}: {run_text(v)}; held (encoder/sensorless of envelope, N m) {held_text(v)}"
                 for n, v in rows.items()))

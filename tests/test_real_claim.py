@@ -1,0 +1,44 @@
+"""B-REAL's measurement (reproduce.papers.real) on the machines that start
+by I/f: the estimator's error counts from the hand-over on, the start's
+turn within its bound; their held runs turn the shaft with the I/f frame."""
+import numpy as np
+import pytest
+
+from fullspeed.design.scenario import scenario_from_dict
+from fullspeed.reproduce.papers.real import IF_WAIT, START, _machine_ok, held_scenario
+from fullspeed.sim.metrics import SENSORLESS_STAGES, sensorless_error_max
+
+IF, BACKEMF = 3, 6   # the I/f start's stage and the back-EMF observer's (metrics.STAGES)
+
+
+def test_the_if_frame_is_no_estimate_but_the_observer_after_it_is():
+    t = np.arange(0.0, 1.0, 1e-3)
+    stage = np.where(t < 0.3, IF, BACKEMF)
+    err = np.radians(np.where(t < 0.3, 50.0, np.where(t < 0.32, 20.0, 3.0)))
+    err[800] = np.radians(12.0)   # a spike well after the hand-over: it counts
+    tr = {"t": t, "stage": stage, "theta_err": err, "w_m_ref": np.full_like(t, 100.0)}
+    assert sensorless_error_max(tr) == pytest.approx(50.0)   # the I/f's load angle, as every run counts it
+    assert sensorless_error_max(tr, stages=SENSORLESS_STAGES) == pytest.approx(12.0)   # 50 ms after the hand-over forgiven
+
+
+def test_an_if_machine_passes_only_with_its_start_within_bound():
+    row = {"refused": None, "stop_reason": "done", "lock_lost_at": None, "err_max": 2.0, "steady_mean": 0.1,
+           "start": "if", "turn_deg": 400.0, "bound_deg": 5000.0}
+    assert _machine_ok(row)
+    assert not _machine_ok({**row, "turn_deg": 6000.0})
+    assert not _machine_ok({**row, "turn_deg": None})
+    assert not _machine_ok({**row, "err_max": 12.0})
+
+
+def test_held_runs_turn_the_shaft_with_the_if_frame_until_the_hand_over():
+    name = "odrive-d6374"   # no saliency the injection can use: an I/f start
+    enc = held_scenario(name, 3000.0, "encoder")
+    assert enc["load"]["speed_rpm"][:2] == [[0.0, 0.0], [START, 0.0]]   # the shaft held while the drive starts
+    d = held_scenario(name, 3000.0, "blend")
+    ob = scenario_from_dict(d).data["observer"]
+    assert ob["start"] == "if"
+    (t0, n0), (t_h, n_h), (t_w, n_w), (t1, n1) = d["load"]["speed_rpm"][:4]
+    assert (t0, n0) == (0.0, 0.0) and n_h == n_w == ob["start_handover_rpm"] and n1 == 3000.0
+    assert n_h / t_h == pytest.approx(ob["start_accel_rpm_s"])   # as fast as the frame turns
+    assert t_w - t_h == pytest.approx(IF_WAIT * ob["start_timeout"])
+    assert d["metrics"]["steady"][1] == d["duration"] and d["metrics"]["steady"][0] > t1
