@@ -42,3 +42,14 @@ def test_held_runs_turn_the_shaft_with_the_if_frame_until_the_hand_over():
     assert n_h / t_h == pytest.approx(ob["start_accel_rpm_s"])   # as fast as the frame turns
     assert t_w - t_h == pytest.approx(IF_WAIT * ob["start_timeout"])
     assert d["metrics"]["steady"][1] == d["duration"] and d["metrics"]["steady"][0] > t1
+
+
+def test_no_machine_runs_b_real_on_the_encoders_start():
+    """The back-EMF observer alone starts by I/f (its default start is the
+    encoder's angle, which is no sensorless start): the H27 washer motor,
+    whose I/f start cannot carry half its rated torque, is refused naming
+    that, not run from the encoder's angle."""
+    from fullspeed.reproduce.papers.real import real_scenario, sensorless_angle
+    assert real_scenario("hefei-h27", "smo")[0]["observer"]["start"] == "if"
+    angle, why = sensorless_angle("hefei-h27")
+    assert angle is None and "the I/f start cannot carry this load" in why

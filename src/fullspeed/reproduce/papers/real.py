@@ -108,6 +108,8 @@ def real_scenario(name: str | dict, angle: str = "blend") -> tuple[dict, dict]:
     top, rev = rad_s_to_rpm(w_top), -0.3 * rad_s_to_rpm(env.w_base)
     data = {"name": f"real-{label}-{angle}", "duration": dur, "machine": copy.deepcopy(name),
             "controller": {"mode": "speed", "angle": angle, "flux_weakening": True},
+            # the back-EMF observer alone from standstill by its I/f start (its default start is the encoder's angle)
+            **({"observer": {"start": "if"}} if angle == "smo" else {}),
             "references": {"speed_rpm": [[0.0, 0.0], [t0, 0.0], [t1, top], [t3, top], [t4, rev], [dur, rev]]},
             "load": {"kind": "torque", "torque": [[0.0, 0.0], [0.2, 0.0], [0.35, T_half], [t_step, T_half],
                                                   [t_step + 1e-3, T_step], [t2, T_step], [t2 + 0.1, T_half]]},
@@ -155,6 +157,7 @@ def held_scenario(name: str, rpm: float, angle: str) -> dict:
     dur = round(t1 + HOLD, 3)
     data = {"name": f"real-held-{name}", "duration": dur, "machine": name,
             "controller": {"mode": "speed", "angle": angle, "flux_weakening": True},
+            **({"observer": {"start": "if"}} if angle == "smo" else {}),
             "references": {"speed_rpm": 1.2 * rpm},
             "load": {"kind": "speed", "speed_rpm": [[0.0, 0.0], [t0, 0.0], [t1, rpm], [dur, rpm]]},
             "metrics": {"steady": [t1 + 0.5 * HOLD, dur]}}
