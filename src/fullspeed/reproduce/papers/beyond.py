@@ -187,7 +187,7 @@ def _figure_robust(err_max, err_mean, kept, path: Path, title: str) -> str:
     return save_figure(fig, path, title)
 
 
-@register("B-ROBUST")
+@register("B-ROBUST", cost=38)
 def robust(out: Path) -> Measurement:
     folder = sweep_dir(out, "B-ROBUST")
     shutil.rmtree(folder, ignore_errors=True)   # measured afresh (common.sweep_dir)
@@ -289,7 +289,7 @@ def _figure_lock(rows: list[dict], path: Path, title: str) -> str:
     return save_figure(fig, path, title)
 
 
-@register("B-THERMAL")
+@register("B-THERMAL", cost=11)
 def thermal(out: Path) -> Measurement:
     fixed = run("beyond-thermal", {"controller": {"param_adapt": True}})
     plain = run("beyond-thermal", {"controller": {"param_adapt": False}})
@@ -331,7 +331,7 @@ def thermal(out: Path) -> Measurement:
     return Measurement(value, bool(ok), note, [fig])
 
 
-@register("B-LOCK")
+@register("B-LOCK", cost=62)
 def lock(out: Path) -> Measurement:
     folder = sweep_dir(out, "B-LOCK")
     shutil.rmtree(folder, ignore_errors=True)   # measured afresh (common.sweep_dir)
@@ -393,7 +393,7 @@ def lock(out: Path) -> Measurement:
 IDENT_SAMPLE = 100
 
 
-@register("B-IDENT")
+@register("B-IDENT", cost=58)
 def ident(out: Path) -> Measurement:
     rows = zoo_campaign(range(IDENT_SAMPLE), out / "B-IDENT-runs")
     s = campaign_summary(rows)
@@ -440,7 +440,7 @@ MAPID_PENDING = ("the second half (the identified map in the controller keeps th
                  "beside the true ones, and the catalog's machines are not yet identified on a free shaft (issue 35)")
 
 
-@register("B-MAPID")
+@register("B-MAPID", cost=12)
 def mapid(out: Path) -> Measurement:
     ks = range(0, 2 * MAPID_SAMPLE, 2)
     rows = zoo_campaign(ks, out / "B-MAPID-runs")

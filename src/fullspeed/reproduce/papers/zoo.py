@@ -44,7 +44,7 @@ def summarize(rows: list[dict], seed: int = zoo.SEED) -> dict:
     return out
 
 
-@register("B-ZOO")
+@register("B-ZOO", cost=58)
 def zoo_claim(out: Path) -> Measurement:
     folder = sweep_dir(out, "B-ZOO")
     shutil.rmtree(folder, ignore_errors=True)
