@@ -111,3 +111,19 @@ def test_ctrl_c_stops_the_claim_processes_exit_130_and_the_file_says_partial(tmp
         time.sleep(0.2)
     else:
         pytest.fail("processes of the interrupted reproduction are still running")
+
+
+def test_the_runs_b_ident_and_b_mapid_take_from_b_zoo_and_b_ident_are_the_ones_they_would_make():
+    """B-IDENT's sensorless runs on the true parameters are B-ZOO's sweep
+    points (zoo.RUNS), B-MAPID's identifications B-IDENT's (IDENTIFIED): the
+    same scenarios, so the same runs."""
+    from fullspeed.design.scenario import load_scenario, scenario_from_dict
+    from fullspeed.reproduce.papers.beyond import IDENT_SAMPLE, MAPID_SAMPLE
+    from fullspeed.workflows.sweep import load_sweep_file
+
+    tasks = load_sweep_file("beyond-zoo").tasks()
+    for k in (0, 2, 38, 98):
+        swept = scenario_from_dict(tasks[k]["scenario"], tasks[k]["source"]).data
+        assert swept == load_scenario("beyond-zoo", {"machine": {"zoo": k}, "controller": {}}).data   # identify._sensorless_task's
+    assert set(range(0, 2 * MAPID_SAMPLE, 2)) <= set(range(IDENT_SAMPLE))
+    assert SHARES["B-ZOO"] == SHARES["B-IDENT"] == SHARES["B-MAPID"]
