@@ -338,3 +338,26 @@ def test_catalog_flux_map_machine_identified_locked_or_refused_naming_the_motion
     held = identify(_scenario("prius2004-mg2", identify={"locked": True}))
     assert held.status["map"] == "ok" and held.map["errors"]["rms_pct"] <= 3.0
     assert all(held.status[q] == "ok" for q in ("verr", "R_s", "L_d", "L_q"))
+
+
+def test_sensorless_on_identified_runs_only_the_true_parameter_runs_not_given(tmp_path, monkeypatch):
+    """The true-parameter runs made already (B-ZOO's) are taken as they are,
+    each beside its own machine's run on the identified parameters."""
+    from fullspeed.workflows import identify as idf
+
+    rows = [{"k": k, "status": {q: "ok" for q in QUANTITIES}, "errors_pct": {q: 1.0 for q in QUANTITIES}}
+            for k in (0, 1, 2)]   # 1: a linear machine, not run
+    kept = {"stop_reason": "done", "lock_lost_at": None, "true_loss_at": None}
+    lost = dict(kept, lock_lost_at=1.0)
+    ran = []
+
+    def fake_run_tasks(fn, tasks, out, **kw):
+        ran.extend(tasks)
+        return [lost if t["k"] == 2 and not t["scales"] else kept for t in tasks]
+    monkeypatch.setattr(idf, "run_tasks", fake_run_tasks)
+    s = idf.sensorless_on_identified(rows, tmp_path, true_runs={0: kept})
+    assert [(t["k"], bool(t["scales"])) for t in ran] == [(0, True), (2, False), (2, True)]
+    assert s == {"machines": 2, "kept_true": 1, "kept_identified": 2, "differ": [2]}
+    ran.clear()
+    s0 = idf.sensorless_on_identified(rows, tmp_path, true_runs={0: lost})
+    assert len(ran) == 3 and s0["kept_true"] == 0 and s0["differ"] == [0, 2]

@@ -299,11 +299,13 @@ def _cmd_reproduce(args) -> int:
 
 
     out = out_folder(args.out)
+    t0 = time.perf_counter()
     with claim(out):
         rows = reproduce(args.paper, out, progress=not args.quiet)
     n_pass = sum(r["pass"] for r in rows)
     n_meas = sum(r["value"] is not None for r in rows)
-    print(f"{len(rows)} claims, {n_meas} measured, {n_pass} passing; wrote {out}/claims.json and {out}/report.md")
+    print(f"{len(rows)} claims, {n_meas} measured, {n_pass} passing in {time.perf_counter() - t0:.0f} s; "
+          f"wrote {out}/claims.json and {out}/report.md")
     return 0
 
 

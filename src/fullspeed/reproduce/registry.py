@@ -23,10 +23,26 @@ MEASURES: dict[str, Callable[[Path], Measurement]] = {}
 
 NOT_YET: dict[str, str] = {}   # claim id (or paper) -> why it cannot be measured yet
 
+# claim id -> the name of the runs it shares in memory with other claims (a
+# module's cache): the claims sharing one name are measured one after the
+# other in one process, so that the runs are made once.
+SHARES: dict[str, str] = {}
 
-def register(claim_id: str):
-    """Registers a measurement function for a claim in MEASURES."""
+# claim id -> its wall time (s), roughly (docs/performance.md, timed one
+# claim after the other on 2 loaded cores; only their order counts): the
+# reproduction starts the longest first, so that the short ones fill the
+# cores at the end.
+COST: dict[str, float] = {}
+COST_DEFAULT = 1.0   # a claim of a few runs
+
+
+def register(claim_id: str, shares: str | None = None, cost: float = COST_DEFAULT):
+    """Registers a measurement function for a claim in MEASURES, with the
+    runs it shares with other claims (SHARES) and its rough wall time (COST)."""
     def deco(fn):
         MEASURES[claim_id] = fn
+        COST[claim_id] = cost
+        if shares is not None:
+            SHARES[claim_id] = shares
         return fn
     return deco

@@ -695,7 +695,8 @@ def zoo_campaign(ks, out: Path, seed: int | None = None, workers: int | None = N
     The machines in keep have their identification written in
     out/machines/zoo-<k> (zoo_identification's folder)."""
     ks, keep = [int(k) for k in ks], {int(k) for k in keep}
-    tasks = [{"k": k, "seed": seed, **({"folder": str(out / "machines" / f"zoo-{k}")} if k in keep else {})} for k in ks]
+    tasks = [{"k": k, "seed": seed, **({"folder": str((out / "machines" / f"zoo-{k}").resolve())} if k in keep else {})}
+             for k in ks]
     results = run_tasks(_zoo_task, tasks, out, workers=workers, progress=progress, fresh=fresh, desc="identify")
     rows = []
     for k, r in zip(ks, results):
@@ -766,11 +767,15 @@ def _sensorless_task(task: dict) -> dict:
             "sensorless_err_deg_max": m["sensorless_err_deg_max"]}
 
 
-def sensorless_on_identified(rows: list[dict], out: Path, workers: int | None = None) -> dict:
+def sensorless_on_identified(rows: list[dict], out: Path, workers: int | None = None,
+                             true_runs: dict[int, dict] | None = None) -> dict:
     """The zoo's saturating machines (the linear ones refuse to start by
     their polarity detection) run sensorless on their true and on their
     identified parameters: how often each keeps lock (completed, no loss of
-    lock flagged or seen by the simulation's truth)."""
+    lock flagged or seen by the simulation's truth). true_runs: machine k's
+    run on its true parameters where it was made already (scenario
+    beyond-zoo as it is: the sweep beyond-zoo's point k, claim B-ZOO), at
+    least _sensorless_task's results; those are not run again."""
     tasks = []
     for row in rows:
         k = int(row["k"])
@@ -779,7 +784,11 @@ def sensorless_on_identified(rows: list[dict], out: Path, workers: int | None = 
         scales = identified_scales(row, k)
         if scales is not None:
             tasks += [{"k": k, "scales": {}}, {"k": k, "scales": scales}]
-    res = run_tasks(_sensorless_task, tasks, out, workers=workers, fresh=True, desc="sensorless")
+    known = {n: (true_runs or {}).get(t["k"]) for n, t in enumerate(tasks) if not t["scales"]}
+    known = {n: r for n, r in known.items() if r is not None}
+    todo = [t for n, t in enumerate(tasks) if n not in known]
+    ran = iter(run_tasks(_sensorless_task, todo, out, workers=workers, fresh=True, desc="sensorless"))
+    res = [known[n] if n in known else next(ran) for n in range(len(tasks))]
 
     def kept(r):
         return r is not None and r.get("stop_reason") == "done" and r.get("lock_lost_at") is None \

@@ -136,14 +136,43 @@ class _Interrupts:
             signal.signal(signal.SIGINT, self._prev)
 
 
-def _worker_init(parent: int) -> None:
+def _worker_init(parent: int, then: Callable | None = None, then_args: tuple = ()) -> None:
     """Worker processes leave Ctrl-C to the parent, which stops them, and
     end when the parent ends, however it ends (kill -9, the OOM killer):
     nothing else would wake them (each holds its queue's writing end as
     well), and the forkserver and the resource tracker, which live as long
-    as a worker holds their pipes, end after them."""
+    as a worker holds their pipes, end after them. Then then(*then_args)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     threading.Thread(target=_exit_with, args=(parent,), daemon=True, name="fullspeed-parent-watch").start()
+    if then is not None:
+        then(*then_args)
+
+
+_PRELOAD: set[str] = set()   # the modules this process's forkserver imports when it starts (preload)
+
+
+def preload(*modules: str) -> None:
+    """Adds modules to those this process's forkserver imports once, when it
+    first starts, for every worker it forks after: each worker would import
+    them again (about 0.5 s of CPU each time: numpy, the core, the figures).
+    No effect once the server runs."""
+    import multiprocessing
+
+    _PRELOAD.update(modules)
+    multiprocessing.get_context("forkserver").set_forkserver_preload(["__main__", *sorted(_PRELOAD)])
+
+
+def _worker_pool(workers: int, then: Callable | None = None, then_args: tuple = (), modules: tuple[str, ...] = ()):
+    """A pool of `workers` processes (forkserver: no copy of this process's
+    state, `modules` preloaded) that leave Ctrl-C to this process and end
+    with it (_worker_init), each running then(*then_args) first; stop it
+    early with _stop."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    preload(*modules)
+    return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("forkserver"),
+                               initializer=_worker_init, initargs=(os.getpid(), then, then_args))
 
 
 def _exit_with(pid: int) -> None:
@@ -197,12 +226,8 @@ MAX_POOL_RESTARTS = 3   # a task that kills its worker every time (a crash in th
 
 
 def _local(fn, tasks: dict[int, dict], workers: int):
-    """(index, result) as tasks finish, in `workers` processes (1: here).
-
-    Ctrl-C stops at once: no queued task starts, running ones are ended and
-    not reported. A worker that dies (killed, out of memory, a crash) costs
-    the tasks that were running or queued in its pool: they run again in a
-    new pool, up to MAX_POOL_RESTARTS times, each time with a message."""
+    """(index, result) as tasks finish, in `workers` processes (in_pool;
+    1: here)."""
     if workers == 1:
         with _Interrupts() as intr:
             for k, task in tasks.items():
@@ -211,18 +236,30 @@ def _local(fn, tasks: dict[int, dict], workers: int):
                     raise KeyboardInterrupt
                 yield k, result
         return
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    yield from in_pool(guarded, {k: (fn, task) for k, task in tasks.items()}, workers, modules=(fn.__module__,),
+                       what="tasks", retry="; run the same command again to retry them")
+
+
+def in_pool(call: Callable, args: dict, workers: int, then: Callable | None = None, then_args: tuple = (),
+            modules: tuple[str, ...] = (), what: str = "tasks", retry: str = ""):
+    """(k, call(*args[k])) as each finishes, in `workers` processes
+    (_worker_pool: then, then_args, modules), started in args' order.
+
+    Ctrl-C stops at once: nothing queued starts, what runs is ended and not
+    reported. A worker that dies (killed, out of memory, a crash) costs the
+    calls that were running or queued in its pool: they run again in a new
+    pool, up to MAX_POOL_RESTARTS times, each time with a message; the keys
+    of those still not run after that are not yielded (the message names
+    how many `what`, then `retry`)."""
+    from concurrent.futures import as_completed
     from concurrent.futures.process import BrokenProcessPool
 
-    ctx = multiprocessing.get_context("forkserver")
-    todo = dict(tasks)
+    todo = dict(args)
     for attempt in range(MAX_POOL_RESTARTS + 1):
-        pool = ProcessPoolExecutor(max_workers=min(workers, len(todo)), mp_context=ctx, initializer=_worker_init,
-                                   initargs=(os.getpid(),))
+        pool = _worker_pool(min(workers, len(todo)), then, then_args, modules)
         broken = False
         try:
-            futures = {pool.submit(guarded, fn, task): k for k, task in todo.items()}
+            futures = {pool.submit(call, *a): k for k, a in todo.items()}
             procs = list((getattr(pool, "_processes", None) or {}).values())
             for fut in as_completed(futures):
                 try:
@@ -240,11 +277,11 @@ def _local(fn, tasks: dict[int, dict], workers: int):
             return
         why = _deaths(procs)
         if attempt < MAX_POOL_RESTARTS:
-            print(f"fullspeed: a worker process died ({why}); its pool's {len(todo)} unfinished tasks run again",
+            print(f"fullspeed: a worker process died ({why}); its pool's {len(todo)} unfinished {what} run again",
                   file=sys.stderr)
         else:
-            print(f"fullspeed: {len(todo)} tasks not run: worker processes died {MAX_POOL_RESTARTS + 1} times "
-                  f"(last: {why}); run the same command again to retry them", file=sys.stderr)
+            print(f"fullspeed: {len(todo)} {what} not run: worker processes died {MAX_POOL_RESTARTS + 1} times "
+                  f"(last: {why}){retry}", file=sys.stderr)
 
 
 DASK_TIMEOUT = 60.0   # s: a cluster with no worker, or no answer, for this long is an error

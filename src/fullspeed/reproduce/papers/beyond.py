@@ -23,6 +23,7 @@ from ...workflows.calibrate import write_table, xsat_table
 from ...workflows.identify import GOALS_PCT, MAP_GOAL_PCT, campaign_summary, map_summary, sensorless_on_identified, zoo_campaign
 from ...workflows.sweep import load_sweep_file, run_sweep
 from ..registry import Measurement, register
+from . import zoo
 from .mapid import ANGLE_TOL, identified_against_true
 from .common import (error_stats, figure_angle, figure_dynamic, grid_and_legends, lock_held, plt,
                      run, save_figure, sweep_dir)
@@ -188,7 +189,7 @@ def _figure_robust(err_max, err_mean, kept, path: Path, title: str) -> str:
     return save_figure(fig, path, title)
 
 
-@register("B-ROBUST")
+@register("B-ROBUST", cost=38)
 def robust(out: Path) -> Measurement:
     folder = sweep_dir(out, "B-ROBUST")
     shutil.rmtree(folder, ignore_errors=True)   # measured afresh (common.sweep_dir)
@@ -290,7 +291,7 @@ def _figure_lock(rows: list[dict], path: Path, title: str) -> str:
     return save_figure(fig, path, title)
 
 
-@register("B-THERMAL")
+@register("B-THERMAL", cost=11)
 def thermal(out: Path) -> Measurement:
     fixed = run("beyond-thermal", {"controller": {"param_adapt": True}})
     plain = run("beyond-thermal", {"controller": {"param_adapt": False}})
@@ -332,7 +333,7 @@ def thermal(out: Path) -> Measurement:
     return Measurement(value, bool(ok), note, [fig])
 
 
-@register("B-LOCK")
+@register("B-LOCK", cost=62)
 def lock(out: Path) -> Measurement:
     folder = sweep_dir(out, "B-LOCK")
     shutil.rmtree(folder, ignore_errors=True)   # measured afresh (common.sweep_dir)
@@ -387,19 +388,39 @@ def lock(out: Path) -> Measurement:
     return Measurement(value, bool(ok), note, [fig])
 
 
+# B-MAPID: the zoo's saturating machines are its even indices; MAPID_SAMPLE of
+# them (k = 0, 2, ..): the fewest whose 95th percentile is not the worst alone
+# (numpy's interpolation puts it between the two largest of 20), about 8 s on
+# two idle cores. The published catalog's flux-map machines are not in the
+# campaign yet: on a free shaft their standstill steps do not hold the rotor
+# (prius2004-mg2, syre-thor, baldor-ecs101m0h7ef4 turn it in LEVELS); locked,
+# they are identified (identify's [identify] locked = true).
+MAPID_SAMPLE = 20
+# The second half on the first MAPID_SENSORLESS of them: B-REAL's scenario twice per machine (about 4 s of
+# simulation each, switching inverter): 12 runs, about 20 s on two cores
+MAPID_SENSORLESS = 6
+MAPID_KEEP = range(0, 2 * MAPID_SENSORLESS, 2)
+
+
 # B-IDENT: the whole zoo, about 47 s on two idle cores (an identification
 # takes 4-12 s simulated, 6 s the median, its flux map's steps included;
 # about 0.5 s wall in one process); lower it for a sample if the
 # reproduction's time budget needs it.
 IDENT_SAMPLE = 100
+# output folder -> zoo machine -> its identification in this reproduction (B-MAPID's machines are among B-IDENT's:
+# the same identification, zoo_identification(k), made once)
+IDENTIFIED: dict[Path, dict[int, dict]] = {}
 
 
-@register("B-IDENT")
+@register("B-IDENT", shares="the zoo's runs", cost=58)
 def ident(out: Path) -> Measurement:
-    rows = zoo_campaign(range(IDENT_SAMPLE), out / "B-IDENT-runs")
+    # B-MAPID's second half runs its first machines on their identified files: written here
+    rows = zoo_campaign(range(IDENT_SAMPLE), out / "B-IDENT-runs", keep=MAPID_KEEP)
+    IDENTIFIED[out] = {int(r["k"]): r for r in rows}
     s = campaign_summary(rows)
-    # identify, then run sensorless: lock kept as often on the identified parameters as on the true ones
-    sl = sensorless_on_identified(rows, out / "B-IDENT-sensorless")
+    # identify, then run sensorless: lock kept as often on the identified parameters as on the true ones (on the
+    # true ones B-ZOO's runs where it ran before in this process: the same scenario, zoo.RUNS)
+    sl = sensorless_on_identified(rows, out / "B-IDENT-sensorless", true_runs=zoo.RUNS.get(out))
     path = out / "B-IDENT.json"
     tmp = path.with_name(f".{path.name}.tmp")
     tmp.write_text(json.dumps({"summary": s, "rows": rows}, indent=1, default=str))
@@ -427,23 +448,14 @@ def ident(out: Path) -> Measurement:
     return Measurement(value, within and named and as_often, note)
 
 
-# B-MAPID: the zoo's saturating machines are its even indices; MAPID_SAMPLE of
-# them (k = 0, 2, ..): the fewest whose 95th percentile is not the worst alone
-# (numpy's interpolation puts it between the two largest of 20), about 8 s on
-# two idle cores. The published catalog's flux-map machines are not in the
-# campaign yet: on a free shaft their standstill steps do not hold the rotor
-# (prius2004-mg2, syre-thor, baldor-ecs101m0h7ef4 turn it in LEVELS); locked,
-# they are identified (identify's [identify] locked = true).
-MAPID_SAMPLE = 20
-# The second half on the first MAPID_SENSORLESS of them: B-REAL's scenario twice per machine (about 4 s of
-# simulation each, switching inverter): 12 runs, about 20 s on two cores
-MAPID_SENSORLESS = 6
 
 
-@register("B-MAPID")
+@register("B-MAPID", shares="the zoo's runs", cost=35)
 def mapid(out: Path) -> Measurement:
     ks = range(0, 2 * MAPID_SAMPLE, 2)
-    rows = zoo_campaign(ks, out / "B-MAPID-runs", keep=ks[:MAPID_SENSORLESS])
+    known = IDENTIFIED.get(out, {})
+    rows = ([known[k] for k in ks] if all(k in known for k in ks)
+            else zoo_campaign(ks, out / "B-MAPID-runs", keep=MAPID_KEEP))
     s = map_summary(rows)
     sl = identified_against_true(rows, out)
     path = out / "B-MAPID.json"

@@ -14,6 +14,10 @@ from .common import plt, save_figure, sweep_dir
 
 ERR_MAX = 15.0   # el.deg, outside the 50 ms after each step (CLAIMS.md)
 
+# output folder -> zoo machine -> its row of this reproduction's sweep (B-IDENT runs the same scenario on the
+# true parameters: its runs of them are these)
+RUNS: dict[Path, dict[int, dict]] = {}
+
 
 def classify(row: dict) -> str:
     """One zoo run: success (completed, no loss flagged, max error < 15 el.deg),
@@ -44,12 +48,13 @@ def summarize(rows: list[dict], seed: int = zoo.SEED) -> dict:
     return out
 
 
-@register("B-ZOO")
+@register("B-ZOO", shares="the zoo's runs", cost=58)
 def zoo_claim(out: Path) -> Measurement:
     folder = sweep_dir(out, "B-ZOO")
     shutil.rmtree(folder, ignore_errors=True)
     sw = load_sweep_file("beyond-zoo")
     _, rows = run_sweep(sw, folder, plot=False)
+    RUNS[out] = {int(r["machine.zoo"]): r for r in rows}
     s = summarize(rows)
     ok = s["silent_failures"] == 0 and s["success_saturating_pct"] >= 95.0
     fig = _figure(rows, out / "B-ZOO.png")

@@ -459,7 +459,7 @@ def within(g: tuple) -> bool:
     return abs(g[0] - 30.0) <= 5.0 and abs(g[1] - 35.0) <= 5.0
 
 
-@register("Z-SPEEDRANGE")
+@register("Z-SPEEDRANGE", shares="zou2021 envelopes", cost=39)
 def speed_range(out: Path) -> Measurement:
     torques, env = _envelopes_sim(out)
     g1, g12 = _gains(torques, env, 10.0)
@@ -535,7 +535,7 @@ def _region_note(key: str) -> str:
             f"{PAPER_THD[key]} %, ripple {PAPER_RIPPLE[key]} N m.")
 
 
-@register("Z-REGION-A")
+@register("Z-REGION-A", shares="zou2021 region runs")
 def region_a(out: Path) -> Measurement:
     res, st, fig = _region("Z-REGION-A", "A", out)
     ok = (res.stop_reason == "done" and abs(st["speed_error_rpm"]) < 0.005 * 1200.0
@@ -544,7 +544,7 @@ def region_a(out: Path) -> Measurement:
                        "alpha = 0 throughout, mean i_d within 0.1 A of 0.", [fig])
 
 
-@register("Z-REGION-B")
+@register("Z-REGION-B", shares="zou2021 region runs")
 def region_b(out: Path) -> Measurement:
     res, st, fig = _region("Z-REGION-B", "B", out)
     ok = (res.stop_reason == "done" and st["i_d_mean_A"] < -1.0 and st["overmod_share"] > 0.5
@@ -553,7 +553,7 @@ def region_b(out: Path) -> Measurement:
                        "the periods over-modulated, speed error below 0.5 %.", [fig])
 
 
-@register("Z-REGION-C")
+@register("Z-REGION-C", shares="zou2021 region runs")
 def region_c(out: Path) -> Measurement:
     res, st, fig = _region("Z-REGION-C", "C", out)
     ok = res.stop_reason == "done" and st["alpha_mean_rad"] > 0.0 and abs(st["speed_error_rpm"]) < 0.005 * 1750.0
@@ -643,7 +643,7 @@ def crossing(xs: list[float], ys: list[float]) -> float | None:
     return None
 
 
-@register("Z-THD-TREND")
+@register("Z-THD-TREND", shares="zou2021 region runs")
 def thd_trend(out: Path) -> Measurement:
     thds, runs = {}, {}
     for key in "ABC":
@@ -721,7 +721,7 @@ def thd_trend(out: Path) -> Measurement:
     return Measurement(value, ok, note, [fig_name])
 
 
-@register("Z-RISE")
+@register("Z-RISE", shares="zou2021 region runs")
 def rise(out: Path) -> Measurement:
     both = _run("zou2021-region-c")
     part1 = run("zou2021-rise-time")
@@ -848,7 +848,7 @@ def _rise_stats(part1: Result, both: Result) -> dict:
             "to_98pct_part1_s": d1, "to_98pct_part12_s": d12, "to_98pct_shorter_pct": 100.0 * (1.0 - d12 / d1)}
 
 
-@register("Z-EXP")
+@register("Z-EXP", shares="zou2021 envelopes")
 def experiment(out: Path) -> Measurement:
     b = PROTOTYPE
     env = _prototype_envelopes(out)

@@ -1,0 +1,129 @@
+"""`fullspeed reproduce` stopped before its end (issue 40, C9 of
+../shared/reports/reliability-probe-2026-11-28.md: an interrupted
+reproduction kept a claims.json of the claims measured so far with nothing
+saying it was partial), and its claims measured concurrently (issue 38:
+the claims that share runs in one process, the rows in CLAIMS order).
+
+The measurements here are stand-ins at module level, so that the claim
+processes (which import this module by name) run them as well as this one.
+"""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from fullspeed.reproduce import report as rp
+from fullspeed.reproduce.claims import CLAIMS, claims_for
+from fullspeed.reproduce.registry import SHARES, Measurement
+
+STOP_AT = "U-THIRD"   # a claim of the default cost: measured late, after the long ones
+
+
+def measured(out):
+    return Measurement({"pid": os.getpid()}, True, "stand-in")
+
+
+def interrupted(out):
+    raise KeyboardInterrupt   # what Ctrl-C raises inside a measurement run here
+
+
+def fakes(stop: str | None = STOP_AT) -> dict:
+    return {c.id: interrupted if c.id == stop else measured for c in CLAIMS}
+
+
+@pytest.mark.parametrize("lanes", [1, 2])
+def test_c9_an_interrupted_reproduction_says_it_is_partial_and_what_did_not_run(tmp_path, monkeypatch, lanes):
+    monkeypatch.setattr(rp, "MEASURES", fakes())
+    (tmp_path / "claims.json").write_text(json.dumps({"complete": True, "claims": [], "not_run": []}))   # an older run's
+    with pytest.raises(KeyboardInterrupt):
+        rp.reproduce(None, tmp_path, progress=False, lanes=lanes)
+    f = json.loads((tmp_path / "claims.json").read_text())
+    ids = [c.id for c in CLAIMS]
+    got = [r["id"] for r in f["claims"]]
+    assert f["complete"] is False and STOP_AT in f["not_run"] and STOP_AT not in got
+    assert sorted(got + f["not_run"], key=ids.index) == ids          # every claim: measured or named as not run
+    assert got == sorted(got, key=ids.index) and f["not_run"] == sorted(f["not_run"], key=ids.index)
+    if lanes == 1:   # one after the other, the longest first: those before the stop were measured
+        assert "B-LOCK" in got and all(r["value"] is not None for r in f["claims"])
+    report = (tmp_path / "report.md").read_text()
+    assert "**Incomplete**" in report and STOP_AT in report.split("**Incomplete**")[1].splitlines()[0]
+
+
+def test_a_whole_reproduction_says_it_is_complete_each_claim_with_its_wall_time(tmp_path, monkeypatch):
+    """In two lanes: every claim in CLAIMS order, measured in a claim
+    process (not this one), the claims that share runs in one process."""
+    monkeypatch.setattr(rp, "MEASURES", fakes(stop=None))
+    rows = rp.reproduce(None, tmp_path, progress=False, lanes=2)
+    f = json.loads((tmp_path / "claims.json").read_text())
+    assert f["complete"] is True and f["not_run"] == [] and f["claims"] == rows and f["lanes"] == 2
+    assert [r["id"] for r in rows] == [c.id for c in CLAIMS]
+    pid = {r["id"]: r["value"]["pid"] for r in rows}
+    assert os.getpid() not in pid.values()
+    for name in set(SHARES.values()):
+        assert len({pid[c] for c, s in SHARES.items() if s == name}) == 1, name
+    assert all(r["wall_s"] >= 0.0 for r in rows)
+    assert "**Incomplete**" not in (tmp_path / "report.md").read_text()
+
+
+def test_a_shared_group_runs_in_claims_order_and_the_longest_first():
+    us = rp.units(CLAIMS)
+    order = [c.id for c in CLAIMS]
+    assert sorted(c.id for u in us for c in u) == sorted(order)
+    for u in us:
+        assert [c.id for c in u] == sorted((c.id for c in u), key=order.index)
+        assert len({SHARES.get(c.id, c.id) for c in u}) == 1
+    cost = [sum(rp.COST.get(c.id, rp.COST_DEFAULT) for c in u) for u in us]
+    assert cost == sorted(cost, reverse=True)
+
+
+def test_ctrl_c_stops_the_claim_processes_exit_130_and_the_file_says_partial(tmp_path):
+    """The command under Ctrl-C (SIGINT to its process group, as a terminal
+    sends it): exit 130, claims.json partial, no process of it left."""
+    out = tmp_path / "r"
+    p = subprocess.Popen([sys.executable, "-m", "fullspeed", "reproduce", "--paper", "yu2022", "--out", str(out),
+                          "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        t0 = time.monotonic()
+        while not (out / "claims.json").exists() and p.poll() is None and time.monotonic() - t0 < 120:
+            time.sleep(0.1)
+        time.sleep(1.0)   # the lanes started
+        os.killpg(p.pid, signal.SIGINT)
+        _, err = p.communicate(timeout=60)
+    finally:
+        if p.poll() is None:
+            os.killpg(p.pid, signal.SIGKILL)
+    assert p.returncode == 130, err
+    f = json.loads((out / "claims.json").read_text())
+    ids = [c.id for c in claims_for("yu2022")]
+    assert f["complete"] is False and f["not_run"] and sorted([r["id"] for r in f["claims"]] + f["not_run"]) == sorted(ids)
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < 30:   # the lanes, their pools and forkservers end after the command
+        try:
+            os.killpg(p.pid, 0)
+        except ProcessLookupError:
+            break
+        time.sleep(0.2)
+    else:
+        pytest.fail("processes of the interrupted reproduction are still running")
+
+
+def test_the_runs_b_ident_and_b_mapid_take_from_b_zoo_and_b_ident_are_the_ones_they_would_make():
+    """B-IDENT's sensorless runs on the true parameters are B-ZOO's sweep
+    points (zoo.RUNS), B-MAPID's identifications B-IDENT's (IDENTIFIED): the
+    same scenarios, so the same runs."""
+    from fullspeed.design.scenario import load_scenario, scenario_from_dict
+    from fullspeed.reproduce.papers.beyond import IDENT_SAMPLE, MAPID_SAMPLE
+    from fullspeed.workflows.sweep import load_sweep_file
+
+    tasks = load_sweep_file("beyond-zoo").tasks()
+    for k in (0, 2, 38, 98):
+        swept = scenario_from_dict(tasks[k]["scenario"], tasks[k]["source"]).data
+        assert swept == load_scenario("beyond-zoo", {"machine": {"zoo": k}, "controller": {}}).data   # identify._sensorless_task's
+    assert set(range(0, 2 * MAPID_SAMPLE, 2)) <= set(range(IDENT_SAMPLE))
+    assert SHARES["B-ZOO"] == SHARES["B-IDENT"] == SHARES["B-MAPID"]
