@@ -62,3 +62,42 @@ def test_a_peer_that_cannot_run_is_missing_with_its_reason(monkeypatch):
                                               "fullspeed": {"SMO": row}, "goals": [], "figure": None}}})
     assert "motulator FVC: missing: no Python >= 3.12 found" in text
     assert "fullspeed SMO" in text
+
+
+def test_a_goal_relative_to_another_run_compares_the_difference():
+    """Issue 34's blend goal: at most 1 el.deg worse than the back-EMF
+    observer alone on the same window; better meets it, a missing run meets
+    nothing."""
+    case = {"goals": {"blend": (("step", "max", 1.0, "smo"),)}}
+    worse = {"blend": {"windows": {"step": {"max": 2.6}}}, "smo": {"windows": {"step": {"max": 1.5}}}}
+    (row,) = est.goals_met(case, worse)
+    assert row["met"] is False and row["value"] == pytest.approx(1.1)
+    assert row["run_value"] == pytest.approx(2.6) and row["ref_value"] == pytest.approx(1.5)
+    better = {"blend": {"windows": {"step": {"max": 0.4}}}, "smo": {"windows": {"step": {"max": 1.5}}}}
+    assert est.goals_met(case, better)[0]["met"] is True
+    assert est.goals_met(case, {"blend": worse["blend"]})[0]["met"] is False   # no reference run
+    text = est.format_report({"cases": {"a": {"title": "t", "peer_label": "p", "peer": {"status": "missing", "reason": "r"},
+                                              "fullspeed": {"smo": {"windows": {"step": {"max": 1.5, "rms": 0, "mean": 0, "dw_max": 0, "dw_hat_max": 0}},
+                                                                    "t_err_over_90deg_s": 0.0, "stop": "done", "wall_s": 0.1}},
+                                              "goals": est.goals_met(case, worse), "figure": None}}})
+    assert "goal blend [step] max <= smo's + 1: 1.10 more (2.60 / 1.50) NOT met" in text
+
+
+@pytest.mark.parametrize("run", [r for c in est.CASES.values() for r in c["runs"].values() if isinstance(r, est.Designed)])
+def test_designed_runs_take_nothing_of_the_estimators_from_the_scenario(run):
+    """The designed runs' catalog scenarios set the carrier, the band and
+    bandwidths by hand: a designed run that kept any of them would measure
+    the hand-set drive under the designed drive's name."""
+    from fullspeed.design.scenario import scenario_from_dict
+    from fullspeed.model.scenario import scenario_data
+    base, _ = scenario_data(run.base)
+    data = est.designed_data(run.base, run.angle)
+    assert data["controller"]["angle"] == run.angle and data["references"] == base["references"]
+    assert not {"injection", "blending"} & set(data)
+    assert set(data.get("observer", {})) <= {"start"}
+    assert not [k for k in data["controller"] if k.startswith("bw_")]
+    sc = scenario_from_dict(data, "test")
+    given = {k: v["reason"] for k, v in est.designed_settings(sc).items() if v["given"] and "machine file" not in v["reason"]}
+    assert given == {}
+    if run.angle != "smo":   # the carrier the design gives, not the scenario's 1.6 kHz
+        assert sc.design["injection.f_h"].given is False and sc.data["injection"]["f_h"] != 1600.0
