@@ -727,3 +727,23 @@ def test_f3_replace_folder_puts_the_new_set_in_place_whole(tmp_path, monkeypatch
         files.replace_folder(out, {"a.toml": "4"}, owned=("b.toml",))
     assert {p.name: p.read_text() for p in out.iterdir()} == {"a.toml": "3"}
     assert sorted(p.name for p in tmp_path.iterdir()) == ["id"]
+
+
+# --- C5: bench/pil.py's closed-loop verdict ---------------------------------------------------
+
+def _loop_run(stop_h, stop_t, lock_h=None, lock_t=None):
+    side = lambda stop, lock: {"stop_reason": stop, "lock_lost_at": lock, "recoveries": 0, "speed_error_pct": 0.5,  # noqa: E731
+                               "theta_err_deg": {"mean": 1.0}, "i_q_error_rms": 0.2}
+    return {"host": side(stop_h, lock_h), "target": side(stop_t, lock_t), "stages_host": [1, 3], "stages_target": [1, 3]}
+
+
+@pytest.mark.parametrize("stop", ["done", "overcurrent", "overspeed"])
+def test_c5_the_same_stop_on_host_and_target_is_agreement(stop):
+    """The verdict compares the target's run with the host's: both ending in
+    the same stop (an identical overcurrent trip included) agree; a stop on one
+    side only does not."""
+    v = _pil().loop_verdict(_loop_run(stop, stop))
+    assert v["checks"]["same stop"] and v["within"], v
+    other = "overcurrent" if stop == "done" else "done"
+    v = _pil().loop_verdict(_loop_run(stop, other))
+    assert not v["checks"]["same stop"] and not v["within"], v
