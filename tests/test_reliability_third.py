@@ -747,3 +747,49 @@ def test_c5_the_same_stop_on_host_and_target_is_agreement(stop):
     other = "overcurrent" if stop == "done" else "done"
     v = _pil().loop_verdict(_loop_run(stop, other))
     assert not v["checks"]["same stop"] and not v["within"], v
+
+
+# --- C6: a sweep's random axes and a sweep of nothing but errors --------------------------------
+
+def _sweep_file(tmp_path, axis: str, samples: int = 3):
+    (tmp_path / "base.toml").write_text(BASE)
+    f = tmp_path / "mc.toml"
+    f.write_text(f'name = "mc"\nbase = "base.toml"\nsamples = {samples}\nmetrics = ["T_e_mean"]\n[axes]\n{axis}\n')
+    return f
+
+
+@pytest.mark.parametrize("axis,words", [
+    ('"load.speed_rpm" = { normal = [1, 1e307] }', ("axes.load.speed_rpm.normal", "1e+307", "1e+06")),
+    ('"load.speed_rpm" = { uniform = [2e6, 3e6] }', ("axes.load.speed_rpm.uniform", "2000000", "1e+06")),
+    ('"trace.decimation" = { integers = [-9, 0] }', ("axes.trace.decimation.integers", "-9", "trace.decimation"))])
+def test_c6_a_random_axis_none_of_whose_draws_is_valid_is_refused_before_any_point(tmp_path, capsys, axis, words):
+    """Draws the schema refuses, every one: one line naming the axis, its
+    distribution and what the field allows, exit 2, nothing run or written."""
+    f = _sweep_file(tmp_path, axis)
+    one_line_exit_2(capsys, "sweep", str(f), "--out", str(tmp_path / "o"), "--workers", "1", "--quiet", words=words)
+    assert not (tmp_path / "o").exists()
+
+
+def test_c6_a_random_axis_with_some_valid_draws_runs_and_its_refused_draws_are_rows(tmp_path, capsys):
+    """Draws the schema takes and draws it refuses: the sweep runs, a refused
+    draw is its point's error row (a tail of a distribution past a limit)."""
+    f = _sweep_file(tmp_path, '"trace.decimation" = { integers = [-2, 3] }', samples=8)
+    rc = main(["sweep", str(f), "--out", str(tmp_path / "o"), "--workers", "1", "--quiet"])
+    out = capsys.readouterr().out
+    assert rc == 0 and "8 of 8 points" in out and "error (ConfigError" in out, out
+
+
+def test_c6_a_sweep_whose_points_all_end_in_error_does_not_exit_0(tmp_path, capsys, monkeypatch):
+    """Every point an error row (here the engine refusing each point): the
+    table is written, and the summary and the exit status say no point ran."""
+    import fullspeed.workflows.sweep as sweep_mod
+
+    def refuse(sc):
+        raise RuntimeError("the core refused the point")
+    monkeypatch.setattr(sweep_mod, "simulate", refuse)
+    f = _sweep_file(tmp_path, '"load.speed_rpm" = { uniform = [100, 200] }')
+    rc = main(["sweep", str(f), "--out", str(tmp_path / "o"), "--workers", "1", "--quiet"])
+    cap = capsys.readouterr()
+    assert rc == 1, (rc, cap.out, cap.err)
+    assert "every point ended in an error" in cap.err, cap.err
+    assert (tmp_path / "o" / "results.parquet").exists() or (tmp_path / "o" / "results.csv").exists()
