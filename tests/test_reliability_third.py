@@ -793,3 +793,42 @@ def test_c6_a_sweep_whose_points_all_end_in_error_does_not_exit_0(tmp_path, caps
     assert rc == 1, (rc, cap.out, cap.err)
     assert "every point ended in an error" in cap.err, cap.err
     assert (tmp_path / "o" / "results.parquet").exists() or (tmp_path / "o" / "results.csv").exists()
+
+
+# --- C7: a name matplotlib's font cannot draw; the progress bar's end ------------------------------
+
+def test_c7_a_run_of_a_cjk_name_draws_its_figure_quietly_and_keeps_the_name(tmp_path, capsys):
+    """A scenario named in CJK: no glyph warning on stderr (a font that has the
+    glyphs where one is installed, else the boxes drawn without a word), and
+    the name in the figure's own text (its PNG title)."""
+    import warnings
+
+    from PIL import Image
+
+    name = "电机测试-ラン"
+    f = tmp_path / "cjk.toml"
+    f.write_text(BASE.replace('name = "bad"', f'name = "{name}"'))
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        rc = main(["run", str(f), "--out", str(tmp_path / "o"), "--quiet"])
+    err = capsys.readouterr().err
+    assert rc == 0, err
+    assert "Glyph" not in err and not [w for w in seen if "Glyph" in str(w.message)], (err, [str(w.message) for w in seen])
+    assert Image.open(tmp_path / "o" / "run.png").text.get("Title") == name
+
+
+def test_c7_the_progress_bar_ends_at_the_last_period_without_a_tqdm_warning(monkeypatch, capsys):
+    """A duration just short of a whole number of periods (0.04996 s: 500
+    periods of 0.1 ms, 0.05 s): the bar counts periods, it cannot pass its
+    total, so no TqdmWarning ("clamping frac") reaches the user."""
+    import warnings
+
+    monkeypatch.setenv("TQDM_MININTERVAL", "0")   # a refresh at every update: the last one too
+    monkeypatch.setenv("TQDM_MINITERS", "0")
+    sc = scenario_from_dict({**BASE_DATA, "duration": 0.04996})
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        res = simulate(sc, progress=True)
+    assert res.stop_reason == "done" and res.sim_time == pytest.approx(0.05)
+    assert not [str(w.message) for w in seen if "tqdm" in type(w.message).__module__], [str(w.message) for w in seen]
+    assert "TqdmWarning" not in capsys.readouterr().err

@@ -9,6 +9,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from ..design.drawing import save_figure  # noqa: E402
 from ..design.rules import u_linear  # noqa: E402
 from ..model.units import rad_s_to_rpm  # noqa: E402
 from .metrics import STAGES  # noqa: E402
@@ -101,11 +102,7 @@ def plot_run(res, path: str | Path, title: str | None = None) -> Path:
         a.grid(True, alpha=0.3)
         a.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7, frameon=False)
     fig.suptitle(title or sc.name)
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, 110, title or sc.name)
 
 
 def plot_sweep(sw, rows: list[dict], path: str | Path) -> Path | None:
@@ -161,7 +158,4 @@ def plot_sweep(sw, rows: list[dict], path: str | Path) -> Path | None:
             ax.set_title(m + (" (mean of samples)" if sw.samples > 1 else ""), fontsize=9)
             fig.colorbar(im, ax=ax)
     fig.suptitle(f"sweep {sw.name}: {len(rows)} points")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return Path(path)
+    return save_figure(fig, path, 100, f"sweep {sw.name}")
