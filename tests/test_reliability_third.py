@@ -832,3 +832,75 @@ def test_c7_the_progress_bar_ends_at_the_last_period_without_a_tqdm_warning(monk
     assert res.stop_reason == "done" and res.sim_time == pytest.approx(0.05)
     assert not [str(w.message) for w in seen if "tqdm" in type(w.message).__module__], [str(w.message) for w in seen]
     assert "TqdmWarning" not in capsys.readouterr().err
+
+
+# --- C8: the temporaries a kill leaves are removed by the next write ---------------------------------
+
+def _dead_pid() -> int:
+    import subprocess
+
+    p = subprocess.Popen(["true"])
+    p.wait()
+    return p.pid
+
+
+def _aged(path, seconds=3600.0):
+    os.utime(path, (time.time() - seconds, time.time() - seconds))
+    return path
+
+
+def test_c8_a_write_removes_its_own_stale_temporaries_and_nothing_else(tmp_path):
+    """The next write of a file removes the hidden temporaries of earlier
+    writes of that file that no live process holds and that are older than
+    the writer; a live writer's, a newer one, another file's and the user's
+    own hidden files stay."""
+    from fullspeed.model import files
+
+    dead, live = _dead_pid(), os.getppid()
+    stale = [f".metrics.json.{dead}.k2x_9abc.tmp.json",
+             ".metrics.json.ab3def_7.tmp.json"]              # named before the pid was: by its age alone
+    kept = [f".metrics.json.{live}.abcdefgh.tmp.json",      # a live process's write
+            f".traces.npz.{dead}.abcdefgh.tmp.npz",         # another file's
+            ".metrics.json.notes", ".metrics.json.abcdefgh.tmp.json.bak"]   # not a write's
+    for n in stale + kept:
+        (tmp_path / n).write_text("x")
+        _aged(tmp_path / n)
+    newer = f".metrics.json.{dead}.newer123.tmp.json"      # newer than this process
+    (tmp_path / newer).write_text("x")
+    files.write_json(tmp_path / "metrics.json", {"a": 1})
+    left = sorted(p.name for p in tmp_path.iterdir())
+    assert left == sorted(["metrics.json", newer, *kept]), left
+
+
+def test_c8_replace_folder_removes_the_sets_a_kill_left_beside_it(tmp_path):
+    from fullspeed.model import files
+
+    dead = _dead_pid()
+    new = tmp_path / f".id.{dead}.a1b2c3d4.new"
+    old = tmp_path / ".id.q9w8e7r6.old"
+    for d in (new, old / "x"):
+        d.mkdir(parents=True)
+        (d / "a.toml").write_text("half")
+    _aged(new), _aged(old)
+    files.replace_folder(tmp_path / "id", {"a.toml": "1"})
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["id"]
+
+
+def test_c8_a_write_killed_by_sigkill_leaves_a_temporary_the_next_command_removes(tmp_path):
+    """As the report's injected kills: a process killed in the middle of a
+    write leaves its hidden temporary; the next process that writes the file
+    there removes it (and the file is the new one)."""
+    import subprocess
+    import sys
+
+    target = tmp_path / "results.csv"
+    kill = ("import os, signal, sys; from fullspeed.model.files import write_with\n"
+            "write_with(sys.argv[1], lambda tmp: (tmp.write_text('half'), os.kill(os.getpid(), signal.SIGKILL)))\n")
+    p = subprocess.run([sys.executable, "-c", kill, str(target)])
+    assert p.returncode == -signal.SIGKILL
+    left = [q.name for q in tmp_path.iterdir()]
+    assert len(left) == 1 and left[0].startswith(".results.csv.") and left[0].endswith(".tmp.csv"), left
+    time.sleep(0.05)
+    write = "import sys; from fullspeed.model.files import write_atomic; write_atomic(sys.argv[1], 'whole')\n"
+    subprocess.run([sys.executable, "-c", write, str(target)], check=True)
+    assert [q.name for q in tmp_path.iterdir()] == ["results.csv"] and target.read_text() == "whole"
