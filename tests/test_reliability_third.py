@@ -904,3 +904,49 @@ def test_c8_a_write_killed_by_sigkill_leaves_a_temporary_the_next_command_remove
     write = "import sys; from fullspeed.model.files import write_atomic; write_atomic(sys.argv[1], 'whole')\n"
     subprocess.run([sys.executable, "-c", write, str(target)], check=True)
     assert [q.name for q in tmp_path.iterdir()] == ["results.csv"] and target.read_text() == "whole"
+
+
+# --- O1: a long run's figure does not hold its trace again ------------------------------------------
+
+def test_o1_a_line_is_drawn_through_each_slice_s_extremes_in_order():
+    """A long line is reduced to each slice's least and greatest samples, in
+    time order: its extremes, a one-sample spike and a NaN gap survive; a
+    short line is drawn whole."""
+    from fullspeed.sim.plots import PLOT_SLICES, drawn
+
+    rng = np.random.default_rng(7)
+    n = 123_457
+    t = np.arange(n) * 1e-4
+    y = rng.normal(size=n)
+    y[77_777], y[5], y[n - 1], y[40_000] = 50.0, -50.0, 30.0, np.nan
+    td, yd = drawn(t, y)
+    assert len(td) == len(yd) <= 2 * PLOT_SLICES + 2 and np.all(np.diff(td) >= 0)
+    assert 50.0 in yd and -50.0 in yd and 30.0 in yd and np.isnan(yd).sum() == 2   # the NaN: its slice's min and max
+    k = n // PLOT_SLICES
+    for j in rng.integers(0, PLOT_SLICES, 50):   # every slice: its extremes drawn
+        part = y[j * k:(j + 1) * k]
+        inside = yd[(td >= t[j * k]) & (td <= t[(j + 1) * k - 1])]
+        if not np.isnan(part).any():
+            assert part.max() in inside and part.min() in inside
+    ts, ys = drawn(t[:3000], y[:3000])
+    assert np.array_equal(ts, t[:3000]) and np.array_equal(ys, y[:3000])
+
+
+def test_o1_a_long_run_s_figure_costs_a_fraction_of_its_trace(tmp_path):
+    """The figure of a 4 s run (40,000 samples a channel): the memory drawing
+    it allocates (tracemalloc's peak, numpy's arrays included) is well under
+    the trace's size; drawn whole it was 0.9 of it (every line's points
+    copied and transformed by matplotlib)."""
+    import tracemalloc
+
+    from fullspeed.sim.plots import plot_run
+
+    res = simulate(scenario_from_dict({**BASE_DATA, "duration": 4.0}))
+    trace = sum(v.nbytes for v in res.traces.values())
+    tracemalloc.start()
+    try:
+        plot_run(res, tmp_path / "run.png")
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 0.5 * trace, (peak, trace)
