@@ -777,7 +777,9 @@ def blend_goal(insns: dict, what: str) -> dict:
 def loop_verdict(r: dict) -> dict:
     h, g = r["host"], r["target"]
     checks = {"same stages": r["stages_host"] == r["stages_target"],
-              "same stop": h["stop_reason"] == g["stop_reason"] == "done",
+              # agreement of the target with the host: the same stop on both sides, an identical
+              # trip included (the run's own outcome is printed beside the verdict, not judged here)
+              "same stop": h["stop_reason"] == g["stop_reason"],
               "same lock": h["lock_lost_at"] == g["lock_lost_at"] and h["recoveries"] == g["recoveries"]}
     if h.get("speed_error_pct") is not None and g.get("speed_error_pct") is not None:
         checks["speed error"] = abs(h["speed_error_pct"] - g["speed_error_pct"]) <= LOOP_TOLERANCE["speed_error_pct"]
@@ -929,6 +931,7 @@ def format_report(rep: dict) -> str:
             if r["host"].get(k):
                 lines.append(f"  {k} mean/pp  host {r['host'][k]['mean']:.4f}/{r['host'][k]['pp']:.4f}   "
                              f"target {r['target'][k]['mean']:.4f}/{r['target'][k]['pp']:.4f}")
+        lines.append(f"  stop: host {r['host']['stop_reason']}, target in the loop {r['target']['stop_reason']}")
         lines.append(f"  stages: host {r['stages_host']}, target {r['stages_target']}; largest trajectory differences: "
                      f"speed {r['max_w_m_diff_rpm']:.3g} rpm, angle error {r['max_theta_err_diff_deg']:.3g} deg")
         v = r["verdict"]

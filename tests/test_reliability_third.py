@@ -727,3 +727,226 @@ def test_f3_replace_folder_puts_the_new_set_in_place_whole(tmp_path, monkeypatch
         files.replace_folder(out, {"a.toml": "4"}, owned=("b.toml",))
     assert {p.name: p.read_text() for p in out.iterdir()} == {"a.toml": "3"}
     assert sorted(p.name for p in tmp_path.iterdir()) == ["id"]
+
+
+# --- C5: bench/pil.py's closed-loop verdict ---------------------------------------------------
+
+def _loop_run(stop_h, stop_t, lock_h=None, lock_t=None):
+    side = lambda stop, lock: {"stop_reason": stop, "lock_lost_at": lock, "recoveries": 0, "speed_error_pct": 0.5,  # noqa: E731
+                               "theta_err_deg": {"mean": 1.0}, "i_q_error_rms": 0.2}
+    return {"host": side(stop_h, lock_h), "target": side(stop_t, lock_t), "stages_host": [1, 3], "stages_target": [1, 3]}
+
+
+@pytest.mark.parametrize("stop", ["done", "overcurrent", "overspeed"])
+def test_c5_the_same_stop_on_host_and_target_is_agreement(stop):
+    """The verdict compares the target's run with the host's: both ending in
+    the same stop (an identical overcurrent trip included) agree; a stop on one
+    side only does not."""
+    v = _pil().loop_verdict(_loop_run(stop, stop))
+    assert v["checks"]["same stop"] and v["within"], v
+    other = "overcurrent" if stop == "done" else "done"
+    v = _pil().loop_verdict(_loop_run(stop, other))
+    assert not v["checks"]["same stop"] and not v["within"], v
+
+
+# --- C6: a sweep's random axes and a sweep of nothing but errors --------------------------------
+
+def _sweep_file(tmp_path, axis: str, samples: int = 3):
+    (tmp_path / "base.toml").write_text(BASE)
+    f = tmp_path / "mc.toml"
+    f.write_text(f'name = "mc"\nbase = "base.toml"\nsamples = {samples}\nmetrics = ["T_e_mean"]\n[axes]\n{axis}\n')
+    return f
+
+
+@pytest.mark.parametrize("axis,words", [
+    ('"load.speed_rpm" = { normal = [1, 1e307] }', ("axes.load.speed_rpm.normal", "1e+307", "1e+06")),
+    ('"load.speed_rpm" = { uniform = [2e6, 3e6] }', ("axes.load.speed_rpm.uniform", "2000000", "1e+06")),
+    ('"trace.decimation" = { integers = [-9, 0] }', ("axes.trace.decimation.integers", "-9", "trace.decimation"))])
+def test_c6_a_random_axis_none_of_whose_draws_is_valid_is_refused_before_any_point(tmp_path, capsys, axis, words):
+    """Draws the schema refuses, every one: one line naming the axis, its
+    distribution and what the field allows, exit 2, nothing run or written."""
+    f = _sweep_file(tmp_path, axis)
+    one_line_exit_2(capsys, "sweep", str(f), "--out", str(tmp_path / "o"), "--workers", "1", "--quiet", words=words)
+    assert not (tmp_path / "o").exists()
+
+
+def test_c6_a_random_axis_with_some_valid_draws_runs_and_its_refused_draws_are_rows(tmp_path, capsys):
+    """Draws the schema takes and draws it refuses: the sweep runs, a refused
+    draw is its point's error row (a tail of a distribution past a limit)."""
+    f = _sweep_file(tmp_path, '"trace.decimation" = { integers = [-2, 3] }', samples=8)
+    rc = main(["sweep", str(f), "--out", str(tmp_path / "o"), "--workers", "1", "--quiet"])
+    out = capsys.readouterr().out
+    assert rc == 0 and "8 of 8 points" in out and "error (ConfigError" in out, out
+
+
+def test_c6_a_sweep_whose_points_all_end_in_error_does_not_exit_0(tmp_path, capsys, monkeypatch):
+    """Every point an error row (here the engine refusing each point): the
+    table is written, and the summary and the exit status say no point ran."""
+    import fullspeed.workflows.sweep as sweep_mod
+
+    def refuse(sc):
+        raise RuntimeError("the core refused the point")
+    monkeypatch.setattr(sweep_mod, "simulate", refuse)
+    f = _sweep_file(tmp_path, '"load.speed_rpm" = { uniform = [100, 200] }')
+    rc = main(["sweep", str(f), "--out", str(tmp_path / "o"), "--workers", "1", "--quiet"])
+    cap = capsys.readouterr()
+    assert rc == 1, (rc, cap.out, cap.err)
+    assert "every point ended in an error" in cap.err, cap.err
+    assert (tmp_path / "o" / "results.parquet").exists() or (tmp_path / "o" / "results.csv").exists()
+
+
+# --- C7: a name matplotlib's font cannot draw; the progress bar's end ------------------------------
+
+def test_c7_a_run_of_a_cjk_name_draws_its_figure_quietly_and_keeps_the_name(tmp_path, capsys):
+    """A scenario named in CJK: no glyph warning on stderr (a font that has the
+    glyphs where one is installed, else the boxes drawn without a word), and
+    the name in the figure's own text (its PNG title)."""
+    import warnings
+
+    from PIL import Image
+
+    name = "电机测试-ラン"
+    f = tmp_path / "cjk.toml"
+    f.write_text(BASE.replace('name = "bad"', f'name = "{name}"'))
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        rc = main(["run", str(f), "--out", str(tmp_path / "o"), "--quiet"])
+    err = capsys.readouterr().err
+    assert rc == 0, err
+    assert "Glyph" not in err and not [w for w in seen if "Glyph" in str(w.message)], (err, [str(w.message) for w in seen])
+    assert Image.open(tmp_path / "o" / "run.png").text.get("Title") == name
+
+
+def test_c7_the_progress_bar_ends_at_the_last_period_without_a_tqdm_warning(monkeypatch, capsys):
+    """A duration just short of a whole number of periods (0.04996 s: 500
+    periods of 0.1 ms, 0.05 s): the bar counts periods, it cannot pass its
+    total, so no TqdmWarning ("clamping frac") reaches the user."""
+    import warnings
+
+    monkeypatch.setenv("TQDM_MININTERVAL", "0")   # a refresh at every update: the last one too
+    monkeypatch.setenv("TQDM_MINITERS", "0")
+    sc = scenario_from_dict({**BASE_DATA, "duration": 0.04996})
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        res = simulate(sc, progress=True)
+    assert res.stop_reason == "done" and res.sim_time == pytest.approx(0.05)
+    assert not [str(w.message) for w in seen if "tqdm" in type(w.message).__module__], [str(w.message) for w in seen]
+    assert "TqdmWarning" not in capsys.readouterr().err
+
+
+# --- C8: the temporaries a kill leaves are removed by the next write ---------------------------------
+
+def _dead_pid() -> int:
+    import subprocess
+
+    p = subprocess.Popen(["true"])
+    p.wait()
+    return p.pid
+
+
+def _aged(path, seconds=3600.0):
+    os.utime(path, (time.time() - seconds, time.time() - seconds))
+    return path
+
+
+def test_c8_a_write_removes_its_own_stale_temporaries_and_nothing_else(tmp_path):
+    """The next write of a file removes the hidden temporaries of earlier
+    writes of that file that no live process holds and that are older than
+    the writer; a live writer's, a newer one, another file's and the user's
+    own hidden files stay."""
+    from fullspeed.model import files
+
+    dead, live = _dead_pid(), os.getppid()
+    stale = [f".metrics.json.{dead}.k2x_9abc.tmp.json",
+             ".metrics.json.ab3def_7.tmp.json"]              # named before the pid was: by its age alone
+    kept = [f".metrics.json.{live}.abcdefgh.tmp.json",      # a live process's write
+            f".traces.npz.{dead}.abcdefgh.tmp.npz",         # another file's
+            ".metrics.json.notes", ".metrics.json.abcdefgh.tmp.json.bak"]   # not a write's
+    for n in stale + kept:
+        (tmp_path / n).write_text("x")
+        _aged(tmp_path / n)
+    newer = f".metrics.json.{dead}.newer123.tmp.json"      # newer than this process
+    (tmp_path / newer).write_text("x")
+    files.write_json(tmp_path / "metrics.json", {"a": 1})
+    left = sorted(p.name for p in tmp_path.iterdir())
+    assert left == sorted(["metrics.json", newer, *kept]), left
+
+
+def test_c8_replace_folder_removes_the_sets_a_kill_left_beside_it(tmp_path):
+    from fullspeed.model import files
+
+    dead = _dead_pid()
+    new = tmp_path / f".id.{dead}.a1b2c3d4.new"
+    old = tmp_path / ".id.q9w8e7r6.old"
+    for d in (new, old / "x"):
+        d.mkdir(parents=True)
+        (d / "a.toml").write_text("half")
+    _aged(new), _aged(old)
+    files.replace_folder(tmp_path / "id", {"a.toml": "1"})
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["id"]
+
+
+def test_c8_a_write_killed_by_sigkill_leaves_a_temporary_the_next_command_removes(tmp_path):
+    """As the report's injected kills: a process killed in the middle of a
+    write leaves its hidden temporary; the next process that writes the file
+    there removes it (and the file is the new one)."""
+    import subprocess
+    import sys
+
+    target = tmp_path / "results.csv"
+    kill = ("import os, signal, sys; from fullspeed.model.files import write_with\n"
+            "write_with(sys.argv[1], lambda tmp: (tmp.write_text('half'), os.kill(os.getpid(), signal.SIGKILL)))\n")
+    p = subprocess.run([sys.executable, "-c", kill, str(target)])
+    assert p.returncode == -signal.SIGKILL
+    left = [q.name for q in tmp_path.iterdir()]
+    assert len(left) == 1 and left[0].startswith(".results.csv.") and left[0].endswith(".tmp.csv"), left
+    time.sleep(0.05)
+    write = "import sys; from fullspeed.model.files import write_atomic; write_atomic(sys.argv[1], 'whole')\n"
+    subprocess.run([sys.executable, "-c", write, str(target)], check=True)
+    assert [q.name for q in tmp_path.iterdir()] == ["results.csv"] and target.read_text() == "whole"
+
+
+# --- O1: a long run's figure does not hold its trace again ------------------------------------------
+
+def test_o1_a_line_is_drawn_through_each_slice_s_extremes_in_order():
+    """A long line is reduced to each slice's least and greatest samples, in
+    time order: its extremes, a one-sample spike and a NaN gap survive; a
+    short line is drawn whole."""
+    from fullspeed.sim.plots import PLOT_SLICES, drawn
+
+    rng = np.random.default_rng(7)
+    n = 123_457
+    t = np.arange(n) * 1e-4
+    y = rng.normal(size=n)
+    y[77_777], y[5], y[n - 1], y[40_000] = 50.0, -50.0, 30.0, np.nan
+    td, yd = drawn(t, y)
+    assert len(td) == len(yd) <= 2 * PLOT_SLICES + 2 and np.all(np.diff(td) >= 0)
+    assert 50.0 in yd and -50.0 in yd and 30.0 in yd and np.isnan(yd).sum() == 2   # the NaN: its slice's min and max
+    k = n // PLOT_SLICES
+    for j in rng.integers(0, PLOT_SLICES, 50):   # every slice: its extremes drawn
+        part = y[j * k:(j + 1) * k]
+        inside = yd[(td >= t[j * k]) & (td <= t[(j + 1) * k - 1])]
+        if not np.isnan(part).any():
+            assert part.max() in inside and part.min() in inside
+    ts, ys = drawn(t[:3000], y[:3000])
+    assert np.array_equal(ts, t[:3000]) and np.array_equal(ys, y[:3000])
+
+
+def test_o1_a_long_run_s_figure_costs_a_fraction_of_its_trace(tmp_path):
+    """The figure of a 4 s run (40,000 samples a channel): the memory drawing
+    it allocates (tracemalloc's peak, numpy's arrays included) is well under
+    the trace's size; drawn whole it was 0.9 of it (every line's points
+    copied and transformed by matplotlib)."""
+    import tracemalloc
+
+    from fullspeed.sim.plots import plot_run
+
+    res = simulate(scenario_from_dict({**BASE_DATA, "duration": 4.0}))
+    trace = sum(v.nbytes for v in res.traces.values())
+    tracemalloc.start()
+    try:
+        plot_run(res, tmp_path / "run.png")
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 0.5 * trace, (peak, trace)

@@ -273,6 +273,9 @@ def _cmd_sweep(args) -> int:
               + (f" at t = {r['stop_time']:.4f} s" if r.get("stop_time") is not None else ""))
     if len(rows) != n:
         print(f"fullspeed: {n - len(rows)} points not run; {resume}", file=sys.stderr)
+    if rows and all(r["stop_reason"] == "error" for r in rows):   # a table of refusals: no point was simulated
+        print(f"fullspeed: every point ended in an error, none was simulated (the errors are in {path})", file=sys.stderr)
+        return 1
     return 0 if len(rows) == n else 1
 
 
@@ -289,9 +292,9 @@ def _with_overrides(sw, extra: dict):
 
 
 
-    overrides = deep_merge(sw.overrides, extra)
-    check_points(sw.base, overrides, sw.axes, sw.base_source)
-    return dataclasses.replace(sw, overrides=overrides)
+    sw = dataclasses.replace(sw, overrides=deep_merge(sw.overrides, extra))
+    check_points(sw, sw.base_source)
+    return sw
 
 
 def _cmd_reproduce(args) -> int:

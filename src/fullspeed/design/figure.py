@@ -14,6 +14,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ..model.units import rad_s_to_rpm  # noqa: E402
+from .drawing import save_figure  # noqa: E402
 from .envelope import REGIONS, Envelope  # noqa: E402
 
 REGION_COLOURS = {"MTPA": "#c6dbef", "FW": "#fdd0a2", "MTPV": "#c7e9c0"}
@@ -57,6 +58,4 @@ def plot_envelope(env: Envelope, path: Path, how: str = "") -> None:
     ax[1].legend(fontsize=8, loc="lower left")
     for a in ax:
         a.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, 110, f"{env.machine}: envelope")

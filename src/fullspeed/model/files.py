@@ -8,7 +8,9 @@ their folder.
 - write_atomic / write_json / write_npz / write_with: every output goes to a
   temporary file in the same folder, is fsynced and renamed into place, so a
   kill or an interrupt at any instant leaves the old file or the new one,
-  never a torn one that looks complete.
+  never a torn one that looks complete. The hidden temporary a SIGKILL
+  leaves (.NAME.PID.xxxxxxxx.tmp.SUFFIX) is removed by the next write of
+  NAME in that folder, once it is stale (remove_stale).
 - out_path: a name taken from the input (a scenario's, a sweep's, a
   machine's) as one path component inside the output folder, or a
   ConfigError naming the field.
@@ -35,6 +37,7 @@ import re
 import shutil
 import stat
 import tempfile
+import time
 from collections.abc import Callable
 from importlib import resources
 from pathlib import Path
@@ -203,6 +206,60 @@ def out_file(path: str | Path, field: str = "--out") -> Path:
     return path
 
 
+# about when this process started (the module loads at its start): a temporary
+# that is older and of no live writer cannot be one this process or a
+# concurrent one is still writing
+_STARTED = time.time()
+
+
+def _temp_prefix(name: str) -> str:
+    """The start of the name of a write's temporary of `name`: hidden, the
+    target's name, the writer's pid (what tells a stale one from a live one)."""
+    return f".{name[:100]}.{os.getpid()}."
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:   # another user's process
+        return True
+    except (OverflowError, OSError):   # not a pid there can be
+        return False
+    return True
+
+
+def remove_stale(folder: Path, name: str, suffix: str) -> list[Path]:
+    """Remove the temporaries of earlier writes of `name` in folder (as
+    _temp_prefix names them, ending with suffix; files, or folders of
+    replace_folder) that a kill left: those whose writer's pid is no live
+    process and that are older than this process, so that neither a write
+    of this process nor one of a concurrent process is touched (the second
+    also where pids are not comparable: a folder shared across machines).
+    A temporary named without a pid (a version before this rule) goes on its
+    age alone. What cannot be removed is left. Returns what was removed."""
+    pattern = re.compile(rf"\.{re.escape(name[:100])}\.(?:(\d{{1,10}})\.)?[a-z0-9_]{{8}}{re.escape(suffix)}")
+    gone = []
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return gone
+    for e in entries:
+        m = pattern.fullmatch(e.name)
+        try:
+            if not m or (m.group(1) and _alive(int(m.group(1)))) or e.stat(follow_symlinks=False).st_mtime >= _STARTED:
+                continue
+            if e.is_dir(follow_symlinks=False):
+                shutil.rmtree(e.path)
+            else:
+                os.unlink(e.path)
+        except OSError:
+            continue
+        gone.append(Path(e.path))
+    return gone
+
+
 def _fsync_dir(folder: Path) -> None:
     try:
         fd = os.open(folder, os.O_RDONLY)
@@ -229,7 +286,7 @@ def write_with(path: str | Path, write: Callable[[Path], object]) -> Path | None
     if why:   # os.replace would put the file in place of a device node (as root: /dev/null)
         raise ConfigError("output", str(path), f"{why}; remove it or write elsewhere")
     folder.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{path.name[:100]}.", suffix=".tmp" + path.suffix)
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix=_temp_prefix(path.name), suffix=".tmp" + path.suffix)
     os.close(fd)
     tmp = Path(tmp)
     try:
@@ -244,6 +301,7 @@ def write_with(path: str | Path, write: Callable[[Path], object]) -> Path | None
         tmp.unlink(missing_ok=True)
         raise
     _fsync_dir(folder)
+    remove_stale(folder, path.name, ".tmp" + path.suffix)
     return path
 
 
@@ -341,7 +399,7 @@ def replace_folder(folder: str | Path, files: dict[str, str | bytes], owned=(), 
     folder = owned_folder(folder, [*files, *owned], field)
     parent = folder.parent
     parent.mkdir(parents=True, exist_ok=True)
-    new = Path(tempfile.mkdtemp(dir=parent, prefix=f".{folder.name[:100]}.", suffix=".new"))
+    new = Path(tempfile.mkdtemp(dir=parent, prefix=_temp_prefix(folder.name), suffix=".new"))
     try:
         for name, data in files.items():
             write_atomic(new / name, data)
@@ -351,7 +409,7 @@ def replace_folder(folder: str | Path, files: dict[str, str | bytes], owned=(), 
         elif _exchange(new, folder):   # new now holds the old files
             shutil.rmtree(new, ignore_errors=True)
         else:
-            old = Path(tempfile.mkdtemp(dir=parent, prefix=f".{folder.name[:100]}.", suffix=".old"))
+            old = Path(tempfile.mkdtemp(dir=parent, prefix=_temp_prefix(folder.name), suffix=".old"))
             os.rename(folder, old / "x")
             try:
                 os.rename(new, folder)
@@ -364,6 +422,8 @@ def replace_folder(folder: str | Path, files: dict[str, str | bytes], owned=(), 
         shutil.rmtree(new, ignore_errors=True)
         raise
     _fsync_dir(parent)
+    for kind in (".new", ".old"):   # a set a kill left beside the path: superseded by this one
+        remove_stale(parent, folder.name, kind)
     return [folder / name for name in files]
 
 

@@ -9,6 +9,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from ..design.drawing import save_figure  # noqa: E402
 from ..design.rules import u_linear  # noqa: E402
 from ..model.units import rad_s_to_rpm  # noqa: E402
 from .metrics import STAGES  # noqa: E402
@@ -16,6 +17,31 @@ from .metrics import STAGES  # noqa: E402
 
 # one colour per stage (metrics.STAGES), light enough to sit behind the traces
 STAGE_COLOURS = ("#dddddd", "#c6dbef", "#fdd0a2", "#fcbba1", "#c7e9c0", "#dadaeb", "#fff2ae", "#f4cae4", "#ff9999")
+
+
+# a long run's line is drawn through the least and the greatest sample of each of
+# PLOT_SLICES slices of its samples, in their order: the figure's 1,210 pixel
+# columns (11 in at 110 dpi) show no more of it, and its spikes stay. Drawn whole,
+# a 60 s run's 600,000 samples a line cost 360 MB in matplotlib (the figure was
+# most of a run's peak memory, 1.1x its trace besides the trace itself).
+PLOT_SLICES = 2000
+
+
+def drawn(t: np.ndarray, y) -> tuple[np.ndarray, np.ndarray]:
+    """(t, y) as plot_run draws it: whole when short, else each slice's
+    minimum and maximum (a NaN, where there is one: a gap in the line)."""
+    y = np.asarray(y)
+    n = min(len(t), len(y))
+    k = n // PLOT_SLICES
+    if k < 3:   # no fewer points
+        return t[:n], y[:n]
+    m = k * PLOT_SLICES
+    part = y[:m].reshape(PLOT_SLICES, k)
+    start = np.arange(0, m, k)[:, None]
+    idx = np.sort(np.hstack([start + part.argmin(axis=1)[:, None], start + part.argmax(axis=1)[:, None]]), axis=1).ravel()
+    if m < n:   # the rest, shorter than a slice: its own least and greatest
+        idx = np.r_[idx, np.sort([m + int(np.argmin(y[m:n])), m + int(np.argmax(y[m:n]))])]
+    return t[idx], y[idx]
 
 
 def modulation_index(res) -> np.ndarray:
@@ -63,35 +89,35 @@ def plot_run(res, path: str | Path, title: str | None = None) -> Path:
     i_max = sc.data["controller"]["i_max"]
     fig, ax = plt.subplots(6, 1, figsize=(11, 12), sharex=True,
                            gridspec_kw={"height_ratios": [3, 3, 2, 2, 2, 0.6]})
-    ax[0].plot(t, rad_s_to_rpm(tr["w_m"]), label="speed")
+    ax[0].plot(*drawn(t, rad_s_to_rpm(tr["w_m"])), label="speed")
     if mode == "speed":
-        ax[0].plot(t, rad_s_to_rpm(tr["w_m_ref"]), "--", label="reference")
-    ax[0].plot(t, rad_s_to_rpm(tr["w_m_hat"]), ":", label="used by the loops")
+        ax[0].plot(*drawn(t, rad_s_to_rpm(tr["w_m_ref"])), "--", label="reference")
+    ax[0].plot(*drawn(t, rad_s_to_rpm(tr["w_m_hat"])), ":", label="used by the loops")
     ax[0].set_ylabel("speed (rpm)")
-    ax[1].plot(t, tr["i_d"], label="$i_d$")
-    ax[1].plot(t, tr["i_q"], label="$i_q$")
+    ax[1].plot(*drawn(t, tr["i_d"]), label="$i_d$")
+    ax[1].plot(*drawn(t, tr["i_q"]), label="$i_q$")
     if mode in ("speed", "current"):
-        ax[1].plot(t, tr["i_d_ref"], "--", lw=0.8, label="$i_d^*$")
-        ax[1].plot(t, tr["i_q_ref"], "--", lw=0.8, label="$i_q^*$")
+        ax[1].plot(*drawn(t, tr["i_d_ref"]), "--", lw=0.8, label="$i_d^*$")
+        ax[1].plot(*drawn(t, tr["i_q_ref"]), "--", lw=0.8, label="$i_q^*$")
     if sc.data["controller"]["flux_weakening"]:
-        ax[1].plot(t, tr["i_d_fw"], lw=0.8, label="$i_{d,fw}$")
-    ax[1].plot(t, np.hypot(tr["i_d"], tr["i_q"]), "k", lw=0.5, alpha=0.6, label="$|i|$")
+        ax[1].plot(*drawn(t, tr["i_d_fw"]), lw=0.8, label="$i_{d,fw}$")
+    ax[1].plot(*drawn(t, np.hypot(tr["i_d"], tr["i_q"])), "k", lw=0.5, alpha=0.6, label="$|i|$")
     for sgn in (1, -1):
         ax[1].axhline(sgn * i_max, color="r", ls="-.", lw=0.8, label="$\\pm i_{max}$" if sgn > 0 else None)
     ax[1].set_ylabel("current (A)")
-    ax[2].plot(t, tr["T_e"], label="$T_e$")
-    ax[2].plot(t, tr["T_L"], label="$T_L$ (load)")
+    ax[2].plot(*drawn(t, tr["T_e"]), label="$T_e$")
+    ax[2].plot(*drawn(t, tr["T_L"]), label="$T_L$ (load)")
     ax[2].set_ylabel("torque (N m)")
-    ax[3].plot(t, modulation_index(res), lw=0.8, label="$|u^*| / (u_{dc}/\\sqrt{3})$")
+    ax[3].plot(*drawn(t, modulation_index(res)), lw=0.8, label="$|u^*| / (u_{dc}/\\sqrt{3})$")
     ax[3].axhline(1.0, color="r", ls="-.", lw=0.8, label="linear limit")
-    over = np.asarray(tr["overmod"]) > 0
+    t_over, over = drawn(t, np.asarray(tr["overmod"]) > 0)
     if over.any():
-        ax[3].fill_between(t, 0, 1, where=over, transform=ax[3].get_xaxis_transform(), color="r", alpha=0.15,
+        ax[3].fill_between(t_over, 0, 1, where=over, transform=ax[3].get_xaxis_transform(), color="r", alpha=0.15,
                            lw=0, label="over-modulating")
     ax[3].set_ylabel("modulation index")
-    ax[4].plot(t, np.degrees(tr["theta_err"]), "r", lw=0.8, label="true - used")
+    ax[4].plot(*drawn(t, np.degrees(tr["theta_err"])), "r", lw=0.8, label="true - used")
     if sc.data["controller"]["angle"] in ("smo", "hfi", "blend", "swvi"):
-        ax[4].plot(t, np.degrees(tr["est_err"]), "k", lw=0.5, alpha=0.6, label="true - estimate")
+        ax[4].plot(*drawn(t, np.degrees(tr["est_err"])), "k", lw=0.5, alpha=0.6, label="true - estimate")
     ax[4].set_ylabel("angle error (el.deg)")
     _stage_bands(ax[:5], ax[5], t, tr["stage"])
     ax[5].set_xlabel("time (s)")
@@ -101,11 +127,7 @@ def plot_run(res, path: str | Path, title: str | None = None) -> Path:
         a.grid(True, alpha=0.3)
         a.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7, frameon=False)
     fig.suptitle(title or sc.name)
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, 110, title or sc.name)
 
 
 def plot_sweep(sw, rows: list[dict], path: str | Path) -> Path | None:
@@ -161,7 +183,4 @@ def plot_sweep(sw, rows: list[dict], path: str | Path) -> Path | None:
             ax.set_title(m + (" (mean of samples)" if sw.samples > 1 else ""), fontsize=9)
             fig.colorbar(im, ax=ax)
     fig.suptitle(f"sweep {sw.name}: {len(rows)} points")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return Path(path)
+    return save_figure(fig, path, 100, f"sweep {sw.name}")

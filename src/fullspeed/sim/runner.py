@@ -162,6 +162,11 @@ class Simulation:
         return lib.fs_sim_time(self._sim)
 
     @property
+    def period(self) -> float:
+        """The control period Tc (s): a step of the drive."""
+        return self._cfg.drive.Ts
+
+    @property
     def step_count(self) -> int:
         """Control periods run so far."""
         return lib.fs_sim_step_count(self._sim)
@@ -271,16 +276,18 @@ def simulate(scenario: Scenario | str, progress: bool = False, chunk: float | No
     bar = None
     if progress:
         from tqdm import tqdm
-        bar = tqdm(total=round(T, 6), unit="s sim", desc=sc.name, leave=False,
+        # counted in periods, shown in seconds: the bar's total is the periods the run takes (its
+        # end n_end Tc may pass T by up to Tc / 2; a total of T was passed, and tqdm warned)
+        bar = tqdm(total=n_end, unit="s sim", unit_scale=sim.period, desc=sc.name, leave=False,
                    bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.3f}/{total:.3f} s [{elapsed}<{remaining}]")
     t0 = time.perf_counter()
     status = "running"
     try:
         while sim.step_count < n_end and status == "running":
-            before, w0 = sim.time, time.perf_counter()
+            before, w0 = sim.step_count, time.perf_counter()
             status = sim.advance_steps(min(sim.step_count + n_chunk, n_end))
             if bar is not None:
-                bar.update(sim.time - before)
+                bar.update(sim.step_count - before)
             elif grow and time.perf_counter() - w0 < CHUNK_WALL_S:
                 n_chunk *= 2
     except KeyboardInterrupt:

@@ -33,6 +33,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from .._core import lib  # noqa: E402
+from ..design.drawing import save_figure  # noqa: E402
 from ..design.rules import u_linear  # noqa: E402
 from ..design.scenario import scenario_from_dict  # noqa: E402
 from ..model.errors import ConfigError  # noqa: E402
@@ -311,7 +312,4 @@ def plot_map(rows: list[dict], rpm: list[float], env, summary: dict, path: Path)
     b.grid(True, alpha=0.3)
     fig.suptitle(f"{summary.get('scenario', '')}: efficiency map ({summary.get('held', 0)} points held of "
                  f"{summary.get('held', 0) + summary.get('not_held', 0)})")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, 100, f"{summary.get('scenario', '')}: efficiency map")

@@ -251,28 +251,58 @@ def sweep_from_dict(d: dict, source: str, here: Path | None = None) -> Sweep:
     n_points = math.prod(len(a.values) for a in axes if not a.random) * samples
     if n_points > MAX_POINTS:
         raise ConfigError("axes", list(d["axes"]), f"give {n_points} points with samples = {samples}; at most {MAX_POINTS}", source)
-    check_points(base, overrides, axes, source)
-    return Sweep(name=d["name"], base=base, base_source=base_src, axes=axes, seed=seed, samples=samples,
-                 metrics=[m for m in metrics if m not in RUN_METRICS], overrides=overrides, description=d.get("description", ""))
+    sw = Sweep(name=d["name"], base=base, base_source=base_src, axes=axes, seed=seed, samples=samples,
+               metrics=[m for m in metrics if m not in RUN_METRICS], overrides=overrides, description=d.get("description", ""))
+    check_points(sw, source)
+    return sw
 
 
-def check_points(base: dict, overrides: dict, axes: list[Axis], source: str) -> None:
+def check_points(sw: Sweep, source: str) -> None:
     """The base with the overrides, and with each grid value in turn, is a
     valid scenario: a mistake is one line now, not one failed row per point.
     A long axis is checked at its first and last values, its extremes and a
     spread of CHECKED_VALUES in all, so that the start stays quick; a value
-    in between that the scenario refuses is a row with its error, as a
-    random draw the scenario refuses is (draws are checked as they run)."""
-    data = deep_merge(base, overrides)
-    checks = [(None, None, data)] + [(a, v, _set_axis(data, a, v)) for a in axes if not a.random for v in _checked(a.values)]
-    for axis, value, d in checks:
+    in between that the scenario refuses is a row with its error.
+    A random axis is checked on its own draws (the sweep's, from its seed),
+    chosen the same way: refused when none of them is valid (a distribution
+    beyond the field's range); one that is partly valid runs, a draw the
+    scenario refuses being its point's error row (a tail past a limit)."""
+    data = deep_merge(sw.base, sw.overrides)
+    try:
+        scenario_from_dict(data, source)
+    except ConfigError as exc:
+        raise _noted(exc, "the base with its overrides", source) from None
+    for a in sw.grid:
+        for v in _checked(a.values):
+            try:
+                scenario_from_dict(_set_axis(data, a, v), source)
+            except ConfigError as exc:
+                raise _noted(exc, f"axes.{a.name} = {v!r}", source) from None
+    points = sw.points() if any(a.random for a in sw.axes) else []
+    for a in sw.axes:
+        if a.random:
+            _check_draws(data, a, _checked(tuple(p[a.name] for p in points)), source)
+
+
+def _noted(exc: ConfigError, where: str, source: str) -> ConfigError:
+    if isinstance(exc, MissingFields):
+        return exc.noted(where)
+    return ConfigError(exc.field, exc.value, f"{exc.allowed} ({where})", source)
+
+
+def _check_draws(data: dict, a: Axis, draws: list, source: str) -> None:
+    """At least one of a random axis's draws is a valid scenario, else the
+    axis's refusal: its distribution, the first draw and what the field allows."""
+    first = None
+    for v in draws:
         try:
-            scenario_from_dict(d, source)
+            scenario_from_dict(_set_axis(data, a, v), source)
+            return
         except ConfigError as exc:
-            where = f"axes.{axis.name} = {value!r}" if axis else "the base with its overrides"
-            if isinstance(exc, MissingFields):
-                raise exc.noted(where) from None
-            raise ConfigError(exc.field, exc.value, f"{exc.allowed} ({where})", source) from None
+            first = first or (v, exc)
+    v, exc = first
+    raise ConfigError(f"axes.{a.name}.{a.kind}", list(a.params),
+                      f"none of its {len(draws)} draws checked is valid: {v!r} is refused: {exc.allowed}", source)
 
 
 def _checked(values: tuple) -> list:
