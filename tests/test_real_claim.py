@@ -53,3 +53,15 @@ def test_no_machine_runs_b_real_on_the_encoders_start():
     assert real_scenario("hefei-h27", "smo")[0]["observer"]["start"] == "if"
     angle, why = sensorless_angle("hefei-h27")
     assert angle is None and "the I/f start cannot carry this load" in why
+
+
+def test_held_runs_give_the_polarity_where_the_start_is_a_motion_test():
+    """The 2004 Prius MG2's designed start turns the rotor (a motion test);
+    the held run's load machine holds the shaft, so the polarity is given
+    there (and only there: the encoder's run and the I/f machines' keep
+    theirs)."""
+    d = held_scenario("prius2004-mg2", 600.0, "blend")
+    assert d["polarity"] == {"enabled": False}
+    assert "polarity" not in held_scenario("prius2004-mg2", 600.0, "encoder")
+    assert "polarity" not in held_scenario("odrive-d6374", 3000.0, "blend")
+    assert scenario_from_dict(held_scenario("prius2004-mg2", 600.0, "blend")).data["start"]["kind"] == "known"
