@@ -481,6 +481,7 @@ def compute_metrics(res) -> dict:
     out["warnings"] = list(res.scenario.warnings)
     out["true_loss_at"] = true_loss_at(tr)
     out["true_loss_unanswered_at"] = true_loss_unanswered(tr, out["lock_events"])
+    out["false_alarm_err_deg"] = false_alarm(tr, out["lock_lost_at"], out["true_loss_at"])
     t_sl = sensorless_from(res.scenario)
     out["sensorless_err_deg_max"] = None if t_sl is None else sensorless_error_max(tr, t_from=t_sl)
     # a loss the simulation's truth sees and nothing in the run flagged or answered
@@ -617,9 +618,27 @@ STAGE_NOTES = {"polarity": " (the polarity is being decided: pi-ambiguous until 
                "recovery": " (zero current: the estimate is being re-acquired)"}
 
 
+def false_alarm(tr, lock_lost_at: float | None, true_loss: float | None) -> float | None:
+    """Where the drive's monitor flagged a loss of lock that the
+    simulation's truth never saw (true_loss_at): the largest |angle error|
+    (el.deg) in the sensorless stages up to the flag, the evidence that the
+    estimate still held the rotor. None where there was no flag, or the
+    truth saw a loss too. The drive cannot know it; the run says it."""
+    if lock_lost_at is None or true_loss is not None:
+        return None
+    t = np.asarray(tr["t"])
+    on = np.isin(np.asarray(tr["stage"]).astype(int), SENSORLESS_STAGES) & (t <= lock_lost_at + 1e-12)
+    return float(np.degrees(np.max(np.abs(np.asarray(tr["theta_err"])[on])))) if on.any() else None
+
+
 def lock_lines(metrics: dict) -> list[str]:
-    """What the drive did on each loss of lock it began a recovery for."""
+    """What the drive did on each loss of lock it began a recovery for, and
+    whether the simulation's truth saw the loss."""
     out = []
+    if metrics.get("false_alarm_err_deg") is not None:
+        out.append(f"the simulation's truth saw no loss of lock: the loops' angle was within "
+                   f"{metrics['false_alarm_err_deg']:.1f} el.deg of the rotor's up to the flag; the drive's monitor "
+                   "flagged a loss that was not (a false alarm, which a drive on hardware could not tell)")
     for ev in metrics.get("lock_events", []):
         head = f"lock lost at {ev['t']:.4f} s: "
         if ev["action"] == "flying restart":

@@ -1,0 +1,33 @@
+"""A loss of lock the drive's monitor flags and the simulation's truth does
+not see is said to be a false alarm in the run's summary: the Baldor PM-SyRM
+(its measured map) taking half its rated torque at standstill on the
+injection, where the monitor stops a drive whose estimate still held the
+rotor (the stop itself is the drive's, and the run fails as it must)."""
+import numpy as np
+
+from fullspeed.design.scenario import scenario_from_dict
+from fullspeed.sim import simulate
+from fullspeed.sim.metrics import SENSORLESS_STAGES, false_alarm, summary_lines
+
+BALDOR = {"name": "fa", "duration": 0.6, "machine": "baldor-ecs101m0h7ef4",
+          "controller": {"mode": "speed", "angle": "blend", "flux_weakening": True},
+          "references": {"speed_rpm": [[0.0, 0.0], [0.5, 0.0], [2.0, 2000.0]]},
+          "load": {"kind": "torque", "torque": [[0.0, 0.0], [0.3, 0.0], [0.5, 15.0]]}}
+
+
+def test_a_flag_the_truth_does_not_see_is_named_a_false_alarm():
+    res = simulate(scenario_from_dict(BALDOR))
+    m = res.metrics
+    assert res.stop_reason == "loss_of_lock" and m["lock_lost_at"] is not None and m["true_loss_at"] is None
+    assert m["false_alarm_err_deg"] is not None and m["false_alarm_err_deg"] < 45.0
+    assert any(line.startswith("the simulation's truth saw no loss of lock") for line in summary_lines(m))
+
+
+def test_a_true_loss_is_no_false_alarm():
+    t = np.arange(0.0, 1.0, 1e-3)
+    stage = np.full(t.size, SENSORLESS_STAGES[0])
+    err = np.where(t > 0.5, np.pi, 0.05)
+    tr = {"t": t, "stage": stage, "theta_err": err}
+    assert false_alarm(tr, 0.52, 0.52) is None          # the truth saw it too
+    assert false_alarm(tr, None, None) is None          # nothing flagged
+    assert false_alarm(tr, 0.4, None) == np.degrees(0.05)   # flagged while the estimate held
