@@ -314,6 +314,7 @@ def load_map(path: str | Path, field: str, source=None) -> dict:
     if uneven:
         notes.append("resampled bilinearly to an even grid")
     i_d, i_q, tabs = resample(i_d, i_q, tabs)
+    _check_orientation(i_d, i_q, tabs, field, str(p), source)
     digest = hashlib.sha256(read_bounded(p, field, source)).hexdigest()[:12]
     out = {"model": "fluxmap", "i_d": i_d.tolist(), "i_q": i_q.tolist(),
            "psi_d": tabs["psi_d"].tolist(), "psi_q": tabs["psi_q"].tolist(),
@@ -321,6 +322,33 @@ def load_map(path: str | Path, field: str, source=None) -> dict:
     if "torque" in tabs:
         out["torque"] = tabs["torque"].tolist()
     return out
+
+
+# The magnet's flux at zero current off +d by more than this share of the map's
+# largest flux is a map in another convention, not a measurement's offset (the
+# Baldor's measured map: psi_q(0, 0) = 0; a remanence or an integrator's drift
+# stays at a few per cent)
+ORIENTATION_TOL = 0.05
+
+
+def _check_orientation(i_d, i_q, tabs: dict, field: str, path: str, source) -> None:
+    """The project's convention puts the magnet on +d (amplitude-invariant
+    dq, L_d the magnet's axis): a map whose flux at zero current lies on q
+    or on -d (a SyR-e CSV, a PM-SyRM named the other way) is refused naming
+    where it lies and the turn that mends it."""
+    mag = {"i_d": i_d, "i_q": i_q, **tabs}
+    psi_d0, psi_q0 = table_at(mag, "psi_d", 0.0, 0.0), table_at(mag, "psi_q", 0.0, 0.0)
+    scale = max(float(np.max(np.abs(tabs["psi_d"]))), float(np.max(np.abs(tabs["psi_q"]))), 1e-12)
+    if abs(psi_q0) > ORIENTATION_TOL * scale and abs(psi_q0) > abs(psi_d0):
+        where, turn = ("+q", "i_d, psi_d <- i_q, psi_q and i_q, psi_q <- -i_d, -psi_d") if psi_q0 > 0 else \
+                      ("-q", "i_d, psi_d <- -i_q, -psi_q and i_q, psi_q <- i_d, psi_d")
+    elif psi_d0 < -ORIENTATION_TOL * scale:
+        where, turn = "-d", "i_d, psi_d <- -i_d, -psi_d and i_q, psi_q <- -i_q, -psi_q"
+    else:
+        return
+    raise ConfigError(field, path, f"at zero current its flux lies on {where} (psi_d {psi_d0:.4g} Wb, psi_q {psi_q0:.4g} Wb), "
+                      f"{100 * max(abs(psi_d0), abs(psi_q0)) / scale:.0f} % of its largest: the magnet must lie on +d "
+                      f"(the magnet's axis is d here, as in the PMSM convention): turn the map's frame, {turn}", source)
 
 
 def interp(mag: dict, name: str, i_d, i_q):
