@@ -65,3 +65,27 @@ def test_held_runs_give_the_polarity_where_the_start_is_a_motion_test():
     assert "polarity" not in held_scenario("prius2004-mg2", 600.0, "encoder")
     assert "polarity" not in held_scenario("odrive-d6374", 3000.0, "blend")
     assert scenario_from_dict(held_scenario("prius2004-mg2", 600.0, "blend")).data["start"]["kind"] == "known"
+
+
+def test_the_encoder_drive_in_flux_weakening_holds_within_the_envelopes_band():
+    """The drive's flux weakening enters over-modulation: at twice base speed
+    the encoder's torque lies above the linear-limit envelope and below the
+    over-modulated one (siemens-1ft6084 held 9 % above the linear one)."""
+    import math
+    from fullspeed.design.envelope import OVERMODULATION, envelope, torque_at
+    from fullspeed.design.machine import load_machine
+    from fullspeed.design.rules import u_linear
+    from fullspeed.reproduce.papers.real import HELD_TOL, held_speeds, held_torque, held_within
+    n = "siemens-1ft6084"
+    m = load_machine(n)
+    env = envelope(m, m.bench["u_dc"], m.bench["i_max"], w_end=4.0 * m.w_m_rated)
+    env_om = envelope(m, m.bench["u_dc"], m.bench["i_max"], w_end=4.0 * m.w_m_rated,
+                      u_max=OVERMODULATION * u_linear(m.bench["u_dc"], m.phases))
+    w = held_speeds(env)[-1]
+    T_lin, T_om = torque_at(env, w), torque_at(env_om, w)
+    assert T_om > (1.0 + 2 * HELD_TOL) * T_lin          # the band matters up there
+    T = held_torque({"machine": n, "rpm": w * 30 / math.pi, "angle": "encoder"})["T"]
+    assert (1.0 + HELD_TOL) * T_lin < T < T_om          # beyond the linear envelope's tolerance, within the band
+    assert held_within(T, T_lin, T_om) and not held_within(T, T_lin, T_lin)
+    below = held_speeds(env)[0]
+    assert torque_at(env_om, below) == pytest.approx(torque_at(env, below), rel=1e-6)   # the current limit alone
