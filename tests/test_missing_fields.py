@@ -179,3 +179,27 @@ def test_the_command_line_refuses_with_exit_2_before_any_work(tmp_path):
     assert p.returncode == 2 and not out.exists()
     lines = p.stderr.strip().splitlines()
     assert len(lines) == 1 and _named(lines[0], MACHINE_REQUIRED) == {"machine.rated.torque", "machine.bench.u_dc"}
+
+
+def test_config_errors_cross_a_process_boundary_whole():
+    """A ConfigError raised in a worker process reaches the parent with its
+    field, value and message (a pool unpickles it; the default pickle gave
+    the message alone to an __init__ that needs three arguments)."""
+    import pickle
+    from concurrent.futures import ProcessPoolExecutor
+
+    from fullspeed.workflows.calibrate import CalibrationError
+    errors = [ConfigError("controller.i_max", -3.0, "must be > 0 A", "s.toml"),
+              CalibrationError("calibration", "hfi", "the speed left its band"),
+              MissingFields([("m.toml", "machine.R_s", "Ohm; > 0", False), ("m.toml", "machine.kind", "", True)], "in m.toml")]
+    for e in errors:
+        back = pickle.loads(pickle.dumps(e))
+        assert type(back) is type(e) and str(back) == str(e)
+        assert (back.field, back.value, back.allowed, back.source) == (e.field, e.value, e.allowed, e.source)
+    with ProcessPoolExecutor(1) as pool:
+        with pytest.raises(ConfigError, match="controller.i_max = -3.0: must be > 0 A"):
+            pool.submit(_raise, errors[0]).result()
+
+
+def _raise(exc):
+    raise exc

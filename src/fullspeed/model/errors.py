@@ -22,6 +22,11 @@ class ConfigError(ValueError):
         text = f"{where}{_clip(str(field), 200)} = {shown}: {allowed}"
         super().__init__(one_line(text))
 
+    def __reduce__(self):
+        # rebuilt from its fields: an error raised in a worker process crosses back whole
+        # (the default pickles the message alone, which __init__ cannot take)
+        return self.__class__, (self.field, self.value, self.allowed, self.source)
+
 
 class MissingFields(ConfigError):
     """Required fields not given, or left "?" as `fullspeed new-machine`'s
@@ -49,6 +54,9 @@ class MissingFields(ConfigError):
         self.field, self.value, self.source = field, "missing", source
         self.allowed = text[len(f"{source}: "):] if source and text.startswith(f"{source}: ") else text
         ValueError.__init__(self, one_line(text))
+
+    def __reduce__(self):
+        return MissingFields, (self.entries, self.note)
 
     def noted(self, note: str) -> "MissingFields":
         """The same fields, with where they were found appended."""
