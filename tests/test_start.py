@@ -6,6 +6,8 @@ machine without saliency, and the rotor's motion before closed loop as the
 run reports it."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -198,3 +200,17 @@ def test_b_start_counts_a_turn_beyond_its_bound_and_a_missed_reversal_as_failure
     assert classify({**ok, "closed_at": None}) == "off"
     assert classify({**ok, "stop_reason": "start_failed"}) == "flagged"
     assert classify({**ok, "silent_failure": True}) == "silent"
+
+
+def test_the_pulse_peak_follows_the_loop_its_plant_and_its_voltage():
+    """design.start.pulse_peak (csrc/sim/fs_pulse_peak.c): on the plant the
+    loop was designed for, the pulse pair reaches i_pulse without overshoot;
+    on a quarter of that inductance the loop's gain is past its margin and
+    the current diverges (inf); held to 1 V on 0.5 Ohm, the current cannot
+    pass u_max / R however long the pulse."""
+    from fullspeed.design.start import pulse_peak
+    Ts, bw, R, L, i_p = 1e-4, 2 * math.pi * 500, 0.5, 2e-3, 10.0
+    assert pulse_peak(Ts, True, bw, R, L, L, i_p, 50, 300.0) == pytest.approx(i_p, rel=1e-4)
+    assert pulse_peak(Ts, True, bw, R, L, L / 4, i_p, 50, 300.0) == math.inf
+    capped = pulse_peak(Ts, True, bw, R, L, L, i_p, 500, 1.0)
+    assert 0.9 * 1.0 / R < capped <= 1.0 / R

@@ -56,6 +56,7 @@ HEADERS = [
     "plant/fs_inverter.h",
     "plant/fs_grid.h",
     "sim/fs_sim.h",
+    "sim/fs_pulse_peak.h",
 ]
 SOURCE_DIRS = ["control", "plant", "sim"]
 

@@ -196,38 +196,13 @@ def pulse_peak(Ts: float, delay: bool, bw: float, R: float, L_ctrl: float, L_pla
     reading the injection's fundamental (hfi: its fs_hfi_filter config; the
     SRFFs' stop bands add their lag to the loop): inf where the loop
     diverges (beyond its gain margin)."""
-    cfg = ffi.new("fs_current_ctrl_config *", {"Ts": Ts, "R_s": R, "L_d": L_ctrl, "L_q": L_ctrl, "psi_f": 0.0,
-                                                 "bandwidth": bw, "predict": int(delay)})
-    cc = ffi.new("fs_current_ctrl *")
-    if lib.fs_current_ctrl_init(cc, cfg) != lib.FS_OK:
-        return math.inf
-    filt = None
-    if hfi is not None:
-        filt = ffi.new("fs_hfi_filter *")
-        if lib.fs_hfi_filter_init(filt, hfi[0]) != lib.FS_OK:
-            return math.inf
-        i_ab, i_f = ffi.new("fs_ab *"), ffi.new("fs_ab *")
-        th_h, dth = 0.0, hfi[1] * Ts
-    a = math.exp(-R * Ts / L_plant)
-    b = (1.0 - a) / R if R > 0 and a < 1.0 else Ts / L_plant
-    i, u_prev, peak = 0.0, 0.0, 0.0
-    ref, meas, real = ffi.new("fs_dq *"), ffi.new("fs_dq *"), ffi.new("fs_dq *")
-    for target in (i_pulse, -i_pulse, 0.0):
-        ref.d = target
-        for _ in range(n):
-            meas.d = i
-            if filt is not None:   # the loop reads the fundamental the SRFFs leave
-                i_ab.alpha = i
-                lib.fs_hfi_filter_step(filt, i_ab[0], th_h, 0.0, i_f, ffi.NULL)
-                meas.d, th_h = i_f.alpha, math.remainder(th_h + dth, 2 * math.pi)
-            real.d = min(max(lib.fs_current_ctrl_step(cc, ref[0], meas[0], 0.0).d, -u_max), u_max)
-            lib.fs_current_ctrl_update(cc, real[0])
-            i = a * i + b * (u_prev if delay else real.d)
-            u_prev = real.d
-            peak = max(peak, abs(i))
-            if peak > 4.0 * i_pulse + 1.0:   # diverging
-                return math.inf
-    return peak
+    cc = ffi.new("fs_current_ctrl_config *", {"Ts": Ts, "R_s": R, "L_d": L_ctrl, "L_q": L_ctrl, "psi_f": 0.0,
+                                                "bandwidth": bw, "predict": int(delay)})
+    cfg = ffi.new("fs_pulse_peak_config *", {"Ts": Ts, "delay": int(delay), "R": R, "L_plant": L_plant,
+                                              "u_max": u_max, "filt": hfi[0] if hfi else ffi.NULL,
+                                              "w_h": hfi[1] if hfi else 0.0})
+    # in C (csrc/sim/fs_pulse_peak.c): the design's bisections run it ~60 times a scenario
+    return float(lib.fs_pulse_peak(cfg, cc, i_pulse, n))
 
 
 def _largest(ok, lo: float, hi: float) -> float:
