@@ -199,6 +199,11 @@ void fs_mag_flux(fs_mag *m, double i_d, double i_q, double *psi_d, double *psi_q
     *psi_q = pq;
 }
 
+void fs_mag_flux_n(fs_mag *m, const double *i_d, const double *i_q, int n, double *psi_d, double *psi_q)
+{
+    for (int k = 0; k < n; ++k) fs_mag_flux(m, i_d[k], i_q[k], &psi_d[k], &psi_q[k]);
+}
+
 double fs_mag_energy(const fs_mag *m, double psi_d, double psi_q)
 {
     const fs_mag_config *c = &m->cfg;

@@ -64,6 +64,8 @@ fs_status fs_mag_init(fs_mag *m, const fs_mag_config *cfg);
 void fs_mag_current(fs_mag *m, double psi_d, double psi_q, double *i_d, double *i_q);
 /* Flux linkages at given currents (the inverse of fs_mag_current). */
 void fs_mag_flux(fs_mag *m, double i_d, double i_q, double *psi_d, double *psi_q);
+/* fs_mag_flux at n currents in turn (the design's tables: one call, not n). */
+void fs_mag_flux_n(fs_mag *m, const double *i_d, const double *i_q, int n, double *psi_d, double *psi_q);
 /* The magnet's remanence at k times the configured one (temperature,
  * fs_thermal.h): LINEAR psi_f, ALGEBRAIC its equivalent current i_f (a
  * magnet on its recoil line is a current sheet proportional to its

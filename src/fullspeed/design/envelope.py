@@ -120,14 +120,13 @@ def plant_mag(m: Machine):
 
 def plant_flux(st, i_d, i_q) -> tuple[np.ndarray, np.ndarray]:
     """psi_d, psi_q of a plant_mag model at currents (arrays of one shape),
-    point by point through fs_mag_flux."""
+    point by point through fs_mag_flux (fs_mag_flux_n: one call)."""
     i_d, i_q = np.broadcast_arrays(np.asarray(i_d, float), np.asarray(i_q, float))
-    out_d, out_q = np.empty(i_d.shape), np.empty(i_d.shape)
-    pd, pq = ffi.new("double *"), ffi.new("double *")
-    for k, (a, b) in enumerate(zip(i_d.ravel(), i_q.ravel())):
-        lib.fs_mag_flux(st, float(a), float(b), pd, pq)
-        out_d.flat[k], out_q.flat[k] = pd[0], pq[0]
-    return out_d, out_q
+    d, q = np.ascontiguousarray(i_d.ravel()), np.ascontiguousarray(i_q.ravel())
+    out_d, out_q = np.empty(d.size), np.empty(d.size)
+    lib.fs_mag_flux_n(st, ffi.from_buffer("double[]", d), ffi.from_buffer("double[]", q), d.size,
+                      ffi.from_buffer("double[]", out_d), ffi.from_buffer("double[]", out_q))
+    return out_d.reshape(i_d.shape), out_q.reshape(i_d.shape)
 
 
 def flux_table(m: Machine, i_max: float, points: int = TABLE_N) -> dict:

@@ -40,6 +40,7 @@ import numpy as np
 from .._core import ffi, lib
 from ..model.errors import ConfigError
 from ..model.units import rad_s_to_rpm
+from .envelope import plant_flux
 from .rules import I_HF_PER_I_MAX, I_N_LSB, I_N_NOISE, I_N_PER_I_MAX, Value, carrier_currents
 
 # The injection's resolution: usable when its negative-sequence current, with the carrier's current at
@@ -150,12 +151,7 @@ def incremental_L_d(m, i_d, h: float) -> np.ndarray:
     st = _plant_mag(m) if model == "algebraic" else None
     if st is None:
         return np.full(i.shape, m.L_d)
-    pd, pq = ffi.new("double *"), ffi.new("double *")
-
-    def psi(x):
-        lib.fs_mag_flux(st, float(x), 0.0, pd, pq)
-        return pd[0]
-    return np.array([(psi(x + h) - psi(x - h)) / (2 * h) for x in i])
+    return (plant_flux(st, i + h, 0.0)[0] - plant_flux(st, i - h, 0.0)[0]) / (2 * h)
 
 
 def d_asymmetry(m, i_pulse: float) -> float | None:
