@@ -225,12 +225,14 @@ def test_machine_file_fits_the_schema_or_is_not_left(tmp_path):
     assert "R_s" in tomllib.loads((tmp_path / "b" / "identification.toml").read_text())["machine_file"]["refused"]
 
 
-def test_locked_rotor_standstill_only():
+def test_locked_rotor_standstill_only(tmp_path):
     """[identify] locked: the standstill steps (and the map, unbounded by
     motion) on a held shaft; psi_f, J and friction skipped, saying why."""
-    from fullspeed.workflows.identify import machine_table
+    from fullspeed.workflows.identify import machine_table, write_identification
 
-    sc = _scenario(identify={"locked": True})
+    # the speed loop's and the PLL's bandwidths left to the design: the written file must leave them out too
+    servo = dict(SERVO, bench={k: v for k, v in SERVO["bench"].items() if k not in ("bw_speed", "bw_pll")})
+    sc = _scenario(machine=servo, identify={"locked": True})
     res = identify(sc)
     assert res.step == "done" and res.ok, res.failures()
     for q in ("psi_f", "J", "friction"):
@@ -242,6 +244,14 @@ def test_locked_rotor_standstill_only():
     assert "map" not in res.times["quantities"] or res.times["quantities"]["psi_f"] == 0.0
     tab, notes = machine_table(res, sc)
     assert tab["electrical"]["psi_f"] == SERVO["electrical"]["psi_f"] and "not identified" in notes[0]
+    # the bench as the file gave it: a designed bandwidth written would read as given, and a sensorless
+    # drive on the identified file would keep the identification's speed loop instead of the one its
+    # observer allows (B-MAPID's zoo 6: 125.7 rad/s where the true file designs 37.7, and lost lock)
+    assert set(tab["bench"]) == set(servo["bench"]) | {"sampling", "encoder_bits"} - {"bw_speed", "bw_pll"}
+    blended = {"name": "b", "duration": 1.0, "controller": {"mode": "speed", "angle": "blend"}}
+    write_identification(res, sc, tmp_path)
+    given, written = (scenario_from_dict({**blended, "machine": mach}) for mach in (servo, str(tmp_path / "machine.toml")))
+    assert written.data["controller"]["bw_speed"] == given.data["controller"]["bw_speed"] < servo["bench"]["bw_current"] / 30
 
 
 def test_may_not_turn_without_polarity_is_refused_before_it_turns():

@@ -506,8 +506,8 @@ def report_tables(res: Identification) -> dict[str, dict]:
 
 
 def machine_table(res: Identification, sc: Scenario) -> tuple[dict | None, list[str]]:
-    """The machine file of the identified values (its bench and ratings from
-    the scenario's machine, and the map's file where the map was
+    """The machine file of the identified values (its bench as the scenario's
+    machine file gives it, its ratings, and the map's file where the map was
     identified), or None unless R_s, L_d and L_q are identified and psi_f
     and J are too or were not to be (the rotor may not turn: then the
     machine file's, said in its source); and what was done to fit the
@@ -538,7 +538,11 @@ def machine_table(res: Identification, sc: Scenario) -> tuple[dict | None, list[
         "mechanical": mech,
         "rated": {k: val for k, val in {"torque": m.T_rated, "current": m.i_rated,
                                         "speed_rpm": m.w_m_rated * 60 / (2 * math.pi)}.items()},
-        "bench": {k: val for k, val in m.bench.items() if k != "reasons" and val is not None},
+        # the bench as its file gave it: a value the design formed (m.design: the limits and bandwidths left
+        # out) is formed again where the file is used, against that scenario (a speed loop held to the
+        # sensorless observer's speed); written, it would read as given and freeze the identification's design
+        "bench": {k: val for k, val in m.bench.items() if k != "reasons" and val is not None
+                  and not (k in m.design and not m.design[k].given)},
     }
     if res.map is not None and res.status["map"] in IDENTIFIED:
         tab["magnetic"] = {"file": "fluxmap.csv"}
