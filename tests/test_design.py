@@ -295,6 +295,40 @@ def test_a_flux_map_without_d_asymmetry_is_named(asym, start):
     assert any(w.startswith("polarity.enabled:") and "flux map" in w for w in kept.warnings) == (start == "motion"), kept.warnings
 
 
+@pytest.mark.parametrize("asym", [-0.6, 0.6])
+def test_a_d_axis_that_saturates_the_other_way_does_not_get_the_pulses(asym):
+    """A map whose incremental L_d rises where the d current adds to the
+    magnet (a PM-SyRM's ribs, held saturated by the magnet, relieved by it)
+    gives the pulses a carrier amplitude smaller on the north pole: they
+    would decide for the south pole. The design starts it by the motion test
+    instead, naming why, and refuses the pulses where the rotor may not turn;
+    the common sign keeps them."""
+    from fullspeed.model.errors import ConfigError
+    m = {**DATASHEET, "magnetic": _fluxmap(asym)}
+    sc = scenario(m)
+    if asym > 0:
+        assert sc.data["start"]["kind"] == "pulses"
+        assert scenario(m, start={"allow_motion": False}).data["start"]["kind"] == "pulses"
+        return
+    assert sc.data["start"]["kind"] == "motion"
+    assert "would decide for the south pole" in sc.data["start"]["reason"], sc.data["start"]["reason"]
+    with pytest.raises(ConfigError) as e:
+        scenario(m, start={"allow_motion": False})
+    assert "start.allow_motion" in str(e.value) and "smaller amplitude where the d current adds to the magnet" in str(e.value)
+
+
+def test_syre_thor_is_started_by_the_motion_test():
+    """SyR-e's THOR: its FEA map's carrier amplitude is about 30 % smaller at
+    +13.7 A than at -13.7 A (the drive measured D = -21 % and turned a right
+    estimate by pi); its designed start is the motion test."""
+    from fullspeed.design.machine import load_machine
+    from fullspeed.design.start import carrier_asymmetry
+    D = carrier_asymmetry(load_machine("syre-thor"), 13.7, 2.9)[0]
+    assert -0.4 < D < -0.2, D
+    sc = scenario("syre-thor")
+    assert sc.data["start"]["kind"] == "motion" and "south pole" in sc.data["start"]["reason"]
+
+
 def test_no_voltage_for_a_carrier_is_named_with_its_cause():
     """L in H for mH under a blended drive: the fundamental alone needs more
     than the link, the designed carrier comes out at nothing, and the

@@ -21,7 +21,7 @@ from .controller import controller_model, hfi_design, injection_inductances
 from .machine import design_machine, mtpa_torque
 from .magnetics import controller_values
 from .start import (POLARITY_ASYMMETRY, RESOLUTION_MIN, design_if, design_motion, design_pulses, injection_resolution,
-                    polarity_blind)
+                    polarity_blind, polarity_reversed)
 from .rules import (Value, control_period, design_band, design_carrier, design_injection, design_observer_pll,
                     design_overspeed, machine_values, u_linear)
 from .xcomp import check_table_settings
@@ -463,12 +463,19 @@ def _polarity_start(d: dict, m: Machine, i_hf: float, h, u_lin: float, source) -
         given = {k: pol[k] for k in ("i_pulse", "i_pulse_max")}
         notes = design_pulses(d, m, controller_model(ctl, m), i_hf, h, u_lin)
         i_top = pol["i_pulse_max"] or max(ctl["i_max"] - i_hf, pol["i_pulse"])
-        blind = polarity_blind(m, i_top) if st["kind"] == "designed" else None
-        if blind:   # nothing for the pulses to decide on at any pulse the rotor and the loop tolerate
+        blind = polarity_blind(m, i_top, pol["i_pulse"], i_hf) if st["kind"] == "designed" else None
+        wrong = polarity_reversed(m, pol["i_pulse"], i_top, i_hf) if st["kind"] == "pulses" else None
+        if wrong:   # the pulses kept (named, or the rotor not to be turned) would start on the south pole
+            raise ConfigError("start.method" if st["method"] == "pulses" else "start.allow_motion",
+                              st["method"] if st["method"] == "pulses" else False,
+                              f"leaves polarity to the pulses, and {m.name}'s {wrong}: let the start turn the rotor "
+                              "(start.allow_motion = true, the motion test) or start at a known angle (polarity.enabled = false)",
+                              source)
+        if blind:   # nothing for the pulses to decide on (or the wrong way) at any pulse the rotor and the loop tolerate
             pol.update(given)
             notes = {}
             st["kind"] = "motion"
-            st["reason"] += f"; {m.name}'s {blind} (at {i_top:.4g} A): no asymmetry for the pulses, a bounded motion test"
+            st["reason"] += f"; {m.name}'s {blind} (at {i_top:.4g} A): the pulses cannot be used, a bounded motion test"
         else:
             st["kind"] = "pulses"
             if st["method"] == "designed":
