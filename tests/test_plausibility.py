@@ -123,3 +123,17 @@ def test_a_flux_map_machine_is_judged_by_its_own_torque():
     d["rated"]["current"] /= math.sqrt(2)
     (w,) = plausibility(d)
     assert w.startswith("machine.rated.current:") and "rms" in w and "0.642 x" in w
+
+
+@pytest.mark.parametrize("name, ratio", [("baldor-ecs101m0h7ef4", "2.1 x"), ("syre-thor", "1.99 x")])
+def test_pole_pairs_given_as_poles_on_a_reluctance_machine_are_named(name, ratio):
+    """A PM-SyRM's magnet flux is small: twice its pole pairs leaves the
+    back-EMF at rated speed within the rated voltage, and only the torque
+    its map makes at rated current (twice the rating) shows it."""
+    d = catalog_data(name)
+    d["pole_pairs"] *= 2
+    m = machine_from_dict(copy.deepcopy(d))
+    assert emf_warnings(m, u_linear(m.bench["u_dc"], m.phases)) == []
+    (w,) = plausibility(d)
+    assert w.startswith("machine.pole_pairs:") and "on its flux map" in w and ratio in w
+    assert f"pole_pairs given as poles ({d['pole_pairs']} for {d['pole_pairs'] // 2} pairs)" in w
