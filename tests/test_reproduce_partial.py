@@ -127,3 +127,28 @@ def test_the_runs_b_ident_and_b_mapid_take_from_b_zoo_and_b_ident_are_the_ones_t
         assert swept == load_scenario("beyond-zoo", {"machine": {"zoo": k}, "controller": {}}).data   # identify._sensorless_task's
     assert set(range(0, 2 * MAPID_SAMPLE, 2)) <= set(range(IDENT_SAMPLE))
     assert SHARES["B-ZOO"] == SHARES["B-IDENT"] == SHARES["B-MAPID"]
+
+
+def _burn(task: dict) -> dict:
+    """A campaign task that spends task["s"] seconds of CPU."""
+    t0, n = time.process_time(), 0
+    while time.process_time() - t0 < task["s"]:
+        n += 1
+    return {"n": n}
+
+
+def campaign(out):
+    from fullspeed.workflows.journal import run_tasks
+    rows = run_tasks(_burn, [{"s": 0.2, "k": k} for k in range(4)], out / "burn", workers=2, fresh=True)
+    return Measurement({"tasks": len(rows)}, True, "stand-in")
+
+
+def test_a_claims_cpu_time_counts_its_campaigns_workers(tmp_path):
+    """cpu_s is what the claim cost: the 0.8 s its pool's workers spent,
+    though the measuring process itself only waited for them (its own CPU
+    time alone would say a fraction of that)."""
+    t0 = time.process_time()
+    row = rp.measure(CLAIMS[0], tmp_path, campaign)
+    own = time.process_time() - t0
+    assert row["value"] == {"tasks": 4}
+    assert row["cpu_s"] >= 0.8 and row["cpu_s"] >= own + 0.75

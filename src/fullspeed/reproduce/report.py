@@ -27,7 +27,7 @@ from pathlib import Path
 
 from ..model.errors import EngineError
 from ..model.files import json_safe, write_atomic, write_json
-from ..workflows.journal import default_workers, in_pool, preload
+from ..workflows.journal import cpu_spent, default_workers, in_pool, preload
 from .claims import Claim, claims_for
 from . import papers  # noqa: F401  (importing the papers registers their measurements)
 from .registry import COST, COST_DEFAULT, MEASURES, NOT_YET, SHARES
@@ -40,7 +40,7 @@ BACKGROUND_NICE = 19  # the background lane's niceness over the command's: the s
 def measure(claim: Claim, out: Path, fn) -> dict:
     """claim's row, measured by fn(out) (None: not yet measurable), with
     its wall time."""
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), cpu_spent()
     row = {"id": claim.id, "paper": claim.paper, "text": claim.text, "target": claim.target,
            "value": None, "unit": claim.unit, "pass": False, "scenario": claim.scenario,
            "note": "", "figures": []}
@@ -56,6 +56,7 @@ def measure(claim: Claim, out: Path, fn) -> dict:
             row.update(value=json_safe(m.value), note=m.note, figures=m.figures)
             row["pass"] = bool(m.passed)
     row["wall_s"] = round(time.perf_counter() - t0, 2)
+    row["cpu_s"] = round(cpu_spent() - c0, 2)   # its campaigns' workers and its compilers included: what it costs
     return row
 
 
@@ -113,19 +114,22 @@ def write_report(rows: list[dict], out: Path, paper: str | None, not_run=(), wal
     if not_run:
         lines += ["", f"**Incomplete**: the reproduction stopped before {len(not_run)} claims ran: {', '.join(not_run)}.", ""]
     if wall_s is not None:
+        cpu = sum(r.get("cpu_s", 0.0) for r in rows)
         lines += [f"Wall time {wall_s:.0f} s, the claims in {lanes} concurrent processes; each claim's wall time",
-                  "is from its start to its end (with others running beside it)."]
+                  "is from its start to its end (with others running beside it), its CPU time what it cost, its",
+                  f"campaigns' workers and its compilers included ({cpu:.0f} s over all claims)."]
     lines += [
         "Every value below was measured in this run; a claim that cannot be measured yet",
         "is listed with no value and `pass: false`. The claims and their conditions: docs/CLAIMS.md",
         "in the repository (generated from src/fullspeed/reproduce/claims.py).",
         "",
-        "| id | paper | target | measured | unit | pass | scenario | wall (s) |",
-        "|---|---|---|---|---|---|---|---|",
+        "| id | paper | target | measured | unit | pass | scenario | wall (s) | CPU (s) |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         lines.append(f"| {r['id']} | {r['paper']} | {r['target']} | {_fmt(r['value'])} | {r['unit']} | "
-                     f"{'yes' if r['pass'] else 'no'} | {r['scenario']} | {r.get('wall_s', 0.0):.1f} |")
+                     f"{'yes' if r['pass'] else 'no'} | {r['scenario']} | {r.get('wall_s', 0.0):.1f} | "
+                     f"{r.get('cpu_s', 0.0):.1f} |")
     lines.append("")
     for r in rows:
         lines += [f"## {r['id']} ({r['paper']})", "", f"Conditions: {r['text']}", "",

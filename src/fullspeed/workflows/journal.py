@@ -240,6 +240,27 @@ def _local(fn, tasks: dict[int, dict], workers: int):
                        what="tasks", retry="; run the same command again to retry them")
 
 
+# CPU seconds the pool workers of this process spent in the calls they
+# returned (in_pool adds each call's): beside time.process_time(), what a
+# claim's campaign cost, its workers included (reproduce.report's cpu_s)
+WORKER_CPU = [0.0]
+
+
+def cpu_spent() -> float:
+    """This process's CPU time with its pools' calls' (WORKER_CPU) and its
+    waited-for children's (a compiler, an emulator), s."""
+    import resource
+    ch = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + WORKER_CPU[0] + ch.ru_utime + ch.ru_stime
+
+
+def _timed(call: Callable, *a):
+    """call(*a) in a worker, with the CPU time it took there."""
+    t0 = time.process_time()
+    result = call(*a)
+    return result, time.process_time() - t0
+
+
 def in_pool(call: Callable, args: dict, workers: int, then: Callable | None = None, then_args: tuple = (),
             modules: tuple[str, ...] = (), what: str = "tasks", retry: str = ""):
     """(k, call(*args[k])) as each finishes, in `workers` processes
@@ -259,14 +280,15 @@ def in_pool(call: Callable, args: dict, workers: int, then: Callable | None = No
         pool = _worker_pool(min(workers, len(todo)), then, then_args, modules)
         broken = False
         try:
-            futures = {pool.submit(call, *a): k for k, a in todo.items()}
+            futures = {pool.submit(_timed, call, *a): k for k, a in todo.items()}
             procs = list((getattr(pool, "_processes", None) or {}).values())
             for fut in as_completed(futures):
                 try:
-                    result = fut.result()
+                    result, cpu = fut.result()
                 except BrokenProcessPool:
                     broken = True
                     continue
+                WORKER_CPU[0] += cpu
                 del todo[futures[fut]]
                 yield futures[fut], result
         except BaseException:   # Ctrl-C, or the caller stopped reading
