@@ -131,11 +131,13 @@ def designed_table(m, i_max: float, i_d: float | None = None):
     mag = flux_table(m, i_max)
     if i_d is None:
         T, d, q = mtpa_locus(mag, i_max, m.phases, m.pole_pairs)
+        torque = (q, T)
         d, q = np.interp(np.linspace(0, q[-1], LOCUS_N), q, d), np.linspace(0, q[-1], LOCUS_N)
         how = "on the map's MTPA locus"
     else:
         q = np.linspace(0.0, math.sqrt(max(i_max ** 2 - i_d ** 2, 0.0)), LOCUS_N)
         d = np.full_like(q, i_d)
+        torque = None
         how = f"at i_d = {i_d:g} A (the scenario's)"
     sal = incremental_saliency(mag, d, q)
     low = np.flatnonzero(sal < SALIENCY_FLOOR)
@@ -153,7 +155,8 @@ def designed_table(m, i_max: float, i_d: float | None = None):
     table = {"i_q": [float(x) for x in grid], "delta_deg": [float(x) for x in lead],
              "source": f"designed from {m.name}'s magnetics: the incremental inductances' saliency axis {how}",
              "settings": {"estimator": "rotating", "machine": m.name}}
+    at_T = f", {np.interp(grid[k], *torque):.3g} N m" if torque is not None else ""
     why = (f"the largest lead of the carrier's saliency axis, {lead[k]:+.3g} el.deg at i_q = {grid[k]:.3g} A "
-           f"(i_d = {i_d_grid[k]:.3g} A) {how}: the table (33 points over +-{q[end]:.3g} A{cut}) takes it out "
+           f"(i_d = {i_d_grid[k]:.3g} A{at_T}) {how}: the table (33 points over +-{q[end]:.3g} A{cut}) takes it out "
            "of the injection's angle")
     return table, Value(float(abs(lead[k])), "deg", why)
