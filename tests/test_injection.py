@@ -84,7 +84,7 @@ def test_shipped_cross_saturation_table_is_what_the_calibration_measures():
 
 
 def test_compensation_removes_the_cross_saturation_error():
-    plain = simulate(load_scenario("beyond-xcomp-3ph", {"injection": {"xcomp": None}}))
+    plain = simulate(load_scenario("beyond-xcomp-3ph", {"injection": {"xcomp": False}}))
     comp = simulate(load_scenario("beyond-xcomp-3ph"))
     m = (plain["t"] >= 0.5)
     e_plain = np.degrees(np.mean(plain["est_err"][m]))

@@ -129,7 +129,7 @@ def test_square_wave_on_three_phases_carries_rated_load_from_standstill():
     at standstill, 0 -> 200 -> 0 rpm under it; compensated, the error stays
     below 10 el.deg, without the table it does not."""
     comp = simulate("beyond-swvi-3ph")
-    plain = simulate(load_scenario("beyond-swvi-3ph", {"injection": {"xcomp": None}}))
+    plain = simulate(load_scenario("beyond-swvi-3ph", {"injection": {"xcomp": False}}))
     t = comp["t"]
     assert comp.stop_reason == "done"
     assert np.max(np.abs(np.degrees(comp["est_err"][t >= 0.1]))) < 10.0

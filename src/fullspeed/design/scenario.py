@@ -24,7 +24,7 @@ from .start import (POLARITY_ASYMMETRY, RESOLUTION_MIN, design_if, design_motion
                     polarity_blind, polarity_reversed)
 from .rules import (Value, control_period, design_band, design_carrier, design_injection, design_observer_pll,
                     design_overspeed, machine_values, u_linear)
-from .xcomp import check_table_settings
+from .xcomp import check_table_settings, designed_table
 
 # The trace is held in memory: one row of doubles per recorded sample.
 TRACE_ROW_BYTES = 8 * lib.FS_CH_N
@@ -428,7 +428,11 @@ def _injection_fields(d: dict, m: Machine, source, bw_speed_given: bool = True, 
             raise ConfigError("polarity.t_lock", pol["t_lock"], f"must be >= {t_lock_min:.3g} s: 6 / w_b_n + 2 / w_o, the fade-in, the filters and the observers settle first", source)
         if pol["t_pulse"] < t_pulse_min:
             raise ConfigError("polarity.t_pulse", pol["t_pulse"], f"must be >= {t_pulse_min:.3g} s: 6 / w_b_p, the carrier amplitude settles in each pulse's first half", source)
-    if inj["xcomp"] is not None:
+    if inj["xcomp"] is None:
+        _designed_xcomp(d, m)
+    elif inj["xcomp"] is False:   # none, on purpose (a paper's estimator, an uncompensated measurement)
+        inj["xcomp"] = None
+    else:
         inj["xcomp"] = xcomp_table(inj["xcomp"], source)
     if pol["enabled"] and d["start"]["kind"] in ("designed", "pulses", "motion"):
         d["_notes"].update(_polarity_start(d, m, i_hf, h, u_lin, source))
@@ -451,6 +455,27 @@ def _injection_fields(d: dict, m: Machine, source, bw_speed_given: bool = True, 
             inj["stop_rpm"] = 1.2 * bl["upper_rpm"]
         if not 0.9 * inj["stop_rpm"] >= bl["upper_rpm"]:
             raise ConfigError("injection.stop_rpm", inj["stop_rpm"], f"must be >= upper_rpm / 0.9 = {bl['upper_rpm'] / 0.9:g} (the injection resumes at 0.9 x stop_rpm)", source)
+
+
+def _designed_xcomp(d: dict, m: Machine) -> None:
+    """The rotating injection's cross-saturation table, left out, designed
+    from a flux map or an algebraic model (design.xcomp.designed_table): on
+    the MTPA locus, or in current control at the scenario's i_d where it
+    holds one value; none where the magnetics have no cross term."""
+    if m.magnetic["model"] not in ("fluxmap", "algebraic"):
+        return
+    ctl = d["controller"]
+    i_d = _held_reference(d["references"]["i_d"]) if ctl["mode"] == "current" else None
+    table, note = designed_table(m, ctl["i_max"], i_d)
+    if table is not None:
+        d["injection"]["xcomp"] = table
+        d.setdefault("_notes", {})["injection.xcomp"] = note
+
+
+def _held_reference(ref) -> float | None:
+    """A reference schedule's (times, values) one value, else None."""
+    values = {float(v) for v in ref[1]}
+    return values.pop() if len(values) == 1 else None
 
 
 def _polarity_start(d: dict, m: Machine, i_hf: float, h, u_lin: float, source) -> dict:
@@ -574,6 +599,8 @@ def _swvi_fields(d: dict, m: Machine, source, bw_speed_given: bool) -> None:
         if poly is None:
             raise ConfigError("injection.xcomp", xc, f"{m.name} has no [injection].xcomp_paper (a fitted error polynomial)", source)
         inj["xcomp"] = {"poly_error": [float(x) for x in poly]}
+    elif xc is False:   # none, on purpose
+        inj["xcomp"] = None
     elif xc is not None:
         inj["xcomp"] = xcomp_table(xc, source)
 

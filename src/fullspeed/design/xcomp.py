@@ -1,13 +1,20 @@
-"""A cross-saturation table (injection.xcomp) against the scenario that uses
-it: the table holds the estimator's own bias at the settings it was
-measured with (workflows.calibrate records them), so a scenario with a
-setting that moves that bias is refused, and one with another machine or
-carrier warned, one line naming the field."""
+"""A cross-saturation table (injection.xcomp): designed from the machine's
+magnetics where the scenario gives none (designed_table), and checked
+against the scenario that uses it: a measured table holds the estimator's
+own bias at the settings it was measured with (workflows.calibrate records
+them), so a scenario with a setting that moves that bias is refused, and
+one with another machine or carrier warned, one line naming the field."""
 from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from ..model.errors import ConfigError
+from ..model.fluxmap import interp
+from .envelope import flux_table
+from .magnetics import SALIENCY_FLOOR, incremental_saliency, mtpa_locus
+from .rules import Value
 
 
 # The settings a table records, each with the field that sets it; those whose
@@ -73,3 +80,83 @@ def _shown(v) -> str:
         return repr(v)
     s = f"{v:.6g}"
     return s + ".0" if s.lstrip("-").isdigit() else s
+
+
+# The designed table (injection.xcomp left out on a machine with a flux map
+# or an algebraic model): the saliency axis of the incremental inductances
+# along the locus the drive's current follows, as fs_xcomp.h holds it.
+XCOMP_N = 33             # csrc/control/fs_xcomp.h FS_XCOMP_MAX: the finest even grid the estimator holds
+LOCUS_N = 257            # points the locus is searched on before the grid is read off it
+XCOMP_NEGLIGIBLE = 0.05  # el.deg: a largest lead below this (no cross term: a_dq = 0, a linear model) is no table
+
+
+def saliency_lead(mag: dict, i_d, i_q) -> np.ndarray:
+    """The lead delta = theta_hat - theta_r (rad) of the axis a rotating
+    carrier's negative sequence points to, at currents (arrays), from the
+    map's incremental inductances (central differences over one grid step:
+    the carrier's current swings over about that).
+
+    yang2022 eq. (24) with cross-saturation: with psi_h = L i_h,
+    L = [[L_dd, L_dq], [L_qd, L_qq]] the incremental inductances, the carrier
+    current is i_h = L^-1 int u_h; as a complex vector z = d + jq, any 2 x 2
+    matrix M acts as M z = a z + b conj(z), b = ((M_dd - M_qq) + j (M_qd + M_dq)) / 2,
+    and in the stationary frame b picks up e^{j 2 theta_r}. For
+    M = L^-1 = [[L_qq, -L_dq], [-L_qd, L_dd]] / det L,
+      b = ((L_qq - L_dd) - j (L_dq + L_qd)) / (2 det L),
+    so the negative sequence is I_n e^{j(-w_h t + 2 theta_r + pi/2 + 2 delta)} with
+      delta = 1/2 atan2(-(L_dq + L_qd), L_qq - L_dd),
+    which is eq. (24) when L_dq = L_qd = 0 (delta = 0 for L_qq > L_dd) and
+    yu2022's delta = -phi_dq / 2 (eqs. (19)-(21)) for L_dq = L_qd. The
+    estimator locks theta_hat on theta_r + delta: the table's lead."""
+    h_d, h_q = mag["i_d"][1] - mag["i_d"][0], mag["i_q"][1] - mag["i_q"][0]
+    def by_d(name):   # d psi / d i_d
+        return (interp(mag, name, i_d + h_d, i_q) - interp(mag, name, i_d - h_d, i_q)) / (2 * h_d)
+    def by_q(name):   # d psi / d i_q
+        return (interp(mag, name, i_d, i_q + h_q) - interp(mag, name, i_d, i_q - h_q)) / (2 * h_q)
+    L_dd, L_qq, L_dq, L_qd = by_d("psi_d"), by_q("psi_q"), by_q("psi_d"), by_d("psi_q")
+    return 0.5 * np.arctan2(-(L_dq + L_qd), L_qq - L_dd)
+
+
+def designed_table(m, i_max: float, i_d: float | None = None):
+    """The cross-saturation table the design forms from m's magnetics
+    (a flux map, or the plant's algebraic model tabulated), and its Value
+    for `fullspeed design`; (None, None) where it would correct nothing.
+
+    The locus: the map's MTPA (what the speed loop's torque asks), or i_d
+    held at a given current (a current-controlled scenario's). The grid: XCOMP_N
+    even points over +-the locus's largest i_q, up to where the incremental
+    saliency falls below magnetics.SALIENCY_FLOOR (the injection holds no
+    angle beyond; fs_xcomp holds the last value). i_q < 0 mirrors it: the
+    maps are symmetric in i_q (model.fluxmap), so delta(-i_q) = -delta(i_q)."""
+    mag = flux_table(m, i_max)
+    if i_d is None:
+        T, d, q = mtpa_locus(mag, i_max, m.phases, m.pole_pairs)
+        torque = (q, T)
+        d, q = np.interp(np.linspace(0, q[-1], LOCUS_N), q, d), np.linspace(0, q[-1], LOCUS_N)
+        how = "on the map's MTPA locus"
+    else:
+        q = np.linspace(0.0, math.sqrt(max(i_max ** 2 - i_d ** 2, 0.0)), LOCUS_N)
+        d = np.full_like(q, i_d)
+        torque = None
+        how = f"at i_d = {i_d:g} A (the scenario's)"
+    sal = incremental_saliency(mag, d, q)
+    low = np.flatnonzero(sal < SALIENCY_FLOOR)
+    end = low[0] - 1 if low.size else LOCUS_N - 1
+    if end < 1:
+        return None, None
+    grid = np.linspace(-q[end], q[end], XCOMP_N)
+    i_d_grid = np.interp(np.abs(grid), q, d)
+    lead = np.degrees(np.sign(grid) * saliency_lead(mag, i_d_grid, np.abs(grid)))
+    k = XCOMP_N // 2 + int(np.argmax(np.abs(lead[XCOMP_N // 2:])))   # the largest, named on the motoring side
+    if abs(lead[k]) < XCOMP_NEGLIGIBLE:
+        return None, None
+    cut = (f"; held beyond {q[end]:.3g} A, where the incremental saliency falls below {SALIENCY_FLOOR:g}"
+           if low.size else "")
+    table = {"i_q": [float(x) for x in grid], "delta_deg": [float(x) for x in lead],
+             "source": f"designed from {m.name}'s magnetics: the incremental inductances' saliency axis {how}",
+             "settings": {"estimator": "rotating", "machine": m.name}}
+    at_T = f", {np.interp(grid[k], *torque):.3g} N m" if torque is not None else ""
+    why = (f"the largest lead of the carrier's saliency axis, {lead[k]:+.3g} el.deg at i_q = {grid[k]:.3g} A "
+           f"(i_d = {i_d_grid[k]:.3g} A{at_T}) {how}: the table (33 points over +-{q[end]:.3g} A{cut}) takes it out "
+           "of the injection's angle")
+    return table, Value(float(abs(lead[k])), "deg", why)

@@ -165,7 +165,7 @@ SCENARIO = {
                       "load-proportional bias); keep: the paper's filter; default remove with tracking = \"lag\" (whose "
                       "observer is designed for the double lag it makes), keep with \"paper\" (whose observer, blind to "
                       "that lag, rings with it)"),
-        "xcomp": Spec("any", None, doc="cross-saturation table {i_q = [A...], delta_deg = [...]} on an even grid, or a TOML file holding it, or (swvi) \"paper\": the machine's fitted error polynomial"),
+        "xcomp": Spec("any", None, doc="cross-saturation table {i_q = [A...], delta_deg = [...]} on an even grid, or a TOML file holding it, or (swvi) \"paper\": the machine's fitted error polynomial, or false: none; left out, the rotating injection's is designed from a flux map or an algebraic model (design.xcomp)"),
         "stop_rpm": POS(None, hi=1e6, doc="blend: the injection stops above this speed (resumes below 0.9 of it); default 1.2 x the upper blending speed"),
         "sequence": C("optimized", "conventional", default="optimized", doc="swvi: the time sequence of yu2022 sec. 3.2"),
         "bw_pll": POS(None, hi=1e6, doc="swvi: PLL bandwidth, rad/s (k_p = 2 w_b, k_i = w_b^2); default the machine's [injection]"),

@@ -153,7 +153,7 @@ def xsat_table(scenario: str | Path, i_q_max: float = 40.0, points: int = 17,
         "initial": {"speed_rpm": held},
         "metrics": {"steady": None},
     }
-    sc = load_scenario(scenario, {**over, "injection": {"xcomp": None}})
+    sc = load_scenario(scenario, {**over, "injection": {"xcomp": False}})   # uncompensated: not the designed table
     if sc.data["controller"]["i_max"] < i_q_max:
         raise ConfigError("i_q_max", i_q_max, f"must be <= controller.i_max ({sc.data['controller']['i_max']:g} A)", sc.source)
     res = simulate(sc)

@@ -47,7 +47,7 @@ def _calibrated(scenario: str, shipped: str, i_q_max: float, out: Path) -> tuple
 def xcomp_3ph(out: Path) -> Measurement:
     fresh, drift = _calibrated("beyond-xcomp-3ph", "yang2022-xsat", 40.0, out / "B-XCOMP-3PH-table.toml")
     comp = run("beyond-xcomp-3ph", {"injection": {"xcomp": fresh}})
-    plain = run("beyond-xcomp-3ph", {"injection": {"xcomp": None}})
+    plain = run("beyond-xcomp-3ph", {"injection": {"xcomp": False}})
     sc, su = error_stats(comp, 0.5, 1.0), error_stats(plain, 0.5, 1.0)
     value = {"mean_compensated": sc["mean"], "mean_uncompensated": su["mean"],
              "pp_compensated": sc["pp"], "table_vs_shipped_max_diff": drift}
@@ -74,9 +74,9 @@ T_SWVI = 0.1
 def swvi_3ph(out: Path) -> Measurement:
     fresh, drift = _calibrated("beyond-swvi-3ph-100rpm", "yang2022-swvi-xsat", 60.0, out / "B-SWVI-3PH-table.toml")
     comp = run("beyond-swvi-3ph", {"injection": {"xcomp": fresh}})
-    plain = run("beyond-swvi-3ph", {"injection": {"xcomp": None}})
+    plain = run("beyond-swvi-3ph", {"injection": {"xcomp": False}})
     held_c = error_stats(run("beyond-swvi-3ph-100rpm", {"injection": {"xcomp": fresh}}), 0.5, 1.0)
-    held_u = error_stats(run("beyond-swvi-3ph-100rpm", {"injection": {"xcomp": None}}), 0.5, 1.0)
+    held_u = error_stats(run("beyond-swvi-3ph-100rpm", {"injection": {"xcomp": False}}), 0.5, 1.0)
     sc, su = error_stats(comp, T_SWVI, comp.scenario.duration), error_stats(plain, T_SWVI, plain.scenario.duration)
     top = window_mask(comp["t"], 1.6, 2.0)   # the 200 rpm hold
     value = {"max_error_deg": sc["max"], "max_error_uncompensated_deg": su["max"],
