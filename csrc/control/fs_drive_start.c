@@ -96,10 +96,8 @@ static void drive_polarity_done(fs_drive *drv, bool flip, float t_quiet)
      * 0.043 H at +3 A): (L_dd - L_d) di_d/dt is an EMF along d, far above the one at standstill. Taken
      * through the test, its tracker ran to -2,500 rad/s (el.) at standstill and never came back
      * (fs_smo_follow holds only while its EMF says the rotor is slow): the blend stayed on the injection
-     * up to 2,300 rpm and held 23 to 66 % less torque than the encoder above base speed. At the
-     * injection's speed, not at rest: a motion test turns the rotor, and a load may have (the Prius MG2
-     * rolls back under its half-rated load; reset at rest, its observer lost the rotor at 0.34 s). */
-    if (drv->cfg.angle_source == FS_ANGLE_BLEND) fs_smo_reset(&drv->smo, drv->blend.theta_hat, drv->hfi.w);
+     * up to 2,300 rpm and held 23 to 66 % less torque than the encoder above base speed. */
+    if (drv->cfg.angle_source == FS_ANGLE_BLEND) fs_smo_reset(&drv->smo, drv->blend.theta_hat, 0.0f);
     /* the lock's checks start once the estimate has settled (t_quiet): the
      * loops' angle that turned by pi is not a jump (fs_monitor.h, 4.) */
     drv->t_quiet = t_quiet;
