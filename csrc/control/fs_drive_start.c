@@ -90,14 +90,6 @@ static void drive_polarity_done(fs_drive *drv, bool flip, float t_quiet)
         }
     }
     if (drv->cfg.mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
-    /* The back-EMF observer starts afresh at standstill on the found angle: the test's pulses (tens of
-     * amperes a millisecond along d) are what its model cannot follow, since the test reads the very
-     * saturation its constant L_d leaves out (the Baldor PM-SyRM's incremental L_d is 0.017 H at -10 A,
-     * 0.043 H at +3 A): (L_dd - L_d) di_d/dt is an EMF along d, far above the one at standstill. Taken
-     * through the test, its tracker ran to -2,500 rad/s (el.) at standstill and never came back
-     * (fs_smo_follow holds only while its EMF says the rotor is slow): the blend stayed on the injection
-     * up to 2,300 rpm and held 23 to 66 % less torque than the encoder above base speed. */
-    if (drv->cfg.angle_source == FS_ANGLE_BLEND) fs_smo_reset(&drv->smo, drv->blend.theta_hat, 0.0f);
     /* the lock's checks start once the estimate has settled (t_quiet): the
      * loops' angle that turned by pi is not a jump (fs_monitor.h, 4.) */
     drv->t_quiet = t_quiet;
