@@ -22,9 +22,17 @@
  *   pull the turn measured towards 0 (never past the bound).
  * SLIP pi / t_lost: a slip that turns the angle error by half a turn
  *   within the lock counter's time (header, 2.).
- * PRE 1/4: the slip's pre-filter corner at a quarter of the carrier's
- *   frequency (its leak 4.1 x, two poles 17 x down); without injection at a
- *   quarter of the Nyquist frequency (noise only).
+ * PRE 1/8: the slip's pre-filter corner at an eighth of the carrier's
+ *   frequency (its leak 8 x, two poles 65 x down); without injection at an
+ *   eighth of the Nyquist frequency (noise only). A carrier's leak is no
+ *   error that stands still: it turns at the carrier's frequency, and where
+ *   it weighs against the EMF judged its own turn enters x_f. As the
+ *   injection comes back in a reversal its filters settle and pass the
+ *   carrier into the fundamental current: at 1/4 (17 x down) the slip went
+ *   to 2.1 within 12 ms of the restart at 96 rpm on an EMF of 2.2 V (zoo
+ *   machine 2 on its identified map, B-MAPID; the true map's run reached
+ *   0.94), at 1/8 it stays below 1. A slip's own rate passes the filter
+ *   unchanged; the corner delays it by about 2 / (PRE w_h), 3 ms at 1 kHz.
  * K_MECH 1.2: a pi-off estimate implies a load of 2 T_ref + T_L (J exact),
  *   (1 + k) T_ref + k T_L with the inertia off by k = J_hat / J, about
  *   2 T_max once its speed loop saturates. On track the implied load is
@@ -60,7 +68,7 @@
  * el.deg of losing the rotor before an overcurrent stop, were flagged). */
 #define FS_MONITOR_E_USE 3.0f
 #define FS_MONITOR_E_SLIP 1.0f
-#define FS_MONITOR_PRE 0.25f
+#define FS_MONITOR_PRE 0.125f
 #define FS_MONITOR_U_FLOOR 0.01f
 #define FS_MONITOR_WARM 2.0f
 #define FS_MONITOR_E_LIM 1e18f
