@@ -86,8 +86,11 @@ def test_ctrl_c_stops_the_claim_processes_exit_130_and_the_file_says_partial(tmp
     """The command under Ctrl-C (SIGINT to its process group, as a terminal
     sends it): exit 130, claims.json partial, no process of it left."""
     out = tmp_path / "r"
+    # Ctrl-C's default action in the child, as under a terminal: a suite run as a background job of a
+    # non-interactive shell inherits SIGINT ignored, and Python leaves an ignored SIGINT ignored
     p = subprocess.Popen([sys.executable, "-m", "fullspeed", "reproduce", "--paper", "yu2022", "--out", str(out),
-                          "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+                          "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         t0 = time.monotonic()
         while not (out / "claims.json").exists() and p.poll() is None and time.monotonic() - t0 < 120:
