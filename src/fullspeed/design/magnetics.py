@@ -33,6 +33,23 @@ SALIENCY_FLOOR = 0.05   # (L_q - L_d) / (L_q + L_d) of the incremental inductanc
                         # estimator has little to lock on (yang2022's machine: 0.16 unloaded); at 0 it cannot tell the axis
 
 
+def map_flux(mag: dict):
+    """A flux map as a function (i_d, i_q) -> (psi_d, psi_q), bilinear as
+    the plant reads it."""
+    return lambda i_d, i_q: (interp(mag, "psi_d", i_d, i_q), interp(mag, "psi_q", i_d, i_q))
+
+
+def incremental_inductances(flux, i_d, i_q, h_d: float, h_q: float | None = None):
+    """The incremental inductance matrix d(psi_d, psi_q)/d(i_d, i_q) of
+    flux(i_d, i_q) -> (psi_d, psi_q) at currents, by central differences of
+    +-h_d along d and +-h_q (default h_d) along q: L_dd, L_dq (d psi_d / d
+    i_q), L_qd (d psi_q / d i_d), L_qq, H."""
+    h_q = h_d if h_q is None else h_q
+    (a_d, a_q), (b_d, b_q) = flux(i_d + h_d, i_q), flux(i_d - h_d, i_q)
+    (c_d, c_q), (e_d, e_q) = flux(i_d, i_q + h_q), flux(i_d, i_q - h_q)
+    return (a_d - b_d) / (2 * h_d), (c_d - e_d) / (2 * h_q), (a_q - b_q) / (2 * h_d), (c_q - e_q) / (2 * h_q)
+
+
 def incremental_saliency(mag: dict, i_d, i_q) -> np.ndarray:
     """(L_max - L_min) / (L_max + L_min) of the incremental inductance matrix
     d(psi_d, psi_q)/d(i_d, i_q) (its eigenvalues: what a carrier sees), as

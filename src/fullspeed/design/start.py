@@ -39,9 +39,9 @@ import numpy as np
 
 from .._core import ffi, lib
 from ..model.errors import ConfigError
-from ..model.fluxmap import interp
 from ..model.units import rad_s_to_rpm
 from .envelope import plant_flux
+from .magnetics import incremental_inductances, map_flux
 from .rules import I_HF_PER_I_MAX, I_N_LSB, I_N_NOISE, I_N_PER_I_MAX, Value, carrier_currents
 
 # The injection's resolution: usable when its negative-sequence current, with the carrier's current at
@@ -178,16 +178,9 @@ def _fluxes(m):
     map or an algebraic model; None with linear magnetics."""
     model = m.magnetic["model"]
     if model == "fluxmap":
-        return lambda i_d, i_q: (float(interp(m.magnetic, "psi_d", i_d, i_q)), float(interp(m.magnetic, "psi_q", i_d, i_q)))
+        return map_flux(m.magnetic)
     st = _plant_mag(m) if model == "algebraic" else None
-    if st is None:
-        return None
-    pd, pq = ffi.new("double *"), ffi.new("double *")
-
-    def flux(i_d, i_q):
-        lib.fs_mag_flux(st, float(i_d), float(i_q), pd, pq)
-        return pd[0], pq[0]
-    return flux
+    return None if st is None else (lambda i_d, i_q: plant_flux(st, i_d, i_q))
 
 
 def carrier_asymmetry(m, i_pulse: float, h: float | None = None) -> tuple[float, np.ndarray, np.ndarray] | None:
@@ -206,9 +199,8 @@ def carrier_asymmetry(m, i_pulse: float, h: float | None = None) -> tuple[float,
     h = h or 0.25 * i_pulse
 
     def L_inc(i_d):
-        (a_d, a_q), (b_d, b_q) = flux(i_d + h, 0.0), flux(i_d - h, 0.0)
-        (c_d, c_q), (e_d, e_q) = flux(i_d, h), flux(i_d, -h)
-        return np.array([[a_d - b_d, c_d - e_d], [a_q - b_q, c_q - e_q]]) / (2 * h)
+        L_dd, L_dq, L_qd, L_qq = (float(x) for x in incremental_inductances(flux, i_d, 0.0, h))
+        return np.array([[L_dd, L_dq], [L_qd, L_qq]])
     L_pos, L_neg = L_inc(i_pulse), L_inc(-i_pulse)
     y_pos, y_neg = (0.5 * float(np.trace(np.linalg.inv(L))) for L in (L_pos, L_neg))
     return (y_pos - y_neg) / (0.5 * (y_pos + y_neg)), L_pos, L_neg

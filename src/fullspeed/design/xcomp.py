@@ -11,9 +11,8 @@ import math
 import numpy as np
 
 from ..model.errors import ConfigError
-from ..model.fluxmap import interp
 from .envelope import flux_table
-from .magnetics import SALIENCY_FLOOR, incremental_saliency, mtpa_locus
+from .magnetics import SALIENCY_FLOOR, incremental_inductances, incremental_saliency, map_flux, mtpa_locus
 from .rules import Value
 
 
@@ -108,12 +107,8 @@ def saliency_lead(mag: dict, i_d, i_q) -> np.ndarray:
     which is eq. (24) when L_dq = L_qd = 0 (delta = 0 for L_qq > L_dd) and
     yu2022's delta = -phi_dq / 2 (eqs. (19)-(21)) for L_dq = L_qd. The
     estimator locks theta_hat on theta_r + delta: the table's lead."""
-    h_d, h_q = mag["i_d"][1] - mag["i_d"][0], mag["i_q"][1] - mag["i_q"][0]
-    def by_d(name):   # d psi / d i_d
-        return (interp(mag, name, i_d + h_d, i_q) - interp(mag, name, i_d - h_d, i_q)) / (2 * h_d)
-    def by_q(name):   # d psi / d i_q
-        return (interp(mag, name, i_d, i_q + h_q) - interp(mag, name, i_d, i_q - h_q)) / (2 * h_q)
-    L_dd, L_qq, L_dq, L_qd = by_d("psi_d"), by_q("psi_q"), by_q("psi_d"), by_d("psi_q")
+    L_dd, L_dq, L_qd, L_qq = incremental_inductances(map_flux(mag), i_d, i_q, mag["i_d"][1] - mag["i_d"][0],
+                                                     mag["i_q"][1] - mag["i_q"][0])
     return 0.5 * np.arctan2(-(L_dq + L_qd), L_qq - L_dd)
 
 
