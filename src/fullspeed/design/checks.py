@@ -134,7 +134,10 @@ def warnings_of(d: dict, m, bw_speed_given: bool = False) -> list[str]:
     if st.get("kind") == "pulses" and m.psi_f > 0:
         safe = st["c"].get("pulse_safe", {})
         i_safe = min(safe.get("still", math.inf), safe.get("reach", math.inf))
-        blind = polarity_blind(m, pol["i_pulse"])
+        # judged as the design judged the pulses (scenario._polarity_start): up to the retries' largest,
+        # over the carrier's span; a second judgement on other terms contradicted the start it chose
+        span = st["c"].get("pulse_span")
+        blind = (polarity_blind(m, span["i_top"], pol["i_pulse"], span["h"]) if span else polarity_blind(m, pol["i_pulse"]))
         if blind:
             out.append(f"polarity.enabled: polarity detection measures the d axis's saturation asymmetry, and {m.name}'s "
                        f"{blind}: the drive will refuse to start sensorless (stop reason polarity_undetermined); "

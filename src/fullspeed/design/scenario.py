@@ -488,6 +488,7 @@ def _polarity_start(d: dict, m: Machine, i_hf: float, h, u_lin: float, source) -
         given = {k: pol[k] for k in ("i_pulse", "i_pulse_max")}
         notes = design_pulses(d, m, controller_model(ctl, m), i_hf, h, u_lin)
         i_top = pol["i_pulse_max"] or max(ctl["i_max"] - i_hf, pol["i_pulse"])
+        st["c"]["pulse_span"] = {"i_top": i_top, "h": i_hf}   # what the pulses were judged on: checks reads the same
         blind = polarity_blind(m, i_top, pol["i_pulse"], i_hf) if st["kind"] == "designed" else None
         wrong = polarity_reversed(m, pol["i_pulse"], i_top, i_hf) if st["kind"] == "pulses" else None
         if wrong:   # the pulses kept (named, or the rotor not to be turned) would start on the south pole
