@@ -204,3 +204,22 @@ def test_the_tracker_holds_a_high_saliency_machine_slowing_while_generating(T_L)
     assert np.all(tr["T_e"][on] * w[on] < 0.0)                     # generating all along
     assert np.abs(np.degrees(tr["theta_err"][on])).max() < 5.0
     assert abs(w[-1] + 600.0) < 5.0
+
+
+def test_the_trackers_direction_is_its_own_speeds_sign_through_zero():
+    """The tracking form carries its speed through zero on its motion model:
+    the EMF's direction turns with that speed's sign at once, not only past
+    w_valid (52.4 rad/s here) as the paper form's PLL needs. With the
+    hysteresis a rotor driven through zero had its EMF read pi off until
+    w_valid: 34.6 el.deg on the grin hub motor in B-REAL's reversal."""
+    for form, turned in ((lib.FS_SMO_FORM_TRACKING, True), (lib.FS_SMO_FORM_PAPER, False)):
+        o = _smo(form)
+        lib.fs_smo_reset(o, 0.0, 20.0)
+        assert o.dir == 1.0
+        if form == lib.FS_SMO_FORM_TRACKING:
+            lib.fs_smo_follow(o, 0.0, -20.0, 0.0)    # through zero, still below w_valid
+        else:
+            lib.fs_pll_reset(ffi.addressof(o, "pll"), 0.0, -20.0)   # its PLL through zero the same way
+        lib.fs_smo_step(o, ZERO, ZERO)
+        assert o.w < 0.0 and abs(o.w) < o.cfg.w_valid
+        assert o.dir == (-1.0 if turned else 1.0), form

@@ -274,6 +274,12 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
         smo_schedule(o);
         o->w = o->mo.w_hat;
         o->theta = o->mo.theta_hat;
+        /* the tracker carries its speed through zero on its motion model
+         * (torque, load, inertia): the EMF's direction is that speed's sign.
+         * With the PLL's hysteresis (below) the EMF was read pi off from the
+         * zero crossing to w_valid: 34.6 el.deg on the grin hub motor reversed
+         * through zero by its load (11.9 with the sign) */
+        if (!c->dir_external && o->w != 0.0f) o->dir = o->w < 0.0f ? -1.0f : 1.0f;
         o->i_prev = i;
         o->have_prev = true;
     } else {
@@ -300,10 +306,10 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
                                                  : fs_atanf(o->w / (2.0f * w_c));
         /* the PLL now predicts the next mid-period; back half a period to the sample */
         o->theta = fs_wrap_pi(o->pll.theta - 0.5f * c->Ts * o->w + lag);
-    }
-    if (!c->dir_external) {
-        if (o->w > c->w_valid) o->dir = 1.0f;
-        else if (o->w < -c->w_valid) o->dir = -1.0f;
+        if (!c->dir_external) {   /* the direction turns only past w_valid (above) */
+            if (o->w > c->w_valid) o->dir = 1.0f;
+            else if (o->w < -c->w_valid) o->dir = -1.0f;
+        }
     }
     float aw = fabsf(o->w);
     if (aw >= c->w_valid) o->valid = true;

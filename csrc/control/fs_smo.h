@@ -216,7 +216,7 @@ typedef struct {
     float theta;         /* estimated angle at the sampling instant, rad */
     float w;             /* estimated electrical speed, rad/s */
     bool valid;
-    float dir;           /* direction of rotation the PLL error assumes: +1, -1 (hysteresis at w_valid) */
+    float dir;           /* direction of rotation the EMF angle assumes: +1, -1 (the paper form: hysteresis at w_valid; the tracking form: its speed's sign) */
     float r_i;           /* max |current error| over delta at the last step: <= 1 while sliding */
     float eps;           /* the last normalized PLL error, sin(theta - theta_pll) */
     float e_mag;         /* |filtered EMF|, V: about |w| psi_f / sqrt 2 behind the filter when it tracks */
