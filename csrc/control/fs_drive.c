@@ -625,7 +625,8 @@ static float drive_imc_rectify(fs_drive *drv, const fs_drive_in *in, fs_ab *u_re
 
 /* A flux map's values at the measured current i (fs_drive.h, map) for the
  * next step: the current loops' fluxes and incremental inductances, the
- * back-EMF observer's q secant inductance and active flux; returns the
+ * back-EMF observer's q secant inductance and active flux and its
+ * incremental inductances (the transient, fs_smo.h); returns the
  * torque of the reference i_ref on the map (linearised at i). At the
  * voltage limit in flux weakening the current lags its reference: the
  * observer's model at the reference put its torque 20 % off there (the
@@ -637,6 +638,9 @@ static float drive_map_step(fs_drive *drv, fs_dq i, fs_dq i_ref)
     if (drive_has_smo(&drv->cfg)) {
         const float L_q = fs_fluxmap_secant_q(&drv->map, i, &p);
         fs_smo_set_model(&drv->smo, L_q, p.psi.d - L_q * i.d);
+        /* the map's transient only on the machine's own current: while injecting the observer's is the
+         * filters' fundamental, whose steps from period to period are not the machine's (fs_smo.h) */
+        fs_smo_set_transient(&drv->smo, drv->injecting ? NULL : &p);
     }
     const float psi_d = p.psi.d + p.L_dd * (i_ref.d - i.d), psi_q = p.psi.q + p.L_qq * (i_ref.q - i.q);
     return drv->k_T * (psi_d * i_ref.q - psi_q * i_ref.d);

@@ -1,4 +1,5 @@
 #include "fs_smo.h"
+#include <stddef.h>
 #include "fs_math.h"
 
 /* The tracking form's bandwidths (fs_smo.h, change 3) for the speed the
@@ -76,6 +77,7 @@ fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
     o->L_q_run = cfg->L_q;   /* the model until a map's values come (fs_smo_set_model; a reset keeps them) */
     o->psi_run = cfg->psi_f;
     o->map = false;
+    fs_smo_set_transient(o, NULL);
     fs_smo_reset(o, 0.0f, 0.0f);
     return FS_OK;
 }
@@ -118,6 +120,15 @@ void fs_smo_follow(fs_smo *o, float theta, float w, float T_d)
     o->w = o->mo.w_hat;
     o->k_settled = 0;
     o->converged = false;
+}
+
+void fs_smo_set_transient(fs_smo *o, const fs_fluxmap_point *p)
+{
+    const float L = o->cfg.L_d;
+    o->dL_dd = p ? p->L_dd - L : 0.0f;
+    o->dL_dq = p ? p->L_dq : 0.0f;
+    o->dL_qd = p ? p->L_qd : 0.0f;
+    o->dL_qq = p ? p->L_qq - L : 0.0f;
 }
 
 void fs_smo_set_model(fs_smo *o, float L_q, float psi_a)
@@ -184,6 +195,24 @@ static void smo_settle(fs_smo *o)
     }
 }
 
+/* The voltage that acted less the map's transient (fs_smo.h, saturation's
+ * transient): di_dq/dt is the period's change of the measured current less
+ * the frame's turn, in the tracker's frame at the period's middle. Out of
+ * line: without a map the step stays as it was (B-PIL's budget). */
+FS_OUT_OF_LINE void smo_transient(const fs_smo *o, fs_ab i, float w, fs_ab *u)
+{
+    const float Ts = o->cfg.Ts, k = 1.0f / Ts;
+    const fs_ab i0 = o->have_prev ? o->i_prev : i;
+    const float th = o->mo.theta_hat + 0.5f * Ts * w, cm = fs_cosf(th), sm = fs_sinf(th);
+    const fs_dq i_dq = fs_park((fs_ab){0.5f * (i0.alpha + i.alpha), 0.5f * (i0.beta + i.beta)}, cm, sm);
+    const fs_dq dp = fs_park((fs_ab){k * (i.alpha - i0.alpha), k * (i.beta - i0.beta)}, cm, sm);
+    const fs_dq di = {dp.d + w * i_dq.q, dp.q - w * i_dq.d};
+    const fs_dq v = {o->dL_dd * di.d + o->dL_dq * di.q, o->dL_qd * di.d + o->dL_qq * di.q};
+    const fs_ab v_ab = fs_inv_park(v, cm, sm);
+    u->alpha -= v_ab.alpha;
+    u->beta -= v_ab.beta;
+}
+
 float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
 {
     const fs_smo_config *c = &o->cfg;
@@ -201,6 +230,7 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
         const fs_ab i0 = o->have_prev ? o->i_prev : i;
         i_m.alpha = 0.5f * (i0.alpha + i.alpha);
         i_m.beta = 0.5f * (i0.beta + i.beta);
+        if (o->map) smo_transient(o, i, w, &u);
     }
     float di_a = (-c->R_s * i_m.alpha - wdL * i_m.beta + u.alpha - e_hat.alpha - o->z.alpha) / c->L_d;
     float di_b = (wdL * i_m.alpha - c->R_s * i_m.beta + u.beta - e_hat.beta - o->z.beta) / c->L_d;

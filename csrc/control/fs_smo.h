@@ -133,6 +133,22 @@
  * about (L_q,model - L_q) i_q / psi_a: 25 el.deg on the 2004 Prius MG2 at
  * 80 A with its rated-current inductances.
  *
+ * Saturation's transient (the tracking form, fs_smo_set_transient): the
+ * current observer's dynamics take L_d on both axes, so eq. (4)'s EMF holds
+ * the rest of the machine's flux change, (L_inc - L_d) di_dq/dt with L_inc
+ * the map's incremental inductances at the operating point. On a machine
+ * whose q inductance is several times its d one that is most of a q current
+ * change: the Baldor PM-SyRM (L_qq 0.14 H, L_d 0.017 H) slowing under a
+ * generating load at 1,600..800 rpm made |e| swing 170..360 rad/s' worth
+ * at 570 Hz; where G > 0 change 4 feeds that magnitude back through the
+ * cross-coupling, the load estimate swung with it, the speed loop closed
+ * the circle through the current, and the rotor was lost at 700 rpm. With
+ * a map the model takes that voltage out of the one that acted: the
+ * period's change of the measured current in the tracker's frame at the
+ * period's middle, less the frame's turn w J i_dq, through the map's
+ * L_inc - L_d. Not while the caller injects (its current is then a
+ * filter's estimate of the fundamental, whose steps are not the machine's).
+ *
  * Convergence (both forms, for a hand-over): `converged` is set once the
  * current error stays in the boundary layer (r_i <= 1), |eps| below
  * sin 5 deg and the EMF's own speed within FS_SMO_AGREE of the estimate's
@@ -153,6 +169,7 @@
 #ifndef FS_SMO_H
 #define FS_SMO_H
 
+#include "fs_fluxmap.h"
 #include "fs_lpf.h"
 #include "fs_motion_obs.h"
 #include "fs_pll.h"
@@ -222,6 +239,7 @@ typedef struct {
     float e_mag;         /* |filtered EMF|, V: about |w| psi_f / sqrt 2 behind the filter when it tracks */
     float L_q_run;       /* the model's L_q this step: cfg.L_q, or a flux map's secant (fs_smo_set_model) */
     float psi_run;       /* with a map: the active flux psi_d - L_q i_d (the EMF over the speed), Wb */
+    float dL_dd, dL_dq, dL_qd, dL_qq;   /* with a map: its incremental inductances less L_d (the transient, fs_smo_set_transient), H */
     bool map;            /* fs_smo_set_model was called: psi_run replaces psi_f + (L_d - L_q) i_d */
 } fs_smo;
 
@@ -242,6 +260,10 @@ void fs_smo_follow(fs_smo *o, float theta, float w, float T_d);
 /* From a flux map, for the next step (header, saturation): the q secant
  * inductance and the active flux at the operating point. */
 void fs_smo_set_model(fs_smo *o, float L_q, float psi_a);
+/* From a flux map, for the next step (header, saturation's transient): its
+ * incremental inductances at the operating point; NULL: none (the model's
+ * L_d alone, as without a map). */
+void fs_smo_set_transient(fs_smo *o, const fs_fluxmap_point *p);
 /* One step: i is the current sampled now, u the stationary voltage that
  * acted during the period that ended now. Returns the angle. */
 float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u);
