@@ -1,5 +1,4 @@
 #include "fs_smo.h"
-#include <stddef.h>
 #include "fs_math.h"
 
 /* The tracking form's bandwidths (fs_smo.h, change 3) for the speed the
@@ -77,7 +76,6 @@ fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
     o->L_q_run = cfg->L_q;   /* the model until a map's values come (fs_smo_set_model; a reset keeps them) */
     o->psi_run = cfg->psi_f;
     o->map = false;
-    fs_smo_set_transient(o, NULL);
     fs_smo_reset(o, 0.0f, 0.0f);
     return FS_OK;
 }
@@ -120,15 +118,6 @@ void fs_smo_follow(fs_smo *o, float theta, float w, float T_d)
     o->w = o->mo.w_hat;
     o->k_settled = 0;
     o->converged = false;
-}
-
-void fs_smo_set_transient(fs_smo *o, const fs_fluxmap_point *p)
-{
-    const float L = o->cfg.L_d;
-    o->dL_dd = p ? p->L_dd - L : 0.0f;
-    o->dL_dq = p ? p->L_dq : 0.0f;
-    o->dL_qd = p ? p->L_qd : 0.0f;
-    o->dL_qq = p ? p->L_qq - L : 0.0f;
 }
 
 void fs_smo_set_model(fs_smo *o, float L_q, float psi_a)
@@ -195,22 +184,28 @@ static void smo_settle(fs_smo *o)
     }
 }
 
-/* The voltage that acted less the map's transient (fs_smo.h, saturation's
- * transient): di_dq/dt is the period's change of the measured current less
- * the frame's turn, in the tracker's frame at the period's middle. Out of
- * line: without a map the step stays as it was (B-PIL's budget). */
-FS_OUT_OF_LINE void smo_transient(const fs_smo *o, fs_ab i, float w, fs_ab *u)
+/* (L_inc - L_d) di_dq/dt (fs_smo.h, saturation's transient): di_dq/dt is
+ * the period's change of the measured current (the i0 -> i that eq. (4)
+ * integrates over, fs_smo_step) less the frame's turn,
+ * d/dt (P(-th) i_ab) = P(-th) di_ab/dt - w J i_dq, in the tracker's frame
+ * at the period's middle with its speed, as fs_smo_step's torque. Apart
+ * from the step, which stays as it was without a map (B-PIL's budget: four
+ * more floats here pushed the drive's hot members past 1 KB, +7
+ * instructions a step). */
+fs_ab fs_smo_transient(const fs_smo *o, fs_ab i, const fs_fluxmap_point *p)
 {
-    const float Ts = o->cfg.Ts, k = 1.0f / Ts;
+    const fs_smo_config *c = &o->cfg;
+    if (c->form != FS_SMO_FORM_TRACKING) return (fs_ab){0.0f, 0.0f};
+    const float Ts = c->Ts, k = 1.0f / Ts, w = o->mo.w_hat;
     const fs_ab i0 = o->have_prev ? o->i_prev : i;
     const float th = o->mo.theta_hat + 0.5f * Ts * w, cm = fs_cosf(th), sm = fs_sinf(th);
     const fs_dq i_dq = fs_park((fs_ab){0.5f * (i0.alpha + i.alpha), 0.5f * (i0.beta + i.beta)}, cm, sm);
     const fs_dq dp = fs_park((fs_ab){k * (i.alpha - i0.alpha), k * (i.beta - i0.beta)}, cm, sm);
     const fs_dq di = {dp.d + w * i_dq.q, dp.q - w * i_dq.d};
-    const fs_dq v = {o->dL_dd * di.d + o->dL_dq * di.q, o->dL_qd * di.d + o->dL_qq * di.q};
-    const fs_ab v_ab = fs_inv_park(v, cm, sm);
-    u->alpha -= v_ab.alpha;
-    u->beta -= v_ab.beta;
+    /* the map's L_inc less the model's L_d on both axes; its cross terms whole */
+    const float dL_dd = p->L_dd - c->L_d, dL_qq = p->L_qq - c->L_d;
+    const fs_dq v = {dL_dd * di.d + p->L_dq * di.q, p->L_qd * di.d + dL_qq * di.q};
+    return fs_inv_park(v, cm, sm);
 }
 
 float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
@@ -230,7 +225,6 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
         const fs_ab i0 = o->have_prev ? o->i_prev : i;
         i_m.alpha = 0.5f * (i0.alpha + i.alpha);
         i_m.beta = 0.5f * (i0.beta + i.beta);
-        if (o->map) smo_transient(o, i, w, &u);
     }
     float di_a = (-c->R_s * i_m.alpha - wdL * i_m.beta + u.alpha - e_hat.alpha - o->z.alpha) / c->L_d;
     float di_b = (wdL * i_m.alpha - c->R_s * i_m.beta + u.beta - e_hat.beta - o->z.beta) / c->L_d;

@@ -133,7 +133,7 @@
  * about (L_q,model - L_q) i_q / psi_a: 25 el.deg on the 2004 Prius MG2 at
  * 80 A with its rated-current inductances.
  *
- * Saturation's transient (the tracking form, fs_smo_set_transient): the
+ * Saturation's transient (the tracking form, fs_smo_transient): the
  * current observer's dynamics take L_d on both axes, so eq. (4)'s EMF holds
  * the rest of the machine's flux change, (L_inc - L_d) di_dq/dt with L_inc
  * the map's incremental inductances at the operating point. On a machine
@@ -239,7 +239,6 @@ typedef struct {
     float e_mag;         /* |filtered EMF|, V: about |w| psi_f / sqrt 2 behind the filter when it tracks */
     float L_q_run;       /* the model's L_q this step: cfg.L_q, or a flux map's secant (fs_smo_set_model) */
     float psi_run;       /* with a map: the active flux psi_d - L_q i_d (the EMF over the speed), Wb */
-    float dL_dd, dL_dq, dL_qd, dL_qq;   /* with a map: its incremental inductances less L_d (the transient, fs_smo_set_transient), H */
     bool map;            /* fs_smo_set_model was called: psi_run replaces psi_f + (L_d - L_q) i_d */
 } fs_smo;
 
@@ -260,10 +259,12 @@ void fs_smo_follow(fs_smo *o, float theta, float w, float T_d);
 /* From a flux map, for the next step (header, saturation): the q secant
  * inductance and the active flux at the operating point. */
 void fs_smo_set_model(fs_smo *o, float L_q, float psi_a);
-/* From a flux map, for the next step (header, saturation's transient): its
- * incremental inductances at the operating point; NULL: none (the model's
- * L_d alone, as without a map). */
-void fs_smo_set_transient(fs_smo *o, const fs_fluxmap_point *p);
+/* From a flux map (header, saturation's transient): the voltage
+ * (L_inc - L_d) di_dq/dt, stationary frame, that the map's incremental
+ * inductances at p put across the machine over the period ending with the
+ * current i; the caller takes it from the u it gives fs_smo_step (call it
+ * just before, after any fs_smo_follow). Zero in the PLL form. */
+fs_ab fs_smo_transient(const fs_smo *o, fs_ab i, const fs_fluxmap_point *p);
 /* One step: i is the current sampled now, u the stationary voltage that
  * acted during the period that ended now. Returns the angle. */
 float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u);
