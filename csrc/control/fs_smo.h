@@ -143,10 +143,10 @@
  * at 570 Hz; where G > 0 change 4 feeds that magnitude back through the
  * cross-coupling, the load estimate swung with it, the speed loop closed
  * the circle through the current, and the rotor was lost at 700 rpm. With
- * a map the model takes that voltage out of the one that acted: the
- * period's change of the measured current in the tracker's frame at the
- * period's middle, less the frame's turn w J i_dq, through the map's
- * L_inc - L_d. Not while the caller injects (its current is then a
+ * a map the caller (fs_drive.c, drive_smo_u) takes that voltage out of the
+ * one that acted, fs_smo_transient: the period's change of the measured
+ * current in the tracker's frame at the period's middle, less the frame's
+ * turn w J i_dq, through the map's L_inc - L_d. Not while the caller injects (its current is then a
  * filter's estimate of the fundamental, whose steps are not the machine's).
  *
  * Convergence (both forms, for a hand-over): `converged` is set once the
