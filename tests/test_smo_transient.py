@@ -16,7 +16,6 @@ import numpy as np
 import pytest
 
 from fullspeed._core import ffi, lib
-from fullspeed.reproduce.papers.real import _machine_ok, run_machine
 
 TS, R_S, L_D, L_Q, PSI_F = 125e-6, 1.0, 0.017, 0.14, 0.2
 W = 200.0            # rad/s el., the rotor's constant speed: EMF w psi_f = 40 V
@@ -118,19 +117,3 @@ def test_the_transient_is_the_inductance_difference_times_the_current_change():
     lib.fs_smo_step(o, i0, {"alpha": 0.0, "beta": 0.0})
     v = lib.fs_smo_transient(o, i1, _point())
     assert (v.alpha, v.beta) == (0.0, 0.0)
-
-
-def test_the_baldor_full_range_keeps_the_lock_with_the_maps_whole_model():
-    """B-REAL on the measured Baldor PM-SyRM (issue 33): with its flux map
-    the observer takes the measured current and the whole voltage less the
-    transient (fs_drive.c, drive_smo_u). On main it was lost from the
-    polarity pulses on and the blend never handed over; with the transient
-    on the injection's filtered fundamental alone it was lost in 2 ms where
-    the injection resumes slowing (155 rpm). Now the run is whole: done, no
-    loss of lock, within 10 el.deg, steady |mean| < 2 under the load step
-    at the top speed (the claim's own judgement, _machine_ok)."""
-    row = run_machine({"machine": "baldor-ecs101m0h7ef4", "angle": "blend", "refused": None})
-    assert row["stop_reason"] == "done" and row["lock_lost_at"] is None
-    assert row["err_max"] < 10.0 and abs(row["steady_mean"]) < 2.0
-    assert row["stages"]["backemf"]["time"] > 0.5   # the observer carried the run, not the injection
-    assert _machine_ok(row)

@@ -279,8 +279,6 @@ void fs_drive_reset(fs_drive *drv)
     drv->T_ff = 0.0f;
     drv->fw_map_on = false;
     drv->smo_transient = false;   /* until the map's first step (drive_map_step) */
-    drv->smo_u_inj[0].alpha = drv->smo_u_inj[0].beta = 0.0f;
-    drv->smo_u_inj[1] = drv->smo_u_inj[0];
     drv->phase = drive_starts(&drv->cfg) ? FS_PHASE_START : FS_PHASE_RUN;
     drv->theta_ol = 0.0f;
     drv->pll_started = false;
@@ -288,34 +286,18 @@ void fs_drive_reset(fs_drive *drv)
     drv->u_hist[1] = drv->u_hist[0];
 }
 
-/* The back-EMF observer's input with a flux map (fs_smo.h, saturation's
- * transient): the measured current and the whole voltage that acted over
- * the period that ended now, the carrier's included, less the transient
- * (L_inc - L_d) di_dq/dt of the map's incremental inductances. The map's
- * L_inc is the carrier's inductance too, so the model holds while
- * injecting, and the observer does not take the injection's filtered
- * fundamental: after a resume the filters settle afresh and their
- * fundamental steps are not the machine's (they lost the Baldor at
- * 155 rpm slowing, 15..50 el.deg in 2 ms). Without a map: the filtered
- * fundamental (i_f) and its voltage; without FS_WITH_FLUXMAP drive_map is
- * a constant false: no code (B-PIL's step). */
-static inline fs_ab drive_smo_i(const fs_drive *drv, fs_ab i_ab, fs_ab i_f)
-{
-    return drive_map(drv) ? i_ab : i_f;
-}
-
+/* The voltage the back-EMF observer takes for the period that ended now:
+ * the realised one, with the map less the transient its incremental
+ * inductances put across the machine, (L_inc - L_d) di_dq/dt (fs_smo.h,
+ * saturation's transient). Without FS_WITH_FLUXMAP drive_map is a constant
+ * false: the realised voltage alone, no code (B-PIL's step). */
 static inline fs_ab drive_smo_u(const fs_drive *drv, fs_ab i)
 {
     fs_ab u = drive_u_past(drv);
-    if (drive_map(drv)) {
-        const fs_ab u_h = drv->cfg.delay > 0.5f ? drv->smo_u_inj[1] : drv->smo_u_inj[0];
-        u.alpha += u_h.alpha;
-        u.beta += u_h.beta;
-        if (drv->smo_transient) {   /* the map's point is there from its first step on */
-            const fs_ab v = fs_smo_transient(&drv->smo, i, &drv->smo_at);
-            u.alpha -= v.alpha;
-            u.beta -= v.beta;
-        }
+    if (drive_map(drv) && drv->smo_transient) {
+        const fs_ab v = fs_smo_transient(&drv->smo, i, &drv->smo_at);
+        u.alpha -= v.alpha;
+        u.beta -= v.beta;
     }
     return u;
 }
@@ -342,8 +324,7 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
         /* below its validity the observer starts from the blended estimate
          * (fs_smo_follow; the tracking form only) */
         if (!own) fs_smo_follow(&drv->smo, drv->blend.theta_hat, drv->blend.w_hat, drv->blend.obs.T_d_hat);
-        const fs_ab i_o = drive_smo_i(drv, i_ab, i_f);
-        fs_smo_step(&drv->smo, i_o, drive_smo_u(drv, i_o));
+        fs_smo_step(&drv->smo, i_f, drive_smo_u(drv, i_f));
         fs_blend_step_gated(&drv->blend, drv->smo.theta, drv->hfi.theta, T_ff,   /* Fig. 6 */
                             drv->smo.converged || !c->blend.gate, drv->injecting && drv->hfi.gain >= 1.0f);
         /* With a flux map, above the band the blend is the back-EMF observer's own tracker (its torque
@@ -673,8 +654,10 @@ static float drive_map_step(fs_drive *drv, fs_dq i, fs_dq i_ref)
     if (drive_has_smo(&drv->cfg)) {
         const float L_q = fs_fluxmap_secant_q(&drv->map, i, &p);
         fs_smo_set_model(&drv->smo, L_q, p.psi.d - L_q * i.d);
-        drv->smo_at = p;   /* the transient's inductances for the next step (drive_smo_u) */
-        drv->smo_transient = true;
+        /* the map's transient only on the machine's own current: while injecting the observer's is the
+         * filters' fundamental, whose steps from period to period are not the machine's (fs_smo.h) */
+        drv->smo_at = p;
+        drv->smo_transient = !drv->injecting;
     }
     const float psi_d = p.psi.d + p.L_dd * (i_ref.d - i.d), psi_q = p.psi.q + p.L_qq * (i_ref.q - i.q);
     return drv->k_T * (psi_d * i_ref.q - psi_q * i_ref.d);
@@ -887,10 +870,6 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     out->over_modulation = drive_modulate(drv, in, u_dc, u_ab_ref, u_inj, theta, w_e, out->duty, &u_ab);
     drv->u_hist[1] = drv->u_hist[0];
     drv->u_hist[0] = u_ab;
-    if (drive_map(drv)) {   /* the carrier as it acted, for the observer (drive_smo_u) */
-        drv->smo_u_inj[1] = drv->smo_u_inj[0];
-        drv->smo_u_inj[0] = u_inj;
-    }
     fs_dq u_real = fs_park(u_ab, cos_u, sin_u);
     const bool weakening = weakens && !starting && !polarity && drv->phase != FS_PHASE_RECOVER;
     if (closed_loop)   /* anti-windup; held: the regulators keep PART_1's input (fs_fw.h) */

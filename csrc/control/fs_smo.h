@@ -146,11 +146,8 @@
  * a map the caller (fs_drive.c, drive_smo_u) takes that voltage out of the
  * one that acted, fs_smo_transient: the period's change of the measured
  * current in the tracker's frame at the period's middle, less the frame's
- * turn w J i_dq, through the map's L_inc - L_d. While injecting the
- * drive gives the observer the measured current and the whole voltage,
- * the carrier's included: L_inc is the carrier's inductance too, and the
- * injection's filtered fundamental, whose steps after a resume are not the
- * machine's, is left out (fs_drive.c, drive_smo_u).
+ * turn w J i_dq, through the map's L_inc - L_d. Not while the caller injects (its current is then a
+ * filter's estimate of the fundamental, whose steps are not the machine's).
  *
  * Convergence (both forms, for a hand-over): `converged` is set once the
  * current error stays in the boundary layer (r_i <= 1), |eps| below
