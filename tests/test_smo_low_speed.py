@@ -167,18 +167,11 @@ def test_the_zoo_runs_the_defaults():
         assert key not in text
 
 
-# Known failure since the controller runs on the flux map (issue 33, open): with the current loops' gains
-# scaled to the map's incremental inductances (their designed bandwidth on the saturated machine, 0.72 x
-# the linear loops' at rated current) the tracker oscillates at its EMF filter's cutoff (240 Hz at
-# 600 rpm) and is lost generating below 700 rpm. It holds with the loops' gains unscaled, or with the
-# observer's model on constant inductances plus the map's turn of the EMF and its transient voltage; that
-# model lost the Baldor's measured map in its hand-over under load, so it is not taken. Strict: the day
-# it holds, this marker must go.
-_MAP_LOOP_MARGIN = pytest.mark.xfail(strict=True, reason="issue 33: the tracker's margin at 600-700 rpm "
-                                     "generating with the map-scaled current loops")
-
-
-@pytest.mark.parametrize("T_L", [pytest.param(2.0, marks=_MAP_LOOP_MARGIN), pytest.param(3.0, marks=_MAP_LOOP_MARGIN)])
+# With the current loops' gains scaled to the map's incremental inductances the tracker oscillated at its
+# EMF filter's cutoff (240 Hz at 600 rpm) and was lost generating below 700 rpm (issue 33): the observer's
+# EMF held (L_inc - L_d) di_dq/dt. It holds with the map's transient taken out of the voltage
+# (fs_smo_transient, fs_drive.c drive_smo_u).
+@pytest.mark.parametrize("T_L", [2.0, 3.0])
 def test_the_tracker_holds_a_high_saliency_machine_slowing_while_generating(T_L):
     """examples/own-machine's my48v (L_q / L_d = 2.7) on the back-EMF
     observer alone, from -2000 to -600 rpm in 0.8 s under an active load of

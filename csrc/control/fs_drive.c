@@ -278,6 +278,7 @@ void fs_drive_reset(fs_drive *drv)
     drv->injecting = drv->inject_on = drive_injects(&drv->cfg);
     drv->T_ff = 0.0f;
     drv->fw_map_on = false;
+    drv->smo_transient = false;   /* until the map's first step (drive_map_step) */
     drv->phase = drive_starts(&drv->cfg) ? FS_PHASE_START : FS_PHASE_RUN;
     drv->theta_ol = 0.0f;
     drv->pll_started = false;
@@ -285,6 +286,21 @@ void fs_drive_reset(fs_drive *drv)
     drv->u_hist[1] = drv->u_hist[0];
 }
 
+/* The voltage the back-EMF observer takes for the period that ended now:
+ * the realised one, with the map less the transient its incremental
+ * inductances put across the machine, (L_inc - L_d) di_dq/dt (fs_smo.h,
+ * saturation's transient). Without FS_WITH_FLUXMAP drive_map is a constant
+ * false: the realised voltage alone, no code (B-PIL's step). */
+static inline fs_ab drive_smo_u(const fs_drive *drv, fs_ab i)
+{
+    fs_ab u = drive_u_past(drv);
+    if (drive_map(drv) && drv->smo_transient) {
+        const fs_ab v = fs_smo_transient(&drv->smo, i, &drv->smo_at);
+        u.alpha -= v.alpha;
+        u.beta -= v.beta;
+    }
+    return u;
+}
 
 /* HFI (while injecting), the SMO on the fundamental, the blend; the
  * fundamental current is returned for the loops. */
@@ -308,7 +324,7 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
         /* below its validity the observer starts from the blended estimate
          * (fs_smo_follow; the tracking form only) */
         if (!own) fs_smo_follow(&drv->smo, drv->blend.theta_hat, drv->blend.w_hat, drv->blend.obs.T_d_hat);
-        fs_smo_step(&drv->smo, i_f, drive_u_past(drv));
+        fs_smo_step(&drv->smo, i_f, drive_smo_u(drv, i_f));
         fs_blend_step_gated(&drv->blend, drv->smo.theta, drv->hfi.theta, T_ff,   /* Fig. 6 */
                             drv->smo.converged || !c->blend.gate, drv->injecting && drv->hfi.gain >= 1.0f);
         /* With a flux map, above the band the blend is the back-EMF observer's own tracker (its torque
@@ -407,7 +423,7 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float
 {
     const fs_drive_config *c = &drv->cfg;
     if (c->angle_source == FS_ANGLE_SMO) {
-        fs_smo_step(&drv->smo, *i_ab, drive_u_past(drv));
+        fs_smo_step(&drv->smo, *i_ab, drive_smo_u(drv, *i_ab));
         if (in->sensorless) {
             if (FS_WITH_IF_START && c->w_restart > 0.0f && drv->phase == FS_PHASE_RUN) fs_drive_if_restart(drv, in);
             bool start = drv->phase == FS_PHASE_START;
@@ -625,7 +641,8 @@ static float drive_imc_rectify(fs_drive *drv, const fs_drive_in *in, fs_ab *u_re
 
 /* A flux map's values at the measured current i (fs_drive.h, map) for the
  * next step: the current loops' fluxes and incremental inductances, the
- * back-EMF observer's q secant inductance and active flux; returns the
+ * back-EMF observer's q secant inductance and active flux and its
+ * incremental inductances (the transient, fs_smo.h); returns the
  * torque of the reference i_ref on the map (linearised at i). At the
  * voltage limit in flux weakening the current lags its reference: the
  * observer's model at the reference put its torque 20 % off there (the
@@ -637,6 +654,10 @@ static float drive_map_step(fs_drive *drv, fs_dq i, fs_dq i_ref)
     if (drive_has_smo(&drv->cfg)) {
         const float L_q = fs_fluxmap_secant_q(&drv->map, i, &p);
         fs_smo_set_model(&drv->smo, L_q, p.psi.d - L_q * i.d);
+        /* the map's transient only on the machine's own current: while injecting the observer's is the
+         * filters' fundamental, whose steps from period to period are not the machine's (fs_smo.h) */
+        drv->smo_at = p;
+        drv->smo_transient = !drv->injecting;
     }
     const float psi_d = p.psi.d + p.L_dd * (i_ref.d - i.d), psi_q = p.psi.q + p.L_qq * (i_ref.q - i.q);
     return drv->k_T * (psi_d * i_ref.q - psi_q * i_ref.d);

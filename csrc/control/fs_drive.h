@@ -521,6 +521,10 @@ typedef struct {
     float e_rec;             /* FS_PHASE_RECOVER: the back-EMF's magnitude, low-passed, V (fs_drive_protect.h) */
     fs_fluxmap map;          /* on cfg.map, when has_map */
     fs_fwmap fwm;            /* with the map and flux weakening: the references within the voltage limit */
+    /* with the map (drive_map_step): its point at the last step's current, for the back-EMF observer's transient
+     * (fs_smo_transient; past the hot members' 1 KB, as map), and whether to take it (not after injecting) */
+    fs_fluxmap_point smo_at;
+    bool smo_transient;
     /* after a refused init, the config field or sub-block at fault, as a
      * string literal ("smo.bw_pll", "i_max", "hfi"; fs_status_str tells
      * why); NULL after a successful one */

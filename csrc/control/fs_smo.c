@@ -184,6 +184,30 @@ static void smo_settle(fs_smo *o)
     }
 }
 
+/* (L_inc - L_d) di_dq/dt (fs_smo.h, saturation's transient): di_dq/dt is
+ * the period's change of the measured current (the i0 -> i that eq. (4)
+ * integrates over, fs_smo_step) less the frame's turn,
+ * d/dt (P(-th) i_ab) = P(-th) di_ab/dt - w J i_dq, in the tracker's frame
+ * at the period's middle with its speed, as fs_smo_step's torque. Apart
+ * from the step, which stays as it was without a map (B-PIL's budget: four
+ * more floats here pushed the drive's hot members past 1 KB, +7
+ * instructions a step). */
+fs_ab fs_smo_transient(const fs_smo *o, fs_ab i, const fs_fluxmap_point *p)
+{
+    const fs_smo_config *c = &o->cfg;
+    if (c->form != FS_SMO_FORM_TRACKING) return (fs_ab){0.0f, 0.0f};
+    const float Ts = c->Ts, k = 1.0f / Ts, w = o->mo.w_hat;
+    const fs_ab i0 = o->have_prev ? o->i_prev : i;
+    const float th = o->mo.theta_hat + 0.5f * Ts * w, cm = fs_cosf(th), sm = fs_sinf(th);
+    const fs_dq i_dq = fs_park((fs_ab){0.5f * (i0.alpha + i.alpha), 0.5f * (i0.beta + i.beta)}, cm, sm);
+    const fs_dq dp = fs_park((fs_ab){k * (i.alpha - i0.alpha), k * (i.beta - i0.beta)}, cm, sm);
+    const fs_dq di = {dp.d + w * i_dq.q, dp.q - w * i_dq.d};
+    /* the map's L_inc less the model's L_d on both axes; its cross terms whole */
+    const float dL_dd = p->L_dd - c->L_d, dL_qq = p->L_qq - c->L_d;
+    const fs_dq v = {dL_dd * di.d + p->L_dq * di.q, p->L_qd * di.d + dL_qq * di.q};
+    return fs_inv_park(v, cm, sm);
+}
+
 float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
 {
     const fs_smo_config *c = &o->cfg;

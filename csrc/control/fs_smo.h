@@ -133,6 +133,22 @@
  * about (L_q,model - L_q) i_q / psi_a: 25 el.deg on the 2004 Prius MG2 at
  * 80 A with its rated-current inductances.
  *
+ * Saturation's transient (the tracking form, fs_smo_transient): the
+ * current observer's dynamics take L_d on both axes, so eq. (4)'s EMF holds
+ * the rest of the machine's flux change, (L_inc - L_d) di_dq/dt with L_inc
+ * the map's incremental inductances at the operating point. On a machine
+ * whose q inductance is several times its d one that is most of a q current
+ * change: the Baldor PM-SyRM (L_qq 0.14 H, L_d 0.017 H) slowing under a
+ * generating load at 1,600..800 rpm made |e| swing 170..360 rad/s' worth
+ * at 570 Hz; where G > 0 change 4 feeds that magnitude back through the
+ * cross-coupling, the load estimate swung with it, the speed loop closed
+ * the circle through the current, and the rotor was lost at 700 rpm. With
+ * a map the caller (fs_drive.c, drive_smo_u) takes that voltage out of the
+ * one that acted, fs_smo_transient: the period's change of the measured
+ * current in the tracker's frame at the period's middle, less the frame's
+ * turn w J i_dq, through the map's L_inc - L_d. Not while the caller injects (its current is then a
+ * filter's estimate of the fundamental, whose steps are not the machine's).
+ *
  * Convergence (both forms, for a hand-over): `converged` is set once the
  * current error stays in the boundary layer (r_i <= 1), |eps| below
  * sin 5 deg and the EMF's own speed within FS_SMO_AGREE of the estimate's
@@ -153,6 +169,7 @@
 #ifndef FS_SMO_H
 #define FS_SMO_H
 
+#include "fs_fluxmap.h"
 #include "fs_lpf.h"
 #include "fs_motion_obs.h"
 #include "fs_pll.h"
@@ -242,6 +259,12 @@ void fs_smo_follow(fs_smo *o, float theta, float w, float T_d);
 /* From a flux map, for the next step (header, saturation): the q secant
  * inductance and the active flux at the operating point. */
 void fs_smo_set_model(fs_smo *o, float L_q, float psi_a);
+/* From a flux map (header, saturation's transient): the voltage
+ * (L_inc - L_d) di_dq/dt, stationary frame, that the map's incremental
+ * inductances at p put across the machine over the period ending with the
+ * current i; the caller takes it from the u it gives fs_smo_step (call it
+ * just before, after any fs_smo_follow). Zero in the PLL form. */
+fs_ab fs_smo_transient(const fs_smo *o, fs_ab i, const fs_fluxmap_point *p);
 /* One step: i is the current sampled now, u the stationary voltage that
  * acted during the period that ended now. Returns the angle. */
 float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u);
