@@ -465,8 +465,16 @@ static void integrate_period(fs_sim *s, double t0, int cur_ok)
                     fs_inverter_legs(inv, seg.state[n], i_ph, rail, drop);
                     clear_current_integrals(s);
                 }
-                int steps = substeps(seg.dt[n], s->cfg.h_max);
-                double hstep = seg.dt[n] / steps;
+                /* a dead time that ends on the rail its diode held: its voltage
+                 * and the next segment's are one, integrated as one stretch in
+                 * steps of at most h_max (not with the meters, which count each
+                 * segment's edges and legs) */
+                const int span = s->losses ? 1 : fs_inverter_same_voltage(inv, &seg, n, i_ph);
+                double dt = seg.dt[n];
+                for (int j = 1; j < span; ++j) dt += seg.dt[n + j];
+                n += span - 1;
+                int steps = substeps(dt, s->cfg.h_max);
+                double hstep = dt / steps;
                 for (int m = 0; m < steps; ++m) fs_pmsm_rk4_at(&s->pmsm, s->x, &in, hstep, m == 0 ? &at : NULL);
                 if (s->losses) meter_legs(s, rail, drop);
             }
