@@ -459,17 +459,18 @@ static void integrate_period(fs_sim *s, double t0, int cur_ok)
                 fs_pmsm_at at;
                 currents_now(s, &cur_ok, i_ph, &at);
                 fs_inverter_voltage(inv, seg.state[n], i_ph, &in.u_alpha, &in.u_beta, &in.u_x, &in.u_y);
+                /* a dead time that ends on the rail its diode held: its voltage
+                 * and the next segment's are one, integrated as one stretch in
+                 * steps of at most h_max (only without drops and devices: no
+                 * commutation energy, and each leg on one rail throughout,
+                 * its dead time's diode's, for the meters) */
+                const int span = fs_inverter_same_voltage(inv, &seg, n, i_ph);
                 if (s->losses) {   /* the edges at this segment's start, and its legs */
                     commutations(s, fs_inverter_commutations(inv, s->leg_state, seg.state[n], i_ph));
-                    for (int k = 0; k < s->phases; ++k) s->leg_state[k] = seg.state[n][k];
+                    for (int k = 0; k < s->phases; ++k) s->leg_state[k] = seg.state[n + span - 1][k];
                     fs_inverter_legs(inv, seg.state[n], i_ph, rail, drop);
                     clear_current_integrals(s);
                 }
-                /* a dead time that ends on the rail its diode held: its voltage
-                 * and the next segment's are one, integrated as one stretch in
-                 * steps of at most h_max (not with the meters, which count each
-                 * segment's edges and legs) */
-                const int span = s->losses ? 1 : fs_inverter_same_voltage(inv, &seg, n, i_ph);
                 double dt = seg.dt[n];
                 for (int j = 1; j < span; ++j) dt += seg.dt[n + j];
                 n += span - 1;
