@@ -107,13 +107,30 @@ void fs_inverter_segments(const fs_inverter_config *c, const double *duty, int h
     }
 }
 
+/* A leg's rail in switch state `state` at current i: in dead time (-1) its
+ * diode's, the lower one for a current out of the leg (i >= 0), else the upper. */
+static int rail_of(int state, double i) { return state < 0 ? i < 0.0 : state; }
+
+int fs_inverter_same_voltage(const fs_inverter_config *c, const fs_inv_segments *seg, int n, const double *i_ph)
+{
+    if (c->dev.enabled || c->u_on != 0.0 || c->r_on != 0.0) return 1;
+    const int nl = legs(c);
+    int span = 1;
+    for (; n + span < seg->n; ++span) {
+        const int *next = seg->state[n + span];
+        for (int k = 0; k < nl; ++k)
+            if (next[k] < 0 || next[k] != rail_of(seg->state[n][k], i_ph[k])) return span;
+    }
+    return span;
+}
+
 void fs_inverter_legs(const fs_inverter_config *c, const int *state, const double *i_ph, double *s, double *drop)
 {
     const int nl = legs(c);
     for (int k = 0; k < nl; ++k) {
         const double i = i_ph[k];
         if (state[k] < 0) {   /* dead time: a diode, on the rail opposite to the current's sign */
-            s[k] = i < 0.0;
+            s[k] = rail_of(state[k], i);
             drop[k] = c->dev.enabled ? fs_device_drop(&c->dev, 0, i) : sgn(i) * c->u_on + c->r_on * i;
         } else {
             s[k] = state[k];
@@ -174,8 +191,7 @@ static void pole_voltages(const fs_inverter_config *c, int nl, const int *state,
         return;
     }
     for (int k = 0; k < nl; ++k) {
-        int s = state[k];
-        if (s < 0) s = i_ph[k] < 0.0;  /* diode: i > 0 flows through the lower one */
+        const int s = rail_of(state[k], i_ph[k]);
         v[k] = (s ? 0.5 : -0.5) * c->u_dc - sgn(i_ph[k]) * c->u_on - c->r_on * i_ph[k];
     }
 }

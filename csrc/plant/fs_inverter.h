@@ -79,6 +79,14 @@ typedef struct {
  * the states have c->phases entries. */
 void fs_inverter_segments(const fs_inverter_config *c, const double *duty, int half,
                           fs_inv_segments *seg);
+/* Segment n's voltage lasts beyond it through the segments after it that
+ * have no leg in dead time and the same states as segment n's with each of
+ * its legs in dead time on its diode's rail at phase currents i_ph (a dead
+ * time ends on the rail its diode already held the leg to): how many
+ * segments from n on have the one voltage, 1 if none after it does. Only
+ * an inverter without drops (no devices, u_on = r_on = 0) has a segment's
+ * voltage independent of the currents: with drops, 1. */
+int fs_inverter_same_voltage(const fs_inverter_config *c, const fs_inv_segments *seg, int n, const double *i_ph);
 /* Phase voltages (pole voltage less the mean of the poles) of a segment's
  * switch states given the phase currents (for diodes and device drops);
  * c->phases entries each. */

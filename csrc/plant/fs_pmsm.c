@@ -238,11 +238,16 @@ void fs_pmsm_iron(const fs_pmsm *m, const double *x, double *P_fe, double *T_fe)
 }
 
 /* T_fe: the iron loss's drag (with losses; else 0), which a brake holds against as it holds friction. */
+/* i_at: the currents of x as fs_pmsm_current_dq gives them, or NULL (always NULL with harm: the
+ * torque needs the energy's angle term, which harm_current computes with them). */
 FS_SPECIALISE void outputs(fs_pmsm *m, const double *x, const fs_pmsm_input *in, double cs, double sn,
-                           const int five, const int harm, const double T_fe, double *i_d, double *i_q,
-                           double *i_d3, double *i_q3, double *T_e, double *T_shaft)
+                           const int five, const int harm, const double T_fe, const fs_pmsm_at *i_at,
+                           double *i_d, double *i_q, double *i_d3, double *i_q3, double *T_e, double *T_shaft)
 {
-    if (harm) {
+    if (i_at) {
+        *i_d = i_at->i_d;
+        *i_q = i_at->i_q;
+    } else if (harm) {
         double dW;
         harm_current(m, x, cs, sn, i_d, i_q, &dW);
         *T_e = 1.5 * m->cfg.pole_pairs * (x[FS_X_PSI_D] * *i_q - x[FS_X_PSI_Q] * *i_d - dW);
@@ -272,12 +277,12 @@ void fs_pmsm_outputs(fs_pmsm *m, const double *x, const fs_pmsm_input *in,
     double i_d3, i_q3;
     const double T_fe = m->cfg.losses ? iron_drag(m, x) : 0.0;
     if (m->cfg.phases == 5) {
-        outputs(m, x, in, 0.0, 0.0, 1, 0, T_fe, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
+        outputs(m, x, in, 0.0, 0.0, 1, 0, T_fe, NULL, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
     } else if (m->harm) {
         const double th = m->cfg.pole_pairs * x[FS_X_THETA_M];
-        outputs(m, x, in, cos(th), sin(th), 0, 1, T_fe, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
+        outputs(m, x, in, cos(th), sin(th), 0, 1, T_fe, NULL, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
     } else {
-        outputs(m, x, in, 0.0, 0.0, 0, 0, T_fe, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
+        outputs(m, x, in, 0.0, 0.0, 0, 0, T_fe, NULL, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
     }
 }
 
@@ -331,12 +336,13 @@ static void incremental_inverse(fs_pmsm *m, double psi_d, double psi_q, double G
 
 /* The right-hand side with the rotor angle's cosine and sine given. */
 FS_SPECIALISE void deriv_cs(fs_pmsm *m, const double *x, const fs_pmsm_input *in, double cs,
-                            double sn, const int five, const int harm, const int losses, double *dx)
+                            double sn, const int five, const int harm, const int losses, const fs_pmsm_at *i_at,
+                            double *dx)
 {
     const fs_pmsm_config *c = &m->cfg;
     double i_d, i_q, i_d3 = 0.0, i_q3 = 0.0, T_e, T_shaft;
     const double T_fe = losses ? iron_drag(m, x) : 0.0;
-    outputs(m, x, in, cs, sn, five, harm, T_fe, &i_d, &i_q, &i_d3, &i_q3, &T_e, &T_shaft);
+    outputs(m, x, in, cs, sn, five, harm, T_fe, i_at, &i_d, &i_q, &i_d3, &i_q3, &T_e, &T_shaft);
     double w_m = x[FS_X_W_M];  /* SPEED_IDEAL: follows dw_load, reset each sample */
     double w_e = c->pole_pairs * w_m;
     double u_d = cs * in->u_alpha + sn * in->u_beta;
@@ -420,13 +426,13 @@ void fs_pmsm_deriv(fs_pmsm *m, const double *x, const fs_pmsm_input *in, double 
     const double cs = cos(th), sn = sin(th);
     const int five = m->cfg.phases == 5;
     if (m->cfg.losses) {
-        if (five) deriv_cs(m, x, in, cs, sn, 1, 0, 1, dx);
-        else if (m->harm) deriv_cs(m, x, in, cs, sn, 0, 1, 1, dx);
-        else deriv_cs(m, x, in, cs, sn, 0, 0, 1, dx);
+        if (five) deriv_cs(m, x, in, cs, sn, 1, 0, 1, NULL, dx);
+        else if (m->harm) deriv_cs(m, x, in, cs, sn, 0, 1, 1, NULL, dx);
+        else deriv_cs(m, x, in, cs, sn, 0, 0, 1, NULL, dx);
     } else {
-        if (five) deriv_cs(m, x, in, cs, sn, 1, 0, 0, dx);
-        else if (m->harm) deriv_cs(m, x, in, cs, sn, 0, 1, 0, dx);
-        else deriv_cs(m, x, in, cs, sn, 0, 0, 0, dx);
+        if (five) deriv_cs(m, x, in, cs, sn, 1, 0, 0, NULL, dx);
+        else if (m->harm) deriv_cs(m, x, in, cs, sn, 0, 1, 0, NULL, dx);
+        else deriv_cs(m, x, in, cs, sn, 0, 0, 0, NULL, dx);
     }
 }
 
@@ -448,21 +454,28 @@ FS_SPECIALISE void deriv_stage(fs_pmsm *m, const double *x0, const double *y,
         cd = cos(d);
         sd = sin(d);
     }
-    deriv_cs(m, y, in, c0 * cd - s0 * sd, s0 * cd + c0 * sd, five, harm, losses, dx);
+    deriv_cs(m, y, in, c0 * cd - s0 * sd, s0 * cd + c0 * sd, five, harm, losses, NULL, dx);
 }
 
 /* RK4 over the first NX states (FS_X_N3: three phases, FS_X_N5: five;
  * FS_X_N with the loss meters); harm: the three-phase machine with its
  * spatial harmonics. */
-FS_SPECIALISE void rk4(fs_pmsm *m, double *x, const fs_pmsm_input *in, double h, const int five,
-                       const int harm, const int losses)
+FS_SPECIALISE void rk4(fs_pmsm *m, double *x, const fs_pmsm_input *in, double h, const fs_pmsm_at *a,
+                       const int five, const int harm, const int losses)
 {
     enum { NX = FS_X_N };
     const int nx = losses ? FS_X_N : (five ? FS_X_N5 : FS_X_N3);
     double k1[NX], k2[NX], k3[NX], k4[NX], y[NX];
-    double th = m->cfg.pole_pairs * x[FS_X_THETA_M];
-    double c0 = cos(th), s0 = sin(th);
-    deriv_cs(m, x, in, c0, s0, five, harm, losses, k1);
+    double c0, s0;
+    if (a) {
+        c0 = a->cs;
+        s0 = a->sn;
+    } else {
+        double th = m->cfg.pole_pairs * x[FS_X_THETA_M];
+        c0 = cos(th);
+        s0 = sin(th);
+    }
+    deriv_cs(m, x, in, c0, s0, five, harm, losses, !harm && a && a->reuse ? a : NULL, k1);
     for (int n = 0; n < nx; ++n) y[n] = x[n] + 0.5 * h * k1[n];
     deriv_stage(m, x, y, in, c0, s0, five, harm, losses, k2);
     for (int n = 0; n < nx; ++n) y[n] = x[n] + 0.5 * h * k2[n];
@@ -472,15 +485,29 @@ FS_SPECIALISE void rk4(fs_pmsm *m, double *x, const fs_pmsm_input *in, double h,
     for (int n = 0; n < nx; ++n) x[n] += h / 6.0 * (k1[n] + 2.0 * k2[n] + 2.0 * k3[n] + k4[n]);
 }
 
-void fs_pmsm_rk4(fs_pmsm *m, double *x, const fs_pmsm_input *in, double h)
+void fs_pmsm_rk4_at(fs_pmsm *m, double *x, const fs_pmsm_input *in, double h, const fs_pmsm_at *a)
 {
     if (m->cfg.losses) {
-        if (m->cfg.phases == 5) rk4(m, x, in, h, 1, 0, 1);
-        else if (m->harm) rk4(m, x, in, h, 0, 1, 1);
-        else rk4(m, x, in, h, 0, 0, 1);
+        if (m->cfg.phases == 5) rk4(m, x, in, h, a, 1, 0, 1);
+        else if (m->harm) rk4(m, x, in, h, a, 0, 1, 1);
+        else rk4(m, x, in, h, a, 0, 0, 1);
     } else {
-        if (m->cfg.phases == 5) rk4(m, x, in, h, 1, 0, 0);
-        else if (m->harm) rk4(m, x, in, h, 0, 1, 0);
-        else rk4(m, x, in, h, 0, 0, 0);
+        if (m->cfg.phases == 5) rk4(m, x, in, h, a, 1, 0, 0);
+        else if (m->harm) rk4(m, x, in, h, a, 0, 1, 0);
+        else rk4(m, x, in, h, a, 0, 0, 0);
     }
+}
+
+void fs_pmsm_rk4(fs_pmsm *m, double *x, const fs_pmsm_input *in, double h)
+{
+    fs_pmsm_rk4_at(m, x, in, h, NULL);
+}
+
+void fs_pmsm_at_state(fs_pmsm *m, const double *x, fs_pmsm_at *a)
+{
+    const double th = m->cfg.pole_pairs * x[FS_X_THETA_M];
+    a->cs = cos(th);
+    a->sn = sin(th);
+    fs_pmsm_current_dq(m, x, a->cs, a->sn, &a->i_d, &a->i_q);
+    a->reuse = !m->harm && m->mag.cfg.kind != FS_MAG_FLUXMAP;
 }

@@ -168,4 +168,22 @@ void fs_pmsm_set_temperature(fs_pmsm *m, double *x, double r, double k);
 /* Classic RK4 step of length h with held input. */
 void fs_pmsm_rk4(fs_pmsm *m, double *x, const fs_pmsm_input *in, double h);
 
+/* A state's electrical angle's cosine and sine and its rotor-frame
+ * currents (fs_pmsm_current_dq), as a caller computed them before a step
+ * from that state (the switching inverter's segment needs the currents for
+ * its voltage): the step's first stage takes them instead of computing
+ * them again. `reuse` says the currents are the ones the first stage would
+ * compute, to the bit: not with spatial harmonics (the stage needs the
+ * energy's angle term too) nor with a flux map (its solve starts from the
+ * last solution, fs_mag_current's hint, so a second solve of the same
+ * state can differ in the last bit); the angle's cosine and sine always. */
+typedef struct {
+    double cs, sn;
+    double i_d, i_q;
+    int reuse;
+} fs_pmsm_at;
+void fs_pmsm_at_state(fs_pmsm *m, const double *x, fs_pmsm_at *a);
+/* fs_pmsm_rk4 from state x, whose fs_pmsm_at is a: the same result to the bit. */
+void fs_pmsm_rk4_at(fs_pmsm *m, double *x, const fs_pmsm_input *in, double h, const fs_pmsm_at *a);
+
 #endif /* FS_PMSM_H */

@@ -54,7 +54,8 @@ struct fs_sim {
      * from its last solution (fs_mag_current's hint): a second solve of the
      * same state can differ in the last bit, so it is solved twice as before. */
     int cur_ok;
-    double cur_ph[FS_INV_MAX_LEGS], cur_d, cur_q;
+    double cur_ph[FS_INV_MAX_LEGS];
+    fs_pmsm_at cur_at;       /* the angle's cosine and sine, the rotor-frame currents */
     double e_dc0;            /* at the last sample: the source's meter (with the loss meters), J */
     int losses;              /* cfg.plant.losses: the loss meters run */
     int imc_real;            /* the matrix converter with devices, dead time or meters (imc_deriv_real) */
@@ -157,25 +158,30 @@ static void inv_clarke3(double a, double b, double *v)
     v[2] = -0.5 * a - 0.5 * sqrt(3.0) * b;
 }
 
-/* The fundamental-plane current of a state: stationary (alpha, beta) and,
- * if asked, rotor frame (d, q). */
-static void stator_current(fs_sim *s, const double *x, double *i_a, double *i_b, double *i_d, double *i_q)
+/* The fundamental-plane current of a state: stationary (alpha, beta), with
+ * the angle's cosine and sine and the rotor frame's (d, q) in a. */
+static void stator_current_at(fs_sim *s, const double *x, double *i_a, double *i_b, fs_pmsm_at *a)
 {
-    const double th = s->pmsm.cfg.pole_pairs * x[FS_X_THETA_M];
-    const double cs = cos(th), sn = sin(th);
-    double id, iq;
-    fs_pmsm_current_dq(&s->pmsm, x, cs, sn, &id, &iq);
-    *i_a = cs * id - sn * iq;
-    *i_b = sn * id + cs * iq;
-    if (i_d) *i_d = id;
-    if (i_q) *i_q = iq;
+    fs_pmsm_at_state(&s->pmsm, x, a);
+    *i_a = a->cs * a->i_d - a->sn * a->i_q;
+    *i_b = a->sn * a->i_d + a->cs * a->i_q;
 }
 
-/* Phase currents (s->phases of them) of a state, and the rotor-frame ones. */
-static void phase_currents(fs_sim *s, const double *x, double *i_ph, double *i_d, double *i_q)
+/* The same, the rotor frame's only if asked. */
+static void stator_current(fs_sim *s, const double *x, double *i_a, double *i_b, double *i_d, double *i_q)
+{
+    fs_pmsm_at a;
+    stator_current_at(s, x, i_a, i_b, &a);
+    if (i_d) *i_d = a.i_d;
+    if (i_q) *i_q = a.i_q;
+}
+
+/* Phase currents (s->phases of them) of a state, and in a what
+ * stator_current_at gives. */
+static void phase_currents_at(fs_sim *s, const double *x, double *i_ph, fs_pmsm_at *a)
 {
     double ia, ib;
-    stator_current(s, x, &ia, &ib, i_d, i_q);
+    stator_current_at(s, x, &ia, &ib, a);
     if (s->phases == 5) {
         const double th = s->pmsm.cfg.pole_pairs * x[FS_X_THETA_M];
         double id3, iq3;
@@ -185,6 +191,15 @@ static void phase_currents(fs_sim *s, const double *x, double *i_ph, double *i_d
     } else {
         inv_clarke3(ia, ib, i_ph);
     }
+}
+
+/* Phase currents of a state, and the rotor-frame ones if asked. */
+static void phase_currents(fs_sim *s, const double *x, double *i_ph, double *i_d, double *i_q)
+{
+    fs_pmsm_at a;
+    phase_currents_at(s, x, i_ph, &a);
+    if (i_d) *i_d = a.i_d;
+    if (i_q) *i_q = a.i_q;
 }
 
 static void thermal_apply(fs_sim *s);
@@ -403,8 +418,24 @@ static void commutations(fs_sim *s, double E)
     s->e_dc += E;
 }
 
-/* Integrate the plant over one control period with the duties now acting. */
-static void integrate_period(fs_sim *s, double t0)
+/* The phase currents of the state as it is (and in a its angle's cosine and
+ * sine and rotor-frame currents, for the step from it): those the
+ * overcurrent check left if cur_ok (its first use in the period: the state
+ * has not moved since), else computed. */
+static void currents_now(fs_sim *s, int *cur_ok, double *i_ph, fs_pmsm_at *a)
+{
+    if (*cur_ok) {
+        for (int k = 0; k < FS_INV_MAX_LEGS; ++k) i_ph[k] = s->cur_ph[k];
+        *a = s->cur_at;
+        *cur_ok = 0;
+    } else {
+        phase_currents_at(s, s->x, i_ph, a);
+    }
+}
+
+/* Integrate the plant over one control period with the duties now acting;
+ * cur_ok: the overcurrent check's currents are the state's (currents_now). */
+static void integrate_period(fs_sim *s, double t0, int cur_ok)
 {
     const fs_inverter_config *inv = &s->cfg.inverter;
     fs_pmsm_input in = {0};
@@ -425,17 +456,27 @@ static void integrate_period(fs_sim *s, double t0)
             fs_inv_segments seg;
             fs_inverter_segments(inv, s->duty_now, half, &seg);
             for (int n = 0; n < seg.n; ++n) {
-                phase_currents(s, s->x, i_ph, NULL, NULL);
+                fs_pmsm_at at;
+                currents_now(s, &cur_ok, i_ph, &at);
                 fs_inverter_voltage(inv, seg.state[n], i_ph, &in.u_alpha, &in.u_beta, &in.u_x, &in.u_y);
+                /* a dead time that ends on the rail its diode held: its voltage
+                 * and the next segment's are one, integrated as one stretch in
+                 * steps of at most h_max (only without drops and devices: no
+                 * commutation energy, and each leg on one rail throughout,
+                 * its dead time's diode's, for the meters) */
+                const int span = fs_inverter_same_voltage(inv, &seg, n, i_ph);
                 if (s->losses) {   /* the edges at this segment's start, and its legs */
                     commutations(s, fs_inverter_commutations(inv, s->leg_state, seg.state[n], i_ph));
-                    for (int k = 0; k < s->phases; ++k) s->leg_state[k] = seg.state[n][k];
+                    for (int k = 0; k < s->phases; ++k) s->leg_state[k] = seg.state[n + span - 1][k];
                     fs_inverter_legs(inv, seg.state[n], i_ph, rail, drop);
                     clear_current_integrals(s);
                 }
-                int steps = substeps(seg.dt[n], s->cfg.h_max);
-                double hstep = seg.dt[n] / steps;
-                for (int m = 0; m < steps; ++m) fs_pmsm_rk4(&s->pmsm, s->x, &in, hstep);
+                double dt = seg.dt[n];
+                for (int j = 1; j < span; ++j) dt += seg.dt[n + j];
+                n += span - 1;
+                int steps = substeps(dt, s->cfg.h_max);
+                double hstep = dt / steps;
+                for (int m = 0; m < steps; ++m) fs_pmsm_rk4_at(&s->pmsm, s->x, &in, hstep, m == 0 ? &at : NULL);
                 if (s->losses) meter_legs(s, rail, drop);
             }
         } else {
@@ -449,7 +490,8 @@ static void integrate_period(fs_sim *s, double t0)
                     before[k] = d > 0.0 && d < 1.0 ? half == 1 : d >= 1.0;
                     after[k] = d > 0.0 && d < 1.0 ? !before[k] : before[k];
                 }
-                phase_currents(s, s->x, i_ph, NULL, NULL);
+                fs_pmsm_at at;
+                currents_now(s, &cur_ok, i_ph, &at);
                 commutations(s, fs_inverter_commutations(inv, before, after, i_ph));
             }
             /* the mean voltage depends on the currents only through dead time
@@ -461,14 +503,15 @@ static void integrate_period(fs_sim *s, double t0)
                 if (s->losses) fs_inverter_mean_legs(inv, s->duty_now, i_ph, rail, drop);
             }
             for (int m = 0; m < steps; ++m) {
+                fs_pmsm_at at;
                 if (!ideal) {
-                    phase_currents(s, s->x, i_ph, NULL, NULL);
+                    currents_now(s, &cur_ok, i_ph, &at);
                     fs_inverter_mean_voltage(inv, s->duty_now, i_ph, &in.u_alpha, &in.u_beta, &in.u_x,
                                              &in.u_y);
                     if (s->losses) fs_inverter_mean_legs(inv, s->duty_now, i_ph, rail, drop);
                 }
                 if (s->losses) clear_current_integrals(s);
-                fs_pmsm_rk4(&s->pmsm, s->x, &in, hstep);
+                fs_pmsm_rk4_at(&s->pmsm, s->x, &in, hstep, ideal ? NULL : &at);
                 if (s->losses) meter_legs(s, rail, drop);
             }
         }
@@ -672,8 +715,8 @@ static void sample(fs_sim *s, double t, fs_drive_in *din, double *i_ph, double *
 
     if (s->cur_ok) {
         for (int k = 0; k < FS_INV_MAX_LEGS; ++k) i_ph[k] = s->cur_ph[k];
-        *i_d = s->cur_d;
-        *i_q = s->cur_q;
+        *i_d = s->cur_at.i_d;
+        *i_q = s->cur_at.i_q;
     } else {
         phase_currents(s, s->x, i_ph, i_d, i_q);
     }
@@ -829,9 +872,10 @@ FS_SPECIALISE void row_drive(const fs_sim *s, double theta_e, const fs_drive_in 
 static int advance(fs_sim *s, double t)
 {
     const fs_sim_config *c = &s->cfg;
+    const int cur_ok = s->cur_ok;
     s->cur_ok = 0;
     s->x[FS_X_UD_INT] = s->x[FS_X_UQ_INT] = 0.0;
-    if (s->imc) integrate_period_imc(s, t); else integrate_period(s, t);
+    if (s->imc) integrate_period_imc(s, t); else integrate_period(s, t, cur_ok);
     if (s->thermal_on) thermal_period(s);
     if (c->delay) {
         for (int k = 0; k < s->phases; ++k) s->duty_now[k] = s->duty_next[k];
@@ -853,7 +897,7 @@ static int advance(fs_sim *s, double t)
     }
     if (c->i_trip > 0.0) {
         double *i_ph = s->cur_ph;
-        phase_currents(s, s->x, i_ph, &s->cur_d, &s->cur_q);
+        phase_currents_at(s, s->x, i_ph, &s->cur_at);
         s->cur_ok = s->pmsm.mag.cfg.kind != FS_MAG_FLUXMAP;
         for (int k = 0; k < s->phases; ++k) {
             if (fabs(i_ph[k]) > c->i_trip) {
