@@ -97,8 +97,10 @@ fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
 
 /* The MTPA locus as i_d(i_q): psi_f i_d + (L_d - L_q)(i_d^2 - i_q^2) = 0,
  * written without the cancellation of psi_f - sqrt(...) at small currents
- * (i_d = -i_q without a magnet). */
-static float mtpa_locus_id(const fs_mtpa *m, float iq)
+ * (i_d = -i_q without a magnet). Inline: the step calls it twice; as a
+ * call, each formed the address of every constant it reads (the firmware's
+ * build on a Cortex-M4F, bench/pil.py: 24.7 instructions a step more). */
+static inline float mtpa_locus_id(const fs_mtpa *m, float iq)
 {
     if (m->cfg.psi_f <= 0.0f) return -iq;
     if (!m->salient) return 0.0f;
