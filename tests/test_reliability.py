@@ -119,6 +119,16 @@ def test_bad_input_is_one_line_naming_file_field_value(tmp_path, capsys, what, t
     assert "Traceback" not in err
 
 
+
+@pytest.mark.parametrize("scale, hint", [(1000.0, True), (1e6, False)])
+def test_a_flux_map_out_of_range_names_its_largest_flux_and_the_likely_unit(tmp_path, capsys, scale, hint):
+    """A map in mWb read as Wb is a thousand times a machine's flux: the
+    refusal gives the largest value read and, where a thousandth of it is a
+    flux, says so; far beyond that, no guess at the unit."""
+    psi_d = [[0.6 * scale] * 2, [0.7 * scale] * 2, [0.8 * scale] * 2]
+    _, line = refused_in_one_line(capsys, tmp_path, "run", FLUXMAP + f"psi_d = {psi_d}\n", "machine.magnetic.psi_d")
+    assert "must be within +-100 Wb" in line and (hint or f"psi_d = {0.8 * scale!r}" in line)
+    assert (f"; {0.8 * scale / 1000:g} Wb if the file's values are in mWb" in line) == hint
 SWEEP = 'name = "s"\nbase = "yang2022-smo-steady-400rpm"\n'
 BAD_SWEEPS = [
     ("axis on no field", SWEEP + '[axes]\n"controller.modee" = [1.0]\n', "axes.controller.modee"),

@@ -292,6 +292,9 @@ def _magnetic_file(mag: dict, field: str, source) -> dict:
     return {**mag, **load_map(p, f"{field}.file", source)}
 
 
+FLUX_MAX = 100.0   # Wb: a flux map's largest |flux| the loader takes (a machine's is a few Wb at most)
+
+
 def _check_fluxmap(mag: dict, prefix: str, source) -> None:
     """A measured flux map: regular current grids and a monotonic, finite
     table psi[k][l] at (i_d[k], i_q[l])."""
@@ -307,10 +310,16 @@ def _check_fluxmap(mag: dict, prefix: str, source) -> None:
         tab = mag[name]
         ok = (isinstance(tab, list) and len(tab) == n_d
               and all(isinstance(row, list) and len(row) == n_q for row in tab)
-              and all(finite_number(x) and abs(x) <= 100.0
-                      for row in tab for x in row))
+              and all(finite_number(x) for row in tab for x in row))
         if not ok:
-            raise ConfigError(f"{prefix}.{name}", "table", f"must be a {n_d} x {n_q} table (rows i_d, columns i_q) of finite fluxes within +-100 Wb", source)
+            raise ConfigError(f"{prefix}.{name}", "table", f"must be a {n_d} x {n_q} table (rows i_d, columns i_q) of finite fluxes within +-{FLUX_MAX:g} Wb", source)
+        big = max(abs(x) for row in tab for x in row)
+        if big > FLUX_MAX:
+            # a machine's flux linkage is a few Wb at most; a thousand times that is a map in mWb read as Wb
+            unit = (f"; {big / 1000:g} Wb if the file's values are in mWb: say so in its header "
+                    f"('{name} [mWb]')") if big <= 1000 * FLUX_MAX else ""
+            raise ConfigError(f"{prefix}.{name}", big, f"(its largest |flux|, Wb) must be within +-{FLUX_MAX:g} Wb{unit}",
+                              source)
     psi_d, psi_q = mag["psi_d"], mag["psi_q"]
     for k in range(n_d - 1):
         for n in range(n_q):
