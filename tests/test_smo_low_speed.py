@@ -216,3 +216,23 @@ def test_the_trackers_direction_is_its_own_speeds_sign_through_zero():
         lib.fs_smo_step(o, ZERO, ZERO)
         assert o.w < 0.0 and abs(o.w) < o.cfg.w_valid
         assert o.dir == (-1.0 if turned else 1.0), form
+
+
+@pytest.mark.parametrize("i_q", [-8.0, -15.0, -25.0])
+def test_the_tracker_carries_its_model_through_a_zero_crossing(i_q):
+    """yang2022 at 300 rpm braked through zero by i_q (2,100..6,600 rpm/s;
+    the encoder's loops, the observer alongside): the tracker runs on its
+    motion model through the band below w_valid (fs_smo.h, zero crossing)
+    and stays within 10 el.deg; faded there, as at a standstill, it was
+    lost (pi off) at each of these three."""
+    dur = 0.8
+    ov = {"duration": dur, "observer": {"form": "tracking", "handover": dur},
+          "references": {"i_q": [[0.0, 0.0], [0.3, 0.0], [0.3, i_q], [dur, i_q]]},
+          "load": {"kind": "torque", "torque": 0.0}, "initial": {"speed_rpm": 300.0}, "metrics": {"steady": None}}
+    res = simulate(load_scenario("yang2022-smo-steady-400rpm", ov))
+    t, w, e = res["t"], res["w_m"], np.degrees(res["est_err"])
+    k0 = int(np.argmax(w < 0.0))
+    assert k0 > 0 and w[-1] < -2.0 * math.pi * 200.0 / 60.0    # the rotor went through zero and on
+    crossing = (t > t[k0] - 0.05) & (t < t[k0] + 0.1)
+    assert np.abs(e[crossing]).max() < 10.0
+    assert np.abs(e[t > t[k0] + 0.1]).max() < 5.0

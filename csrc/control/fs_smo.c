@@ -108,6 +108,7 @@ void fs_smo_reset(fs_smo *o, float theta, float w)
     o->w = w;
     o->dir = w < 0.0f ? -1.0f : 1.0f;
     o->valid = false;
+    o->n_cross = 0;
     o->r_i = o->eps = o->e_mag = 0.0f;
 }
 
@@ -214,6 +215,53 @@ fs_ab fs_smo_transient(const fs_smo *o, fs_ab i, const fs_fluxmap_point *p)
     return fs_inv_park(v, cm, sm);
 }
 
+/* A zero crossing of the tracking form (fs_smo.h): the EMF fades through
+ * the band below w_valid and turns about at zero, so that the angle it
+ * gives is no angle there. The tracker carries the estimate on its motion
+ * model alone, the current's torque T and the load T_d it learnt while
+ * valid, until the estimate is through the band and the EMF's filter,
+ * turned about at zero, has settled at its floor cutoff; at most for twice
+ * the time the model's acceleration needs through the band (0.8 w_valid
+ * one way, w_valid the other) and the filter's settling after. */
+FS_OUT_OF_LINE FS_COLD void smo_cross_enter(fs_smo *o)
+{
+    const fs_smo_config *c = &o->cfg;
+    const float a = o->mo.k_u * (o->T_model + o->mo.T_d_hat);
+    const float t_x = 3.6f * c->w_valid / fabsf(a);
+    /* only where the model turns the speed through zero, and not a stop
+     * near zero speed (FS_SMO_CROSS_MAX), where the torque fades as before */
+    if (a * o->mo.w_hat < 0.0f && t_x < FS_SMO_CROSS_MAX) {
+        o->n_settle_dir = 1 + (int)(3.0f / (FS_SMO_WC_PER_BW * o->mo.cfg.bandwidth * c->Ts));
+        o->n_cross = (int)(t_x / c->Ts) + o->n_settle_dir;
+        o->n_dir = 0;
+        o->n_emf = 0;
+    }
+}
+
+FS_OUT_OF_LINE FS_COLD void smo_cross_step(fs_smo *o, float T)
+{
+    const fs_smo_config *c = &o->cfg;
+    fs_motion_obs_predict(&o->mo, T);
+    const float w = o->mo.w_hat;
+    if (o->n_dir == 0 && w * o->dir < 0.0f) {
+        o->n_dir = o->n_settle_dir;   /* through zero: the filter turns about */
+    } else if (o->n_dir > 1) {
+        --o->n_dir;
+    } else if (o->n_dir == 0) {
+        /* before zero, an EMF that stays at w_valid's beyond its
+         * low-pass's settling says the rotor is not in the band: the
+         * estimate fell below it on its own (a disturbance), not with the
+         * rotor; the crossing ends and the EMF is read again */
+        o->n_emf = o->e_raw >= c->w_valid * c->psi_f ? o->n_emf + 1 : 0;
+        if ((float)o->n_emf * c->bw_pll * c->Ts > 3.0f) {
+            o->n_cross = 0;
+            return;
+        }
+    }
+    const bool through = o->n_dir == 1 && fabsf(w) >= c->w_valid;
+    o->n_cross = through ? 0 : o->n_cross - 1;
+}
+
 float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
 {
     const fs_smo_config *c = &o->cfg;
@@ -293,14 +341,19 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
          * the EMF has confirmed: at standstill neither a current in an
          * unknown frame nor a load learnt at speed (T_d held) accelerates
          * the estimate */
-        const float T_net = o->valid ? kappa * T - (1.0f - kappa) * o->mo.T_d_hat : -o->mo.T_d_hat;
-        fs_motion_obs_step(&o->mo, kappa * err, T_net);
-        /* Becoming valid (below, on this speed), the model's acceleration,
-         * nil until now, stays continuous: T_d starts at -T and learns the
-         * rest. Whatever T_d held (a load from before, or none) counted in
-         * full at once: with the encoder's loops at 150 rpm under 3 N m and
-         * no load learnt, the estimate ran to 475 rpm, 24 el.deg off. */
-        if (!o->valid && fabsf(o->mo.w_hat) >= c->w_valid) o->mo.T_d_hat = -T;
+        o->T_model = T;
+        if (o->n_cross > 0) {
+            smo_cross_step(o, T);   /* a zero crossing, on the model alone (header; rare, out of line) */
+        } else {
+            const float T_net = o->valid ? kappa * T - (1.0f - kappa) * o->mo.T_d_hat : -o->mo.T_d_hat;
+            fs_motion_obs_step(&o->mo, kappa * err, T_net);
+            /* Becoming valid (below, on this speed), the model's acceleration,
+             * nil until now, stays continuous: T_d starts at -T and learns the
+             * rest. Whatever T_d held (a load from before, or none) counted in
+             * full at once: with the encoder's loops at 150 rpm under 3 N m and
+             * no load learnt, the estimate ran to 475 rpm, 24 el.deg off. */
+            if (!o->valid && fabsf(o->mo.w_hat) >= c->w_valid) o->mo.T_d_hat = -T;
+        }
         smo_schedule(o);
         o->w = o->mo.w_hat;
         o->theta = o->mo.theta_hat;
@@ -342,8 +395,12 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
         }
     }
     float aw = fabsf(o->w);
-    if (aw >= c->w_valid) o->valid = true;
-    else if (aw < 0.8f * c->w_valid) o->valid = false;  /* hysteresis */
+    if (aw >= c->w_valid) {
+        o->valid = true;
+    } else if (aw < 0.8f * c->w_valid) {   /* hysteresis */
+        if (o->valid && track && !c->dir_external) smo_cross_enter(o);   /* the blend's injection knows the low speeds */
+        o->valid = false;
+    }
     smo_settle(o);
     return o->theta;
 }

@@ -122,6 +122,30 @@
  *     caller that trusts another estimate (the blend: the injection's)
  *     hands it over (fs_smo_follow), so that the tracker leaves standstill
  *     on the rotor's angle, speed and load.
+ *     A zero crossing is not a standstill: a rotor driven through zero
+ *     (reversed by its load, or braked into the other direction) passes
+ *     the band below w_valid in a few milliseconds at an acceleration the
+ *     tracker has been measuring all along. Fading the model there left the
+ *     estimate coasting at the band's edge while the rotor went through,
+ *     and the EMF, turned about at zero and behind its filter, then pulled
+ *     it the wrong way: 11.9 el.deg on the grin hub motor in B-REAL's
+ *     reversal, and on yang2022 braked through zero at 2,100..6,600 rpm/s
+ *     (i_q -8..-25 A, the encoder's loops) the estimate was lost (pi off)
+ *     at each. So a tracker that leaves the band's top while valid, with
+ *     its model's acceleration a = (p/J)(T + T_d) turning the speed through
+ *     zero, runs on that model alone (fs_motion_obs_predict: no correction,
+ *     T and T_d in full) until it is through, |w| >= w_valid the other way,
+ *     and the EMF's filter, turned about at zero, has settled at its floor
+ *     (3 / (FS_SMO_WC_PER_BW w_o)); at most twice the time a takes through
+ *     the band and that settling. Not from a model that would take longer
+ *     than FS_SMO_CROSS_MAX (a stop near zero speed, as above), and ended
+ *     before zero when the EMF stays at w_valid's beyond its low-pass's
+ *     settling (3 / bw_pll): an estimate knocked below the band while the
+ *     rotor is not (test_smo_low_speed's 20 el.deg kick at w_valid) is the
+ *     EMF's again within 12 ms. Not with an external direction (the blend:
+ *     its injection has the low speeds, and fs_smo_follow hands its
+ *     estimate over there). With it: grin 2.9 el.deg, yang2022 7.3, 5.6,
+ *     3.0.
  *
  * Saturation (both forms, fs_smo_set_model): in steady state the extended
  * EMF of eq. (4) lies along q only where the model's L_q is the machine's
@@ -185,6 +209,10 @@ typedef enum { FS_SMO_LAG_EXACT = 0, FS_SMO_LAG_PAPER = 1 } fs_smo_lag;
 /* `converged` needs the EMF's speed within this fraction of the estimate's
  * (at least of w_valid): psi_f off by 20 % (B-ROBUST's range) moves it 25 % */
 #define FS_SMO_AGREE 0.4f
+/* The longest zero crossing the tracker takes on its motion model alone, s
+ * (fs_smo_step): one slower than that is a stop near zero speed, where the
+ * model's torque fades with the EMF as before */
+#define FS_SMO_CROSS_MAX 0.5f
 typedef enum { FS_SMO_FORM_PAPER = 0, FS_SMO_FORM_TRACKING = 1 } fs_smo_form;
 
 typedef struct {
@@ -233,6 +261,11 @@ typedef struct {
     float theta;         /* estimated angle at the sampling instant, rad */
     float w;             /* estimated electrical speed, rad/s */
     bool valid;
+    float T_model;       /* FS_SMO_FORM_TRACKING: the current's torque at the last step, N m */
+    int n_cross;         /* FS_SMO_FORM_TRACKING: steps left at most of a zero crossing on the motion model (fs_smo_step) */
+    int n_dir;           /* in a crossing: 0 before zero, then counting down the filter's settling to 1 */
+    int n_settle_dir;    /* the EMF filter's settling at its floor cutoff, steps */
+    int n_emf;           /* in a crossing, before zero: steps in a row the EMF has stayed at w_valid's */
     float dir;           /* direction of rotation the EMF angle assumes: +1, -1 (the paper form: hysteresis at w_valid; the tracking form: its speed's sign) */
     float r_i;           /* max |current error| over delta at the last step: <= 1 while sliding */
     float eps;           /* the last normalized PLL error, sin(theta - theta_pll) */
