@@ -227,12 +227,14 @@ FS_OUT_OF_LINE FS_COLD void smo_cross_enter(fs_smo *o)
 {
     const fs_smo_config *c = &o->cfg;
     const float a = o->mo.k_u * (o->T_model + o->mo.T_d_hat);
-    const float t_x = 3.6f * c->w_valid / fabsf(a);
+    const float t_x = (3.6f * c->w_valid) / fabsf(a);
     /* only where the model turns the speed through zero, and not a stop
      * near zero speed (FS_SMO_CROSS_MAX), where the torque fades as before */
-    if (a * o->mo.w_hat < 0.0f && t_x < FS_SMO_CROSS_MAX) {
-        o->n_settle_dir = 1 + (int)(3.0f / (FS_SMO_WC_PER_BW * o->mo.cfg.bandwidth * c->Ts));
-        o->n_cross = (int)(t_x / c->Ts) + o->n_settle_dir;
+    if (((a * o->mo.w_hat) < 0.0f) && (t_x < FS_SMO_CROSS_MAX)) {
+        const float n_filter = 3.0f / (FS_SMO_WC_PER_BW * o->mo.cfg.bandwidth * c->Ts);
+        const float n_x = t_x / c->Ts;
+        o->n_settle_dir = 1 + (int)n_filter;
+        o->n_cross = (int)n_x + o->n_settle_dir;
         o->n_dir = 0;
         o->n_emf = 0;
     }
@@ -241,9 +243,10 @@ FS_OUT_OF_LINE FS_COLD void smo_cross_enter(fs_smo *o)
 FS_OUT_OF_LINE FS_COLD void smo_cross_step(fs_smo *o, float T)
 {
     const fs_smo_config *c = &o->cfg;
-    fs_motion_obs_predict(&o->mo, T);
+    (void)fs_motion_obs_predict(&o->mo, T);
     const float w = o->mo.w_hat;
-    if (o->n_dir == 0 && w * o->dir < 0.0f) {
+    bool contradicted = false;
+    if ((o->n_dir == 0) && ((w * o->dir) < 0.0f)) {
         o->n_dir = o->n_settle_dir;   /* through zero: the filter turns about */
     } else if (o->n_dir > 1) {
         --o->n_dir;
@@ -252,14 +255,13 @@ FS_OUT_OF_LINE FS_COLD void smo_cross_step(fs_smo *o, float T)
          * low-pass's settling says the rotor is not in the band: the
          * estimate fell below it on its own (a disturbance), not with the
          * rotor; the crossing ends and the EMF is read again */
-        o->n_emf = o->e_raw >= c->w_valid * c->psi_f ? o->n_emf + 1 : 0;
-        if ((float)o->n_emf * c->bw_pll * c->Ts > 3.0f) {
-            o->n_cross = 0;
-            return;
-        }
+        o->n_emf = (o->e_raw >= (c->w_valid * c->psi_f)) ? (o->n_emf + 1) : 0;
+        contradicted = (((float)o->n_emf * c->bw_pll) * c->Ts) > 3.0f;
+    } else {
+        /* past zero with the filter settled: through once beyond w_valid */
     }
-    const bool through = o->n_dir == 1 && fabsf(w) >= c->w_valid;
-    o->n_cross = through ? 0 : o->n_cross - 1;
+    const bool through = (o->n_dir == 1) && (fabsf(w) >= c->w_valid);
+    o->n_cross = (through || contradicted) ? 0 : (o->n_cross - 1);
 }
 
 float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
@@ -397,9 +399,13 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
     float aw = fabsf(o->w);
     if (aw >= c->w_valid) {
         o->valid = true;
-    } else if (aw < 0.8f * c->w_valid) {   /* hysteresis */
-        if (o->valid && track && !c->dir_external) smo_cross_enter(o);   /* the blend's injection knows the low speeds */
+    } else if (aw < (0.8f * c->w_valid)) {   /* hysteresis */
+        if (o->valid && track && !c->dir_external) {   /* the blend's injection knows the low speeds */
+            smo_cross_enter(o);
+        }
         o->valid = false;
+    } else {
+        /* within the hysteresis: as it was */
     }
     smo_settle(o);
     return o->theta;
