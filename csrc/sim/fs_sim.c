@@ -537,7 +537,7 @@ typedef struct {
 
 static imc_interval imc_interval_of(const double *f, int p, int n)
 {
-    double c_a[3] = {1.0, -0.5, -0.5}, c_b[3] = {0.0, 0.5 * sqrt(3.0), -0.5 * sqrt(3.0)};
+    const double c_a[3] = {1.0, -0.5, -0.5}, c_b[3] = {0.0, 0.5 * sqrt(3.0), -0.5 * sqrt(3.0)};
     imc_interval iv = {0};
     iv.f_a = (2.0 * f[0] - f[1] - f[2]) / 3.0;
     iv.f_b = (f[1] - f[2]) / sqrt(3.0);
@@ -614,11 +614,17 @@ static void imc_deriv_real(fs_sim *s, double t, const double *x, const double *g
     dm[6] = v_pn * i_sw;
 }
 
+/* RK4's increment of one state from its four slopes, h/6 (k0 + 2 k1 + 2 k2 + k3) */
+static inline double rk4_increment(double h, double k0, double k1, double k2, double k3)
+{
+    return h / 6.0 * (k0 + 2.0 * k1 + 2.0 * k2 + k3);
+}
+
 /* One RK4 step of the machine, the filter and the meters together. */
 static void imc_rk4(fs_sim *s, double t, const imc_interval *iv, const fs_pmsm_input *in, double h)
 {
     enum { NX = FS_X_N, NG = FS_GRID_X_N, NM = 7 };
-    const int nx = s->nx, nm = s->imc_real ? NM : 3;
+    const int nx = s->nx;
     double kx[4][NX], kg[4][NG], km[4][NM], x[NX], g[NG];
     const double c[4] = {0.0, 0.5, 0.5, 1.0};
     for (int st = 0; st < 4; ++st) {
@@ -629,18 +635,16 @@ static void imc_rk4(fs_sim *s, double t, const imc_interval *iv, const fs_pmsm_i
         if (s->imc_real) imc_deriv_real(s, t + c[st] * h, x, g, iv, in, kx[st], kg[st], km[st]);
         else imc_deriv(s, t + c[st] * h, x, g, iv, in, kx[st], kg[st], km[st]);
     }
-    for (int k = 0; k < nx; ++k) s->x[k] += h / 6.0 * (kx[0][k] + 2.0 * kx[1][k] + 2.0 * kx[2][k] + kx[3][k]);
+    for (int k = 0; k < nx; ++k) s->x[k] += rk4_increment(h, kx[0][k], kx[1][k], kx[2][k], kx[3][k]);
     if (s->losses)
-        for (int k = FS_X_N5; k < NX; ++k) s->x[k] += h / 6.0 * (kx[0][k] + 2.0 * kx[1][k] + 2.0 * kx[2][k] + kx[3][k]);
-    for (int k = 0; k < NG; ++k) s->g[k] += h / 6.0 * (kg[0][k] + 2.0 * kg[1][k] + 2.0 * kg[2][k] + kg[3][k]);
-    double dm[NM];
-    for (int k = 0; k < nm; ++k) dm[k] = h / 6.0 * (km[0][k] + 2.0 * km[1][k] + 2.0 * km[2][k] + km[3][k]);
-    for (int k = 0; k < 3; ++k) s->g_int[k] += dm[k];
-    if (s->imc_real) {
-        s->e_dc += dm[3];
-        s->e_rect += dm[4];
-        s->e_cond += dm[5];
-        s->e_sw += dm[6];
+        for (int k = FS_X_N5; k < NX; ++k) s->x[k] += rk4_increment(h, kx[0][k], kx[1][k], kx[2][k], kx[3][k]);
+    for (int k = 0; k < NG; ++k) s->g[k] += rk4_increment(h, kg[0][k], kg[1][k], kg[2][k], kg[3][k]);
+    for (int k = 0; k < 3; ++k) s->g_int[k] += rk4_increment(h, km[0][k], km[1][k], km[2][k], km[3][k]);
+    if (s->imc_real) {   /* the meters imc_deriv_real alone sets */
+        s->e_dc += rk4_increment(h, km[0][3], km[1][3], km[2][3], km[3][3]);
+        s->e_rect += rk4_increment(h, km[0][4], km[1][4], km[2][4], km[3][4]);
+        s->e_cond += rk4_increment(h, km[0][5], km[1][5], km[2][5], km[3][5]);
+        s->e_sw += rk4_increment(h, km[0][6], km[1][6], km[2][6], km[3][6]);
     }
 }
 
