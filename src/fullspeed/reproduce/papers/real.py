@@ -92,7 +92,8 @@ def sensorless_angle(name: str | dict) -> tuple[str | None, str | None]:
     refusals = []
     for angle in ("blend", "smo"):
         try:
-            scenario_from_dict(real_scenario(name, angle)[0], f"B-REAL {name if isinstance(name, str) else name.get('name')}")
+            scenario_from_dict(real_scenario(name, angle)[0], f"B-REAL {name if isinstance(name, str) else name.get('name')}",
+                               warn=False)   # whether it loads: its warnings are the run's
             return angle, None
         except ConfigError as exc:
             refusals.append(str(exc))
@@ -187,7 +188,7 @@ def held_scenario(name: str, rpm: float, angle: str) -> dict:
     # designed for the held speed and 20 % above it (the speeds asked set the observer's top speed, which
     # the flux weakening's plan also reaches, and the overspeed stop): the reference past it only winds the speed loop up
     designed = scenario_from_dict({**data, "duration": 1.0, "references": {"speed_rpm": 1.2 * rpm}},
-                                  f"B-REAL {name}").data
+                                  f"B-REAL {name}", warn=False).data
     data["observer"] = {**data.get("observer", {}), "top_speed_rpm": designed["observer"]["top_speed_rpm"]}
     data["controller"]["overspeed_rpm"] = designed["controller"]["overspeed_rpm"]
     if angle != "encoder":
@@ -222,7 +223,7 @@ def held_torque(task: dict) -> dict:
     name, rpm, angle = task["machine"], task["rpm"], task["angle"]
     data = held_scenario(name, rpm, angle)
     try:
-        res = simulate(scenario_from_dict(data, f"B-REAL {name}"))
+        res = simulate(scenario_from_dict(data, f"B-REAL {name}", warn=False))   # its torque alone is read
     except ConfigError as exc:
         return {"refused": str(exc)}
     t = np.asarray(res["t"])
