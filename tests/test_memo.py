@@ -11,7 +11,7 @@ from fullspeed.design.envelope import Limits, envelope, limits
 from fullspeed.design.machine import load_machine
 from fullspeed.design.memo import machine_key
 from fullspeed.design.xcomp import designed_table
-from fullspeed.model.fluxmap import interp, interp_tables
+from fullspeed.model.fluxmap import interp, interp_tables, load_map
 
 
 def _fresh(name: str):
@@ -79,3 +79,22 @@ def test_the_tables_read_together_are_each_the_bilinear_reading_to_the_bit():
     assert np.array_equal(psi_d, _bilinear(mag, "psi_d", i_d, i_q))
     assert np.array_equal(psi_q, _bilinear(mag, "psi_q", i_d, i_q))
     assert interp(mag, "psi_q", 1.0, 2.0) == _bilinear(mag, "psi_q", 1.0, 2.0)
+
+
+def test_a_map_file_read_again_is_a_copy_and_a_rewritten_file_is_read_anew(tmp_path):
+    src = load_machine("prius2004-mg2").magnetic["file"]
+    f = tmp_path / "map.csv"
+    f.write_text(open(src).read())
+    first = load_map(f, "magnetic.file")
+    first["psi_d"][0][0] = 1e9
+    again = load_map(f, "magnetic.file")
+    assert again["psi_d"][0][0] != 1e9
+    # the same file with its first data row's fluxes doubled: another map, read as such
+    lines = f.read_text().splitlines()
+    k = next(i for i, line in enumerate(lines) if line[:1] == "-" or line[:1].isdigit())
+    cols = lines[k].split(",")
+    lines[k] = ",".join(cols[:2] + [repr(2 * float(c)) for c in cols[2:]])
+    f.write_text("\n".join(lines) + "\n")
+    rewritten = load_map(f, "magnetic.file")
+    changed = [(a, b) for ra, rb in zip(again["psi_d"], rewritten["psi_d"]) for a, b in zip(ra, rb) if a != b]
+    assert changed and all(b == 2 * a for a, b in changed)

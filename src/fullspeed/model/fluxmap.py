@@ -20,6 +20,7 @@ psi_d(i_d, -i_q) = psi_d(i_d, i_q), psi_q(i_d, -i_q) = -psi_q(i_d, i_q).
 """
 from __future__ import annotations
 
+import copy
 import csv
 import hashlib
 import math
@@ -291,10 +292,34 @@ def resample(i_d: np.ndarray, i_q: np.ndarray, tabs: dict) -> tuple[np.ndarray, 
     return e_d, e_q, out
 
 
+# load_map's maps by file (its path, size and modification time) and the field and source its errors name,
+# the LOADED_KEEP most recent: B-REAL loads its three maps' machines about 150 times (each a CSV read, resampled
+# and hashed), the same file each time. A file written since is read again.
+LOADED_KEEP = 16
+_LOADED: dict = {}
+
+
 def load_map(path: str | Path, field: str, source=None) -> dict:
     """A flux-map file as [magnetic] fields: model, i_d, i_q, psi_d, psi_q
-    (even grids, rows in i_d), torque where given, and source."""
+    (even grids, rows in i_d), torque where given, and source (a copy of
+    the map read before where the file has not changed since)."""
     p = Path(path)
+    try:
+        st = p.stat()
+        key = (str(p.resolve()), st.st_mtime_ns, st.st_size, st.st_ino, field, str(source))
+    except OSError:
+        key = None   # not there, or not to be looked at: _read_map says why
+    if key is None or key not in _LOADED:
+        out = _read_map(p, field, source)
+        if key is None:
+            return out
+        _LOADED[key] = out
+        while len(_LOADED) > LOADED_KEEP:
+            del _LOADED[next(iter(_LOADED))]
+    return copy.deepcopy(_LOADED[key])
+
+
+def _read_map(p: Path, field: str, source) -> dict:
     kind = path_kind(p)
     if kind is None:
         raise ConfigError(field, str(p), "file not found", source)
