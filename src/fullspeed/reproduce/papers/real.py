@@ -134,9 +134,10 @@ def run_machine(task: dict) -> dict:
     """journal.run_tasks' worker: one machine's sensorless full range, with
     the angle sensorless_angle chose (None: refused, task["refused"] why)."""
     name, angle = task["machine"], task["angle"]
+    # the scenario as the caller built it (task["built"]: its envelope searched there once), else built here
+    data, info = task["built"] if task.get("built") else real_scenario(name, angle or "blend")
     if angle is None:
-        return {"machine": name, "refused": task["refused"], **real_scenario(name)[1]}
-    data, info = real_scenario(name, angle)
+        return {"machine": name, "refused": task["refused"], **info}
     sc = scenario_from_dict(data, f"B-REAL {name}")
     res = simulate(sc)
     mt = res.metrics
@@ -252,7 +253,10 @@ def _machine_ok(r: dict) -> bool:
 def real(out: Path) -> Measurement:
     names = published_machines()
     angles = {n: sensorless_angle(n) for n in names}
-    runs = run_tasks(run_machine, [{"machine": n, "angle": a, "refused": why} for n, (a, why) in angles.items()],
+    # each machine's scenario built here, where sensorless_angle built it and its envelope is kept (design.memo):
+    # a worker would search the envelope again
+    runs = run_tasks(run_machine, [{"machine": n, "angle": a, "refused": why, "built": real_scenario(n, a or "blend")}
+                                   for n, (a, why) in angles.items()],
                      sweep_dir(out, "B-REAL-runs"), fresh=True)
     held_tasks, envs = [], {}
     for n in names:
