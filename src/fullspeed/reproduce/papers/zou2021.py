@@ -459,7 +459,7 @@ def within(g: tuple) -> bool:
     return abs(g[0] - 30.0) <= 5.0 and abs(g[1] - 35.0) <= 5.0
 
 
-@register("Z-SPEEDRANGE", shares="zou2021 envelopes", cost=39)
+@register("Z-SPEEDRANGE", shares="zou2021 envelopes", cost=8)
 def speed_range(out: Path) -> Measurement:
     torques, env = _envelopes_sim(out)
     g1, g12 = _gains(torques, env, 10.0)
