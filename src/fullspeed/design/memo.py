@@ -9,7 +9,7 @@ A result is kept under its machine's content (machine_key: every field of
 the Machine, its flux map's numbers exactly) and the search's other
 arguments, so two machine objects read from the same file share it, and
 a machine changed in any field does not. The caller gets its own copy
-where the result could be changed (remember's copy).
+where the result could be changed (Memo's copies).
 """
 from __future__ import annotations
 
