@@ -12,7 +12,7 @@ import pytest
 from fullspeed.design import rules as dz
 from fullspeed.model import zoo
 from fullspeed.design.machine import machine_from_dict
-from fullspeed.design.scenario import load_scenario, scenario_from_dict
+from fullspeed.design.scenario import UNWARNED, load_scenario, scenario_from_dict
 from fullspeed.sim import simulate
 
 # a 48 V machine given by its datasheet alone (the new user's trial)
@@ -374,3 +374,12 @@ def test_a_carrier_taken_from_the_fundamental_where_the_band_passes_base_speed()
     with pytest.raises(ConfigError) as e:
         scenario({**prius, "bench": {**prius["bench"], "u_dc": 150.0}})
     assert "below the machine's rated 400 N m" in str(e.value), str(e.value)
+
+
+def test_a_scenario_loaded_without_warnings_is_the_same_design_and_says_it_was_not_warned():
+    ov = {"references": {"speed_rpm": [[0.0, 0.0], [0.4, 2500.0], [0.8, 2500.0]]}, "load": {"torque": 10.0}}
+    warned = load_scenario("zou2021-speed-range", ov)
+    quiet = load_scenario("zou2021-speed-range", ov, warn=False)
+    assert any(w.startswith(("load.torque:", "references.speed_rpm:")) for w in warned.warnings), warned.warnings
+    assert quiet.warnings == [UNWARNED]
+    assert quiet.data == warned.data and quiet.design.keys() == warned.design.keys()

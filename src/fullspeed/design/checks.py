@@ -36,7 +36,7 @@ from .._core import lib
 from ..model.errors import ConfigError
 from ..model.units import rad_s_to_rpm, rpm_to_rad_s
 from .controller import controller_model, hfi_design, injection_inductances
-from .envelope import OVERMODULATION, Limits
+from .envelope import OVERMODULATION, Limits, limits
 from .machine import mtpa_torque
 from .magnetics import mtpa_locus, saliency_warnings
 from .rules import CARRIER_LOOP_ACTION_MAX, carrier_loop_action, control_period, u_linear
@@ -259,7 +259,7 @@ def envelope_warnings(d: dict, m) -> list[str]:
 def _limits(d: dict, m, coarse: bool = False) -> tuple[Limits, str]:
     """The machine within the scenario's current limit and its converter's voltage."""
     u, how = voltage_limit(d, m)
-    return Limits(m, d["converter"]["u_dc"], d["controller"]["i_max"], u_max=u, coarse=coarse), how
+    return limits(m, d["converter"]["u_dc"], d["controller"]["i_max"], u, coarse), how
 
 
 QUICK_MARGIN = 1e-3      # the coarse MTPA locus's interpolation is within this of the fine one's

@@ -49,9 +49,10 @@ import numpy as np
 
 from .._core import ffi, lib
 from ..model.errors import ConfigError
-from ..model.fluxmap import interp
+from ..model.fluxmap import interp, interp_tables
 from ..model.machines import Machine
 from ..model.units import rad_s_to_rpm
+from .memo import Memo
 from .rules import u_linear
 
 # the fundamental of minimum-phase-error over-modulation at its limit, over u_dc/sqrt3: the reference's
@@ -230,7 +231,8 @@ class Limits:
 
     # --- the machine at a current --------------------------------------------------------------
     def flux(self, i_d, i_q):
-        return interp(self.mag, "psi_d", i_d, i_q), interp(self.mag, "psi_q", i_d, i_q)
+        psi_d, psi_q = interp_tables(self.mag, ("psi_d", "psi_q"), i_d, i_q)
+        return psi_d, psi_q
 
     def flux_anywhere(self, i_d: float, i_q: float) -> tuple[float, float]:
         """The fluxes at one current anywhere (not only in the envelope's
@@ -469,6 +471,17 @@ class Limits:
         return np.where(reach, x, np.inf)
 
 
+# Limits kept per machine and limits (design.memo): a campaign's scenarios of one machine check their
+# references against the same Limits, whose MTPA locus is then found once. Each holds about 5 MB (the scan).
+_LIMITS = Memo(Limits, copies=False, keep=8)
+
+
+def limits(m: Machine, u_dc: float, i_max: float, u_max: float | None = None, coarse: bool = False) -> Limits:
+    """Limits(m, u_dc, i_max, u_max, coarse), made once per machine and
+    limits (only read: its searches do not change it)."""
+    return _LIMITS(m, u_dc, i_max, u_max, coarse)
+
+
 def envelope(m: Machine, u_dc: float, i_max: float, n: int = SPEEDS_N, u_max: float | None = None,
              w_end: float | None = None) -> Envelope:
     """The envelope of machine m (designed: design.machine) on a link of
@@ -478,7 +491,11 @@ def envelope(m: Machine, u_dc: float, i_max: float, n: int = SPEEDS_N, u_max: fl
     instead), with the base speed, the MTPV onset and table_speeds among
     them. u_max: the voltage limit (V peak phase) where it is not the
     modulator's linear limit of u_dc (a matrix converter's)."""
-    lim = Limits(m, u_dc, i_max, u_max)
+    return _ENVELOPES(m, u_dc, i_max, n, u_max, w_end)
+
+
+def _envelope(m: Machine, u_dc: float, i_max: float, n: int, u_max: float | None, w_end: float | None) -> Envelope:
+    lim = limits(m, u_dc, i_max, u_max)
     p = lim.p
     T_base, d0, q0 = (float(x[0]) for x in lim.mtpa(i_max))
     w_base_e = float(lim.w_limit(d0, q0))
@@ -511,6 +528,9 @@ def envelope(m: Machine, u_dc: float, i_max: float, n: int = SPEEDS_N, u_max: fl
 
 SECTIONS = 16        # speeds per round of a multisection (one vectorised search per round)
 ROUNDS = 6           # rounds: the bracket shrinks by SECTIONS^ROUNDS = 1.7e7
+
+
+_ENVELOPES = Memo(_envelope, copies=True, keep=16)   # B-REAL's and B-MAPID's scenarios read their machine's
 
 
 def _crossing(inside, lo: float, hi: float, rounds: int = ROUNDS) -> float:

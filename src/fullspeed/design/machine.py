@@ -14,6 +14,7 @@ from ..model.errors import ConfigError
 from ..model.fluxmap import FluxMapWarning, check_coverage, coverage_limit, map_range
 from ..model.machines import Machine, machine_data, parse_machine
 from .magnetics import controller_map, controller_values
+from .memo import Memo
 from .rules import I_MAX_PER_RATED, Value, design_bench
 
 
@@ -44,7 +45,12 @@ def design_machine(m: Machine) -> Machine:
 def map_model(m: Machine, i_max: float) -> dict[str, Value]:
     """A flux map's values for the controller's model (design.magnetics.controller_values),
     by name "map.<field>": the magnet's flux, the secant inductances at the MTPA
-    point of rated current and the incremental ones at half of it."""
+    point of rated current and the incremental ones at half of it (found once
+    per machine and limit: design.memo)."""
+    return _MAP_MODELS(m, i_max)
+
+
+def _map_model(m: Machine, i_max: float) -> dict[str, Value]:
     cv = controller_values(m.magnetic, i_max, m.i_rated, m.phases, m.pole_pairs)
     why = {"psi_f": ("Wb", "the map's psi_d at zero current"),
            "L_d": ("H", "the map's secant inductance at the MTPA point of rated current: the decoupling is exact there"),
@@ -52,6 +58,9 @@ def map_model(m: Machine, i_max: float) -> dict[str, Value]:
            "L_d_hf": ("H", "the map's incremental inductance at half the rated current on MTPA: what the carrier sees"),
            "L_q_hf": ("H", "the map's incremental inductance at half the rated current on MTPA")}
     return {f"map.{k}": Value(float(cv[k]), unit, reason) for k, (unit, reason) in why.items()}
+
+
+_MAP_MODELS = Memo(_map_model, copies=True, keep=16)   # each load of a flux-map machine (B-REAL's ~150) searched its MTPA
 
 
 def machine_from_dict(data: dict, source: str | None = None, prefix: str = "machine") -> Machine:

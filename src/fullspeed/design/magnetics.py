@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._core import lib
-from ..model.fluxmap import interp, table_at, zero_current_values
+from ..model.fluxmap import interp, interp_tables, table_at, zero_current_values
 
 MTPA_N = 64          # csrc/control/fs_mtpa.h FS_MTPA_N
 MTPA_ANGLES = 4001   # current angles searched per magnitude, 90..180 deg: 0.0225 deg apart
@@ -21,7 +21,8 @@ def mtpa_locus(mag: dict, i_max: float, phases: int, pole_pairs: int) -> tuple[n
     I = i_max * np.arange(MTPA_N) / (MTPA_N - 1)
     g = np.linspace(0.5 * np.pi, np.pi, MTPA_ANGLES)
     i_d, i_q = np.outer(I, np.cos(g)), np.outer(I, np.sin(g))
-    T = 0.5 * phases * pole_pairs * (interp(mag, "psi_d", i_d, i_q) * i_q - interp(mag, "psi_q", i_d, i_q) * i_d)
+    psi_d, psi_q = interp_tables(mag, ("psi_d", "psi_q"), i_d, i_q)
+    T = 0.5 * phases * pole_pairs * (psi_d * i_q - psi_q * i_d)
     best = np.argmax(T, axis=1)
     r = np.arange(MTPA_N)
     T_best, d, q = T[r, best], i_d[r, best], i_q[r, best]
@@ -36,7 +37,7 @@ SALIENCY_FLOOR = 0.05   # (L_q - L_d) / (L_q + L_d) of the incremental inductanc
 def map_flux(mag: dict):
     """A flux map as a function (i_d, i_q) -> (psi_d, psi_q), bilinear as
     the plant reads it."""
-    return lambda i_d, i_q: (interp(mag, "psi_d", i_d, i_q), interp(mag, "psi_q", i_d, i_q))
+    return lambda i_d, i_q: tuple(interp_tables(mag, ("psi_d", "psi_q"), i_d, i_q))
 
 
 def incremental_inductances(flux, i_d, i_q, h_d: float, h_q: float | None = None):

@@ -31,11 +31,19 @@ TRACE_ROW_BYTES = 8 * lib.FS_CH_N
 TRACE_MAX_BYTES = 2e9
 
 
-def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
+# Scenario.warnings of a scenario loaded with warn=False: its caller reads none of them
+UNWARNED = ("warnings: not formed (loaded with warn=False: its caller reads none; `fullspeed design` or a run "
+            "loaded otherwise gives them)")
+
+
+def scenario_from_dict(data: dict, source: str | None = None, warn: bool = True) -> Scenario:
     """A scenario table, validated (model.scenario.parse_scenario) and
     designed: every setting it leaves to the design formed (each with its
     reason in Scenario.design), what depends on the design checked, and the
-    warnings of what it asks (design.checks)."""
+    warnings of what it asks (design.checks). warn=False leaves the
+    warnings out (UNWARNED in their place), for a caller that reads none:
+    an envelope's bisection runs past the envelope on purpose, and the
+    warning's search of the torque there was most of such a run's CPU."""
     d, m = parse_scenario(data, source)
     m = design_machine(m)
     b = m.bench
@@ -197,7 +205,8 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
         if f"injection.{key}" not in notes and d["injection"][key] is not None and ctl["angle"] in ("hfi", "blend", "swvi"):
             notes[f"injection.{key}"] = Value(d["injection"][key], "", "given in the machine file or the scenario", True)
     notes.update(d.pop("_notes", {}))
-    warnings = warnings_of(d, m, bw_speed_given="bw_speed" in data.get("controller", {})) + check_table_settings(d, m.name, source)
+    warnings = ((warnings_of(d, m, bw_speed_given="bw_speed" in data.get("controller", {})) if warn else [UNWARNED])
+                + check_table_settings(d, m.name, source))
     pm = plant_machine(d, m, source)
     return Scenario(name=d["name"], machine=m, data=d, source=source, design=notes, warnings=warnings,
                     plant=design_machine(pm) if pm is not None else None)
@@ -212,11 +221,11 @@ def _largest_speed_rpm(d: dict) -> float:
     return max(speeds)
 
 
-def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Scenario:
+def load_scenario(name_or_path: str | Path, overrides: dict | None = None, warn: bool = True) -> Scenario:
     """A catalog scenario by name, or a TOML file by path, designed; overrides
-    are merged into the raw data before validation."""
+    are merged into the raw data before validation (warn: scenario_from_dict's)."""
     data, source = scenario_data(name_or_path, overrides)
-    return scenario_from_dict(data, source)
+    return scenario_from_dict(data, source, warn)
 
 
 def _speeds_asked(d: dict) -> dict[str, float]:

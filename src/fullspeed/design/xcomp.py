@@ -12,6 +12,7 @@ import numpy as np
 
 from ..model.errors import ConfigError
 from .envelope import flux_table
+from .memo import Memo
 from .magnetics import SALIENCY_FLOOR, incremental_inductances, incremental_saliency, map_flux, mtpa_locus
 from .rules import Value
 
@@ -123,6 +124,10 @@ def designed_table(m, i_max: float, i_d: float | None = None):
     saliency falls below magnetics.SALIENCY_FLOOR (the injection holds no
     angle beyond; fs_xcomp holds the last value). i_q < 0 mirrors it: the
     maps are symmetric in i_q (model.fluxmap), so delta(-i_q) = -delta(i_q)."""
+    return _TABLES(m, i_max, i_d)
+
+
+def _designed_table(m, i_max: float, i_d: float | None):
     mag = flux_table(m, i_max)
     if i_d is None:
         T, d, q = mtpa_locus(mag, i_max, m.phases, m.pole_pairs)
@@ -155,3 +160,6 @@ def designed_table(m, i_max: float, i_d: float | None = None):
            f"(i_d = {i_d_grid[k]:.3g} A{at_T}) {how}: the table (33 points over +-{q[end]:.3g} A{cut}) takes it out "
            "of the injection's angle")
     return table, Value(float(abs(lead[k])), "deg", why)
+
+
+_TABLES = Memo(_designed_table, copies=True, keep=16)   # B-LOCK's cases of one base, B-ROBUST's draws: one machine

@@ -291,10 +291,36 @@ def resample(i_d: np.ndarray, i_q: np.ndarray, tabs: dict) -> tuple[np.ndarray, 
     return e_d, e_q, out
 
 
+# load_map's maps by file (its path, size and modification time) and the field and source its errors name,
+# the LOADED_KEEP most recent: B-REAL loads its three maps' machines about 150 times (each a CSV read, resampled
+# and hashed), the same file each time. A file written since is read again.
+LOADED_KEEP = 16
+_LOADED: dict = {}
+
+
 def load_map(path: str | Path, field: str, source=None) -> dict:
     """A flux-map file as [magnetic] fields: model, i_d, i_q, psi_d, psi_q
-    (even grids, rows in i_d), torque where given, and source."""
+    (even grids, rows in i_d), torque where given, and source (a copy of
+    the map read before where the file has not changed since)."""
     p = Path(path)
+    try:
+        st = p.stat()
+        key = (str(p.resolve()), st.st_mtime_ns, st.st_size, st.st_ino, field, str(source))
+    except OSError:
+        key = None   # not there, or not to be looked at: _read_map says why
+    if key is None or key not in _LOADED:
+        out = _read_map(p, field, source)
+        if key is None:
+            return out
+        _LOADED[key] = out
+        while len(_LOADED) > LOADED_KEEP:
+            del _LOADED[next(iter(_LOADED))]
+    # a copy of the lists (the numbers are immutable): a deepcopy of the ~15,000 of a map was half its read
+    return {k: ([row[:] for row in v] if v and isinstance(v[0], list) else v[:]) if isinstance(v, list) else v
+            for k, v in _LOADED[key].items()}
+
+
+def _read_map(p: Path, field: str, source) -> dict:
     kind = path_kind(p)
     if kind is None:
         raise ConfigError(field, str(p), "file not found", source)
@@ -355,13 +381,25 @@ def interp(mag: dict, name: str, i_d, i_q):
     """A map's table at currents (arrays or numbers; bilinear on its even
     grid, held at the edges as the plant's lookup is not: the callers stay
     inside the map)."""
-    e_d, e_q, t = np.asarray(mag["i_d"]), np.asarray(mag["i_q"]), np.asarray(mag[name])
+    return interp_tables(mag, (name,), i_d, i_q)[0]
+
+
+def interp_tables(mag: dict, names: tuple[str, ...], i_d, i_q) -> list:
+    """interp of each of the named tables at the same currents, the cell
+    and its weights found once (the design's searches read psi_d and psi_q
+    together, hundreds of thousands of times a campaign): each value the
+    same to the bit as interp's alone."""
+    e_d, e_q = np.asarray(mag["i_d"]), np.asarray(mag["i_q"])
     x = np.clip((np.asarray(i_d, float) - e_d[0]) / (e_d[1] - e_d[0]), 0.0, e_d.size - 1.0)
     y = np.clip((np.asarray(i_q, float) - e_q[0]) / (e_q[1] - e_q[0]), 0.0, e_q.size - 1.0)
     k, n = np.minimum(x.astype(int), e_d.size - 2), np.minimum(y.astype(int), e_q.size - 2)
     a, b = x - k, y - n
-    return ((1 - a) * (1 - b) * t[k, n] + a * (1 - b) * t[k + 1, n]
-            + (1 - a) * b * t[k, n + 1] + a * b * t[k + 1, n + 1])
+    out = []
+    for name in names:
+        t = np.asarray(mag[name])
+        out.append((1 - a) * (1 - b) * t[k, n] + a * (1 - b) * t[k + 1, n]
+                   + (1 - a) * b * t[k, n + 1] + a * b * t[k + 1, n + 1])
+    return out
 
 
 def table_at(mag: dict, name: str, i_d: float, i_q: float) -> float:

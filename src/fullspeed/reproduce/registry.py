@@ -28,10 +28,10 @@ NOT_YET: dict[str, str] = {}   # claim id (or paper) -> why it cannot be measure
 # other in one process, so that the runs are made once.
 SHARES: dict[str, str] = {}
 
-# claim id -> its wall time (s), roughly (docs/performance.md, timed one
-# claim after the other on 2 loaded cores; only their order counts): the
-# reproduction starts the longest first, so that the short ones fill the
-# cores at the end.
+# claim id -> its cost (s), roughly: its CPU time in a reproduction
+# (claims.json cpu_s, docs/performance.md; B-PIL's with the firmware's
+# build, as on a fresh clone; only their order counts): the reproduction
+# starts the longest first, so that the short ones fill the cores at the end.
 COST: dict[str, float] = {}
 COST_DEFAULT = 1.0   # a claim of a few runs
 

@@ -344,8 +344,17 @@ def sensorless_error_max(tr, after_step: float = 0.05, t_from: float = 0.0,
     on = np.isin(np.asarray(tr["stage"]).astype(int), stages) & (t >= t_from - 1e-12)
     entries = [float(t[k + 1]) for k in np.flatnonzero(on[1:] & ~on[:-1])]
     keep = on.copy()
-    for t0 in step_times(tr) + entries:
-        keep &= ~((t >= t0) & (t < t0 + after_step))
+    starts = np.array(step_times(tr) + entries, dtype=float)
+    if np.all(t[1:] > t[:-1]):
+        # a run's samples rise: each window [t0, t0 + after_step) is a slice, found by bisection and marked at
+        # once (the same samples as the masks below; a noisy reference steps tens of thousands of times)
+        edges = np.zeros(t.size + 1, dtype=np.int64)
+        np.add.at(edges, np.searchsorted(t, starts, side="left"), 1)
+        np.add.at(edges, np.searchsorted(t, starts + after_step, side="left"), -1)
+        keep &= np.cumsum(edges[:-1]) == 0
+    else:
+        for t0 in starts:
+            keep &= ~((t >= t0) & (t < t0 + after_step))
     if not keep.any():
         return None
     return float(np.degrees(np.max(np.abs(np.asarray(tr["theta_err"])[keep]))))

@@ -189,7 +189,7 @@ def _figure_robust(err_max, err_mean, kept, path: Path, title: str) -> str:
     return save_figure(fig, path, title)
 
 
-@register("B-ROBUST", cost=38)
+@register("B-ROBUST", cost=13)
 def robust(out: Path) -> Measurement:
     folder = sweep_dir(out, "B-ROBUST")
     shutil.rmtree(folder, ignore_errors=True)   # measured afresh (common.sweep_dir)
@@ -291,7 +291,7 @@ def _figure_lock(rows: list[dict], path: Path, title: str) -> str:
     return save_figure(fig, path, title)
 
 
-@register("B-THERMAL", cost=11)
+@register("B-THERMAL", cost=5)
 def thermal(out: Path) -> Measurement:
     fixed = run("beyond-thermal", {"controller": {"param_adapt": True}})
     plain = run("beyond-thermal", {"controller": {"param_adapt": False}})
@@ -333,7 +333,7 @@ def thermal(out: Path) -> Measurement:
     return Measurement(value, bool(ok), note, [fig])
 
 
-@register("B-LOCK", cost=62)
+@register("B-LOCK", cost=28)
 def lock(out: Path) -> Measurement:
     folder = sweep_dir(out, "B-LOCK")
     shutil.rmtree(folder, ignore_errors=True)   # measured afresh (common.sweep_dir)
@@ -402,17 +402,23 @@ MAPID_SENSORLESS = 6
 MAPID_KEEP = range(0, 2 * MAPID_SENSORLESS, 2)
 
 
-# B-IDENT: the whole zoo, about 47 s on two idle cores (an identification
-# takes 4-12 s simulated, 6 s the median, its flux map's steps included;
-# about 0.5 s wall in one process); lower it for a sample if the
-# reproduction's time budget needs it.
+# B-IDENT: the whole zoo (an identification takes 4-12 s simulated, 6 s the
+# median, its flux map's steps included; about 0.2 s of CPU, the 50
+# sensorless runs on the identified parameters about 0.3 s each: 32 s of
+# CPU in all). What a 95th percentile needs: n runs hold the true p95 below
+# their k-th largest with probability P(Binomial(n, 0.05) >= k): 95 % takes
+# n >= 59 for the largest (k = 1), 93 for the second, 124 for the third.
+# 100 decide "p95 <= goal" with 96 % confidence by the second largest, not
+# the largest alone (a sample of 59 would leave the worst run deciding the
+# claim); numpy's p95 of 100 lies between the 95th and 96th values. Kept at
+# the zoo's 100 (the claim says "over the zoo").
 IDENT_SAMPLE = 100
 # output folder -> zoo machine -> its identification in this reproduction (B-MAPID's machines are among B-IDENT's:
 # the same identification, zoo_identification(k), made once)
 IDENTIFIED: dict[Path, dict[int, dict]] = {}
 
 
-@register("B-IDENT", shares="the zoo's runs", cost=58)
+@register("B-IDENT", shares="the zoo's runs", cost=32)
 def ident(out: Path) -> Measurement:
     # B-MAPID's second half runs its first machines on their identified files: written here
     rows = zoo_campaign(range(IDENT_SAMPLE), out / "B-IDENT-runs", keep=MAPID_KEEP)
@@ -450,7 +456,7 @@ def ident(out: Path) -> Measurement:
 
 
 
-@register("B-MAPID", shares="the zoo's runs", cost=35)
+@register("B-MAPID", shares="the zoo's runs", cost=10)
 def mapid(out: Path) -> Measurement:
     ks = range(0, 2 * MAPID_SAMPLE, 2)
     known = IDENTIFIED.get(out, {})

@@ -18,8 +18,10 @@ from ...sim.runner import Result, simulate  # noqa: E402
 from ...workflows.journal import run_tasks  # noqa: E402
 
 
-def run(name: str, overrides: dict | None = None) -> Result:
-    return simulate(load_scenario(name, overrides))
+def run(name: str, overrides: dict | None = None, warn: bool = True) -> Result:
+    """Catalog scenario `name` with the overrides, run (warn=False: its
+    warnings not formed, for a caller that reads none)."""
+    return simulate(load_scenario(name, overrides, warn))
 
 
 def error_stats(res: Result, t0: float, t1: float, channel: str = "est_err") -> dict:

@@ -28,7 +28,7 @@ SCENARIO = "beyond-full-range"
 FMU_SECONDS = 1.5
 
 
-@register("B-FMU", cost=12)
+@register("B-FMU", cost=9)
 def fmu(out: Path) -> Measurement:
     if importlib.util.find_spec("fmpy") is None:
         return Measurement(None, False, "not measured: FMPy, the independent FMI tool, is not installed "

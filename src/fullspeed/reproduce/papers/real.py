@@ -92,7 +92,8 @@ def sensorless_angle(name: str | dict) -> tuple[str | None, str | None]:
     refusals = []
     for angle in ("blend", "smo"):
         try:
-            scenario_from_dict(real_scenario(name, angle)[0], f"B-REAL {name if isinstance(name, str) else name.get('name')}")
+            scenario_from_dict(real_scenario(name, angle)[0], f"B-REAL {name if isinstance(name, str) else name.get('name')}",
+                               warn=False)   # whether it loads: its warnings are the run's
             return angle, None
         except ConfigError as exc:
             refusals.append(str(exc))
@@ -133,9 +134,10 @@ def run_machine(task: dict) -> dict:
     """journal.run_tasks' worker: one machine's sensorless full range, with
     the angle sensorless_angle chose (None: refused, task["refused"] why)."""
     name, angle = task["machine"], task["angle"]
+    # the scenario as the caller built it (task["built"]: its envelope searched there once), else built here
+    data, info = task["built"] if task.get("built") else real_scenario(name, angle or "blend")
     if angle is None:
-        return {"machine": name, "refused": task["refused"], **real_scenario(name)[1]}
-    data, info = real_scenario(name, angle)
+        return {"machine": name, "refused": task["refused"], **info}
     sc = scenario_from_dict(data, f"B-REAL {name}")
     res = simulate(sc)
     mt = res.metrics
@@ -187,7 +189,7 @@ def held_scenario(name: str, rpm: float, angle: str) -> dict:
     # designed for the held speed and 20 % above it (the speeds asked set the observer's top speed, which
     # the flux weakening's plan also reaches, and the overspeed stop): the reference past it only winds the speed loop up
     designed = scenario_from_dict({**data, "duration": 1.0, "references": {"speed_rpm": 1.2 * rpm}},
-                                  f"B-REAL {name}").data
+                                  f"B-REAL {name}", warn=False).data
     data["observer"] = {**data.get("observer", {}), "top_speed_rpm": designed["observer"]["top_speed_rpm"]}
     data["controller"]["overspeed_rpm"] = designed["controller"]["overspeed_rpm"]
     if angle != "encoder":
@@ -222,7 +224,7 @@ def held_torque(task: dict) -> dict:
     name, rpm, angle = task["machine"], task["rpm"], task["angle"]
     data = held_scenario(name, rpm, angle)
     try:
-        res = simulate(scenario_from_dict(data, f"B-REAL {name}"))
+        res = simulate(scenario_from_dict(data, f"B-REAL {name}", warn=False))   # its torque alone is read
     except ConfigError as exc:
         return {"refused": str(exc)}
     t = np.asarray(res["t"])
@@ -247,11 +249,14 @@ def _machine_ok(r: dict) -> bool:
             and r["err_max"] < ANGLE_MAX and r["steady_mean"] is not None and abs(r["steady_mean"]) < STEADY_MEAN)
 
 
-@register("B-REAL", cost=37)
+@register("B-REAL", cost=18)
 def real(out: Path) -> Measurement:
     names = published_machines()
     angles = {n: sensorless_angle(n) for n in names}
-    runs = run_tasks(run_machine, [{"machine": n, "angle": a, "refused": why} for n, (a, why) in angles.items()],
+    # each machine's scenario built here, where sensorless_angle built it and its envelope is kept (design.memo):
+    # a worker would search the envelope again
+    runs = run_tasks(run_machine, [{"machine": n, "angle": a, "refused": why, "built": real_scenario(n, a or "blend")}
+                                   for n, (a, why) in angles.items()],
                      sweep_dir(out, "B-REAL-runs"), fresh=True)
     held_tasks, envs = [], {}
     for n in names:

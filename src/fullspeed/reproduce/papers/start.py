@@ -104,7 +104,7 @@ def summarize(rows: list[dict]) -> dict:
     return out
 
 
-@register("B-START")
+@register("B-START", cost=6)
 def start_claim(out: Path) -> Measurement:
     folder = sweep_dir(out, "B-START")
     shutil.rmtree(folder, ignore_errors=True)

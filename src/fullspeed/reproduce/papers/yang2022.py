@@ -45,7 +45,7 @@ SPEEDS = list(range(200, 1601, 200))
 CURRENTS = [5.0, 10.0, 15.0, 20.0, 25.0]
 
 
-@register("Y-SMO-MAP", cost=10)
+@register("Y-SMO-MAP", cost=4)
 def smo_map(out: Path) -> Measurement:
     mean, pp, locked, pp_seeds = error_map(SS, CURRENTS, SPEEDS,
                                            lambda iq, n: {"references": {"i_q": iq}, "load": {"speed_rpm": n}},
@@ -121,7 +121,7 @@ HFI_SPEEDS = [25, 50, 100, 150, 200]
 HFI_CURRENTS = [5.0, 10.0, 15.0, 20.0, 25.0]
 
 
-@register("Y-HFI-MAP", cost=11)
+@register("Y-HFI-MAP", cost=3)
 def hfi_map(out: Path) -> Measurement:
     def overrides(iq, n):
         return {**_iq_ramp(iq), "load": {"speed_rpm": n}, "initial": {"speed_rpm": n}}

@@ -140,7 +140,7 @@ def _held(name: str, overrides: dict, n: float, T: float) -> bool:
     """The drive holds n rpm under T N m: the speed ramped to n over 0.4 s is
     within 1 % of it over the last 0.2 s, and the run was not stopped."""
     ov = {**overrides, "references": {"speed_rpm": [[0.0, 0.0], [0.4, n], [0.8, n]]}, "load": {"torque": T}}
-    res = run(name, ov)
+    res = run(name, ov, warn=False)   # a bisection's probe past the envelope: its warning is read by no one
     if res.stop_reason != "done":
         return False
     m = window_mask(res["t"], 0.6, 0.8)
@@ -459,7 +459,7 @@ def within(g: tuple) -> bool:
     return abs(g[0] - 30.0) <= 5.0 and abs(g[1] - 35.0) <= 5.0
 
 
-@register("Z-SPEEDRANGE", shares="zou2021 envelopes", cost=39)
+@register("Z-SPEEDRANGE", shares="zou2021 envelopes", cost=8)
 def speed_range(out: Path) -> Measurement:
     torques, env = _envelopes_sim(out)
     g1, g12 = _gains(torques, env, 10.0)
