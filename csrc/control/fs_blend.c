@@ -17,7 +17,7 @@ float fs_blend_angle(float theta_smo, float theta_hfi, float g)
     return fs_wrap_pi(theta_hfi + g * fs_wrap_pi(theta_smo - theta_hfi));
 }
 
-fs_status fs_blend_init(fs_blend *b, const fs_blend_config *cfg)
+FS_COLD fs_status fs_blend_init(fs_blend *b, const fs_blend_config *cfg)
 {
     if (!b || !cfg) return FS_ERR_NULL;
     if (!(cfg->w_lower >= 0.0f) || !(cfg->w_upper > cfg->w_lower) || !isfinite(cfg->w_upper)) {
@@ -32,7 +32,7 @@ fs_status fs_blend_init(fs_blend *b, const fs_blend_config *cfg)
     return FS_OK;
 }
 
-void fs_blend_reset(fs_blend *b, float theta, float w)
+FS_COLD void fs_blend_reset(fs_blend *b, float theta, float w)
 {
     fs_motion_obs_reset(&b->obs, theta, w);
     b->theta_hat = b->obs.theta_hat;

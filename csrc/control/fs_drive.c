@@ -44,7 +44,7 @@ static const char drive_field_names[] = DRIVE_FIELDS(FIELD_NAME);
 typedef char drive_fields_fit[(offsetof(fs_drive_config, map) <= 256 * sizeof(float) && FS_ERR__COUNT < 64) ? 1 : -1];
 
 /* The first field of the table out of its range, its status and its name. */
-static fs_status drive_check_fields(const fs_drive_config *cfg, const char **name)
+static FS_COLD fs_status drive_check_fields(const fs_drive_config *cfg, const char **name)
 {
     const char *s = drive_field_names;
     for (size_t k = 0; k < sizeof drive_fields / sizeof drive_fields[0]; ++k) {
@@ -60,7 +60,7 @@ static fs_status drive_check_fields(const fs_drive_config *cfg, const char **nam
 }
 
 /* The injection estimators: HFI (and blend). */
-static fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
+static FS_COLD fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
 {
     fs_motion_obs_config mo = {cfg->Ts, cfg->J, cfg->B, cfg->pole_pairs, 0.0f};
     fs_hfi_config hc = cfg->hfi;
@@ -239,7 +239,7 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     return FS_OK;
 }
 
-void fs_drive_reset(fs_drive *drv)
+FS_COLD void fs_drive_reset(fs_drive *drv)
 {
     if (FS_WITH_IDENT && drv->cfg.mode == FS_MODE_IDENTIFY) {
         fs_ident_reset(&drv->ident);

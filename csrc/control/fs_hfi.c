@@ -40,7 +40,7 @@ float fs_hfi_w_h_max(float Ts)
     return w;
 }
 
-fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
+FS_COLD fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
 {
     if (!h || !cfg) return FS_ERR_NULL;
     fs_hfi_config c = *cfg;
@@ -99,7 +99,7 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
     return FS_OK;
 }
 
-void fs_hfi_reset(fs_hfi *h, float theta, float w)
+FS_COLD void fs_hfi_reset(fs_hfi *h, float theta, float w)
 {
     fs_hfi_filter_reset(&h->filt);
     fs_motion_obs_reset(&h->obs, theta, w);
@@ -124,7 +124,7 @@ void fs_hfi_reset(fs_hfi *h, float theta, float w)
     h->u.alpha = h->u.beta = 0.0f;
 }
 
-void fs_hfi_set_angle(fs_hfi *h, float theta, float w)
+FS_COLD void fs_hfi_set_angle(fs_hfi *h, float theta, float w)
 {
     fs_motion_obs_reset(&h->obs, theta, w);
     if (h->cfg.lag) fs_motion_obs_reset(&h->obs_w, theta, w);

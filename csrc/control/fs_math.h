@@ -12,11 +12,17 @@
 #define FS_SQRT3 1.73205080756887729353f
 #define FS_INV_SQRT3 0.57735026918962576451f
 
-/* FS_COLD: run once, at start-up (the inits and their designs), or rarely
- * (the answer to a loss of lock, fs_drive_protect.c): GCC optimizes such a
- * function for size and keeps it apart from the step's code. The arithmetic is the same (no reassociation, no contraction, as
- * at any level without -ffast-math), so are the results: only the
- * production image's flash shrinks */
+/* FS_COLD: run once, at start-up (every unit's init and its designs), or
+ * rarely (the resets, the answer to a loss of lock, fs_drive_protect.c; the
+ * back-EMF tracker's re-design and zero crossing, fs_smo.c): GCC optimizes
+ * such a function for size and keeps it apart from the step's code. The
+ * arithmetic is the same (no reassociation, no contraction, as at any
+ * level without -ffast-math), so are the results: only the production
+ * image's flash shrinks. Not on what runs every step in some stage (a
+ * reset the step calls while a unit is off, fs_monitor_reset): a call to a
+ * cold function also marks the path to it unlikely. Not noinline: the
+ * inits inlined into fs_drive_init fold the firmware's constant
+ * configuration (noinline: 5.9 kB more flash) */
 #if defined(__GNUC__)
 #define FS_CONST __attribute__((const))
 #define FS_OUT_OF_LINE static __attribute__((noinline, unused))

@@ -73,7 +73,7 @@
 #define FS_MONITOR_WARM 2.0f
 #define FS_MONITOR_E_LIM 1e18f
 
-fs_status fs_monitor_init(fs_monitor *m, const fs_monitor_config *cfg)
+FS_COLD fs_status fs_monitor_init(fs_monitor *m, const fs_monitor_config *cfg)
 {
     if (!m || !cfg) return FS_ERR_NULL;
     if (!fs_pos(cfg->Ts)) return FS_ERR_TS;

@@ -1,7 +1,7 @@
 #include "fs_param_adapt.h"
 #include "fs_math.h"
 
-fs_status fs_param_adapt_init(fs_param_adapt *a, const fs_param_adapt_config *cfg)
+FS_COLD fs_status fs_param_adapt_init(fs_param_adapt *a, const fs_param_adapt_config *cfg)
 {
     if (!a || !cfg) return FS_ERR_NULL;
     if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
