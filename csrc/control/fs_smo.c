@@ -16,7 +16,7 @@ FS_OUT_OF_LINE FS_COLD void smo_redesign(fs_smo *o, float want)
     (void)fs_motion_obs_init(&o->mo, &mc);   /* J, B, p checked in fs_smo_init; 0 < want <= bw_pll */
     fs_motion_obs_reset(&o->mo, theta, w_hat);
     o->mo.T_d_hat = T_d;
-    o->n_settle = (int)ceilf(4.0f / (want * o->cfg.Ts));
+    o->n_settle = fs_ceil_int(4.0f / (want * o->cfg.Ts));
 }
 
 static inline void smo_schedule(fs_smo *o)
@@ -63,7 +63,7 @@ FS_COLD fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
      * 1 / sqrt 5 of it at w_c = w) */
     o->e_valid = 0.4f * cfg->w_valid * cfg->psi_f;
     /* converged: 4 time constants of the tracker without a break */
-    o->n_settle = (int)ceilf(4.0f / (cfg->bw_pll * cfg->Ts));
+    o->n_settle = fs_ceil_int(4.0f / (cfg->bw_pll * cfg->Ts));
     o->a_emf = -expm1f(-cfg->bw_pll * cfg->Ts);
     if (cfg->form == FS_SMO_FORM_TRACKING) {
         if (cfg->phases != 3 && cfg->phases != 5) return FS_ERR_PARAM;
