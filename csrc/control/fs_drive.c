@@ -1,3 +1,4 @@
+#include "fs_blend_angle.h"
 #include "fs_drive.h"
 #include "fs_drive_ident.h"
 #include "fs_drive_protect.h"
@@ -414,7 +415,7 @@ static float drv_blend_theta(const fs_drive *drv)
     if (drv->blend.g_w >= 1.0f && !drv->injecting && drv->smo.converged && drv->cfg.smo.form == FS_SMO_FORM_TRACKING)
         return drv->smo.theta;   /* above the band (header) */
     if (!drv->cfg.hfi.lag || !drv->inject_on || h->gain < 1.0f || h->k_settle > 0) return drv->blend.theta_hat;
-    return fs_blend_angle(drv->blend.theta_hat, h->theta, drv->blend.g_w);
+    return fs_blend_angle_inline(drv->blend.theta_hat, h->theta, drv->blend.g_w);
 }
 
 /* Angle and speed from the configured source; *i_ab becomes the current the
