@@ -1,4 +1,5 @@
 #include "fs_blend.h"
+#include "fs_blend_angle.h"
 #include "fs_math.h"
 
 float fs_blend_weight(float w, float w_lower, float w_upper)
@@ -11,13 +12,10 @@ float fs_blend_weight(float w, float w_lower, float w_upper)
 
 float fs_blend_angle(float theta_smo, float theta_hfi, float g)
 {
-    if (g <= 0.0f) return fs_wrap_pi(theta_hfi);
-    if (g >= 1.0f) return fs_wrap_pi(theta_smo);
-    /* eq. (27) along the shorter arc, so that it does not break at +-pi */
-    return fs_wrap_pi(theta_hfi + g * fs_wrap_pi(theta_smo - theta_hfi));
+    return fs_blend_angle_inline(theta_smo, theta_hfi, g);
 }
 
-fs_status fs_blend_init(fs_blend *b, const fs_blend_config *cfg)
+FS_COLD fs_status fs_blend_init(fs_blend *b, const fs_blend_config *cfg)
 {
     if (!b || !cfg) return FS_ERR_NULL;
     if (!(cfg->w_lower >= 0.0f) || !(cfg->w_upper > cfg->w_lower) || !isfinite(cfg->w_upper)) {
@@ -32,7 +30,7 @@ fs_status fs_blend_init(fs_blend *b, const fs_blend_config *cfg)
     return FS_OK;
 }
 
-void fs_blend_reset(fs_blend *b, float theta, float w)
+FS_COLD void fs_blend_reset(fs_blend *b, float theta, float w)
 {
     fs_motion_obs_reset(&b->obs, theta, w);
     b->theta_hat = b->obs.theta_hat;
@@ -66,7 +64,7 @@ float fs_blend_step_gated(fs_blend *b, float theta_smo, float theta_hfi, float T
     if (hfi_live) b->trust = smo_ok ? fs_minf(b->trust + b->d_trust, 1.0f) : 0.0f;
     else b->trust = 1.0f;
     b->g_w *= b->trust;
-    b->theta_blnd = fs_blend_angle(theta_smo, theta_hfi, b->g_w);  /* eq. (27) */
+    b->theta_blnd = fs_blend_angle_inline(theta_smo, theta_hfi, b->g_w);  /* eq. (27) */
     fs_motion_obs_step(&b->obs, fs_wrap_pi(b->theta_blnd - b->obs.theta_hat), T_ff);
     b->theta_hat = b->obs.theta_hat;
     b->w_hat = b->obs.w_hat;

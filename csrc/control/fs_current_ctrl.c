@@ -10,7 +10,7 @@ static void sampled_plant(float Ts, float L, float R, float *a, float *b)
 }
 
 /* Explicit gains (k_p > 0) or the design from the bandwidth. */
-static fs_status design_axis(fs_pi *pi, float Ts, float L, float R, float alpha, float k_p, float k_i)
+static FS_COLD fs_status design_axis(fs_pi *pi, float Ts, float L, float R, float alpha, float k_p, float k_i)
 {
     fs_pi_config c = {Ts, k_p, k_p, k_i, 0.0f};
     /* limited as a vector by the modulator, see fs_current_ctrl_update */
@@ -35,7 +35,7 @@ void fs_current_ctrl_internal_model(fs_current_ctrl_config *cfg)
     internal_model_axis(cfg->Ts, cfg->L_q, cfg->R_s, cfg->bandwidth, &cfg->k_p_q, &cfg->k_i_q);
 }
 
-fs_status fs_current_ctrl_init(fs_current_ctrl *cc, const fs_current_ctrl_config *cfg)
+FS_COLD fs_status fs_current_ctrl_init(fs_current_ctrl *cc, const fs_current_ctrl_config *cfg)
 {
     if (!cc || !cfg) return FS_ERR_NULL;
     if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
@@ -60,7 +60,7 @@ fs_status fs_current_ctrl_init(fs_current_ctrl *cc, const fs_current_ctrl_config
     return FS_OK;
 }
 
-void fs_current_ctrl_reset(fs_current_ctrl *cc)
+FS_COLD void fs_current_ctrl_reset(fs_current_ctrl *cc)
 {
     fs_pi_reset(&cc->pi_d);
     fs_pi_reset(&cc->pi_q);

@@ -1,3 +1,4 @@
+#include "fs_blend_angle.h"
 #include "fs_drive.h"
 #include "fs_drive_ident.h"
 #include "fs_drive_protect.h"
@@ -44,7 +45,7 @@ static const char drive_field_names[] = DRIVE_FIELDS(FIELD_NAME);
 typedef char drive_fields_fit[(offsetof(fs_drive_config, map) <= 256 * sizeof(float) && FS_ERR__COUNT < 64) ? 1 : -1];
 
 /* The first field of the table out of its range, its status and its name. */
-static fs_status drive_check_fields(const fs_drive_config *cfg, const char **name)
+static FS_COLD fs_status drive_check_fields(const fs_drive_config *cfg, const char **name)
 {
     const char *s = drive_field_names;
     for (size_t k = 0; k < sizeof drive_fields / sizeof drive_fields[0]; ++k) {
@@ -60,7 +61,7 @@ static fs_status drive_check_fields(const fs_drive_config *cfg, const char **nam
 }
 
 /* The injection estimators: HFI (and blend). */
-static fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
+static FS_COLD fs_status drive_init_injection(fs_drive *drv, const fs_drive_config *cfg)
 {
     fs_motion_obs_config mo = {cfg->Ts, cfg->J, cfg->B, cfg->pole_pairs, 0.0f};
     fs_hfi_config hc = cfg->hfi;
@@ -239,7 +240,7 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     return FS_OK;
 }
 
-void fs_drive_reset(fs_drive *drv)
+FS_COLD void fs_drive_reset(fs_drive *drv)
 {
     if (FS_WITH_IDENT && drv->cfg.mode == FS_MODE_IDENTIFY) {
         fs_ident_reset(&drv->ident);
@@ -414,7 +415,7 @@ static float drv_blend_theta(const fs_drive *drv)
     if (drv->blend.g_w >= 1.0f && !drv->injecting && drv->smo.converged && drv->cfg.smo.form == FS_SMO_FORM_TRACKING)
         return drv->smo.theta;   /* above the band (header) */
     if (!drv->cfg.hfi.lag || !drv->inject_on || h->gain < 1.0f || h->k_settle > 0) return drv->blend.theta_hat;
-    return fs_blend_angle(drv->blend.theta_hat, h->theta, drv->blend.g_w);
+    return fs_blend_angle_inline(drv->blend.theta_hat, h->theta, drv->blend.g_w);
 }
 
 /* Angle and speed from the configured source; *i_ab becomes the current the

@@ -1,7 +1,7 @@
 #include "fs_drive_ident.h"
 #include "fs_math.h"
 
-fs_status fs_drive_ident_init(fs_drive *drv, const fs_drive_config *cfg)
+FS_COLD fs_status fs_drive_ident_init(fs_drive *drv, const fs_drive_config *cfg)
 {
     if (cfg->phases != 3) { drv->fail = "phases"; return FS_ERR_MODE; }
     if (cfg->converter != FS_CONV_VSI) { drv->fail = "converter"; return FS_ERR_MODE; }

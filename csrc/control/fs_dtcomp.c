@@ -2,7 +2,7 @@
 #include "fs_math.h"
 #include "fs_vsd.h"
 
-fs_status fs_dtcomp_init(fs_dtcomp *d, const fs_dtcomp_config *cfg)
+FS_COLD fs_status fs_dtcomp_init(fs_dtcomp *d, const fs_dtcomp_config *cfg)
 {
     if (!d || !cfg) return FS_ERR_NULL;
     const fs_dtcomp_config *c = cfg;
@@ -22,7 +22,7 @@ fs_status fs_dtcomp_init(fs_dtcomp *d, const fs_dtcomp_config *cfg)
     return FS_OK;
 }
 
-void fs_dtcomp_reset(fs_dtcomp *d)
+FS_COLD void fs_dtcomp_reset(fs_dtcomp *d)
 {
     d->k = 0;
     d->u_inj_now.alpha = d->u_inj_now.beta = 0.0f;

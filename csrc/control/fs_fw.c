@@ -1,7 +1,7 @@
 #include "fs_fw.h"
 #include "fs_math.h"
 
-fs_status fs_fw_init(fs_fw *fw, const fs_fw_config *cfg)
+FS_COLD fs_status fs_fw_init(fs_fw *fw, const fs_fw_config *cfg)
 {
     if (!fw || !cfg) return FS_ERR_NULL;
     if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
@@ -19,7 +19,7 @@ fs_status fs_fw_init(fs_fw *fw, const fs_fw_config *cfg)
     return FS_OK;
 }
 
-void fs_fw_design(fs_fw_config *cfg, float bw_current, bool hold)
+FS_COLD void fs_fw_design(fs_fw_config *cfg, float bw_current, bool hold)
 {
     if (!cfg) return;
     const float K = fs_minf(0.25f * bw_current, 1.5f * cfg->w_e_max);   /* held: fs_drive.h */

@@ -32,15 +32,24 @@ void fs_hfi_set_resistance(fs_hfi *h, float R_s)
     if (h && fs_nonneg(R_s)) carrier_phase(h, R_s);
 }
 
+/* nextafterf(w, 0) for w > 0 (an infinity included): the encoding one
+ * down; without libm's nextafterf (128 B of the production image) */
+static float next_down(float w)
+{
+    union { float f; uint32_t u; } b = {w};
+    --b.u;
+    return b.f;
+}
+
 float fs_hfi_w_h_max(float Ts)
 {
     if (!fs_pos(Ts)) return 0.0f;
     float w = 0.5f * FS_PI / Ts;
-    while (w > 0.0f && !(w * Ts < 0.5f * FS_PI)) w = nextafterf(w, 0.0f);
+    while (w > 0.0f && !(w * Ts < 0.5f * FS_PI)) w = next_down(w);
     return w;
 }
 
-fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
+FS_COLD fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
 {
     if (!h || !cfg) return FS_ERR_NULL;
     fs_hfi_config c = *cfg;
@@ -78,7 +87,7 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
     carrier_phase(h, c.R_s);
     if (!fs_pos(h->i_n_design) || !fs_fin(h->u_amp)) return FS_ERR_PARAM;   /* beyond the float range */
     h->k_avg = -expm1f(-0.25f * c.w_b_n * c.Ts);
-    h->n_settle = (int)ceilf(3.0f / (c.w_b_n * c.Ts));
+    h->n_settle = fs_ceil_int(3.0f / (c.w_b_n * c.Ts));
     h->w_o_blend = c.lag ? FS_HFI_OBS_PER_FILTER * c.w_b_n : c.obs.bandwidth;
     {   /* the table's i_q over a carrier period (header) */
         const int n = (int)(2.0f * FS_PI / (c.w_h * c.Ts) + 0.5f);
@@ -99,7 +108,7 @@ fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
     return FS_OK;
 }
 
-void fs_hfi_reset(fs_hfi *h, float theta, float w)
+FS_COLD void fs_hfi_reset(fs_hfi *h, float theta, float w)
 {
     fs_hfi_filter_reset(&h->filt);
     fs_motion_obs_reset(&h->obs, theta, w);
@@ -124,7 +133,7 @@ void fs_hfi_reset(fs_hfi *h, float theta, float w)
     h->u.alpha = h->u.beta = 0.0f;
 }
 
-void fs_hfi_set_angle(fs_hfi *h, float theta, float w)
+FS_COLD void fs_hfi_set_angle(fs_hfi *h, float theta, float w)
 {
     fs_motion_obs_reset(&h->obs, theta, w);
     if (h->cfg.lag) fs_motion_obs_reset(&h->obs_w, theta, w);

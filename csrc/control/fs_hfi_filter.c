@@ -1,7 +1,7 @@
 #include "fs_hfi_filter.h"
 #include "fs_math.h"
 
-fs_status fs_hfi_filter_init(fs_hfi_filter *f, const fs_hfi_filter_config *cfg)
+FS_COLD fs_status fs_hfi_filter_init(fs_hfi_filter *f, const fs_hfi_filter_config *cfg)
 {
     if (!f || !cfg) return FS_ERR_NULL;
     fs_srff_config c = {cfg->Ts, cfg->w_b_p};

@@ -56,7 +56,7 @@ const char *fs_ident_step_str(int step)
     return (step >= 0 && step < FS_IDENT_NSTEPS) ? s[step] : "?";
 }
 
-fs_status fs_ident_init(fs_ident *id, const fs_ident_config *cfg)
+FS_COLD fs_status fs_ident_init(fs_ident *id, const fs_ident_config *cfg)
 {
     if (!id || !cfg) return FS_ERR_NULL;
     if (!fs_pos(cfg->Ts)) return FS_ERR_TS;

@@ -1,7 +1,7 @@
 #include "fs_if_start.h"
 #include "fs_math.h"
 
-fs_status fs_if_start_init(fs_if_start *s, const fs_if_start_config *cfg)
+FS_COLD fs_status fs_if_start_init(fs_if_start *s, const fs_if_start_config *cfg)
 {
     if (!s || !cfg) return FS_ERR_NULL;
     if (!fs_pos(cfg->Ts)) return FS_ERR_TS;

@@ -97,7 +97,7 @@ void fs_imc_rectifier(const float u_in[3], float alpha, fs_imc_rect *r)
     r->v_pn = d_far * v_max + r->iv[1].d * v_mid;
 }
 
-fs_status fs_imc_depth_design(fs_imc_depth_config *cfg, float Ts, float i_lim, float V_im,
+FS_COLD fs_status fs_imc_depth_design(fs_imc_depth_config *cfg, float Ts, float i_lim, float V_im,
                               float w_e_max, float L, float bw)
 {
     if (!cfg) return FS_ERR_NULL;
@@ -115,7 +115,7 @@ fs_status fs_imc_depth_design(fs_imc_depth_config *cfg, float Ts, float i_lim, f
     return fs_fin(cfg->k_i) ? FS_OK : FS_ERR_PARAM;   /* G = 0: V_im / (w_e,max L) below the float range */
 }
 
-fs_status fs_imc_depth_init(fs_imc_depth *dc, const fs_imc_depth_config *cfg)
+FS_COLD fs_status fs_imc_depth_init(fs_imc_depth *dc, const fs_imc_depth_config *cfg)
 {
     if (!dc || !cfg) return FS_ERR_NULL;
     if (!fs_pos(cfg->Ts)) return FS_ERR_TS;

@@ -1,7 +1,7 @@
 #include "fs_lock.h"
 #include "fs_math.h"
 
-fs_status fs_lock_init(fs_lock *lk, const fs_lock_config *cfg)
+FS_COLD fs_status fs_lock_init(fs_lock *lk, const fs_lock_config *cfg)
 {
     if (!lk || !cfg) return FS_ERR_NULL;
     if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
@@ -11,7 +11,7 @@ fs_status fs_lock_init(fs_lock *lk, const fs_lock_config *cfg)
     return FS_OK;
 }
 
-void fs_lock_reset(fs_lock *lk)
+FS_COLD void fs_lock_reset(fs_lock *lk)
 {
     lk->t_over = 0.0f;
     lk->lost = false;

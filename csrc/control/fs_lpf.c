@@ -1,7 +1,7 @@
 #include "fs_lpf.h"
 #include "fs_math.h"
 
-fs_status fs_lpf_init(fs_lpf *f, const fs_lpf_config *cfg)
+FS_COLD fs_status fs_lpf_init(fs_lpf *f, const fs_lpf_config *cfg)
 {
     if (!f || !cfg) return FS_ERR_NULL;
     if (!fs_pos(cfg->Ts)) return FS_ERR_TS;

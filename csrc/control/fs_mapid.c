@@ -41,7 +41,7 @@ static const float TURN[] = {0.618034f, 1.0f, 1.0f, 0.618034f, 0.0f};
 static const int Q_ORDER[] = {0, 1, -1, 2, -2, 3, -3};
 #define N_LEVELS ((int)(sizeof(Q_ORDER) / sizeof(Q_ORDER[0])))
 
-fs_status fs_mapid_init(fs_mapid *m, const fs_mapid_config *cfg)
+FS_COLD fs_status fs_mapid_init(fs_mapid *m, const fs_mapid_config *cfg)
 {
     if (!m || !cfg) return FS_ERR_NULL;
     if (!fs_pos(cfg->Ts)) return FS_ERR_TS;

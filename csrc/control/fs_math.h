@@ -12,11 +12,17 @@
 #define FS_SQRT3 1.73205080756887729353f
 #define FS_INV_SQRT3 0.57735026918962576451f
 
-/* FS_COLD: run once, at start-up (the inits and their designs), or rarely
- * (the answer to a loss of lock, fs_drive_protect.c): GCC optimizes such a
- * function for size and keeps it apart from the step's code. The arithmetic is the same (no reassociation, no contraction, as
- * at any level without -ffast-math), so are the results: only the
- * production image's flash shrinks */
+/* FS_COLD: run once, at start-up (every unit's init and its designs), or
+ * rarely (the resets, the answer to a loss of lock, fs_drive_protect.c; the
+ * back-EMF tracker's re-design and zero crossing, fs_smo.c): GCC optimizes
+ * such a function for size and keeps it apart from the step's code. The
+ * arithmetic is the same (no reassociation, no contraction, as at any
+ * level without -ffast-math), so are the results: only the production
+ * image's flash shrinks. Not on what runs every step in some stage (a
+ * reset the step calls while a unit is off, fs_monitor_reset): a call to a
+ * cold function also marks the path to it unlikely. Not noinline: the
+ * inits inlined into fs_drive_init fold the firmware's constant
+ * configuration (noinline: 5.9 kB more flash) */
 #if defined(__GNUC__)
 #define FS_CONST __attribute__((const))
 #define FS_OUT_OF_LINE static __attribute__((noinline, unused))
@@ -27,18 +33,38 @@
 #define FS_COLD
 #endif
 
+/* fmodf(x, 2 pi) (2 pi as a float), bit for bit: the remainder is exact,
+ * so any exact way to it gives libm's bits. 2 pi times the largest power
+ * of two with m <= |x| < 2 m, then halved down to 2 pi, taken off where it
+ * fits: each difference exact (Sterbenz: m <= a < 2 m), |x| < 2 pi at the
+ * end, with x's sign (a zero too, as fmodf). An infinity or NaN gives
+ * fmodf's own (x y) / (x y). Written out because newlib's fmodf and its
+ * wrapper were 440 B of the production image's 32 KB (bench/firmware.py);
+ * test_trig.c compares it with fmodf. */
+static inline float fs_fmod_2pi(float x)
+{
+    float a = fabsf(x);
+    if (!(a < INFINITY)) return (x * FS_TWO_PI) / (x * FS_TWO_PI);
+    float m = FS_TWO_PI;
+    while (a >= 2.0f * m) m *= 2.0f;   /* 2 m overflows to infinity past the largest float: stops */
+    for (; m >= FS_TWO_PI; m *= 0.5f) {
+        if (a >= m) a -= m;
+    }
+    return copysignf(a, x);
+}
+
 /* fs_wrap_pi off (-pi, pi) (+-pi, NaN and infinities included), out of
  * line: one copy, not one at every call site. Within a turn of the
  * interval (|x| < 3 pi: an angle and a step, a sum of two wrapped angles)
  * x -+ 2 pi alone lands in it, exactly (Sterbenz: |x| <= 4 pi), with the
- * bits fmodf's path gives; beyond, fmodf (exact) and one correction on
- * either side. */
+ * bits fmodf's path gives; beyond, fmodf's remainder (exact,
+ * fs_fmod_2pi) and one correction on either side. */
 FS_OUT_OF_LINE float fs_wrap_far(float x)
 {
     if (x == FS_PI) return x;
     const float y = x > 0.0f ? x - FS_TWO_PI : x + FS_TWO_PI;
     if (y > -FS_PI && y <= FS_PI && y != 0.0f) return y;   /* 0 is +-2 pi, whose sign fmodf sets */
-    x = fmodf(x, FS_TWO_PI);
+    x = fs_fmod_2pi(x);
     if (x > FS_PI) {
         x -= FS_TWO_PI;
     } else if (x <= -FS_PI) {
@@ -51,6 +77,16 @@ FS_OUT_OF_LINE float fs_wrap_far(float x)
 static inline float fs_wrap_pi(float x)
 {
     return fabsf(x) < FS_PI ? x : fs_wrap_far(x);   /* one comparison on the common path */
+}
+
+/* (int)ceilf(x), without libm's ceilf (140 B of the production image):
+ * the truncation, one up where it dropped a fraction of a positive x;
+ * from 2^23 on a float is whole, and x itself converts as its ceiling
+ * did (NaN and beyond the int range as before). */
+static inline int fs_ceil_int(float x)
+{
+    const int n = (int)x;
+    return fabsf(x) < 8388608.0f && (float)n < x ? n + 1 : n;
 }
 
 /* Configuration checks for the inits: each fails on NaN and on an infinity

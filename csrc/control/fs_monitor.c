@@ -73,7 +73,7 @@
 #define FS_MONITOR_WARM 2.0f
 #define FS_MONITOR_E_LIM 1e18f
 
-fs_status fs_monitor_init(fs_monitor *m, const fs_monitor_config *cfg)
+FS_COLD fs_status fs_monitor_init(fs_monitor *m, const fs_monitor_config *cfg)
 {
     if (!m || !cfg) return FS_ERR_NULL;
     if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
@@ -107,7 +107,7 @@ fs_status fs_monitor_init(fs_monitor *m, const fs_monitor_config *cfg)
     m->u_err = cfg->k_dead + FS_MONITOR_U_FLOOR;
     /* k < n_warm as (float)k < FS_MONITOR_WARM tau / Ts was; at most 2^30 */
     const float k_warm = FS_MONITOR_WARM * cfg->tau / cfg->Ts;
-    m->n_warm = k_warm < 1073741824.0f ? (int)ceilf(k_warm) : 1073741824;
+    m->n_warm = k_warm < 1073741824.0f ? fs_ceil_int(k_warm) : 1073741824;
     m->T_mech = FS_MONITOR_K_MECH * cfg->T_max;
     m->i_cur = FS_MONITOR_K_CUR * cfg->i_max;
     fs_monitor_reset(m);

@@ -4,7 +4,7 @@
 /* The gains with the error read through the filter (header): the triple
  * pole (c = 1 - z_o) and the filter's own, once or twice; g = 1 - E, m3 the
  * disturbance's predictor gain (the same as without). */
-static void lag_gains(fs_motion_obs *obs, float c, float g, float m3)
+static FS_COLD void lag_gains(fs_motion_obs *obs, float c, float g, float m3)
 {
     const float Ts = obs->cfg.Ts, f1 = obs->f1, f2 = obs->f2;
     const float b = -expm1f(-obs->w_lag * Ts), a = 1.0f - b, h = 1.0f - 0.5f * b;
@@ -37,12 +37,12 @@ static void lag_gains(fs_motion_obs *obs, float c, float g, float m3)
     obs->a_lag = a;
 }
 
-fs_status fs_motion_obs_init(fs_motion_obs *obs, const fs_motion_obs_config *cfg)
+FS_COLD fs_status fs_motion_obs_init(fs_motion_obs *obs, const fs_motion_obs_config *cfg)
 {
     return fs_motion_obs_init_lag(obs, cfg, 0, 0.0f);
 }
 
-fs_status fs_motion_obs_init_lag(fs_motion_obs *obs, const fs_motion_obs_config *cfg, int lag, float w_lag)
+FS_COLD fs_status fs_motion_obs_init_lag(fs_motion_obs *obs, const fs_motion_obs_config *cfg, int lag, float w_lag)
 {
     if (!obs || !cfg) return FS_ERR_NULL;
     if (!(cfg->Ts > 0.0f) || !isfinite(cfg->Ts)) return FS_ERR_TS;

@@ -1,7 +1,7 @@
 #include "fs_motion_test.h"
 #include "fs_math.h"
 
-fs_status fs_motion_test_init(fs_motion_test *m, const fs_motion_test_config *cfg)
+FS_COLD fs_status fs_motion_test_init(fs_motion_test *m, const fs_motion_test_config *cfg)
 {
     if (!m || !cfg) return FS_ERR_NULL;
     if (!fs_pos(cfg->Ts)) return FS_ERR_TS;

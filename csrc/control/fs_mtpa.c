@@ -57,7 +57,7 @@ static FS_COLD fs_status mtpa_search(fs_mtpa *m)
     return FS_OK;
 }
 
-fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
+FS_COLD fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
 {
     if (!m || !cfg) return FS_ERR_NULL;
     if (!fs_pos(cfg->L_d)) return FS_ERR_LD;

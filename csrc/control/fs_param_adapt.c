@@ -1,7 +1,7 @@
 #include "fs_param_adapt.h"
 #include "fs_math.h"
 
-fs_status fs_param_adapt_init(fs_param_adapt *a, const fs_param_adapt_config *cfg)
+FS_COLD fs_status fs_param_adapt_init(fs_param_adapt *a, const fs_param_adapt_config *cfg)
 {
     if (!a || !cfg) return FS_ERR_NULL;
     if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
@@ -18,7 +18,7 @@ fs_status fs_param_adapt_init(fs_param_adapt *a, const fs_param_adapt_config *cf
     const float T_u = (float)a->decim * cfg->Ts;
     if (!fs_pos(cfg->T_f) || !(cfg->T_f >= 20.0f * T_u) || !(cfg->T_f <= 1e7f * T_u)) return FS_ERR_PARAM;
     a->lambda = expf(-T_u / cfg->T_f);
-    a->n_fill = (int)ceilf(cfg->T_f / T_u);
+    a->n_fill = fs_ceil_int(cfg->T_f / T_u);
     /* 20 rad/s: -50 dB at a 1 kHz injection carrier, and a lag of 50 ms,
      * short against the seconds a drive cycle holds a point */
     if (a->cfg.w_lp <= 0.0f) a->cfg.w_lp = 20.0f;

@@ -1,7 +1,7 @@
 #include "fs_pi.h"
 #include "fs_math.h"
 
-fs_status fs_pi_init(fs_pi *pi, const fs_pi_config *cfg)
+FS_COLD fs_status fs_pi_init(fs_pi *pi, const fs_pi_config *cfg)
 {
     if (!pi || !cfg) return FS_ERR_NULL;
     if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
@@ -13,7 +13,7 @@ fs_status fs_pi_init(fs_pi *pi, const fs_pi_config *cfg)
     return FS_OK;
 }
 
-fs_status fs_pi_design(fs_pi_config *cfg, float Ts, float L, float R, float alpha, float u_max)
+FS_COLD fs_status fs_pi_design(fs_pi_config *cfg, float Ts, float L, float R, float alpha, float u_max)
 {
     if (!cfg) return FS_ERR_NULL;
     if (!fs_pos(Ts)) return FS_ERR_TS;

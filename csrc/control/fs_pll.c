@@ -1,7 +1,7 @@
 #include "fs_pll.h"
 #include "fs_math.h"
 
-fs_status fs_pll_init(fs_pll *pll, const fs_pll_config *cfg)
+FS_COLD fs_status fs_pll_init(fs_pll *pll, const fs_pll_config *cfg)
 {
     if (!pll || !cfg) return FS_ERR_NULL;
     if (!fs_pos(cfg->Ts)) return FS_ERR_TS;

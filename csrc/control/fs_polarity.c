@@ -1,7 +1,7 @@
 #include "fs_polarity.h"
 #include "fs_math.h"
 
-fs_status fs_polarity_init(fs_polarity *p, const fs_polarity_config *cfg)
+FS_COLD fs_status fs_polarity_init(fs_polarity *p, const fs_polarity_config *cfg)
 {
     if (!p || !cfg) return FS_ERR_NULL;
     if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
@@ -40,7 +40,7 @@ static void polarity_pulses(fs_polarity *p)
     p->halves = 0;
 }
 
-void fs_polarity_reset(fs_polarity *p)
+FS_COLD void fs_polarity_reset(fs_polarity *p)
 {
     polarity_pulses(p);
     p->stage = p->n_lock > 0 ? FS_POLARITY_LOCK : FS_POLARITY_POS;

@@ -8,7 +8,7 @@
  * the step from it. The re-design is rare and out of line, the check that
  * skips it inline in the step: as one function, its call, frame and base
  * address cost 11 instructions a step on a Cortex-M4F (bench/pil.py). */
-FS_OUT_OF_LINE void smo_redesign(fs_smo *o, float want)
+FS_OUT_OF_LINE FS_COLD void smo_redesign(fs_smo *o, float want)
 {
     const float theta = o->mo.theta_hat, w_hat = o->mo.w_hat, T_d = o->mo.T_d_hat;
     fs_motion_obs_config mc = o->mo.cfg;
@@ -16,7 +16,7 @@ FS_OUT_OF_LINE void smo_redesign(fs_smo *o, float want)
     (void)fs_motion_obs_init(&o->mo, &mc);   /* J, B, p checked in fs_smo_init; 0 < want <= bw_pll */
     fs_motion_obs_reset(&o->mo, theta, w_hat);
     o->mo.T_d_hat = T_d;
-    o->n_settle = (int)ceilf(4.0f / (want * o->cfg.Ts));
+    o->n_settle = fs_ceil_int(4.0f / (want * o->cfg.Ts));
 }
 
 static inline void smo_schedule(fs_smo *o)
@@ -27,7 +27,7 @@ static inline void smo_schedule(fs_smo *o)
     if (!(fabsf(want - now) <= 0.1f * now)) smo_redesign(o, want);   /* a NaN re-designs, as before */
 }
 
-fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
+FS_COLD fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
 {
     if (!o || !cfg) return FS_ERR_NULL;
     if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
@@ -63,7 +63,7 @@ fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
      * 1 / sqrt 5 of it at w_c = w) */
     o->e_valid = 0.4f * cfg->w_valid * cfg->psi_f;
     /* converged: 4 time constants of the tracker without a break */
-    o->n_settle = (int)ceilf(4.0f / (cfg->bw_pll * cfg->Ts));
+    o->n_settle = fs_ceil_int(4.0f / (cfg->bw_pll * cfg->Ts));
     o->a_emf = -expm1f(-cfg->bw_pll * cfg->Ts);
     if (cfg->form == FS_SMO_FORM_TRACKING) {
         if (cfg->phases != 3 && cfg->phases != 5) return FS_ERR_PARAM;
@@ -86,7 +86,7 @@ fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
     return FS_OK;
 }
 
-void fs_smo_reset(fs_smo *o, float theta, float w)
+FS_COLD void fs_smo_reset(fs_smo *o, float theta, float w)
 {
     o->i_hat.alpha = o->i_hat.beta = 0.0f;
     o->z = o->i_hat;

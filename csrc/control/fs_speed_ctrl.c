@@ -1,7 +1,7 @@
 #include "fs_speed_ctrl.h"
 #include "fs_math.h"
 
-fs_status fs_speed_ctrl_init(fs_speed_ctrl *sc, const fs_speed_ctrl_config *cfg)
+FS_COLD fs_status fs_speed_ctrl_init(fs_speed_ctrl *sc, const fs_speed_ctrl_config *cfg)
 {
     if (!sc || !cfg) return FS_ERR_NULL;
     if (!fs_pos(cfg->Ts)) return FS_ERR_TS;

@@ -1,7 +1,7 @@
 #include "fs_srff.h"
 #include "fs_math.h"
 
-fs_status fs_srff_init(fs_srff *f, const fs_srff_config *cfg)
+FS_COLD fs_status fs_srff_init(fs_srff *f, const fs_srff_config *cfg)
 {
     if (!f || !cfg) return FS_ERR_NULL;
     if (!(cfg->Ts > 0.0f) || !isfinite(cfg->Ts)) return FS_ERR_TS;

@@ -1,7 +1,7 @@
 #include "fs_swvi.h"
 #include "fs_math.h"
 
-fs_status fs_swvi_init(fs_swvi *s, const fs_swvi_config *cfg)
+FS_COLD fs_status fs_swvi_init(fs_swvi *s, const fs_swvi_config *cfg)
 {
     if (!s || !cfg) return FS_ERR_NULL;
     const fs_swvi_config *c = cfg;

@@ -2,7 +2,7 @@
 #include "fs_math.h"
 #include "fs_vsd.h"
 
-fs_status fs_xyctrl_init(fs_xyctrl *x, const fs_xyctrl_config *cfg)
+FS_COLD fs_status fs_xyctrl_init(fs_xyctrl *x, const fs_xyctrl_config *cfg)
 {
     if (!x || !cfg) return FS_ERR_NULL;
     const fs_xyctrl_config *c = cfg;

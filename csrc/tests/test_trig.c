@@ -8,7 +8,8 @@
  * magnitudes from 1e-30 to 1e38 (within 1.6 ulp), and on the special
  * values as C99 Annex F has atan2; fs_cis_small as fs_cis bit for bit; fs_maxf and fs_minf as fmaxf and fminf
  * are specified (NaN ignored); fs_wrap_far against the fmodf path it
- * shortens.
+ * shortens; fs_fmod_2pi as fmodf(x, 2 pi) and fs_ceil_int as (int)ceilf
+ * bit for bit (their libm functions are no longer in the image).
  */
 #include <float.h>
 #include <stdint.h>
@@ -171,6 +172,36 @@ int main(void)
         differ += !same_bits(fs_wrap_pi(x), wrap_fmod(x)) + !same_bits(fs_wrap_pi(-x), wrap_fmod(-x));
     }
     FS_CHECK(differ == 0, "fs_wrap_pi differs from the fmodf path on %ld arguments", differ);
+
+    /* fs_fmod_2pi is fmodf(x, 2 pi) bit for bit: the floats from 0 to 64 pi
+     * (a stride of 7), a stride over the rest of the finite ones, both signs
+     * (zero remainders keep x's sign), the infinities and a NaN. */
+    long fmod_differ = 0;
+    for (uint64_t b = 0; b < 0x7f800000u; b += (b < 0x43490fdbu ? 7u : 4099u)) {
+        float x;
+        const uint32_t bits = (uint32_t)b;
+        memcpy(&x, &bits, sizeof x);
+        fmod_differ += !same_bits(fs_fmod_2pi(x), fmodf(x, FS_TWO_PI)) + !same_bits(fs_fmod_2pi(-x), fmodf(-x, FS_TWO_PI));
+    }
+    const float whole[] = {FS_TWO_PI, 2.0f * FS_TWO_PI, 1024.0f * FS_TWO_PI, FLT_MAX, 3.0f * FS_TWO_PI};
+    for (size_t k = 0; k < sizeof whole / sizeof whole[0]; ++k) {
+        fmod_differ += !same_bits(fs_fmod_2pi(whole[k]), fmodf(whole[k], FS_TWO_PI))
+                       + !same_bits(fs_fmod_2pi(-whole[k]), fmodf(-whole[k], FS_TWO_PI));
+    }
+    FS_CHECK(fmod_differ == 0, "fs_fmod_2pi differs from fmodf on %ld arguments", fmod_differ);
+    FS_CHECK(isnan(fs_fmod_2pi(INFINITY)) && isnan(fs_fmod_2pi(-INFINITY)) && isnan(fs_fmod_2pi(NAN)),
+             "fs_fmod_2pi of an infinity or NaN is NaN, as fmodf");
+
+    /* fs_ceil_int is (int)ceilf: every float of |x| < 2^24 (a stride), both signs, and the ends */
+    long ceil_differ = 0;
+    for (uint32_t bits = 0; bits < 0x4b800000u; bits += 13) {
+        float x;
+        memcpy(&x, &bits, sizeof x);
+        ceil_differ += (fs_ceil_int(x) != (int)ceilf(x)) + (fs_ceil_int(-x) != (int)ceilf(-x));
+    }
+    const float ceil_ends[] = {0.5f, -0.5f, 1.0f, nextafterf(1.0f, 2.0f), 8388607.5f, 8388608.0f, 1e9f, -1e9f};
+    for (size_t k = 0; k < sizeof ceil_ends / sizeof ceil_ends[0]; ++k) ceil_differ += fs_ceil_int(ceil_ends[k]) != (int)ceilf(ceil_ends[k]);
+    FS_CHECK(ceil_differ == 0, "fs_ceil_int differs from (int)ceilf on %ld arguments", ceil_differ);
 
     /* fs_cis_small is fs_cis bit for bit: every float of |x| < 1 (its inline
      * path below 0.78, the call beyond; a stride), both signs, and the ends. */
