@@ -11,10 +11,15 @@
 
 static inline float fs_blend_angle_inline(float theta_smo, float theta_hfi, float g)
 {
-    if (g <= 0.0f) return fs_wrap_pi(theta_hfi);
-    if (g >= 1.0f) return fs_wrap_pi(theta_smo);
-    /* eq. (27) along the shorter arc, so that it does not break at +-pi */
-    return fs_wrap_pi(theta_hfi + g * fs_wrap_pi(theta_smo - theta_hfi));
+    float theta;
+    if (g <= 0.0f) {
+        theta = theta_hfi;
+    } else if (g >= 1.0f) {
+        theta = theta_smo;
+    } else {   /* eq. (27) along the shorter arc, so that it does not break at +-pi */
+        theta = theta_hfi + (g * fs_wrap_pi(theta_smo - theta_hfi));
+    }
+    return fs_wrap_pi(theta);
 }
 
 #endif /* FS_BLEND_ANGLE_H */

@@ -1,5 +1,6 @@
 #include "fs_hfi.h"
 #include "fs_math.h"
+#include <float.h>
 
 /* The heterodyne reference's rotation phi_ref and the negative carrier's
  * amplitude for the stator resistance R_s (h->cfg holds the rest). */
@@ -32,13 +33,14 @@ void fs_hfi_set_resistance(fs_hfi *h, float R_s)
     if (h && fs_nonneg(R_s)) carrier_phase(h, R_s);
 }
 
-/* nextafterf(w, 0) for w > 0 (an infinity included): the encoding one
- * down; without libm's nextafterf (128 B of the production image) */
+/* nextafterf(w, 0) for w > 0 (an infinity included), without libm's
+ * nextafterf (128 B of the production image): for a normal w in
+ * [2^e, 2^(e+1)), w 2^-24 is exact and lies in [1/2, 1) of w's ulp, so
+ * w - w 2^-24 rounds to the float one below (at w = 2^e it is that float
+ * exactly); an infinity steps down to the largest float */
 static float next_down(float w)
 {
-    union { float f; uint32_t u; } b = {w};
-    --b.u;
-    return b.f;
+    return (w < INFINITY) ? (w - (w * 5.9604644775390625e-8f)) : FLT_MAX;
 }
 
 float fs_hfi_w_h_max(float Ts)

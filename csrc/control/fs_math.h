@@ -44,13 +44,30 @@
 static inline float fs_fmod_2pi(float x)
 {
     float a = fabsf(x);
-    if (!(a < INFINITY)) return (x * FS_TWO_PI) / (x * FS_TWO_PI);
-    float m = FS_TWO_PI;
-    while (a >= 2.0f * m) m *= 2.0f;   /* 2 m overflows to infinity past the largest float: stops */
-    for (; m >= FS_TWO_PI; m *= 0.5f) {
-        if (a >= m) a -= m;
+    float r;
+    if (!(a < INFINITY)) {
+        r = (x * FS_TWO_PI) / (x * FS_TWO_PI);
+    } else {
+        float m = FS_TWO_PI;
+        int n = 0;   /* the doublings: at most 125 below the largest float */
+        bool more = true;
+        for (int k = 0; (k < 128) && more; ++k) {
+            if (a >= (2.0f * m)) {
+                m *= 2.0f;
+                ++n;
+            } else {
+                more = false;
+            }
+        }
+        for (int k = 0; k <= n; ++k) {   /* m = 2 pi 2^n down to 2 pi */
+            if (a >= m) {
+                a -= m;
+            }
+            m *= 0.5f;
+        }
+        r = copysignf(a, x);
     }
-    return copysignf(a, x);
+    return r;
 }
 
 /* fs_wrap_pi off (-pi, pi) (+-pi, NaN and infinities included), out of
