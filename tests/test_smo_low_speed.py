@@ -236,3 +236,47 @@ def test_the_tracker_carries_its_model_through_a_zero_crossing(i_q):
     crossing = (t > t[k0] - 0.05) & (t < t[k0] + 0.1)
     assert np.abs(e[crossing]).max() < 10.0
     assert np.abs(e[t > t[k0] + 0.1]).max() < 5.0
+
+
+def test_a_held_tracker_runs_on_its_model_alone():
+    """fs_smo_hold: a valid tracker told that its current is disturbed
+    (the injection's carrier fading in or out) runs on its motion model for
+    the steps it is given: with no current (no torque, no load) its speed
+    stays but for the model's viscous friction (B / J = 0.11 /s here) and its
+    angle turns by w Ts a step; not held, the same steps
+    without an EMF pull its speed down (197.3 against 199.9 rad/s). A
+    tracker not valid is not held."""
+    held, free = _smo(lib.FS_SMO_FORM_TRACKING), _smo(lib.FS_SMO_FORM_TRACKING)
+    for o in (held, free):
+        lib.fs_smo_follow(o, 0.5, 200.0, 0.0)
+        lib.fs_smo_step(o, ZERO, ZERO)
+        assert o.valid
+    lib.fs_smo_hold(held, 40)
+    w0, th0 = held.w, held.theta
+    for _ in range(40):
+        lib.fs_smo_step(held, ZERO, ZERO)
+        lib.fs_smo_step(free, ZERO, ZERO)
+    assert held.w == pytest.approx(w0 * math.exp(-40 * 1e-4 * 2e-4 / 1.87e-3), rel=1e-5)
+    assert math.remainder(held.theta - (th0 + 40 * 1e-4 * w0), 2 * math.pi) == pytest.approx(0.0, abs=1e-3)
+    assert free.w < held.w - 1.0                  # not held: pulled towards standstill without an EMF
+    assert held.n_hold == 0                       # and the hold is over
+    idle = _smo(lib.FS_SMO_FORM_TRACKING)
+    lib.fs_smo_hold(idle, 40)
+    assert idle.n_hold == 0
+
+
+def test_the_blend_restarts_an_observer_beyond_its_design_speed_while_injecting():
+    """While injecting, a back-EMF observer whose speed has run beyond
+    smo.w_e_max (the rectified carrier of a saturating machine at
+    standstill took the Baldor PM-SyRM's to -80,000 rpm) is started afresh
+    from the blend's estimate at the next step."""
+    sim = Simulation(load_scenario("beyond-full-range", {"duration": 0.2, "metrics": {"steady": None}}))
+    drv = lib.fs_sim_drive(sim._sim)
+    sim.advance(0.1)
+    assert drv.injecting and drv.blend.g_w < 1.0
+    # as the runaway was: valid on its own speed, its EMF rectified far above w_valid's (fs_smo_follow refuses it)
+    drv.smo.mo.w_hat = drv.smo.w = -3.0 * drv.cfg.smo.w_e_max
+    drv.smo.valid = True
+    drv.smo.e_raw = 10.0 * drv.cfg.smo.w_valid * drv.cfg.smo.psi_f
+    sim.advance_steps(sim.step_count + 1)
+    assert abs(drv.smo.w - drv.blend.w_hat) < 0.05 * drv.cfg.smo.w_e_max

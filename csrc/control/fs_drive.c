@@ -325,6 +325,18 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
         /* below its validity the observer starts from the blended estimate
          * (fs_smo_follow; the tracking form only) */
         if (!own) fs_smo_follow(&drv->smo, drv->blend.theta_hat, drv->blend.w_hat, drv->blend.obs.T_d_hat);
+        /* While injecting, an observer beyond the speed it is designed for
+         * (smo.w_e_max) has no estimate: started afresh from the blend's. At
+         * standstill under the carrier a saturating machine's current holds
+         * the carrier's harmonics, whose rectified EMF took the Baldor
+         * PM-SyRM's tracker to -80,000 rpm, its current estimate against its
+         * bound; it never came back, the blend never trusted it, and the
+         * injection ran to 1.5 x base speed, its carrier's voltage taken off
+         * the fundamental's (184 of 311 V), where B-REAL's load step lost
+         * the speed */
+        if (!own && drv->injecting && !(fabsf(drv->smo.w) <= c->smo.w_e_max)) {
+            fs_smo_reset(&drv->smo, drv->blend.theta_hat, drv->blend.w_hat);
+        }
         fs_smo_step(&drv->smo, i_f, drive_smo_u(drv, i_f));
         fs_blend_step_gated(&drv->blend, drv->smo.theta, drv->hfi.theta, T_ff,   /* Fig. 6 */
                             drv->smo.converged || !c->blend.gate, drv->injecting && drv->hfi.gain >= 1.0f);
@@ -344,6 +356,7 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
          * (fs_blend.h: a load release can carry the rotor past it before) */
         if (c->w_inject_max > 0.0f && drv->inject_on && aw > c->w_inject_max && drv->blend.trust >= 1.0f) {
             drv->inject_on = false;
+            fs_smo_hold(&drv->smo, drv->hfi.n_settle);   /* ... and out */
         } else if (c->w_inject_max > 0.0f && !drv->inject_on && aw < 0.9f * c->w_inject_max) {
             drv->inject_on = true;
             /* the filters kept the carriers as they faded out (fs_hfi.h); the
@@ -355,7 +368,10 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
             } else if (!drv->injecting) {
                 fs_hfi_set_angle(&drv->hfi, drv->blend.theta_hat, drv->blend.w_hat);
             }
-            if (!drv->injecting) fs_hfi_set_load(&drv->hfi, drv->blend.obs.T_d_hat);   /* the load it carries */
+            if (!drv->injecting) {
+                fs_hfi_set_load(&drv->hfi, drv->blend.obs.T_d_hat);   /* the load it carries */
+                fs_smo_hold(&drv->smo, drv->hfi.n_settle);   /* the carrier fades in through the filters (below) */
+            }
         }
     }
     /* The amplitude fades in and out over the filters' settling time, so

@@ -109,6 +109,7 @@ FS_COLD void fs_smo_reset(fs_smo *o, float theta, float w)
     o->dir = w < 0.0f ? -1.0f : 1.0f;
     o->valid = false;
     o->n_cross = 0;
+    o->n_hold = 0;
     o->r_i = o->eps = o->e_mag = 0.0f;
 }
 
@@ -132,6 +133,13 @@ void fs_smo_set_model(fs_smo *o, float L_q, float psi_a)
     o->L_q_run = L_q;
     o->psi_run = fs_maxf(psi_a, 0.5f * o->cfg.psi_f);   /* as smo_psi_x: a large positive i_d */
     o->map = true;
+}
+
+void fs_smo_hold(fs_smo *o, int n)
+{
+    if (o->valid && (n > 0)) {   /* read by the tracking form only */
+        o->n_hold = n;
+    }
 }
 
 void fs_smo_set_dir(fs_smo *o, float w)
@@ -264,6 +272,18 @@ FS_OUT_OF_LINE FS_COLD void smo_cross_step(fs_smo *o, float T)
     o->n_cross = (through || contradicted) ? 0 : (o->n_cross - 1);
 }
 
+/* A step on the model alone: the caller's hold (fs_smo_hold), else a
+ * zero crossing's */
+FS_OUT_OF_LINE FS_COLD void smo_model_step(fs_smo *o, float T)
+{
+    if (o->n_hold > 0) {
+        --o->n_hold;
+        (void)fs_motion_obs_predict(&o->mo, T);
+    } else {
+        smo_cross_step(o, T);
+    }
+}
+
 float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
 {
     const fs_smo_config *c = &o->cfg;
@@ -344,8 +364,8 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
          * unknown frame nor a load learnt at speed (T_d held) accelerates
          * the estimate */
         o->T_model = T;
-        if (o->n_cross > 0) {
-            smo_cross_step(o, T);   /* a zero crossing, on the model alone (header; rare, out of line) */
+        if ((o->n_hold > 0) || (o->n_cross > 0)) {
+            smo_model_step(o, T);   /* a hold or a zero crossing, on the model alone (header; rare, out of line) */
         } else {
             const float T_net = o->valid ? kappa * T - (1.0f - kappa) * o->mo.T_d_hat : -o->mo.T_d_hat;
             fs_motion_obs_step(&o->mo, kappa * err, T_net);

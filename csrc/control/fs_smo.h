@@ -262,6 +262,7 @@ typedef struct {
     float w;             /* estimated electrical speed, rad/s */
     bool valid;
     float T_model;       /* FS_SMO_FORM_TRACKING: the current's torque at the last step, N m */
+    int n_hold;          /* FS_SMO_FORM_TRACKING: steps left on the motion model alone at the caller's word (fs_smo_hold) */
     int n_cross;         /* FS_SMO_FORM_TRACKING: steps left at most of a zero crossing on the motion model (fs_smo_step) */
     int n_dir;           /* in a crossing: 0 before zero, then counting down the filter's settling to 1 */
     int n_settle_dir;    /* the EMF filter's settling at its floor cutoff, steps */
@@ -282,6 +283,14 @@ void fs_smo_reset(fs_smo *o, float theta, float w);
  * injection side knows the direction long before the back-EMF does, and an
  * observer that took it from its own speed at standstill could lock pi off. */
 void fs_smo_set_dir(fs_smo *o, float w);
+/* FS_SMO_FORM_TRACKING, valid: the current the caller gives is disturbed
+ * for the next n steps in a way the model cannot explain (the injection's
+ * fundamental while its carrier fades in or out: fs_hfi's filters follow a
+ * changing carrier only within their settling, and on a saturating machine
+ * its harmonics pass them), so the tracker runs on its motion model alone
+ * meanwhile (the current's torque and its load in full, no correction), as
+ * through a zero crossing. No effect otherwise. */
+void fs_smo_hold(fs_smo *o, int n);
 /* FS_SMO_FORM_TRACKING, while not valid and its own EMF (e_raw) below that
  * of w_valid: the tracker takes an estimate the caller trusts (angle,
  * electrical speed, and T_d the load torque as fs_motion_obs has it, N m),
