@@ -217,3 +217,22 @@ def test_the_pulse_peak_follows_the_loop_its_plant_and_its_voltage():
     assert pulse_peak(Ts, True, bw, R, L, L / 4, i_p, 50, 300.0) == math.inf
     capped = pulse_peak(Ts, True, bw, R, L, L, i_p, 500, 1.0)
     assert 0.9 * 1.0 / R < capped <= 1.0 / R
+
+
+def test_a_run_handed_the_true_angle_says_it_showed_no_start():
+    """controller.angle = "smo" with the designed start hands the observer
+    the encoder's angle until observer.handover (0 s): the run is sensorless
+    from the first step but starts where the rotor is, which a new user's
+    summary did not say (the grin hub motor, this stop's trial). Its summary
+    says so, with the angle given; an I/f start's does not."""
+    data = {"name": "grin-given", "machine": "grin-all-axle-5t", "duration": 0.3,
+            "controller": {"mode": "speed", "angle": "smo"}, "initial": {"theta_e_deg": 40.0},
+            "references": {"speed_rpm": [[0.0, 0.0], [0.3, 200.0]]}, "metrics": {"steady": None}}
+    given = simulate(scenario_from_dict(data, "test"))
+    sg = given.metrics["start_given"]
+    assert sg["at"] == 0.0 and sg["theta_deg"] == pytest.approx(40.0, abs=1e-6)
+    assert "start_motion" not in given.metrics
+    assert any(ln.startswith("start: none from an unknown angle") and "40.00 el.deg" in ln
+               for ln in summary_lines(given.metrics))
+    started = simulate(scenario_from_dict({**data, "observer": {"start": "if"}}, "test"))
+    assert "start_given" not in started.metrics and started.metrics["start_motion"]["kind"] == "if"

@@ -464,6 +464,23 @@ def start_motion(res) -> dict | None:
             "bound_deg": st.get("c", {}).get("bound_deg")}
 
 
+def start_given(res) -> dict | None:
+    """A sensorless run whose estimator was handed the rotor's true angle
+    (the start kind "sensor": the encoder until observer.handover): when it
+    ran on the estimate alone (s) and the angle it was given (el.deg). Such
+    a run does not show a start from an unknown angle, which its summary
+    says. None for every other run."""
+    st = res.scenario.data.get("start", {})
+    tr = res.traces
+    if st.get("kind") != "sensor" or np.asarray(tr["t"]).size == 0:
+        return None
+    on = np.isin(np.asarray(tr["stage"]).astype(int), SENSORLESS_STAGES)
+    if not on.any():
+        return None
+    k = int(np.argmax(on))
+    return {"at": float(tr["t"][k]), "theta_deg": float(np.degrees(tr["theta_e"][k])), "reason": st.get("reason")}
+
+
 def compute_metrics(res) -> dict:
     tr = res.traces
     t = tr["t"]
@@ -505,6 +522,9 @@ def compute_metrics(res) -> dict:
     motion = start_motion(res)
     if motion is not None:
         out["start_motion"] = motion
+    given = start_given(res)
+    if given is not None:
+        out["start_given"] = given
     if not m.any():
         return out
     mode = res.scenario.data["controller"]["mode"]
@@ -618,6 +638,11 @@ def summary_lines(metrics: dict) -> list[str]:
         bound = f" (the start's bound {sm['bound_deg']:.1f} el.deg)" if sm.get("bound_deg") is not None else ""
         lines.append(f"start ({START_KINDS[sm['kind']]}): the rotor turned {sm['turn_deg']:.2f} el.deg "
                      f"({sm['turn_deg_mech']:.2f} deg mechanical), at most {sm['speed_max_rpm']:.1f} rpm, {until}{bound}")
+    sg = metrics.get("start_given")
+    if sg is not None:
+        lines.append(f"start: none from an unknown angle: the estimator was given the rotor's angle "
+                     f"({sg['theta_deg']:.2f} el.deg) and ran alone from {sg['at']:.4f} s ({sg['reason']}); "
+                     f"for a start that does not know it: observer.start = \"if\", or controller.angle = \"hfi\" or \"blend\"")
     lines += lock_lines(metrics)
     return lines
 
