@@ -231,10 +231,10 @@ fs_ab fs_smo_transient(const fs_smo *o, fs_ab i, const fs_fluxmap_point *p)
  * turned about at zero, has settled at its floor cutoff; at most for twice
  * the time the model's acceleration needs through the band (0.8 w_valid
  * one way, w_valid the other) and the filter's settling after. */
-FS_OUT_OF_LINE FS_COLD void smo_cross_enter(fs_smo *o)
+FS_OUT_OF_LINE FS_COLD void smo_cross_enter(fs_smo *o, float T)
 {
     const fs_smo_config *c = &o->cfg;
-    const float a = o->mo.k_u * (o->T_model + o->mo.T_d_hat);
+    const float a = o->mo.k_u * (T + o->mo.T_d_hat);
     const float t_x = (3.6f * c->w_valid) / fabsf(a);
     /* only where the model turns the speed through zero, and not a stop
      * near zero speed (FS_SMO_CROSS_MAX), where the torque fades as before */
@@ -288,6 +288,7 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
 {
     const fs_smo_config *c = &o->cfg;
     const bool track = c->form == FS_SMO_FORM_TRACKING;
+    float T_step = 0.0f;   /* the tracking form's torque of the period, for a zero crossing's start (below) */
     const fs_ab e_hat = o->lpf.y;
     const float w = track ? o->mo.w_hat : o->pll.w;
     /* eq. (4) over the period that just ended, with the voltage that acted in
@@ -363,7 +364,7 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
          * the EMF has confirmed: at standstill neither a current in an
          * unknown frame nor a load learnt at speed (T_d held) accelerates
          * the estimate */
-        o->T_model = T;
+        T_step = T;
         if ((o->n_hold > 0) || (o->n_cross > 0)) {
             smo_model_step(o, T);   /* a hold or a zero crossing, on the model alone (header; rare, out of line) */
         } else {
@@ -421,7 +422,7 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
         o->valid = true;
     } else if (aw < (0.8f * c->w_valid)) {   /* hysteresis */
         if (o->valid && track && !c->dir_external) {   /* the blend's injection knows the low speeds */
-            smo_cross_enter(o);
+            smo_cross_enter(o, T_step);
         }
         o->valid = false;
     } else {

@@ -261,11 +261,10 @@ typedef struct {
     float theta;         /* estimated angle at the sampling instant, rad */
     float w;             /* estimated electrical speed, rad/s */
     bool valid;
-    float T_model;       /* FS_SMO_FORM_TRACKING: the current's torque at the last step, N m */
     int n_hold;          /* FS_SMO_FORM_TRACKING: steps left on the motion model alone at the caller's word (fs_smo_hold) */
     int n_cross;         /* FS_SMO_FORM_TRACKING: steps left at most of a zero crossing on the motion model (fs_smo_step) */
+    int n_settle_dir;    /* the EMF filter's settling at its floor cutoff when the crossing began, steps */
     int n_dir;           /* in a crossing: 0 before zero, then counting down the filter's settling to 1 */
-    int n_settle_dir;    /* the EMF filter's settling at its floor cutoff, steps */
     int n_emf;           /* in a crossing, before zero: steps in a row the EMF has stayed at w_valid's */
     float dir;           /* direction of rotation the EMF angle assumes: +1, -1 (the paper form: hysteresis at w_valid; the tracking form: its speed's sign) */
     float r_i;           /* max |current error| over delta at the last step: <= 1 while sliding */
