@@ -75,6 +75,10 @@ I_HF_PER_I_MAX = 0.2         # the carrier current's peak, I_p + I_n, at most 20
 # carrier's room, fs_drive.c), and the fundamental keeps at least half the voltage
 U_H_TAKEN_MAX = 0.5
 PLL_PER_W_E_LOWER = 3
+# The back-EMF tracker's bandwidth at least what holds an unknown step of the rated torque within this angle
+# (pll_for_load_step): half the 10 el.deg B-REAL allows after a step. SyR-e's THOR (J = 0.0042 kg m^2) at
+# 150.8 rad/s (6 bw_speed) lost the rotor at its load step at 1.5 x base speed at 5 of 6 initial angles
+LOAD_STEP_ANGLE = math.radians(5.0)
 # The current loop's action on the negative carrier's sidebands (carrier_loop_action) at most this: the
 # designed point (bw_current 2 pi f_s / 20 against f_s / 10, 1.5 Ts of delay) gives 0.63..0.66 on the
 # yang2022 machine, whose full range (B-FULLRANGE) keeps 5.9 el.deg there; at 0.85..0.93 (20 kHz with
@@ -320,14 +324,28 @@ def machine_values(m) -> dict:
     return out
 
 
+def pll_for_load_step(m) -> float:
+    """The tracker's bandwidth that holds an unknown step of the rated
+    torque within LOAD_STEP_ANGLE, rad/s. Its triple pole at w_o (fs_motion_obs)
+    takes a step a = p T / J of unmodelled acceleration as e(s) = a / (s + w_o)^3:
+    e(t) = a t^2 exp(-w_o t) / 2, largest at t = 2 / w_o, 2 exp(-2) a / w_o^2.
+    The rotor's own inertia only: a load's adds to J and shrinks the error."""
+    a = m["pole_pairs"] * m["T_rated"] / m["J"]
+    return math.sqrt(2.0 * math.exp(-2.0) * a / LOAD_STEP_ANGLE)
+
+
 def design_observer_pll(m, w_m_lower: float, bw_speed: float, bw_current: float) -> Value:
     """The back-EMF observer's PLL double pole (yang2022 eq. (13))."""
     w = PLL_PER_W_E_LOWER * m["pole_pairs"] * w_m_lower
-    lo, hi = 6 * bw_speed, bw_current / 10
+    w_load = pll_for_load_step(m)
+    lo, hi = max(6 * bw_speed, w_load), bw_current / 10
     v = min(max(w, lo), hi)
     why = f"{PLL_PER_W_E_LOWER} x the electrical speed at the lower blending edge: it follows the angle there"
-    if v > w:
+    if v > w and w_load > 6 * bw_speed:
+        why = (f"an unknown step of the rated torque ({m['T_rated']:.4g} N m on J = {m['J']:.4g} kg m^2) "
+               f"costs at most {math.degrees(LOAD_STEP_ANGLE):g} el.deg")
+    elif v > w:
         why = "6 bw_speed: its lag stays small at the speed loop's crossover"
-    elif v < w:
+    if v < max(w, lo):
         why = "bw_current / 10: well inside the current loop"
     return Value(v, "rad/s", why)
