@@ -493,6 +493,7 @@ typedef struct {
     bool inject_on;          /* the injection is wanted (the amplitude's target) */
     bool has_map;            /* cfg.map holds a flux map (fs_drive.map): the machine's, or the flux weakening's only */
     bool fw_map_on;          /* this step's references are the map's flux weakening (fs_fwmap.h) */
+    bool follows;            /* the blend is the back-EMF tracker's own above its band (drive_injection_step) */
     float T_ff;              /* N m: torque of the last step's current reference (the observers' feed-forward) */
     float k_T;               /* N m/A: the torque constant phases/2 p (drive_torque_k) */
     fs_ab u_hist[2];         /* realised fundamental voltage computed 1 and 2 steps ago */
