@@ -30,6 +30,24 @@ def test_an_if_machine_passes_only_with_its_start_within_bound():
     assert not _machine_ok({**row, "err_max": 12.0})
 
 
+def test_the_held_run_asks_no_torque_against_a_shaft_held_at_standstill():
+    """No speed is asked while the load machine holds the shaft at
+    standstill: asked for 1.2 x the speed from the start, the drive stalled
+    against it at its full torque (a locked-rotor test), and SyR-e's THOR
+    lost its rotor there from 1,037 rpm up; asked once the shaft turns, it
+    holds the encoder's torque at 1,037 rpm."""
+    from fullspeed.reproduce.papers.real import HELD_TOL, held_torque
+    d = held_scenario("syre-thor", 1036.8, "blend")
+    shaft, ref = d["load"]["speed_rpm"], d["references"]["speed_rpm"]
+    held = [p[0] for p in shaft if p[1] == 0.0]
+    assert max(held) == START and all(v == 0.0 for t, v in ref if t <= START)
+    assert all(v >= 1.2 * 1036.8 - 1e-9 for t, v in ref if t > START + 1e-3)
+    enc = held_torque({"machine": "syre-thor", "rpm": 1036.8, "angle": "encoder"})
+    sl = held_torque({"machine": "syre-thor", "rpm": 1036.8, "angle": "blend"})
+    assert enc["stop_reason"] == sl["stop_reason"] == "done", (enc, sl)
+    assert sl["T"] >= (1.0 - HELD_TOL) * enc["T"], (sl, enc)
+
+
 def test_held_runs_turn_the_shaft_with_the_if_frame_until_the_hand_over():
     name = "odrive-d6374"   # no saliency the injection can use: an I/f start
     enc = held_scenario(name, 3000.0, "encoder")
@@ -103,7 +121,7 @@ def test_the_held_torque_is_the_drives_not_its_speed_loops_wind_up():
     angle = sensorless_angle(name)[0]
     d = held_scenario(name, rpm, angle)
     ref = d["references"]["speed_rpm"]
-    assert ref[0][1] == ref[1][1] == pytest.approx(1.2 * rpm) and ref[-1][1] > 2.0 * rpm
+    assert ref[0][1] == ref[1][1] == pytest.approx(1.2 * rpm) and ref[-1][1] > 2.0 * rpm   # the I/f frame turns the shaft
     designed = scenario_from_dict(d).data
     as_asked = scenario_from_dict({**d, "references": {"speed_rpm": 1.2 * rpm}}).data
     assert designed["observer"]["top_speed_rpm"] == pytest.approx(as_asked["observer"]["top_speed_rpm"])

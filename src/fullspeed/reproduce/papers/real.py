@@ -171,9 +171,15 @@ def held_reference(designed: dict, J: float) -> float:
 
 def held_scenario(name: str, rpm: float, angle: str) -> dict:
     """The held-torque run at `rpm`, a dynamometer's test: the drive starts
-    at standstill as it always does, asked for 1.2 x the speed, and the load
-    machine (an ideal speed source) then takes the shaft to the speed and
-    holds it. The ramp is no faster than the machine's own acceleration at
+    at standstill as it always does, and the load machine (an ideal speed
+    source) then takes the shaft to the speed and holds it, the drive asked
+    for 1.2 x the speed once the shaft turns. (Asked for it from the start
+    instead, the drive stalled against the shaft held at standstill at its
+    full torque for START: a locked-rotor test, which is not the torque
+    held at the speed, and which lost SyR-e's THOR from 1,037 rpm up. The
+    reference on the shaft's own speed made the encoder drive brake at its
+    full torque on the ramp: the 2DOF speed loop without the ramp's
+    acceleration lags it, and the step from there tripped the Baldor.) The ramp is no faster than the machine's own acceleration at
     rated torque (J w / T_rated, at least RAMP_MIN), so that the sensorless
     drive passes its hand-over as it would alone; a flying start at speed is
     not what is measured. SETTLE after the shaft is at speed the reference
@@ -206,6 +212,8 @@ def held_scenario(name: str, rpm: float, angle: str) -> dict:
             n_h = ob["start_handover_rpm"]
             t_h = n_h / ob["start_accel_rpm_s"]
             shaft = [[0.0, 0.0], [t_h, n_h], [t_h + IF_WAIT * ob["start_timeout"], n_h]]
+    # asked for 1.2 x the speed once the shaft turns; nothing while the load machine holds it at standstill
+    asked = [[0.0, 1.2 * rpm]] if shaft[-1][1] > 0.0 else [[0.0, 0.0], [shaft[-1][0], 0.0], [shaft[-1][0] + 1e-3, 1.2 * rpm]]
     t1 = shaft[-1][0] + max(RAMP_MIN, m.J * w / m.T_rated)
     t_step = t1 + SETTLE
     dur = round(t_step + HOLD, 3)
@@ -213,7 +221,7 @@ def held_scenario(name: str, rpm: float, angle: str) -> dict:
     rpm_asked = max(1.2 * rpm, rpm + rad_s_to_rpm(held_reference(designed, m.J)))
     data.update(duration=dur, metrics={"steady": [t_step + 0.5 * HOLD, dur]},
                 load={"kind": "speed", "speed_rpm": shaft + [[dur, rpm]]},
-                references={"speed_rpm": [[0.0, 1.2 * rpm], [t_step, 1.2 * rpm], [t_step + 1e-3, rpm_asked], [dur, rpm_asked]]})
+                references={"speed_rpm": asked + [[t_step, 1.2 * rpm], [t_step + 1e-3, rpm_asked], [dur, rpm_asked]]})
     return data
 
 
