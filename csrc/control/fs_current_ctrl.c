@@ -56,6 +56,9 @@ FS_COLD fs_status fs_current_ctrl_init(fs_current_ctrl *cc, const fs_current_ctr
     if (st != FS_OK) return st;
     st = design_axis(&cc->pi_q, cfg->Ts, cfg->L_q, cfg->R_s, cfg->bandwidth, cfg->k_p_q, cfg->k_i_q);
     if (st != FS_OK) return st;
+    cc->iso = false;
+    cc->L_d_pi = cfg->L_d;
+    cc->L_q_pi = cfg->L_q;
     fs_current_ctrl_reset(cc);
     return FS_OK;
 }
@@ -73,6 +76,27 @@ FS_COLD void fs_current_ctrl_reset(fs_current_ctrl *cc)
     cc->i0 = cc->ref;
 }
 
+FS_COLD void fs_current_ctrl_set_isotropic(fs_current_ctrl *cc, bool on)
+{
+    const fs_current_ctrl_config *c = &cc->cfg;
+    const bool designed = (c->k_p_d == 0.0f) && (c->k_i_d == 0.0f);
+    if (designed && (on != cc->iso)) {
+        const float L_min = fs_minf(c->L_d, c->L_q);
+        const float integ_d = cc->pi_d.integ;
+        const float integ_q = cc->pi_q.integ;
+        cc->iso = on;
+        cc->L_d_pi = on ? L_min : c->L_d;
+        cc->L_q_pi = on ? L_min : c->L_q;
+        sampled_plant(c->Ts, cc->L_d_pi, c->R_s, &cc->a_d, &cc->b_d);
+        sampled_plant(c->Ts, cc->L_q_pi, c->R_s, &cc->a_q, &cc->b_q);
+        /* checked at init with the larger inductances: the smaller one's gains are finite too */
+        (void)design_axis(&cc->pi_d, c->Ts, cc->L_d_pi, c->R_s, c->bandwidth, 0.0f, 0.0f);
+        (void)design_axis(&cc->pi_q, c->Ts, cc->L_q_pi, c->R_s, c->bandwidth, 0.0f, 0.0f);
+        cc->pi_d.integ = integ_d;
+        cc->pi_q.integ = integ_q;
+    }
+}
+
 void fs_current_ctrl_set_flux(fs_current_ctrl *cc, fs_dq i0, const fs_fluxmap_point *p)
 {
     cc->map = true;
@@ -80,8 +104,14 @@ void fs_current_ctrl_set_flux(fs_current_ctrl *cc, fs_dq i0, const fs_fluxmap_po
     cc->psi0 = p->psi;
     cc->L_dd = p->L_dd;
     cc->L_qq = p->L_qq;
-    cc->s_d = p->L_dd / cc->cfg.L_d;
-    cc->s_q = p->L_qq / cc->cfg.L_q;
+    if (cc->iso) {   /* fs_current_ctrl_set_isotropic: the map's smaller incremental inductance on both */
+        const float L_min = fs_minf(p->L_dd, p->L_qq);
+        cc->s_d = L_min / cc->L_d_pi;
+        cc->s_q = L_min / cc->L_q_pi;
+    } else {
+        cc->s_d = p->L_dd / cc->L_d_pi;
+        cc->s_q = p->L_qq / cc->L_q_pi;
+    }
 }
 
 /* The step on a flux map (fs_current_ctrl.h): the predictor's plant per axis

@@ -54,6 +54,11 @@ typedef struct {
     bool map;
     fs_dq i0, psi0;
     float L_dd, L_qq, s_d, s_q;
+    /* fs_current_ctrl_set_isotropic: both axes on the smaller inductance; the
+     * inductances the PIs and the predictor's plant are designed for */
+    bool iso;
+    float L_d_pi;
+    float L_q_pi;
 } fs_current_ctrl;
 
 /* The internal-model design (Harnefors & Nee 1998, zou2021 ref. [22] and
@@ -70,6 +75,19 @@ void fs_current_ctrl_reset(fs_current_ctrl *cc);
 /* Voltage reference (not yet limited) for current reference and measurement
  * at electrical speed w_e. */
 fs_dq fs_current_ctrl_step(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, float w_e);
+/* While the frame's angle is not known (a sensorless start, its polarity
+ * test, a recovery), both axes as if their inductance were the smaller one
+ * (the map's smaller incremental inductance with a map): with the frame 90
+ * el.deg off, the q axis's gains, alpha L_q, act on the machine's L_d, a
+ * loop gain L_q / L_d above its design; on a PM-SyRM (L_q / L_d 5..8) the
+ * sampled loop is then unstable, its voltage at the limit from the first
+ * millisecond while the injection looks for the angle (the Baldor and
+ * SyR-e's THOR from 90 and 270 el.deg: an overspeed stop, no polarity).
+ * With the smaller L on both the loop keeps alpha on that axis and at
+ * least alpha L_min / L_max on the other, in any frame. Off again: the
+ * design's own axes. Explicit gains (a paper's) are kept as given. The
+ * integrals are kept (voltages); cold: at the phase's changes only. */
+void fs_current_ctrl_set_isotropic(fs_current_ctrl *cc, bool on);
 /* A flux map at the current i0 (the last reference), for the next step (header). */
 void fs_current_ctrl_set_flux(fs_current_ctrl *cc, fs_dq i0, const fs_fluxmap_point *p);
 /* Anti-windup: the voltage actually realised (after the modulator's limit). */

@@ -876,8 +876,14 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     fs_dq i_dq = fs_park(i_loop, cos_t, sin_t);
     bool starting = in->sensorless && drv->phase == FS_PHASE_START;
     bool polarity = drv->phase == FS_PHASE_POLARITY;
+    const bool recovering = drv->phase == FS_PHASE_RECOVER;
 
     if (closed_loop) {
+        /* the frame's angle not yet known: loops that hold in any frame (fs_current_ctrl.h) */
+        const bool unsure = in->sensorless && (starting || polarity || recovering);
+        if (unsure != drv->cc.iso) {
+            fs_current_ctrl_set_isotropic(&drv->cc, unsure);
+        }
         i_ref = drive_current_ref(drv, in, i_loop, w_e, weakens, &T_ref);
         u_ref = fs_current_ctrl_step(&drv->cc, i_ref, i_dq, w_e);
     }
@@ -897,7 +903,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     drv->u_hist[1] = drv->u_hist[0];
     drv->u_hist[0] = u_ab;
     fs_dq u_real = fs_park(u_ab, cos_u, sin_u);
-    const bool weakening = weakens && !starting && !polarity && drv->phase != FS_PHASE_RECOVER;
+    const bool weakening = weakens && !starting && !polarity && !recovering;
     if (closed_loop)   /* anti-windup; held: the regulators keep PART_1's input (fs_fw.h) */
         fs_current_ctrl_update_held(&drv->cc, u_real,
                                     weakening && c->fw_hold ? fs_fw_hold(&drv->fw, u_ref, u_real, w_e) : u_real);
