@@ -30,6 +30,19 @@ def test_an_if_machine_passes_only_with_its_start_within_bound():
     assert not _machine_ok({**row, "err_max": 12.0})
 
 
+def test_each_machine_also_runs_from_its_rotor_turned_a_quarter():
+    """B-REAL runs each machine's full range twice, the second from the rotor
+    turned by TURNED (90 el.deg: the injection's worst start); the scenario
+    built once is not changed by the turn."""
+    from fullspeed.reproduce.papers.real import TURNED, _turned, real_scenario
+    built = real_scenario("syre-thor", "blend")
+    theta0 = built[0].get("initial", {}).get("theta_e_deg", 0.0)
+    data, info = _turned(built)
+    assert TURNED == 90.0 and data["initial"]["theta_e_deg"] == theta0 + TURNED
+    assert built[0].get("initial", {}).get("theta_e_deg", 0.0) == theta0 and info is built[1]
+    assert {k: v for k, v in data.items() if k != "initial"} == {k: v for k, v in built[0].items() if k != "initial"}
+
+
 def test_the_held_run_asks_no_torque_against_a_shaft_held_at_standstill():
     """No speed is asked while the load machine holds the shaft at
     standstill: asked for 1.2 x the speed from the start, the drive stalled
