@@ -1,10 +1,11 @@
 """A loss of lock the drive's monitor flags and the simulation's truth does
 not see is said to be a false alarm in the run's summary: the Baldor PM-SyRM
-(its measured map) taking half its rated torque at standstill on the
-injection, where the monitor stops a drive whose estimate still held the
-rotor (the stop itself is the drive's, and the run fails as it must). The
-injection without its cross-saturation table: with the table designed from
-the map (design.xcomp) the same run holds and completes."""
+(its measured map) about to take half its rated torque at standstill on the
+injection, where the monitor flags a drive whose estimate still held the
+rotor (the drive then recovers, its loops holding in any frame while it
+re-acquires the angle, or stops where the recovery fails; either is said).
+The injection without its cross-saturation table: with the table designed
+from the map (design.xcomp) the same run holds and completes."""
 import numpy as np
 
 from fullspeed.design.scenario import scenario_from_dict
@@ -21,9 +22,12 @@ BALDOR = {"name": "fa", "duration": 0.6, "machine": "baldor-ecs101m0h7ef4",
 def test_a_flag_the_truth_does_not_see_is_named_a_false_alarm():
     res = simulate(scenario_from_dict(BALDOR))
     m = res.metrics
-    assert res.stop_reason == "loss_of_lock" and m["lock_lost_at"] is not None and m["true_loss_at"] is None
+    assert m["lock_lost_at"] is not None and m["true_loss_at"] is None
     assert m["false_alarm_err_deg"] is not None and m["false_alarm_err_deg"] < 45.0
-    assert any(line.startswith("the simulation's truth saw no loss of lock") for line in summary_lines(m))
+    lines = summary_lines(m)
+    assert any(line.startswith("the simulation's truth saw no loss of lock") for line in lines)
+    assert any(line.startswith(f"lock lost at {m['lock_lost_at']:.4f} s") for line in lines)
+    assert res.stop_reason in ("done", "loss_of_lock")
 
 
 def test_a_true_loss_is_no_false_alarm():
