@@ -33,7 +33,9 @@ f_s = 1/Ts):
   upper blending speed and i_max (0.85 of the linear limit in all) and a
   carrier current peak of 20 % of i_max;
 - the observer's PLL at 3 times the electrical speed of the lower band edge
-  (it must follow the angle there), within 6 bw_speed .. bw_current / 10;
+  (it must follow the angle there), within the larger of 6 bw_speed and
+  what holds an unknown step of the rated torque within 5 el.deg
+  (pll_for_load_step) .. bw_current / 10;
 - bw_speed = bw_current / 30, the encoder PLL at 2 pi x that (its double
   pole lags 18 deg at the speed loop's crossover);
 - the overspeed stop at 1.2 x the fastest the drive is designed for (the
