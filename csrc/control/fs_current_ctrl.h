@@ -75,8 +75,8 @@ void fs_current_ctrl_reset(fs_current_ctrl *cc);
 /* Voltage reference (not yet limited) for current reference and measurement
  * at electrical speed w_e. */
 fs_dq fs_current_ctrl_step(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, float w_e);
-/* While the frame's angle is not known (a sensorless start, its polarity
- * test, a recovery), both axes as if their inductance were the smaller one
+/* While the frame's axes are not known (an I/f start, the polarity test's
+ * lock, a recovery: fs_drive.c), both axes as if their inductance were the smaller one
  * (the map's smaller incremental inductance with a map): with the frame 90
  * el.deg off, the q axis's gains, alpha L_q, act on the machine's L_d, a
  * loop gain L_q / L_d above its design; on a PM-SyRM (L_q / L_d 5..8) the
