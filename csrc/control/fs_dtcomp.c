@@ -4,16 +4,16 @@
 
 FS_COLD fs_status fs_dtcomp_init(fs_dtcomp *d, const fs_dtcomp_config *cfg)
 {
-    if (!d || !cfg) return FS_ERR_NULL;
+    if (!d || !cfg) { return FS_ERR_NULL; }
     const fs_dtcomp_config *c = cfg;
-    if (c->phases != 3 && c->phases != 5) return FS_ERR_PARAM;
-    if (!fs_pos(c->T_pwm)) return FS_ERR_TS;
+    if (c->phases != 3 && c->phases != 5) { return FS_ERR_PARAM; }
+    if (!fs_pos(c->T_pwm)) { return FS_ERR_TS; }
     const int dbl = fabsf(c->Ts - 0.5f * c->T_pwm) <= 1e-6f * c->T_pwm;
-    if (!dbl && !(fabsf(c->Ts - c->T_pwm) <= 1e-6f * c->T_pwm)) return FS_ERR_TS;
-    if (c->delay != 0.0f && c->delay != 1.0f) return FS_ERR_PARAM;
-    if (!fs_pos(c->t_dead) || !(c->t_dead < 0.5f * c->T_pwm) || !fs_nonneg(c->i_band)) return FS_ERR_PARAM;
-    if (!fs_pos(c->L_d)) return FS_ERR_LD;
-    if (!fs_pos(c->L_q)) return FS_ERR_LQ;
+    if (!dbl && !(fabsf(c->Ts - c->T_pwm) <= 1e-6f * c->T_pwm)) { return FS_ERR_TS; }
+    if (c->delay != 0.0f && c->delay != 1.0f) { return FS_ERR_PARAM; }
+    if (!fs_pos(c->t_dead) || !(c->t_dead < 0.5f * c->T_pwm) || !fs_nonneg(c->i_band)) { return FS_ERR_PARAM; }
+    if (!fs_pos(c->L_d)) { return FS_ERR_LD; }
+    if (!fs_pos(c->L_q)) { return FS_ERR_LQ; }
     d->cfg = *cfg;
     d->inv_L = 2.0f / (c->L_d + c->L_q);
     d->dd = c->t_dead / c->T_pwm;
@@ -51,7 +51,7 @@ void fs_dtcomp_sampled(int phases, const float i_ph[], float dd, float i_band, f
 {
     for (int k = 0; k < phases; ++k) {
         const float dk = duty[k];
-        if (!(dk > 0.0f && dk < 1.0f)) continue;
+        if (!(dk > 0.0f && dk < 1.0f)) { continue; }
         const float s = i_band > 0.0f ? fs_clamp_sym(i_ph[k] / i_band, 1.0f) : fs_signf(i_ph[k]);
         duty[k] = fs_clamp01(dk + s * dd);
     }
@@ -76,7 +76,7 @@ void fs_dtcomp_step(fs_dtcomp *d, const float i_ph[], fs_ab u_inj, float duty[])
     const int half = d->double_update ? (int)((d->k + (int)c->delay) & 1) : -1;
     for (int k = 0; k < c->phases; ++k) {
         const float dk = duty[k];
-        if (!(dk > 0.0f && dk < 1.0f)) continue;   /* no edge, no dead time */
+        if (!(dk > 0.0f && dk < 1.0f)) { continue; }   /* no edge, no dead time */
         const float i0 = i_ph[k] + di0[k];
         float dd = 0.0f;
         if (half != 1) {   /* the rising edge: the first half of the interval */

@@ -3,13 +3,13 @@
 
 FS_COLD fs_status fs_fluxmap_init(fs_fluxmap *m, const fs_fluxmap_table *t)
 {
-    if (!m || !t) return FS_ERR_NULL;
-    if (!fs_pos(t->di_d) || !fs_pos(t->di_q) || !fs_fin(t->i_d0) || !fs_pos(t->psi_scale)) return FS_ERR_PARAM;
+    if (!m || !t) { return FS_ERR_NULL; }
+    if (!fs_pos(t->di_d) || !fs_pos(t->di_q) || !fs_fin(t->i_d0) || !fs_pos(t->psi_scale)) { return FS_ERR_PARAM; }
     for (int k = 0; k < FS_FLUXMAP_ND; ++k) {
         for (int l = 0; l < FS_FLUXMAP_NQ; ++l) {
             const int n = k * FS_FLUXMAP_NQ + l;
-            if (k > 0 && !(t->psi_d[n] > t->psi_d[n - FS_FLUXMAP_NQ])) return FS_ERR_LD;
-            if (l > 0 && !(t->psi_q[n] > t->psi_q[n - 1])) return FS_ERR_LQ;
+            if (k > 0 && !(t->psi_d[n] > t->psi_d[n - FS_FLUXMAP_NQ])) { return FS_ERR_LD; }
+            if (l > 0 && !(t->psi_q[n] > t->psi_q[n - 1])) { return FS_ERR_LQ; }
         }
     }
     m->t = t;
@@ -37,7 +37,7 @@ fs_fluxmap_point fs_fluxmap_eval(const fs_fluxmap *m, fs_dq i)
     fs_fluxmap_point p;
     p.psi.d = s * (d00 + a * dd0 + b * ((d01 - d00) + a * (dd1 - dd0)));
     p.psi.q = s * (q00 + b * dq0 + a * ((q10 - q00) + b * (dq1 - dq0)));
-    if (i.q < 0.0f) p.psi.q = -p.psi.q;
+    if (i.q < 0.0f) { p.psi.q = -p.psi.q; }
     p.L_dd = s * m->inv_di_d * (dd0 + b * (dd1 - dd0));
     p.L_qq = s * m->inv_di_q * (dq0 + a * (dq1 - dq0));
     /* along q of psi_d and along d of psi_q; the mirror image turns the sign of d psi_d / d i_q below i_q = 0 */

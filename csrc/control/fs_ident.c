@@ -58,18 +58,19 @@ const char *fs_ident_step_str(int step)
 
 FS_COLD fs_status fs_ident_init(fs_ident *id, const fs_ident_config *cfg)
 {
-    if (!id || !cfg) return FS_ERR_NULL;
-    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
-    if (cfg->delay != 0.0f && cfg->delay != 1.0f) return FS_ERR_PARAM;
-    if (cfg->pole_pairs < 1) return FS_ERR_POLE_PAIRS;
-    if (!fs_pos(cfg->i_max)) return FS_ERR_I_MAX;
-    if (!fs_pos(cfg->w_spin) || !fs_pos(cfg->t_ramp) || !fs_nonneg(cfg->u_dc_min)) return FS_ERR_PARAM;
-    if (cfg->t_ramp < 100.0f * cfg->Ts) return FS_ERR_PARAM;   /* a ramp of fewer samples is a step */
-    if ((cfg->standstill_only | cfg->locked | cfg->skip_map) & ~1) return FS_ERR_PARAM;   /* flags: 0 or 1 */
+    if (!id || !cfg) { return FS_ERR_NULL; }
+    if (!fs_pos(cfg->Ts)) { return FS_ERR_TS; }
+    if (cfg->delay != 0.0f && cfg->delay != 1.0f) { return FS_ERR_PARAM; }
+    if (cfg->pole_pairs < 1) { return FS_ERR_POLE_PAIRS; }
+    if (!fs_pos(cfg->i_max)) { return FS_ERR_I_MAX; }
+    if (!fs_pos(cfg->w_spin) || !fs_pos(cfg->t_ramp) || !fs_nonneg(cfg->u_dc_min)) { return FS_ERR_PARAM; }
+    if (cfg->t_ramp < 100.0f * cfg->Ts) { return FS_ERR_PARAM; }   /* a ramp of fewer samples is a step */
+    if ((cfg->standstill_only | cfg->locked | cfg->skip_map) & ~1) { return FS_ERR_PARAM; }   /* flags: 0 or 1 */
     if (!fs_nonneg(cfg->i_test) || cfg->i_test > cfg->i_max || !fs_nonneg(cfg->t_level) || !fs_nonneg(cfg->psi_f_hint)
-        || !fs_nonneg(cfg->J_hint) || !fs_nonneg(cfg->motion_max))
+        || !fs_nonneg(cfg->J_hint) || !fs_nonneg(cfg->motion_max)) {
         return FS_ERR_PARAM;
-    if (cfg->t_level > 0.0f && cfg->t_level < 100.0f * cfg->Ts) return FS_ERR_PARAM;   /* fewer samples than batches can hold */
+    }
+    if (cfg->t_level > 0.0f && cfg->t_level < 100.0f * cfg->Ts) { return FS_ERR_PARAM; }   /* fewer samples than batches can hold */
     id->cfg = *cfg;
     fs_ident_reset(id);
     return FS_OK;
@@ -115,10 +116,10 @@ void fs_ident_reset(fs_ident *id)
     id->i_ref0 = 0.0f;
     acc_clear(id);
     id->u0 = id->i0 = 0.0f;
-    for (int b = 0; b < FS_IDENT_NBATCH; ++b) id->batch[b] = 0.0f;
+    for (int b = 0; b < FS_IDENT_NBATCH; ++b) { id->batch[b] = 0.0f; }
     id->hf_u[0] = id->hf_u[1] = 0.0f;
     id->hf_i[0][0] = id->hf_i[0][1] = id->hf_i[1][0] = id->hf_i[1][1] = 0.0f;
-    for (int a = 0; a < 8; ++a) (&id->ax_i[0][0][0])[a] = (&id->ax_u[0][0][0])[a] = 0.0f;
+    for (int a = 0; a < 8; ++a) { (&id->ax_i[0][0][0])[a] = (&id->ax_u[0][0][0])[a] = 0.0f; }
     id->U_h = id->w_h = 0.0f;
     id->theta = id->w = id->w_target = id->bw_pll = id->i_if = id->i_acc = id->w0 = 0.0f;
     id->u_prev[0].alpha = id->u_prev[0].beta = 0.0f;
@@ -134,7 +135,7 @@ void fs_ident_reset(fs_ident *id)
 float fs_ident_leg_error(const fs_ident *id, float i)
 {
     const float ue = id->res.u_e, ie = id->res.i_e;
-    if (id->res.status[FS_IDQ_VERR] != FS_IDS_OK) return 0.0f;
+    if (id->res.status[FS_IDQ_VERR] != FS_IDS_OK) { return 0.0f; }
     return ue * i / sqrtf(i * i + ie * ie + 1e-30f);
 }
 
@@ -179,8 +180,8 @@ static void ident_design_pi(fs_ident *id, float L_d, float L_q, float R)
 {
     fs_pi_config c;
     const float u_lim = id->u_max > 0.0f ? id->u_max : 1.0f;
-    if (fs_pi_design(&c, id->cfg.Ts, L_d, R, id->w_c, u_lim) == FS_OK) fs_pi_init(&id->pi_d, &c);
-    if (fs_pi_design(&c, id->cfg.Ts, L_q, R, id->w_c, u_lim) == FS_OK) fs_pi_init(&id->pi_q, &c);
+    if (fs_pi_design(&c, id->cfg.Ts, L_d, R, id->w_c, u_lim) == FS_OK) { fs_pi_init(&id->pi_d, &c); }
+    if (fs_pi_design(&c, id->cfg.Ts, L_q, R, id->w_c, u_lim) == FS_OK) { fs_pi_init(&id->pi_q, &c); }
 }
 
 /* The stationary inverter error of the fitted leg model at the phase currents of i_ab. */
@@ -200,7 +201,7 @@ static float pi_out(const fs_pi *pi, float ref, float meas) { return fs_pi_outpu
 static bool rec_fit(const fs_ident *id, int a, int b, float *slope, float *t_m, float *w_m)
 {
     const int n = b - a;
-    if (n < 3) return false;
+    if (n < 3) { return false; }
     float st = 0.0f, sw = 0.0f;
     for (int k = a; k < b; ++k) {
         st += id->rec_t[k];
@@ -214,7 +215,7 @@ static bool rec_fit(const fs_ident *id, int a, int b, float *slope, float *t_m, 
         stt += dt * dt;
         stw += dt * (id->rec_w[k] - sw);
     }
-    if (!(stt > 0.0f)) return false;
+    if (!(stt > 0.0f)) { return false; }
     *slope = stw / stt;
     *t_m = st;
     *w_m = sw;
@@ -225,7 +226,7 @@ static bool rec_fit(const fs_ident *id, int a, int b, float *slope, float *t_m, 
  * decimation doubles, so any duration fits in FS_IDENT_NREC points. */
 static void rec_push(fs_ident *id, float t, float w)
 {
-    if (++id->rec_k < id->rec_dec) return;
+    if (++id->rec_k < id->rec_dec) { return; }
     id->rec_k = 0;
     if (id->rec_n == FS_IDENT_NREC) {
         for (int k = 0; k < FS_IDENT_NREC / 2; ++k) {
@@ -251,12 +252,12 @@ static fs_ab step_probe(fs_ident *id, fs_ab i)
 {
     const fs_ident_config *c = &id->cfg;
     const int n_cycle = 4 * id->n_p + 4;
-    if (id->k == 0 && id->sub == 0) id->u_p = 0.01f * id->u_max;   /* the smallest pulse: 1 % of the link */
+    if (id->k == 0 && id->sub == 0) { id->u_p = 0.01f * id->u_max; }   /* the smallest pulse: 1 % of the link */
     id->i_peak = fs_maxf(id->i_peak, fabsf(i.alpha));
     fs_ab u = {0.0f, 0.0f};
-    if (id->k < id->n_p) u.alpha = id->u_p;
-    else if (id->k < 2 * id->n_p) u.alpha = -id->u_p;
-    if (++id->k < n_cycle) return u;
+    if (id->k < id->n_p) { u.alpha = id->u_p; }
+    else if (id->k < 2 * id->n_p) { u.alpha = -id->u_p; }
+    if (++id->k < n_cycle) { return u; }
     /* the cycle is over */
     const float target = I_PROBE * c->i_max;
     if (id->i_peak >= 0.5f * target) {
@@ -411,8 +412,9 @@ static fs_ab step_axis(fs_ident *id, fs_ab i)
     if (id->k == 0 && id->sub == 0) {
         id->w_h = FS_TWO_PI / ((float)N_HF * c->Ts);
         id->U_h = fs_minf(I_HF_D * c->i_max * id->w_h * id->L0, 0.5f * id->u_max);
-        for (int j = 0; j < 2; ++j)
-            for (int a = 0; a < 2; ++a) id->ax_i[j][a][0] = id->ax_i[j][a][1] = id->ax_u[j][a][0] = id->ax_u[j][a][1] = 0.0f;
+        for (int j = 0; j < 2; ++j) {
+            for (int a = 0; a < 2; ++a) { id->ax_i[j][a][0] = id->ax_i[j][a][1] = id->ax_u[j][a][0] = id->ax_u[j][a][1] = 0.0f; }
+        }
     }
     const int kh = id->k;
     const int skip = id->sub < 2 ? HF_SKIP : AX_SKIP;   /* the first turn of each: the loops' start too */
@@ -433,9 +435,9 @@ static fs_ab step_axis(fs_ident *id, fs_ab i)
         id->ax_u[ax][1][1] -= u.beta * su;
     }
     id->k++;
-    if (kh + 1 < (skip + AX_CHUNK) * N_HF) return u;   /* a whole number of periods: the carrier ends at zero current */
+    if (kh + 1 < (skip + AX_CHUNK) * N_HF) { return u; }   /* a whole number of periods: the carrier ends at zero current */
     id->k = 0;
-    if (++id->sub < 2 * AX_TURNS) return u;
+    if (++id->sub < 2 * AX_TURNS) { return u; }
 
     fs_ident_result *r = &id->res;
     const cx I00 = ph(id->ax_i, 0, 0), I10 = ph(id->ax_i, 0, 1), I01 = ph(id->ax_i, 1, 0), I11 = ph(id->ax_i, 1, 1);
@@ -493,7 +495,7 @@ static fs_ab step_polarity(fs_ident *id, fs_ab i_ab)
     const fs_ident_config *c = &id->cfg;
     const float ct = fs_cosf(id->theta_s), st = fs_sinf(id->theta_s);
     const fs_dq u = fs_mapid_step(&id->map, fs_park(i_ab, ct, st), (fs_dq){0.0f, 0.0f}, id->u_max);
-    if (id->map.stage != FS_MAPID_DONE) return fs_inv_park(u, ct, st);
+    if (id->map.stage != FS_MAPID_DONE) { return fs_inv_park(u, ct, st); }
     fs_ident_result *r = &id->res;
     r->pol_asym = id->map.res.asym;
     r->pol_decided = id->map.res.decided;
@@ -501,7 +503,7 @@ static fs_ab step_polarity(fs_ident *id, fs_ab i_ab)
     r->pol_amp = id->map.res.d_amp;
     /* (the d sweep's axis offset, from its q flux, is not applied: before R_s and the inverter's error
      * are known the dead time's q part at the axis' angle puts up to 5 el.deg into it, zoo machine 12) */
-    if (r->pol_flipped) id->theta_s = fs_wrap_pi(id->theta_s + FS_PI);
+    if (r->pol_flipped) { id->theta_s = fs_wrap_pi(id->theta_s + FS_PI); }
     r->theta_axis = id->theta_s;
     id->pol_known = r->pol_decided;
     /* no polarity standing: where the rotor may turn, ALIGN pulls its north onto the axis (up to half a
@@ -532,7 +534,7 @@ static fs_ab step_align(fs_ident *id, fs_ab i)
     const fs_ident_config *c = &id->cfg;
     const float dL = id->res.L_q_axis - id->res.L_d_axis;
     float I_top = I_ALIGN * c->i_max;
-    if (c->psi_f_hint > 0.0f && dL > 0.0f && id->res.saliency >= SAL_MIN) I_top = fs_minf(I_top, 0.5f * c->psi_f_hint / dL);
+    if (c->psi_f_hint > 0.0f && dL > 0.0f && id->res.saliency >= SAL_MIN) { I_top = fs_minf(I_top, 0.5f * c->psi_f_hint / dL); }
     const int n_ramp = (int)(0.2f / c->Ts) + 1;
     /* 20 ms windows (several swings of a small rotor), at least half the
      * swing's period where the nameplate's psi_f and J give it: a window
@@ -542,7 +544,7 @@ static fs_ab step_align(fs_ident *id, fs_ab i)
     if (c->psi_f_hint > 0.0f && c->J_hint > 0.0f) {
         const float p = (float)c->pole_pairs;
         const float K = 1.5f * p * I_top * (c->psi_f_hint - fs_maxf(dL, 0.0f) * I_top);   /* N m per el. rad */
-        if (K > 0.0f) t_win = fs_maxf(t_win, FS_PI / sqrtf(p * K / c->J_hint));
+        if (K > 0.0f) { t_win = fs_maxf(t_win, FS_PI / sqrtf(p * K / c->J_hint)); }
     }
     const int n_win = (int)(t_win / c->Ts) + 1;
     const float i_ref = I_top * fs_minf((float)id->k / (float)n_ramp, 1.0f);
@@ -552,9 +554,9 @@ static fs_ab step_align(fs_ident *id, fs_ab i)
     const float th = 0.5f * FS_PI * fs_clamp01((float)(3 * n_ramp - id->k) / (float)n_ramp);
     fs_ab u = th > 0.0f ? dc_in_frame(id, i, i_ref, th) : dc_on_alpha(id, i, i_ref);
     id->k++;
-    if (id->k <= 3 * n_ramp) return u;
+    if (id->k <= 3 * n_ramp) { return u; }
     acc_add(id, u.alpha, i);
-    if (id->n_acc < n_win) return u;
+    if (id->n_acc < n_win) { return u; }
     /* still when i_q is within noise and 5 % of the current (a
      * low-resistance machine creeps into its last degrees for seconds,
      * its EMF over R_s a few percent of the current; harmless to the
@@ -595,7 +597,7 @@ static float fit_leg_error(fs_ident *id, const float E[], const float I_j[])
         }
         const float ue = seh / shh;
         float sr = 0.0f;
-        for (int j = 0; j < FS_IDENT_NLEV; ++j) sr += (E[j] - ue * h[j]) * (E[j] - ue * h[j]);
+        for (int j = 0; j < FS_IDENT_NLEV; ++j) { sr += (E[j] - ue * h[j]) * (E[j] - ue * h[j]); }
         if (sr < best) {
             best = sr;
             id->res.u_e = ue;
@@ -615,8 +617,9 @@ static float level_top(const fs_ident *id)
     const fs_ident_config *c = &id->cfg;
     float I = c->i_test > 0.0f ? c->i_test : I_TEST * c->i_max;
     const float dL = id->res.L_q_axis - id->res.L_d_axis;
-    if (id->pol_known && !c->locked && c->psi_f_hint > 0.0f && dL > 0.0f && id->res.saliency >= SAL_MIN)
+    if (id->pol_known && !c->locked && c->psi_f_hint > 0.0f && dL > 0.0f && id->res.saliency >= SAL_MIN) {
         I = fs_minf(I, 0.5f * c->psi_f_hint / dL);
+    }
     return I;
 }
 
@@ -633,7 +636,7 @@ static fs_ab step_levels(fs_ident *id, fs_ab i_ab)
     const bool alt = !id->pol_known;
     const int j = alt ? id->sub / 2 : id->sub;
     const float sgn = (alt && (id->sub & 1)) ? -1.0f : 1.0f;
-    if (id->sub == 0 && id->k == 0) id->res.i_level_top = level_top(id);
+    if (id->sub == 0 && id->k == 0) { id->res.i_level_top = level_top(id); }
     const float i_test = id->res.i_level_top;
     const float t_top = c->t_level > 0.0f ? c->t_level : T_LEVEL;
     const float I_ref = sgn * LEV_FRAC[j] * i_test;
@@ -645,15 +648,16 @@ static fs_ab step_levels(fs_ident *id, fs_ab i_ab)
     const fs_ab i = to_frame(id, i_ab);
     const fs_ab u = id->aligned ? dc_on_alpha(id, i, I_ref) : dc_on_d(id, i, I_ref);
     id->k++;
-    if (id->k <= n_set) return from_frame(id, u);
+    if (id->k <= n_set) { return from_frame(id, u); }
     acc_add(id, u.alpha, i);
     id->e_abs += u.beta;
     /* batch means of u: the loop's noise is correlated from sample to
      * sample, so the noise of the mean comes from the batches' spread */
     const int n_b = n_meas / FS_IDENT_NBATCH;
-    if (id->n_acc % n_b == 0 && id->n_acc / n_b <= FS_IDENT_NBATCH)
+    if (id->n_acc % n_b == 0 && id->n_acc / n_b <= FS_IDENT_NBATCH) {
         id->batch[id->n_acc / n_b - 1] = id->s_u;   /* running sums; differenced below */
-    if (id->n_acc < n_meas) return from_frame(id, u);
+    }
+    if (id->n_acc < n_meas) { return from_frame(id, u); }
     const int n = id->n_acc;
     fs_ident_result *r = &id->res;
     const float I_m = id->i0 + id->s_i / (float)n, U_m = id->u0 + id->s_u / (float)n;
@@ -695,7 +699,7 @@ static fs_ab step_levels(fs_ident *id, fs_ab i_ab)
     }
     id->k = 0;
     acc_clear(id);
-    if (++id->sub < (alt ? 2 : 1) * FS_IDENT_NLEV) return from_frame(id, u);
+    if (++id->sub < (alt ? 2 : 1) * FS_IDENT_NLEV) { return from_frame(id, u); }
 
     /* each level's current and voltage: half the difference of the signs' */
     float I_j[FS_IDENT_NLEV], U_j[FS_IDENT_NLEV];
@@ -721,7 +725,7 @@ static fs_ab step_levels(fs_ident *id, fs_ab i_ab)
     r->r_fit_rs = fabsf(mid) / fs_maxf(fabsf(span), 1e-30f);
     r->snr_rs = fabsf(span) / fs_maxf(noise, 1e-30f);
     float E[FS_IDENT_NLEV];
-    for (int k = 0; k < FS_IDENT_NLEV; ++k) E[k] = U_j[k] - r->R_s * I_j[k];
+    for (int k = 0; k < FS_IDENT_NLEV; ++k) { E[k] = U_j[k] - r->R_s * I_j[k]; }
     const float resid = fit_leg_error(id, E, I_j);
     /* the error model within a tenth of its size, or within the noise (and
      * float's resolution of the level voltages: an ideal inverter's is 0) */
@@ -751,14 +755,14 @@ static float hf_inductance(const fs_ident *id, float Ur, float Ui, float Ir, flo
 {
     const float Ts = id->cfg.Ts, wt = id->w_h * Ts, d = id->cfg.delay;
     const float den = Ir * Ir + Ii * Ii;
-    if (!(den > 0.0f)) return NAN;
+    if (!(den > 0.0f)) { return NAN; }
     const float Yr = (Ur * Ir + Ui * Ii) / den, Yi = (Ui * Ir - Ur * Ii) / den;
     const float cd = fs_cosf(wt * d), sd = fs_sinf(wt * d);
     const float Wr = Yr * cd + Yi * sd, Wi = Yi * cd - Yr * sd;   /* W = Y e^{-j w Ts d} */
-    if (!(Wi > 0.0f)) return NAN;
+    if (!(Wi > 0.0f)) { return NAN; }
     const float b = fs_sinf(wt) / Wi;
     const float a = fs_cosf(wt) - b * Wr;
-    if (a > 0.0f && a < 0.999f) return (1.0f - a) * Ts / (-logf(a) * b);   /* L = R Ts / x, R = (1 - a)/b, x = -ln a */
+    if (a > 0.0f && a < 0.999f) { return (1.0f - a) * Ts / (-logf(a) * b); }   /* L = R Ts / x, R = (1 - a)/b, x = -ln a */
     return Ts / b;
 }
 
@@ -833,7 +837,7 @@ static float ldq_bias(const fs_ident *id, int level)
     /* on the north pole I_b and 2 I_b within the levels' bound (the carrier's clearance given up first:
      * a negative bias there would push the magnet away); else +-I_b */
     const bool north = id->aligned || id->pol_known;
-    if (north) I_b = fs_minf(I_b, 0.5f * id->res.i_level_top);
+    if (north) { I_b = fs_minf(I_b, 0.5f * id->res.i_level_top); }
     return level == 0 ? I_b : (north ? 2.0f : -1.0f) * I_b;
 }
 
@@ -842,7 +846,7 @@ static float ldq_bias(const fs_ident *id, int level)
  * r = g sin 2e / (1 + g cos 2e) with g the saliency (L_q - L_d)/(L_q + L_d). */
 static float axis_offset(float r, float g)
 {
-    if (!(g > 0.0f)) return 0.0f;
+    if (!(g > 0.0f)) { return 0.0f; }
     const float s = fs_clampf(r / (g * sqrtf(1.0f + r * r)), -1.0f, 1.0f);
     return 0.5f * (fs_atanf(r) + asinf(s));
 }
@@ -874,7 +878,7 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
     float cu, su;
     hf_phase(kh % N_HF, &cu, &su);
     const float uh = id->U_h * cu;   /* a cosine voltage: the inductive current starts at its own zero */
-    if (axis == 0) u.alpha += uh; else u.beta += uh;
+    if (axis == 0) { u.alpha += uh; } else { u.beta += uh; }
     const float ua = axis == 0 ? u.alpha : u.beta;   /* all of the axis' voltage: the bias loop answers the carrier too */
     if (kh >= HF_SKIP * N_HF) {
         /* phasors X = sum x[k] e^{-j w k Ts}: the current sampled now, the reference of now */
@@ -886,7 +890,7 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
         id->hf_i[1][1] -= i.beta * su;
     }
     id->k++;
-    if (kh + 1 < (HF_SKIP + HF_MEAS) * N_HF) return from_frame(id, u);
+    if (kh + 1 < (HF_SKIP + HF_MEAS) * N_HF) { return from_frame(id, u); }
 
     fs_ident_result *r = &id->res;
     const int n = HF_MEAS * N_HF;
@@ -896,7 +900,7 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
     const float amp = 2.0f * sqrtf(Iax[0] * Iax[0] + Iax[1] * Iax[1]) / (float)n;
     const float snr = amp / fs_maxf(id->sigma_i * sqrtf(2.0f / (float)n), 1e-6f * c->i_max);
     const int q = check ? FS_IDQ_MAP : axis == 0 ? FS_IDQ_LD : FS_IDQ_LQ;
-    if (!check) r->snr_l = id->sub == 0 ? snr : fs_minf(r->snr_l, snr);
+    if (!check) { r->snr_l = id->sub == 0 ? snr : fs_minf(r->snr_l, snr); }
     if (!(L > 0.0f) || !fs_fin(L)) {
         ident_fail(id, q, FS_IDR_FIT);
         return from_frame(id, u);
@@ -973,11 +977,11 @@ static fs_ab step_map(fs_ident *id, fs_ab i_ab)
     const fs_dq i = fs_park(i_ab, ct, st), e = fs_park(ident_inv_error(id, i_ab), ct, st);
     fs_dq u = fs_mapid_step(&id->map, i, e, id->u_max);
     id->k++;
-    if (id->map.stage != FS_MAPID_DONE) return fs_inv_park(u, ct, st);
+    if (id->map.stage != FS_MAPID_DONE) { return fs_inv_park(u, ct, st); }
     const fs_mapid_result *m = &id->map.res;
     int n_read = 0;   /* the d axis read to +-3/4 i_max (+-i_max where the sweep's peaks reached it, else from beyond) */
-    for (int k = 1; k < FS_MAPID_ND - 1; ++k) n_read += m->n_d[k] > 0;
-    if (m->flipped) id->theta_s = fs_wrap_pi(id->theta_s + FS_PI);   /* the magnet's north */
+    for (int k = 1; k < FS_MAPID_ND - 1; ++k) { n_read += m->n_d[k] > 0; }
+    if (m->flipped) { id->theta_s = fs_wrap_pi(id->theta_s + FS_PI); }   /* the magnet's north */
     id->pol_known = id->pol_known || m->decided;   /* ALIGN's or the polarity sweep's stands */
     id->res.theta_axis = id->theta_s;
     /* the d sweep read its whole axis: the map has its spine (the q sweeps
@@ -1002,8 +1006,9 @@ static fs_ab step_spin(fs_ident *id, fs_ab i)
     const int n_a = id->pol_known ? 0 : (int)(0.2f / c->Ts) + 1;
     const int n_in = id->pol_known ? (int)(0.02f / c->Ts) + 1 : 3 * n_a;
     const float i_d = id->i_if * fs_minf((float)id->k / (float)(id->pol_known ? n_in : n_a), 1.0f);
-    if (!id->pol_known && id->k <= n_in)
+    if (!id->pol_known && id->k <= n_in) {
         id->theta = fs_wrap_pi(id->theta_s + 0.5f * FS_PI * fs_clamp01((float)(2 * n_a - id->k) / (float)n_a));
+    }
     fs_ab u = frame_current(id, i, (fs_dq){i_d, 0.0f});
     id->k++;
     if (id->k > n_in) {
@@ -1034,7 +1039,7 @@ static fs_ab step_flux(fs_ident *id, fs_ab i)
     const float phi = frame_pll(id, i);
     const int n_lock = (int)(10.0f / (id->bw_pll * c->Ts)) + 1, n_meas = (int)(20.0f / (id->bw_pll * c->Ts)) + 1;
     id->k++;
-    if (id->k <= n_lock) return u;
+    if (id->k <= n_lock) { return u; }
     const fs_dq e = frame_emf(id, i);
     /* the EMF's q part in the locked frame, not its magnitude: the
      * voltage carries the dead time's error of random sign at zero current
@@ -1047,14 +1052,14 @@ static fs_ab step_flux(fs_ident *id, fs_ab i)
      * halves its speed in the window): its mean is the frame's turn over
      * the window, which is the rotor's */
     const float ratio = em / fs_maxf(fabsf(id->w), 1e-6f);
-    if (id->n_acc == 0) id->u0 = ratio;
+    if (id->n_acc == 0) { id->u0 = ratio; }
     id->e_abs += em;
     id->w_abs += fabsf(id->w);
     id->s_u += ratio - id->u0;
     id->s_uu += (ratio - id->u0) * (ratio - id->u0);
     id->s_i += phi;   /* signed: its mean is the lock's offset, the noise averages out */
     id->n_acc++;
-    if (id->n_acc < n_meas << (2 * id->sub)) return u;
+    if (id->n_acc < n_meas << (2 * id->sub)) { return u; }
     fs_ident_result *r = &id->res;
     const int n = id->n_acc;
     r->w_flux = id->w_abs / (float)n;
@@ -1103,8 +1108,9 @@ static fs_ab step_dcurve(fs_ident *id, fs_ab i_ab)
     while (id->sub < FS_MAPID_ND) {   /* the next level the voltage and the frame's lock allow (0 is psi_f, read by FLUX) */
         const int kk = id->sub - FS_MAPID_ND / 2;
         const float I = 0.25f * (float)kk * c->i_max;
-        if (kk != 0 && abs_level(kk) <= DCURVE_LEVELS && fabsf(id->w) * (r->psi_f + r->L_d * I) < U_DCURVE * id->u_max)
+        if (kk != 0 && abs_level(kk) <= DCURVE_LEVELS && fabsf(id->w) * (r->psi_f + r->L_d * I) < U_DCURVE * id->u_max) {
             break;
+        }
         id->sub++;
     }
     const float I = id->sub < FS_MAPID_ND ? 0.25f * (float)(id->sub - FS_MAPID_ND / 2) * c->i_max : 0.0f;
@@ -1120,7 +1126,7 @@ static fs_ab step_dcurve(fs_ident *id, fs_ab i_ab)
         }
         return u;
     }
-    if (++id->k <= n_set) return u;
+    if (++id->k <= n_set) { return u; }
     const fs_dq e = frame_emf(id, i_ab);
     const float ct = fs_cosf(id->theta), st = fs_sinf(id->theta);
     const fs_dq i = fs_park(i_ab, ct, st);
@@ -1128,8 +1134,8 @@ static fs_ab step_dcurve(fs_ident *id, fs_ab i_ab)
     id->s_i += i.d;
     id->s_ia += id->w;
     id->s_ii += fabsf(fs_atan2f(-e.d, e.q));   /* the frame's lock on the d axis: the PLL's phase error */
-    if (id->n_acc == 0) id->u0 = id->w;
-    if (++id->n_acc < n_set) return u;
+    if (id->n_acc == 0) { id->u0 = id->w; }
+    if (++id->n_acc < n_set) { return u; }
     const float n = (float)id->n_acc;
     /* a level is read where the frame held the d axis (the PLL's error within DCURVE_LOCK) and the
      * speed within 10 %: a frame off the axis turns the d current into torque, and the torque turns
@@ -1162,7 +1168,7 @@ static fs_ab step_accel(fs_ident *id, fs_ab i)
         const float t_skip = 4.0f / id->bw_pll, t_need = t_skip + 10.0f / id->bw_pll;
         float a, tm, wm;
         int k0 = 0;
-        while (k0 < id->rec_n && id->rec_t[k0] < t_skip) ++k0;
+        while (k0 < id->rec_n && id->rec_t[k0] < t_skip) { ++k0; }
         if (t < t_need || !rec_fit(id, k0, id->rec_n, &a, &tm, &wm)) {
             if (id->i_acc > 0.03f * c->i_max && id->tries < 3) {   /* again at a quarter of the torque, after the coast */
                 id->tries++;
@@ -1195,7 +1201,7 @@ static fs_ab step_coast(fs_ident *id, fs_ab i)
     rec_push(id, t, id->w0);
     id->k++;
     const float t_max = fs_maxf(4.0f * id->t_acc, 20.0f / id->bw_pll);
-    if (id->w0 > id->w_target && t < t_max) return u;
+    if (id->w0 > id->w_target && t < t_max) { return u; }
     fs_ident_result *r = &id->res;
     if (id->w0 < 0.2f * id->w_target) {
         ident_fail(id, FS_IDQ_J, FS_IDR_LOST_SYNC);
@@ -1209,7 +1215,7 @@ static fs_ab step_coast(fs_ident *id, fs_ab i)
     }
     /* the deceleration in two halves, after the PLL's transient */
     int k0 = 0;
-    while (k0 < id->rec_n && id->rec_t[k0] < 4.0f / id->bw_pll) ++k0;
+    while (k0 < id->rec_n && id->rec_t[k0] < 4.0f / id->bw_pll) { ++k0; }
     const int kh = (k0 + id->rec_n) / 2;
     float a1, a2, t1, t2, w1, w2;
     if (!rec_fit(id, k0, kh, &a1, &t1, &w1) || !rec_fit(id, kh, id->rec_n, &a2, &t2, &w2)) {
@@ -1258,7 +1264,7 @@ fs_ab fs_ident_step(fs_ident *id, fs_ab i_ab, float u_dc)
     id->u_max = fs_maxf(u_dc, 0.0f) * FS_INV_SQRT3;
     const float i_mag = sqrtf(i_ab.alpha * i_ab.alpha + i_ab.beta * i_ab.beta);
     fs_ab u = {0.0f, 0.0f};
-    if (id->step >= 0 && id->step < FS_IDENT_NSTEPS) id->res.n_step[id->step]++;
+    if (id->step >= 0 && id->step < FS_IDENT_NSTEPS) { id->res.n_step[id->step]++; }
     id->res.n_total++;
     const float trip = (id->step == FS_IDENT_MAP || id->step == FS_IDENT_POLARITY) ? 1.15f : 1.1f;
     if (id->step != FS_IDENT_FAILED && id->step != FS_IDENT_DONE && i_mag > trip * c->i_max) {
@@ -1296,12 +1302,12 @@ fs_ab fs_ident_step(fs_ident *id, fs_ab i_ab, float u_dc)
         /* zero current on the tracking frame while the rotor coasts: zero
          * voltage would short the EMF */
         u = frame_current(id, i_ab, (fs_dq){0.0f, 0.0f});
-        if (id->bw_pll > 0.0f && fabsf(id->w0) > 0.05f * id->w_target) frame_pll(id, i_ab);
+        if (id->bw_pll > 0.0f && fabsf(id->w0) > 0.05f * id->w_target) { frame_pll(id, i_ab); }
         break;
     default:   /* FAILED: zero current where a frame is known (tracking the EMF once it was), else zero voltage */
         if (id->res.status[FS_IDQ_LQ] == FS_IDS_OK) {
             u = frame_current(id, i_ab, (fs_dq){0.0f, 0.0f});
-            if (id->bw_pll > 0.0f && fabsf(id->w0) > 0.05f * id->w_target) frame_pll(id, i_ab);
+            if (id->bw_pll > 0.0f && fabsf(id->w0) > 0.05f * id->w_target) { frame_pll(id, i_ab); }
         }
         break;
     }

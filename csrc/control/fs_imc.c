@@ -13,27 +13,27 @@ float fs_imc_vpn(float alpha)
 
 float fs_imc_vtr_max(int region, float alpha)
 {
-    if (region == FS_IMC_LINEAR) return 0.5f * FS_SQRT3;
+    if (region == FS_IMC_LINEAR) { return 0.5f * FS_SQRT3; }
     /* eq. (20): line fundamental 3 ln3 / pi V_pn; eq. (21): phase over V_im */
     return 3.0f * logf(3.0f) / FS_PI * fs_imc_vpn(region == FS_IMC_OM1 ? 0.0f : alpha) * FS_INV_SQRT3;
 }
 
 int fs_imc_region_of(float q)
 {
-    if (q <= fs_imc_vtr_max(FS_IMC_LINEAR, 0.0f)) return FS_IMC_LINEAR;
-    if (q <= fs_imc_vtr_max(FS_IMC_OM1, 0.0f)) return FS_IMC_OM1;
+    if (q <= fs_imc_vtr_max(FS_IMC_LINEAR, 0.0f)) { return FS_IMC_LINEAR; }
+    if (q <= fs_imc_vtr_max(FS_IMC_OM1, 0.0f)) { return FS_IMC_OM1; }
     return FS_IMC_OM2;
 }
 
 float fs_imc_alpha_for_vtr(float q)
 {
-    if (!(q > fs_imc_vtr_max(FS_IMC_OM1, 0.0f))) return 0.0f;
-    if (q >= fs_imc_vtr_max(FS_IMC_OM2, ALPHA_MAX)) return ALPHA_MAX;
+    if (!(q > fs_imc_vtr_max(FS_IMC_OM1, 0.0f))) { return 0.0f; }
+    if (q >= fs_imc_vtr_max(FS_IMC_OM2, ALPHA_MAX)) { return ALPHA_MAX; }
     /* eq. (12) rises monotonically on [0, pi/6]: bisection */
     float lo = 0.0f, hi = ALPHA_MAX;
     for (int k = 0; k < 24; ++k) {
         float mid = 0.5f * (lo + hi);
-        if (fs_imc_vtr_max(FS_IMC_OM2, mid) < q) lo = mid; else hi = mid;
+        if (fs_imc_vtr_max(FS_IMC_OM2, mid) < q) { lo = mid; } else { hi = mid; }
     }
     return 0.5f * (lo + hi);
 }
@@ -61,13 +61,13 @@ void fs_imc_rectifier(const float u_in[3], float alpha, fs_imc_rect *r)
 {
     /* x: largest magnitude; hi, mid, lo by value */
     int x = 0;
-    for (int k = 1; k < 3; ++k) if (fabsf(u_in[k]) > fabsf(u_in[x])) x = k;
+    for (int k = 1; k < 3; ++k) { if (fabsf(u_in[k]) > fabsf(u_in[x])) { x = k; } }
     int hi = 0, lo = 0;
     for (int k = 1; k < 3; ++k) {
-        if (u_in[k] > u_in[hi]) hi = k;
-        if (u_in[k] < u_in[lo]) lo = k;
+        if (u_in[k] > u_in[hi]) { hi = k; }
+        if (u_in[k] < u_in[lo]) { lo = k; }
     }
-    if (hi == lo) lo = (hi + 1) % 3;   /* all equal (zero input) */
+    if (hi == lo) { lo = (hi + 1) % 3; }   /* all equal (zero input) */
     int mid = 3 - hi - lo;
     const float ux = u_in[x];
     const float v_max = u_in[hi] - u_in[lo];
@@ -100,12 +100,12 @@ void fs_imc_rectifier(const float u_in[3], float alpha, fs_imc_rect *r)
 FS_COLD fs_status fs_imc_depth_design(fs_imc_depth_config *cfg, float Ts, float i_lim, float V_im,
                               float w_e_max, float L, float bw)
 {
-    if (!cfg) return FS_ERR_NULL;
-    if (!fs_pos(Ts)) return FS_ERR_TS;
-    if (!fs_pos(V_im) || !fs_pos(w_e_max)) return FS_ERR_LIMIT;
-    if (!fs_pos(L)) return FS_ERR_LD;
-    if (!(bw > 0.0f) || !(bw * Ts <= 1.0f)) return FS_ERR_BANDWIDTH;
-    if (!fs_pos(i_lim)) return FS_ERR_I_MAX;
+    if (!cfg) { return FS_ERR_NULL; }
+    if (!fs_pos(Ts)) { return FS_ERR_TS; }
+    if (!fs_pos(V_im) || !fs_pos(w_e_max)) { return FS_ERR_LIMIT; }
+    if (!fs_pos(L)) { return FS_ERR_LD; }
+    if (!(bw > 0.0f) || !(bw * Ts <= 1.0f)) { return FS_ERR_BANDWIDTH; }
+    if (!fs_pos(i_lim)) { return FS_ERR_I_MAX; }
     float dq = fs_imc_vtr_max(FS_IMC_OM2, ALPHA_MAX) - fs_imc_vtr_max(FS_IMC_OM2, 0.0f);
     float G = dq / ALPHA_MAX * V_im / (w_e_max * L);   /* A/rad */
     cfg->Ts = Ts;
@@ -117,10 +117,10 @@ FS_COLD fs_status fs_imc_depth_design(fs_imc_depth_config *cfg, float Ts, float 
 
 FS_COLD fs_status fs_imc_depth_init(fs_imc_depth *dc, const fs_imc_depth_config *cfg)
 {
-    if (!dc || !cfg) return FS_ERR_NULL;
-    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
-    if (!fs_pos(cfg->i_lim)) return FS_ERR_I_MAX;
-    if (!fs_nonneg(cfg->k_p) || !fs_nonneg(cfg->k_i)) return FS_ERR_PARAM;
+    if (!dc || !cfg) { return FS_ERR_NULL; }
+    if (!fs_pos(cfg->Ts)) { return FS_ERR_TS; }
+    if (!fs_pos(cfg->i_lim)) { return FS_ERR_I_MAX; }
+    if (!fs_nonneg(cfg->k_p) || !fs_nonneg(cfg->k_i)) { return FS_ERR_PARAM; }
     dc->cfg = *cfg;
     fs_imc_depth_reset(dc);
     return FS_OK;

@@ -3,9 +3,9 @@
 
 FS_COLD fs_status fs_lpf_init(fs_lpf *f, const fs_lpf_config *cfg)
 {
-    if (!f || !cfg) return FS_ERR_NULL;
-    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
-    if (!fs_pos(cfg->w_c_min)) return FS_ERR_BANDWIDTH;
+    if (!f || !cfg) { return FS_ERR_NULL; }
+    if (!fs_pos(cfg->Ts)) { return FS_ERR_TS; }
+    if (!fs_pos(cfg->w_c_min)) { return FS_ERR_BANDWIDTH; }
     f->cfg = *cfg;
     fs_lpf_reset(f);
     return FS_OK;

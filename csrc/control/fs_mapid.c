@@ -43,22 +43,23 @@ static const int Q_ORDER[] = {0, 1, -1, 2, -2, 3, -3};
 
 FS_COLD fs_status fs_mapid_init(fs_mapid *m, const fs_mapid_config *cfg)
 {
-    if (!m || !cfg) return FS_ERR_NULL;
-    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
-    if (cfg->delay != 0.0f && cfg->delay != 1.0f) return FS_ERR_PARAM;
-    if (!fs_pos(cfg->i_max)) return FS_ERR_I_MAX;
-    if (!fs_pos(cfg->L_d)) return FS_ERR_LD;
-    if (!fs_pos(cfg->L_q)) return FS_ERR_LQ;
+    if (!m || !cfg) { return FS_ERR_NULL; }
+    if (!fs_pos(cfg->Ts)) { return FS_ERR_TS; }
+    if (cfg->delay != 0.0f && cfg->delay != 1.0f) { return FS_ERR_PARAM; }
+    if (!fs_pos(cfg->i_max)) { return FS_ERR_I_MAX; }
+    if (!fs_pos(cfg->L_d)) { return FS_ERR_LD; }
+    if (!fs_pos(cfg->L_q)) { return FS_ERR_LQ; }
     if (!fs_nonneg(cfg->R_s) || !fs_nonneg(cfg->u_e) || cfg->pole_pairs < 1 || !fs_nonneg(cfg->psi_f) || !fs_nonneg(cfg->J)
-        || !fs_nonneg(cfg->motion_max) || !fs_pos(cfg->w_c) || (cfg->d_only & ~1) || (cfg->pol_known & ~1))
+        || !fs_nonneg(cfg->motion_max) || !fs_pos(cfg->w_c) || (cfg->d_only & ~1) || (cfg->pol_known & ~1)) {
         return FS_ERR_PARAM;
+    }
     m->cfg = *cfg;
     fs_pi_config c;
     fs_status st = fs_pi_design(&c, cfg->Ts, cfg->L_d, cfg->R_s, cfg->w_c, 0.0f);
-    if (st == FS_OK) st = fs_pi_init(&m->pi_d, &c);
-    if (st == FS_OK) st = fs_pi_design(&c, cfg->Ts, cfg->L_q, cfg->R_s, cfg->w_c, 0.0f);
-    if (st == FS_OK) st = fs_pi_init(&m->pi_q, &c);
-    if (st != FS_OK) return st;
+    if (st == FS_OK) { st = fs_pi_init(&m->pi_d, &c); }
+    if (st == FS_OK) { st = fs_pi_design(&c, cfg->Ts, cfg->L_q, cfg->R_s, cfg->w_c, 0.0f); }
+    if (st == FS_OK) { st = fs_pi_init(&m->pi_q, &c); }
+    if (st != FS_OK) { return st; }
     fs_mapid_reset(m);
     return FS_OK;
 }
@@ -121,10 +122,10 @@ static void crossings(fs_mapid *m, float x, float y, float psx, float psy, float
         m->seen = 0u;
         dir = -dir;
     }
-    if (!(dx * (float)dir > 0.0f)) return;
+    if (!(dx * (float)dir > 0.0f)) { return; }
     const float mid = 0.5f * (x + m->x_prev);
     for (int t = 0; t <= 2 * n; ++t) {   /* the steps near each value, for its incremental L */
-        if (fabsf(mid - (float)(t - n) * h) > 0.5f * h) continue;
+        if (fabsf(mid - (float)(t - n) * h) > 0.5f * h) { continue; }
         if (dir > 0) {
             m->s_up[t] += dx;
             m->c_up[t]++;
@@ -136,7 +137,7 @@ static void crossings(fs_mapid *m, float x, float y, float psx, float psy, float
     for (int t = 0; t <= 2 * n; ++t) {
         const float v = (float)(t - n) * h;
         const bool passed = dir > 0 ? (m->x_prev < v && x >= v) : (m->x_prev > v && x <= v);
-        if (!passed || (m->seen & (1u << t))) continue;
+        if (!passed || (m->seen & (1u << t))) { continue; }
         const float f = (v - m->x_prev) / dx;
         m->seen |= 1u << t;
         m->s_x[t] += psx0 + f * (psx - psx0);   /* the swept axis' flux */
@@ -153,11 +154,11 @@ static void crossings(fs_mapid *m, float x, float y, float psx, float psy, float
 static bool leg_next(fs_mapid *m, float x, const float *turn)
 {
     const bool up = !(m->leg & 1);
-    if (turn[m->leg] == 0.0f) return up ? x >= 0.0f : x <= 0.0f;
+    if (turn[m->leg] == 0.0f) { return up ? x >= 0.0f : x <= 0.0f; }
     /* where the current peaks if reversed now (the delay's periods on), and half a step: the peak within half a step */
     const float ahead = x + (m->cfg.delay + 0.5f) * (x - m->x_prev);
     const float at = turn[m->leg] * m->I_amp;
-    if (up ? ahead >= at : ahead <= -at) m->leg++;   /* the voltage turns now, the current a delay later (crossings reads on till then) */
+    if (up ? ahead >= at : ahead <= -at) { m->leg++; }   /* the voltage turns now, the current a delay later (crossings reads on till then) */
     return false;
 }
 
@@ -196,7 +197,7 @@ static float drop(const fs_mapid_config *c, float I) { return c->R_s * I + 1.333
  * or J is not known (a locked rotor). */
 static float d_growth(const fs_mapid_config *c, float I, float U)
 {
-    if (!(c->psi_f > 0.0f && c->J > 0.0f && c->motion_max > 0.0f) || !(U > 0.0f)) return 0.0f;
+    if (!(c->psi_f > 0.0f && c->J > 0.0f && c->motion_max > 0.0f) || !(U > 0.0f)) { return 0.0f; }
     const float p = (float)c->pole_pairs, dL = c->L_q - c->L_d;
     float sum = 0.0f;
     for (int n = 0; n < 16; ++n) {
@@ -204,7 +205,7 @@ static float d_growth(const fs_mapid_config *c, float I, float U)
         const float w = x < TURN[0] * I ? 2.0f : 1.0f;   /* the inner part is passed twice as often */
         for (int side = -1; side <= 1; side += 2) {
             const float K = 1.5f * p * ((float)side * c->psi_f * x - dL * x * x);
-            if (K < 0.0f) sum += 2.0f * w * sqrtf(-p * K / c->J);
+            if (K < 0.0f) { sum += 2.0f * w * sqrtf(-p * K / c->J); }
         }
     }
     return sum * (I / 16.0f) * c->L_d / U;
@@ -225,9 +226,9 @@ static void d_design(fs_mapid *m, float u_max)
     r->d_limit = FS_MAPID_LIM_DISC;
     if (d_growth(c, I, U) > e_max) {
         U = fs_maxf(U, fs_minf(U_SWEEP * u_max - drop(c, I), D_STEP_MAX * c->i_max * c->L_d / c->Ts));
-        while (d_growth(c, I, U) > e_max && I > D_MIN * c->i_max) I = fs_maxf(0.95f * I, D_MIN * c->i_max);
+        while (d_growth(c, I, U) > e_max && I > D_MIN * c->i_max) { I = fs_maxf(0.95f * I, D_MIN * c->i_max); }
         r->d_limit = FS_MAPID_LIM_UNSTABLE;
-        if (d_growth(c, I, U) > e_max) I = 0.0f;
+        if (d_growth(c, I, U) > e_max) { I = 0.0f; }
     }
     m->I_amp = r->d_amp = I;
     m->U = U;
@@ -251,15 +252,15 @@ static void d_finish(fs_mapid *m)
         const int t = n + 2 * side;
         const float up = m->c_up[t] ? m->s_up[t] / (float)m->c_up[t] : 0.0f, dn = m->c_dn[t] ? m->s_dn[t] / (float)m->c_dn[t] : 0.0f;
         const float L = up - dn > 0.0f ? 2.0f * m->U * m->cfg.Ts / (up - dn) : 0.0f;
-        if (side < 0) r->L_neg = L; else r->L_pos = L;
+        if (side < 0) { r->L_neg = L; } else { r->L_pos = L; }
     }
-    if (r->L_pos > 0.0f && r->L_neg > 0.0f) r->asym = (r->L_neg - r->L_pos) / fs_maxf(r->L_neg, r->L_pos);
+    if (r->L_pos > 0.0f && r->L_neg > 0.0f) { r->asym = (r->L_neg - r->L_pos) / fs_maxf(r->L_neg, r->L_pos); }
     /* the axis' offset from the q flux at +-i_max/2 (the held axis' flux is in s_y): psi_q,frame =
      * offset (psi_d(i_d) - psi_f - L_q i_d), psi_d's change read by the sweep itself (saturated) */
     if (m->s_n[n + 2] && m->s_n[n - 2]) {
         const float dq = mean_at(m->s_y, m->s_n, n + 2) - mean_at(m->s_y, m->s_n, n - 2);
         const float dd = mean_at(m->s_x, m->s_n, n + 2) - mean_at(m->s_x, m->s_n, n - 2) - m->cfg.L_q * m->cfg.i_max;
-        if (fabsf(dd) > 0.0f) r->axis_offset = fs_clampf(dq / dd, -0.2f, 0.2f);
+        if (fabsf(dd) > 0.0f) { r->axis_offset = fs_clampf(dq / dd, -0.2f, 0.2f); }
     }
     /* decided on enough steps: a low-inductance machine on a high link
      * (zoo machine 39: 0.13 mH, 637 V, a leg error of 16 V the sweep's
@@ -295,10 +296,10 @@ static void d_finish(fs_mapid *m)
 static bool unstable(const fs_mapid *m, int n_settle)
 {
     const fs_mapid_config *c = &m->cfg;
-    if (!(c->psi_f > 0.0f && c->J > 0.0f && c->motion_max > 0.0f) || m->I_d == 0.0f) return false;
+    if (!(c->psi_f > 0.0f && c->J > 0.0f && c->motion_max > 0.0f) || m->I_d == 0.0f) { return false; }
     const float p = (float)c->pole_pairs, I = m->I_d;
     const float K = 1.5f * p * (c->psi_f * I - (c->L_q - c->L_d) * I * I);   /* N m per el. rad of misalignment, restoring when > 0 */
-    if (K >= 0.0f) return false;
+    if (K >= 0.0f) { return false; }
     const float rate = sqrtf(-p * K / c->J);
     const float t_L = (float)(2 * n_settle + 7 * m->n_rise) * c->Ts;   /* in, the pattern's 6.5 rises and the trim, out */
     return coshf(rate * t_L) > GROWTH;
@@ -346,7 +347,7 @@ static void q_design(fs_mapid *m, int kk, float u_max)
     /* the rise: as long as the motion allows, within N_Q_MIN..N_Q_MAX samples (a locked rotor:
      * N_Q_MAX_LOCKED) and the voltage */
     float t_q = (float)(k_a > 0.0f ? N_Q_MAX : N_Q_MAX_LOCKED) * c->Ts;
-    if (k_a > 0.0f && I > 0.0f) t_q = fs_minf(t_q, sqrtf(c->motion_max / (SWING * k_a * I)));
+    if (k_a > 0.0f && I > 0.0f) { t_q = fs_minf(t_q, sqrtf(c->motion_max / (SWING * k_a * I))); }
     t_q = fs_maxf(t_q, fs_maxf(t_min, U_lim > 0.0f ? c->L_q * I / U_lim : t_min));
     m->n_rise = (int)(t_q / c->Ts + 0.5f);
     m->U = I > 0.0f ? fs_minf(c->L_q * I / t_q, U_lim) : 0.0f;
@@ -367,7 +368,7 @@ static void q_finish(fs_mapid *m, int kk)
         /* read on both sides alike: 4 times inside the inner turning points, twice beyond */
         const bool full = z_full && m->s_n[tp] == m->s_n[tm] && (m->s_n[tp] == 2 || m->s_n[tp] == 4);
         r->n_q[kk][j - 1] = full ? m->s_n[tp] + m->s_n[tm] : 0;
-        if (!full) continue;
+        if (!full) { continue; }
         r->psi_q[kk][j - 1] = 0.5f * (mean_at(m->s_x, m->s_n, tp) - mean_at(m->s_x, m->s_n, tm));
         r->dpsi_dq[kk][j - 1] = 0.5f * (mean_at(m->s_y, m->s_n, tp) + mean_at(m->s_y, m->s_n, tm)) - z;
         r->i_d_at[kk][j - 1] = 0.5f * (mean_at(m->s_i, m->s_n, tp) + mean_at(m->s_i, m->s_n, tm));
@@ -391,12 +392,12 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
         if (m->n_trim > 0 || away) {   /* the sweep starts from zero current (a restart, or the caller's last bias) */
             u.d = hold(&m->pi_d, 0.0f, i.d, lim);
             u.q = hold(&m->pi_q, 0.0f, i.q, fs_maxf(lim - fabsf(u.d), 0.0f));
-            if (m->n_trim > 0 && --m->n_trim == 0) m->k = 0;
+            if (m->n_trim > 0 && --m->n_trim == 0) { m->k = 0; }
             break;
         }
         if (m->k == 0) {
             sweep_start(m, i.d, i.q);
-            if (m->n_rise == 0) d_design(m, u_max);   /* the first start; a restart keeps the U it raised */
+            if (m->n_rise == 0) { d_design(m, u_max); }   /* the first start; a restart keeps the U it raised */
             m->n_rise = 1;
             if (!(m->I_amp > 0.0f)) {   /* no sweep the free rotor would stand: nothing read */
                 d_finish(m);
@@ -413,7 +414,7 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
         }
         m->k++;
         const int leg = m->leg;
-        if (leg == 0 && m->k > 1) m->impulse += i.d - m->x_prev;   /* the first leg's steps */
+        if (leg == 0 && m->k > 1) { m->impulse += i.d - m->x_prev; }   /* the first leg's steps */
         const bool over = leg_next(m, i.d, TURN);
         const float step0 = m->U * c->Ts / c->L_d;   /* a sample's step at U alone */
         const bool stalled = leg == 0 && (float)m->k > 3.0f * TURN[0] * m->I_amp / step0 + c->delay + 2.0f;
@@ -512,7 +513,7 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
                 m->k = 0;
             }
         } else {
-            if (m->k == m->n_trim) m->leg ^= 1;
+            if (m->k == m->n_trim) { m->leg ^= 1; }
             u.q = sweep_voltage(m, i.q, e.q);
             if (++m->k > 2 * m->n_trim) {   /* the loop takes what is left to zero */
                 m->res.impulse_left[Q_ORDER[m->level] + FS_MAPID_ND / 2] = m->torque_imp;
@@ -529,7 +530,7 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
     case FS_MAPID_OUT:   /* back to zero current; a q voltage there beyond the inverter's error: the rotor turning */
         u.d = hold(&m->pi_d, 0.0f, i.d, lim);
         u.q = hold(&m->pi_q, 0.0f, i.q, fs_maxf(lim - fabsf(u.d), 0.0f));
-        if (m->k >= n_settle / 2) m->impulse += u.q - e.q;   /* the second half: the current back at zero */
+        if (m->k >= n_settle / 2) { m->impulse += u.q - e.q; }   /* the second half: the current back at zero */
         if (++m->k >= n_settle) {
             const int kk = Q_ORDER[m->level] + FS_MAPID_ND / 2;
             const float e_q = m->impulse / (float)(n_settle - n_settle / 2);   /* V: the mean back-EMF */

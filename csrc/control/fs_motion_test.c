@@ -3,20 +3,21 @@
 
 FS_COLD fs_status fs_motion_test_init(fs_motion_test *m, const fs_motion_test_config *cfg)
 {
-    if (!m || !cfg) return FS_ERR_NULL;
-    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
-    if (!fs_pos(cfg->i_push)) return FS_ERR_I_MAX;
-    if (!fs_fin(cfg->i_push_max) || !(cfg->i_push_max == 0.0f || cfg->i_push_max >= cfg->i_push)) return FS_ERR_I_MAX;
+    if (!m || !cfg) { return FS_ERR_NULL; }
+    if (!fs_pos(cfg->Ts)) { return FS_ERR_TS; }
+    if (!fs_pos(cfg->i_push)) { return FS_ERR_I_MAX; }
+    if (!fs_fin(cfg->i_push_max) || !(cfg->i_push_max == 0.0f || cfg->i_push_max >= cfg->i_push)) { return FS_ERR_I_MAX; }
     /* the step counts must stay ints: below 1e9 */
     const float t_all = cfg->t_lock + 2.0f * cfg->t_push + cfg->t_settle;
     if (!(cfg->t_lock >= 8.0f * cfg->Ts) || !(cfg->t_push >= cfg->Ts) || !(cfg->t_settle >= cfg->Ts) || !(t_all < 1e3f)
-        || !(t_all / cfg->Ts < 1e9f))
+        || !(t_all / cfg->Ts < 1e9f)) {
         return FS_ERR_PARAM;
-    if (!(cfg->theta_dec > 0.0f && cfg->theta_dec < 0.5f * FS_PI)) return FS_ERR_PARAM;
-    if (!(cfg->theta_max == 0.0f || (cfg->theta_max >= cfg->theta_dec && cfg->theta_max < 0.5f * FS_PI))) return FS_ERR_PARAM;
+    }
+    if (!(cfg->theta_dec > 0.0f && cfg->theta_dec < 0.5f * FS_PI)) { return FS_ERR_PARAM; }
+    if (!(cfg->theta_max == 0.0f || (cfg->theta_max >= cfg->theta_dec && cfg->theta_max < 0.5f * FS_PI))) { return FS_ERR_PARAM; }
     m->cfg = *cfg;
-    if (m->cfg.i_push_max == 0.0f) m->cfg.i_push_max = cfg->i_push;
-    if (m->cfg.theta_max == 0.0f) m->cfg.theta_max = fs_minf(4.0f * cfg->theta_dec, 0.49f * FS_PI);
+    if (m->cfg.i_push_max == 0.0f) { m->cfg.i_push_max = cfg->i_push; }
+    if (m->cfg.theta_max == 0.0f) { m->cfg.theta_max = fs_minf(4.0f * cfg->theta_dec, 0.49f * FS_PI); }
     m->n_lock = (int)(cfg->t_lock / cfg->Ts + 0.5f);
     m->n_push = (int)(cfg->t_push / cfg->Ts + 0.5f);
     m->n_settle = (int)(cfg->t_settle / cfg->Ts + 0.5f);
@@ -90,7 +91,7 @@ static float motion_lock_end(fs_motion_test *m, float theta)
     m->k = 0;
     if (m->moved || m->threshold > m->cfg.theta_max) {
         m->locks += 1;
-        if (m->locks >= FS_MOTION_LOCKS) m->stage = FS_MOTION_UNDETERMINED;
+        if (m->locks >= FS_MOTION_LOCKS) { m->stage = FS_MOTION_UNDETERMINED; }
         return 0.0f;
     }
     m->stage = FS_MOTION_PUSH;
@@ -109,7 +110,7 @@ static float motion_read(fs_motion_test *m, float theta)
     m->moved = motion_turning(m, (float)m->n_win * m->cfg.Ts, 1.0f);
     if (m->moved) {   /* beyond the largest threshold already: something else turns the rotor */
         m->settles += 1;
-        if (m->settles >= FS_MOTION_LOCKS || fabsf(m->turn) > m->cfg.theta_max) m->stage = FS_MOTION_UNDETERMINED;
+        if (m->settles >= FS_MOTION_LOCKS || fabsf(m->turn) > m->cfg.theta_max) { m->stage = FS_MOTION_UNDETERMINED; }
         return 0.0f;
     }
     m->settles = 0;
@@ -133,8 +134,8 @@ float fs_motion_test_step(fs_motion_test *m, float theta)
     switch (m->stage) {
     case FS_MOTION_LOCK: {
         const int half = m->n_lock / 2;
-        if (m->k >= half) motion_window(m, theta, m->k - half);
-        if (++m->k >= m->n_lock) return motion_lock_end(m, theta);
+        if (m->k >= half) { motion_window(m, theta, m->k - half); }
+        if (++m->k >= m->n_lock) { return motion_lock_end(m, theta); }
         return 0.0f;
     }
     case FS_MOTION_PUSH:
@@ -146,8 +147,8 @@ float fs_motion_test_step(fs_motion_test *m, float theta)
         return motion_doublet(m);
     case FS_MOTION_SETTLE: {
         const int half = m->n_settle / 2;   /* the rotor's speed over the settling's second half */
-        if (m->k >= half) motion_window(m, theta, m->k - half);
-        if (++m->k >= m->n_settle) return motion_read(m, theta);
+        if (m->k >= half) { motion_window(m, theta, m->k - half); }
+        if (++m->k >= m->n_settle) { return motion_read(m, theta); }
         return 0.0f;
     }
     default:

@@ -6,7 +6,7 @@
 static float mtpa_id(const fs_mtpa_config *c, float I)
 {
     float dL = c->L_q - c->L_d;
-    if (dL <= 1e-9f * c->L_q) return 0.0f;
+    if (dL <= 1e-9f * c->L_q) { return 0.0f; }
     return (c->psi_f - sqrtf(c->psi_f * c->psi_f + 8.0f * dL * dL * I * I)) / (4.0f * dL);
 }
 
@@ -52,21 +52,21 @@ static FS_COLD fs_status mtpa_search(fs_mtpa *m)
         m->T[k] = mtpa_map_torque(m, I, 0.5f * (lo + hi), &i);
         m->i_d[k] = i.d;
         m->i_q[k] = i.q;
-        if (!(m->T[k] > m->T[k - 1] && m->T[k] < INFINITY)) return FS_ERR_PARAM;
+        if (!(m->T[k] > m->T[k - 1] && m->T[k] < INFINITY)) { return FS_ERR_PARAM; }
     }
     return FS_OK;
 }
 
 FS_COLD fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
 {
-    if (!m || !cfg) return FS_ERR_NULL;
-    if (!fs_pos(cfg->L_d)) return FS_ERR_LD;
-    if (!cfg->map && !(cfg->L_q >= cfg->L_d)) return FS_ERR_LQ;   /* the closed form assumes L_q >= L_d */
-    if (!fs_fin(cfg->L_q)) return FS_ERR_LQ;
-    if (!fs_nonneg(cfg->psi_f)) return FS_ERR_PSI_F;
-    if (cfg->pole_pairs < 1) return FS_ERR_POLE_PAIRS;
-    if (cfg->phases != 3 && cfg->phases != 5) return FS_ERR_PARAM;
-    if (!fs_pos(cfg->i_max)) return FS_ERR_I_MAX;
+    if (!m || !cfg) { return FS_ERR_NULL; }
+    if (!fs_pos(cfg->L_d)) { return FS_ERR_LD; }
+    if (!cfg->map && !(cfg->L_q >= cfg->L_d)) { return FS_ERR_LQ; }   /* the closed form assumes L_q >= L_d */
+    if (!fs_fin(cfg->L_q)) { return FS_ERR_LQ; }
+    if (!fs_nonneg(cfg->psi_f)) { return FS_ERR_PSI_F; }
+    if (cfg->pole_pairs < 1) { return FS_ERR_POLE_PAIRS; }
+    if (cfg->phases != 3 && cfg->phases != 5) { return FS_ERR_PARAM; }
+    if (!fs_pos(cfg->i_max)) { return FS_ERR_I_MAX; }
     m->cfg = *cfg;
     m->tabulated = cfg->map != NULL;
     m->k_T = mtpa_k(cfg);
@@ -90,7 +90,7 @@ FS_COLD fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
         m->T[k] = mtpa_k(cfg) * (cfg->psi_f + (cfg->L_d - cfg->L_q) * id) * iq;
         /* the torque must rise, finite: not without torque (psi_f = 0 and
          * L_q = L_d), nor beyond the float range */
-        if (k > 0 && !(m->T[k] > m->T[k - 1] && m->T[k] < INFINITY)) return FS_ERR_PARAM;
+        if (k > 0 && !(m->T[k] > m->T[k - 1] && m->T[k] < INFINITY)) { return FS_ERR_PARAM; }
     }
     return FS_OK;
 }
@@ -102,8 +102,8 @@ FS_COLD fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
  * build on a Cortex-M4F, bench/pil.py: 24.7 instructions a step more). */
 static inline float mtpa_locus_id(const fs_mtpa *m, float iq)
 {
-    if (m->cfg.psi_f <= 0.0f) return -iq;
-    if (!m->salient) return 0.0f;
+    if (m->cfg.psi_f <= 0.0f) { return -iq; }
+    if (!m->salient) { return 0.0f; }
     return -m->dL2 * iq * iq / (m->cfg.psi_f + sqrtf(m->psi2 + m->dL4 * iq * iq));
 }
 
@@ -135,7 +135,7 @@ fs_dq fs_mtpa_step(fs_mtpa *m, float T_ref)
             lo = 0;
             while (hi - lo > 1) {  /* bisection on the rising torque table */
                 int mid = (lo + hi) / 2;
-                if (m->T[mid] <= T) lo = mid; else hi = mid;
+                if (m->T[mid] <= T) { lo = mid; } else { hi = mid; }
             }
             m->seg = lo;
         }
@@ -148,18 +148,18 @@ fs_dq fs_mtpa_step(fs_mtpa *m, float T_ref)
         if (m->tabulated) {   /* a flux map's locus: its table, linearly */
             out.q = iq;
             out.d = m->i_d[lo] + s * (m->i_d[hi] - m->i_d[lo]);
-            if (T_ref < 0.0f) out.q = -out.q;
+            if (T_ref < 0.0f) { out.q = -out.q; }
             return out;
         }
         if (m->cfg.psi_f <= 0.0f) {   /* reluctance only: T = 1.5 p (L_q - L_d) i_q^2 exactly */
             iq = sqrtf(T / (m->k_T * m->dL));
         } else {
             T0 = mtpa_locus_torque(m, iq, mtpa_locus_id(m, iq), &dT);
-            if (dT > 0.0f) iq = fs_clampf(iq + (T - T0) / dT, m->i_q[lo], m->i_q[hi]);
+            if (dT > 0.0f) { iq = fs_clampf(iq + (T - T0) / dT, m->i_q[lo], m->i_q[hi]); }
         }
         out.q = iq;
         out.d = mtpa_locus_id(m, iq);
     }
-    if (T_ref < 0.0f) out.q = -out.q;
+    if (T_ref < 0.0f) { out.q = -out.q; }
     return out;
 }

@@ -3,27 +3,28 @@
 
 FS_COLD fs_status fs_param_adapt_init(fs_param_adapt *a, const fs_param_adapt_config *cfg)
 {
-    if (!a || !cfg) return FS_ERR_NULL;
-    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
-    if (!fs_nonneg(cfg->R_s)) return FS_ERR_RS;
-    if (!fs_pos(cfg->L_d)) return FS_ERR_LD;
-    if (!fs_pos(cfg->psi_f)) return FS_ERR_PSI_F;
-    if (!fs_pos(cfg->i_max) || !fs_pos(cfg->w_e_max)) return FS_ERR_LIMIT;
-    if (!fs_nonneg(cfg->w_lp) || !fs_nonneg(cfg->min_sep) || !(cfg->min_sep < 1.0f) || !fs_nonneg(cfg->min_level))
+    if (!a || !cfg) { return FS_ERR_NULL; }
+    if (!fs_pos(cfg->Ts)) { return FS_ERR_TS; }
+    if (!fs_nonneg(cfg->R_s)) { return FS_ERR_RS; }
+    if (!fs_pos(cfg->L_d)) { return FS_ERR_LD; }
+    if (!fs_pos(cfg->psi_f)) { return FS_ERR_PSI_F; }
+    if (!fs_pos(cfg->i_max) || !fs_pos(cfg->w_e_max)) { return FS_ERR_LIMIT; }
+    if (!fs_nonneg(cfg->w_lp) || !fs_nonneg(cfg->min_sep) || !(cfg->min_sep < 1.0f) || !fs_nonneg(cfg->min_level)) {
         return FS_ERR_PARAM;
+    }
     a->cfg = *cfg;
     /* 1 ms between updates: the window is seconds long, and the float sums
      * lose less to rounding with lambda further from 1 */
     a->decim = (int)fs_maxf(1.0f, roundf(1e-3f / cfg->Ts));
     const float T_u = (float)a->decim * cfg->Ts;
-    if (!fs_pos(cfg->T_f) || !(cfg->T_f >= 20.0f * T_u) || !(cfg->T_f <= 1e7f * T_u)) return FS_ERR_PARAM;
+    if (!fs_pos(cfg->T_f) || !(cfg->T_f >= 20.0f * T_u) || !(cfg->T_f <= 1e7f * T_u)) { return FS_ERR_PARAM; }
     a->lambda = expf(-T_u / cfg->T_f);
     a->n_fill = fs_ceil_int(cfg->T_f / T_u);
     /* 20 rad/s: -50 dB at a 1 kHz injection carrier, and a lag of 50 ms,
      * short against the seconds a drive cycle holds a point */
-    if (a->cfg.w_lp <= 0.0f) a->cfg.w_lp = 20.0f;
-    if (a->cfg.min_sep <= 0.0f) a->cfg.min_sep = 0.05f;
-    if (a->cfg.min_level <= 0.0f) a->cfg.min_level = 0.01f;
+    if (a->cfg.w_lp <= 0.0f) { a->cfg.w_lp = 20.0f; }
+    if (a->cfg.min_sep <= 0.0f) { a->cfg.min_sep = 0.05f; }
+    if (a->cfg.min_level <= 0.0f) { a->cfg.min_level = 0.01f; }
     a->a_lp = -expm1f(-a->cfg.w_lp * cfg->Ts);
     fs_param_adapt_reset(a);
     return FS_OK;
@@ -49,9 +50,9 @@ bool fs_param_adapt_step(fs_param_adapt *a, fs_dq u, fs_dq i, float w_e, bool le
     a->y += a->a_lp * (y - a->y);
     a->i_q += a->a_lp * (i.q - a->i_q);
     a->w += a->a_lp * (w_e - a->w);
-    if (++a->k < a->decim) return false;
+    if (++a->k < a->decim) { return false; }
     a->k = 0;
-    if (!learn) return false;
+    if (!learn) { return false; }
     const float p1 = a->i_q / c->i_max, p2 = a->w / c->w_e_max, l = a->lambda;
     a->S11 = l * a->S11 + p1 * p1;
     a->S12 = l * a->S12 + p1 * p2;
@@ -63,9 +64,9 @@ bool fs_param_adapt_step(fs_param_adapt *a, fs_dq u, fs_dq i, float w_e, bool le
     a->sep = sq > 0.0f ? det / sq : 0.0f;
     /* the window's mean |phi|^2: its sum times (1 - lambda) */
     const float level = (a->S11 + a->S22) * (1.0f - l);
-    if (a->n_learn < a->n_fill) ++a->n_learn;
+    if (a->n_learn < a->n_fill) { ++a->n_learn; }
     a->updating = a->n_learn >= a->n_fill && a->sep >= c->min_sep && level >= c->min_level;
-    if (!a->updating) return false;
+    if (!a->updating) { return false; }
     /* theta = S^-1 b, in volts at i_max and w_e_max */
     const float t1 = (a->S22 * a->b1 - a->S12 * a->b2) / det;
     const float t2 = (a->S11 * a->b2 - a->S12 * a->b1) / det;

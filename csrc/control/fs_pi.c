@@ -3,10 +3,11 @@
 
 FS_COLD fs_status fs_pi_init(fs_pi *pi, const fs_pi_config *cfg)
 {
-    if (!pi || !cfg) return FS_ERR_NULL;
-    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
-    if (!fs_nonneg(cfg->k_p) || !fs_nonneg(cfg->k_i) || !fs_nonneg(cfg->k_t) || !fs_fin(cfg->u_max))
+    if (!pi || !cfg) { return FS_ERR_NULL; }
+    if (!fs_pos(cfg->Ts)) { return FS_ERR_TS; }
+    if (!fs_nonneg(cfg->k_p) || !fs_nonneg(cfg->k_i) || !fs_nonneg(cfg->k_t) || !fs_fin(cfg->u_max)) {
         return FS_ERR_PARAM;
+    }
     pi->cfg = *cfg;
     pi->k_i_Ts = cfg->Ts * cfg->k_i;
     fs_pi_reset(pi);
@@ -15,10 +16,10 @@ FS_COLD fs_status fs_pi_init(fs_pi *pi, const fs_pi_config *cfg)
 
 FS_COLD fs_status fs_pi_design(fs_pi_config *cfg, float Ts, float L, float R, float alpha, float u_max)
 {
-    if (!cfg) return FS_ERR_NULL;
-    if (!fs_pos(Ts)) return FS_ERR_TS;
-    if (!fs_pos(L) || !fs_nonneg(R) || !fs_fin(u_max)) return FS_ERR_PARAM;
-    if (!(alpha > 0.0f) || !(alpha * Ts <= 2.0f)) return FS_ERR_BANDWIDTH;
+    if (!cfg) { return FS_ERR_NULL; }
+    if (!fs_pos(Ts)) { return FS_ERR_TS; }
+    if (!fs_pos(L) || !fs_nonneg(R) || !fs_fin(u_max)) { return FS_ERR_PARAM; }
+    if (!(alpha > 0.0f) || !(alpha * Ts <= 2.0f)) { return FS_ERR_BANDWIDTH; }
     /* r = 1 - a and q = 1 - p by expm1f, which keeps them exact when small */
     float r = -expm1f(-R * Ts / L);
     float q = -expm1f(-alpha * Ts);

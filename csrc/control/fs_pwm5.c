@@ -10,7 +10,7 @@ static const float lin_limit = 0.525731112f;
 bool fs_pwm5(fs_ab u_ref, float u_dc, float duty[5], fs_ab *u_real)
 {
     if (!(u_dc > 0.0f) || !isfinite(u_dc) || !isfinite(u_ref.alpha) || !isfinite(u_ref.beta)) {
-        for (int k = 0; k < 5; ++k) duty[k] = 0.5f;
+        for (int k = 0; k < 5; ++k) { duty[k] = 0.5f; }
         if (u_real) { u_real->alpha = 0.0f; u_real->beta = 0.0f; }
         return true;
     }
@@ -18,7 +18,7 @@ bool fs_pwm5(fs_ab u_ref, float u_dc, float duty[5], fs_ab *u_real)
      * component (beyond the limit anyway): nothing below can overflow. */
     float pre = 1.0f;
     float big = fs_maxf(fabsf(u_ref.alpha), fabsf(u_ref.beta));
-    if (big > u_dc) pre = u_dc / big;
+    if (big > u_dc) { pre = u_dc / big; }
     fs_vsd5 v = {{u_ref.alpha * pre / u_dc, u_ref.beta * pre / u_dc}, {0.0f, 0.0f}, 0.0f};
     float mag = sqrtf(v.ab.alpha * v.ab.alpha + v.ab.beta * v.ab.beta);
     bool over = pre < 1.0f;
@@ -37,8 +37,8 @@ bool fs_pwm5(fs_ab u_ref, float u_dc, float duty[5], fs_ab *u_real)
     }
     /* Min-max injection: equal zero-vector time at both ends of the period. */
     float offset = 0.5f - 0.5f * (v_max + v_min);
-    for (int k = 0; k < 5; ++k) duty[k] = fs_clamp01(ph[k] + offset);
-    if (u_real) *u_real = fs_pwm5_voltage(duty, u_dc);
+    for (int k = 0; k < 5; ++k) { duty[k] = fs_clamp01(ph[k] + offset); }
+    if (u_real) { *u_real = fs_pwm5_voltage(duty, u_dc); }
     return over;
 }
 
@@ -47,6 +47,6 @@ fs_ab fs_pwm5_voltage(const float duty[5], float u_dc)
     /* Star point: phase voltage = pole voltage minus the mean of the poles. */
     float mean = 0.2f * (duty[0] + duty[1] + duty[2] + duty[3] + duty[4]);
     float u[5];
-    for (int k = 0; k < 5; ++k) u[k] = (duty[k] - mean) * u_dc;
+    for (int k = 0; k < 5; ++k) { u[k] = (duty[k] - mean) * u_dc; }
     return fs_vsd5_forward(u).ab;
 }

@@ -3,24 +3,24 @@
 
 FS_COLD fs_status fs_swvi_init(fs_swvi *s, const fs_swvi_config *cfg)
 {
-    if (!s || !cfg) return FS_ERR_NULL;
+    if (!s || !cfg) { return FS_ERR_NULL; }
     const fs_swvi_config *c = cfg;
-    if (!fs_pos(c->Ts)) return FS_ERR_TS;
-    if (c->delay != 0 && c->delay != 1) return FS_ERR_PARAM;
-    if (!fs_pos(c->u_h)) return FS_ERR_PARAM;
-    if (c->sequence != FS_SWVI_CONVENTIONAL && c->sequence != FS_SWVI_OPTIMIZED) return FS_ERR_PARAM;
-    if (!fs_pos(c->L_d)) return FS_ERR_LD;
-    if (!fs_pos(c->L_q)) return FS_ERR_LQ;
-    if (!(fabsf(c->L_q - c->L_d) > 0.01f * 0.5f * (c->L_d + c->L_q))) return FS_ERR_SALIENCY;
-    if (!fs_nonneg(c->w_max)) return FS_ERR_LIMIT;
-    if (fs_xcomp_check(&c->xcomp) != FS_OK) return FS_ERR_PARAM;
+    if (!fs_pos(c->Ts)) { return FS_ERR_TS; }
+    if (c->delay != 0 && c->delay != 1) { return FS_ERR_PARAM; }
+    if (!fs_pos(c->u_h)) { return FS_ERR_PARAM; }
+    if (c->sequence != FS_SWVI_CONVENTIONAL && c->sequence != FS_SWVI_OPTIMIZED) { return FS_ERR_PARAM; }
+    if (!fs_pos(c->L_d)) { return FS_ERR_LD; }
+    if (!fs_pos(c->L_q)) { return FS_ERR_LQ; }
+    if (!(fabsf(c->L_q - c->L_d) > 0.01f * 0.5f * (c->L_d + c->L_q))) { return FS_ERR_SALIENCY; }
+    if (!fs_nonneg(c->w_max)) { return FS_ERR_LIMIT; }
+    if (fs_xcomp_check(&c->xcomp) != FS_OK) { return FS_ERR_PARAM; }
     fs_pll_config pc = {c->Ts, c->bandwidth, c->w_max};
     fs_status st = fs_pll_init(&s->pll, &pc);
-    if (st != FS_OK) return st;
+    if (st != FS_OK) { return st; }
     s->cfg = *c;
     /* eq. (7) with T_h = 4 Ts */
     s->k_norm = c->L_d * c->L_q / (c->Ts * c->u_h * (c->L_q - c->L_d));
-    if (!fs_fin(s->k_norm)) return FS_ERR_PARAM;   /* Ts u_h too small for a float */
+    if (!fs_fin(s->k_norm)) { return FS_ERR_PARAM; }   /* Ts u_h too small for a float */
     fs_swvi_reset(s, 0.0f, 0.0f);
     return FS_OK;
 }
@@ -52,7 +52,7 @@ float fs_swvi_step(fs_swvi *s, fs_ab i)
     const int n = (int)(s->k & 3);
     const float th_prev = s->pll.theta;   /* theta_{k-1} */
     s->i_ab[n] = i;
-    if (c->sequence == FS_SWVI_CONVENTIONAL) s->i_dq[n] = fs_park(i, fs_cosf(th_prev), fs_sinf(th_prev));
+    if (c->sequence == FS_SWVI_CONVENTIONAL) { s->i_dq[n] = fs_park(i, fs_cosf(th_prev), fs_sinf(th_prev)); }
 
     /* eq. (8) at the zero crossings (even samples); the first window with
      * the carrier in both its intervals ends at sample 4 */
@@ -75,7 +75,7 @@ float fs_swvi_step(fs_swvi *s, fs_ab i)
             const float sign = n2 == 0 ? 1.0f : -1.0f;
             s->i_h.d = sign * h.d;
             s->i_h.q = sign * h.q;
-            if (!c->carrier_off) s->eps = s->k_norm * s->i_h.q;   /* eqs. (6)-(7) */
+            if (!c->carrier_off) { s->eps = s->k_norm * s->i_h.q; }   /* eqs. (6)-(7) */
         }
     }
     fs_pll_step(&s->pll, s->eps);                           /* Fig. 1 */

@@ -63,7 +63,7 @@ float _Complex fs_cis(float theta)
     const float P1 = 1.5707855225f, P2 = 1.0804273188e-05f, P34 = 6.0771006283e-11f;
     const float M = 12582912.0f;   /* 1.5 2^23: x + M - M rounds x to an integer, for |x| < 2^22 */
     const float x = theta;
-    if (!(fabsf(x) < 199.0f)) return cis_far(x);   /* k would need more than 7 bits */
+    if (!(fabsf(x) < 199.0f)) { return cis_far(x); }   /* k would need more than 7 bits */
     const float k = (x * 0.636619772f + M) - M;
     const float t = x - k * P1;                              /* exact */
     const float r = t - k * P2;
@@ -82,7 +82,7 @@ float _Complex fs_cis(float theta)
  * common path needs no stack frame) */
 FS_OUT_OF_LINE float _Complex cis_far(float theta)
 {
-    if (!(fabsf(theta) < INFINITY)) return cis(theta - theta, theta - theta);   /* NaN, as sinf and cosf */
+    if (!(fabsf(theta) < INFINITY)) { return cis(theta - theta, theta - theta); }   /* NaN, as sinf and cosf */
     return fs_cis(fs_wrap_pi(theta));
 }
 
@@ -105,7 +105,7 @@ float fs_atan2f(float y, float x)
     float num = swap ? ax : ay, den = swap ? ay : ax;   /* num <= den (or a NaN) */
     float u, hi, lo;
     if (!(num > 0.0f && den < 1e38f)) {   /* zeros, infinities, NaN; num + den could overflow */
-        if (num != num || den != den) return x + y;
+        if (num != num || den != den) { return x + y; }
         if (den == INFINITY) {
             num = num == INFINITY ? 1.0f : 0.0f;
             den = 1.0f;
