@@ -13,8 +13,8 @@ FS_COLD fs_status fs_drive_ident_init(fs_drive *drv, const fs_drive_config *cfg)
     ic.i_max = cfg->i_max;
     fs_status st = fs_ident_init(&drv->ident, &ic);
     if (st != FS_OK) {
-        drv->fail = st == FS_ERR_TS ? "Ts" : st == FS_ERR_POLE_PAIRS ? "pole_pairs" : st == FS_ERR_I_MAX ? "i_max"
-                  : ic.delay != 0.0f && ic.delay != 1.0f ? "delay" : "ident";
+        drv->fail = (st == FS_ERR_TS) ? "Ts" : (st == FS_ERR_POLE_PAIRS) ? "pole_pairs" : (st == FS_ERR_I_MAX) ? "i_max"
+                  : ((ic.delay != 0.0f) && (ic.delay != 1.0f)) ? "delay" : "ident";
         return st;
     }
     drv->cfg = *cfg;
@@ -31,7 +31,7 @@ void fs_drive_ident_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out
     fs_ab u_real;
     out->over_modulation = fs_svpwm(u, in->u_dc, out->duty, &u_real);
     /* the frame the step works in: the standstill steps' axis, then the running frame */
-    const float th = id->step < FS_IDENT_SPIN ? id->theta_s : id->theta;
+    const float th = (id->step < FS_IDENT_SPIN) ? id->theta_s : id->theta;
     const float ct = fs_cosf(th), st = fs_sinf(th);
     const fs_dq i = fs_park(i_ab, ct, st), v = fs_park(u_real, ct, st);
     out->theta_e = out->theta_est = th;

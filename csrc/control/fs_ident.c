@@ -46,31 +46,31 @@ const char *fs_ident_reason_str(int reason)
         "the d sweep to the current limit would turn the free rotor away: lock it",
         "no polarity seen standing (no saturation asymmetry) and the rotor may not turn: lock it",
         "no saliency: the d axis is not seen standing, and the rotor may not be turned to it"};
-    return (reason >= 0 && reason < FS_IDR__COUNT) ? s[reason] : "?";
+    return ((reason >= 0) && (reason < FS_IDR__COUNT)) ? s[reason] : "?";
 }
 
 const char *fs_ident_step_str(int step)
 {
     static const char *const s[FS_IDENT_NSTEPS] = {"start", "probe", "axis", "align", "polarity", "levels", "ldq", "map",
                                                    "check", "spin", "flux", "dcurve", "accel", "coast", "done", "failed"};
-    return (step >= 0 && step < FS_IDENT_NSTEPS) ? s[step] : "?";
+    return ((step >= 0) && (step < FS_IDENT_NSTEPS)) ? s[step] : "?";
 }
 
 FS_COLD fs_status fs_ident_init(fs_ident *id, const fs_ident_config *cfg)
 {
     if (!id || !cfg) { return FS_ERR_NULL; }
     if (!fs_pos(cfg->Ts)) { return FS_ERR_TS; }
-    if (cfg->delay != 0.0f && cfg->delay != 1.0f) { return FS_ERR_PARAM; }
+    if ((cfg->delay != 0.0f) && (cfg->delay != 1.0f)) { return FS_ERR_PARAM; }
     if (cfg->pole_pairs < 1) { return FS_ERR_POLE_PAIRS; }
     if (!fs_pos(cfg->i_max)) { return FS_ERR_I_MAX; }
     if (!fs_pos(cfg->w_spin) || !fs_pos(cfg->t_ramp) || !fs_nonneg(cfg->u_dc_min)) { return FS_ERR_PARAM; }
-    if (cfg->t_ramp < 100.0f * cfg->Ts) { return FS_ERR_PARAM; }   /* a ramp of fewer samples is a step */
+    if (cfg->t_ramp < (100.0f * cfg->Ts)) { return FS_ERR_PARAM; }   /* a ramp of fewer samples is a step */
     if ((cfg->standstill_only | cfg->locked | cfg->skip_map) & ~1) { return FS_ERR_PARAM; }   /* flags: 0 or 1 */
-    if (!fs_nonneg(cfg->i_test) || cfg->i_test > cfg->i_max || !fs_nonneg(cfg->t_level) || !fs_nonneg(cfg->psi_f_hint)
+    if (!fs_nonneg(cfg->i_test) || (cfg->i_test > cfg->i_max) || !fs_nonneg(cfg->t_level) || !fs_nonneg(cfg->psi_f_hint)
         || !fs_nonneg(cfg->J_hint) || !fs_nonneg(cfg->motion_max)) {
         return FS_ERR_PARAM;
     }
-    if (cfg->t_level > 0.0f && cfg->t_level < 100.0f * cfg->Ts) { return FS_ERR_PARAM; }   /* fewer samples than batches can hold */
+    if ((cfg->t_level > 0.0f) && (cfg->t_level < (100.0f * cfg->Ts))) { return FS_ERR_PARAM; }   /* fewer samples than batches can hold */
     id->cfg = *cfg;
     fs_ident_reset(id);
     return FS_OK;
@@ -136,7 +136,7 @@ float fs_ident_leg_error(const fs_ident *id, float i)
 {
     const float ue = id->res.u_e, ie = id->res.i_e;
     if (id->res.status[FS_IDQ_VERR] != FS_IDS_OK) { return 0.0f; }
-    return ue * i / sqrtf(i * i + ie * ie + 1e-30f);
+    return ue * i / sqrtf((i * i) + (ie * ie) + 1e-30f);
 }
 
 /* The quantity q failed for a reason; the ones not measured yet fail as
@@ -146,7 +146,7 @@ static void ident_fail(fs_ident *id, int q, int reason)
     for (int k = 0; k < FS_IDQ_N; ++k) {
         if (id->res.status[k] == FS_IDS_PENDING) {
             id->res.status[k] = FS_IDS_FAILED;
-            id->res.reason[k] = k == q ? reason : FS_IDR_PREREQ;
+            id->res.reason[k] = (k == q) ? reason : FS_IDR_PREREQ;
         }
     }
     if (id->res.status[q] != FS_IDS_FAILED) {   /* a quantity already given is withdrawn */
@@ -165,7 +165,7 @@ static void ident_ok(fs_ident *id, int q)
 static void ident_goto(fs_ident *id, int step)
 {
     fs_ident_result *r = &id->res;
-    if (step != id->step && r->n_visit < FS_IDENT_NVISIT) {
+    if ((step != id->step) && (r->n_visit < FS_IDENT_NVISIT)) {
         r->visit_step[r->n_visit] = step;
         r->visit_at[r->n_visit++] = r->n_total;
     }
@@ -179,7 +179,7 @@ static void ident_goto(fs_ident *id, int step)
 static void ident_design_pi(fs_ident *id, float L_d, float L_q, float R)
 {
     fs_pi_config c;
-    const float u_lim = id->u_max > 0.0f ? id->u_max : 1.0f;
+    const float u_lim = (id->u_max > 0.0f) ? id->u_max : 1.0f;
     if (fs_pi_design(&c, id->cfg.Ts, L_d, R, id->w_c, u_lim) == FS_OK) { fs_pi_init(&id->pi_d, &c); }
     if (fs_pi_design(&c, id->cfg.Ts, L_q, R, id->w_c, u_lim) == FS_OK) { fs_pi_init(&id->pi_q, &c); }
 }
@@ -229,9 +229,9 @@ static void rec_push(fs_ident *id, float t, float w)
     if (++id->rec_k < id->rec_dec) { return; }
     id->rec_k = 0;
     if (id->rec_n == FS_IDENT_NREC) {
-        for (int k = 0; k < FS_IDENT_NREC / 2; ++k) {
-            id->rec_t[k] = 0.5f * (id->rec_t[2 * k] + id->rec_t[2 * k + 1]);
-            id->rec_w[k] = 0.5f * (id->rec_w[2 * k] + id->rec_w[2 * k + 1]);
+        for (int k = 0; k < (FS_IDENT_NREC / 2); ++k) {
+            id->rec_t[k] = 0.5f * (id->rec_t[2 * k] + id->rec_t[(2 * k) + 1]);
+            id->rec_w[k] = 0.5f * (id->rec_w[2 * k] + id->rec_w[(2 * k) + 1]);
         }
         id->rec_n = FS_IDENT_NREC / 2;
         id->rec_dec *= 2;
@@ -251,23 +251,23 @@ static void rec_clear(fs_ident *id)
 static fs_ab step_probe(fs_ident *id, fs_ab i)
 {
     const fs_ident_config *c = &id->cfg;
-    const int n_cycle = 4 * id->n_p + 4;
-    if (id->k == 0 && id->sub == 0) { id->u_p = 0.01f * id->u_max; }   /* the smallest pulse: 1 % of the link */
+    const int n_cycle = (4 * id->n_p) + 4;
+    if ((id->k == 0) && (id->sub == 0)) { id->u_p = 0.01f * id->u_max; }   /* the smallest pulse: 1 % of the link */
     id->i_peak = fs_maxf(id->i_peak, fabsf(i.alpha));
     fs_ab u = {0.0f, 0.0f};
     if (id->k < id->n_p) { u.alpha = id->u_p; }
-    else if (id->k < 2 * id->n_p) { u.alpha = -id->u_p; }
+    else if (id->k < (2 * id->n_p)) { u.alpha = -id->u_p; }
     if (++id->k < n_cycle) { return u; }
     /* the cycle is over */
     const float target = I_PROBE * c->i_max;
-    if (id->i_peak >= 0.5f * target) {
+    if (id->i_peak >= (0.5f * target)) {
         id->L0 = id->u_p * (float)id->n_p * c->Ts / id->i_peak;   /* L di/dt = u, R and the dead time neglected */
         id->sigma_i = 0.0f;
         ident_design_pi(id, id->L0, id->L0, 0.0f);
         ident_goto(id, FS_IDENT_AXIS);
         return u;
     }
-    if (2.0f * id->u_p <= 0.9f * id->u_max) {
+    if ((2.0f * id->u_p) <= (0.9f * id->u_max)) {
         id->u_p *= 2.0f;
     } else if (id->n_p < 256) {
         id->n_p *= 2;
@@ -305,7 +305,7 @@ static fs_ab dc_on_d(fs_ident *id, fs_ab i, float i_ref)
     const float lim = 0.95f * id->u_max;
     const float u = pi_out(&id->pi_d, i_ref, i.alpha), ur = fs_clamp_sym(u, lim);
     fs_pi_update(&id->pi_d, i_ref, i.alpha, u, ur);
-    const float lq = sqrtf(fs_maxf(lim * lim - ur * ur, 0.0f));
+    const float lq = sqrtf(fs_maxf((lim * lim) - (ur * ur), 0.0f));
     const float v = pi_out(&id->pi_q, 0.0f, i.beta), vr = fs_clamp_sym(v, lq);
     fs_pi_update(&id->pi_q, 0.0f, i.beta, v, vr);
     return (fs_ab){ur, vr};
@@ -350,7 +350,7 @@ static void acc_add(fs_ident *id, float u, fs_ab i)
 static float acc_std(float s, float ss, int n)
 {
     const float m = s / (float)n;
-    return sqrtf(fs_maxf(ss / (float)n - m * m, 0.0f));
+    return sqrtf(fs_maxf(ss / (float)n - (m * m), 0.0f));
 }
 
 /* a loop holding its axis' current at zero, its output within lim */
@@ -370,12 +370,12 @@ static void ldq_clear(fs_ident *id)
 
 /* complex arithmetic for AXIS's 2 x 2 phasor algebra */
 typedef struct { float re, im; } cx;
-static cx cmul(cx a, cx b) { return (cx){a.re * b.re - a.im * b.im, a.re * b.im + a.im * b.re}; }
+static cx cmul(cx a, cx b) { return (cx){(a.re * b.re) - (a.im * b.im), (a.re * b.im) + (a.im * b.re)}; }
 static cx csub(cx a, cx b) { return (cx){a.re - b.re, a.im - b.im}; }
 static cx cdiv(cx a, cx b)
 {
-    const float n = b.re * b.re + b.im * b.im;
-    return (cx){(a.re * b.re + a.im * b.im) / n, (a.im * b.re - a.re * b.im) / n};
+    const float n = (b.re * b.re) + (b.im * b.im);
+    return (cx){((a.re * b.re) + (a.im * b.im)) / n, ((a.im * b.re) - (a.re * b.im)) / n};
 }
 static cx ph(const float x[2][2][2], int j, int a) { return (cx){x[j][a][0], x[j][a][1]}; }
 
@@ -409,7 +409,7 @@ static fs_ab step_axis(fs_ident *id, fs_ab i)
 {
     const fs_ident_config *c = &id->cfg;
     const int ax = id->sub & 1;
-    if (id->k == 0 && id->sub == 0) {
+    if ((id->k == 0) && (id->sub == 0)) {
         id->w_h = FS_TWO_PI / ((float)N_HF * c->Ts);
         id->U_h = fs_minf(I_HF_D * c->i_max * id->w_h * id->L0, 0.5f * id->u_max);
         for (int j = 0; j < 2; ++j) {
@@ -417,13 +417,13 @@ static fs_ab step_axis(fs_ident *id, fs_ab i)
         }
     }
     const int kh = id->k;
-    const int skip = id->sub < 2 ? HF_SKIP : AX_SKIP;   /* the first turn of each: the loops' start too */
+    const int skip = (id->sub < 2) ? HF_SKIP : AX_SKIP;   /* the first turn of each: the loops' start too */
     float cu, su;
     hf_phase(kh % N_HF, &cu, &su);
     fs_ab u;
     const float lim = 0.45f * id->u_max;
-    u.alpha = pi_hold(&id->pi_d, i.alpha, lim) + (ax == 0 ? id->U_h * cu : 0.0f);
-    u.beta = pi_hold(&id->pi_q, i.beta, lim) + (ax == 1 ? id->U_h * cu : 0.0f);
+    u.alpha = pi_hold(&id->pi_d, i.alpha, lim) + ((ax == 0) ? (id->U_h * cu) : 0.0f);
+    u.beta = pi_hold(&id->pi_q, i.beta, lim) + ((ax == 1) ? (id->U_h * cu) : 0.0f);
     if (kh >= skip * N_HF) {
         id->ax_i[ax][0][0] += i.alpha * cu;
         id->ax_i[ax][0][1] -= i.alpha * su;
@@ -435,7 +435,7 @@ static fs_ab step_axis(fs_ident *id, fs_ab i)
         id->ax_u[ax][1][1] -= u.beta * su;
     }
     id->k++;
-    if (kh + 1 < (skip + AX_CHUNK) * N_HF) { return u; }   /* a whole number of periods: the carrier ends at zero current */
+    if ((kh + 1) < (skip + AX_CHUNK) * N_HF) { return u; }   /* a whole number of periods: the carrier ends at zero current */
     id->k = 0;
     if (++id->sub < 2 * AX_TURNS) { return u; }
 
@@ -443,7 +443,7 @@ static fs_ab step_axis(fs_ident *id, fs_ab i)
     const cx I00 = ph(id->ax_i, 0, 0), I10 = ph(id->ax_i, 0, 1), I01 = ph(id->ax_i, 1, 0), I11 = ph(id->ax_i, 1, 1);
     const cx U00 = ph(id->ax_u, 0, 0), U10 = ph(id->ax_u, 0, 1), U01 = ph(id->ax_u, 1, 0), U11 = ph(id->ax_u, 1, 1);
     const cx det = csub(cmul(I00, I11), cmul(I01, I10));
-    if (!(det.re * det.re + det.im * det.im > 0.0f)) {
+    if (!(((det.re * det.re) + (det.im * det.im)) > 0.0f)) {
         ident_fail(id, FS_IDQ_LD, FS_IDR_NO_CURRENT);
         return u;
     }
@@ -456,10 +456,10 @@ static fs_ab step_axis(fs_ident *id, fs_ab i)
     const float L_ba = cmul(g, csub(cmul(U10, I11), cmul(U11, I10))).im;
     const float L_bb = cmul(g, csub(cmul(U11, I00), cmul(U10, I01))).im;
     const float L_ab = 0.5f * (L_ab1 + L_ba);
-    const float L_s = 0.5f * (L_aa + L_bb), D = sqrtf(0.25f * (L_aa - L_bb) * (L_aa - L_bb) + L_ab * L_ab);
+    const float L_s = 0.5f * (L_aa + L_bb), D = sqrtf(0.25f * (L_aa - L_bb) * (L_aa - L_bb) + (L_ab * L_ab));
     r->L_d_axis = L_s - D;
     r->L_q_axis = L_s + D;
-    r->saliency = L_s > 0.0f ? D / L_s : 0.0f;
+    r->saliency = (L_s > 0.0f) ? (D / L_s) : 0.0f;
     if (!(r->L_d_axis > 0.0f) || !fs_fin(r->L_q_axis)) {
         ident_fail(id, FS_IDQ_LD, FS_IDR_FIT);
         return u;
@@ -484,8 +484,8 @@ static fs_ab step_axis(fs_ident *id, fs_ab i)
      * drop); the nameplate's psi_f and J bound it where the free rotor would turn away */
     const fs_mapid_config mc = {c->Ts, c->delay, c->i_max, r->L_d_axis, r->L_q_axis, 0.0f, 0.0f, c->pole_pairs,
                                 c->locked ? 0.0f : c->psi_f_hint, c->locked ? 0.0f : c->J_hint,
-                                c->motion_max > 0.0f ? c->motion_max : MOTION_MAX, id->w_c, 1, 0};
-    ident_goto(id, fs_mapid_init(&id->map, &mc) == FS_OK ? FS_IDENT_POLARITY : FS_IDENT_LEVELS);
+                                (c->motion_max > 0.0f) ? c->motion_max : MOTION_MAX, id->w_c, 1, 0};
+    ident_goto(id, (fs_mapid_init(&id->map, &mc) == FS_OK) ? FS_IDENT_POLARITY : FS_IDENT_LEVELS);
     return (fs_ab){0.0f, 0.0f};
 }
 
@@ -514,7 +514,7 @@ static fs_ab step_polarity(fs_ident *id, fs_ab i_ab)
         ident_fail(id, FS_IDQ_VERR, FS_IDR_NO_POLARITY);
         return (fs_ab){0.0f, 0.0f};
     }
-    ident_goto(id, !id->pol_known && !c->locked ? FS_IDENT_ALIGN : FS_IDENT_LEVELS);
+    ident_goto(id, (!id->pol_known && !c->locked) ? FS_IDENT_ALIGN : FS_IDENT_LEVELS);
     return (fs_ab){0.0f, 0.0f};
 }
 
@@ -534,14 +534,14 @@ static fs_ab step_align(fs_ident *id, fs_ab i)
     const fs_ident_config *c = &id->cfg;
     const float dL = id->res.L_q_axis - id->res.L_d_axis;
     float I_top = I_ALIGN * c->i_max;
-    if (c->psi_f_hint > 0.0f && dL > 0.0f && id->res.saliency >= SAL_MIN) { I_top = fs_minf(I_top, 0.5f * c->psi_f_hint / dL); }
+    if ((c->psi_f_hint > 0.0f) && (dL > 0.0f) && id->res.saliency >= SAL_MIN) { I_top = fs_minf(I_top, 0.5f * c->psi_f_hint / dL); }
     const int n_ramp = (int)(0.2f / c->Ts) + 1;
     /* 20 ms windows (several swings of a small rotor), at least half the
      * swing's period where the nameplate's psi_f and J give it: a window
      * shorter than that can fall on a swing's turning point, the rotor
      * still for a moment (the Prius-like machine at 20 A swings at 5 Hz) */
     float t_win = 0.02f;
-    if (c->psi_f_hint > 0.0f && c->J_hint > 0.0f) {
+    if ((c->psi_f_hint > 0.0f) && (c->J_hint > 0.0f)) {
         const float p = (float)c->pole_pairs;
         const float K = 1.5f * p * I_top * (c->psi_f_hint - fs_maxf(dL, 0.0f) * I_top);   /* N m per el. rad */
         if (K > 0.0f) { t_win = fs_maxf(t_win, FS_PI / sqrtf(p * K / c->J_hint)); }
@@ -551,10 +551,10 @@ static fs_ab step_align(fs_ident *id, fs_ab i)
     /* first on beta, then turned to alpha over the next ramp time: a rotor
      * that sits where the current points the other way (no torque, an
      * unstable rest) is pulled off it by the first direction */
-    const float th = 0.5f * FS_PI * fs_clamp01((float)(3 * n_ramp - id->k) / (float)n_ramp);
-    fs_ab u = th > 0.0f ? dc_in_frame(id, i, i_ref, th) : dc_on_alpha(id, i, i_ref);
+    const float th = 0.5f * FS_PI * fs_clamp01((float)((3 * n_ramp) - id->k) / (float)n_ramp);
+    fs_ab u = (th > 0.0f) ? dc_in_frame(id, i, i_ref, th) : dc_on_alpha(id, i, i_ref);
     id->k++;
-    if (id->k <= 3 * n_ramp) { return u; }
+    if (id->k <= (3 * n_ramp)) { return u; }
     acc_add(id, u.alpha, i);
     if (id->n_acc < n_win) { return u; }
     /* still when i_q is within noise and 5 % of the current (a
@@ -564,15 +564,15 @@ static fs_ab step_align(fs_ident *id, fs_ab i)
     const float s_a = acc_std(id->s_i, id->s_ii, id->n_acc);
     const float rms_b = sqrtf(id->s_ib2 / (float)id->n_acc);
     /* against the sensors' noise (START's; a swing moves the d current too: its spread is not the noise) */
-    const bool still = rms_b < 0.03f * I_top + 3.0f * (id->res.noise_i > 0.0f ? id->res.noise_i : s_a);
-    id->tries = still ? id->tries + 1 : 0;
-    if (id->tries >= 2 && (float)id->k * c->Ts >= 0.3f) {   /* two windows in a row: not a swing's turning point */
+    const bool still = rms_b < ((0.03f * I_top) + (3.0f * ((id->res.noise_i > 0.0f) ? id->res.noise_i : s_a)));
+    id->tries = still ? (id->tries + 1) : 0;
+    if ((id->tries >= 2) && ((float)id->k * c->Ts) >= 0.3f) {   /* two windows in a row: not a swing's turning point */
         id->theta_s = id->res.theta_axis = 0.0f;   /* the rotor's north on alpha */
         id->aligned = 1;
         id->pol_known = 1;
         id->tries = 0;
         ident_goto(id, FS_IDENT_LEVELS);
-    } else if ((float)id->k * c->Ts > 3.0f) {
+    } else if (((float)id->k * c->Ts) > 3.0f) {
         ident_fail(id, FS_IDQ_VERR, FS_IDR_MOVED);
     }
     acc_clear(id);
@@ -591,13 +591,13 @@ static float fit_leg_error(fs_ident *id, const float E[], const float I_j[])
         for (int j = 0; j < FS_IDENT_NLEV; ++j) {
             const float I = I_j[j];
             /* d-axis current i on alpha: legs at i, -i/2, -i/2: E = 2/3 (g(i) + g(i/2)) */
-            h[j] = (2.0f / 3.0f) * (I / sqrtf(I * I + ie * ie) + 0.5f * I / sqrtf(0.25f * I * I + ie * ie));
+            h[j] = (2.0f / 3.0f) * (I / sqrtf((I * I) + (ie * ie)) + (0.5f * I / sqrtf((0.25f * I * I) + (ie * ie))));
             shh += h[j] * h[j];
             seh += E[j] * h[j];
         }
         const float ue = seh / shh;
         float sr = 0.0f;
-        for (int j = 0; j < FS_IDENT_NLEV; ++j) { sr += (E[j] - ue * h[j]) * (E[j] - ue * h[j]); }
+        for (int j = 0; j < FS_IDENT_NLEV; ++j) { sr += (E[j] - (ue * h[j])) * (E[j] - (ue * h[j])); }
         if (sr < best) {
             best = sr;
             id->res.u_e = ue;
@@ -615,9 +615,9 @@ static float fit_leg_error(fs_ident *id, const float E[], const float I_j[])
 static float level_top(const fs_ident *id)
 {
     const fs_ident_config *c = &id->cfg;
-    float I = c->i_test > 0.0f ? c->i_test : I_TEST * c->i_max;
+    float I = (c->i_test > 0.0f) ? c->i_test : I_TEST * c->i_max;
     const float dL = id->res.L_q_axis - id->res.L_d_axis;
-    if (id->pol_known && !c->locked && c->psi_f_hint > 0.0f && dL > 0.0f && id->res.saliency >= SAL_MIN) {
+    if (id->pol_known && !c->locked && (c->psi_f_hint > 0.0f) && (dL > 0.0f) && id->res.saliency >= SAL_MIN) {
         I = fs_minf(I, 0.5f * c->psi_f_hint / dL);
     }
     return I;
@@ -634,17 +634,17 @@ static fs_ab step_levels(fs_ident *id, fs_ab i_ab)
 {
     const fs_ident_config *c = &id->cfg;
     const bool alt = !id->pol_known;
-    const int j = alt ? id->sub / 2 : id->sub;
+    const int j = alt ? (id->sub / 2) : id->sub;
     const float sgn = (alt && (id->sub & 1)) ? -1.0f : 1.0f;
-    if (id->sub == 0 && id->k == 0) { id->res.i_level_top = level_top(id); }
+    if ((id->sub == 0) && (id->k == 0)) { id->res.i_level_top = level_top(id); }
     const float i_test = id->res.i_level_top;
-    const float t_top = c->t_level > 0.0f ? c->t_level : T_LEVEL;
+    const float t_top = (c->t_level > 0.0f) ? c->t_level : T_LEVEL;
     const float I_ref = sgn * LEV_FRAC[j] * i_test;
     const int n_set = (int)(30.0f / (id->w_c * c->Ts)) + 1;
     /* the three levels R_s comes from (its slope is the small difference
      * of large voltages) the longer window, the rest half of it; one
      * sign alone twice as long */
-    const int n_meas = (int)((j < 3 ? 1.0f : 0.5f) * (alt ? 1.0f : 2.0f) * t_top / c->Ts) + 1;
+    const int n_meas = (int)(((j < 3) ? 1.0f : 0.5f) * (alt ? 1.0f : 2.0f) * t_top / c->Ts) + 1;
     const fs_ab i = to_frame(id, i_ab);
     const fs_ab u = id->aligned ? dc_on_alpha(id, i, I_ref) : dc_on_d(id, i, I_ref);
     id->k++;
@@ -654,13 +654,13 @@ static fs_ab step_levels(fs_ident *id, fs_ab i_ab)
     /* batch means of u: the loop's noise is correlated from sample to
      * sample, so the noise of the mean comes from the batches' spread */
     const int n_b = n_meas / FS_IDENT_NBATCH;
-    if (id->n_acc % n_b == 0 && id->n_acc / n_b <= FS_IDENT_NBATCH) {
-        id->batch[id->n_acc / n_b - 1] = id->s_u;   /* running sums; differenced below */
+    if (((id->n_acc % n_b) == 0) && ((id->n_acc / n_b) <= FS_IDENT_NBATCH)) {
+        id->batch[(id->n_acc / n_b) - 1] = id->s_u;   /* running sums; differenced below */
     }
     if (id->n_acc < n_meas) { return from_frame(id, u); }
     const int n = id->n_acc;
     fs_ident_result *r = &id->res;
-    const float I_m = id->i0 + id->s_i / (float)n, U_m = id->u0 + id->s_u / (float)n;
+    const float I_m = id->i0 + (id->s_i / (float)n), U_m = id->u0 + (id->s_u / (float)n);
     if (sgn > 0.0f) {
         r->I_lev[j] = I_m;
         r->U_lev[j] = U_m;
@@ -679,8 +679,8 @@ static fs_ab step_levels(fs_ident *id, fs_ab i_ab)
      * dead time's q part (at most tan 30 deg of its d part, within the
      * level's voltage): a back-EMF */
     const float uq_m = id->e_abs / (float)n;
-    if (id->aligned ? rms_b > 0.1f * fabsf(I_ref) + 4.0f * s_a + 0.01f * c->i_max
-                    : fabsf(uq_m) > 0.7f * fabsf(U_m) + 4.0f * s_u + 0.01f * id->u_max) {
+    if (id->aligned ? rms_b > 0.1f * fabsf(I_ref) + (4.0f * s_a) + (0.01f * c->i_max)
+                    : fabsf(uq_m) > 0.7f * fabsf(U_m) + (4.0f * s_u) + (0.01f * id->u_max)) {
         r->i_moved = I_ref;
         ident_fail(id, FS_IDQ_VERR, FS_IDR_MOVED);
         return from_frame(id, u);
@@ -719,17 +719,17 @@ static fs_ab step_levels(fs_ident *id, fs_ab i_ab)
     }
     r->R_s = siu / sii;
     const float span = r->R_s * (I_j[0] - I_j[2]);
-    const float mid = U_j[1] - (mu + r->R_s * (I_j[1] - mi));
+    const float mid = U_j[1] - (mu + (r->R_s * (I_j[1] - mi)));
     /* the noise of a level's voltage: the sign's, or of half a difference */
-    const float noise = alt ? r->snr_rs * FS_INV_SQRT3 * 1.2247449f : r->snr_rs;   /* x sqrt(2)/2 */
+    const float noise = alt ? (r->snr_rs * FS_INV_SQRT3 * 1.2247449f) : r->snr_rs;   /* x sqrt(2)/2 */
     r->r_fit_rs = fabsf(mid) / fs_maxf(fabsf(span), 1e-30f);
     r->snr_rs = fabsf(span) / fs_maxf(noise, 1e-30f);
     float E[FS_IDENT_NLEV];
-    for (int k = 0; k < FS_IDENT_NLEV; ++k) { E[k] = U_j[k] - r->R_s * I_j[k]; }
+    for (int k = 0; k < FS_IDENT_NLEV; ++k) { E[k] = U_j[k] - (r->R_s * I_j[k]); }
     const float resid = fit_leg_error(id, E, I_j);
     /* the error model within a tenth of its size, or within the noise (and
      * float's resolution of the level voltages: an ideal inverter's is 0) */
-    if (resid > 0.1f * fabsf(r->u_e) + 5.0f * noise + 1e-4f * id->u_max) {
+    if (resid > 0.1f * fabsf(r->u_e) + (5.0f * noise) + (1e-4f * id->u_max)) {
         ident_fail(id, FS_IDQ_VERR, FS_IDR_FIT);
         return from_frame(id, u);
     }
@@ -754,15 +754,15 @@ static fs_ab step_levels(fs_ident *id, fs_ab i_ab)
 static float hf_inductance(const fs_ident *id, float Ur, float Ui, float Ir, float Ii)
 {
     const float Ts = id->cfg.Ts, wt = id->w_h * Ts, d = id->cfg.delay;
-    const float den = Ir * Ir + Ii * Ii;
+    const float den = (Ir * Ir) + (Ii * Ii);
     if (!(den > 0.0f)) { return NAN; }
-    const float Yr = (Ur * Ir + Ui * Ii) / den, Yi = (Ui * Ir - Ur * Ii) / den;
+    const float Yr = ((Ur * Ir) + (Ui * Ii)) / den, Yi = ((Ui * Ir) - (Ur * Ii)) / den;
     const float cd = fs_cosf(wt * d), sd = fs_sinf(wt * d);
-    const float Wr = Yr * cd + Yi * sd, Wi = Yi * cd - Yr * sd;   /* W = Y e^{-j w Ts d} */
+    const float Wr = (Yr * cd) + (Yi * sd), Wi = (Yi * cd) - (Yr * sd);   /* W = Y e^{-j w Ts d} */
     if (!(Wi > 0.0f)) { return NAN; }
     const float b = fs_sinf(wt) / Wi;
-    const float a = fs_cosf(wt) - b * Wr;
-    if (a > 0.0f && a < 0.999f) { return (1.0f - a) * Ts / (-logf(a) * b); }   /* L = R Ts / x, R = (1 - a)/b, x = -ln a */
+    const float a = fs_cosf(wt) - (b * Wr);
+    if ((a > 0.0f) && (a < 0.999f)) { return (1.0f - a) * Ts / (-logf(a) * b); }   /* L = R Ts / x, R = (1 - a)/b, x = -ln a */
     return Ts / b;
 }
 
@@ -777,7 +777,7 @@ static fs_ab frame_current(fs_ident *id, fs_ab i_ab, fs_dq i_ref)
     const float ff_d = -id->w * r->L_q * i.q, ff_q = id->w * r->L_d * i.d;
     const float vd = pi_out(&id->pi_d, i_ref.d, i.d), vq = pi_out(&id->pi_q, i_ref.q, i.q);
     float ud = vd + ff_d, uq = vq + ff_q;
-    const float m = sqrtf(ud * ud + uq * uq), lim = 0.95f * id->u_max;
+    const float m = sqrtf((ud * ud) + (uq * uq)), lim = 0.95f * id->u_max;
     if (m > lim) {
         ud *= lim / m;
         uq *= lim / m;
@@ -785,7 +785,7 @@ static fs_ab frame_current(fs_ident *id, fs_ab i_ab, fs_dq i_ref)
     fs_pi_update(&id->pi_d, i_ref.d, i.d, vd, ud - ff_d);
     fs_pi_update(&id->pi_q, i_ref.q, i.q, vq, uq - ff_q);
     id->u_dq = (fs_dq){ud, uq};
-    const float th = id->theta + id->w * id->cfg.Ts * (id->cfg.delay + 0.5f);
+    const float th = id->theta + (id->w * id->cfg.Ts * (id->cfg.delay + 0.5f));
     return fs_inv_park(id->u_dq, fs_cosf(th), fs_sinf(th));
 }
 
@@ -797,19 +797,19 @@ static fs_dq frame_emf(const fs_ident *id, fs_ab i_ab)
     const float ct = fs_cosf(id->theta), st = fs_sinf(id->theta);
     const fs_dq i = fs_park(i_ab, ct, st);
     const fs_dq ue = fs_park(ident_inv_error(id, i_ab), ct, st);
-    return (fs_dq){id->u_dq.d - ue.d - r->R_s * i.d + id->w * r->L_q * i.q,
-                   id->u_dq.q - ue.q - r->R_s * i.q - id->w * r->L_d * i.d};
+    return (fs_dq){id->u_dq.d - ue.d - (r->R_s * i.d) + (id->w * r->L_q * i.q),
+                   id->u_dq.q - ue.q - (r->R_s * i.q) - (id->w * r->L_d * i.d)};
 }
 
 /* The PLL on the EMF: the frame's d axis onto the magnet's (e on +q). */
 static float frame_pll(fs_ident *id, fs_ab i_ab)
 {
     const fs_dq e = frame_emf(id, i_ab);
-    const float phi = fs_atan2f(-e.d, e.q) * (id->w >= 0.0f ? 1.0f : -1.0f);
+    const float phi = fs_atan2f(-e.d, e.q) * ((id->w >= 0.0f) ? 1.0f : -1.0f);
     const float kp = 2.0f * id->bw_pll, ki = id->bw_pll * id->bw_pll;   /* double pole at bw_pll */
     id->w0 += ki * phi * id->cfg.Ts;                                       /* w0: the integral, the speed */
-    id->w = id->w0 + kp * phi;
-    id->theta = fs_wrap_pi(id->theta + id->w * id->cfg.Ts);
+    id->w = id->w0 + (kp * phi);
+    id->theta = fs_wrap_pi(id->theta + (id->w * id->cfg.Ts));
     return phi;
 }
 
@@ -833,12 +833,12 @@ static float frame_pll(fs_ident *id, fs_ab i_ab)
 static float ldq_bias(const fs_ident *id, int level)
 {
     const float i_max = id->cfg.i_max;
-    float I_b = fs_clampf(FS_SQRT3 * I_HF * i_max + 6.0f * id->res.i_e, 0.2f * i_max, 0.4f * i_max);
+    float I_b = fs_clampf(FS_SQRT3 * I_HF * i_max + (6.0f * id->res.i_e), 0.2f * i_max, 0.4f * i_max);
     /* on the north pole I_b and 2 I_b within the levels' bound (the carrier's clearance given up first:
      * a negative bias there would push the magnet away); else +-I_b */
     const bool north = id->aligned || id->pol_known;
     if (north) { I_b = fs_minf(I_b, 0.5f * id->res.i_level_top); }
-    return level == 0 ? I_b : (north ? 2.0f : -1.0f) * I_b;
+    return (level == 0) ? I_b : (north ? 2.0f : -1.0f) * I_b;
 }
 
 /* The rotor's axis against the frame's from the cross response r (the
@@ -847,7 +847,7 @@ static float ldq_bias(const fs_ident *id, int level)
 static float axis_offset(float r, float g)
 {
     if (!(g > 0.0f)) { return 0.0f; }
-    const float s = fs_clampf(r / (g * sqrtf(1.0f + r * r)), -1.0f, 1.0f);
+    const float s = fs_clampf(r / (g * sqrtf(1.0f + (r * r))), -1.0f, 1.0f);
     return 0.5f * (fs_atanf(r) + asinf(s));
 }
 
@@ -859,13 +859,13 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
     /* sub 0: d at zero current (its cross response turns the frame onto the rotor's axis before the
      * q carrier: L_q measured on a frame 1.4 el.deg off read -2 % on zoo machine 12); 1, 2: q at the first
      * and second bias */
-    const bool d_meas = check || id->sub == 0;
+    const bool d_meas = check || (id->sub == 0);
     const int axis = d_meas ? 0 : 1, level = id->sub - 1;
     const float I_b = d_meas ? 0.0f : ldq_bias(id, level);
     if (id->k == 0) {
         id->w_h = FS_TWO_PI / ((float)N_HF * c->Ts);
         const float R = id->res.R_s, X = id->w_h * id->L0;   /* the probe's L: the amplitudes B-IDENT was tuned on */
-        id->U_h = fs_minf((axis ? I_HF : I_HF_D) * c->i_max * sqrtf(R * R + X * X), 0.5f * id->u_max);
+        id->U_h = fs_minf((axis ? I_HF : I_HF_D) * c->i_max * sqrtf((R * R) + (X * X)), 0.5f * id->u_max);
         ldq_clear(id);
     }
     const fs_ab i = to_frame(id, i_ab);
@@ -879,7 +879,7 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
     hf_phase(kh % N_HF, &cu, &su);
     const float uh = id->U_h * cu;   /* a cosine voltage: the inductive current starts at its own zero */
     if (axis == 0) { u.alpha += uh; } else { u.beta += uh; }
-    const float ua = axis == 0 ? u.alpha : u.beta;   /* all of the axis' voltage: the bias loop answers the carrier too */
+    const float ua = (axis == 0) ? u.alpha : u.beta;   /* all of the axis' voltage: the bias loop answers the carrier too */
     if (kh >= HF_SKIP * N_HF) {
         /* phasors X = sum x[k] e^{-j w k Ts}: the current sampled now, the reference of now */
         id->hf_u[0] += ua * cu;
@@ -890,17 +890,17 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
         id->hf_i[1][1] -= i.beta * su;
     }
     id->k++;
-    if (kh + 1 < (HF_SKIP + HF_MEAS) * N_HF) { return from_frame(id, u); }
+    if ((kh + 1) < (HF_SKIP + HF_MEAS) * N_HF) { return from_frame(id, u); }
 
     fs_ident_result *r = &id->res;
     const int n = HF_MEAS * N_HF;
     const float *Iax = id->hf_i[axis], *Ix = id->hf_i[1 - axis];
     const float L = hf_inductance(id, id->hf_u[0], id->hf_u[1], Iax[0], Iax[1]);
     /* amplitude 2|I|/n against the noise sigma sqrt(2/n) of that estimate */
-    const float amp = 2.0f * sqrtf(Iax[0] * Iax[0] + Iax[1] * Iax[1]) / (float)n;
+    const float amp = 2.0f * sqrtf((Iax[0] * Iax[0]) + (Iax[1] * Iax[1])) / (float)n;
     const float snr = amp / fs_maxf(id->sigma_i * sqrtf(2.0f / (float)n), 1e-6f * c->i_max);
-    const int q = check ? FS_IDQ_MAP : axis == 0 ? FS_IDQ_LD : FS_IDQ_LQ;
-    if (!check) { r->snr_l = id->sub == 0 ? snr : fs_minf(r->snr_l, snr); }
+    const int q = check ? FS_IDQ_MAP : (axis == 0) ? FS_IDQ_LD : FS_IDQ_LQ;
+    if (!check) { r->snr_l = (id->sub == 0) ? snr : fs_minf(r->snr_l, snr); }
     if (!(L > 0.0f) || !fs_fin(L)) {
         ident_fail(id, q, FS_IDR_FIT);
         return from_frame(id, u);
@@ -911,10 +911,10 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
     }
     if (d_meas) {
         /* the cross response's in-phase part: the rotor's axis against the frame's */
-        const float den = Iax[0] * Iax[0] + Iax[1] * Iax[1];
-        const float e = axis_offset((Ix[0] * Iax[0] + Ix[1] * Iax[1]) / den, r->saliency);
+        const float den = (Iax[0] * Iax[0]) + (Iax[1] * Iax[1]);
+        const float e = axis_offset(((Ix[0] * Iax[0]) + (Ix[1] * Iax[1])) / den, r->saliency);
         id->theta_s = fs_wrap_pi(id->theta_s + e);   /* onto the rotor's axis */
-        if (check && r->status[FS_IDQ_MAP] == FS_IDS_PENDING) {   /* before MAP: the frame onto the axis the biases left */
+        if (check && (r->status[FS_IDQ_MAP] == FS_IDS_PENDING)) {   /* before MAP: the frame onto the axis the biases left */
             r->motion_premap = e;
             ident_goto(id, FS_IDENT_MAP);
             return (fs_ab){0.0f, 0.0f};
@@ -932,7 +932,7 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
         /* the carrier on a frame e off the rotor's axis sees 1/L = (1/L_d + 1/L_q)/2 + (1/L_d - 1/L_q)/2 cos 2e:
          * L_d from it with AXIS's L_q */
         const float c2 = fs_cosf(2.0f * e), lq = r->L_q_axis;
-        r->L_d = lq > 0.0f ? (1.0f + c2) / (2.0f / L - (1.0f - c2) / lq) : L;
+        r->L_d = (lq > 0.0f) ? (1.0f + c2) / ((2.0f / L) - (1.0f - c2) / lq) : L;
     } else {
         r->L_q_bias[level] = L;
         r->I_bias[level] = I_b;
@@ -943,7 +943,7 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
     }
     /* L_q at zero current, linear in i_d through the two biases */
     r->dL_q = (r->L_q_bias[1] - r->L_q_bias[0]) / (r->I_bias[1] - r->I_bias[0]);
-    r->L_q = r->L_q_bias[0] - r->I_bias[0] * r->dL_q;
+    r->L_q = r->L_q_bias[0] - (r->I_bias[0] * r->dL_q);
     if (!(r->L_q > 0.0f)) {   /* a curve too bent to extrapolate */
         ident_fail(id, FS_IDQ_LQ, FS_IDR_FIT);
         return from_frame(id, u);
@@ -960,7 +960,7 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
     if (r->status[FS_IDQ_MAP] == FS_IDS_PENDING) {
         fs_mapid_config mc = {c->Ts, c->delay, c->i_max, r->L_d, r->L_q, r->R_s, fabsf(r->u_e), c->pole_pairs,
                               c->locked ? 0.0f : c->psi_f_hint, c->locked ? 0.0f : c->J_hint,
-                              c->motion_max > 0.0f ? c->motion_max : MOTION_MAX, id->w_c, 0, id->pol_known};
+                              (c->motion_max > 0.0f) ? c->motion_max : MOTION_MAX, id->w_c, 0, id->pol_known};
         if (fs_mapid_init(&id->map, &mc) != FS_OK) {
             r->status[FS_IDQ_MAP] = FS_IDS_FAILED;
             r->reason[FS_IDQ_MAP] = FS_IDR_FIT;
@@ -980,17 +980,17 @@ static fs_ab step_map(fs_ident *id, fs_ab i_ab)
     if (id->map.stage != FS_MAPID_DONE) { return fs_inv_park(u, ct, st); }
     const fs_mapid_result *m = &id->map.res;
     int n_read = 0;   /* the d axis read to +-3/4 i_max (+-i_max where the sweep's peaks reached it, else from beyond) */
-    for (int k = 1; k < FS_MAPID_ND - 1; ++k) { n_read += m->n_d[k] > 0; }
+    for (int k = 1; k < (FS_MAPID_ND - 1); ++k) { n_read += m->n_d[k] > 0; }
     if (m->flipped) { id->theta_s = fs_wrap_pi(id->theta_s + FS_PI); }   /* the magnet's north */
     id->pol_known = id->pol_known || m->decided;   /* ALIGN's or the polarity sweep's stands */
     id->res.theta_axis = id->theta_s;
     /* the d sweep read its whole axis: the map has its spine (the q sweeps
      * read what the disc and the motion leave them) */
-    if (n_read == FS_MAPID_ND - 2) {
+    if (n_read == (FS_MAPID_ND - 2)) {
         ident_ok(id, FS_IDQ_MAP);
     } else {
         id->res.status[FS_IDQ_MAP] = FS_IDS_FAILED;
-        id->res.reason[FS_IDQ_MAP] = m->d_limit == FS_MAPID_LIM_UNSTABLE ? FS_IDR_UNSTABLE : FS_IDR_INCOMPLETE;
+        id->res.reason[FS_IDQ_MAP] = (m->d_limit == FS_MAPID_LIM_UNSTABLE) ? FS_IDR_UNSTABLE : FS_IDR_INCOMPLETE;
     }
     ident_goto(id, FS_IDENT_CHECK);
     return (fs_ab){0.0f, 0.0f};
@@ -1004,17 +1004,17 @@ static fs_ab step_spin(fs_ident *id, fs_ab i)
      * turning to it, 0.2 s on it (ALIGN's times: slower than a small
      * rotor's swing); else 20 ms to the current on the axis */
     const int n_a = id->pol_known ? 0 : (int)(0.2f / c->Ts) + 1;
-    const int n_in = id->pol_known ? (int)(0.02f / c->Ts) + 1 : 3 * n_a;
+    const int n_in = id->pol_known ? ((int)(0.02f / c->Ts) + 1) : (3 * n_a);
     const float i_d = id->i_if * fs_minf((float)id->k / (float)(id->pol_known ? n_in : n_a), 1.0f);
-    if (!id->pol_known && id->k <= n_in) {
-        id->theta = fs_wrap_pi(id->theta_s + 0.5f * FS_PI * fs_clamp01((float)(2 * n_a - id->k) / (float)n_a));
+    if (!id->pol_known && (id->k <= n_in)) {
+        id->theta = fs_wrap_pi(id->theta_s + (0.5f * FS_PI * fs_clamp01((float)((2 * n_a) - id->k) / (float)n_a)));
     }
     fs_ab u = frame_current(id, i, (fs_dq){i_d, 0.0f});
     id->k++;
     if (id->k > n_in) {
         if (id->sub == 0) {
-            const float m = sqrtf(id->u_dq.d * id->u_dq.d + id->u_dq.q * id->u_dq.q);
-            if (id->w >= c->w_spin || m > U_SPIN * id->u_max) {
+            const float m = sqrtf((id->u_dq.d * id->u_dq.d) + (id->u_dq.q * id->u_dq.q));
+            if ((id->w >= c->w_spin) || (m > U_SPIN * id->u_max)) {
                 id->sub = 1;   /* hold the speed reached */
                 id->w_target = id->w;
                 id->n_acc = 0;
@@ -1026,7 +1026,7 @@ static fs_ab step_spin(fs_ident *id, fs_ab i)
             id->w0 = id->w;
             ident_goto(id, FS_IDENT_FLUX);
         }
-        id->theta = fs_wrap_pi(id->theta + id->w * c->Ts);
+        id->theta = fs_wrap_pi(id->theta + (id->w * c->Ts));
     }
     return u;
 }
@@ -1046,7 +1046,7 @@ static fs_ab step_flux(fs_ident *id, fs_ab i)
      * (16 V on a 637 V link), and the mean magnitude of a noisy vector is
      * biased up by sigma^2 / 2|e| (+5 % on zoo machine 39); e_q's mean is
      * not (cos phi of the lock's small jitter aside) */
-    const float em = e.q * (id->w >= 0.0f ? 1.0f : -1.0f);
+    const float em = e.q * ((id->w >= 0.0f) ? 1.0f : -1.0f);
     /* the frame's own speed w (not the PLL's integral w0, which lags a
      * decelerating rotor by 2 a / bw_pll: 6 % on a machine whose friction
      * halves its speed in the window): its mean is the frame's turn over
@@ -1059,21 +1059,21 @@ static fs_ab step_flux(fs_ident *id, fs_ab i)
     id->s_uu += (ratio - id->u0) * (ratio - id->u0);
     id->s_i += phi;   /* signed: its mean is the lock's offset, the noise averages out */
     id->n_acc++;
-    if (id->n_acc < n_meas << (2 * id->sub)) { return u; }
+    if (id->n_acc < (n_meas << (2 * id->sub))) { return u; }
     fs_ident_result *r = &id->res;
     const int n = id->n_acc;
     r->w_flux = id->w_abs / (float)n;
-    if (r->w_flux < 0.1f * id->w_target) {
+    if (r->w_flux < (0.1f * id->w_target)) {
         ident_fail(id, FS_IDQ_PSI_F, FS_IDR_NOT_TURNING);
         return u;
     }
-    if (r->w_flux > 1.5f * id->w_target || r->w_flux < 0.5f * id->w_target || fabsf(id->s_i) / (float)n > 0.1f) {
+    if ((r->w_flux > (1.5f * id->w_target)) || (r->w_flux < (0.5f * id->w_target)) || fabsf(id->s_i) / (float)n > 0.1f) {
         ident_fail(id, FS_IDQ_PSI_F, FS_IDR_LOST_SYNC);
         return u;
     }
     r->psi_f = id->e_abs / id->w_abs;
     r->snr_psi = r->psi_f / fs_maxf(acc_std(id->s_u, id->s_uu, n) / sqrtf((float)n), 1e-30f);
-    if (r->snr_psi < 50.0f && r->snr_psi > 10.0f && id->sub < 2) {
+    if ((r->snr_psi < 50.0f) && (r->snr_psi > 10.0f) && (id->sub < 2)) {
         id->sub++;   /* a noisy EMF: the window four times longer, twice at most */
         return u;
     }
@@ -1088,11 +1088,11 @@ static fs_ab step_flux(fs_ident *id, fs_ab i)
     id->i_acc = I_ACC * c->i_max;
     id->w_target = id->w0;
     rec_clear(id);
-    ident_goto(id, id->res.status[FS_IDQ_MAP] == FS_IDS_OK ? FS_IDENT_DCURVE : FS_IDENT_ACCEL);
+    ident_goto(id, (id->res.status[FS_IDQ_MAP] == FS_IDS_OK) ? FS_IDENT_DCURVE : FS_IDENT_ACCEL);
     return u;
 }
 
-static int abs_level(int k) { return k < 0 ? -k : k; }
+static int abs_level(int k) { return (k < 0) ? -k : k; }
 
 /* ---- DCURVE: the map's d levels at speed, i_q = 0, each settled then averaged ----
  * psi_d(i_d, 0) = (u_q - R_s i_q) / w less the inverter's error, from the
@@ -1106,14 +1106,14 @@ static fs_ab step_dcurve(fs_ident *id, fs_ab i_ab)
     fs_ident_result *r = &id->res;
     const int n_set = (int)(30.0f / (id->w_c * c->Ts)) + 1;
     while (id->sub < FS_MAPID_ND) {   /* the next level the voltage and the frame's lock allow (0 is psi_f, read by FLUX) */
-        const int kk = id->sub - FS_MAPID_ND / 2;
+        const int kk = id->sub - (FS_MAPID_ND / 2);
         const float I = 0.25f * (float)kk * c->i_max;
-        if (kk != 0 && abs_level(kk) <= DCURVE_LEVELS && fabsf(id->w) * (r->psi_f + r->L_d * I) < U_DCURVE * id->u_max) {
+        if ((kk != 0) && abs_level(kk) <= DCURVE_LEVELS && fabsf(id->w) * (r->psi_f + (r->L_d * I)) < U_DCURVE * id->u_max) {
             break;
         }
         id->sub++;
     }
-    const float I = id->sub < FS_MAPID_ND ? 0.25f * (float)(id->sub - FS_MAPID_ND / 2) * c->i_max : 0.0f;
+    const float I = (id->sub < FS_MAPID_ND) ? (0.25f * (float)(id->sub - (FS_MAPID_ND / 2)) * c->i_max) : 0.0f;
     /* each level reached by a ramp from the last over a third of the settling (a step of i_max overshoots at speed) */
     const float ramp = fs_minf(3.0f * (float)id->k / (float)n_set, 1.0f);
     fs_ab u = frame_current(id, i_ab, (fs_dq){id->i_ref0 + (I - id->i_ref0) * ramp, 0.0f});
@@ -1130,7 +1130,7 @@ static fs_ab step_dcurve(fs_ident *id, fs_ab i_ab)
     const fs_dq e = frame_emf(id, i_ab);
     const float ct = fs_cosf(id->theta), st = fs_sinf(id->theta);
     const fs_dq i = fs_park(i_ab, ct, st);
-    id->s_u += e.q / id->w + r->L_d * i.d;   /* psi_d = e_q / w + L_d i_d (frame_emf took w L_d i_d out) */
+    id->s_u += (e.q / id->w) + (r->L_d * i.d);   /* psi_d = e_q / w + L_d i_d (frame_emf took w L_d i_d out) */
     id->s_i += i.d;
     id->s_ia += id->w;
     id->s_ii += fabsf(fs_atan2f(-e.d, e.q));   /* the frame's lock on the d axis: the PLL's phase error */
@@ -1140,7 +1140,7 @@ static fs_ab step_dcurve(fs_ident *id, fs_ab i_ab)
     /* a level is read where the frame held the d axis (the PLL's error within DCURVE_LOCK) and the
      * speed within 10 %: a frame off the axis turns the d current into torque, and the torque turns
      * the frame further off (zoo machine 0 stopped under -i_max from 4 el.deg) */
-    if (id->s_ii / n < DCURVE_LOCK && fabsf(id->w - id->u0) < 0.1f * fabsf(id->u0)) {
+    if ((id->s_ii / n) < DCURVE_LOCK && fabsf(id->w - id->u0) < (0.1f * fabsf(id->u0))) {
         r->psi_d_w[id->sub] = id->s_u / n;
         r->i_d_w[id->sub] = id->s_i / n;
         r->w_d_w[id->sub] = id->s_ia / n;
@@ -1161,16 +1161,16 @@ static fs_ab step_accel(fs_ident *id, fs_ab i)
     const float t = (float)id->k * c->Ts;
     rec_push(id, t, id->w0);
     id->k++;
-    const float m = sqrtf(id->u_dq.d * id->u_dq.d + id->u_dq.q * id->u_dq.q);
-    if (id->w0 >= 1.4f * id->w_target || m > U_ACC * id->u_max || t > 20.0f * c->t_ramp) {
+    const float m = sqrtf((id->u_dq.d * id->u_dq.d) + (id->u_dq.q * id->u_dq.q));
+    if ((id->w0 >= (1.4f * id->w_target)) || (m > U_ACC * id->u_max) || (t > (20.0f * c->t_ramp))) {
         id->t_acc = t;
         /* the fit skips the PLL's transient, 4/bw: what is left must hold 10/bw */
-        const float t_skip = 4.0f / id->bw_pll, t_need = t_skip + 10.0f / id->bw_pll;
+        const float t_skip = 4.0f / id->bw_pll, t_need = t_skip + (10.0f / id->bw_pll);
         float a, tm, wm;
         int k0 = 0;
-        while (k0 < id->rec_n && id->rec_t[k0] < t_skip) { ++k0; }
-        if (t < t_need || !rec_fit(id, k0, id->rec_n, &a, &tm, &wm)) {
-            if (id->i_acc > 0.03f * c->i_max && id->tries < 3) {   /* again at a quarter of the torque, after the coast */
+        while ((k0 < id->rec_n) && (id->rec_t[k0] < t_skip)) { ++k0; }
+        if ((t < t_need) || !rec_fit(id, k0, id->rec_n, &a, &tm, &wm)) {
+            if ((id->i_acc > (0.03f * c->i_max)) && (id->tries < 3)) {   /* again at a quarter of the torque, after the coast */
                 id->tries++;
                 id->sub = 1;
                 id->i_acc *= 0.25f;
@@ -1201,9 +1201,9 @@ static fs_ab step_coast(fs_ident *id, fs_ab i)
     rec_push(id, t, id->w0);
     id->k++;
     const float t_max = fs_maxf(4.0f * id->t_acc, 20.0f / id->bw_pll);
-    if (id->w0 > id->w_target && t < t_max) { return u; }
+    if ((id->w0 > id->w_target) && (t < t_max)) { return u; }
     fs_ident_result *r = &id->res;
-    if (id->w0 < 0.2f * id->w_target) {
+    if (id->w0 < (0.2f * id->w_target)) {
         ident_fail(id, FS_IDQ_J, FS_IDR_LOST_SYNC);
         return u;
     }
@@ -1215,7 +1215,7 @@ static fs_ab step_coast(fs_ident *id, fs_ab i)
     }
     /* the deceleration in two halves, after the PLL's transient */
     int k0 = 0;
-    while (k0 < id->rec_n && id->rec_t[k0] < 4.0f / id->bw_pll) { ++k0; }
+    while ((k0 < id->rec_n) && (id->rec_t[k0] < (4.0f / id->bw_pll))) { ++k0; }
     const int kh = (k0 + id->rec_n) / 2;
     float a1, a2, t1, t2, w1, w2;
     if (!rec_fit(id, k0, kh, &a1, &t1, &w1) || !rec_fit(id, kh, id->rec_n, &a2, &t2, &w2)) {
@@ -1224,9 +1224,9 @@ static fs_ab step_coast(fs_ident *id, fs_ab i)
     }
     const float w_acc = id->w_acc;
     float slope = 0.0f, a_c = 0.5f * (a1 + a2);
-    if (fabsf(w1 - w2) > 0.02f * fabsf(w1)) {   /* two distinct speeds: a line a(w) */
+    if (fabsf(w1 - w2) > (0.02f * fabsf(w1))) {   /* two distinct speeds: a line a(w) */
         slope = (a1 - a2) / (w1 - w2);
-        a_c = a1 + slope * (w_acc - w1);
+        a_c = a1 + (slope * (w_acc - w1));
     }
     r->a_coast = a_c;
     const float p = (float)c->pole_pairs;
@@ -1248,7 +1248,7 @@ static fs_ab step_coast(fs_ident *id, fs_ab i)
     ident_ok(id, FS_IDQ_J);
     /* a_e = -(B/J) w_e - p T_c / J */
     r->B = fs_maxf(-slope * r->J, 0.0f);
-    r->T_c = -(a1 - slope * w1) * r->J / p;
+    r->T_c = -(a1 - (slope * w1)) * r->J / p;
     if (!(slope < 0.0f)) {   /* one speed, or friction falling with speed: all of it as Coulomb at the mean speed */
         r->B = 0.0f;
         r->T_c = -a_c * r->J / p;
@@ -1262,12 +1262,12 @@ fs_ab fs_ident_step(fs_ident *id, fs_ab i_ab, float u_dc)
 {
     const fs_ident_config *c = &id->cfg;
     id->u_max = fs_maxf(u_dc, 0.0f) * FS_INV_SQRT3;
-    const float i_mag = sqrtf(i_ab.alpha * i_ab.alpha + i_ab.beta * i_ab.beta);
+    const float i_mag = sqrtf((i_ab.alpha * i_ab.alpha) + (i_ab.beta * i_ab.beta));
     fs_ab u = {0.0f, 0.0f};
-    if (id->step >= 0 && id->step < FS_IDENT_NSTEPS) { id->res.n_step[id->step]++; }
+    if ((id->step >= 0) && (id->step < FS_IDENT_NSTEPS)) { id->res.n_step[id->step]++; }
     id->res.n_total++;
-    const float trip = (id->step == FS_IDENT_MAP || id->step == FS_IDENT_POLARITY) ? 1.15f : 1.1f;
-    if (id->step != FS_IDENT_FAILED && id->step != FS_IDENT_DONE && i_mag > trip * c->i_max) {
+    const float trip = ((id->step == FS_IDENT_MAP) || (id->step == FS_IDENT_POLARITY)) ? 1.15f : 1.1f;
+    if ((id->step != FS_IDENT_FAILED) && (id->step != FS_IDENT_DONE) && (i_mag > (trip * c->i_max))) {
         /* 10 % over i_max: the HF and the loops' overshoot stay below; 15 % in MAP: its q sweeps stop at
          * 1.06 (fs_mapid.h), the period of delay and one step on */
         static const int q_of_step[FS_IDENT_NSTEPS] = {
@@ -1279,7 +1279,7 @@ fs_ab fs_ident_step(fs_ident *id, fs_ab i_ab, float u_dc)
     case FS_IDENT_START:
         /* N_NOISE periods at zero voltage: the current sensors' noise (ALIGN tells a rotor at rest by it) */
         if (u_dc > fs_maxf(c->u_dc_min, 1.0f)) {
-            id->s_ii += 0.5f * (i_ab.alpha * i_ab.alpha + i_ab.beta * i_ab.beta);
+            id->s_ii += 0.5f * ((i_ab.alpha * i_ab.alpha) + (i_ab.beta * i_ab.beta));
             if (++id->k >= N_NOISE) {
                 id->res.noise_i = sqrtf(id->s_ii / (float)id->k);
                 ident_goto(id, FS_IDENT_PROBE);
@@ -1302,12 +1302,12 @@ fs_ab fs_ident_step(fs_ident *id, fs_ab i_ab, float u_dc)
         /* zero current on the tracking frame while the rotor coasts: zero
          * voltage would short the EMF */
         u = frame_current(id, i_ab, (fs_dq){0.0f, 0.0f});
-        if (id->bw_pll > 0.0f && fabsf(id->w0) > 0.05f * id->w_target) { frame_pll(id, i_ab); }
+        if ((id->bw_pll > 0.0f) && fabsf(id->w0) > (0.05f * id->w_target)) { frame_pll(id, i_ab); }
         break;
     default:   /* FAILED: zero current where a frame is known (tracking the EMF once it was), else zero voltage */
         if (id->res.status[FS_IDQ_LQ] == FS_IDS_OK) {
             u = frame_current(id, i_ab, (fs_dq){0.0f, 0.0f});
-            if (id->bw_pll > 0.0f && fabsf(id->w0) > 0.05f * id->w_target) { frame_pll(id, i_ab); }
+            if ((id->bw_pll > 0.0f) && fabsf(id->w0) > (0.05f * id->w_target)) { frame_pll(id, i_ab); }
         }
         break;
     }

@@ -8,14 +8,14 @@ float fs_imc_vpn(float alpha)
 {
     float a = fs_clampf(alpha, 0.0f, ALPHA_MAX);
     /* eq. (12) */
-    return 9.0f / FS_PI * (logf(fs_tanf(FS_PI / 3.0f - 0.5f * a)) + 2.0f * FS_INV_SQRT3 * fs_sinf(a));
+    return 9.0f / FS_PI * (logf(fs_tanf(FS_PI / 3.0f - (0.5f * a))) + (2.0f * FS_INV_SQRT3 * fs_sinf(a)));
 }
 
 float fs_imc_vtr_max(int region, float alpha)
 {
     if (region == FS_IMC_LINEAR) { return 0.5f * FS_SQRT3; }
     /* eq. (20): line fundamental 3 ln3 / pi V_pn; eq. (21): phase over V_im */
-    return 3.0f * logf(3.0f) / FS_PI * fs_imc_vpn(region == FS_IMC_OM1 ? 0.0f : alpha) * FS_INV_SQRT3;
+    return 3.0f * logf(3.0f) / FS_PI * fs_imc_vpn((region == FS_IMC_OM1) ? 0.0f : alpha) * FS_INV_SQRT3;
 }
 
 int fs_imc_region_of(float q)
@@ -41,7 +41,7 @@ float fs_imc_alpha_for_vtr(float q)
 float fs_imc_amplitude(const float u_in[3])
 {
     fs_ab u = fs_clarke(u_in[0], u_in[1], u_in[2]);
-    return sqrtf(u.alpha * u.alpha + u.beta * u.beta);
+    return sqrtf((u.alpha * u.alpha) + (u.beta * u.beta));
 }
 
 /* Fig. 3a from the phases' order, without the input angle: the largest
@@ -53,8 +53,8 @@ static int rect_sector(int hi, int lo, int x)
 {
     static const signed char pair[3][3] = {{-1, 5, 0}, {2, -1, 1}, {3, 4, -1}};   /* [hi][lo] */
     const int k = pair[hi][lo];
-    const int first = (k % 2 == 0) ? hi : lo;
-    return 2 * k + 1 + (x != first);
+    const int first = ((k % 2) == 0) ? hi : lo;
+    return (2 * k) + 1 + (x != first);
 }
 
 void fs_imc_rectifier(const float u_in[3], float alpha, fs_imc_rect *r)
@@ -76,8 +76,8 @@ void fs_imc_rectifier(const float u_in[3], float alpha, fs_imc_rect *r)
     /* CASE 2 within alpha of the middle phase's zero crossing (eq. (11)):
      * |u_mid| < V_im sin(alpha), squared, with V_im^2 = 2/3 sum(u^2) */
     const float s = fs_sinf(fs_clampf(alpha, 0.0f, ALPHA_MAX));
-    const float sum2 = u_in[0] * u_in[0] + u_in[1] * u_in[1] + u_in[2] * u_in[2];
-    r->case2 = u_in[mid] * u_in[mid] < s * s * (2.0f / 3.0f) * sum2 || fabsf(ux) < 1e-6f;
+    const float sum2 = (u_in[0] * u_in[0]) + (u_in[1] * u_in[1]) + (u_in[2] * u_in[2]);
+    r->case2 = (u_in[mid] * u_in[mid]) < s * s * (2.0f / 3.0f) * sum2 || fabsf(ux) < 1e-6f;
     r->iv[0].p = hi;
     r->iv[0].n = lo;
     if (r->case2) {                         /* eqs. (7)-(8) */
@@ -88,13 +88,13 @@ void fs_imc_rectifier(const float u_in[3], float alpha, fs_imc_rect *r)
         return;
     }
     /* eqs. (4)-(6): x on its rail, the other on the far phase, then on mid */
-    const float d_far = fs_clamp01(-u_in[x == hi ? lo : hi] / ux);
+    const float d_far = fs_clamp01(-u_in[(x == hi) ? lo : hi] / ux);
     r->iv[0].d = d_far;
-    r->iv[1].p = x == hi ? hi : mid;
-    r->iv[1].n = x == hi ? mid : lo;
+    r->iv[1].p = (x == hi) ? hi : mid;
+    r->iv[1].n = (x == hi) ? mid : lo;
     r->iv[1].d = 1.0f - d_far;
     const float v_mid = u_in[r->iv[1].p] - u_in[r->iv[1].n];
-    r->v_pn = d_far * v_max + r->iv[1].d * v_mid;
+    r->v_pn = (d_far * v_max) + (r->iv[1].d * v_mid);
 }
 
 FS_COLD fs_status fs_imc_depth_design(fs_imc_depth_config *cfg, float Ts, float i_lim, float V_im,
@@ -104,7 +104,7 @@ FS_COLD fs_status fs_imc_depth_design(fs_imc_depth_config *cfg, float Ts, float 
     if (!fs_pos(Ts)) { return FS_ERR_TS; }
     if (!fs_pos(V_im) || !fs_pos(w_e_max)) { return FS_ERR_LIMIT; }
     if (!fs_pos(L)) { return FS_ERR_LD; }
-    if (!(bw > 0.0f) || !(bw * Ts <= 1.0f)) { return FS_ERR_BANDWIDTH; }
+    if (!(bw > 0.0f) || !((bw * Ts) <= 1.0f)) { return FS_ERR_BANDWIDTH; }
     if (!fs_pos(i_lim)) { return FS_ERR_I_MAX; }
     float dq = fs_imc_vtr_max(FS_IMC_OM2, ALPHA_MAX) - fs_imc_vtr_max(FS_IMC_OM2, 0.0f);
     float G = dq / ALPHA_MAX * V_im / (w_e_max * L);   /* A/rad */
@@ -140,7 +140,7 @@ float fs_imc_depth_step(fs_imc_depth *dc, float i_ref, bool weakening)
         return 0.0f;
     }
     float e = i_ref - c->i_lim;
-    dc->integ = fs_clampf(dc->integ + c->Ts * c->k_i * e, 0.0f, ALPHA_MAX);   /* eq. (33) */
-    dc->alpha = fs_clampf(c->k_p * e + dc->integ, 0.0f, ALPHA_MAX);
+    dc->integ = fs_clampf(dc->integ + (c->Ts * c->k_i * e), 0.0f, ALPHA_MAX);   /* eq. (33) */
+    dc->alpha = fs_clampf((c->k_p * e) + dc->integ, 0.0f, ALPHA_MAX);
     return dc->alpha;
 }

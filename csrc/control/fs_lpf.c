@@ -16,7 +16,7 @@ void fs_lpf_reset(fs_lpf *f) { f->y.alpha = f->y.beta = 0.0f; }
 float fs_lpf_gain(const fs_lpf *f, float w_c)
 {
     const float wc = fs_maxf(fabsf(w_c), f->cfg.w_c_min);
-    return wc * f->cfg.Ts / (1.0f + wc * f->cfg.Ts);   /* backward Euler */
+    return wc * f->cfg.Ts / (1.0f + (wc * f->cfg.Ts));   /* backward Euler */
 }
 
 fs_ab fs_lpf_step_gain(fs_lpf *f, fs_ab x, float g)

@@ -6,21 +6,21 @@ FS_COLD fs_status fs_motion_test_init(fs_motion_test *m, const fs_motion_test_co
     if (!m || !cfg) { return FS_ERR_NULL; }
     if (!fs_pos(cfg->Ts)) { return FS_ERR_TS; }
     if (!fs_pos(cfg->i_push)) { return FS_ERR_I_MAX; }
-    if (!fs_fin(cfg->i_push_max) || !(cfg->i_push_max == 0.0f || cfg->i_push_max >= cfg->i_push)) { return FS_ERR_I_MAX; }
+    if (!fs_fin(cfg->i_push_max) || !((cfg->i_push_max == 0.0f) || (cfg->i_push_max >= cfg->i_push))) { return FS_ERR_I_MAX; }
     /* the step counts must stay ints: below 1e9 */
-    const float t_all = cfg->t_lock + 2.0f * cfg->t_push + cfg->t_settle;
-    if (!(cfg->t_lock >= 8.0f * cfg->Ts) || !(cfg->t_push >= cfg->Ts) || !(cfg->t_settle >= cfg->Ts) || !(t_all < 1e3f)
-        || !(t_all / cfg->Ts < 1e9f)) {
+    const float t_all = cfg->t_lock + (2.0f * cfg->t_push) + cfg->t_settle;
+    if (!(cfg->t_lock >= (8.0f * cfg->Ts)) || !(cfg->t_push >= cfg->Ts) || !(cfg->t_settle >= cfg->Ts) || !(t_all < 1e3f)
+        || !((t_all / cfg->Ts) < 1e9f)) {
         return FS_ERR_PARAM;
     }
-    if (!(cfg->theta_dec > 0.0f && cfg->theta_dec < 0.5f * FS_PI)) { return FS_ERR_PARAM; }
-    if (!(cfg->theta_max == 0.0f || (cfg->theta_max >= cfg->theta_dec && cfg->theta_max < 0.5f * FS_PI))) { return FS_ERR_PARAM; }
+    if (!((cfg->theta_dec > 0.0f) && cfg->theta_dec < 0.5f * FS_PI)) { return FS_ERR_PARAM; }
+    if (!((cfg->theta_max == 0.0f) || ((cfg->theta_max >= cfg->theta_dec) && cfg->theta_max < 0.5f * FS_PI))) { return FS_ERR_PARAM; }
     m->cfg = *cfg;
     if (m->cfg.i_push_max == 0.0f) { m->cfg.i_push_max = cfg->i_push; }
     if (m->cfg.theta_max == 0.0f) { m->cfg.theta_max = fs_minf(4.0f * cfg->theta_dec, 0.49f * FS_PI); }
-    m->n_lock = (int)(cfg->t_lock / cfg->Ts + 0.5f);
-    m->n_push = (int)(cfg->t_push / cfg->Ts + 0.5f);
-    m->n_settle = (int)(cfg->t_settle / cfg->Ts + 0.5f);
+    m->n_lock = (int)((cfg->t_lock / cfg->Ts) + 0.5f);
+    m->n_push = (int)((cfg->t_push / cfg->Ts) + 0.5f);
+    m->n_settle = (int)((cfg->t_settle / cfg->Ts) + 0.5f);
     fs_motion_test_reset(m);
     return FS_OK;
 }
@@ -63,15 +63,15 @@ static void motion_window(fs_motion_test *m, float theta, int j)
 /* The window's mean speed, el. rad/s (its line's slope). */
 static float motion_window_speed(const fs_motion_test *m)
 {
-    const float n = (float)m->n_win, den = n * m->sxx - m->sx * m->sx;
-    return den > 0.0f ? (n * m->sxy - m->sx * m->sy) / den / m->cfg.Ts : 0.0f;
+    const float n = (float)m->n_win, den = (n * m->sxx) - (m->sx * m->sx);
+    return (den > 0.0f) ? (((n * m->sxy) - (m->sx * m->sy)) / den / m->cfg.Ts) : 0.0f;
 }
 
 /* Whether the rotor turns on its own at the window's speed: by `share` of
  * the threshold within the horizon, s. */
 static bool motion_turning(const fs_motion_test *m, float horizon, float share)
 {
-    return fabsf(motion_window_speed(m)) * horizon > share * m->threshold;
+    return (fabsf(motion_window_speed(m)) * horizon) > (share * m->threshold);
 }
 
 /* The doublet's current at step k of it: one period of a sine over 2 n_push
@@ -87,9 +87,9 @@ static float motion_doublet(const fs_motion_test *m)
 static float motion_lock_end(fs_motion_test *m, float theta)
 {
     m->threshold = fs_maxf(m->cfg.theta_dec, 2.0f * (m->hi - m->lo));
-    m->moved = motion_turning(m, 2.0f * m->cfg.t_push + m->cfg.t_settle, 1.0f);   /* all of it within the test */
+    m->moved = motion_turning(m, (2.0f * m->cfg.t_push) + m->cfg.t_settle, 1.0f);   /* all of it within the test */
     m->k = 0;
-    if (m->moved || m->threshold > m->cfg.theta_max) {
+    if (m->moved || (m->threshold > m->cfg.theta_max)) {
         m->locks += 1;
         if (m->locks >= FS_MOTION_LOCKS) { m->stage = FS_MOTION_UNDETERMINED; }
         return 0.0f;
@@ -110,7 +110,7 @@ static float motion_read(fs_motion_test *m, float theta)
     m->moved = motion_turning(m, (float)m->n_win * m->cfg.Ts, 1.0f);
     if (m->moved) {   /* beyond the largest threshold already: something else turns the rotor */
         m->settles += 1;
-        if (m->settles >= FS_MOTION_LOCKS || fabsf(m->turn) > m->cfg.theta_max) { m->stage = FS_MOTION_UNDETERMINED; }
+        if ((m->settles >= FS_MOTION_LOCKS) || fabsf(m->turn) > m->cfg.theta_max) { m->stage = FS_MOTION_UNDETERMINED; }
         return 0.0f;
     }
     m->settles = 0;
@@ -139,7 +139,7 @@ float fs_motion_test_step(fs_motion_test *m, float theta)
         return 0.0f;
     }
     case FS_MOTION_PUSH:
-        if (++m->k >= 2 * m->n_push) {
+        if (++m->k >= (2 * m->n_push)) {
             m->stage = FS_MOTION_SETTLE;
             m->k = 0;
             return 0.0f;

@@ -6,8 +6,8 @@
 static float mtpa_id(const fs_mtpa_config *c, float I)
 {
     float dL = c->L_q - c->L_d;
-    if (dL <= 1e-9f * c->L_q) { return 0.0f; }
-    return (c->psi_f - sqrtf(c->psi_f * c->psi_f + 8.0f * dL * dL * I * I)) / (4.0f * dL);
+    if (dL <= (1e-9f * c->L_q)) { return 0.0f; }
+    return (c->psi_f - sqrtf((c->psi_f * c->psi_f) + (8.0f * dL * dL * I * I))) / (4.0f * dL);
 }
 
 /* Torque per (flux x current): (phases / 2) p. */
@@ -20,7 +20,7 @@ static float mtpa_map_torque(const fs_mtpa *m, float I, float g, fs_dq *i)
     i->d = I * fs_cre(e);
     i->q = I * fs_cim(e);
     const fs_fluxmap_point p = fs_fluxmap_eval(m->cfg.map, *i);
-    return m->k_T * (p.psi.d * i->q - p.psi.q * i->d);
+    return m->k_T * ((p.psi.d * i->q) - (p.psi.q * i->d));
 }
 
 /* The locus on a flux map (fs_mtpa.h): per magnitude the angle of most
@@ -36,23 +36,23 @@ static FS_COLD fs_status mtpa_search(fs_mtpa *m)
         const float I = m->cfg.i_max * (float)k / (float)(FS_MTPA_N - 1);
         float lo = 0.0f, hi = FS_PI;
         fs_dq i;
-        float g1 = hi - r * (hi - lo), g2 = lo + r * (hi - lo);
+        float g1 = hi - (r * (hi - lo)), g2 = lo + (r * (hi - lo));
         float T1 = mtpa_map_torque(m, I, g1, &i), T2 = mtpa_map_torque(m, I, g2, &i);
-        while (hi - lo > 1e-5f) {
+        while ((hi - lo) > 1e-5f) {
             if (T1 < T2) {   /* the maximum is right of g1 */
                 lo = g1; g1 = g2; T1 = T2;
-                g2 = lo + r * (hi - lo);
+                g2 = lo + (r * (hi - lo));
                 T2 = mtpa_map_torque(m, I, g2, &i);
             } else {
                 hi = g2; g2 = g1; T2 = T1;
-                g1 = hi - r * (hi - lo);
+                g1 = hi - (r * (hi - lo));
                 T1 = mtpa_map_torque(m, I, g1, &i);
             }
         }
         m->T[k] = mtpa_map_torque(m, I, 0.5f * (lo + hi), &i);
         m->i_d[k] = i.d;
         m->i_q[k] = i.q;
-        if (!(m->T[k] > m->T[k - 1] && m->T[k] < INFINITY)) { return FS_ERR_PARAM; }
+        if (!((m->T[k] > m->T[k - 1]) && (m->T[k] < INFINITY))) { return FS_ERR_PARAM; }
     }
     return FS_OK;
 }
@@ -65,7 +65,7 @@ FS_COLD fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
     if (!fs_fin(cfg->L_q)) { return FS_ERR_LQ; }
     if (!fs_nonneg(cfg->psi_f)) { return FS_ERR_PSI_F; }
     if (cfg->pole_pairs < 1) { return FS_ERR_POLE_PAIRS; }
-    if (cfg->phases != 3 && cfg->phases != 5) { return FS_ERR_PARAM; }
+    if ((cfg->phases != 3) && (cfg->phases != 5)) { return FS_ERR_PARAM; }
     if (!fs_pos(cfg->i_max)) { return FS_ERR_I_MAX; }
     m->cfg = *cfg;
     m->tabulated = cfg->map != NULL;
@@ -75,7 +75,7 @@ FS_COLD fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
     m->dL2 = 2.0f * m->dL;
     m->dL4 = 4.0f * m->dL * m->dL;
     m->psi2 = cfg->psi_f * cfg->psi_f;
-    m->salient = m->dL > 1e-9f * cfg->L_q;
+    m->salient = m->dL > (1e-9f * cfg->L_q);
     if (cfg->map) {
         const fs_status st = mtpa_search(m);
         m->cfg.map = NULL;   /* not kept: the table is all the step needs */
@@ -84,13 +84,13 @@ FS_COLD fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
     for (int k = 0; k < FS_MTPA_N; ++k) {
         float I = cfg->i_max * (float)k / (float)(FS_MTPA_N - 1);
         float id = mtpa_id(cfg, I);
-        float iq = sqrtf(fs_maxf(I * I - id * id, 0.0f));
+        float iq = sqrtf(fs_maxf((I * I) - (id * id), 0.0f));
         m->i_d[k] = id;
         m->i_q[k] = iq;
         m->T[k] = mtpa_k(cfg) * (cfg->psi_f + (cfg->L_d - cfg->L_q) * id) * iq;
         /* the torque must rise, finite: not without torque (psi_f = 0 and
          * L_q = L_d), nor beyond the float range */
-        if (k > 0 && !(m->T[k] > m->T[k - 1] && m->T[k] < INFINITY)) { return FS_ERR_PARAM; }
+        if ((k > 0) && !((m->T[k] > m->T[k - 1]) && (m->T[k] < INFINITY))) { return FS_ERR_PARAM; }
     }
     return FS_OK;
 }
@@ -104,16 +104,16 @@ static inline float mtpa_locus_id(const fs_mtpa *m, float iq)
 {
     if (m->cfg.psi_f <= 0.0f) { return -iq; }
     if (!m->salient) { return 0.0f; }
-    return -m->dL2 * iq * iq / (m->cfg.psi_f + sqrtf(m->psi2 + m->dL4 * iq * iq));
+    return -m->dL2 * iq * iq / (m->cfg.psi_f + sqrtf(m->psi2 + (m->dL4 * iq * iq)));
 }
 
 /* The torque on the locus at (id, iq) and its slope d T / d i_q (the
  * second pass of a step needs i_d alone: apart, it skips this). */
 static float mtpa_locus_torque(const fs_mtpa *m, float iq, float id, float *dT)
 {
-    const float did = m->cfg.psi_f <= 0.0f ? -1.0f : (m->salient ? m->dL2 * iq / (m->dL2 * id - m->cfg.psi_f) : 0.0f);
-    const float flux = m->cfg.psi_f - m->dL * id;
-    *dT = m->k_T * (flux - m->dL * did * iq);
+    const float did = (m->cfg.psi_f <= 0.0f) ? -1.0f : (m->salient ? m->dL2 * iq / ((m->dL2 * id) - m->cfg.psi_f) : 0.0f);
+    const float flux = m->cfg.psi_f - (m->dL * id);
+    *dT = m->k_T * (flux - (m->dL * did * iq));
     return m->k_T * flux * iq;
 }
 
@@ -129,11 +129,11 @@ fs_dq fs_mtpa_step(fs_mtpa *m, float T_ref)
         /* the segment holding T (one only: the table rises), the last
          * step's first: the reference moves little in a sample, and the
          * six halvings cost some 90 instructions on a Cortex-M4F */
-        if (m->T[lo] <= T && T < m->T[lo + 1]) {
+        if ((m->T[lo] <= T) && (T < m->T[lo + 1])) {
             hi = lo + 1;
         } else {
             lo = 0;
-            while (hi - lo > 1) {  /* bisection on the rising torque table */
+            while ((hi - lo) > 1) {  /* bisection on the rising torque table */
                 int mid = (lo + hi) / 2;
                 if (m->T[mid] <= T) { lo = mid; } else { hi = mid; }
             }
@@ -144,10 +144,10 @@ fs_dq fs_mtpa_step(fs_mtpa *m, float T_ref)
          * T ~ a i_q + b i_q^3; exact without a magnet), i_d on the locus
          * from it */
         float s = (T - m->T[lo]) / (m->T[hi] - m->T[lo]);
-        float iq = m->i_q[lo] + s * (m->i_q[hi] - m->i_q[lo]), T0, dT;
+        float iq = m->i_q[lo] + (s * (m->i_q[hi] - m->i_q[lo])), T0, dT;
         if (m->tabulated) {   /* a flux map's locus: its table, linearly */
             out.q = iq;
-            out.d = m->i_d[lo] + s * (m->i_d[hi] - m->i_d[lo]);
+            out.d = m->i_d[lo] + (s * (m->i_d[hi] - m->i_d[lo]));
             if (T_ref < 0.0f) { out.q = -out.q; }
             return out;
         }

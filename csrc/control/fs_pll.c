@@ -5,7 +5,7 @@ FS_COLD fs_status fs_pll_init(fs_pll *pll, const fs_pll_config *cfg)
 {
     if (!pll || !cfg) { return FS_ERR_NULL; }
     if (!fs_pos(cfg->Ts)) { return FS_ERR_TS; }
-    if (!(cfg->bandwidth > 0.0f) || !(cfg->bandwidth * cfg->Ts <= 0.5f)) { return FS_ERR_BANDWIDTH; }
+    if (!(cfg->bandwidth > 0.0f) || !((cfg->bandwidth * cfg->Ts) <= 0.5f)) { return FS_ERR_BANDWIDTH; }
     if (!fs_fin(cfg->w_max)) { return FS_ERR_LIMIT; }
     pll->cfg = *cfg;
     pll->k_p = 2.0f * cfg->bandwidth;               /* eq. (13), poles at -w_b */
@@ -30,6 +30,6 @@ float fs_pll_step(fs_pll *pll, float err)
     /* The angle moves with k_p err + integral; the speed estimate is the
      * integral alone, which the loop filters (no proportional noise). */
     pll->w = pll->integ;
-    pll->theta = fs_wrap_pi(pll->theta + pll->cfg.Ts * (pll->k_p * err + pll->integ));
+    pll->theta = fs_wrap_pi(pll->theta + (pll->cfg.Ts * ((pll->k_p * err) + pll->integ)));
     return pll->theta;
 }

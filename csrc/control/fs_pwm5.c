@@ -20,7 +20,7 @@ bool fs_pwm5(fs_ab u_ref, float u_dc, float duty[5], fs_ab *u_real)
     float big = fs_maxf(fabsf(u_ref.alpha), fabsf(u_ref.beta));
     if (big > u_dc) { pre = u_dc / big; }
     fs_vsd5 v = {{u_ref.alpha * pre / u_dc, u_ref.beta * pre / u_dc}, {0.0f, 0.0f}, 0.0f};
-    float mag = sqrtf(v.ab.alpha * v.ab.alpha + v.ab.beta * v.ab.beta);
+    float mag = sqrtf((v.ab.alpha * v.ab.alpha) + (v.ab.beta * v.ab.beta));
     bool over = pre < 1.0f;
     if (mag > lin_limit) {  /* onto the limit circle, same phase */
         float s = lin_limit / mag;
@@ -36,7 +36,7 @@ bool fs_pwm5(fs_ab u_ref, float u_dc, float duty[5], fs_ab *u_real)
         v_min = fs_minf(v_min, ph[k]);
     }
     /* Min-max injection: equal zero-vector time at both ends of the period. */
-    float offset = 0.5f - 0.5f * (v_max + v_min);
+    float offset = 0.5f - (0.5f * (v_max + v_min));
     for (int k = 0; k < 5; ++k) { duty[k] = fs_clamp01(ph[k] + offset); }
     if (u_real) { *u_real = fs_pwm5_voltage(duty, u_dc); }
     return over;

@@ -5,7 +5,7 @@ FS_COLD fs_status fs_srff_init(fs_srff *f, const fs_srff_config *cfg)
 {
     if (!f || !cfg) { return FS_ERR_NULL; }
     if (!(cfg->Ts > 0.0f) || !isfinite(cfg->Ts)) { return FS_ERR_TS; }
-    if (!(cfg->w_b > 0.0f) || !(cfg->w_b * cfg->Ts <= 0.5f)) { return FS_ERR_BANDWIDTH; }
+    if (!(cfg->w_b > 0.0f) || !((cfg->w_b * cfg->Ts) <= 0.5f)) { return FS_ERR_BANDWIDTH; }
     f->cfg = *cfg;
     f->a = expf(-cfg->w_b * cfg->Ts);  /* pole of w_b / (s + w_b), held input */
     f->b = 1.0f - f->a;

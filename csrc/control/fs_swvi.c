@@ -6,12 +6,12 @@ FS_COLD fs_status fs_swvi_init(fs_swvi *s, const fs_swvi_config *cfg)
     if (!s || !cfg) { return FS_ERR_NULL; }
     const fs_swvi_config *c = cfg;
     if (!fs_pos(c->Ts)) { return FS_ERR_TS; }
-    if (c->delay != 0 && c->delay != 1) { return FS_ERR_PARAM; }
+    if ((c->delay != 0) && (c->delay != 1)) { return FS_ERR_PARAM; }
     if (!fs_pos(c->u_h)) { return FS_ERR_PARAM; }
-    if (c->sequence != FS_SWVI_CONVENTIONAL && c->sequence != FS_SWVI_OPTIMIZED) { return FS_ERR_PARAM; }
+    if ((c->sequence != FS_SWVI_CONVENTIONAL) && (c->sequence != FS_SWVI_OPTIMIZED)) { return FS_ERR_PARAM; }
     if (!fs_pos(c->L_d)) { return FS_ERR_LD; }
     if (!fs_pos(c->L_q)) { return FS_ERR_LQ; }
-    if (!(fabsf(c->L_q - c->L_d) > 0.01f * 0.5f * (c->L_d + c->L_q))) { return FS_ERR_SALIENCY; }
+    if (!(fabsf(c->L_q - c->L_d) > (0.01f * 0.5f * (c->L_d + c->L_q)))) { return FS_ERR_SALIENCY; }
     if (!fs_nonneg(c->w_max)) { return FS_ERR_LIMIT; }
     if (fs_xcomp_check(&c->xcomp) != FS_OK) { return FS_ERR_PARAM; }
     fs_pll_config pc = {c->Ts, c->bandwidth, c->w_max};
@@ -44,7 +44,7 @@ void fs_swvi_reset(fs_swvi *s, float theta, float w)
 }
 
 /* The mean of two angles a step apart. */
-static float mid_angle(float a, float b) { return fs_wrap_pi(a + 0.5f * fs_wrap_pi(b - a)); }
+static float mid_angle(float a, float b) { return fs_wrap_pi(a + (0.5f * fs_wrap_pi(b - a))); }
 
 float fs_swvi_step(fs_swvi *s, fs_ab i)
 {
@@ -63,16 +63,16 @@ float fs_swvi_step(fs_swvi *s, fs_ab i)
             const int n1 = (n + 3) & 3, n2 = (n + 2) & 3;   /* k - 1 (the peak), k - 2 */
             fs_dq h;
             if (c->sequence == FS_SWVI_OPTIMIZED) {
-                fs_ab hab = {s->i_ab[n1].alpha - 0.5f * (s->i_ab[n2].alpha + i.alpha),
-                             s->i_ab[n1].beta - 0.5f * (s->i_ab[n2].beta + i.beta)};
+                fs_ab hab = {s->i_ab[n1].alpha - (0.5f * (s->i_ab[n2].alpha + i.alpha)),
+                             s->i_ab[n1].beta - (0.5f * (s->i_ab[n2].beta + i.beta))};
                 const float phi = mid_angle(s->theta_u[n2], s->theta_u[n1]);   /* eq. (16) */
                 h = fs_park(hab, fs_cosf(phi), fs_sinf(phi));
             } else {
-                h.d = s->i_dq[n1].d - 0.5f * (s->i_dq[n2].d + s->i_dq[n].d);
-                h.q = s->i_dq[n1].q - 0.5f * (s->i_dq[n2].q + s->i_dq[n].q);
+                h.d = s->i_dq[n1].d - (0.5f * (s->i_dq[n2].d + s->i_dq[n].d));
+                h.q = s->i_dq[n1].q - (0.5f * (s->i_dq[n2].q + s->i_dq[n].q));
             }
             /* the half before the peak: + when the window starts at phase 0 */
-            const float sign = n2 == 0 ? 1.0f : -1.0f;
+            const float sign = (n2 == 0) ? 1.0f : -1.0f;
             s->i_h.d = sign * h.d;
             s->i_h.q = sign * h.q;
             if (!c->carrier_off) { s->eps = s->k_norm * s->i_h.q; }   /* eqs. (6)-(7) */
@@ -85,11 +85,11 @@ float fs_swvi_step(fs_swvi *s, fs_ab i)
      * output frame of the last step */
     s->delta = 0.0f;
     if (fs_xcomp_active(&c->xcomp)) {
-        const float i_q = -s->i_f.alpha * fs_sinf(s->theta) + s->i_f.beta * fs_cosf(s->theta);
+        const float i_q = -s->i_f.alpha * fs_sinf(s->theta) + (s->i_f.beta * fs_cosf(s->theta));
         s->delta = fs_xcomp_eval(&c->xcomp, i_q);
     }
     s->theta = fs_wrap_pi(th - s->delta);
-    s->w = s->pll.k_p * s->eps + s->pll.integ;   /* Fig. 1: the PI's output, the angle's rate */
+    s->w = (s->pll.k_p * s->eps) + s->pll.integ;   /* Fig. 1: the PI's output, the angle's rate */
 
     /* eq. (4) for the interval starting at j = k + delay: + in phases 3 and
      * 0, - in 1 and 2 (edges at the odd samples); from j = 2 on, so that the
@@ -97,7 +97,7 @@ float fs_swvi_step(fs_swvi *s, fs_ab i)
     const long long j = s->k + c->delay;
     const int m = (int)(j & 3);
     s->theta_u[m] = th;
-    const float u = (j < 2 || c->carrier_off) ? 0.0f : ((m == 3 || m == 0) ? c->u_h : -c->u_h);
+    const float u = ((j < 2) || c->carrier_off) ? 0.0f : (((m == 3) || (m == 0)) ? c->u_h : -c->u_h);
     s->u.alpha = u * fs_cosf(th);
     s->u.beta = u * fs_sinf(th);
     ++s->k;

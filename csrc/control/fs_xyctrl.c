@@ -11,11 +11,11 @@ FS_COLD fs_status fs_xyctrl_init(fs_xyctrl *x, const fs_xyctrl_config *cfg)
     if (!fs_pos(c->L_d3)) { return FS_ERR_LD; }
     if (!fs_pos(c->L_q3)) { return FS_ERR_LQ; }
     if (!fs_nonneg(c->psi_f3)) { return FS_ERR_PSI_F; }
-    if (c->delay != 0.0f && c->delay != 1.0f) { return FS_ERR_PARAM; }
-    if (!(c->u_max_frac > 0.0f && c->u_max_frac <= 0.5f)) { return FS_ERR_PARAM; }
+    if ((c->delay != 0.0f) && (c->delay != 1.0f)) { return FS_ERR_PARAM; }
+    if (!((c->u_max_frac > 0.0f) && (c->u_max_frac <= 0.5f))) { return FS_ERR_PARAM; }
     /* the loop's delay (1.5 periods with the computation delay) keeps the
      * first-order design within alpha Ts <= 0.25 (phase margin above 50 deg) */
-    if (!fs_pos(c->bandwidth) || !(c->bandwidth * c->Ts <= 0.25f)) { return FS_ERR_BANDWIDTH; }
+    if (!fs_pos(c->bandwidth) || !((c->bandwidth * c->Ts) <= 0.25f)) { return FS_ERR_BANDWIDTH; }
     x->cfg = *cfg;
     fs_pi_config pc;
     fs_status st = fs_pi_design(&pc, c->Ts, c->L_d3, c->R_s, c->bandwidth, 0.0f);
@@ -44,19 +44,19 @@ fs_ab fs_xyctrl_step(fs_xyctrl *x, const float i_ph[5], float theta_e, float w_e
     const fs_dq i3 = fs_park(v.xy, fs_cosf(th3), fs_sinf(th3));
     x->i3 = i3;
     /* the d3-q3 model's coupling and EMF fed forward */
-    const fs_dq ff = {-w3 * c->L_q3 * i3.q, w3 * (c->L_d3 * i3.d + c->psi_f3)};
+    const fs_dq ff = {-w3 * c->L_q3 * i3.q, w3 * ((c->L_d3 * i3.d) + c->psi_f3)};
     fs_dq u = {fs_pi_output(&x->pi_d3, 0.0f, i3.d) + ff.d, fs_pi_output(&x->pi_q3, 0.0f, i3.q) + ff.q};
-    const float lim = c->u_max_frac * u_dc, m = sqrtf(u.d * u.d + u.q * u.q);
+    const float lim = c->u_max_frac * u_dc, m = sqrtf((u.d * u.d) + (u.q * u.q));
     fs_dq u_real = u;
     if (m > lim) {
-        const float s = lim > 0.0f ? lim / m : 0.0f;
+        const float s = (lim > 0.0f) ? (lim / m) : 0.0f;
         u_real.d *= s;
         u_real.q *= s;
     }
     fs_pi_update(&x->pi_d3, 0.0f, i3.d, u.d - ff.d, u_real.d - ff.d);
     fs_pi_update(&x->pi_q3, 0.0f, i3.q, u.q - ff.q, u_real.q - ff.q);
     /* acting from the next update for a period: turned to its middle */
-    const float th_u = th3 + w3 * c->Ts * (c->delay + 0.5f);
+    const float th_u = th3 + (w3 * c->Ts * (c->delay + 0.5f));
     x->u_xy = fs_inv_park(u_real, fs_cosf(th_u), fs_sinf(th_u));
     return x->u_xy;
 }
@@ -66,6 +66,6 @@ void fs_xyctrl_duties(fs_ab u_xy, float u_dc, float duty[5])
     const fs_vsd5 p = {{0.0f, 0.0f}, u_xy, 0.0f};
     float u[5];
     fs_vsd5_inverse(&p, u);
-    const float k = u_dc > 0.0f ? 1.0f / u_dc : 0.0f;
-    for (int n = 0; n < 5; ++n) { duty[n] = fs_clamp01(duty[n] + u[n] * k); }
+    const float k = (u_dc > 0.0f) ? (1.0f / u_dc) : 0.0f;
+    for (int n = 0; n < 5; ++n) { duty[n] = fs_clamp01(duty[n] + (u[n] * k)); }
 }
