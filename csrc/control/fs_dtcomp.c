@@ -8,7 +8,7 @@ FS_COLD fs_status fs_dtcomp_init(fs_dtcomp *d, const fs_dtcomp_config *cfg)
     const fs_dtcomp_config *c = cfg;
     if ((c->phases != 3) && (c->phases != 5)) { return FS_ERR_PARAM; }
     if (!fs_pos(c->T_pwm)) { return FS_ERR_TS; }
-    const int dbl = fabsf(c->Ts - (0.5f * c->T_pwm)) <= (1e-6f * c->T_pwm);
+    const bool dbl = fabsf(c->Ts - (0.5f * c->T_pwm)) <= (1e-6f * c->T_pwm);
     if (!dbl && !(fabsf(c->Ts - c->T_pwm) <= (1e-6f * c->T_pwm))) { return FS_ERR_TS; }
     if ((c->delay != 0.0f) && (c->delay != 1.0f)) { return FS_ERR_PARAM; }
     if (!fs_pos(c->t_dead) || !(c->t_dead < (0.5f * c->T_pwm)) || !fs_nonneg(c->i_band)) { return FS_ERR_PARAM; }
@@ -17,7 +17,8 @@ FS_COLD fs_status fs_dtcomp_init(fs_dtcomp *d, const fs_dtcomp_config *cfg)
     d->cfg = *cfg;
     d->inv_L = 2.0f / (c->L_d + c->L_q);
     d->dd = c->t_dead / c->T_pwm;
-    d->double_update = dbl;
+    d->double_update = 0;
+    if (dbl) { d->double_update = 1; }
     fs_dtcomp_reset(d);
     return FS_OK;
 }

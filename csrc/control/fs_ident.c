@@ -65,7 +65,7 @@ FS_COLD fs_status fs_ident_init(fs_ident *id, const fs_ident_config *cfg)
     if (!fs_pos(cfg->i_max)) { return FS_ERR_I_MAX; }
     if (!fs_pos(cfg->w_spin) || !fs_pos(cfg->t_ramp) || !fs_nonneg(cfg->u_dc_min)) { return FS_ERR_PARAM; }
     if (cfg->t_ramp < (100.0f * cfg->Ts)) { return FS_ERR_PARAM; }   /* a ramp of fewer samples is a step */
-    if ((cfg->standstill_only | cfg->locked | cfg->skip_map) & ~1) { return FS_ERR_PARAM; }   /* flags: 0 or 1 */
+    if (((cfg->standstill_only | cfg->locked | cfg->skip_map) & ~1) != 0) { return FS_ERR_PARAM; }   /* flags: 0 or 1 */
     if (!fs_nonneg(cfg->i_test) || (cfg->i_test > cfg->i_max) || !fs_nonneg(cfg->t_level) || !fs_nonneg(cfg->psi_f_hint)
         || !fs_nonneg(cfg->J_hint) || !fs_nonneg(cfg->motion_max)) {
         return FS_ERR_PARAM;
@@ -96,7 +96,7 @@ void fs_ident_reset(fs_ident *id)
             id->res.reason[q] = run_reason;
         }
     }
-    if (c->skip_map) {
+    if (c->skip_map != 0) {
         id->res.status[FS_IDQ_MAP] = FS_IDS_SKIPPED;
         id->res.reason[FS_IDQ_MAP] = FS_IDR_NOT_ASKED;
     }
@@ -180,8 +180,8 @@ static void ident_design_pi(fs_ident *id, float L_d, float L_q, float R)
 {
     fs_pi_config c;
     const float u_lim = (id->u_max > 0.0f) ? id->u_max : 1.0f;
-    if (fs_pi_design(&c, id->cfg.Ts, L_d, R, id->w_c, u_lim) == FS_OK) { fs_pi_init(&id->pi_d, &c); }
-    if (fs_pi_design(&c, id->cfg.Ts, L_q, R, id->w_c, u_lim) == FS_OK) { fs_pi_init(&id->pi_q, &c); }
+    if (fs_pi_design(&c, id->cfg.Ts, L_d, R, id->w_c, u_lim) == FS_OK) { (void)fs_pi_init(&id->pi_d, &c); }
+    if (fs_pi_design(&c, id->cfg.Ts, L_q, R, id->w_c, u_lim) == FS_OK) { (void)fs_pi_init(&id->pi_q, &c); }
 }
 
 /* The stationary inverter error of the fitted leg model at the phase currents of i_ab. */
@@ -257,6 +257,7 @@ static fs_ab step_probe(fs_ident *id, fs_ab i)
     fs_ab u = {0.0f, 0.0f};
     if (id->k < id->n_p) { u.alpha = id->u_p; }
     else if (id->k < (2 * id->n_p)) { u.alpha = -id->u_p; }
+    else { /* between the pulses: no voltage */ }
     if (++id->k < n_cycle) { return u; }
     /* the cycle is over */
     const float target = I_PROBE * c->i_max;
@@ -382,9 +383,9 @@ static cx ph(const float x[2][2][2], int j, int a) { return (cx){x[j][a][0], x[j
 /* HF phasors of a cosine carrier's period position kk: cos, sin of its phase */
 static void hf_phase(int kk, float *cu, float *su)
 {
-    const float ph = FS_TWO_PI * (float)kk / (float)N_HF;
-    *cu = fs_cosf(ph);
-    *su = fs_sinf(ph);
+    const float phase = FS_TWO_PI * (float)kk / (float)N_HF;
+    *cu = fs_cosf(phase);
+    *su = fs_sinf(phase);
 }
 
 /* ---- AXIS: an HF voltage on alpha and on beta in turn, at zero current ----
@@ -417,7 +418,7 @@ static fs_ab step_axis(fs_ident *id, fs_ab i)
         }
     }
     const int kh = id->k;
-    const int skip = (id->sub < 2) ? HF_SKIP : AX_SKIP;   /* the first turn of each: the loops' start too */
+    const int skip = (id->sub < 2) ? (int)HF_SKIP : (int)AX_SKIP;   /* the first turn of each: the loops' start too */
     float cu, su;
     hf_phase(kh % N_HF, &cu, &su);
     fs_ab u;
@@ -468,7 +469,7 @@ static fs_ab step_axis(fs_ident *id, fs_ab i)
         ident_design_pi(id, r->L_d_axis, r->L_d_axis, 0.0f);
         if (c->standstill_only && !c->locked) {
             ident_fail(id, FS_IDQ_VERR, FS_IDR_NO_AXIS);
-        } else if (c->locked) {   /* on alpha: R_s, the inverter's error and L (one value) need no axis; the map does */
+        } else if (c->locked != 0) {   /* on alpha: R_s, the inverter's error and L (one value) need no axis; the map does */
             id->theta_s = r->theta_axis = 0.0f;
             r->status[FS_IDQ_MAP] = FS_IDS_FAILED;
             r->reason[FS_IDQ_MAP] = FS_IDR_NO_AXIS;
@@ -503,7 +504,7 @@ static fs_ab step_polarity(fs_ident *id, fs_ab i_ab)
     r->pol_amp = id->map.res.d_amp;
     /* (the d sweep's axis offset, from its q flux, is not applied: before R_s and the inverter's error
      * are known the dead time's q part at the axis' angle puts up to 5 el.deg into it, zoo machine 12) */
-    if (r->pol_flipped) { id->theta_s = fs_wrap_pi(id->theta_s + FS_PI); }
+    if (r->pol_flipped != 0) { id->theta_s = fs_wrap_pi(id->theta_s + FS_PI); }
     r->theta_axis = id->theta_s;
     id->pol_known = r->pol_decided;
     /* no polarity standing: where the rotor may turn, ALIGN pulls its north onto the axis (up to half a
@@ -574,6 +575,8 @@ static fs_ab step_align(fs_ident *id, fs_ab i)
         ident_goto(id, FS_IDENT_LEVELS);
     } else if (((float)id->k * c->Ts) > 3.0f) {
         ident_fail(id, FS_IDQ_VERR, FS_IDR_MOVED);
+    } else {
+        /* not yet still: wait on */
     }
     acc_clear(id);
     return u;
@@ -860,7 +863,7 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
      * q carrier: L_q measured on a frame 1.4 el.deg off read -2 % on zoo machine 12); 1, 2: q at the first
      * and second bias */
     const bool d_meas = check || (id->sub == 0);
-    const int axis = d_meas ? 0 : 1, level = id->sub - 1;
+    const int axis = d_meas ? (int)0 : (int)1, level = id->sub - 1;
     const float I_b = d_meas ? 0.0f : ldq_bias(id, level);
     if (id->k == 0) {
         id->w_h = FS_TWO_PI / ((float)N_HF * c->Ts);
@@ -980,8 +983,10 @@ static fs_ab step_map(fs_ident *id, fs_ab i_ab)
     if (id->map.stage != FS_MAPID_DONE) { return fs_inv_park(u, ct, st); }
     const fs_mapid_result *m = &id->map.res;
     int n_read = 0;   /* the d axis read to +-3/4 i_max (+-i_max where the sweep's peaks reached it, else from beyond) */
-    for (int k = 1; k < (FS_MAPID_ND - 1); ++k) { n_read += m->n_d[k] > 0; }
-    if (m->flipped) { id->theta_s = fs_wrap_pi(id->theta_s + FS_PI); }   /* the magnet's north */
+    for (int k = 1; k < (FS_MAPID_ND - 1); ++k) {
+        if (m->n_d[k] > 0) { ++n_read; }
+    }
+    if (m->flipped != 0) { id->theta_s = fs_wrap_pi(id->theta_s + FS_PI); }   /* the magnet's north */
     id->pol_known = id->pol_known || m->decided;   /* ALIGN's or the polarity sweep's stands */
     id->res.theta_axis = id->theta_s;
     /* the d sweep read its whole axis: the map has its spine (the q sweeps
@@ -1025,6 +1030,8 @@ static fs_ab step_spin(fs_ident *id, fs_ab i)
             id->bw_pll = fs_minf(0.1f * id->w_c, 0.5f * id->w_target);   /* below the current loop, and a few turns to settle */
             id->w0 = id->w;
             ident_goto(id, FS_IDENT_FLUX);
+        } else {
+            /* at speed, not yet 50 ms */
         }
         id->theta = fs_wrap_pi(id->theta + (id->w * c->Ts));
     }
@@ -1117,7 +1124,7 @@ static fs_ab step_dcurve(fs_ident *id, fs_ab i_ab)
     /* each level reached by a ramp from the last over a third of the settling (a step of i_max overshoots at speed) */
     const float ramp = fs_minf(3.0f * (float)id->k / (float)n_set, 1.0f);
     fs_ab u = frame_current(id, i_ab, (fs_dq){id->i_ref0 + (I - id->i_ref0) * ramp, 0.0f});
-    frame_pll(id, i_ab);
+    (void)frame_pll(id, i_ab);
     if (id->sub >= FS_MAPID_ND) {   /* all read: back to zero current, then ACCEL from this speed */
         if (++id->k > n_set) {
             id->w_target = id->w0;
@@ -1157,7 +1164,7 @@ static fs_ab step_accel(fs_ident *id, fs_ab i)
 {
     const fs_ident_config *c = &id->cfg;
     fs_ab u = frame_current(id, i, (fs_dq){0.0f, id->i_acc});
-    frame_pll(id, i);
+    (void)frame_pll(id, i);
     const float t = (float)id->k * c->Ts;
     rec_push(id, t, id->w0);
     id->k++;
@@ -1196,7 +1203,7 @@ static fs_ab step_coast(fs_ident *id, fs_ab i)
 {
     const fs_ident_config *c = &id->cfg;
     fs_ab u = frame_current(id, i, (fs_dq){0.0f, 0.0f});
-    frame_pll(id, i);
+    (void)frame_pll(id, i);
     const float t = (float)id->k * c->Ts;
     rec_push(id, t, id->w0);
     id->k++;
@@ -1302,12 +1309,12 @@ fs_ab fs_ident_step(fs_ident *id, fs_ab i_ab, float u_dc)
         /* zero current on the tracking frame while the rotor coasts: zero
          * voltage would short the EMF */
         u = frame_current(id, i_ab, (fs_dq){0.0f, 0.0f});
-        if ((id->bw_pll > 0.0f) && fabsf(id->w0) > (0.05f * id->w_target)) { frame_pll(id, i_ab); }
+        if ((id->bw_pll > 0.0f) && fabsf(id->w0) > (0.05f * id->w_target)) { (void)frame_pll(id, i_ab); }
         break;
     default:   /* FAILED: zero current where a frame is known (tracking the EMF once it was), else zero voltage */
         if (id->res.status[FS_IDQ_LQ] == FS_IDS_OK) {
             u = frame_current(id, i_ab, (fs_dq){0.0f, 0.0f});
-            if ((id->bw_pll > 0.0f) && fabsf(id->w0) > (0.05f * id->w_target)) { frame_pll(id, i_ab); }
+            if ((id->bw_pll > 0.0f) && fabsf(id->w0) > (0.05f * id->w_target)) { (void)frame_pll(id, i_ab); }
         }
         break;
     }

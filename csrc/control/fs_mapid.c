@@ -137,9 +137,9 @@ static void crossings(fs_mapid *m, float x, float y, float psx, float psy, float
     for (int t = 0; t <= (2 * n); ++t) {
         const float v = (float)(t - n) * h;
         const bool passed = (dir > 0) ? ((m->x_prev < v) && (x >= v)) : ((m->x_prev > v) && (x <= v));
-        if (!passed || (m->seen & (1u << t))) { continue; }
+        if (!passed || ((m->seen & (1u << (unsigned)t)) != 0u)) { continue; }
         const float f = (v - m->x_prev) / dx;
-        m->seen |= 1u << t;
+        m->seen |= 1u << (unsigned)t;
         m->s_x[t] += psx0 + (f * (psx - psx0));   /* the swept axis' flux */
         m->s_y[t] += psy0 + (f * (psy - psy0));   /* the held axis' (d in the q sweeps) */
         m->s_i[t] += m->y_prev + (f * (y - m->y_prev));
@@ -266,7 +266,7 @@ static void d_finish(fs_mapid *m)
      * (zoo machine 39: 0.13 mH, 637 V, a leg error of 16 V the sweep's
      * voltage must clear) steps 20 % of i_max a sample, a step or two near
      * each of +-i_max/2, where the reversals' overshoot is: no polarity */
-    int steps = 1 << 30;
+    int steps = 0x40000000;   /* 2^30 */
     for (int side = -2; side <= 2; side += 4) {
         steps = (m->c_up[n + side] < steps) ? m->c_up[n + side] : steps;
         steps = (m->c_dn[n + side] < steps) ? m->c_dn[n + side] : steps;
@@ -343,6 +343,8 @@ static void q_design(fs_mapid *m, int kk, float u_max)
     } else if (c->L_q * I / ((float)N_Q_MAX_LOCKED * c->Ts) > U_lim) {   /* the voltage alone bounds it, at the longest rise */
         I = U_lim * (float)N_Q_MAX_LOCKED * c->Ts / c->L_q;
         lim = FS_MAPID_LIM_VOLTAGE;
+    } else {
+        /* locked, within the voltage: the current stays */
     }
     /* the rise: as long as the motion allows, within N_Q_MIN..N_Q_MAX samples (a locked rotor:
      * N_Q_MAX_LOCKED) and the voltage */
@@ -392,7 +394,10 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
         if ((m->n_trim > 0) || away) {   /* the sweep starts from zero current (a restart, or the caller's last bias) */
             u.d = hold(&m->pi_d, 0.0f, i.d, lim);
             u.q = hold(&m->pi_q, 0.0f, i.q, fs_maxf(lim - fabsf(u.d), 0.0f));
-            if ((m->n_trim > 0) && (--m->n_trim == 0)) { m->k = 0; }
+            if (m->n_trim > 0) {
+                --m->n_trim;
+                if (m->n_trim == 0) { m->k = 0; }
+            }
             break;
         }
         if (m->k == 0) {
@@ -406,7 +411,7 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
                 break;
             }
             m->s_n[FS_MAPID_ND / 2] = 1;   /* the start reads 0 (its flux is the origin) */
-            m->seen = 1u << (FS_MAPID_ND / 2);
+            m->seen = 1u << ((unsigned)FS_MAPID_ND / 2u);
         } else {
             const float pd0 = m->psi_d, pq0 = m->psi_q;
             integrate(m, i, e, i_prev);
@@ -470,7 +475,7 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
         if (++m->k >= n_settle) {
             sweep_start(m, i.q, i.d);
             m->s_n[FS_MAPID_NQ] = 1;
-            m->seen = 1u << FS_MAPID_NQ;
+            m->seen = (uint32_t)1u << (unsigned)FS_MAPID_NQ;
             m->stage = ((m->I_amp > 0.0f) && (m->U > 0.0f)) ? FS_MAPID_QSWEEP : FS_MAPID_OUT;
             fs_pi_reset(&m->pi_q);
         }
@@ -505,11 +510,16 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
         u.d = hold(&m->pi_d, m->I_d, i.d, fs_maxf(lim - m->U, 0.0f));
         if (m->n_trim < 0) {
             u.q = hold(&m->pi_q, 0.0f, i.q, fs_maxf(lim - fabsf(u.d), 0.0f));
-            if ((fabsf(i.q) < (0.02f * c->i_max)) || (++m->k > n_settle)) {
+            bool settled = fabsf(i.q) < (0.02f * c->i_max);
+            if (!settled) {
+                ++m->k;
+                settled = m->k > n_settle;
+            }
+            if (settled) {
                 const float dI = m->U * c->Ts / c->L_q;
                 const float imp = m->torque_imp / torque_weight(c, m->I_d);
                 m->n_trim = (int)(sqrtf(fabsf(imp) / (dI * c->Ts)) + 0.5f);
-                m->leg = (imp > 0.0f) ? 1 : 0;   /* the first half against the impulse */
+                m->leg = (imp > 0.0f) ? (int)1 : (int)0;   /* the first half against the impulse */
                 m->k = 0;
             }
         } else {

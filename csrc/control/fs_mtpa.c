@@ -76,7 +76,7 @@ FS_COLD fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
     m->dL4 = 4.0f * m->dL * m->dL;
     m->psi2 = cfg->psi_f * cfg->psi_f;
     m->salient = m->dL > (1e-9f * cfg->L_q);
-    if (cfg->map) {
+    if (cfg->map != NULL) {
         const fs_status st = mtpa_search(m);
         m->cfg.map = NULL;   /* not kept: the table is all the step needs */
         return st;
@@ -144,8 +144,8 @@ fs_dq fs_mtpa_step(fs_mtpa *m, float T_ref)
          * T ~ a i_q + b i_q^3; exact without a magnet), i_d on the locus
          * from it */
         float s = (T - m->T[lo]) / (m->T[hi] - m->T[lo]);
-        float iq = m->i_q[lo] + (s * (m->i_q[hi] - m->i_q[lo])), T0, dT;
-        if (m->tabulated) {   /* a flux map's locus: its table, linearly */
+        float iq = m->i_q[lo] + (s * (m->i_q[hi] - m->i_q[lo]));
+        if (m->tabulated != 0) {   /* a flux map's locus: its table, linearly */
             out.q = iq;
             out.d = m->i_d[lo] + (s * (m->i_d[hi] - m->i_d[lo]));
             if (T_ref < 0.0f) { out.q = -out.q; }
@@ -154,7 +154,8 @@ fs_dq fs_mtpa_step(fs_mtpa *m, float T_ref)
         if (m->cfg.psi_f <= 0.0f) {   /* reluctance only: T = 1.5 p (L_q - L_d) i_q^2 exactly */
             iq = sqrtf(T / (m->k_T * m->dL));
         } else {
-            T0 = mtpa_locus_torque(m, iq, mtpa_locus_id(m, iq), &dT);
+            float dT;
+            const float T0 = mtpa_locus_torque(m, iq, mtpa_locus_id(m, iq), &dT);
             if (dT > 0.0f) { iq = fs_clampf(iq + (T - T0) / dT, m->i_q[lo], m->i_q[hi]); }
         }
         out.q = iq;

@@ -1,5 +1,7 @@
 #include "fs_pwm5.h"
 #include "fs_math.h"
+
+#include <stddef.h>
 #include "fs_vsd.h"
 
 /* Linear limit in units of u_dc: 1 / (2 cos(pi/10)). With xy = 0 the phase
@@ -11,7 +13,7 @@ bool fs_pwm5(fs_ab u_ref, float u_dc, float duty[5], fs_ab *u_real)
 {
     if (!(u_dc > 0.0f) || !isfinite(u_dc) || !isfinite(u_ref.alpha) || !isfinite(u_ref.beta)) {
         for (int k = 0; k < 5; ++k) { duty[k] = 0.5f; }
-        if (u_real) { u_real->alpha = 0.0f; u_real->beta = 0.0f; }
+        if (u_real != NULL) { u_real->alpha = 0.0f; u_real->beta = 0.0f; }
         return true;
     }
     /* Work in units of u_dc, with a reference first brought within u_dc per
@@ -38,7 +40,7 @@ bool fs_pwm5(fs_ab u_ref, float u_dc, float duty[5], fs_ab *u_real)
     /* Min-max injection: equal zero-vector time at both ends of the period. */
     float offset = 0.5f - (0.5f * (v_max + v_min));
     for (int k = 0; k < 5; ++k) { duty[k] = fs_clamp01(ph[k] + offset); }
-    if (u_real) { *u_real = fs_pwm5_voltage(duty, u_dc); }
+    if (u_real != NULL) { *u_real = fs_pwm5_voltage(duty, u_dc); }
     return over;
 }
 

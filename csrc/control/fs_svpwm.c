@@ -1,6 +1,8 @@
 #include "fs_svpwm.h"
 #include "fs_math.h"
 
+#include <stddef.h>
+
 bool fs_svpwm(fs_ab u_ref, float u_dc, float duty[3], fs_ab *u_real)
 {
     /* all three finite: x - x is 0 for a finite x, NaN for an infinity or a
@@ -8,7 +10,7 @@ bool fs_svpwm(fs_ab u_ref, float u_dc, float duty[3], fs_ab *u_real)
     const float inf_nan = (u_dc - u_dc) + (u_ref.alpha - u_ref.alpha) + (u_ref.beta - u_ref.beta);
     if (!(u_dc > 0.0f) || (inf_nan != 0.0f)) {
         duty[0] = duty[1] = duty[2] = 0.5f;
-        if (u_real) { u_real->alpha = 0.0f; u_real->beta = 0.0f; }
+        if (u_real != NULL) { u_real->alpha = 0.0f; u_real->beta = 0.0f; }
         return (u_ref.alpha != 0.0f) || (u_ref.beta != 0.0f);
     }
     /* Work in units of u_dc, with a reference first brought inside the circle
@@ -38,7 +40,7 @@ bool fs_svpwm(fs_ab u_ref, float u_dc, float duty[3], fs_ab *u_real)
     for (int k = 0; k < 3; ++k) {
         duty[k] = fs_clamp01(0.5f + (v[k] * scale) + offset);
     }
-    if (u_real) {
+    if (u_real != NULL) {
         u_real->alpha = x.alpha * scale * u_dc;
         u_real->beta = x.beta * scale * u_dc;
     }

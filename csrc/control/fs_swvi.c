@@ -78,7 +78,7 @@ float fs_swvi_step(fs_swvi *s, fs_ab i)
             if (!c->carrier_off) { s->eps = s->k_norm * s->i_h.q; }   /* eqs. (6)-(7) */
         }
     }
-    fs_pll_step(&s->pll, s->eps);                           /* Fig. 1 */
+    (void)fs_pll_step(&s->pll, s->eps);                           /* Fig. 1 */
     const float th = s->pll.theta;
 
     /* compensation of the cross-saturation lead, on the q current in the

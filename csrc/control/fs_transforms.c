@@ -134,7 +134,7 @@ float fs_atan2f(float y, float x)
     } else {
         a = s1 + (e1 + (lo + p));
     }
-    if (signbit(x)) {   /* pi - the angle */
+    if (signbit(x) != 0) {   /* pi - the angle */
         const float s3 = PI_HI - a, e3 = (PI_HI - s3) - a;
         a = s3 + (e3 + PI_LO);
     }

@@ -63,7 +63,7 @@ fs_ab fs_xyctrl_step(fs_xyctrl *x, const float i_ph[5], float theta_e, float w_e
 
 void fs_xyctrl_duties(fs_ab u_xy, float u_dc, float duty[5])
 {
-    const fs_vsd5 p = {{0.0f, 0.0f}, u_xy, 0.0f};
+    const fs_vsd5 p = {{0.0f, 0.0f}, {u_xy.alpha, u_xy.beta}, 0.0f};
     float u[5];
     fs_vsd5_inverse(&p, u);
     const float k = (u_dc > 0.0f) ? (1.0f / u_dc) : 0.0f;
