@@ -34,8 +34,10 @@ void fs_drive_ident_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out
     const float th = (id->step < FS_IDENT_SPIN) ? id->theta_s : id->theta;
     const float ct = fs_cosf(th), st = fs_sinf(th);
     const fs_dq i = fs_park(i_ab, ct, st), v = fs_park(u_real, ct, st);
-    out->theta_e = out->theta_est = th;
-    out->w_e = out->w_est = id->w;
+    out->theta_e = th;
+    out->theta_est = th;
+    out->w_e = id->w;
+    out->w_est = id->w;
     out->i_d = i.d;
     out->i_q = i.q;
     out->u_d = v.d;

@@ -26,7 +26,8 @@ FS_COLD fs_status fs_dtcomp_init(fs_dtcomp *d, const fs_dtcomp_config *cfg)
 FS_COLD void fs_dtcomp_reset(fs_dtcomp *d)
 {
     d->k = 0;
-    d->u_inj_now.alpha = d->u_inj_now.beta = 0.0f;
+    d->u_inj_now.alpha = 0.0f;
+    d->u_inj_now.beta = 0.0f;
 }
 
 /* The part of a current's sign that loses (pos) or gains (neg) dead time. */

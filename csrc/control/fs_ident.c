@@ -76,10 +76,27 @@ FS_COLD fs_status fs_ident_init(fs_ident *id, const fs_ident_config *cfg)
     return FS_OK;
 }
 
+/* the HF phasors' sums cleared */
+static void hf_clear(fs_ident *id)
+{
+    id->hf_u[0] = 0.0f;
+    id->hf_u[1] = 0.0f;
+    id->hf_i[0][0] = 0.0f;
+    id->hf_i[0][1] = 0.0f;
+    id->hf_i[1][0] = 0.0f;
+    id->hf_i[1][1] = 0.0f;
+}
+
 static void acc_clear(fs_ident *id)
 {
-    id->s_u = id->s_i = id->s_uu = id->s_ib2 = id->s_ii = id->s_ia = 0.0f;
-    id->e_abs = id->w_abs = 0.0f;
+    id->s_u = 0.0f;
+    id->s_i = 0.0f;
+    id->s_uu = 0.0f;
+    id->s_ib2 = 0.0f;
+    id->s_ii = 0.0f;
+    id->s_ia = 0.0f;
+    id->e_abs = 0.0f;
+    id->w_abs = 0.0f;
     id->n_acc = 0;
 }
 
@@ -101,7 +118,8 @@ void fs_ident_reset(fs_ident *id)
         id->res.reason[FS_IDQ_MAP] = FS_IDR_NOT_ASKED;
     }
     id->step = FS_IDENT_START;
-    id->k = id->sub = 0;
+    id->k = 0;
+    id->sub = 0;
     id->L0 = 0.0f;
     id->u_p = 0.0f;
     id->n_p = 2;
@@ -112,24 +130,40 @@ void fs_ident_reset(fs_ident *id)
     fs_pi_reset(&id->pi_q);
     id->u_max = 0.0f;
     id->theta_s = 0.0f;
-    id->aligned = id->pol_known = 0;
+    id->aligned = 0;
+    id->pol_known = 0;
     id->i_ref0 = 0.0f;
     acc_clear(id);
-    id->u0 = id->i0 = 0.0f;
+    id->u0 = 0.0f;
+    id->i0 = 0.0f;
     for (int b = 0; b < FS_IDENT_NBATCH; ++b) { id->batch[b] = 0.0f; }
-    id->hf_u[0] = id->hf_u[1] = 0.0f;
-    id->hf_i[0][0] = id->hf_i[0][1] = id->hf_i[1][0] = id->hf_i[1][1] = 0.0f;
-    for (int a = 0; a < 8; ++a) { (&id->ax_i[0][0][0])[a] = (&id->ax_u[0][0][0])[a] = 0.0f; }
-    id->U_h = id->w_h = 0.0f;
-    id->theta = id->w = id->w_target = id->bw_pll = id->i_if = id->i_acc = id->w0 = 0.0f;
-    id->u_prev[0].alpha = id->u_prev[0].beta = 0.0f;
+    hf_clear(id);
+    for (int a = 0; a < 8; ++a) {
+        (&id->ax_i[0][0][0])[a] = 0.0f;
+        (&id->ax_u[0][0][0])[a] = 0.0f;
+    }
+    id->U_h = 0.0f;
+    id->w_h = 0.0f;
+    id->theta = 0.0f;
+    id->w = 0.0f;
+    id->w_target = 0.0f;
+    id->bw_pll = 0.0f;
+    id->i_if = 0.0f;
+    id->i_acc = 0.0f;
+    id->w0 = 0.0f;
+    id->u_prev[0].alpha = 0.0f;
+    id->u_prev[0].beta = 0.0f;
     id->u_prev[1] = id->u_prev[0];
-    id->u_dq.d = id->u_dq.q = 0.0f;
-    id->e_abs = id->w_abs = 0.0f;
+    id->u_dq.d = 0.0f;
+    id->u_dq.q = 0.0f;
+    id->e_abs = 0.0f;
+    id->w_abs = 0.0f;
     id->tries = 0;
-    id->rec_n = id->rec_k = 0;
+    id->rec_n = 0;
+    id->rec_k = 0;
     id->rec_dec = 1;
-    id->t_acc = id->w_acc = 0.0f;
+    id->t_acc = 0.0f;
+    id->w_acc = 0.0f;
 }
 
 float fs_ident_leg_error(const fs_ident *id, float i)
@@ -243,7 +277,8 @@ static void rec_push(fs_ident *id, float t, float w)
 
 static void rec_clear(fs_ident *id)
 {
-    id->rec_n = id->rec_k = 0;
+    id->rec_n = 0;
+    id->rec_k = 0;
     id->rec_dec = 1;
 }
 
@@ -365,8 +400,7 @@ static float pi_hold(fs_pi *pi, float meas, float lim)
 static void ldq_clear(fs_ident *id)
 {
     id->k = 0;
-    id->hf_u[0] = id->hf_u[1] = 0.0f;
-    id->hf_i[0][0] = id->hf_i[0][1] = id->hf_i[1][0] = id->hf_i[1][1] = 0.0f;
+    hf_clear(id);
 }
 
 /* complex arithmetic for AXIS's 2 x 2 phasor algebra */
@@ -414,7 +448,7 @@ static fs_ab step_axis(fs_ident *id, fs_ab i)
         id->w_h = FS_TWO_PI / ((float)N_HF * c->Ts);
         id->U_h = fs_minf(I_HF_D * c->i_max * id->w_h * id->L0, 0.5f * id->u_max);
         for (int j = 0; j < 2; ++j) {
-            for (int a = 0; a < 2; ++a) { id->ax_i[j][a][0] = id->ax_i[j][a][1] = id->ax_u[j][a][0] = id->ax_u[j][a][1] = 0.0f; }
+            for (int a = 0; a < 2; ++a) { id->ax_i[j][a][0] = 0.0f; id->ax_i[j][a][1] = 0.0f; id->ax_u[j][a][0] = 0.0f; id->ax_u[j][a][1] = 0.0f; }
         }
     }
     const int kh = id->k;
@@ -470,7 +504,8 @@ static fs_ab step_axis(fs_ident *id, fs_ab i)
         if (c->standstill_only && !c->locked) {
             ident_fail(id, FS_IDQ_VERR, FS_IDR_NO_AXIS);
         } else if (c->locked != 0) {   /* on alpha: R_s, the inverter's error and L (one value) need no axis; the map does */
-            id->theta_s = r->theta_axis = 0.0f;
+            id->theta_s = 0.0f;
+            r->theta_axis = 0.0f;
             r->status[FS_IDQ_MAP] = FS_IDS_FAILED;
             r->reason[FS_IDQ_MAP] = FS_IDR_NO_AXIS;
             ident_goto(id, FS_IDENT_LEVELS);
@@ -568,7 +603,8 @@ static fs_ab step_align(fs_ident *id, fs_ab i)
     const bool still = rms_b < ((0.03f * I_top) + (3.0f * ((id->res.noise_i > 0.0f) ? id->res.noise_i : s_a)));
     id->tries = still ? (id->tries + 1) : 0;
     if ((id->tries >= 2) && ((float)id->k * c->Ts) >= 0.3f) {   /* two windows in a row: not a swing's turning point */
-        id->theta_s = id->res.theta_axis = 0.0f;   /* the rotor's north on alpha */
+        id->theta_s = 0.0f;
+        id->res.theta_axis = 0.0f;   /* the rotor's north on alpha */
         id->aligned = 1;
         id->pol_known = 1;
         id->tries = 0;

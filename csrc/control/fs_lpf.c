@@ -11,7 +11,7 @@ FS_COLD fs_status fs_lpf_init(fs_lpf *f, const fs_lpf_config *cfg)
     return FS_OK;
 }
 
-void fs_lpf_reset(fs_lpf *f) { f->y.alpha = f->y.beta = 0.0f; }
+void fs_lpf_reset(fs_lpf *f) { f->y.alpha = 0.0f; f->y.beta = 0.0f; }
 
 float fs_lpf_gain(const fs_lpf *f, float w_c)
 {

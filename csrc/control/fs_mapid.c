@@ -67,8 +67,14 @@ FS_COLD fs_status fs_mapid_init(fs_mapid *m, const fs_mapid_config *cfg)
 static void sums_clear(fs_mapid *m)
 {
     for (int t = 0; t < FS_MAPID_NT; ++t) {
-        m->s_x[t] = m->s_y[t] = m->s_i[t] = m->s_up[t] = m->s_dn[t] = 0.0f;
-        m->s_n[t] = m->c_up[t] = m->c_dn[t] = 0;
+        m->s_x[t] = 0.0f;
+        m->s_y[t] = 0.0f;
+        m->s_i[t] = 0.0f;
+        m->s_up[t] = 0.0f;
+        m->s_dn[t] = 0.0f;
+        m->s_n[t] = 0;
+        m->c_up[t] = 0;
+        m->c_dn[t] = 0;
     }
 }
 
@@ -77,14 +83,28 @@ void fs_mapid_reset(fs_mapid *m)
     static const fs_mapid_result none;
     m->res = none;
     m->stage = FS_MAPID_DSWEEP;
-    m->level = m->k = m->leg = m->rleg = 0;
+    m->level = 0;
+    m->k = 0;
+    m->leg = 0;
+    m->rleg = 0;
     fs_pi_reset(&m->pi_d);
     fs_pi_reset(&m->pi_q);
-    m->I_d = m->I_amp = m->U = 0.0f;
-    m->n_rise = m->n_trim = m->restarts = 0;
-    m->impulse = m->torque_imp = 0.0f;
-    m->psi_d = m->psi_q = m->x_prev = m->y_prev = m->e_prev_d = m->e_prev_q = 0.0f;
-    m->u_out[0] = m->u_out[1] = (fs_dq){0.0f, 0.0f};
+    m->I_d = 0.0f;
+    m->I_amp = 0.0f;
+    m->U = 0.0f;
+    m->n_rise = 0;
+    m->n_trim = 0;
+    m->restarts = 0;
+    m->impulse = 0.0f;
+    m->torque_imp = 0.0f;
+    m->psi_d = 0.0f;
+    m->psi_q = 0.0f;
+    m->x_prev = 0.0f;
+    m->y_prev = 0.0f;
+    m->e_prev_d = 0.0f;
+    m->e_prev_q = 0.0f;
+    m->u_out[0] = (fs_dq){0.0f, 0.0f};
+    m->u_out[1] = (fs_dq){0.0f, 0.0f};
     m->seen = 0u;
     sums_clear(m);
 }
@@ -173,8 +193,10 @@ static float sweep_voltage(const fs_mapid *m, float x, float e_x)
 static void sweep_start(fs_mapid *m, float x, float y)
 {
     sums_clear(m);
-    m->psi_d = m->psi_q = 0.0f;
-    m->leg = m->rleg = 0;
+    m->psi_d = 0.0f;
+    m->psi_q = 0.0f;
+    m->leg = 0;
+    m->rleg = 0;
     m->impulse = 0.0f;
     m->x_prev = x;
     m->y_prev = y;
@@ -230,7 +252,8 @@ static void d_design(fs_mapid *m, float u_max)
         r->d_limit = FS_MAPID_LIM_UNSTABLE;
         if (d_growth(c, I, U) > e_max) { I = 0.0f; }
     }
-    m->I_amp = r->d_amp = I;
+    m->I_amp = I;
+    r->d_amp = I;
     m->U = U;
     r->d_growth = d_growth(c, I, U);
 }
@@ -407,7 +430,9 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
             if (!(m->I_amp > 0.0f)) {   /* no sweep the free rotor would stand: nothing read */
                 d_finish(m);
                 m->stage = c->d_only ? FS_MAPID_DONE : FS_MAPID_IN;
-                m->level = m->k = m->n_rise = 0;
+                m->level = 0;
+                m->k = 0;
+                m->n_rise = 0;
                 break;
             }
             m->s_n[FS_MAPID_ND / 2] = 1;   /* the start reads 0 (its flux is the origin) */

@@ -25,18 +25,33 @@ FS_COLD fs_status fs_motion_test_init(fs_motion_test *m, const fs_motion_test_co
     return FS_OK;
 }
 
+/* A window starts: its first value, and its spread and sums cleared */
+static void window_clear(fs_motion_test *m, float theta_half)
+{
+    m->theta_half = theta_half;
+    m->lo = 0.0f;
+    m->hi = 0.0f;
+    m->sx = 0.0f;
+    m->sy = 0.0f;
+    m->sxx = 0.0f;
+    m->sxy = 0.0f;
+    m->n_win = 0;
+}
+
 void fs_motion_test_reset(fs_motion_test *m)
 {
     m->stage = FS_MOTION_LOCK;
     m->k = 0;
     m->attempts = 0;
-    m->locks = m->settles = 0;
+    m->locks = 0;
+    m->settles = 0;
     m->i_now = m->cfg.i_push;
-    m->theta_half = m->lo = m->hi = m->sx = m->sy = m->sxx = m->sxy = 0.0f;
-    m->n_win = 0;
+    window_clear(m, 0.0f);
     m->threshold = m->cfg.theta_dec;
-    m->theta_ref = m->turn = 0.0f;
-    m->moved = m->flip = false;
+    m->theta_ref = 0.0f;
+    m->turn = 0.0f;
+    m->moved = false;
+    m->flip = false;
 }
 
 /* The estimate over a window: its spread about its first value and the
@@ -46,9 +61,7 @@ void fs_motion_test_reset(fs_motion_test *m)
 static void motion_window(fs_motion_test *m, float theta, int j)
 {
     if (j == 0) {
-        m->theta_half = theta;
-        m->lo = m->hi = m->sx = m->sy = m->sxx = m->sxy = 0.0f;
-        m->n_win = 0;
+        window_clear(m, theta);
     }
     const float y = fs_wrap_pi(theta - m->theta_half), x = (float)j;
     m->lo = fs_minf(m->lo, y);

@@ -31,7 +31,9 @@ static float mtpa_map_torque(const fs_mtpa *m, float I, float g, fs_dq *i)
 static FS_COLD fs_status mtpa_search(fs_mtpa *m)
 {
     const float r = 0.618034f;
-    m->i_d[0] = m->i_q[0] = m->T[0] = 0.0f;
+    m->i_d[0] = 0.0f;
+    m->i_q[0] = 0.0f;
+    m->T[0] = 0.0f;
     for (int k = 1; k < FS_MTPA_N; ++k) {
         const float I = m->cfg.i_max * (float)k / (float)(FS_MTPA_N - 1);
         float lo = 0.0f, hi = FS_PI;

@@ -34,8 +34,14 @@ void fs_param_adapt_reset(fs_param_adapt *a)
 {
     a->k = 0;
     a->n_learn = 0;
-    a->y = a->i_q = a->w = 0.0f;
-    a->S11 = a->S12 = a->S22 = a->b1 = a->b2 = 0.0f;
+    a->y = 0.0f;
+    a->i_q = 0.0f;
+    a->w = 0.0f;
+    a->S11 = 0.0f;
+    a->S12 = 0.0f;
+    a->S22 = 0.0f;
+    a->b1 = 0.0f;
+    a->b2 = 0.0f;
     a->R_s = a->cfg.R_s;
     a->psi_f = a->cfg.psi_f;
     a->sep = 0.0f;

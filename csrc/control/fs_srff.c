@@ -14,7 +14,7 @@ FS_COLD fs_status fs_srff_init(fs_srff *f, const fs_srff_config *cfg)
     return FS_OK;
 }
 
-void fs_srff_reset(fs_srff *f) { f->lp.d = f->lp.q = 0.0f; }
+void fs_srff_reset(fs_srff *f) { f->lp.d = 0.0f; f->lp.q = 0.0f; }
 
 fs_ab fs_srff_step(fs_srff *f, fs_ab x, float theta_x)
 {

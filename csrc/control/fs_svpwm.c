@@ -9,7 +9,9 @@ bool fs_svpwm(fs_ab u_ref, float u_dc, float duty[3], fs_ab *u_real)
      * NaN (one test where three isfinite cost four instructions each) */
     const float inf_nan = (u_dc - u_dc) + (u_ref.alpha - u_ref.alpha) + (u_ref.beta - u_ref.beta);
     if (!(u_dc > 0.0f) || (inf_nan != 0.0f)) {
-        duty[0] = duty[1] = duty[2] = 0.5f;
+        duty[0] = 0.5f;
+        duty[1] = 0.5f;
+        duty[2] = 0.5f;
         if (u_real != NULL) { u_real->alpha = 0.0f; u_real->beta = 0.0f; }
         return (u_ref.alpha != 0.0f) || (u_ref.beta != 0.0f);
     }

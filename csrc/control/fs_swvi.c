@@ -30,17 +30,23 @@ void fs_swvi_reset(fs_swvi *s, float theta, float w)
     fs_pll_reset(&s->pll, theta, w);
     s->k = 0;
     for (int n = 0; n < 4; ++n) {
-        s->i_ab[n].alpha = s->i_ab[n].beta = 0.0f;
-        s->i_dq[n].d = s->i_dq[n].q = 0.0f;
+        s->i_ab[n].alpha = 0.0f;
+        s->i_ab[n].beta = 0.0f;
+        s->i_dq[n].d = 0.0f;
+        s->i_dq[n].q = 0.0f;
         s->theta_u[n] = s->pll.theta;
     }
     s->ff_fresh = false;
-    s->i_f.alpha = s->i_f.beta = 0.0f;
-    s->i_h.d = s->i_h.q = 0.0f;
-    s->eps = s->delta = 0.0f;
+    s->i_f.alpha = 0.0f;
+    s->i_f.beta = 0.0f;
+    s->i_h.d = 0.0f;
+    s->i_h.q = 0.0f;
+    s->eps = 0.0f;
+    s->delta = 0.0f;
     s->theta = s->pll.theta;
     s->w = w;
-    s->u.alpha = s->u.beta = 0.0f;
+    s->u.alpha = 0.0f;
+    s->u.beta = 0.0f;
 }
 
 /* The mean of two angles a step apart. */

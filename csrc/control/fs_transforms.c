@@ -122,7 +122,8 @@ float fs_atan2f(float y, float x)
         lo = PI4_LO;
     } else {
         u = num / den;
-        hi = lo = 0.0f;
+        hi = 0.0f;
+        lo = 0.0f;
     }
     const float z = u * u;
     const float p = u * z * (-0.33333233f + (z * (0.19994226f + (z * (-0.14175011f + (z * (0.10160015f + (z * -0.05132597f))))))));

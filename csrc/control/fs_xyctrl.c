@@ -32,8 +32,10 @@ void fs_xyctrl_reset(fs_xyctrl *x)
 {
     fs_pi_reset(&x->pi_d3);
     fs_pi_reset(&x->pi_q3);
-    x->i3.d = x->i3.q = 0.0f;
-    x->u_xy.alpha = x->u_xy.beta = 0.0f;
+    x->i3.d = 0.0f;
+    x->i3.q = 0.0f;
+    x->u_xy.alpha = 0.0f;
+    x->u_xy.beta = 0.0f;
 }
 
 fs_ab fs_xyctrl_step(fs_xyctrl *x, const float i_ph[5], float theta_e, float w_e, float u_dc)
