@@ -32,8 +32,10 @@ void fs_drive_ident_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out
     out->over_modulation = fs_svpwm(u, in->u_dc, out->duty, &u_real);
     /* the frame the step works in: the standstill steps' axis, then the running frame */
     const float th = (id->step < FS_IDENT_SPIN) ? id->theta_s : id->theta;
-    const float ct = fs_cosf(th), st = fs_sinf(th);
-    const fs_dq i = fs_park(i_ab, ct, st), v = fs_park(u_real, ct, st);
+    const float ct = fs_cosf(th);
+    const float st = fs_sinf(th);
+    const fs_dq i = fs_park(i_ab, ct, st);
+    const fs_dq v = fs_park(u_real, ct, st);
     out->theta_e = th;
     out->theta_est = th;
     out->w_e = id->w;

@@ -71,7 +71,8 @@ void fs_dtcomp_step(fs_dtcomp *d, const float i_ph[], fs_ab u_inj, float duty[])
     const float Th = 0.5f * c->T_pwm;
     /* flux the carrier adds until the interval starts, and its rate in it */
     const float t0 = c->delay * c->Ts;
-    float di0[FS_PHASES_MAX], rate[FS_PHASES_MAX];
+    float di0[FS_PHASES_MAX];
+    float rate[FS_PHASES_MAX];
     phase_values(c->phases, (fs_ab){t0 * d->inv_L * d->u_inj_now.alpha, t0 * d->inv_L * d->u_inj_now.beta}, di0);
     phase_values(c->phases, (fs_ab){u_inj.alpha * d->inv_L, u_inj.beta * d->inv_L}, rate);
     /* the half the interval is: with delay it starts one step after this one */

@@ -22,17 +22,28 @@ fs_fluxmap_point fs_fluxmap_eval(const fs_fluxmap *m, fs_dq i)
 {
     const fs_fluxmap_table *t = m->t;
     /* the cell, and the position in it (beyond the grid's edge: outside [0, 1], its slope goes on) */
-    const float x = (i.d - t->i_d0) * m->inv_di_d, y = fabsf(i.q) * m->inv_di_q;
+    const float x = (i.d - t->i_d0) * m->inv_di_d;
+    const float y = fabsf(i.q) * m->inv_di_q;
     const int k = (int)fs_clampf(x, 0.0f, (float)(FS_FLUXMAP_ND - 2));
     const int l = (int)fs_clampf(y, 0.0f, (float)(FS_FLUXMAP_NQ - 2));
-    const float a = x - (float)k, b = y - (float)l;
+    const float a = x - (float)k;
+    const float b = y - (float)l;
     const int n = (k * FS_FLUXMAP_NQ) + l;
-    const int16_t *d = t->psi_d + n, *q = t->psi_q + n;
+    const int16_t *d = t->psi_d + n;
+    const int16_t *q = t->psi_q + n;
     /* corners: [0] (k, l), [1] (k, l + 1), [NQ] (k + 1, l), [NQ + 1] (k + 1, l + 1) */
-    const float d00 = d[0], d01 = d[1], d10 = d[FS_FLUXMAP_NQ], d11 = d[FS_FLUXMAP_NQ + 1];
-    const float q00 = q[0], q01 = q[1], q10 = q[FS_FLUXMAP_NQ], q11 = q[FS_FLUXMAP_NQ + 1];
-    const float dd0 = d10 - d00, dd1 = d11 - d01;            /* along d at l and l + 1 */
-    const float dq0 = q01 - q00, dq1 = q11 - q10;            /* along q at k and k + 1 */
+    const float d00 = d[0];
+    const float d01 = d[1];
+    const float d10 = d[FS_FLUXMAP_NQ];
+    const float d11 = d[FS_FLUXMAP_NQ + 1];
+    const float q00 = q[0];
+    const float q01 = q[1];
+    const float q10 = q[FS_FLUXMAP_NQ];
+    const float q11 = q[FS_FLUXMAP_NQ + 1];
+    const float dd0 = d10 - d00;                             /* along d at l and l + 1 */
+    const float dd1 = d11 - d01;
+    const float dq0 = q01 - q00;                             /* along q at k and k + 1 */
+    const float dq1 = q11 - q10;
     const float s = t->psi_scale;
     fs_fluxmap_point p;
     p.psi.d = s * (d00 + (a * dd0) + (b * ((d01 - d00) + (a * (dd1 - dd0)))));

@@ -168,7 +168,8 @@ void fs_ident_reset(fs_ident *id)
 
 float fs_ident_leg_error(const fs_ident *id, float i)
 {
-    const float ue = id->res.u_e, ie = id->res.i_e;
+    const float ue = id->res.u_e;
+    const float ie = id->res.i_e;
     if (id->res.status[FS_IDQ_VERR] != FS_IDS_OK) { return 0.0f; }
     return ue * i / sqrtf((i * i) + (ie * ie) + 1e-30f);
 }
@@ -236,14 +237,16 @@ static bool rec_fit(const fs_ident *id, int a, int b, float *slope, float *t_m, 
 {
     const int n = b - a;
     if (n < 3) { return false; }
-    float st = 0.0f, sw = 0.0f;
+    float st = 0.0f;
+    float sw = 0.0f;
     for (int k = a; k < b; ++k) {
         st += id->rec_t[k];
         sw += id->rec_w[k];
     }
     st /= (float)n;
     sw /= (float)n;
-    float stt = 0.0f, stw = 0.0f;
+    float stt = 0.0f;
+    float stw = 0.0f;
     for (int k = a; k < b; ++k) {
         const float dt = id->rec_t[k] - st;
         stt += dt * dt;
@@ -339,10 +342,12 @@ static fs_ab dc_on_alpha(fs_ident *id, fs_ab i, float i_ref)
 static fs_ab dc_on_d(fs_ident *id, fs_ab i, float i_ref)
 {
     const float lim = 0.95f * id->u_max;
-    const float u = pi_out(&id->pi_d, i_ref, i.alpha), ur = fs_clamp_sym(u, lim);
+    const float u = pi_out(&id->pi_d, i_ref, i.alpha);
+    const float ur = fs_clamp_sym(u, lim);
     fs_pi_update(&id->pi_d, i_ref, i.alpha, u, ur);
     const float lq = sqrtf(fs_maxf((lim * lim) - (ur * ur), 0.0f));
-    const float v = pi_out(&id->pi_q, 0.0f, i.beta), vr = fs_clamp_sym(v, lq);
+    const float v = pi_out(&id->pi_q, 0.0f, i.beta);
+    const float vr = fs_clamp_sym(v, lq);
     fs_pi_update(&id->pi_q, 0.0f, i.beta, v, vr);
     return (fs_ab){ur, vr};
 }
@@ -350,7 +355,8 @@ static fs_ab dc_on_d(fs_ident *id, fs_ab i, float i_ref)
 /* the ALIGN's short in a frame at angle th (the alignment's first direction) */
 static fs_ab dc_in_frame(fs_ident *id, fs_ab i_ab, float i_ref, float th)
 {
-    const float ct = fs_cosf(th), st = fs_sinf(th);
+    const float ct = fs_cosf(th);
+    const float st = fs_sinf(th);
     const fs_dq i = fs_park(i_ab, ct, st);
     const fs_ab u = dc_on_alpha(id, (fs_ab){i.d, i.q}, i_ref);
     return fs_inv_park((fs_dq){u.alpha, u.beta}, ct, st);
@@ -374,7 +380,8 @@ static void acc_add(fs_ident *id, float u, fs_ab i)
         id->u0 = u;
         id->i0 = i.alpha;
     }
-    const float du = u - id->u0, di = i.alpha - id->i0;
+    const float du = u - id->u0;
+    const float di = i.alpha - id->i0;
     id->s_u += du;
     id->s_uu += du * du;
     id->s_i += di;
@@ -392,7 +399,8 @@ static float acc_std(float s, float ss, int n)
 /* a loop holding its axis' current at zero, its output within lim */
 static float pi_hold(fs_pi *pi, float meas, float lim)
 {
-    const float u = pi_out(pi, 0.0f, meas), ur = fs_clamp_sym(u, lim);
+    const float u = pi_out(pi, 0.0f, meas);
+    const float ur = fs_clamp_sym(u, lim);
     fs_pi_update(pi, 0.0f, meas, u, ur);
     return ur;
 }
@@ -404,7 +412,7 @@ static void ldq_clear(fs_ident *id)
 }
 
 /* complex arithmetic for AXIS's 2 x 2 phasor algebra */
-typedef struct { float re, im; } cx;
+typedef struct { float re; float im; } cx;
 static cx cmul(cx a, cx b) { return (cx){(a.re * b.re) - (a.im * b.im), (a.re * b.im) + (a.im * b.re)}; }
 static cx csub(cx a, cx b) { return (cx){a.re - b.re, a.im - b.im}; }
 static cx cdiv(cx a, cx b)
@@ -453,7 +461,8 @@ static fs_ab step_axis(fs_ident *id, fs_ab i)
     }
     const int kh = id->k;
     const int skip = (id->sub < 2) ? (int)HF_SKIP : (int)AX_SKIP;   /* the first turn of each: the loops' start too */
-    float cu, su;
+    float cu;
+    float su;
     hf_phase(kh % N_HF, &cu, &su);
     fs_ab u;
     const float lim = 0.45f * id->u_max;
@@ -475,8 +484,14 @@ static fs_ab step_axis(fs_ident *id, fs_ab i)
     if (++id->sub < 2 * AX_TURNS) { return u; }
 
     fs_ident_result *r = &id->res;
-    const cx I00 = ph(id->ax_i, 0, 0), I10 = ph(id->ax_i, 0, 1), I01 = ph(id->ax_i, 1, 0), I11 = ph(id->ax_i, 1, 1);
-    const cx U00 = ph(id->ax_u, 0, 0), U10 = ph(id->ax_u, 0, 1), U01 = ph(id->ax_u, 1, 0), U11 = ph(id->ax_u, 1, 1);
+    const cx I00 = ph(id->ax_i, 0, 0);
+    const cx I10 = ph(id->ax_i, 0, 1);
+    const cx I01 = ph(id->ax_i, 1, 0);
+    const cx I11 = ph(id->ax_i, 1, 1);
+    const cx U00 = ph(id->ax_u, 0, 0);
+    const cx U10 = ph(id->ax_u, 0, 1);
+    const cx U01 = ph(id->ax_u, 1, 0);
+    const cx U11 = ph(id->ax_u, 1, 1);
     const cx det = csub(cmul(I00, I11), cmul(I01, I10));
     if (!(((det.re * det.re) + (det.im * det.im)) > 0.0f)) {
         ident_fail(id, FS_IDQ_LD, FS_IDR_NO_CURRENT);
@@ -491,7 +506,8 @@ static fs_ab step_axis(fs_ident *id, fs_ab i)
     const float L_ba = cmul(g, csub(cmul(U10, I11), cmul(U11, I10))).im;
     const float L_bb = cmul(g, csub(cmul(U11, I00), cmul(U10, I01))).im;
     const float L_ab = 0.5f * (L_ab1 + L_ba);
-    const float L_s = 0.5f * (L_aa + L_bb), D = sqrtf(0.25f * (L_aa - L_bb) * (L_aa - L_bb) + (L_ab * L_ab));
+    const float L_s = 0.5f * (L_aa + L_bb);
+    const float D = sqrtf(0.25f * (L_aa - L_bb) * (L_aa - L_bb) + (L_ab * L_ab));
     r->L_d_axis = L_s - D;
     r->L_q_axis = L_s + D;
     r->saliency = (L_s > 0.0f) ? (D / L_s) : 0.0f;
@@ -529,7 +545,8 @@ static fs_ab step_axis(fs_ident *id, fs_ab i)
 static fs_ab step_polarity(fs_ident *id, fs_ab i_ab)
 {
     const fs_ident_config *c = &id->cfg;
-    const float ct = fs_cosf(id->theta_s), st = fs_sinf(id->theta_s);
+    const float ct = fs_cosf(id->theta_s);
+    const float st = fs_sinf(id->theta_s);
     const fs_dq u = fs_mapid_step(&id->map, fs_park(i_ab, ct, st), (fs_dq){0.0f, 0.0f}, id->u_max);
     if (id->map.stage != FS_MAPID_DONE) { return fs_inv_park(u, ct, st); }
     fs_ident_result *r = &id->res;
@@ -626,7 +643,9 @@ static float fit_leg_error(fs_ident *id, const float E[], const float I_j[])
     float best = INFINITY;
     for (int g = 0; g <= 40; ++g) {
         const float ie = 1e-3f * i_max * powf(10.0f, 2.5f * (float)g / 40.0f);   /* 1e-3 .. 0.3 i_max */
-        float shh = 0.0f, seh = 0.0f, h[FS_IDENT_NLEV];
+        float shh = 0.0f;
+        float seh = 0.0f;
+        float h[FS_IDENT_NLEV];
         for (int j = 0; j < FS_IDENT_NLEV; ++j) {
             const float I = I_j[j];
             /* d-axis current i on alpha: legs at i, -i/2, -i/2: E = 2/3 (g(i) + g(i/2)) */
@@ -699,7 +718,8 @@ static fs_ab step_levels(fs_ident *id, fs_ab i_ab)
     if (id->n_acc < n_meas) { return from_frame(id, u); }
     const int n = id->n_acc;
     fs_ident_result *r = &id->res;
-    const float I_m = id->i0 + (id->s_i / (float)n), U_m = id->u0 + (id->s_u / (float)n);
+    const float I_m = id->i0 + (id->s_i / (float)n);
+    const float U_m = id->u0 + (id->s_u / (float)n);
     if (sgn > 0.0f) {
         r->I_lev[j] = I_m;
         r->U_lev[j] = U_m;
@@ -726,7 +746,9 @@ static fs_ab step_levels(fs_ident *id, fs_ab i_ab)
     }
     if (j < 3) {   /* the noise of a level's mean voltage, from the top levels */
         id->sigma_i = fs_maxf(id->sigma_i, s_a);
-        float prev = 0.0f, sb = 0.0f, sbb = 0.0f;
+        float prev = 0.0f;
+        float sb = 0.0f;
+        float sbb = 0.0f;
         for (int b = 0; b < FS_IDENT_NBATCH; ++b) {
             const float m = (id->batch[b] - prev) / (float)(n_meas / FS_IDENT_NBATCH);
             prev = id->batch[b];
@@ -741,13 +763,17 @@ static fs_ab step_levels(fs_ident *id, fs_ab i_ab)
     if (++id->sub < (alt ? 2 : 1) * FS_IDENT_NLEV) { return from_frame(id, u); }
 
     /* each level's current and voltage: half the difference of the signs' */
-    float I_j[FS_IDENT_NLEV], U_j[FS_IDENT_NLEV];
+    float I_j[FS_IDENT_NLEV];
+    float U_j[FS_IDENT_NLEV];
     for (int k = 0; k < FS_IDENT_NLEV; ++k) {
         I_j[k] = alt ? 0.5f * (r->I_lev[k] - r->I_levn[k]) : r->I_lev[k];
         U_j[k] = alt ? 0.5f * (r->U_lev[k] - r->U_levn[k]) : r->U_lev[k];
     }
     /* R_s: least squares through the top three levels */
-    float mi = 0.0f, mu = 0.0f, sii = 0.0f, siu = 0.0f;
+    float mi = 0.0f;
+    float mu = 0.0f;
+    float sii = 0.0f;
+    float siu = 0.0f;
     for (int k = 0; k < 3; ++k) {
         mi += I_j[k] / 3.0f;
         mu += U_j[k] / 3.0f;
@@ -792,12 +818,17 @@ static fs_ab step_levels(fs_ident *id, fs_ab i_ab)
  * with the current, adds to Re(W) only. */
 static float hf_inductance(const fs_ident *id, float Ur, float Ui, float Ir, float Ii)
 {
-    const float Ts = id->cfg.Ts, wt = id->w_h * Ts, d = id->cfg.delay;
+    const float Ts = id->cfg.Ts;
+    const float wt = id->w_h * Ts;
+    const float d = id->cfg.delay;
     const float den = (Ir * Ir) + (Ii * Ii);
     if (!(den > 0.0f)) { return NAN; }
-    const float Yr = ((Ur * Ir) + (Ui * Ii)) / den, Yi = ((Ui * Ir) - (Ur * Ii)) / den;
-    const float cd = fs_cosf(wt * d), sd = fs_sinf(wt * d);
-    const float Wr = (Yr * cd) + (Yi * sd), Wi = (Yi * cd) - (Yr * sd);   /* W = Y e^{-j w Ts d} */
+    const float Yr = ((Ur * Ir) + (Ui * Ii)) / den;
+    const float Yi = ((Ui * Ir) - (Ur * Ii)) / den;
+    const float cd = fs_cosf(wt * d);
+    const float sd = fs_sinf(wt * d);
+    const float Wr = (Yr * cd) + (Yi * sd);                               /* W = Y e^{-j w Ts d} */
+    const float Wi = (Yi * cd) - (Yr * sd);
     if (!(Wi > 0.0f)) { return NAN; }
     const float b = fs_sinf(wt) / Wi;
     const float a = fs_cosf(wt) - (b * Wr);
@@ -811,12 +842,17 @@ static float hf_inductance(const fs_ident *id, float Ur, float Ui, float Ir, flo
 static fs_ab frame_current(fs_ident *id, fs_ab i_ab, fs_dq i_ref)
 {
     const fs_ident_result *r = &id->res;
-    const float ct = fs_cosf(id->theta), st = fs_sinf(id->theta);
+    const float ct = fs_cosf(id->theta);
+    const float st = fs_sinf(id->theta);
     const fs_dq i = fs_park(i_ab, ct, st);
-    const float ff_d = -id->w * r->L_q * i.q, ff_q = id->w * r->L_d * i.d;
-    const float vd = pi_out(&id->pi_d, i_ref.d, i.d), vq = pi_out(&id->pi_q, i_ref.q, i.q);
-    float ud = vd + ff_d, uq = vq + ff_q;
-    const float m = sqrtf((ud * ud) + (uq * uq)), lim = 0.95f * id->u_max;
+    const float ff_d = -id->w * r->L_q * i.q;
+    const float ff_q = id->w * r->L_d * i.d;
+    const float vd = pi_out(&id->pi_d, i_ref.d, i.d);
+    const float vq = pi_out(&id->pi_q, i_ref.q, i.q);
+    float ud = vd + ff_d;
+    float uq = vq + ff_q;
+    const float m = sqrtf((ud * ud) + (uq * uq));
+    const float lim = 0.95f * id->u_max;
     if (m > lim) {
         ud *= lim / m;
         uq *= lim / m;
@@ -833,7 +869,8 @@ static fs_ab frame_current(fs_ident *id, fs_ab i_ab, fs_dq i_ref)
 static fs_dq frame_emf(const fs_ident *id, fs_ab i_ab)
 {
     const fs_ident_result *r = &id->res;
-    const float ct = fs_cosf(id->theta), st = fs_sinf(id->theta);
+    const float ct = fs_cosf(id->theta);
+    const float st = fs_sinf(id->theta);
     const fs_dq i = fs_park(i_ab, ct, st);
     const fs_dq ue = fs_park(ident_inv_error(id, i_ab), ct, st);
     return (fs_dq){id->u_dq.d - ue.d - (r->R_s * i.d) + (id->w * r->L_q * i.q),
@@ -845,7 +882,8 @@ static float frame_pll(fs_ident *id, fs_ab i_ab)
 {
     const fs_dq e = frame_emf(id, i_ab);
     const float phi = fs_atan2f(-e.d, e.q) * ((id->w >= 0.0f) ? 1.0f : -1.0f);
-    const float kp = 2.0f * id->bw_pll, ki = id->bw_pll * id->bw_pll;   /* double pole at bw_pll */
+    const float kp = 2.0f * id->bw_pll;                                 /* double pole at bw_pll */
+    const float ki = id->bw_pll * id->bw_pll;
     id->w0 += ki * phi * id->cfg.Ts;                                       /* w0: the integral, the speed */
     id->w = id->w0 + (kp * phi);
     id->theta = fs_wrap_pi(id->theta + (id->w * id->cfg.Ts));
@@ -899,11 +937,13 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
      * q carrier: L_q measured on a frame 1.4 el.deg off read -2 % on zoo machine 12); 1, 2: q at the first
      * and second bias */
     const bool d_meas = check || (id->sub == 0);
-    const int axis = d_meas ? (int)0 : (int)1, level = id->sub - 1;
+    const int axis = d_meas ? (int)0 : (int)1;
+    const int level = id->sub - 1;
     const float I_b = d_meas ? 0.0f : ldq_bias(id, level);
     if (id->k == 0) {
         id->w_h = FS_TWO_PI / ((float)N_HF * c->Ts);
-        const float R = id->res.R_s, X = id->w_h * id->L0;   /* the probe's L: the amplitudes B-IDENT was tuned on */
+        const float R = id->res.R_s;                         /* the probe's L: the amplitudes B-IDENT was tuned on */
+        const float X = id->w_h * id->L0;
         id->U_h = fs_minf((axis ? I_HF : I_HF_D) * c->i_max * sqrtf((R * R) + (X * X)), 0.5f * id->u_max);
         ldq_clear(id);
     }
@@ -914,7 +954,8 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
         return from_frame(id, u);
     }
     const int kh = id->k - n_set;
-    float cu, su;
+    float cu;
+    float su;
     hf_phase(kh % N_HF, &cu, &su);
     const float uh = id->U_h * cu;   /* a cosine voltage: the inductive current starts at its own zero */
     if (axis == 0) { u.alpha += uh; } else { u.beta += uh; }
@@ -933,7 +974,8 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
 
     fs_ident_result *r = &id->res;
     const int n = HF_MEAS * N_HF;
-    const float *Iax = id->hf_i[axis], *Ix = id->hf_i[1 - axis];
+    const float *Iax = id->hf_i[axis];
+    const float *Ix = id->hf_i[1 - axis];
     const float L = hf_inductance(id, id->hf_u[0], id->hf_u[1], Iax[0], Iax[1]);
     /* amplitude 2|I|/n against the noise sigma sqrt(2/n) of that estimate */
     const float amp = 2.0f * sqrtf((Iax[0] * Iax[0]) + (Iax[1] * Iax[1])) / (float)n;
@@ -970,7 +1012,8 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
         r->eps_align = e;
         /* the carrier on a frame e off the rotor's axis sees 1/L = (1/L_d + 1/L_q)/2 + (1/L_d - 1/L_q)/2 cos 2e:
          * L_d from it with AXIS's L_q */
-        const float c2 = fs_cosf(2.0f * e), lq = r->L_q_axis;
+        const float c2 = fs_cosf(2.0f * e);
+        const float lq = r->L_q_axis;
         r->L_d = (lq > 0.0f) ? (1.0f + c2) / ((2.0f / L) - (1.0f - c2) / lq) : L;
     } else {
         r->L_q_bias[level] = L;
@@ -1012,8 +1055,10 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
 /* ---- MAP: the flux map's sweeps (fs_mapid.h) on the standstill frame ---- */
 static fs_ab step_map(fs_ident *id, fs_ab i_ab)
 {
-    const float ct = fs_cosf(id->theta_s), st = fs_sinf(id->theta_s);
-    const fs_dq i = fs_park(i_ab, ct, st), e = fs_park(ident_inv_error(id, i_ab), ct, st);
+    const float ct = fs_cosf(id->theta_s);
+    const float st = fs_sinf(id->theta_s);
+    const fs_dq i = fs_park(i_ab, ct, st);
+    const fs_dq e = fs_park(ident_inv_error(id, i_ab), ct, st);
     fs_dq u = fs_mapid_step(&id->map, i, e, id->u_max);
     id->k++;
     if (id->map.stage != FS_MAPID_DONE) { return fs_inv_park(u, ct, st); }
@@ -1080,7 +1125,8 @@ static fs_ab step_flux(fs_ident *id, fs_ab i)
     const fs_ident_config *c = &id->cfg;
     fs_ab u = frame_current(id, i, (fs_dq){0.0f, 0.0f});
     const float phi = frame_pll(id, i);
-    const int n_lock = (int)(10.0f / (id->bw_pll * c->Ts)) + 1, n_meas = (int)(20.0f / (id->bw_pll * c->Ts)) + 1;
+    const int n_lock = (int)(10.0f / (id->bw_pll * c->Ts)) + 1;
+    const int n_meas = (int)(20.0f / (id->bw_pll * c->Ts)) + 1;
     id->k++;
     if (id->k <= n_lock) { return u; }
     const fs_dq e = frame_emf(id, i);
@@ -1171,7 +1217,8 @@ static fs_ab step_dcurve(fs_ident *id, fs_ab i_ab)
     }
     if (++id->k <= n_set) { return u; }
     const fs_dq e = frame_emf(id, i_ab);
-    const float ct = fs_cosf(id->theta), st = fs_sinf(id->theta);
+    const float ct = fs_cosf(id->theta);
+    const float st = fs_sinf(id->theta);
     const fs_dq i = fs_park(i_ab, ct, st);
     id->s_u += (e.q / id->w) + (r->L_d * i.d);   /* psi_d = e_q / w + L_d i_d (frame_emf took w L_d i_d out) */
     id->s_i += i.d;
@@ -1208,8 +1255,11 @@ static fs_ab step_accel(fs_ident *id, fs_ab i)
     if ((id->w0 >= (1.4f * id->w_target)) || (m > U_ACC * id->u_max) || (t > (20.0f * c->t_ramp))) {
         id->t_acc = t;
         /* the fit skips the PLL's transient, 4/bw: what is left must hold 10/bw */
-        const float t_skip = 4.0f / id->bw_pll, t_need = t_skip + (10.0f / id->bw_pll);
-        float a, tm, wm;
+        const float t_skip = 4.0f / id->bw_pll;
+        const float t_need = t_skip + (10.0f / id->bw_pll);
+        float a;
+        float tm;
+        float wm;
         int k0 = 0;
         while ((k0 < id->rec_n) && (id->rec_t[k0] < t_skip)) { ++k0; }
         if ((t < t_need) || !rec_fit(id, k0, id->rec_n, &a, &tm, &wm)) {
@@ -1260,13 +1310,19 @@ static fs_ab step_coast(fs_ident *id, fs_ab i)
     int k0 = 0;
     while ((k0 < id->rec_n) && (id->rec_t[k0] < (4.0f / id->bw_pll))) { ++k0; }
     const int kh = (k0 + id->rec_n) / 2;
-    float a1, a2, t1, t2, w1, w2;
+    float a1;
+    float a2;
+    float t1;
+    float t2;
+    float w1;
+    float w2;
     if (!rec_fit(id, k0, kh, &a1, &t1, &w1) || !rec_fit(id, kh, id->rec_n, &a2, &t2, &w2)) {
         ident_fail(id, FS_IDQ_J, FS_IDR_TOO_FAST);
         return u;
     }
     const float w_acc = id->w_acc;
-    float slope = 0.0f, a_c = 0.5f * (a1 + a2);
+    float slope = 0.0f;
+    float a_c = 0.5f * (a1 + a2);
     if (fabsf(w1 - w2) > (0.02f * fabsf(w1))) {   /* two distinct speeds: a line a(w) */
         slope = (a1 - a2) / (w1 - w2);
         a_c = a1 + (slope * (w_acc - w1));

@@ -30,7 +30,8 @@ float fs_imc_alpha_for_vtr(float q)
     if (!(q > fs_imc_vtr_max(FS_IMC_OM1, 0.0f))) { return 0.0f; }
     if (q >= fs_imc_vtr_max(FS_IMC_OM2, ALPHA_MAX)) { return ALPHA_MAX; }
     /* eq. (12) rises monotonically on [0, pi/6]: bisection */
-    float lo = 0.0f, hi = ALPHA_MAX;
+    float lo = 0.0f;
+    float hi = ALPHA_MAX;
     for (int k = 0; k < 24; ++k) {
         float mid = 0.5f * (lo + hi);
         if (fs_imc_vtr_max(FS_IMC_OM2, mid) < q) { lo = mid; } else { hi = mid; }
@@ -62,7 +63,8 @@ void fs_imc_rectifier(const float u_in[3], float alpha, fs_imc_rect *r)
     /* x: largest magnitude; hi, mid, lo by value */
     int x = 0;
     for (int k = 1; k < 3; ++k) { if (fabsf(u_in[k]) > fabsf(u_in[x])) { x = k; } }
-    int hi = 0, lo = 0;
+    int hi = 0;
+    int lo = 0;
     for (int k = 1; k < 3; ++k) {
         if (u_in[k] > u_in[hi]) { hi = k; }
         if (u_in[k] < u_in[lo]) { lo = k; }

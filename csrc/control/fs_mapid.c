@@ -124,7 +124,8 @@ static float hold(fs_pi *pi, float ref, float meas, float lim)
 static void integrate(fs_mapid *m, fs_dq i, fs_dq e, fs_dq i_prev)
 {
     const fs_dq u = (m->cfg.delay > 0.5f) ? m->u_out[1] : m->u_out[0];
-    const float Ts = m->cfg.Ts, R = m->cfg.R_s;
+    const float Ts = m->cfg.Ts;
+    const float R = m->cfg.R_s;
     m->psi_d += Ts * (u.d - (R * 0.5f * (i.d + i_prev.d)) - (0.5f * (e.d + m->e_prev_d)));
     m->psi_q += Ts * (u.q - (R * 0.5f * (i.q + i_prev.q)) - (0.5f * (e.q + m->e_prev_q)));
 }
@@ -220,7 +221,8 @@ static float drop(const fs_mapid_config *c, float I) { return (c->R_s * I) + (1.
 static float d_growth(const fs_mapid_config *c, float I, float U)
 {
     if (!((c->psi_f > 0.0f) && (c->J > 0.0f) && (c->motion_max > 0.0f)) || !(U > 0.0f)) { return 0.0f; }
-    const float p = (float)c->pole_pairs, dL = c->L_q - c->L_d;
+    const float p = (float)c->pole_pairs;
+    const float dL = c->L_q - c->L_d;
     float sum = 0.0f;
     for (int n = 0; n < 16; ++n) {
         const float x = ((float)n + 0.5f) * I / 16.0f;
@@ -273,7 +275,8 @@ static void d_finish(fs_mapid *m)
     /* the incremental L_d at +-i_max/2 from the current's steps up and down near it */
     for (int side = -1; side <= 1; side += 2) {
         const int t = n + (2 * side);
-        const float up = m->c_up[t] ? m->s_up[t] / (float)m->c_up[t] : 0.0f, dn = m->c_dn[t] ? m->s_dn[t] / (float)m->c_dn[t] : 0.0f;
+        const float up = m->c_up[t] ? m->s_up[t] / (float)m->c_up[t] : 0.0f;
+        const float dn = m->c_dn[t] ? m->s_dn[t] / (float)m->c_dn[t] : 0.0f;
         const float L = ((up - dn) > 0.0f) ? 2.0f * m->U * m->cfg.Ts / (up - dn) : 0.0f;
         if (side < 0) { r->L_neg = L; } else { r->L_pos = L; }
     }
@@ -303,8 +306,10 @@ static void d_finish(fs_mapid *m)
         r->L_pos = r->L_neg;
         r->L_neg = Lp;
         for (int k = 0; k < n; ++k) {
-            const float a = r->dpsi_d[k], b = r->dpsi_d[FS_MAPID_ND - 1 - k];
-            const int na = r->n_d[k], nb = r->n_d[FS_MAPID_ND - 1 - k];
+            const float a = r->dpsi_d[k];
+            const float b = r->dpsi_d[FS_MAPID_ND - 1 - k];
+            const int na = r->n_d[k];
+            const int nb = r->n_d[FS_MAPID_ND - 1 - k];
             r->dpsi_d[k] = -b;
             r->dpsi_d[FS_MAPID_ND - 1 - k] = -a;
             r->n_d[k] = nb;
@@ -320,7 +325,8 @@ static bool unstable(const fs_mapid *m, int n_settle)
 {
     const fs_mapid_config *c = &m->cfg;
     if (!((c->psi_f > 0.0f) && (c->J > 0.0f) && (c->motion_max > 0.0f)) || (m->I_d == 0.0f)) { return false; }
-    const float p = (float)c->pole_pairs, I = m->I_d;
+    const float p = (float)c->pole_pairs;
+    const float I = m->I_d;
     const float K = 1.5f * p * ((c->psi_f * I) - (c->L_q - c->L_d) * I * I);   /* N m per el. rad of misalignment, restoring when > 0 */
     if (K >= 0.0f) { return false; }
     const float rate = sqrtf(-p * K / c->J);
@@ -389,7 +395,8 @@ static void q_finish(fs_mapid *m, int kk)
     const float z = mean_at(m->s_y, m->s_n, n);
     const bool z_full = m->s_n[n] == 5;   /* the start, three crossings, the end */
     for (int j = 1; j <= FS_MAPID_NQ; ++j) {
-        const int tp = n + j, tm = n - j;
+        const int tp = n + j;
+        const int tm = n - j;
         /* read on both sides alike: 4 times inside the inner turning points, twice beyond */
         const bool full = z_full && (m->s_n[tp] == m->s_n[tm]) && ((m->s_n[tp] == 2) || (m->s_n[tp] == 4));
         r->n_q[kk][j - 1] = full ? (m->s_n[tp] + m->s_n[tm]) : 0;
@@ -405,7 +412,8 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
 {
     const fs_mapid_config *c = &m->cfg;
     const float sgn = m->res.flipped ? -1.0f : 1.0f;   /* a frame on the south pole, turned by pi */
-    const fs_dq i = {sgn * i_in.d, sgn * i_in.q}, e = {sgn * e_in.d, sgn * e_in.q};
+    const fs_dq i = {sgn * i_in.d, sgn * i_in.q};
+    const fs_dq e = {sgn * e_in.d, sgn * e_in.q};
     const fs_dq i_prev = (m->stage == FS_MAPID_QSWEEP) ? (fs_dq){m->y_prev, m->x_prev} : (fs_dq){m->x_prev, m->y_prev};
     const float lim = 0.9f * u_max;
     fs_dq u = {0.0f, 0.0f};
@@ -438,7 +446,8 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
             m->s_n[FS_MAPID_ND / 2] = 1;   /* the start reads 0 (its flux is the origin) */
             m->seen = 1u << ((unsigned)FS_MAPID_ND / 2u);
         } else {
-            const float pd0 = m->psi_d, pq0 = m->psi_q;
+            const float pd0 = m->psi_d;
+            const float pq0 = m->psi_q;
             integrate(m, i, e, i_prev);
             crossings(m, i.d, i.q, m->psi_d, m->psi_q, pd0, pq0, FS_MAPID_ND / 2, 0.25f * c->i_max);
         }
@@ -508,7 +517,8 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
         m->y_prev = i.d;
         break;
     case FS_MAPID_QSWEEP: {
-        const float pd0 = m->psi_d, pq0 = m->psi_q;
+        const float pd0 = m->psi_d;
+        const float pq0 = m->psi_q;
         integrate(m, i, e, i_prev);
         crossings(m, i.q, i.d, m->psi_q, m->psi_d, pq0, pd0, FS_MAPID_NQ, 0.125f * c->i_max);
         m->k++;

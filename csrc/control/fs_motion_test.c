@@ -63,7 +63,8 @@ static void motion_window(fs_motion_test *m, float theta, int j)
     if (j == 0) {
         window_clear(m, theta);
     }
-    const float y = fs_wrap_pi(theta - m->theta_half), x = (float)j;
+    const float y = fs_wrap_pi(theta - m->theta_half);
+    const float x = (float)j;
     m->lo = fs_minf(m->lo, y);
     m->hi = fs_maxf(m->hi, y);
     m->sx += x;
@@ -76,7 +77,8 @@ static void motion_window(fs_motion_test *m, float theta, int j)
 /* The window's mean speed, el. rad/s (its line's slope). */
 static float motion_window_speed(const fs_motion_test *m)
 {
-    const float n = (float)m->n_win, den = (n * m->sxx) - (m->sx * m->sx);
+    const float n = (float)m->n_win;
+    const float den = (n * m->sxx) - (m->sx * m->sx);
     return (den > 0.0f) ? (((n * m->sxy) - (m->sx * m->sy)) / den / m->cfg.Ts) : 0.0f;
 }
 

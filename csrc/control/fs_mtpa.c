@@ -36,10 +36,13 @@ static FS_COLD fs_status mtpa_search(fs_mtpa *m)
     m->T[0] = 0.0f;
     for (int k = 1; k < FS_MTPA_N; ++k) {
         const float I = m->cfg.i_max * (float)k / (float)(FS_MTPA_N - 1);
-        float lo = 0.0f, hi = FS_PI;
+        float lo = 0.0f;
+        float hi = FS_PI;
         fs_dq i;
-        float g1 = hi - (r * (hi - lo)), g2 = lo + (r * (hi - lo));
-        float T1 = mtpa_map_torque(m, I, g1, &i), T2 = mtpa_map_torque(m, I, g2, &i);
+        float g1 = hi - (r * (hi - lo));
+        float g2 = lo + (r * (hi - lo));
+        float T1 = mtpa_map_torque(m, I, g1, &i);
+        float T2 = mtpa_map_torque(m, I, g2, &i);
         while ((hi - lo) > 1e-5f) {
             if (T1 < T2) {   /* the maximum is right of g1 */
                 lo = g1; g1 = g2; T1 = T2;
@@ -123,7 +126,8 @@ fs_dq fs_mtpa_step(fs_mtpa *m, float T_ref)
 {
     float T = fabsf(T_ref);
     fs_dq out;
-    int lo = m->seg, hi = FS_MTPA_N - 1;
+    int lo = m->seg;
+    int hi = FS_MTPA_N - 1;
     if (T >= m->T[hi]) {
         out.d = m->i_d[hi];
         out.q = m->i_q[hi];

@@ -23,7 +23,8 @@
 enum { FS_MTPA_N = 64 };
 
 typedef struct {
-    float L_d, L_q;   /* H */
+    float L_d;        /* H */
+    float L_q;
     float psi_f;      /* Wb */
     int pole_pairs;
     float i_max;      /* A, peak */
@@ -41,7 +42,10 @@ typedef struct {
     int seg;               /* the table segment of the last step (where step looks first) */
     /* the linear locus' constants, formed once as the step formed them: L_q - L_d,
      * 2 (L_q - L_d), 4 (L_q - L_d)^2, psi_f^2; salient: L_q - L_d > 1e-9 L_q */
-    float dL, dL2, dL4, psi2;
+    float dL;
+    float dL2;
+    float dL4;
+    float psi2;
     int salient;
 } fs_mtpa;
 

@@ -59,7 +59,9 @@ bool fs_param_adapt_step(fs_param_adapt *a, fs_dq u, fs_dq i, float w_e, bool le
     if (++a->k < a->decim) { return false; }
     a->k = 0;
     if (!learn) { return false; }
-    const float p1 = a->i_q / c->i_max, p2 = a->w / c->w_e_max, l = a->lambda;
+    const float p1 = a->i_q / c->i_max;
+    const float p2 = a->w / c->w_e_max;
+    const float l = a->lambda;
     a->S11 = (l * a->S11) + (p1 * p1);
     a->S12 = (l * a->S12) + (p1 * p2);
     a->S22 = (l * a->S22) + (p2 * p2);

@@ -32,7 +32,8 @@ bool fs_pwm5(fs_ab u_ref, float u_dc, float duty[5], fs_ab *u_real)
     }
     float ph[5];
     fs_vsd5_inverse(&v, ph);  /* phase references, x-y and zero sequence nil */
-    float v_max = ph[0], v_min = ph[0];
+    float v_max = ph[0];
+    float v_min = ph[0];
     for (int k = 1; k < 5; ++k) {
         v_max = fs_maxf(v_max, ph[k]);
         v_min = fs_minf(v_min, ph[k]);

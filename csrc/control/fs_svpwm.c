@@ -20,13 +20,15 @@ bool fs_svpwm(fs_ab u_ref, float u_dc, float duty[3], fs_ab *u_real)
      * nothing below can overflow, whatever the finite inputs. */
     float pre = 1.0f;
     /* finite from here: the larger and smaller need no NaN rule */
-    const float a_a = fabsf(u_ref.alpha), a_b = fabsf(u_ref.beta);
+    const float a_a = fabsf(u_ref.alpha);
+    const float a_b = fabsf(u_ref.beta);
     float mag = (a_a > a_b) ? a_a : a_b;
     if (mag > u_dc) { pre = u_dc / mag; }
     fs_ab x = {u_ref.alpha * pre / u_dc, u_ref.beta * pre / u_dc};
     float v[3];
     fs_inv_clarke(x, v);
-    float v_max = (v[0] > v[1]) ? v[0] : v[1], v_min = (v[0] > v[1]) ? v[1] : v[0];
+    float v_max = (v[0] > v[1]) ? v[0] : v[1];
+    float v_min = (v[0] > v[1]) ? v[1] : v[0];
     if (v[2] > v_max) { v_max = v[2]; }
     if (v[2] < v_min) { v_min = v[2]; }
     float span = v_max - v_min;

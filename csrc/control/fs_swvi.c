@@ -66,7 +66,8 @@ float fs_swvi_step(fs_swvi *s, fs_ab i)
     if (s->ff_fresh) {
         s->i_f = i;
         if (s->k >= 4) {
-            const int n1 = (n + 3) & 3, n2 = (n + 2) & 3;   /* k - 1 (the peak), k - 2 */
+            const int n1 = (n + 3) & 3;                     /* k - 1 (the peak), k - 2 */
+            const int n2 = (n + 2) & 3;
             fs_dq h;
             if (c->sequence == FS_SWVI_OPTIMIZED) {
                 fs_ab hab = {s->i_ab[n1].alpha - (0.5f * (s->i_ab[n2].alpha + i.alpha)),

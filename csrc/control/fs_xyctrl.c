@@ -42,13 +42,15 @@ fs_ab fs_xyctrl_step(fs_xyctrl *x, const float i_ph[5], float theta_e, float w_e
 {
     const fs_xyctrl_config *c = &x->cfg;
     const fs_vsd5 v = fs_vsd5_forward(i_ph);
-    const float th3 = 3.0f * theta_e, w3 = 3.0f * w_e;
+    const float th3 = 3.0f * theta_e;
+    const float w3 = 3.0f * w_e;
     const fs_dq i3 = fs_park(v.xy, fs_cosf(th3), fs_sinf(th3));
     x->i3 = i3;
     /* the d3-q3 model's coupling and EMF fed forward */
     const fs_dq ff = {-w3 * c->L_q3 * i3.q, w3 * ((c->L_d3 * i3.d) + c->psi_f3)};
     fs_dq u = {fs_pi_output(&x->pi_d3, 0.0f, i3.d) + ff.d, fs_pi_output(&x->pi_q3, 0.0f, i3.q) + ff.q};
-    const float lim = c->u_max_frac * u_dc, m = sqrtf((u.d * u.d) + (u.q * u.q));
+    const float lim = c->u_max_frac * u_dc;
+    const float m = sqrtf((u.d * u.d) + (u.q * u.q));
     fs_dq u_real = u;
     if (m > lim) {
         const float s = (lim > 0.0f) ? (lim / m) : 0.0f;
