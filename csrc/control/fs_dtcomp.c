@@ -4,23 +4,31 @@
 
 FS_COLD fs_status fs_dtcomp_init(fs_dtcomp *d, const fs_dtcomp_config *cfg)
 {
-    if (!d || !cfg) { return FS_ERR_NULL; }
-    const fs_dtcomp_config *c = cfg;
-    if ((c->phases != 3) && (c->phases != 5)) { return FS_ERR_PARAM; }
-    if (!fs_pos(c->T_pwm)) { return FS_ERR_TS; }
-    const bool dbl = fabsf(c->Ts - (0.5f * c->T_pwm)) <= (1e-6f * c->T_pwm);
-    if (!dbl && !(fabsf(c->Ts - c->T_pwm) <= (1e-6f * c->T_pwm))) { return FS_ERR_TS; }
-    if ((c->delay != 0.0f) && (c->delay != 1.0f)) { return FS_ERR_PARAM; }
-    if (!fs_pos(c->t_dead) || !(c->t_dead < (0.5f * c->T_pwm)) || !fs_nonneg(c->i_band)) { return FS_ERR_PARAM; }
-    if (!fs_pos(c->L_d)) { return FS_ERR_LD; }
-    if (!fs_pos(c->L_q)) { return FS_ERR_LQ; }
-    d->cfg = *cfg;
-    d->inv_L = 2.0f / (c->L_d + c->L_q);
-    d->dd = c->t_dead / c->T_pwm;
-    d->double_update = 0;
-    if (dbl) { d->double_update = 1; }
-    fs_dtcomp_reset(d);
-    return FS_OK;
+    fs_status ret;
+    if (!d || !cfg) { ret = FS_ERR_NULL; }
+    else {
+        const fs_dtcomp_config *c = cfg;
+        if ((c->phases != 3) && (c->phases != 5)) { ret = FS_ERR_PARAM; }
+        else if (!fs_pos(c->T_pwm)) { ret = FS_ERR_TS; }
+        else {
+            const bool dbl = fabsf(c->Ts - (0.5f * c->T_pwm)) <= (1e-6f * c->T_pwm);
+            if (!dbl && !(fabsf(c->Ts - c->T_pwm) <= (1e-6f * c->T_pwm))) { ret = FS_ERR_TS; }
+            else if ((c->delay != 0.0f) && (c->delay != 1.0f)) { ret = FS_ERR_PARAM; }
+            else if (!fs_pos(c->t_dead) || !(c->t_dead < (0.5f * c->T_pwm)) || !fs_nonneg(c->i_band)) { ret = FS_ERR_PARAM; }
+            else if (!fs_pos(c->L_d)) { ret = FS_ERR_LD; }
+            else if (!fs_pos(c->L_q)) { ret = FS_ERR_LQ; }
+            else {
+                d->cfg = *cfg;
+                d->inv_L = 2.0f / (c->L_d + c->L_q);
+                d->dd = c->t_dead / c->T_pwm;
+                d->double_update = 0;
+                if (dbl) { d->double_update = 1; }
+                fs_dtcomp_reset(d);
+                ret = FS_OK;
+            }
+        }
+    }
+    return ret;
 }
 
 FS_COLD void fs_dtcomp_reset(fs_dtcomp *d)

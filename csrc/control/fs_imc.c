@@ -13,30 +13,42 @@ float fs_imc_vpn(float alpha)
 
 float fs_imc_vtr_max(int region, float alpha)
 {
-    if (region == FS_IMC_LINEAR) { return 0.5f * FS_SQRT3; }
-    /* eq. (20): line fundamental 3 ln3 / pi V_pn; eq. (21): phase over V_im */
-    return 3.0f * logf(3.0f) / FS_PI * fs_imc_vpn((region == FS_IMC_OM1) ? 0.0f : alpha) * FS_INV_SQRT3;
+    float ret;
+    if (region == FS_IMC_LINEAR) { ret = 0.5f * FS_SQRT3; }
+    else {
+        /* eq. (20): line fundamental 3 ln3 / pi V_pn; eq. (21): phase over V_im */
+        ret = 3.0f * logf(3.0f) / FS_PI * fs_imc_vpn((region == FS_IMC_OM1) ? 0.0f : alpha) * FS_INV_SQRT3;
+    }
+    return ret;
 }
 
 int fs_imc_region_of(float q)
 {
-    if (q <= fs_imc_vtr_max(FS_IMC_LINEAR, 0.0f)) { return FS_IMC_LINEAR; }
-    if (q <= fs_imc_vtr_max(FS_IMC_OM1, 0.0f)) { return FS_IMC_OM1; }
-    return FS_IMC_OM2;
+    int ret;
+    if (q <= fs_imc_vtr_max(FS_IMC_LINEAR, 0.0f)) { ret = FS_IMC_LINEAR; }
+    else if (q <= fs_imc_vtr_max(FS_IMC_OM1, 0.0f)) { ret = FS_IMC_OM1; }
+    else {
+        ret = FS_IMC_OM2;
+    }
+    return ret;
 }
 
 float fs_imc_alpha_for_vtr(float q)
 {
-    if (!(q > fs_imc_vtr_max(FS_IMC_OM1, 0.0f))) { return 0.0f; }
-    if (q >= fs_imc_vtr_max(FS_IMC_OM2, ALPHA_MAX)) { return ALPHA_MAX; }
-    /* eq. (12) rises monotonically on [0, pi/6]: bisection */
-    float lo = 0.0f;
-    float hi = ALPHA_MAX;
-    for (int k = 0; k < 24; ++k) {
-        float mid = 0.5f * (lo + hi);
-        if (fs_imc_vtr_max(FS_IMC_OM2, mid) < q) { lo = mid; } else { hi = mid; }
+    float ret;
+    if (!(q > fs_imc_vtr_max(FS_IMC_OM1, 0.0f))) { ret = 0.0f; }
+    else if (q >= fs_imc_vtr_max(FS_IMC_OM2, ALPHA_MAX)) { ret = ALPHA_MAX; }
+    else {
+        /* eq. (12) rises monotonically on [0, pi/6]: bisection */
+        float lo = 0.0f;
+        float hi = ALPHA_MAX;
+        for (int k = 0; k < 24; ++k) {
+            float mid = 0.5f * (lo + hi);
+            if (fs_imc_vtr_max(FS_IMC_OM2, mid) < q) { lo = mid; } else { hi = mid; }
+        }
+        ret = 0.5f * (lo + hi);
     }
-    return 0.5f * (lo + hi);
+    return ret;
 }
 
 float fs_imc_amplitude(const float u_in[3])
@@ -102,30 +114,38 @@ void fs_imc_rectifier(const float u_in[3], float alpha, fs_imc_rect *r)
 FS_COLD fs_status fs_imc_depth_design(fs_imc_depth_config *cfg, float Ts, float i_lim, float V_im,
                               float w_e_max, float L, float bw)
 {
-    if (!cfg) { return FS_ERR_NULL; }
-    if (!fs_pos(Ts)) { return FS_ERR_TS; }
-    if (!fs_pos(V_im) || !fs_pos(w_e_max)) { return FS_ERR_LIMIT; }
-    if (!fs_pos(L)) { return FS_ERR_LD; }
-    if (!(bw > 0.0f) || !((bw * Ts) <= 1.0f)) { return FS_ERR_BANDWIDTH; }
-    if (!fs_pos(i_lim)) { return FS_ERR_I_MAX; }
-    float dq = fs_imc_vtr_max(FS_IMC_OM2, ALPHA_MAX) - fs_imc_vtr_max(FS_IMC_OM2, 0.0f);
-    float G = dq / ALPHA_MAX * V_im / (w_e_max * L);   /* A/rad */
-    cfg->Ts = Ts;
-    cfg->i_lim = i_lim;
-    cfg->k_i = bw / G;
-    cfg->k_p = 0.5f / G;
-    return fs_fin(cfg->k_i) ? FS_OK : FS_ERR_PARAM;   /* G = 0: V_im / (w_e,max L) below the float range */
+    fs_status ret;
+    if (!cfg) { ret = FS_ERR_NULL; }
+    else if (!fs_pos(Ts)) { ret = FS_ERR_TS; }
+    else if (!fs_pos(V_im) || !fs_pos(w_e_max)) { ret = FS_ERR_LIMIT; }
+    else if (!fs_pos(L)) { ret = FS_ERR_LD; }
+    else if (!(bw > 0.0f) || !((bw * Ts) <= 1.0f)) { ret = FS_ERR_BANDWIDTH; }
+    else if (!fs_pos(i_lim)) { ret = FS_ERR_I_MAX; }
+    else {
+        float dq = fs_imc_vtr_max(FS_IMC_OM2, ALPHA_MAX) - fs_imc_vtr_max(FS_IMC_OM2, 0.0f);
+        float G = dq / ALPHA_MAX * V_im / (w_e_max * L);   /* A/rad */
+        cfg->Ts = Ts;
+        cfg->i_lim = i_lim;
+        cfg->k_i = bw / G;
+        cfg->k_p = 0.5f / G;
+        ret = fs_fin(cfg->k_i) ? FS_OK : FS_ERR_PARAM;   /* G = 0: V_im / (w_e,max L) below the float range */
+    }
+    return ret;
 }
 
 FS_COLD fs_status fs_imc_depth_init(fs_imc_depth *dc, const fs_imc_depth_config *cfg)
 {
-    if (!dc || !cfg) { return FS_ERR_NULL; }
-    if (!fs_pos(cfg->Ts)) { return FS_ERR_TS; }
-    if (!fs_pos(cfg->i_lim)) { return FS_ERR_I_MAX; }
-    if (!fs_nonneg(cfg->k_p) || !fs_nonneg(cfg->k_i)) { return FS_ERR_PARAM; }
-    dc->cfg = *cfg;
-    fs_imc_depth_reset(dc);
-    return FS_OK;
+    fs_status ret;
+    if (!dc || !cfg) { ret = FS_ERR_NULL; }
+    else if (!fs_pos(cfg->Ts)) { ret = FS_ERR_TS; }
+    else if (!fs_pos(cfg->i_lim)) { ret = FS_ERR_I_MAX; }
+    else if (!fs_nonneg(cfg->k_p) || !fs_nonneg(cfg->k_i)) { ret = FS_ERR_PARAM; }
+    else {
+        dc->cfg = *cfg;
+        fs_imc_depth_reset(dc);
+        ret = FS_OK;
+    }
+    return ret;
 }
 
 void fs_imc_depth_reset(fs_imc_depth *dc)
@@ -136,13 +156,17 @@ void fs_imc_depth_reset(fs_imc_depth *dc)
 
 float fs_imc_depth_step(fs_imc_depth *dc, float i_ref, bool weakening)
 {
+    float ret;
     const fs_imc_depth_config *c = &dc->cfg;
     if (!weakening || !isfinite(i_ref)) {   /* sec. 4.4: the polarity gate */
         fs_imc_depth_reset(dc);
-        return 0.0f;
+        ret = 0.0f;
     }
-    float e = i_ref - c->i_lim;
-    dc->integ = fs_clampf(dc->integ + (c->Ts * c->k_i * e), 0.0f, ALPHA_MAX);   /* eq. (33) */
-    dc->alpha = fs_clampf((c->k_p * e) + dc->integ, 0.0f, ALPHA_MAX);
-    return dc->alpha;
+    else {
+        float e = i_ref - c->i_lim;
+        dc->integ = fs_clampf(dc->integ + (c->Ts * c->k_i * e), 0.0f, ALPHA_MAX);   /* eq. (33) */
+        dc->alpha = fs_clampf((c->k_p * e) + dc->integ, 0.0f, ALPHA_MAX);
+        ret = dc->alpha;
+    }
+    return ret;
 }

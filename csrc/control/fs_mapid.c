@@ -43,25 +43,31 @@ static const int Q_ORDER[] = {0, 1, -1, 2, -2, 3, -3};
 
 FS_COLD fs_status fs_mapid_init(fs_mapid *m, const fs_mapid_config *cfg)
 {
-    if (!m || !cfg) { return FS_ERR_NULL; }
-    if (!fs_pos(cfg->Ts)) { return FS_ERR_TS; }
-    if ((cfg->delay != 0.0f) && (cfg->delay != 1.0f)) { return FS_ERR_PARAM; }
-    if (!fs_pos(cfg->i_max)) { return FS_ERR_I_MAX; }
-    if (!fs_pos(cfg->L_d)) { return FS_ERR_LD; }
-    if (!fs_pos(cfg->L_q)) { return FS_ERR_LQ; }
-    if (!fs_nonneg(cfg->R_s) || !fs_nonneg(cfg->u_e) || (cfg->pole_pairs < 1) || !fs_nonneg(cfg->psi_f) || !fs_nonneg(cfg->J)
+    fs_status ret;
+    if (!m || !cfg) { ret = FS_ERR_NULL; }
+    else if (!fs_pos(cfg->Ts)) { ret = FS_ERR_TS; }
+    else if ((cfg->delay != 0.0f) && (cfg->delay != 1.0f)) { ret = FS_ERR_PARAM; }
+    else if (!fs_pos(cfg->i_max)) { ret = FS_ERR_I_MAX; }
+    else if (!fs_pos(cfg->L_d)) { ret = FS_ERR_LD; }
+    else if (!fs_pos(cfg->L_q)) { ret = FS_ERR_LQ; }
+    else if (!fs_nonneg(cfg->R_s) || !fs_nonneg(cfg->u_e) || (cfg->pole_pairs < 1) || !fs_nonneg(cfg->psi_f) || !fs_nonneg(cfg->J)
         || !fs_nonneg(cfg->motion_max) || !fs_pos(cfg->w_c) || (cfg->d_only & ~1) || (cfg->pol_known & ~1)) {
-        return FS_ERR_PARAM;
+        ret = FS_ERR_PARAM;
     }
-    m->cfg = *cfg;
-    fs_pi_config c;
-    fs_status st = fs_pi_design(&c, cfg->Ts, cfg->L_d, cfg->R_s, cfg->w_c, 0.0f);
-    if (st == FS_OK) { st = fs_pi_init(&m->pi_d, &c); }
-    if (st == FS_OK) { st = fs_pi_design(&c, cfg->Ts, cfg->L_q, cfg->R_s, cfg->w_c, 0.0f); }
-    if (st == FS_OK) { st = fs_pi_init(&m->pi_q, &c); }
-    if (st != FS_OK) { return st; }
-    fs_mapid_reset(m);
-    return FS_OK;
+    else {
+        m->cfg = *cfg;
+        fs_pi_config c;
+        fs_status st = fs_pi_design(&c, cfg->Ts, cfg->L_d, cfg->R_s, cfg->w_c, 0.0f);
+        if (st == FS_OK) { st = fs_pi_init(&m->pi_d, &c); }
+        if (st == FS_OK) { st = fs_pi_design(&c, cfg->Ts, cfg->L_q, cfg->R_s, cfg->w_c, 0.0f); }
+        if (st == FS_OK) { st = fs_pi_init(&m->pi_q, &c); }
+        if (st != FS_OK) { ret = st; }
+        else {
+            fs_mapid_reset(m);
+            ret = FS_OK;
+        }
+    }
+    return ret;
 }
 
 static void sums_clear(fs_mapid *m)
@@ -174,13 +180,17 @@ static void crossings(fs_mapid *m, float x, float y, float psx, float psy, float
  * the current back to 0. */
 static bool leg_next(fs_mapid *m, float x, const float *turn)
 {
+    bool ret;
     const bool up = !(m->leg & 1);
-    if (turn[m->leg] == 0.0f) { return up ? (x >= 0.0f) : (x <= 0.0f); }
-    /* where the current peaks if reversed now (the delay's periods on), and half a step: the peak within half a step */
-    const float ahead = x + (m->cfg.delay + 0.5f) * (x - m->x_prev);
-    const float at = turn[m->leg] * m->I_amp;
-    if (up ? (ahead >= at) : (ahead <= -at)) { m->leg++; }   /* the voltage turns now, the current a delay later (crossings reads on till then) */
-    return false;
+    if (turn[m->leg] == 0.0f) { ret = up ? (x >= 0.0f) : (x <= 0.0f); }
+    else {
+        /* where the current peaks if reversed now (the delay's periods on), and half a step: the peak within half a step */
+        const float ahead = x + (m->cfg.delay + 0.5f) * (x - m->x_prev);
+        const float at = turn[m->leg] * m->I_amp;
+        if (up ? (ahead >= at) : (ahead <= -at)) { m->leg++; }   /* the voltage turns now, the current a delay later (crossings reads on till then) */
+        ret = false;
+    }
+    return ret;
 }
 
 /* +-U, and the drop the current meets fed forward (R_s x and the inverter's
@@ -220,19 +230,23 @@ static float drop(const fs_mapid_config *c, float I) { return (c->R_s * I) + (1.
  * or J is not known (a locked rotor). */
 static float d_growth(const fs_mapid_config *c, float I, float U)
 {
-    if (!((c->psi_f > 0.0f) && (c->J > 0.0f) && (c->motion_max > 0.0f)) || !(U > 0.0f)) { return 0.0f; }
-    const float p = (float)c->pole_pairs;
-    const float dL = c->L_q - c->L_d;
-    float sum = 0.0f;
-    for (int n = 0; n < 16; ++n) {
-        const float x = ((float)n + 0.5f) * I / 16.0f;
-        const float w = (x < (TURN[0] * I)) ? 2.0f : 1.0f;   /* the inner part is passed twice as often */
-        for (int side = -1; side <= 1; side += 2) {
-            const float K = 1.5f * p * (((float)side * c->psi_f * x) - (dL * x * x));
-            if (K < 0.0f) { sum += 2.0f * w * sqrtf(-p * K / c->J); }
+    float ret;
+    if (!((c->psi_f > 0.0f) && (c->J > 0.0f) && (c->motion_max > 0.0f)) || !(U > 0.0f)) { ret = 0.0f; }
+    else {
+        const float p = (float)c->pole_pairs;
+        const float dL = c->L_q - c->L_d;
+        float sum = 0.0f;
+        for (int n = 0; n < 16; ++n) {
+            const float x = ((float)n + 0.5f) * I / 16.0f;
+            const float w = (x < (TURN[0] * I)) ? 2.0f : 1.0f;   /* the inner part is passed twice as often */
+            for (int side = -1; side <= 1; side += 2) {
+                const float K = 1.5f * p * (((float)side * c->psi_f * x) - (dL * x * x));
+                if (K < 0.0f) { sum += 2.0f * w * sqrtf(-p * K / c->J); }
+            }
         }
+        ret = sum * (I / 16.0f) * c->L_d / U;
     }
-    return sum * (I / 16.0f) * c->L_d / U;
+    return ret;
 }
 
 /* The d sweep's amplitude and voltage: I_REACH i_max (d_only: I_REACH_POL)
@@ -323,15 +337,21 @@ static void d_finish(fs_mapid *m)
  * not known (a locked rotor). */
 static bool unstable(const fs_mapid *m, int n_settle)
 {
+    bool ret;
     const fs_mapid_config *c = &m->cfg;
-    if (!((c->psi_f > 0.0f) && (c->J > 0.0f) && (c->motion_max > 0.0f)) || (m->I_d == 0.0f)) { return false; }
-    const float p = (float)c->pole_pairs;
-    const float I = m->I_d;
-    const float K = 1.5f * p * ((c->psi_f * I) - (c->L_q - c->L_d) * I * I);   /* N m per el. rad of misalignment, restoring when > 0 */
-    if (K >= 0.0f) { return false; }
-    const float rate = sqrtf(-p * K / c->J);
-    const float t_L = (float)((2 * n_settle) + (7 * m->n_rise)) * c->Ts;   /* in, the pattern's 6.5 rises and the trim, out */
-    return coshf(rate * t_L) > GROWTH;
+    if (!((c->psi_f > 0.0f) && (c->J > 0.0f) && (c->motion_max > 0.0f)) || (m->I_d == 0.0f)) { ret = false; }
+    else {
+        const float p = (float)c->pole_pairs;
+        const float I = m->I_d;
+        const float K = 1.5f * p * ((c->psi_f * I) - (c->L_q - c->L_d) * I * I);   /* N m per el. rad of misalignment, restoring when > 0 */
+        if (K >= 0.0f) { ret = false; }
+        else {
+            const float rate = sqrtf(-p * K / c->J);
+            const float t_L = (float)((2 * n_settle) + (7 * m->n_rise)) * c->Ts;   /* in, the pattern's 6.5 rises and the trim, out */
+            ret = coshf(rate * t_L) > GROWTH;
+        }
+    }
+    return ret;
 }
 
 /* The torque per A of q current at d current i_d, relative to the magnet's

@@ -3,26 +3,32 @@
 
 FS_COLD fs_status fs_motion_test_init(fs_motion_test *m, const fs_motion_test_config *cfg)
 {
-    if (!m || !cfg) { return FS_ERR_NULL; }
-    if (!fs_pos(cfg->Ts)) { return FS_ERR_TS; }
-    if (!fs_pos(cfg->i_push)) { return FS_ERR_I_MAX; }
-    if (!fs_fin(cfg->i_push_max) || !((cfg->i_push_max == 0.0f) || (cfg->i_push_max >= cfg->i_push))) { return FS_ERR_I_MAX; }
-    /* the step counts must stay ints: below 1e9 */
-    const float t_all = cfg->t_lock + (2.0f * cfg->t_push) + cfg->t_settle;
-    if (!(cfg->t_lock >= (8.0f * cfg->Ts)) || !(cfg->t_push >= cfg->Ts) || !(cfg->t_settle >= cfg->Ts) || !(t_all < 1e3f)
-        || !((t_all / cfg->Ts) < 1e9f)) {
-        return FS_ERR_PARAM;
+    fs_status ret;
+    if (!m || !cfg) { ret = FS_ERR_NULL; }
+    else if (!fs_pos(cfg->Ts)) { ret = FS_ERR_TS; }
+    else if (!fs_pos(cfg->i_push)) { ret = FS_ERR_I_MAX; }
+    else if (!fs_fin(cfg->i_push_max) || !((cfg->i_push_max == 0.0f) || (cfg->i_push_max >= cfg->i_push))) { ret = FS_ERR_I_MAX; }
+    else {
+        /* the step counts must stay ints: below 1e9 */
+        const float t_all = cfg->t_lock + (2.0f * cfg->t_push) + cfg->t_settle;
+        if (!(cfg->t_lock >= (8.0f * cfg->Ts)) || !(cfg->t_push >= cfg->Ts) || !(cfg->t_settle >= cfg->Ts) || !(t_all < 1e3f)
+            || !((t_all / cfg->Ts) < 1e9f)) {
+            ret = FS_ERR_PARAM;
+        }
+        else if (!((cfg->theta_dec > 0.0f) && cfg->theta_dec < 0.5f * FS_PI)) { ret = FS_ERR_PARAM; }
+        else if (!((cfg->theta_max == 0.0f) || ((cfg->theta_max >= cfg->theta_dec) && cfg->theta_max < 0.5f * FS_PI))) { ret = FS_ERR_PARAM; }
+        else {
+            m->cfg = *cfg;
+            if (m->cfg.i_push_max == 0.0f) { m->cfg.i_push_max = cfg->i_push; }
+            if (m->cfg.theta_max == 0.0f) { m->cfg.theta_max = fs_minf(4.0f * cfg->theta_dec, 0.49f * FS_PI); }
+            m->n_lock = (int)((cfg->t_lock / cfg->Ts) + 0.5f);
+            m->n_push = (int)((cfg->t_push / cfg->Ts) + 0.5f);
+            m->n_settle = (int)((cfg->t_settle / cfg->Ts) + 0.5f);
+            fs_motion_test_reset(m);
+            ret = FS_OK;
+        }
     }
-    if (!((cfg->theta_dec > 0.0f) && cfg->theta_dec < 0.5f * FS_PI)) { return FS_ERR_PARAM; }
-    if (!((cfg->theta_max == 0.0f) || ((cfg->theta_max >= cfg->theta_dec) && cfg->theta_max < 0.5f * FS_PI))) { return FS_ERR_PARAM; }
-    m->cfg = *cfg;
-    if (m->cfg.i_push_max == 0.0f) { m->cfg.i_push_max = cfg->i_push; }
-    if (m->cfg.theta_max == 0.0f) { m->cfg.theta_max = fs_minf(4.0f * cfg->theta_dec, 0.49f * FS_PI); }
-    m->n_lock = (int)((cfg->t_lock / cfg->Ts) + 0.5f);
-    m->n_push = (int)((cfg->t_push / cfg->Ts) + 0.5f);
-    m->n_settle = (int)((cfg->t_settle / cfg->Ts) + 0.5f);
-    fs_motion_test_reset(m);
-    return FS_OK;
+    return ret;
 }
 
 /* A window starts: its first value, and its spread and sums cleared */
@@ -101,17 +107,21 @@ static float motion_doublet(const fs_motion_test *m)
  * good); else the first doublet. */
 static float motion_lock_end(fs_motion_test *m, float theta)
 {
+    float ret;
     m->threshold = fs_maxf(m->cfg.theta_dec, 2.0f * (m->hi - m->lo));
     m->moved = motion_turning(m, (2.0f * m->cfg.t_push) + m->cfg.t_settle, 1.0f);   /* all of it within the test */
     m->k = 0;
     if (m->moved || (m->threshold > m->cfg.theta_max)) {
         m->locks += 1;
         if (m->locks >= FS_MOTION_LOCKS) { m->stage = FS_MOTION_UNDETERMINED; }
-        return 0.0f;
+        ret = 0.0f;
     }
-    m->stage = FS_MOTION_PUSH;
-    m->theta_ref = theta;
-    return motion_doublet(m);
+    else {
+        m->stage = FS_MOTION_PUSH;
+        m->theta_ref = theta;
+        ret = motion_doublet(m);
+    }
+    return ret;
 }
 
 /* The turn read after the doublet: the decision, another doublet, or the
@@ -120,28 +130,34 @@ static float motion_lock_end(fs_motion_test *m, float theta)
  * is waited for, FS_MOTION_LOCKS settlings in all, then refused. */
 static float motion_read(fs_motion_test *m, float theta)
 {
+    float ret;
     m->turn = fs_wrap_pi(theta - m->theta_ref);
     m->k = 0;
     m->moved = motion_turning(m, (float)m->n_win * m->cfg.Ts, 1.0f);
     if (m->moved) {   /* beyond the largest threshold already: something else turns the rotor */
         m->settles += 1;
         if ((m->settles >= FS_MOTION_LOCKS) || fabsf(m->turn) > m->cfg.theta_max) { m->stage = FS_MOTION_UNDETERMINED; }
-        return 0.0f;
+        ret = 0.0f;
     }
-    m->settles = 0;
-    m->attempts += 1;
-    if (fabsf(m->turn) >= m->threshold) {
-        m->flip = m->turn < 0.0f;
-        m->stage = FS_MOTION_DONE;
-        return 0.0f;
+    else {
+        m->settles = 0;
+        m->attempts += 1;
+        if (fabsf(m->turn) >= m->threshold) {
+            m->flip = m->turn < 0.0f;
+            m->stage = FS_MOTION_DONE;
+            ret = 0.0f;
+        }
+        else if (m->i_now < m->cfg.i_push_max) {
+            m->i_now = fs_minf(1.5f * m->i_now, m->cfg.i_push_max);
+            m->stage = FS_MOTION_PUSH;
+            ret = motion_doublet(m);
+        }
+        else {
+            m->stage = FS_MOTION_UNDETERMINED;
+            ret = 0.0f;
+        }
     }
-    if (m->i_now < m->cfg.i_push_max) {
-        m->i_now = fs_minf(1.5f * m->i_now, m->cfg.i_push_max);
-        m->stage = FS_MOTION_PUSH;
-        return motion_doublet(m);
-    }
-    m->stage = FS_MOTION_UNDETERMINED;
-    return 0.0f;
+    return ret;
 }
 
 float fs_motion_test_step(fs_motion_test *m, float theta)

@@ -5,9 +5,13 @@
 
 static float mtpa_id(const fs_mtpa_config *c, float I)
 {
+    float ret;
     float dL = c->L_q - c->L_d;
-    if (dL <= (1e-9f * c->L_q)) { return 0.0f; }
-    return (c->psi_f - sqrtf((c->psi_f * c->psi_f) + (8.0f * dL * dL * I * I))) / (4.0f * dL);
+    if (dL <= (1e-9f * c->L_q)) { ret = 0.0f; }
+    else {
+        ret = (c->psi_f - sqrtf((c->psi_f * c->psi_f) + (8.0f * dL * dL * I * I))) / (4.0f * dL);
+    }
+    return ret;
 }
 
 /* Torque per (flux x current): (phases / 2) p. */
@@ -107,9 +111,13 @@ FS_COLD fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
  * build on a Cortex-M4F, bench/pil.py: 24.7 instructions a step more). */
 static inline float mtpa_locus_id(const fs_mtpa *m, float iq)
 {
-    if (m->cfg.psi_f <= 0.0f) { return -iq; }
-    if (!m->salient) { return 0.0f; }
-    return -m->dL2 * iq * iq / (m->cfg.psi_f + sqrtf(m->psi2 + (m->dL4 * iq * iq)));
+    float ret;
+    if (m->cfg.psi_f <= 0.0f) { ret = -iq; }
+    else if (!m->salient) { ret = 0.0f; }
+    else {
+        ret = -m->dL2 * iq * iq / (m->cfg.psi_f + sqrtf(m->psi2 + (m->dL4 * iq * iq)));
+    }
+    return ret;
 }
 
 /* The torque on the locus at (id, iq) and its slope d T / d i_q (the

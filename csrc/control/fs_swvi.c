@@ -3,26 +3,36 @@
 
 FS_COLD fs_status fs_swvi_init(fs_swvi *s, const fs_swvi_config *cfg)
 {
-    if (!s || !cfg) { return FS_ERR_NULL; }
-    const fs_swvi_config *c = cfg;
-    if (!fs_pos(c->Ts)) { return FS_ERR_TS; }
-    if ((c->delay != 0) && (c->delay != 1)) { return FS_ERR_PARAM; }
-    if (!fs_pos(c->u_h)) { return FS_ERR_PARAM; }
-    if ((c->sequence != FS_SWVI_CONVENTIONAL) && (c->sequence != FS_SWVI_OPTIMIZED)) { return FS_ERR_PARAM; }
-    if (!fs_pos(c->L_d)) { return FS_ERR_LD; }
-    if (!fs_pos(c->L_q)) { return FS_ERR_LQ; }
-    if (!(fabsf(c->L_q - c->L_d) > (0.01f * 0.5f * (c->L_d + c->L_q)))) { return FS_ERR_SALIENCY; }
-    if (!fs_nonneg(c->w_max)) { return FS_ERR_LIMIT; }
-    if (fs_xcomp_check(&c->xcomp) != FS_OK) { return FS_ERR_PARAM; }
-    fs_pll_config pc = {c->Ts, c->bandwidth, c->w_max};
-    fs_status st = fs_pll_init(&s->pll, &pc);
-    if (st != FS_OK) { return st; }
-    s->cfg = *c;
-    /* eq. (7) with T_h = 4 Ts */
-    s->k_norm = c->L_d * c->L_q / (c->Ts * c->u_h * (c->L_q - c->L_d));
-    if (!fs_fin(s->k_norm)) { return FS_ERR_PARAM; }   /* Ts u_h too small for a float */
-    fs_swvi_reset(s, 0.0f, 0.0f);
-    return FS_OK;
+    fs_status ret;
+    if (!s || !cfg) { ret = FS_ERR_NULL; }
+    else {
+        const fs_swvi_config *c = cfg;
+        if (!fs_pos(c->Ts)) { ret = FS_ERR_TS; }
+        else if ((c->delay != 0) && (c->delay != 1)) { ret = FS_ERR_PARAM; }
+        else if (!fs_pos(c->u_h)) { ret = FS_ERR_PARAM; }
+        else if ((c->sequence != FS_SWVI_CONVENTIONAL) && (c->sequence != FS_SWVI_OPTIMIZED)) { ret = FS_ERR_PARAM; }
+        else if (!fs_pos(c->L_d)) { ret = FS_ERR_LD; }
+        else if (!fs_pos(c->L_q)) { ret = FS_ERR_LQ; }
+        else if (!(fabsf(c->L_q - c->L_d) > (0.01f * 0.5f * (c->L_d + c->L_q)))) { ret = FS_ERR_SALIENCY; }
+        else if (!fs_nonneg(c->w_max)) { ret = FS_ERR_LIMIT; }
+        else if (fs_xcomp_check(&c->xcomp) != FS_OK) { ret = FS_ERR_PARAM; }
+        else {
+            fs_pll_config pc = {c->Ts, c->bandwidth, c->w_max};
+            fs_status st = fs_pll_init(&s->pll, &pc);
+            if (st != FS_OK) { ret = st; }
+            else {
+                s->cfg = *c;
+                /* eq. (7) with T_h = 4 Ts */
+                s->k_norm = c->L_d * c->L_q / (c->Ts * c->u_h * (c->L_q - c->L_d));
+                if (!fs_fin(s->k_norm)) { ret = FS_ERR_PARAM; }   /* Ts u_h too small for a float */
+                else {
+                    fs_swvi_reset(s, 0.0f, 0.0f);
+                    ret = FS_OK;
+                }
+            }
+        }
+    }
+    return ret;
 }
 
 void fs_swvi_reset(fs_swvi *s, float theta, float w)

@@ -85,8 +85,12 @@ float _Complex fs_cis(float theta)
  * common path needs no stack frame) */
 FS_OUT_OF_LINE float _Complex cis_far(float theta)
 {
-    if (!(fabsf(theta) < INFINITY)) { return cis(theta - theta, theta - theta); }   /* NaN, as sinf and cosf */
-    return fs_cis(fs_wrap_pi(theta));
+    float _Complex ret;
+    if (!(fabsf(theta) < INFINITY)) { ret = cis(theta - theta, theta - theta); }   /* NaN, as sinf and cosf */
+    else {
+        ret = fs_cis(fs_wrap_pi(theta));
+    }
+    return ret;
 }
 
 /* atan(y/x) in the quadrant of (x, y), as atan2f (its zeros, infinities and

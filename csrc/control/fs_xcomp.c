@@ -19,25 +19,33 @@ fs_status fs_xcomp_check(const fs_xcomp_config *c)
 
 bool fs_xcomp_active(const fs_xcomp_config *c)
 {
-    if (!c) { return false; }
-    return (c->n >= 2) || (c->poly[0] != 0.0f) || (c->poly[1] != 0.0f) || (c->poly[2] != 0.0f) || (c->poly[3] != 0.0f);
+    bool ret;
+    if (!c) { ret = false; }
+    else {
+        ret = (c->n >= 2) || (c->poly[0] != 0.0f) || (c->poly[1] != 0.0f) || (c->poly[2] != 0.0f) || (c->poly[3] != 0.0f);
+    }
+    return ret;
 }
 
 float fs_xcomp_eval(const fs_xcomp_config *c, float i_q)
 {
-    if (!c || !isfinite(i_q)) { return 0.0f; }
+    float ret;
+    if (!c || !isfinite(i_q)) { ret = 0.0f; }
     /* a table fs_xcomp_check refuses is not read (its indices would leave delta[]) */
-    if ((c->n > FS_XCOMP_MAX) || ((c->n >= 2) && !((c->di_q > 0.0f) && isfinite(c->di_q) && isfinite(c->i_q0)))) {
-        return 0.0f;
+    else if ((c->n > FS_XCOMP_MAX) || ((c->n >= 2) && !((c->di_q > 0.0f) && isfinite(c->di_q) && isfinite(c->i_q0)))) {
+        ret = 0.0f;
     }
-    if (c->n < 2) {
+    else if (c->n < 2) {
         const float *p = c->poly;
         float d = p[0] + (i_q * (p[1] + (i_q * (p[2] + (i_q * p[3])))));   /* Horner */
-        return fs_clampf(d, -0.5f * FS_PI, 0.5f * FS_PI);
+        ret = fs_clampf(d, -0.5f * FS_PI, 0.5f * FS_PI);
     }
-    float x = fs_clampf((i_q - c->i_q0) / c->di_q, 0.0f, (float)(c->n - 1));
-    int k = (int)x;
-    if (k > (c->n - 2)) { k = c->n - 2; }
-    float s = x - (float)k;
-    return c->delta[k] + (s * (c->delta[k + 1] - c->delta[k]));
+    else {
+        float x = fs_clampf((i_q - c->i_q0) / c->di_q, 0.0f, (float)(c->n - 1));
+        int k = (int)x;
+        if (k > (c->n - 2)) { k = c->n - 2; }
+        float s = x - (float)k;
+        ret = c->delta[k] + (s * (c->delta[k + 1] - c->delta[k]));
+    }
+    return ret;
 }

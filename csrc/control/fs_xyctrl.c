@@ -4,28 +4,38 @@
 
 FS_COLD fs_status fs_xyctrl_init(fs_xyctrl *x, const fs_xyctrl_config *cfg)
 {
-    if (!x || !cfg) { return FS_ERR_NULL; }
-    const fs_xyctrl_config *c = cfg;
-    if (!fs_pos(c->Ts)) { return FS_ERR_TS; }
-    if (!fs_nonneg(c->R_s)) { return FS_ERR_RS; }
-    if (!fs_pos(c->L_d3)) { return FS_ERR_LD; }
-    if (!fs_pos(c->L_q3)) { return FS_ERR_LQ; }
-    if (!fs_nonneg(c->psi_f3)) { return FS_ERR_PSI_F; }
-    if ((c->delay != 0.0f) && (c->delay != 1.0f)) { return FS_ERR_PARAM; }
-    if (!((c->u_max_frac > 0.0f) && (c->u_max_frac <= 0.5f))) { return FS_ERR_PARAM; }
-    /* the loop's delay (1.5 periods with the computation delay) keeps the
-     * first-order design within alpha Ts <= 0.25 (phase margin above 50 deg) */
-    if (!fs_pos(c->bandwidth) || !((c->bandwidth * c->Ts) <= 0.25f)) { return FS_ERR_BANDWIDTH; }
-    x->cfg = *cfg;
-    fs_pi_config pc;
-    fs_status st = fs_pi_design(&pc, c->Ts, c->L_d3, c->R_s, c->bandwidth, 0.0f);
-    if (st == FS_OK) { st = fs_pi_init(&x->pi_d3, &pc); }
-    if (st != FS_OK) { return st; }
-    st = fs_pi_design(&pc, c->Ts, c->L_q3, c->R_s, c->bandwidth, 0.0f);
-    if (st == FS_OK) { st = fs_pi_init(&x->pi_q3, &pc); }
-    if (st != FS_OK) { return st; }
-    fs_xyctrl_reset(x);
-    return FS_OK;
+    fs_status ret;
+    if (!x || !cfg) { ret = FS_ERR_NULL; }
+    else {
+        const fs_xyctrl_config *c = cfg;
+        if (!fs_pos(c->Ts)) { ret = FS_ERR_TS; }
+        else if (!fs_nonneg(c->R_s)) { ret = FS_ERR_RS; }
+        else if (!fs_pos(c->L_d3)) { ret = FS_ERR_LD; }
+        else if (!fs_pos(c->L_q3)) { ret = FS_ERR_LQ; }
+        else if (!fs_nonneg(c->psi_f3)) { ret = FS_ERR_PSI_F; }
+        else if ((c->delay != 0.0f) && (c->delay != 1.0f)) { ret = FS_ERR_PARAM; }
+        else if (!((c->u_max_frac > 0.0f) && (c->u_max_frac <= 0.5f))) { ret = FS_ERR_PARAM; }
+        /* the loop's delay (1.5 periods with the computation delay) keeps the
+         * first-order design within alpha Ts <= 0.25 (phase margin above 50 deg) */
+        else if (!fs_pos(c->bandwidth) || !((c->bandwidth * c->Ts) <= 0.25f)) { ret = FS_ERR_BANDWIDTH; }
+        else {
+            x->cfg = *cfg;
+            fs_pi_config pc;
+            fs_status st = fs_pi_design(&pc, c->Ts, c->L_d3, c->R_s, c->bandwidth, 0.0f);
+            if (st == FS_OK) { st = fs_pi_init(&x->pi_d3, &pc); }
+            if (st != FS_OK) { ret = st; }
+            else {
+                st = fs_pi_design(&pc, c->Ts, c->L_q3, c->R_s, c->bandwidth, 0.0f);
+                if (st == FS_OK) { st = fs_pi_init(&x->pi_q3, &pc); }
+                if (st != FS_OK) { ret = st; }
+                else {
+                    fs_xyctrl_reset(x);
+                    ret = FS_OK;
+                }
+            }
+        }
+    }
+    return ret;
 }
 
 void fs_xyctrl_reset(fs_xyctrl *x)
