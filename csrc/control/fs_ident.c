@@ -625,7 +625,8 @@ static fs_ab step_align(fs_ident *id, fs_ab i)
     const float dL = id->res.L_q_axis - id->res.L_d_axis;
     float I_top = I_ALIGN * c->i_max;
     if ((c->psi_f_hint > 0.0f) && (dL > 0.0f) && id->res.saliency >= SAL_MIN) { I_top = fs_minf(I_top, 0.5f * c->psi_f_hint / dL); }
-    const int n_ramp = (int)(0.2f / c->Ts) + 1;
+    const float n_ramp_f = 0.2f / c->Ts;
+    const int n_ramp = (int)n_ramp_f + 1;
     /* 20 ms windows (several swings of a small rotor), at least half the
      * swing's period where the nameplate's psi_f and J give it: a window
      * shorter than that can fall on a swing's turning point, the rotor
@@ -641,7 +642,8 @@ static fs_ab step_align(fs_ident *id, fs_ab i)
     /* first on beta, then turned to alpha over the next ramp time: a rotor
      * that sits where the current points the other way (no torque, an
      * unstable rest) is pulled off it by the first direction */
-    const float th = 0.5f * FS_PI * fs_clamp01((float)((3 * n_ramp) - id->k) / (float)n_ramp);
+    const int n_left = (3 * n_ramp) - id->k;
+    const float th = 0.5f * FS_PI * fs_clamp01((float)n_left / (float)n_ramp);
     fs_ab u = (th > 0.0f) ? dc_in_frame(id, i, i_ref, th) : dc_on_alpha(id, i, i_ref);
     id->k++;
     if (id->k <= (3 * n_ramp)) { ret = u; }
@@ -741,11 +743,13 @@ static fs_ab step_levels(fs_ident *id, fs_ab i_ab)
     const float i_test = id->res.i_level_top;
     const float t_top = (c->t_level > 0.0f) ? c->t_level : T_LEVEL;
     const float I_ref = sgn * LEV_FRAC[j] * i_test;
-    const int n_set = (int)(30.0f / (id->w_c * c->Ts)) + 1;
+    const float n_set_f = 30.0f / (id->w_c * c->Ts);
+    const int n_set = (int)n_set_f + 1;
     /* the three levels R_s comes from (its slope is the small difference
      * of large voltages) the longer window, the rest half of it; one
      * sign alone twice as long */
-    const int n_meas = (int)(((j < 3) ? 1.0f : 0.5f) * (alt ? 1.0f : 2.0f) * t_top / c->Ts) + 1;
+    const float n_meas_f = ((j < 3) ? 1.0f : 0.5f) * (alt ? 1.0f : 2.0f) * t_top / c->Ts;
+    const int n_meas = (int)n_meas_f + 1;
     const fs_ab i = to_frame(id, i_ab);
     const fs_ab u = id->aligned ? dc_on_alpha(id, i, I_ref) : dc_on_d(id, i, I_ref);
     id->k++;
@@ -998,7 +1002,8 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
 {
     const fs_ident_config *c = &id->cfg;
     const bool check = id->step == FS_IDENT_CHECK;
-    const int n_set = (int)(30.0f / (id->w_c * c->Ts)) + 1;
+    const float n_set_f = 30.0f / (id->w_c * c->Ts);
+    const int n_set = (int)n_set_f + 1;
     /* sub 0: d at zero current (its cross response turns the frame onto the rotor's axis before the
      * q carrier: L_q measured on a frame 1.4 el.deg off read -2 % on zoo machine 12); 1, 2: q at the first
      * and second bias */
@@ -1159,11 +1164,16 @@ static fs_ab step_spin(fs_ident *id, fs_ab i)
     /* polarity unknown: 0.2 s to the current 90 deg off the axis, 0.2 s
      * turning to it, 0.2 s on it (ALIGN's times: slower than a small
      * rotor's swing); else 20 ms to the current on the axis */
-    const int n_a = id->pol_known ? 0 : (int)(0.2f / c->Ts) + 1;
-    const int n_in = id->pol_known ? ((int)(0.02f / c->Ts) + 1) : (3 * n_a);
-    const float i_d = id->i_if * fs_minf((float)id->k / (float)(id->pol_known ? n_in : n_a), 1.0f);
+    const float n_a_f = 0.2f / c->Ts;
+    const float n_in_f = 0.02f / c->Ts;
+    const float n_speed_f = 0.05f / c->Ts;   /* 50 ms at speed */
+    const int n_a = id->pol_known ? 0 : (int)n_a_f + 1;
+    const int n_in = id->pol_known ? ((int)n_in_f + 1) : (3 * n_a);
+    const int n_to = id->pol_known ? n_in : n_a;
+    const float i_d = id->i_if * fs_minf((float)id->k / (float)n_to, 1.0f);
     if (!id->pol_known && (id->k <= n_in)) {
-        id->theta = fs_wrap_pi(id->theta_s + (0.5f * FS_PI * fs_clamp01((float)((2 * n_a) - id->k) / (float)n_a)));
+        const int n_left = (2 * n_a) - id->k;
+        id->theta = fs_wrap_pi(id->theta_s + (0.5f * FS_PI * fs_clamp01((float)n_left / (float)n_a)));
     }
     fs_ab u = frame_current(id, i, (fs_dq){i_d, 0.0f});
     id->k++;
@@ -1177,7 +1187,7 @@ static fs_ab step_spin(fs_ident *id, fs_ab i)
             } else {
                 id->w += c->w_spin / c->t_ramp * c->Ts;
             }
-        } else if (++id->n_acc > (int)(0.05f / c->Ts)) {   /* 50 ms at speed */
+        } else if (++id->n_acc > (int)n_speed_f) {   /* 50 ms at speed */
             id->bw_pll = fs_minf(0.1f * id->w_c, 0.5f * id->w_target);   /* below the current loop, and a few turns to settle */
             id->w0 = id->w;
             ident_goto(id, FS_IDENT_FLUX);
@@ -1196,8 +1206,10 @@ static fs_ab step_flux(fs_ident *id, fs_ab i)
     const fs_ident_config *c = &id->cfg;
     fs_ab u = frame_current(id, i, (fs_dq){0.0f, 0.0f});
     const float phi = frame_pll(id, i);
-    const int n_lock = (int)(10.0f / (id->bw_pll * c->Ts)) + 1;
-    const int n_meas = (int)(20.0f / (id->bw_pll * c->Ts)) + 1;
+    const float n_lock_f = 10.0f / (id->bw_pll * c->Ts);
+    const int n_lock = (int)n_lock_f + 1;
+    const float n_meas_f = 20.0f / (id->bw_pll * c->Ts);
+    const int n_meas = (int)n_meas_f + 1;
     id->k++;
     if (id->k <= n_lock) { ret = u; }
     else {
@@ -1274,7 +1286,8 @@ static fs_ab step_dcurve(fs_ident *id, fs_ab i_ab)
     fs_ab ret;
     const fs_ident_config *c = &id->cfg;
     fs_ident_result *r = &id->res;
-    const int n_set = (int)(30.0f / (id->w_c * c->Ts)) + 1;
+    const float n_set_f = 30.0f / (id->w_c * c->Ts);
+    const int n_set = (int)n_set_f + 1;
     while (id->sub < FS_MAPID_ND) {   /* the next level the voltage and the frame's lock allow (0 is psi_f, read by FLUX) */
         const int kk = id->sub - (FS_MAPID_ND / 2);
         const float I = 0.25f * (float)kk * c->i_max;
@@ -1283,7 +1296,8 @@ static fs_ab step_dcurve(fs_ident *id, fs_ab i_ab)
         }
         id->sub++;
     }
-    const float I = (id->sub < FS_MAPID_ND) ? (0.25f * (float)(id->sub - (FS_MAPID_ND / 2)) * c->i_max) : 0.0f;
+    const int k_level = id->sub - (FS_MAPID_ND / 2);
+    const float I = (id->sub < FS_MAPID_ND) ? (0.25f * (float)k_level * c->i_max) : 0.0f;
     /* each level reached by a ramp from the last over a third of the settling (a step of i_max overshoots at speed) */
     const float ramp = fs_minf(3.0f * (float)id->k / (float)n_set, 1.0f);
     fs_ab u = frame_current(id, i_ab, (fs_dq){id->i_ref0 + (I - id->i_ref0) * ramp, 0.0f});

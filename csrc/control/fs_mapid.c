@@ -152,7 +152,8 @@ static void crossings(fs_mapid *m, float x, float y, float psx, float psy, float
     if (!(dx * (float)dir > 0.0f)) { return; }
     const float mid = 0.5f * (x + m->x_prev);
     for (int t = 0; t <= (2 * n); ++t) {   /* the steps near each value, for its incremental L */
-        if (fabsf(mid - (float)(t - n) * h) > (0.5f * h)) { continue; }
+        const int tn = t - n;
+        if (fabsf(mid - (float)tn * h) > (0.5f * h)) { continue; }
         if (dir > 0) {
             m->s_up[t] += dx;
             m->c_up[t]++;
@@ -162,7 +163,8 @@ static void crossings(fs_mapid *m, float x, float y, float psx, float psy, float
         }
     }
     for (int t = 0; t <= (2 * n); ++t) {
-        const float v = (float)(t - n) * h;
+        const int tn = t - n;
+        const float v = (float)tn * h;
         const bool passed = (dir > 0) ? ((m->x_prev < v) && (x >= v)) : ((m->x_prev > v) && (x <= v));
         if (!passed || ((m->seen & (1u << (unsigned)t)) != 0u)) { continue; }
         const float f = (v - m->x_prev) / dx;
@@ -347,7 +349,8 @@ static bool unstable(const fs_mapid *m, int n_settle)
         if (K >= 0.0f) { ret = false; }
         else {
             const float rate = sqrtf(-p * K / c->J);
-            const float t_L = (float)((2 * n_settle) + (7 * m->n_rise)) * c->Ts;   /* in, the pattern's 6.5 rises and the trim, out */
+            const int n_L = (2 * n_settle) + (7 * m->n_rise);
+            const float t_L = (float)n_L * c->Ts;   /* in, the pattern's 6.5 rises and the trim, out */
             ret = coshf(rate * t_L) > GROWTH;
         }
     }
@@ -400,7 +403,8 @@ static void q_design(fs_mapid *m, int kk, float u_max)
     float t_q = (float)((k_a > 0.0f) ? N_Q_MAX : N_Q_MAX_LOCKED) * c->Ts;
     if ((k_a > 0.0f) && (I > 0.0f)) { t_q = fs_minf(t_q, sqrtf(c->motion_max / (SWING * k_a * I))); }
     t_q = fs_maxf(t_q, fs_maxf(t_min, (U_lim > 0.0f) ? (c->L_q * I / U_lim) : t_min));
-    m->n_rise = (int)((t_q / c->Ts) + 0.5f);
+    const float n_rise_f = (t_q / c->Ts) + 0.5f;
+    m->n_rise = (int)n_rise_f;
     m->U = (I > 0.0f) ? fs_minf(c->L_q * I / t_q, U_lim) : 0.0f;
     m->I_amp = I;
     r->i_q_amp[kk] = I;
@@ -437,7 +441,8 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
     const fs_dq i_prev = (m->stage == FS_MAPID_QSWEEP) ? (fs_dq){m->y_prev, m->x_prev} : (fs_dq){m->x_prev, m->y_prev};
     const float lim = 0.9f * u_max;
     fs_dq u = {0.0f, 0.0f};
-    const int n_settle = (int)(N_SETTLE / (c->w_c * c->Ts)) + 1;
+    const float n_settle_f = N_SETTLE / (c->w_c * c->Ts);
+    const int n_settle = (int)n_settle_f + 1;
     m->torque_imp += c->Ts * torque_weight(c, i.d) * i.q;
     switch (m->stage) {
     case FS_MAPID_DSWEEP: {
@@ -483,7 +488,8 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
              * sweep's ends, in the leg's mean); above a quarter of U the legs' slopes are too far apart
              * (a low link's R_s i, a high link's dead time, stall the rise): U raised to four times it
              * (twice where the rise stalled), and the sweep starts again from zero current */
-            const float drop_v = stalled ? (0.5f * m->U) : fs_minf(1.0f - m->impulse / (float)(m->k - 1) / step0, 1.0f) * m->U;
+            const int k_prev = m->k - 1;
+            const float drop_v = stalled ? (0.5f * m->U) : fs_minf(1.0f - m->impulse / (float)k_prev / step0, 1.0f) * m->U;
             const float U_max = U_SWEEP * u_max;
             if ((drop_v > (0.25f * m->U)) && (m->U < U_max) && (m->restarts < 3)) {
                 m->U = fs_minf(4.0f * drop_v, U_max);
@@ -499,7 +505,8 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
         m->y_prev = i.q;
         u.d = sweep_voltage(m, i.d, e.d);
         u.q = hold(&m->pi_q, 0.0f, i.q, fs_maxf(lim - m->U, 0.0f));
-        if (over || (m->k > (40 * (int)(1.0f / D_STEP)))) {   /* over, or stuck (a current that does not follow) */
+        const float n_step_f = 1.0f / D_STEP;
+        if (over || (m->k > (40 * (int)n_step_f))) {   /* over, or stuck (a current that does not follow) */
             d_finish(m);
             fs_pi_reset(&m->pi_d);
             fs_pi_reset(&m->pi_q);
@@ -573,7 +580,8 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
             if (settled) {
                 const float dI = m->U * c->Ts / c->L_q;
                 const float imp = m->torque_imp / torque_weight(c, m->I_d);
-                m->n_trim = (int)(sqrtf(fabsf(imp) / (dI * c->Ts)) + 0.5f);
+                const float n_trim_f = sqrtf(fabsf(imp) / (dI * c->Ts)) + 0.5f;
+                m->n_trim = (int)n_trim_f;
                 m->leg = (imp > 0.0f) ? (int)1 : (int)0;   /* the first half against the impulse */
                 m->k = 0;
             }
@@ -598,8 +606,10 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
         if (m->k >= (n_settle / 2)) { m->impulse += u.q - e.q; }   /* the second half: the current back at zero */
         if (++m->k >= n_settle) {
             const int kk = Q_ORDER[m->level] + (FS_MAPID_ND / 2);
-            const float e_q = m->impulse / (float)(n_settle - (n_settle / 2));   /* V: the mean back-EMF */
-            const float t_L = (float)((2 * n_settle) + (7 * m->n_rise)) * c->Ts;
+            const int n_read = n_settle - (n_settle / 2);
+            const float e_q = m->impulse / (float)n_read;   /* V: the mean back-EMF */
+            const int n_L = (2 * n_settle) + (7 * m->n_rise);
+            const float t_L = (float)n_L * c->Ts;
             m->k = 0;
             m->stage = ++m->level < N_LEVELS ? FS_MAPID_IN : FS_MAPID_DONE;
             if ((c->psi_f > 0.0f) && fabsf(e_q) > ((c->psi_f * EMF_TURN / t_L) + (1.3333333f * c->u_e))) {

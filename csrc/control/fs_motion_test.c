@@ -21,9 +21,12 @@ FS_COLD fs_status fs_motion_test_init(fs_motion_test *m, const fs_motion_test_co
             m->cfg = *cfg;
             if (m->cfg.i_push_max == 0.0f) { m->cfg.i_push_max = cfg->i_push; }
             if (m->cfg.theta_max == 0.0f) { m->cfg.theta_max = fs_minf(4.0f * cfg->theta_dec, 0.49f * FS_PI); }
-            m->n_lock = (int)((cfg->t_lock / cfg->Ts) + 0.5f);
-            m->n_push = (int)((cfg->t_push / cfg->Ts) + 0.5f);
-            m->n_settle = (int)((cfg->t_settle / cfg->Ts) + 0.5f);
+            const float n_lock_f = (cfg->t_lock / cfg->Ts) + 0.5f;
+            m->n_lock = (int)n_lock_f;
+            const float n_push_f = (cfg->t_push / cfg->Ts) + 0.5f;
+            m->n_push = (int)n_push_f;
+            const float n_settle_f = (cfg->t_settle / cfg->Ts) + 0.5f;
+            m->n_settle = (int)n_settle_f;
             fs_motion_test_reset(m);
             ret = FS_OK;
         }

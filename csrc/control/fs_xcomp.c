@@ -41,7 +41,8 @@ float fs_xcomp_eval(const fs_xcomp_config *c, float i_q)
         ret = fs_clampf(d, -0.5f * FS_PI, 0.5f * FS_PI);
     }
     else {
-        float x = fs_clampf((i_q - c->i_q0) / c->di_q, 0.0f, (float)(c->n - 1));
+        const int n_last = c->n - 1;
+        float x = fs_clampf((i_q - c->i_q0) / c->di_q, 0.0f, (float)n_last);
         int k = (int)x;
         if (k > (c->n - 2)) { k = c->n - 2; }
         float s = x - (float)k;
