@@ -5,7 +5,7 @@ FS_COLD fs_status fs_drive_ident_init(fs_drive *drv, const fs_drive_config *cfg)
 {
     fs_status ret;
     if (cfg->phases != 3) { drv->fail = "phases"; ret = FS_ERR_MODE; }
-    else if (cfg->converter != FS_CONV_VSI) { drv->fail = "converter"; ret = FS_ERR_MODE; }
+    else if (cfg->converter != (int)FS_CONV_VSI) { drv->fail = "converter"; ret = FS_ERR_MODE; }
     else if (!fs_pos(cfg->T_pwm) || !(cfg->T_pwm >= cfg->Ts)) { drv->fail = "T_pwm"; ret = FS_ERR_TS; }
     else {
         fs_ident_config ic = cfg->ident;
@@ -37,7 +37,7 @@ void fs_drive_ident_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out
     fs_ab u_real;
     out->over_modulation = fs_svpwm(u, in->u_dc, out->duty, &u_real);
     /* the frame the step works in: the standstill steps' axis, then the running frame */
-    const float th = (id->step < FS_IDENT_SPIN) ? id->theta_s : id->theta;
+    const float th = (id->step < (int)FS_IDENT_SPIN) ? id->theta_s : id->theta;
     const float ct = fs_cosf(th);
     const float st = fs_sinf(th);
     const fs_dq i = fs_park(i_ab, ct, st);

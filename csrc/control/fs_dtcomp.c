@@ -74,32 +74,33 @@ void fs_dtcomp_step(fs_dtcomp *d, const float i_ph[], fs_ab u_inj, float duty[])
     if (!carrier && !d->double_update) {   /* both edges at the sample's current (header) */
         fs_dtcomp_sampled(c->phases, i_ph, d->dd, c->i_band, duty);
         ++d->k;
-        return;
     }
-    const float Th = 0.5f * c->T_pwm;
-    /* flux the carrier adds until the interval starts, and its rate in it */
-    const float t0 = c->delay * c->Ts;
-    float di0[FS_PHASES_MAX];
-    float rate[FS_PHASES_MAX];
-    phase_values(c->phases, (fs_ab){t0 * d->inv_L * d->u_inj_now.alpha, t0 * d->inv_L * d->u_inj_now.beta}, di0);
-    phase_values(c->phases, (fs_ab){u_inj.alpha * d->inv_L, u_inj.beta * d->inv_L}, rate);
-    /* the half the interval is: with delay it starts one step after this one */
-    const int half = d->double_update ? (int)((d->k + (int)c->delay) & 1) : -1;
-    for (int k = 0; k < c->phases; ++k) {
-        const float dk = duty[k];
-        if (!((dk > 0.0f) && (dk < 1.0f))) { continue; }   /* no edge, no dead time */
-        const float i0 = i_ph[k] + di0[k];
-        float dd = 0.0f;
-        if (half != 1) {   /* the rising edge: the first half of the interval */
-            const float tau = ((1.0f - dk) * Th) + (0.5f * c->t_dead);
-            dd += pos_part(i0 + (tau * rate[k]), c->i_band);
+    else {
+        const float Th = 0.5f * c->T_pwm;
+        /* flux the carrier adds until the interval starts, and its rate in it */
+        const float t0 = c->delay * c->Ts;
+        float di0[FS_PHASES_MAX];
+        float rate[FS_PHASES_MAX];
+        phase_values(c->phases, (fs_ab){t0 * d->inv_L * d->u_inj_now.alpha, t0 * d->inv_L * d->u_inj_now.beta}, di0);
+        phase_values(c->phases, (fs_ab){u_inj.alpha * d->inv_L, u_inj.beta * d->inv_L}, rate);
+        /* the half the interval is: with delay it starts one step after this one */
+        const int half = d->double_update ? (int)((d->k + (int)c->delay) & 1) : -1;
+        for (int k = 0; k < c->phases; ++k) {
+            const float dk = duty[k];
+            if (!((dk > 0.0f) && (dk < 1.0f))) { continue; }   /* no edge, no dead time */
+            const float i0 = i_ph[k] + di0[k];
+            float dd = 0.0f;
+            if (half != 1) {   /* the rising edge: the first half of the interval */
+                const float tau = ((1.0f - dk) * Th) + (0.5f * c->t_dead);
+                dd += pos_part(i0 + (tau * rate[k]), c->i_band);
+            }
+            if (half != 0) {   /* the falling edge: in the second half (a period's, or the interval's own) */
+                const float tau = ((half < 0) ? Th : 0.0f) + (dk * Th) + (0.5f * c->t_dead);
+                dd -= pos_part(-(i0 + (tau * rate[k])), c->i_band);
+            }
+            duty[k] = fs_clamp01(dk + (dd * c->t_dead / ((half < 0) ? c->T_pwm : Th)));
         }
-        if (half != 0) {   /* the falling edge: in the second half (a period's, or the interval's own) */
-            const float tau = ((half < 0) ? Th : 0.0f) + (dk * Th) + (0.5f * c->t_dead);
-            dd -= pos_part(-(i0 + (tau * rate[k])), c->i_band);
-        }
-        duty[k] = fs_clamp01(dk + (dd * c->t_dead / ((half < 0) ? c->T_pwm : Th)));
+        d->u_inj_now = u_inj;
+        ++d->k;
     }
-    d->u_inj_now = u_inj;
-    ++d->k;
 }

@@ -46,14 +46,14 @@ const char *fs_ident_reason_str(int reason)
         "the d sweep to the current limit would turn the free rotor away: lock it",
         "no polarity seen standing (no saturation asymmetry) and the rotor may not turn: lock it",
         "no saliency: the d axis is not seen standing, and the rotor may not be turned to it"};
-    return ((reason >= 0) && (reason < FS_IDR__COUNT)) ? s[reason] : "?";
+    return ((reason >= 0) && (reason < (int)FS_IDR__COUNT)) ? s[reason] : "?";
 }
 
 const char *fs_ident_step_str(int step)
 {
     static const char *const s[FS_IDENT_NSTEPS] = {"start", "probe", "axis", "align", "polarity", "levels", "ldq", "map",
                                                    "check", "spin", "flux", "dcurve", "accel", "coast", "done", "failed"};
-    return ((step >= 0) && (step < FS_IDENT_NSTEPS)) ? s[step] : "?";
+    return ((step >= 0) && (step < (int)FS_IDENT_NSTEPS)) ? s[step] : "?";
 }
 
 FS_COLD fs_status fs_ident_init(fs_ident *id, const fs_ident_config *cfg)
@@ -110,9 +110,9 @@ void fs_ident_reset(fs_ident *id)
     const fs_ident_config *c = &id->cfg;
     id->res = none;
     /* what the configuration leaves out is skipped, with its reason */
-    const int run_reason = c->locked ? FS_IDR_LOCKED : c->standstill_only ? FS_IDR_STANDSTILL : FS_IDR_NONE;
-    if (run_reason != FS_IDR_NONE) {
-        for (int q = FS_IDQ_PSI_F; q <= FS_IDQ_FRICTION; ++q) {
+    const int run_reason = c->locked ? (int)FS_IDR_LOCKED : c->standstill_only ? (int)FS_IDR_STANDSTILL : (int)FS_IDR_NONE;
+    if (run_reason != (int)FS_IDR_NONE) {
+        for (int q = FS_IDQ_PSI_F; q <= (int)FS_IDQ_FRICTION; ++q) {
             id->res.status[q] = FS_IDS_SKIPPED;
             id->res.reason[q] = run_reason;
         }
@@ -175,7 +175,7 @@ float fs_ident_leg_error(const fs_ident *id, float i)
     float ret;
     const float ue = id->res.u_e;
     const float ie = id->res.i_e;
-    if (id->res.status[FS_IDQ_VERR] != FS_IDS_OK) { ret = 0.0f; }
+    if (id->res.status[FS_IDQ_VERR] != (int)FS_IDS_OK) { ret = 0.0f; }
     else {
         ret = ue * i / sqrtf((i * i) + (ie * ie) + 1e-30f);
     }
@@ -186,13 +186,13 @@ float fs_ident_leg_error(const fs_ident *id, float i)
  * needing it, and the sequence ends. */
 static void ident_fail(fs_ident *id, int q, int reason)
 {
-    for (int k = 0; k < FS_IDQ_N; ++k) {
-        if (id->res.status[k] == FS_IDS_PENDING) {
+    for (int k = 0; k < (int)FS_IDQ_N; ++k) {
+        if (id->res.status[k] == (int)FS_IDS_PENDING) {
             id->res.status[k] = FS_IDS_FAILED;
-            id->res.reason[k] = (k == q) ? reason : FS_IDR_PREREQ;
+            id->res.reason[k] = (k == q) ? reason : (int)FS_IDR_PREREQ;
         }
     }
-    if (id->res.status[q] != FS_IDS_FAILED) {   /* a quantity already given is withdrawn */
+    if (id->res.status[q] != (int)FS_IDS_FAILED) {   /* a quantity already given is withdrawn */
         id->res.status[q] = FS_IDS_FAILED;
         id->res.reason[q] = reason;
     }
@@ -277,19 +277,21 @@ static bool rec_fit(const fs_ident *id, int a, int b, float *slope, float *t_m, 
  * decimation doubles, so any duration fits in FS_IDENT_NREC points. */
 static void rec_push(fs_ident *id, float t, float w)
 {
-    if (++id->rec_k < id->rec_dec) { return; }
-    id->rec_k = 0;
-    if (id->rec_n == FS_IDENT_NREC) {
-        for (int k = 0; k < (FS_IDENT_NREC / 2); ++k) {
-            id->rec_t[k] = 0.5f * (id->rec_t[2 * k] + id->rec_t[(2 * k) + 1]);
-            id->rec_w[k] = 0.5f * (id->rec_w[2 * k] + id->rec_w[(2 * k) + 1]);
+    if (++id->rec_k < id->rec_dec) { /* nothing more to do */ }
+    else {
+        id->rec_k = 0;
+        if (id->rec_n == FS_IDENT_NREC) {
+            for (int k = 0; k < (FS_IDENT_NREC / 2); ++k) {
+                id->rec_t[k] = 0.5f * (id->rec_t[2 * k] + id->rec_t[(2 * k) + 1]);
+                id->rec_w[k] = 0.5f * (id->rec_w[2 * k] + id->rec_w[(2 * k) + 1]);
+            }
+            id->rec_n = FS_IDENT_NREC / 2;
+            id->rec_dec *= 2;
         }
-        id->rec_n = FS_IDENT_NREC / 2;
-        id->rec_dec *= 2;
+        id->rec_t[id->rec_n] = t;
+        id->rec_w[id->rec_n] = w;
+        id->rec_n++;
     }
-    id->rec_t[id->rec_n] = t;
-    id->rec_w[id->rec_n] = w;
-    id->rec_n++;
 }
 
 static void rec_clear(fs_ident *id)
@@ -489,7 +491,7 @@ static fs_ab step_axis(fs_ident *id, fs_ab i)
     const float lim = 0.45f * id->u_max;
     u.alpha = pi_hold(&id->pi_d, i.alpha, lim) + ((ax == 0) ? (id->U_h * cu) : 0.0f);
     u.beta = pi_hold(&id->pi_q, i.beta, lim) + ((ax == 1) ? (id->U_h * cu) : 0.0f);
-    if (kh >= skip * N_HF) {
+    if (kh >= (skip * N_HF)) {
         id->ax_i[ax][0][0] += i.alpha * cu;
         id->ax_i[ax][0][1] -= i.alpha * su;
         id->ax_i[ax][1][0] += i.beta * cu;
@@ -503,7 +505,7 @@ static fs_ab step_axis(fs_ident *id, fs_ab i)
     if ((kh + 1) < (skip + AX_CHUNK) * N_HF) { ret = u; }   /* a whole number of periods: the carrier ends at zero current */
     else {
         id->k = 0;
-        if (++id->sub < 2 * AX_TURNS) { ret = u; }
+        if (++id->sub < (2 * AX_TURNS)) { ret = u; }
         else {
 
             fs_ident_result *r = &id->res;
@@ -556,7 +558,9 @@ static fs_ab step_axis(fs_ident *id, fs_ab i)
                 }
                 else {
                     ident_design_pi(id, r->L_d_axis, r->L_q_axis, 0.0f);
-                    id->theta_s = r->theta_axis = r->theta_hf = 0.5f * fs_atan2f(-2.0f * L_ab, -(L_aa - L_bb));
+                    r->theta_hf = 0.5f * fs_atan2f(-2.0f * L_ab, -(L_aa - L_bb));
+                    r->theta_axis = r->theta_hf;
+                    id->theta_s = r->theta_hf;
                     /* the d sweep alone: R_s and the inverter's error not known yet (0: its ramp's voltage well above their
                      * drop); the nameplate's psi_f and J bound it where the free rotor would turn away */
                     const fs_mapid_config mc = {c->Ts, c->delay, c->i_max, r->L_d_axis, r->L_q_axis, 0.0f, 0.0f, c->pole_pairs,
@@ -579,7 +583,7 @@ static fs_ab step_polarity(fs_ident *id, fs_ab i_ab)
     const float ct = fs_cosf(id->theta_s);
     const float st = fs_sinf(id->theta_s);
     const fs_dq u = fs_mapid_step(&id->map, fs_park(i_ab, ct, st), (fs_dq){0.0f, 0.0f}, id->u_max);
-    if (id->map.stage != FS_MAPID_DONE) { ret = fs_inv_park(u, ct, st); }
+    if (id->map.stage != (int)FS_MAPID_DONE) { ret = fs_inv_park(u, ct, st); }
     else {
         fs_ident_result *r = &id->res;
         r->pol_asym = id->map.res.asym;
@@ -624,7 +628,7 @@ static fs_ab step_align(fs_ident *id, fs_ab i)
     const fs_ident_config *c = &id->cfg;
     const float dL = id->res.L_q_axis - id->res.L_d_axis;
     float I_top = I_ALIGN * c->i_max;
-    if ((c->psi_f_hint > 0.0f) && (dL > 0.0f) && id->res.saliency >= SAL_MIN) { I_top = fs_minf(I_top, 0.5f * c->psi_f_hint / dL); }
+    if ((c->psi_f_hint > 0.0f) && (dL > 0.0f) && (id->res.saliency >= SAL_MIN)) { I_top = fs_minf(I_top, 0.5f * c->psi_f_hint / dL); }
     const float n_ramp_f = 0.2f / c->Ts;
     const int n_ramp = (int)n_ramp_f + 1;
     /* 20 ms windows (several swings of a small rotor), at least half the
@@ -717,9 +721,9 @@ static float fit_leg_error(fs_ident *id, const float E[], const float I_j[])
 static float level_top(const fs_ident *id)
 {
     const fs_ident_config *c = &id->cfg;
-    float I = (c->i_test > 0.0f) ? c->i_test : I_TEST * c->i_max;
+    float I = (c->i_test > 0.0f) ? c->i_test : (I_TEST * c->i_max);
     const float dL = id->res.L_q_axis - id->res.L_d_axis;
-    if (id->pol_known && !c->locked && (c->psi_f_hint > 0.0f) && (dL > 0.0f) && id->res.saliency >= SAL_MIN) {
+    if (id->pol_known && !c->locked && (c->psi_f_hint > 0.0f) && (dL > 0.0f) && (id->res.saliency >= SAL_MIN)) {
         I = fs_minf(I, 0.5f * c->psi_f_hint / dL);
     }
     return I;
@@ -976,7 +980,7 @@ static float frame_pll(fs_ident *id, fs_ab i_ab)
 static float ldq_bias(const fs_ident *id, int level)
 {
     const float i_max = id->cfg.i_max;
-    float I_b = fs_clampf(FS_SQRT3 * I_HF * i_max + (6.0f * id->res.i_e), 0.2f * i_max, 0.4f * i_max);
+    float I_b = fs_clampf((FS_SQRT3 * I_HF * i_max) + (6.0f * id->res.i_e), 0.2f * i_max, 0.4f * i_max);
     /* on the north pole I_b and 2 I_b within the levels' bound (the carrier's clearance given up first:
      * a negative bias there would push the magnet away); else +-I_b */
     const bool north = id->aligned || id->pol_known;
@@ -1001,7 +1005,7 @@ static float axis_offset(float r, float g)
 static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
 {
     const fs_ident_config *c = &id->cfg;
-    const bool check = id->step == FS_IDENT_CHECK;
+    const bool check = id->step == (int)FS_IDENT_CHECK;
     const float n_set_f = 30.0f / (id->w_c * c->Ts);
     const int n_set = (int)n_set_f + 1;
     /* sub 0: d at zero current (its cross response turns the frame onto the rotor's axis before the
@@ -1031,7 +1035,7 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
     const float uh = id->U_h * cu;   /* a cosine voltage: the inductive current starts at its own zero */
     if (axis == 0) { u.alpha += uh; } else { u.beta += uh; }
     const float ua = (axis == 0) ? u.alpha : u.beta;   /* all of the axis' voltage: the bias loop answers the carrier too */
-    if (kh >= HF_SKIP * N_HF) {
+    if (kh >= (HF_SKIP * N_HF)) {
         /* phasors X = sum x[k] e^{-j w k Ts}: the current sampled now, the reference of now */
         id->hf_u[0] += ua * cu;
         id->hf_u[1] -= ua * su;
@@ -1051,7 +1055,7 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
     /* amplitude 2|I|/n against the noise sigma sqrt(2/n) of that estimate */
     const float amp = 2.0f * sqrtf((Iax[0] * Iax[0]) + (Iax[1] * Iax[1])) / (float)n;
     const float snr = amp / fs_maxf(id->sigma_i * sqrtf(2.0f / (float)n), 1e-6f * c->i_max);
-    const int q = check ? FS_IDQ_MAP : (axis == 0) ? FS_IDQ_LD : FS_IDQ_LQ;
+    const int q = check ? (int)FS_IDQ_MAP : (axis == 0) ? (int)FS_IDQ_LD : (int)FS_IDQ_LQ;
     if (!check) { r->snr_l = (id->sub == 0) ? snr : fs_minf(r->snr_l, snr); }
     if (!(L > 0.0f) || !fs_fin(L)) {
         ident_fail(id, q, FS_IDR_FIT);
@@ -1066,7 +1070,7 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
         const float den = (Iax[0] * Iax[0]) + (Iax[1] * Iax[1]);
         const float e = axis_offset(((Ix[0] * Iax[0]) + (Ix[1] * Iax[1])) / den, r->saliency);
         id->theta_s = fs_wrap_pi(id->theta_s + e);   /* onto the rotor's axis */
-        if (check && (r->status[FS_IDQ_MAP] == FS_IDS_PENDING)) {   /* before MAP: the frame onto the axis the biases left */
+        if (check && (r->status[FS_IDQ_MAP] == (int)FS_IDS_PENDING)) {   /* before MAP: the frame onto the axis the biases left */
             r->motion_premap = e;
             ident_goto(id, FS_IDENT_MAP);
             return (fs_ab){0.0f, 0.0f};
@@ -1110,7 +1114,7 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
         return from_frame(id, u);
     }
     ident_design_pi(id, r->L_d, r->L_q, r->R_s);
-    if (r->status[FS_IDQ_MAP] == FS_IDS_PENDING) {
+    if (r->status[FS_IDQ_MAP] == (int)FS_IDS_PENDING) {
         fs_mapid_config mc = {c->Ts, c->delay, c->i_max, r->L_d, r->L_q, r->R_s, fabsf(r->u_e), c->pole_pairs,
                               c->locked ? 0.0f : c->psi_f_hint, c->locked ? 0.0f : c->J_hint,
                               (c->motion_max > 0.0f) ? c->motion_max : MOTION_MAX, id->w_c, 0, id->pol_known};
@@ -1133,7 +1137,7 @@ static fs_ab step_map(fs_ident *id, fs_ab i_ab)
     const fs_dq e = fs_park(ident_inv_error(id, i_ab), ct, st);
     fs_dq u = fs_mapid_step(&id->map, i, e, id->u_max);
     id->k++;
-    if (id->map.stage != FS_MAPID_DONE) { ret = fs_inv_park(u, ct, st); }
+    if (id->map.stage != (int)FS_MAPID_DONE) { ret = fs_inv_park(u, ct, st); }
     else {
         const fs_mapid_result *m = &id->map.res;
         int n_read = 0;   /* the d axis read to +-3/4 i_max (+-i_max where the sweep's peaks reached it, else from beyond) */
@@ -1149,7 +1153,7 @@ static fs_ab step_map(fs_ident *id, fs_ab i_ab)
             ident_ok(id, FS_IDQ_MAP);
         } else {
             id->res.status[FS_IDQ_MAP] = FS_IDS_FAILED;
-            id->res.reason[FS_IDQ_MAP] = (m->d_limit == FS_MAPID_LIM_UNSTABLE) ? FS_IDR_UNSTABLE : FS_IDR_INCOMPLETE;
+            id->res.reason[FS_IDQ_MAP] = (m->d_limit == (int)FS_MAPID_LIM_UNSTABLE) ? (int)FS_IDR_UNSTABLE : (int)FS_IDR_INCOMPLETE;
         }
         ident_goto(id, FS_IDENT_CHECK);
         ret = (fs_ab){0.0f, 0.0f};
@@ -1180,7 +1184,7 @@ static fs_ab step_spin(fs_ident *id, fs_ab i)
     if (id->k > n_in) {
         if (id->sub == 0) {
             const float m = sqrtf((id->u_dq.d * id->u_dq.d) + (id->u_dq.q * id->u_dq.q));
-            if ((id->w >= c->w_spin) || (m > U_SPIN * id->u_max)) {
+            if ((id->w >= c->w_spin) || (m > (U_SPIN * id->u_max))) {
                 id->sub = 1;   /* hold the speed reached */
                 id->w_target = id->w;
                 id->n_acc = 0;
@@ -1264,7 +1268,7 @@ static fs_ab step_flux(fs_ident *id, fs_ab i)
                     id->i_acc = I_ACC * c->i_max;
                     id->w_target = id->w0;
                     rec_clear(id);
-                    ident_goto(id, (id->res.status[FS_IDQ_MAP] == FS_IDS_OK) ? FS_IDENT_DCURVE : FS_IDENT_ACCEL);
+                    ident_goto(id, (id->res.status[FS_IDQ_MAP] == (int)FS_IDS_OK) ? FS_IDENT_DCURVE : FS_IDENT_ACCEL);
                     ret = u;
                 }
             }
@@ -1291,7 +1295,7 @@ static fs_ab step_dcurve(fs_ident *id, fs_ab i_ab)
     while (id->sub < FS_MAPID_ND) {   /* the next level the voltage and the frame's lock allow (0 is psi_f, read by FLUX) */
         const int kk = id->sub - (FS_MAPID_ND / 2);
         const float I = 0.25f * (float)kk * c->i_max;
-        if ((kk != 0) && abs_level(kk) <= DCURVE_LEVELS && fabsf(id->w) * (r->psi_f + (r->L_d * I)) < U_DCURVE * id->u_max) {
+        if ((kk != 0) && (abs_level(kk) <= DCURVE_LEVELS) && ((fabsf(id->w) * (r->psi_f + (r->L_d * I))) < (U_DCURVE * id->u_max))) {
             break;
         }
         id->sub++;
@@ -1327,7 +1331,7 @@ static fs_ab step_dcurve(fs_ident *id, fs_ab i_ab)
             /* a level is read where the frame held the d axis (the PLL's error within DCURVE_LOCK) and the
              * speed within 10 %: a frame off the axis turns the d current into torque, and the torque turns
              * the frame further off (zoo machine 0 stopped under -i_max from 4 el.deg) */
-            if ((id->s_ii / n) < DCURVE_LOCK && fabsf(id->w - id->u0) < (0.1f * fabsf(id->u0))) {
+            if (((id->s_ii / n) < DCURVE_LOCK) && (fabsf(id->w - id->u0) < (0.1f * fabsf(id->u0)))) {
                 r->psi_d_w[id->sub] = id->s_u / n;
                 r->i_d_w[id->sub] = id->s_i / n;
                 r->w_d_w[id->sub] = id->s_ia / n;
@@ -1352,7 +1356,7 @@ static fs_ab step_accel(fs_ident *id, fs_ab i)
     rec_push(id, t, id->w0);
     id->k++;
     const float m = sqrtf((id->u_dq.d * id->u_dq.d) + (id->u_dq.q * id->u_dq.q));
-    if ((id->w0 >= (1.4f * id->w_target)) || (m > U_ACC * id->u_max) || (t > (20.0f * c->t_ramp))) {
+    if ((id->w0 >= (1.4f * id->w_target)) || (m > (U_ACC * id->u_max)) || (t > (20.0f * c->t_ramp))) {
         id->t_acc = t;
         /* the fit skips the PLL's transient, 4/bw: what is left must hold 10/bw */
         const float t_skip = 4.0f / id->bw_pll;
@@ -1473,10 +1477,10 @@ fs_ab fs_ident_step(fs_ident *id, fs_ab i_ab, float u_dc)
     id->u_max = fs_maxf(u_dc, 0.0f) * FS_INV_SQRT3;
     const float i_mag = sqrtf((i_ab.alpha * i_ab.alpha) + (i_ab.beta * i_ab.beta));
     fs_ab u = {0.0f, 0.0f};
-    if ((id->step >= 0) && (id->step < FS_IDENT_NSTEPS)) { id->res.n_step[id->step]++; }
+    if ((id->step >= 0) && (id->step < (int)FS_IDENT_NSTEPS)) { id->res.n_step[id->step]++; }
     id->res.n_total++;
-    const float trip = ((id->step == FS_IDENT_MAP) || (id->step == FS_IDENT_POLARITY)) ? 1.15f : 1.1f;
-    if ((id->step != FS_IDENT_FAILED) && (id->step != FS_IDENT_DONE) && (i_mag > (trip * c->i_max))) {
+    const float trip = ((id->step == (int)FS_IDENT_MAP) || (id->step == (int)FS_IDENT_POLARITY)) ? 1.15f : 1.1f;
+    if ((id->step != (int)FS_IDENT_FAILED) && (id->step != (int)FS_IDENT_DONE) && (i_mag > (trip * c->i_max))) {
         /* 10 % over i_max: the HF and the loops' overshoot stay below; 15 % in MAP: its q sweeps stop at
          * 1.06 (fs_mapid.h), the period of delay and one step on */
         static const int q_of_step[FS_IDENT_NSTEPS] = {
@@ -1514,7 +1518,7 @@ fs_ab fs_ident_step(fs_ident *id, fs_ab i_ab, float u_dc)
         if ((id->bw_pll > 0.0f) && fabsf(id->w0) > (0.05f * id->w_target)) { (void)frame_pll(id, i_ab); }
         break;
     default:   /* FAILED: zero current where a frame is known (tracking the EMF once it was), else zero voltage */
-        if (id->res.status[FS_IDQ_LQ] == FS_IDS_OK) {
+        if (id->res.status[FS_IDQ_LQ] == (int)FS_IDS_OK) {
             u = frame_current(id, i_ab, (fs_dq){0.0f, 0.0f});
             if ((id->bw_pll > 0.0f) && fabsf(id->w0) > (0.05f * id->w_target)) { (void)frame_pll(id, i_ab); }
         }

@@ -8,16 +8,16 @@ float fs_imc_vpn(float alpha)
 {
     float a = fs_clampf(alpha, 0.0f, ALPHA_MAX);
     /* eq. (12) */
-    return 9.0f / FS_PI * (logf(fs_tanf(FS_PI / 3.0f - (0.5f * a))) + (2.0f * FS_INV_SQRT3 * fs_sinf(a)));
+    return 9.0f / FS_PI * (logf(fs_tanf((FS_PI / 3.0f) - (0.5f * a))) + (2.0f * FS_INV_SQRT3 * fs_sinf(a)));
 }
 
 float fs_imc_vtr_max(int region, float alpha)
 {
     float ret;
-    if (region == FS_IMC_LINEAR) { ret = 0.5f * FS_SQRT3; }
+    if (region == (int)FS_IMC_LINEAR) { ret = 0.5f * FS_SQRT3; }
     else {
         /* eq. (20): line fundamental 3 ln3 / pi V_pn; eq. (21): phase over V_im */
-        ret = 3.0f * logf(3.0f) / FS_PI * fs_imc_vpn((region == FS_IMC_OM1) ? 0.0f : alpha) * FS_INV_SQRT3;
+        ret = 3.0f * logf(3.0f) / FS_PI * fs_imc_vpn((region == (int)FS_IMC_OM1) ? 0.0f : alpha) * FS_INV_SQRT3;
     }
     return ret;
 }
@@ -67,7 +67,7 @@ static int rect_sector(int hi, int lo, int x)
     static const signed char pair[3][3] = {{-1, 5, 0}, {2, -1, 1}, {3, 4, -1}};   /* [hi][lo] */
     const int k = pair[hi][lo];
     const int first = ((k % 2) == 0) ? hi : lo;
-    return (2 * k) + 1 + (x != first);
+    return (2 * k) + 1 + ((x != first) ? 1 : 0);
 }
 
 void fs_imc_rectifier(const float u_in[3], float alpha, fs_imc_rect *r)
@@ -99,16 +99,17 @@ void fs_imc_rectifier(const float u_in[3], float alpha, fs_imc_rect *r)
         r->iv[1] = r->iv[0];
         r->iv[1].d = 0.0f;
         r->v_pn = v_max;
-        return;
     }
-    /* eqs. (4)-(6): x on its rail, the other on the far phase, then on mid */
-    const float d_far = fs_clamp01(-u_in[(x == hi) ? lo : hi] / ux);
-    r->iv[0].d = d_far;
-    r->iv[1].p = (x == hi) ? hi : mid;
-    r->iv[1].n = (x == hi) ? mid : lo;
-    r->iv[1].d = 1.0f - d_far;
-    const float v_mid = u_in[r->iv[1].p] - u_in[r->iv[1].n];
-    r->v_pn = (d_far * v_max) + (r->iv[1].d * v_mid);
+    else {
+        /* eqs. (4)-(6): x on its rail, the other on the far phase, then on mid */
+        const float d_far = fs_clamp01(-u_in[(x == hi) ? lo : hi] / ux);
+        r->iv[0].d = d_far;
+        r->iv[1].p = (x == hi) ? hi : mid;
+        r->iv[1].n = (x == hi) ? mid : lo;
+        r->iv[1].d = 1.0f - d_far;
+        const float v_mid = u_in[r->iv[1].p] - u_in[r->iv[1].n];
+        r->v_pn = (d_far * v_max) + (r->iv[1].d * v_mid);
+    }
 }
 
 FS_COLD fs_status fs_imc_depth_design(fs_imc_depth_config *cfg, float Ts, float i_lim, float V_im,

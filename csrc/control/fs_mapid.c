@@ -149,30 +149,32 @@ static void crossings(fs_mapid *m, float x, float y, float psx, float psy, float
         m->seen = 0u;
         dir = -dir;
     }
-    if (!(dx * (float)dir > 0.0f)) { return; }
-    const float mid = 0.5f * (x + m->x_prev);
-    for (int t = 0; t <= (2 * n); ++t) {   /* the steps near each value, for its incremental L */
-        const int tn = t - n;
-        if (fabsf(mid - (float)tn * h) > (0.5f * h)) { continue; }
-        if (dir > 0) {
-            m->s_up[t] += dx;
-            m->c_up[t]++;
-        } else {
-            m->s_dn[t] += dx;
-            m->c_dn[t]++;
+    if (!(dx * (float)dir > 0.0f)) { /* nothing more to do */ }
+    else {
+        const float mid = 0.5f * (x + m->x_prev);
+        for (int t = 0; t <= (2 * n); ++t) {   /* the steps near each value, for its incremental L */
+            const int tn = t - n;
+            if (fabsf(mid - (float)tn * h) > (0.5f * h)) { continue; }
+            if (dir > 0) {
+                m->s_up[t] += dx;
+                m->c_up[t]++;
+            } else {
+                m->s_dn[t] += dx;
+                m->c_dn[t]++;
+            }
         }
-    }
-    for (int t = 0; t <= (2 * n); ++t) {
-        const int tn = t - n;
-        const float v = (float)tn * h;
-        const bool passed = (dir > 0) ? ((m->x_prev < v) && (x >= v)) : ((m->x_prev > v) && (x <= v));
-        if (!passed || ((m->seen & (1u << (unsigned)t)) != 0u)) { continue; }
-        const float f = (v - m->x_prev) / dx;
-        m->seen |= 1u << (unsigned)t;
-        m->s_x[t] += psx0 + (f * (psx - psx0));   /* the swept axis' flux */
-        m->s_y[t] += psy0 + (f * (psy - psy0));   /* the held axis' (d in the q sweeps) */
-        m->s_i[t] += m->y_prev + (f * (y - m->y_prev));
-        m->s_n[t]++;
+        for (int t = 0; t <= (2 * n); ++t) {
+            const int tn = t - n;
+            const float v = (float)tn * h;
+            const bool passed = (dir > 0) ? ((m->x_prev < v) && (x >= v)) : ((m->x_prev > v) && (x <= v));
+            if (!passed || ((m->seen & (1u << (unsigned)t)) != 0u)) { continue; }
+            const float f = (v - m->x_prev) / dx;
+            m->seen |= 1u << (unsigned)t;
+            m->s_x[t] += psx0 + (f * (psx - psx0));   /* the swept axis' flux */
+            m->s_y[t] += psy0 + (f * (psy - psy0));   /* the held axis' (d in the q sweeps) */
+            m->s_i[t] += m->y_prev + (f * (y - m->y_prev));
+            m->s_n[t]++;
+        }
     }
 }
 
@@ -261,12 +263,12 @@ static void d_design(fs_mapid *m, float u_max)
     const fs_mapid_config *c = &m->cfg;
     fs_mapid_result *r = &m->res;
     float I = (c->d_only ? I_REACH_POL : I_REACH) * c->i_max;
-    float U = fs_minf(D_STEP * c->i_max * c->L_d / c->Ts, fs_maxf(U_SWEEP * u_max - drop(c, I), 0.0f));
+    float U = fs_minf(D_STEP * c->i_max * c->L_d / c->Ts, fs_maxf((U_SWEEP * u_max) - drop(c, I), 0.0f));
     const float e_max = GROWTH_EXP;
     r->d_limit = FS_MAPID_LIM_DISC;
     if (d_growth(c, I, U) > e_max) {
-        U = fs_maxf(U, fs_minf(U_SWEEP * u_max - drop(c, I), D_STEP_MAX * c->i_max * c->L_d / c->Ts));
-        while ((d_growth(c, I, U) > e_max) && (I > D_MIN * c->i_max)) { I = fs_maxf(0.95f * I, D_MIN * c->i_max); }
+        U = fs_maxf(U, fs_minf((U_SWEEP * u_max) - drop(c, I), D_STEP_MAX * c->i_max * c->L_d / c->Ts));
+        while ((d_growth(c, I, U) > e_max) && (I > (D_MIN * c->i_max))) { I = fs_maxf(0.95f * I, D_MIN * c->i_max); }
         r->d_limit = FS_MAPID_LIM_UNSTABLE;
         if (d_growth(c, I, U) > e_max) { I = 0.0f; }
     }
@@ -313,7 +315,7 @@ static void d_finish(fs_mapid *m)
         steps = (m->c_up[n + side] < steps) ? m->c_up[n + side] : steps;
         steps = (m->c_dn[n + side] < steps) ? m->c_dn[n + side] : steps;
     }
-    r->decided = fabsf(r->asym) >= POL_MIN && steps >= POL_STEPS;
+    r->decided = (fabsf(r->asym) >= POL_MIN) && (steps >= POL_STEPS);
     if (r->decided && (r->asym < 0.0f) && !m->cfg.pol_known) {   /* the frame's d axis is the magnet's south: turn it by pi */
         r->flipped = 1;
         r->asym = -r->asym;
@@ -370,9 +372,9 @@ static void q_design(fs_mapid *m, int kk, float u_max)
     const fs_mapid_config *c = &m->cfg;
     fs_mapid_result *r = &m->res;
     const float I_d = m->I_d;
-    float I = sqrtf(fs_maxf(I_REACH_Q * I_REACH_Q * c->i_max * c->i_max - (I_d * I_d), 0.0f));
+    float I = sqrtf(fs_maxf((I_REACH_Q * I_REACH_Q * c->i_max * c->i_max) - (I_d * I_d), 0.0f));
     /* the ramp's voltage: what the link leaves after the held axis' drop and this one's (fed forward) */
-    const float U_lim = fs_maxf(U_SWEEP * u_max - drop(c, fabsf(I_d)) - drop(c, I), 0.0f);
+    const float U_lim = fs_maxf((U_SWEEP * u_max) - drop(c, fabsf(I_d)) - drop(c, I), 0.0f);
     int lim = FS_MAPID_LIM_DISC;
     /* the angular acceleration per A of q current at the rotor's rest (el. rad/s^2) */
     const float p = (float)c->pole_pairs;
@@ -438,7 +440,7 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
     const float sgn = m->res.flipped ? -1.0f : 1.0f;   /* a frame on the south pole, turned by pi */
     const fs_dq i = {sgn * i_in.d, sgn * i_in.q};
     const fs_dq e = {sgn * e_in.d, sgn * e_in.q};
-    const fs_dq i_prev = (m->stage == FS_MAPID_QSWEEP) ? (fs_dq){m->y_prev, m->x_prev} : (fs_dq){m->x_prev, m->y_prev};
+    const fs_dq i_prev = (m->stage == (int)FS_MAPID_QSWEEP) ? (fs_dq){m->y_prev, m->x_prev} : (fs_dq){m->x_prev, m->y_prev};
     const float lim = 0.9f * u_max;
     fs_dq u = {0.0f, 0.0f};
     const float n_settle_f = N_SETTLE / (c->w_c * c->Ts);
@@ -527,7 +529,8 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
             if (unstable(m, n_settle)) {   /* the level would turn the rotor: not swept */
                 m->res.limit[kk] = FS_MAPID_LIM_UNSTABLE;
                 m->res.i_q_amp[kk] = 0.0f;
-                m->stage = ++m->level < N_LEVELS ? FS_MAPID_IN : FS_MAPID_DONE;
+                ++m->level;
+                m->stage = (m->level < N_LEVELS) ? (int)FS_MAPID_IN : (int)FS_MAPID_DONE;
                 break;
             }
         }
@@ -549,7 +552,7 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
         integrate(m, i, e, i_prev);
         crossings(m, i.q, i.d, m->psi_q, m->psi_d, pq0, pd0, FS_MAPID_NQ, 0.125f * c->i_max);
         m->k++;
-        const bool over = leg_next(m, i.q, TURN) || fabsf(i.q) > I_ABORT * c->i_max;
+        const bool over = leg_next(m, i.q, TURN) || (fabsf(i.q) > (I_ABORT * c->i_max));
         m->x_prev = i.q;
         m->y_prev = i.d;
         u.q = sweep_voltage(m, i.q, e.q);
@@ -611,7 +614,8 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
             const int n_L = (2 * n_settle) + (7 * m->n_rise);
             const float t_L = (float)n_L * c->Ts;
             m->k = 0;
-            m->stage = ++m->level < N_LEVELS ? FS_MAPID_IN : FS_MAPID_DONE;
+            ++m->level;
+            m->stage = (m->level < N_LEVELS) ? (int)FS_MAPID_IN : (int)FS_MAPID_DONE;
             if ((c->psi_f > 0.0f) && fabsf(e_q) > ((c->psi_f * EMF_TURN / t_L) + (1.3333333f * c->u_e))) {
                 m->res.limit[kk] = FS_MAPID_LIM_MOVING;
                 m->stage = FS_MAPID_DONE;

@@ -15,8 +15,8 @@ FS_COLD fs_status fs_motion_test_init(fs_motion_test *m, const fs_motion_test_co
             || !((t_all / cfg->Ts) < 1e9f)) {
             ret = FS_ERR_PARAM;
         }
-        else if (!((cfg->theta_dec > 0.0f) && cfg->theta_dec < 0.5f * FS_PI)) { ret = FS_ERR_PARAM; }
-        else if (!((cfg->theta_max == 0.0f) || ((cfg->theta_max >= cfg->theta_dec) && cfg->theta_max < 0.5f * FS_PI))) { ret = FS_ERR_PARAM; }
+        else if (!((cfg->theta_dec > 0.0f) && (cfg->theta_dec < (0.5f * FS_PI)))) { ret = FS_ERR_PARAM; }
+        else if (!((cfg->theta_max == 0.0f) || ((cfg->theta_max >= cfg->theta_dec) && (cfg->theta_max < (0.5f * FS_PI))))) { ret = FS_ERR_PARAM; }
         else {
             m->cfg = *cfg;
             if (m->cfg.i_push_max == 0.0f) { m->cfg.i_push_max = cfg->i_push; }

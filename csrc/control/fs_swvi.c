@@ -10,7 +10,7 @@ FS_COLD fs_status fs_swvi_init(fs_swvi *s, const fs_swvi_config *cfg)
         if (!fs_pos(c->Ts)) { ret = FS_ERR_TS; }
         else if ((c->delay != 0) && (c->delay != 1)) { ret = FS_ERR_PARAM; }
         else if (!fs_pos(c->u_h)) { ret = FS_ERR_PARAM; }
-        else if ((c->sequence != FS_SWVI_CONVENTIONAL) && (c->sequence != FS_SWVI_OPTIMIZED)) { ret = FS_ERR_PARAM; }
+        else if ((c->sequence != (int)FS_SWVI_CONVENTIONAL) && (c->sequence != (int)FS_SWVI_OPTIMIZED)) { ret = FS_ERR_PARAM; }
         else if (!fs_pos(c->L_d)) { ret = FS_ERR_LD; }
         else if (!fs_pos(c->L_q)) { ret = FS_ERR_LQ; }
         else if (!(fabsf(c->L_q - c->L_d) > (0.01f * 0.5f * (c->L_d + c->L_q)))) { ret = FS_ERR_SALIENCY; }
@@ -68,7 +68,7 @@ float fs_swvi_step(fs_swvi *s, fs_ab i)
     const int n = (int)(s->k & 3);
     const float th_prev = s->pll.theta;   /* theta_{k-1} */
     s->i_ab[n] = i;
-    if (c->sequence == FS_SWVI_CONVENTIONAL) { s->i_dq[n] = fs_park(i, fs_cosf(th_prev), fs_sinf(th_prev)); }
+    if (c->sequence == (int)FS_SWVI_CONVENTIONAL) { s->i_dq[n] = fs_park(i, fs_cosf(th_prev), fs_sinf(th_prev)); }
 
     /* eq. (8) at the zero crossings (even samples); the first window with
      * the carrier in both its intervals ends at sample 4 */
@@ -79,7 +79,7 @@ float fs_swvi_step(fs_swvi *s, fs_ab i)
             const int n1 = (n + 3) & 3;                     /* k - 1 (the peak), k - 2 */
             const int n2 = (n + 2) & 3;
             fs_dq h;
-            if (c->sequence == FS_SWVI_OPTIMIZED) {
+            if (c->sequence == (int)FS_SWVI_OPTIMIZED) {
                 fs_ab hab = {s->i_ab[n1].alpha - (0.5f * (s->i_ab[n2].alpha + i.alpha)),
                              s->i_ab[n1].beta - (0.5f * (s->i_ab[n2].beta + i.beta))};
                 const float phi = mid_angle(s->theta_u[n2], s->theta_u[n1]);   /* eq. (16) */

@@ -12,7 +12,7 @@ fs_status fs_xcomp_check(const fs_xcomp_config *c)
         return FS_ERR_PARAM;
     }
     for (int k = 0; k < c->n; ++k) {
-        if (!(fabsf(c->delta[k]) < 0.5f * FS_PI)) { return FS_ERR_PARAM; }
+        if (!(fabsf(c->delta[k]) < (0.5f * FS_PI))) { return FS_ERR_PARAM; }
     }
     return FS_OK;
 }
