@@ -3,19 +3,26 @@
 
 FS_COLD fs_status fs_fluxmap_init(fs_fluxmap *m, const fs_fluxmap_table *t)
 {
-    if (!m || !t) { return FS_ERR_NULL; }
-    if (!fs_pos(t->di_d) || !fs_pos(t->di_q) || !fs_fin(t->i_d0) || !fs_pos(t->psi_scale)) { return FS_ERR_PARAM; }
-    for (int k = 0; k < FS_FLUXMAP_ND; ++k) {
-        for (int l = 0; l < FS_FLUXMAP_NQ; ++l) {
-            const int n = (k * FS_FLUXMAP_NQ) + l;
-            if ((k > 0) && !(t->psi_d[n] > t->psi_d[n - FS_FLUXMAP_NQ])) { return FS_ERR_LD; }
-            if ((l > 0) && !(t->psi_q[n] > t->psi_q[n - 1])) { return FS_ERR_LQ; }
+    fs_status ret = FS_OK;
+    if (!m || !t) { ret = FS_ERR_NULL; }
+    else if (!fs_pos(t->di_d) || !fs_pos(t->di_q) || !fs_fin(t->i_d0) || !fs_pos(t->psi_scale)) { ret = FS_ERR_PARAM; }
+    else {
+        /* the first point (k, then l) where a flux does not rise names its axis */
+        for (int k = 0; (k < FS_FLUXMAP_ND) && (ret == FS_OK); ++k) {
+            for (int l = 0; (l < FS_FLUXMAP_NQ) && (ret == FS_OK); ++l) {
+                const int n = (k * FS_FLUXMAP_NQ) + l;
+                if ((k > 0) && !(t->psi_d[n] > t->psi_d[n - FS_FLUXMAP_NQ])) { ret = FS_ERR_LD; }
+                else if ((l > 0) && !(t->psi_q[n] > t->psi_q[n - 1])) { ret = FS_ERR_LQ; }
+                else { /* both rise */ }
+            }
+        }
+        if (ret == FS_OK) {
+            m->t = t;
+            m->inv_di_d = 1.0f / t->di_d;
+            m->inv_di_q = 1.0f / t->di_q;
         }
     }
-    m->t = t;
-    m->inv_di_d = 1.0f / t->di_d;
-    m->inv_di_q = 1.0f / t->di_q;
-    return FS_OK;
+    return ret;
 }
 
 fs_fluxmap_point fs_fluxmap_eval(const fs_fluxmap *m, fs_dq i)
@@ -29,8 +36,8 @@ fs_fluxmap_point fs_fluxmap_eval(const fs_fluxmap *m, fs_dq i)
     const float a = x - (float)k;
     const float b = y - (float)l;
     const int n = (k * FS_FLUXMAP_NQ) + l;
-    const int16_t *d = t->psi_d + n;
-    const int16_t *q = t->psi_q + n;
+    const int16_t *d = &t->psi_d[n];
+    const int16_t *q = &t->psi_q[n];
     /* corners: [0] (k, l), [1] (k, l + 1), [NQ] (k + 1, l), [NQ + 1] (k + 1, l + 1) */
     const float d00 = d[0];
     const float d01 = d[1];

@@ -536,7 +536,8 @@ static fs_ab step_axis(fs_ident *id, fs_ab i)
                 const float D = sqrtf(0.25f * (L_aa - L_bb) * (L_aa - L_bb) + (L_ab * L_ab));
                 r->L_d_axis = L_s - D;
                 r->L_q_axis = L_s + D;
-                r->saliency = (L_s > 0.0f) ? (D / L_s) : 0.0f;
+                r->saliency = 0.0f;
+                if (L_s > 0.0f) { r->saliency = D / L_s; }
                 if (!(r->L_d_axis > 0.0f) || !fs_fin(r->L_q_axis)) {
                     ident_fail(id, FS_IDQ_LD, FS_IDR_FIT);
                     ret = u;

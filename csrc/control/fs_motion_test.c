@@ -165,27 +165,33 @@ static float motion_read(fs_motion_test *m, float theta)
 
 float fs_motion_test_step(fs_motion_test *m, float theta)
 {
+    float ret = 0.0f;   /* the q-current reference: none but in the push and the stages' last steps */
     switch (m->stage) {
     case FS_MOTION_LOCK: {
         const int half = m->n_lock / 2;
         if (m->k >= half) { motion_window(m, theta, m->k - half); }
-        if (++m->k >= m->n_lock) { return motion_lock_end(m, theta); }
-        return 0.0f;
+        ++m->k;
+        if (m->k >= m->n_lock) { ret = motion_lock_end(m, theta); }
+        break;
     }
     case FS_MOTION_PUSH:
-        if (++m->k >= (2 * m->n_push)) {
+        ++m->k;
+        if (m->k >= (2 * m->n_push)) {
             m->stage = FS_MOTION_SETTLE;
             m->k = 0;
-            return 0.0f;
+        } else {
+            ret = motion_doublet(m);
         }
-        return motion_doublet(m);
+        break;
     case FS_MOTION_SETTLE: {
         const int half = m->n_settle / 2;   /* the rotor's speed over the settling's second half */
         if (m->k >= half) { motion_window(m, theta, m->k - half); }
-        if (++m->k >= m->n_settle) { return motion_read(m, theta); }
-        return 0.0f;
+        ++m->k;
+        if (m->k >= m->n_settle) { ret = motion_read(m, theta); }
+        break;
     }
     default:
-        return 0.0f;
+        break;
     }
+    return ret;
 }

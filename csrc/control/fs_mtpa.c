@@ -35,10 +35,11 @@ static float mtpa_map_torque(const fs_mtpa *m, float I, float g, fs_dq *i)
 static FS_COLD fs_status mtpa_search(fs_mtpa *m)
 {
     const float r = 0.618034f;
+    fs_status ret = FS_OK;
     m->i_d[0] = 0.0f;
     m->i_q[0] = 0.0f;
     m->T[0] = 0.0f;
-    for (int k = 1; k < FS_MTPA_N; ++k) {
+    for (int k = 1; (k < FS_MTPA_N) && (ret == FS_OK); ++k) {
         const float I = m->cfg.i_max * (float)k / (float)(FS_MTPA_N - 1);
         float lo = 0.0f;
         float hi = FS_PI;
@@ -61,21 +62,15 @@ static FS_COLD fs_status mtpa_search(fs_mtpa *m)
         m->T[k] = mtpa_map_torque(m, I, 0.5f * (lo + hi), &i);
         m->i_d[k] = i.d;
         m->i_q[k] = i.q;
-        if (!((m->T[k] > m->T[k - 1]) && (m->T[k] < INFINITY))) { return FS_ERR_PARAM; }
+        if (!((m->T[k] > m->T[k - 1]) && (m->T[k] < INFINITY))) { ret = FS_ERR_PARAM; }
     }
-    return FS_OK;
+    return ret;
 }
 
-FS_COLD fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
+/* fs_mtpa_init's design once its configuration is checked: the table, on the map's locus or the closed form's */
+static FS_COLD fs_status mtpa_table(fs_mtpa *m, const fs_mtpa_config *cfg)
 {
-    if (!m || !cfg) { return FS_ERR_NULL; }
-    if (!fs_pos(cfg->L_d)) { return FS_ERR_LD; }
-    if (!cfg->map && !(cfg->L_q >= cfg->L_d)) { return FS_ERR_LQ; }   /* the closed form assumes L_q >= L_d */
-    if (!fs_fin(cfg->L_q)) { return FS_ERR_LQ; }
-    if (!fs_nonneg(cfg->psi_f)) { return FS_ERR_PSI_F; }
-    if (cfg->pole_pairs < 1) { return FS_ERR_POLE_PAIRS; }
-    if ((cfg->phases != 3) && (cfg->phases != 5)) { return FS_ERR_PARAM; }
-    if (!fs_pos(cfg->i_max)) { return FS_ERR_I_MAX; }
+    fs_status ret = FS_OK;
     m->cfg = *cfg;
     m->tabulated = cfg->map != NULL;
     m->k_T = mtpa_k(cfg);
@@ -86,22 +81,37 @@ FS_COLD fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
     m->psi2 = cfg->psi_f * cfg->psi_f;
     m->salient = m->dL > (1e-9f * cfg->L_q);
     if (cfg->map != NULL) {
-        const fs_status st = mtpa_search(m);
+        ret = mtpa_search(m);
         m->cfg.map = NULL;   /* not kept: the table is all the step needs */
-        return st;
+    } else {
+        for (int k = 0; (k < FS_MTPA_N) && (ret == FS_OK); ++k) {
+            float I = cfg->i_max * (float)k / (float)(FS_MTPA_N - 1);
+            float id = mtpa_id(cfg, I);
+            float iq = sqrtf(fs_maxf((I * I) - (id * id), 0.0f));
+            m->i_d[k] = id;
+            m->i_q[k] = iq;
+            m->T[k] = mtpa_k(cfg) * (cfg->psi_f + (cfg->L_d - cfg->L_q) * id) * iq;
+            /* the torque must rise, finite: not without torque (psi_f = 0 and
+             * L_q = L_d), nor beyond the float range */
+            if ((k > 0) && !((m->T[k] > m->T[k - 1]) && (m->T[k] < INFINITY))) { ret = FS_ERR_PARAM; }
+        }
     }
-    for (int k = 0; k < FS_MTPA_N; ++k) {
-        float I = cfg->i_max * (float)k / (float)(FS_MTPA_N - 1);
-        float id = mtpa_id(cfg, I);
-        float iq = sqrtf(fs_maxf((I * I) - (id * id), 0.0f));
-        m->i_d[k] = id;
-        m->i_q[k] = iq;
-        m->T[k] = mtpa_k(cfg) * (cfg->psi_f + (cfg->L_d - cfg->L_q) * id) * iq;
-        /* the torque must rise, finite: not without torque (psi_f = 0 and
-         * L_q = L_d), nor beyond the float range */
-        if ((k > 0) && !((m->T[k] > m->T[k - 1]) && (m->T[k] < INFINITY))) { return FS_ERR_PARAM; }
-    }
-    return FS_OK;
+    return ret;
+}
+
+FS_COLD fs_status fs_mtpa_init(fs_mtpa *m, const fs_mtpa_config *cfg)
+{
+    fs_status ret = FS_OK;
+    if (!m || !cfg) { ret = FS_ERR_NULL; }
+    else if (!fs_pos(cfg->L_d)) { ret = FS_ERR_LD; }
+    else if (!cfg->map && !(cfg->L_q >= cfg->L_d)) { ret = FS_ERR_LQ; }   /* the closed form assumes L_q >= L_d */
+    else if (!fs_fin(cfg->L_q)) { ret = FS_ERR_LQ; }
+    else if (!fs_nonneg(cfg->psi_f)) { ret = FS_ERR_PSI_F; }
+    else if (cfg->pole_pairs < 1) { ret = FS_ERR_POLE_PAIRS; }
+    else if ((cfg->phases != 3) && (cfg->phases != 5)) { ret = FS_ERR_PARAM; }
+    else if (!fs_pos(cfg->i_max)) { ret = FS_ERR_I_MAX; }
+    else { ret = mtpa_table(m, cfg); }
+    return ret;
 }
 
 /* The MTPA locus as i_d(i_q): psi_f i_d + (L_d - L_q)(i_d^2 - i_q^2) = 0,

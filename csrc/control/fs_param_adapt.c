@@ -78,7 +78,8 @@ bool fs_param_adapt_step(fs_param_adapt *a, fs_dq u, fs_dq i, float w_e, bool le
             a->b2 = (l * a->b2) + (p2 * a->y);
             const float det = (a->S11 * a->S22) - (a->S12 * a->S12);
             const float sq = a->S11 * a->S22;
-            a->sep = (sq > 0.0f) ? (det / sq) : 0.0f;
+            a->sep = 0.0f;
+            if (sq > 0.0f) { a->sep = det / sq; }
             /* the window's mean |phi|^2: its sum times (1 - lambda) */
             const float level = (a->S11 + a->S22) * (1.0f - l);
             if (a->n_learn < a->n_fill) { ++a->n_learn; }

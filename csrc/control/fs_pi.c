@@ -29,7 +29,9 @@ FS_COLD fs_status fs_pi_design(fs_pi_config *cfg, float Ts, float L, float R, fl
         /* r = 1 - a and q = 1 - p by expm1f, which keeps them exact when small */
         float r = -expm1f(-R * Ts / L);
         float q = -expm1f(-alpha * Ts);
-        float b = ((R > 0.0f) && (r > 0.0f)) ? (r / R) : (Ts / L);
+        float b;
+        if ((R > 0.0f) && (r > 0.0f)) { b = r / R; }
+        else { b = Ts / L; }
         cfg->Ts = Ts;
         cfg->k_t = q / b;
         cfg->k_p = fs_maxf(((2.0f * q) - r) / b, 0.0f);  /* (1 + a - 2p) / b */

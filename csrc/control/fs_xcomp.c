@@ -3,18 +3,23 @@
 
 fs_status fs_xcomp_check(const fs_xcomp_config *c)
 {
-    if (!c) { return FS_ERR_NULL; }
-    for (int k = 0; k < 4; ++k) {
-        if (!isfinite(c->poly[k])) { return FS_ERR_PARAM; }
+    fs_status ret = FS_OK;
+    if (!c) { ret = FS_ERR_NULL; }
+    else {
+        for (int k = 0; (k < 4) && (ret == FS_OK); ++k) {
+            if (!isfinite(c->poly[k])) { ret = FS_ERR_PARAM; }
+        }
+        if ((ret != FS_OK) || (c->n == 0)) { /* refused, or no table to check */ }
+        else if ((c->n < 2) || (c->n > FS_XCOMP_MAX) || !(c->di_q > 0.0f) || !isfinite(c->di_q) || !isfinite(c->i_q0)) {
+            ret = FS_ERR_PARAM;
+        }
+        else {
+            for (int k = 0; (k < c->n) && (ret == FS_OK); ++k) {
+                if (!(fabsf(c->delta[k]) < (0.5f * FS_PI))) { ret = FS_ERR_PARAM; }
+            }
+        }
     }
-    if (c->n == 0) { return FS_OK; }
-    if ((c->n < 2) || (c->n > FS_XCOMP_MAX) || !(c->di_q > 0.0f) || !isfinite(c->di_q) || !isfinite(c->i_q0)) {
-        return FS_ERR_PARAM;
-    }
-    for (int k = 0; k < c->n; ++k) {
-        if (!(fabsf(c->delta[k]) < (0.5f * FS_PI))) { return FS_ERR_PARAM; }
-    }
-    return FS_OK;
+    return ret;
 }
 
 bool fs_xcomp_active(const fs_xcomp_config *c)

@@ -63,7 +63,8 @@ fs_ab fs_xyctrl_step(fs_xyctrl *x, const float i_ph[5], float theta_e, float w_e
     const float m = sqrtf((u.d * u.d) + (u.q * u.q));
     fs_dq u_real = u;
     if (m > lim) {
-        const float s = (lim > 0.0f) ? (lim / m) : 0.0f;
+        float s = 0.0f;
+        if (lim > 0.0f) { s = lim / m; }
         u_real.d *= s;
         u_real.q *= s;
     }
@@ -80,6 +81,7 @@ void fs_xyctrl_duties(fs_ab u_xy, float u_dc, float duty[5])
     const fs_vsd5 p = {{0.0f, 0.0f}, {u_xy.alpha, u_xy.beta}, 0.0f};
     float u[5];
     fs_vsd5_inverse(&p, u);
-    const float k = (u_dc > 0.0f) ? (1.0f / u_dc) : 0.0f;
+    float k = 0.0f;
+    if (u_dc > 0.0f) { k = 1.0f / u_dc; }
     for (int n = 0; n < 5; ++n) { duty[n] = fs_clamp01(duty[n] + (u[n] * k)); }
 }
