@@ -47,8 +47,7 @@ typedef struct {
     float delay;         /* duties act one period later (1) or at once (0) */
     float t_dead;        /* s, > 0 and < T_pwm / 2 */
     float i_band;        /* A, >= 0: the ramp around zero (0: the sign) */
-    float L_d;           /* H, > 0 */
-    float L_q;
+    float L_d, L_q;      /* H, > 0 */
 } fs_dtcomp_config;
 
 typedef struct {

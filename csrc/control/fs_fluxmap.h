@@ -53,16 +53,13 @@ typedef struct {
  * d psi_q / d i_d (cross-saturation). */
 typedef struct {
     fs_dq psi;           /* Wb */
-    float L_dd;          /* H */
-    float L_qq;
-    float L_dq;          /* H */
-    float L_qd;
+    float L_dd, L_qq;    /* H */
+    float L_dq, L_qd;    /* H */
 } fs_fluxmap_point;
 
 typedef struct {
     const fs_fluxmap_table *t;   /* not copied: the caller keeps it (the drive's own config) */
-    float inv_di_d;
-    float inv_di_q;
+    float inv_di_d, inv_di_q;
 } fs_fluxmap;
 
 /* Refuses a grid that is not finite and rising (steps > 0, scale > 0) and a

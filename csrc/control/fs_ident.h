@@ -159,67 +159,46 @@ typedef struct {
     int skip_map;        /* 1: no flux map (MAP, DCURVE) */
     float i_test;        /* A: the levels' top current (0: 0.6 i_max) */
     float t_level;       /* s: the top levels' window per sign (0: 0.1 s) */
-    float psi_f_hint;           /* Wb, kg m^2, the nameplate's: size the map's q sweeps against the rotor's motion (0: unknown) */
-    float J_hint;
+    float psi_f_hint, J_hint;   /* Wb, kg m^2, the nameplate's: size the map's q sweeps against the rotor's motion (0: unknown) */
     float motion_max;    /* el. rad: the map's q sweeps' motion bound (0: 1 el.deg) */
 } fs_ident_config;
 
 typedef struct {
     int status[FS_IDQ_N];        /* fs_ident_status */
     int reason[FS_IDQ_N];        /* fs_ident_reason */
-    float u_e;                   /* inverter error per leg at high current, V, and its knee, A */
-    float i_e;
-    float R_s;                   /* ohm, H, Wb */
-    float L_d;
-    float L_q;
-    float psi_f;
-    float J;                     /* kg m^2, N m s/rad, N m (mechanical) */
-    float B;
-    float T_c;
+    float u_e, i_e;              /* inverter error per leg at high current, V, and its knee, A */
+    float R_s, L_d, L_q, psi_f;  /* ohm, H, Wb */
+    float J, B, T_c;             /* kg m^2, N m s/rad, N m (mechanical) */
     float theta_axis;            /* el. rad, stationary: the axis AXIS found (ALIGN: 0), then the frame the steps used (+pi where MAP found the south pole) */
     float theta_hf;              /* el. rad, stationary: the axis AXIS's carriers found (modulo pi) */
     float saliency;              /* (L_q - L_d) / (L_q + L_d) at zero current, from AXIS */
-    float L_d_axis;              /* H: AXIS's inductances (a tenth of the sampling rate, Euler's model) */
-    float L_q_axis;
-    float motion_ldq;                               /* el. rad: the rotor's turn seen by LDQ's d carrier (since AXIS: POLARITY,
+    float L_d_axis, L_q_axis;    /* H: AXIS's inductances (a tenth of the sampling rate, Euler's model) */
+    float motion_ldq, motion_premap, motion_check;  /* el. rad: the rotor's turn seen by LDQ's d carrier (since AXIS: POLARITY,
                                                       LEVELS), by CHECK before MAP (LDQ's biases) and after it (MAP) */
-    float motion_premap;
-    float motion_check;
     float i_moved;               /* A: the test current when a step found the rotor moving (its sign: the d axis') */
     float pol_asym;              /* POLARITY: the d sweep's asymmetry (incremental L_d at -i_max/2 against +i_max/2, relative) */
-    int pol_decided;             /* it decided the polarity; the axis was the south pole (turned by pi) */
-    int pol_flipped;
+    int pol_decided, pol_flipped;/* it decided the polarity; the axis was the south pole (turned by pi) */
     float pol_amp;               /* A: its sweep's amplitude (cut where the free rotor would turn away; 0: not swept) */
     float i_level_top;           /* A: the levels' top current as used (i_test, or the reluctance bound) */
     float noise_i;               /* A rms: the current sensors' noise at zero voltage (START) */
     /* what each decision saw (the ratio its check compared) */
     float r_fit_rs;              /* R_s: top-level residual over the signal */
-    float snr_rs;                /* signal over the mean's noise */
-    float snr_l;
-    float snr_psi;
+    float snr_rs, snr_l, snr_psi;/* signal over the mean's noise */
     float eps_align;             /* rad, the misalignment the cross response shows */
     float w_flux;                /* el. rad/s where psi_f was read */
-    float a_acc;                 /* el. rad/s^2 at the acceleration's mean speed */
-    float a_coast;
-    float I_lev[FS_IDENT_NLEV];                         /* the d-axis level means, A, V */
-    float U_lev[FS_IDENT_NLEV];
-    float I_bias[2];                 /* LDQ: the two d biases of the q injection, A, and L_q at each, H */
-    float L_q_bias[2];
+    float a_acc, a_coast;        /* el. rad/s^2 at the acceleration's mean speed */
+    float I_lev[FS_IDENT_NLEV], U_lev[FS_IDENT_NLEV];   /* the d-axis level means, A, V */
+    float I_bias[2], L_q_bias[2];    /* LDQ: the two d biases of the q injection, A, and L_q at each, H */
     float dL_q;                  /* L_q's change with i_d, H/A (the cross-saturation the injection estimators see) */
-    float I_levn[FS_IDENT_NLEV];                         /* the levels at -I (alternating), A, V */
-    float U_levn[FS_IDENT_NLEV];
+    float I_levn[FS_IDENT_NLEV], U_levn[FS_IDENT_NLEV];  /* the levels at -I (alternating), A, V */
     /* DCURVE: psi_d(i_d, 0) at speed at the map's d levels k i_max / 4 (k = -4..4, index k + 4), the d
      * current and the speed it was read at (w 0: not measured) */
-    float psi_d_w[FS_MAPID_ND];
-    float i_d_w[FS_MAPID_ND];
-    float w_d_w[FS_MAPID_ND];
+    float psi_d_w[FS_MAPID_ND], i_d_w[FS_MAPID_ND], w_d_w[FS_MAPID_ND];
     int n_step[FS_IDENT_NSTEPS]; /* control periods spent in each step */
     /* the steps in the order they ran (CHECK runs twice) and the period each began at (the first
      * FS_IDENT_NVISIT of them) */
-    int n_visit;
-    int n_total;
-    int visit_step[FS_IDENT_NVISIT];
-    int visit_at[FS_IDENT_NVISIT];
+    int n_visit, n_total;
+    int visit_step[FS_IDENT_NVISIT], visit_at[FS_IDENT_NVISIT];
 } fs_ident_result;
 
 typedef struct {
@@ -236,50 +215,30 @@ typedef struct {
     float i_peak;
     float sigma_i;       /* A, the current noise seen at standstill */
     float w_c;           /* rad/s current loop */
-    fs_pi pi_d;
-    fs_pi pi_q;
+    fs_pi pi_d, pi_q;
     float u_max;         /* linear-range voltage of the last sample */
     float theta_s;       /* el. rad: the standstill steps' d axis (stationary) */
     int aligned;         /* the axis came from ALIGN (no saliency): positive levels and biases only */
     int pol_known;       /* the frame's d axis is the magnet's north (ALIGN, or POLARITY's or MAP's asymmetry decided) */
     float i_ref0;        /* A: DCURVE's last level, the next one's ramp starts there */
-    float ax_i[2][2][2];                  /* AXIS: the current and voltage phasors [injection][axis][re, im] */
-    float ax_u[2][2][2];
+    float ax_i[2][2][2], ax_u[2][2][2];   /* AXIS: the current and voltage phasors [injection][axis][re, im] */
     /* accumulators */
-    float s_u;                                 /* about the shift below, for float precision */
-    float s_i;
-    float s_uu;
-    float s_ib2;
-    float s_ii;
-    float s_ia;
-    float u0;            /* the shift: the window's first sample */
-    float i0;
+    float s_u, s_i, s_uu, s_ib2, s_ii, s_ia;   /* about the shift below, for float precision */
+    float u0, i0;        /* the shift: the window's first sample */
     float batch[FS_IDENT_NBATCH];   /* running sums of u at each batch's end */
     int n_acc;
     /* HF phasors: voltage and both currents, real and imaginary */
-    float hf_u[2];
-    float hf_i[2][2];
-    float U_h;
-    float w_h;
+    float hf_u[2], hf_i[2][2];
+    float U_h, w_h;
     /* frame: angle, speed, PLL */
-    float theta;
-    float w;
-    float w_target;
-    float bw_pll;
-    float i_if;
-    float i_acc;
-    float w0;
+    float theta, w, w_target, bw_pll, i_if, i_acc, w0;
     fs_ab u_prev[2];     /* the references of the last two samples (delay) */
     fs_dq u_dq;          /* the last frame voltage */
-    float e_abs;         /* sums over the psi_f window */
-    float w_abs;
+    float e_abs, w_abs;  /* sums over the psi_f window */
     int tries;
     /* the (t, w) record, decimated by doubling when full */
-    float rec_t[FS_IDENT_NREC];
-    float rec_w[FS_IDENT_NREC];
-    int rec_n;
-    int rec_dec;
-    int rec_k;
+    float rec_t[FS_IDENT_NREC], rec_w[FS_IDENT_NREC];
+    int rec_n, rec_dec, rec_k;
     float t_acc;         /* s the acceleration took */
     float w_acc;         /* el. rad/s, its mean speed */
 } fs_ident;

@@ -38,8 +38,7 @@
 /* One rectifier interval: the input phases (0 a, 1 b, 2 c) on the positive
  * and the negative rail, and the share of the period. */
 typedef struct {
-    int p;
-    int n;
+    int p, n;
     float d;
 } fs_imc_interval;
 

@@ -104,13 +104,10 @@ typedef struct {
     float Ts;            /* s */
     float delay;         /* control periods: 0 or 1 */
     float i_max;         /* A: the disc's radius */
-    float L_d;           /* H, H, ohm: small-signal, for the sweeps' voltages and the loops */
-    float L_q;
-    float R_s;
+    float L_d, L_q, R_s; /* H, H, ohm: small-signal, for the sweeps' voltages and the loops */
     float u_e;           /* V: the inverter's error per leg at high current (the sweeps' voltage stays well above it) */
     int pole_pairs;
-    float psi_f;         /* Wb, kg m^2: size the q sweeps against the rotor's motion (0: no bound) */
-    float J;
+    float psi_f, J;      /* Wb, kg m^2: size the q sweeps against the rotor's motion (0: no bound) */
     float motion_max;    /* el. rad: the q sweeps' motion bound (0: no bound) */
     float w_c;           /* rad/s: the holding loops' bandwidth */
     int d_only;          /* 1: the d sweep alone (the polarity before R_s and the inverter's error are known) */
@@ -122,8 +119,7 @@ typedef struct {
     /* the d axis, i_q = 0: psi_d(k i_max/4, 0) - psi_d(0, 0), index k + 4 */
     float dpsi_d[FS_MAPID_ND];
     int n_d[FS_MAPID_ND];                    /* crossings read (0: not reached) */
-    float L_pos;                             /* H: incremental L_d at +-i_max/2 (the current's steps there) */
-    float L_neg;
+    float L_pos, L_neg;                      /* H: incremental L_d at +-i_max/2 (the current's steps there) */
     float asym;                              /* (L_neg - L_pos) / max: > 0 the frame was on the north */
     int flipped;                             /* it was on the south: turned by pi */
     int decided;                             /* the asymmetry decided the polarity (either way) */
@@ -147,13 +143,8 @@ typedef struct {
 typedef struct {
     fs_mapid_config cfg;
     fs_mapid_result res;
-    int stage;
-    int level;
-    int k;
-    int leg;
-    int rleg;                         /* the leg the crossings read (the current turns a delay after the voltage) */
-    fs_pi pi_d;          /* the held axes' loops */
-    fs_pi pi_q;
+    int stage, level, k, leg, rleg;   /* rleg: the leg the crossings read (the current turns a delay after the voltage) */
+    fs_pi pi_d, pi_q;    /* the held axes' loops */
     float I_d;           /* A: this level's d current */
     float I_amp;         /* A: the swept axis' reversal current */
     float U;             /* V: the sweep's voltage (the drop fed forward on top) */
@@ -163,21 +154,14 @@ typedef struct {
                             psi_f + (L_d - L_q) i_d over psi_f): each q sweep's trim cancels what the d sweep, the levels and it left */
     int n_trim;          /* samples of each half of the trim pulse that cancels it; the d sweep: samples to wait before a restart */
     int restarts;        /* the d sweep's restarts at a higher voltage */
-    float psi_d;         /* Wb: integrated since the sweep's start */
-    float psi_q;
-    float x_prev;        /* the last sample's swept and held currents */
-    float y_prev;
-    float e_prev_d;
-    float e_prev_q;
+    float psi_d, psi_q;  /* Wb: integrated since the sweep's start */
+    float x_prev, y_prev;/* the last sample's swept and held currents */
+    float e_prev_d, e_prev_q;
     fs_dq u_out[2];      /* the last two outputs (the delay) */
     unsigned seen;       /* the grid values this leg has read */
-    float s_x[FS_MAPID_NT];                                       /* sums per grid value: the swept axis' flux, the held axis' flux and current */
-    float s_y[FS_MAPID_NT];
-    float s_i[FS_MAPID_NT];
-    float s_up[FS_MAPID_NT];                      /* sums per grid value of the current's steps a sample up and down within half a grid step of it */
-    float s_dn[FS_MAPID_NT];
-    int c_up[FS_MAPID_NT];
-    int c_dn[FS_MAPID_NT];
+    float s_x[FS_MAPID_NT], s_y[FS_MAPID_NT], s_i[FS_MAPID_NT];   /* sums per grid value: the swept axis' flux, the held axis' flux and current */
+    float s_up[FS_MAPID_NT], s_dn[FS_MAPID_NT];   /* sums per grid value of the current's steps a sample up and down within half a grid step of it */
+    int c_up[FS_MAPID_NT], c_dn[FS_MAPID_NT];
     int s_n[FS_MAPID_NT];
 } fs_mapid;
 

@@ -92,9 +92,7 @@ typedef struct {
 
 typedef struct {
     fs_motion_test_config cfg;
-    int n_lock;                     /* steps */
-    int n_push;
-    int n_settle;
+    int n_lock, n_push, n_settle;   /* steps */
     int stage;             /* fs_motion_test_stage */
     int k;                 /* steps into the stage */
     int attempts;          /* doublets run so far */
@@ -102,12 +100,8 @@ typedef struct {
     int settles;           /* settlings of this doublet that found the estimate still turning */
     float i_now;           /* the doublet of this attempt, A */
     float theta_half;      /* the estimate at the window's start (the second half of a lock or of the settling), el. rad */
-    float lo;              /* its range about theta_half over the window, el. rad */
-    float hi;
-    float sx;                 /* sums of the least-squares line through the window's estimate (steps, el. rad) */
-    float sy;
-    float sxx;
-    float sxy;
+    float lo, hi;          /* its range about theta_half over the window, el. rad */
+    float sx, sy, sxx, sxy;   /* sums of the least-squares line through the window's estimate (steps, el. rad) */
     int n_win;             /* samples in the window */
     float threshold;       /* el. rad */
     float theta_ref;       /* the estimate at the lock's end */

@@ -23,8 +23,7 @@
 enum { FS_MTPA_N = 64 };
 
 typedef struct {
-    float L_d;        /* H */
-    float L_q;
+    float L_d, L_q;   /* H */
     float psi_f;      /* Wb */
     int pole_pairs;
     float i_max;      /* A, peak */
@@ -42,10 +41,7 @@ typedef struct {
     int seg;               /* the table segment of the last step (where step looks first) */
     /* the linear locus' constants, formed once as the step formed them: L_q - L_d,
      * 2 (L_q - L_d), 4 (L_q - L_d)^2, psi_f^2; salient: L_q - L_d > 1e-9 L_q */
-    float dL;
-    float dL2;
-    float dL4;
-    float psi2;
+    float dL, dL2, dL4, psi2;
     int salient;
 } fs_mtpa;
 

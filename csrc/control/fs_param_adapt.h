@@ -38,9 +38,7 @@
 
 typedef struct {
     float Ts;            /* control period, s */
-    float R_s;               /* nominal (cold) machine, the estimates' start */
-    float L_d;
-    float psi_f;
+    float R_s, L_d, psi_f;   /* nominal (cold) machine, the estimates' start */
     float i_max;         /* A: the regressor's current scale */
     float w_e_max;       /* rad/s: the regressor's speed scale */
     float T_f;           /* s, the least squares' forgetting time (> 0) */
@@ -51,22 +49,13 @@ typedef struct {
 
 typedef struct {
     fs_param_adapt_config cfg;
-    int decim;           /* update every decim samples (1 ms); the count */
-    int k;
-    int n_fill;          /* updates in a window (T_f), learning updates so far (up to n_fill) */
-    int n_learn;
+    int decim, k;        /* update every decim samples (1 ms); the count */
+    int n_fill, n_learn; /* updates in a window (T_f), learning updates so far (up to n_fill) */
     float a_lp;          /* the low-pass' step coefficient */
     float lambda;
-    float y;             /* low-passed signals */
-    float i_q;
-    float w;
-    float S11;
-    float S12;
-    float S22;
-    float b1;
-    float b2;
-    float R_s;           /* the estimates */
-    float psi_f;
+    float y, i_q, w;     /* low-passed signals */
+    float S11, S12, S22, b1, b2;
+    float R_s, psi_f;    /* the estimates */
     float sep;           /* 1 - rho^2 of the last update */
     bool updating;       /* the last update took the estimate */
 } fs_param_adapt;

@@ -19,8 +19,7 @@ typedef struct {
 
 typedef struct {
     fs_pll_config cfg;
-    float k_p;        /* designed in init */
-    float k_i;
+    float k_p, k_i;   /* designed in init */
     float theta;      /* angle estimate, rad, wrapped to (-pi, pi] */
     float w;          /* speed estimate, rad/s */
     float integ;      /* integral of k_i * error */

@@ -68,8 +68,7 @@ typedef struct {
     float Ts;                  /* sampling period, s; the carrier period is 4 Ts */
     int delay;                 /* computation delay, control periods: 0 or 1 */
     float u_h;                 /* injected amplitude, V (> 0), eq. (4) */
-    float L_d;                 /* the controller's inductances (saliency needed), eq. (7) */
-    float L_q;
+    float L_d, L_q;            /* the controller's inductances (saliency needed), eq. (7) */
     float bandwidth;           /* PLL double pole, rad/s (the paper: 57.5, K_p = 115, K_i = 3306) */
     float w_max;               /* PLL speed clamp, el. rad/s (0: none) */
     int sequence;              /* fs_swvi_sequence */
@@ -92,10 +91,9 @@ typedef struct {
     fs_dq i_h;                 /* HF current at the last peak, signed by its carrier half, eq. (8), A */
     float eps;                 /* the PLL's error K_norm I_qh, eq. (6), rad */
     float delta;               /* the compensation used, rad */
-    float theta;               /* rotor angle (compensated, rad) and electrical speed (rad/s): the
+    float theta, w;            /* rotor angle (compensated, rad) and electrical speed (rad/s): the
                                   PLL's PI output of Fig. 1, k_p eps + integral, whose zero keeps
                                   the lag small at a speed loop's crossover */
-    float w;
     fs_ab u;                   /* injection voltage for the interval starting at k + delay, V */
 } fs_swvi;
 

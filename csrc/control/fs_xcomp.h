@@ -19,8 +19,7 @@ enum { FS_XCOMP_MAX = 33 };
 
 typedef struct {
     int n;                     /* table points: 0 (the polynomial) or 2..FS_XCOMP_MAX */
-    float i_q0;                /* grid: first current, step (> 0), A */
-    float di_q;
+    float i_q0, di_q;          /* grid: first current, step (> 0), A */
     float delta[FS_XCOMP_MAX]; /* lead of the saliency axis, theta_hat - theta_r, rad (|.| < pi/2) */
     float poly[4];             /* rad, rad/A, rad/A^2, rad/A^3 (n = 0) */
 } fs_xcomp_config;

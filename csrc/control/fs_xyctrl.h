@@ -27,18 +27,14 @@
 typedef struct {
     float Ts;            /* control period, s */
     float delay;         /* computation delay, periods (0 or 1) */
-    float R_s;
-    float L_d3;
-    float L_q3;
-    float psi_f3;
+    float R_s, L_d3, L_q3, psi_f3;
     float bandwidth;     /* rad/s, > 0 */
     float u_max_frac;    /* the x-y voltage's limit over u_dc, (0, 0.5] */
 } fs_xyctrl_config;
 
 typedef struct {
     fs_xyctrl_config cfg;
-    fs_pi pi_d3;
-    fs_pi pi_q3;
+    fs_pi pi_d3, pi_q3;
     fs_dq i3;            /* the last measured d3-q3 current, A */
     fs_ab u_xy;          /* the last x-y voltage, V */
 } fs_xyctrl;
