@@ -46,39 +46,61 @@ const char *fs_ident_reason_str(int reason)
         "the d sweep to the current limit would turn the free rotor away: lock it",
         "no polarity seen standing (no saturation asymmetry) and the rotor may not turn: lock it",
         "no saliency: the d axis is not seen standing, and the rotor may not be turned to it"};
-    return (reason >= 0 && reason < FS_IDR__COUNT) ? s[reason] : "?";
+    return ((reason >= 0) && (reason < (int)FS_IDR__COUNT)) ? s[reason] : "?";
 }
 
 const char *fs_ident_step_str(int step)
 {
     static const char *const s[FS_IDENT_NSTEPS] = {"start", "probe", "axis", "align", "polarity", "levels", "ldq", "map",
                                                    "check", "spin", "flux", "dcurve", "accel", "coast", "done", "failed"};
-    return (step >= 0 && step < FS_IDENT_NSTEPS) ? s[step] : "?";
+    return ((step >= 0) && (step < (int)FS_IDENT_NSTEPS)) ? s[step] : "?";
 }
 
 FS_COLD fs_status fs_ident_init(fs_ident *id, const fs_ident_config *cfg)
 {
-    if (!id || !cfg) return FS_ERR_NULL;
-    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
-    if (cfg->delay != 0.0f && cfg->delay != 1.0f) return FS_ERR_PARAM;
-    if (cfg->pole_pairs < 1) return FS_ERR_POLE_PAIRS;
-    if (!fs_pos(cfg->i_max)) return FS_ERR_I_MAX;
-    if (!fs_pos(cfg->w_spin) || !fs_pos(cfg->t_ramp) || !fs_nonneg(cfg->u_dc_min)) return FS_ERR_PARAM;
-    if (cfg->t_ramp < 100.0f * cfg->Ts) return FS_ERR_PARAM;   /* a ramp of fewer samples is a step */
-    if ((cfg->standstill_only | cfg->locked | cfg->skip_map) & ~1) return FS_ERR_PARAM;   /* flags: 0 or 1 */
-    if (!fs_nonneg(cfg->i_test) || cfg->i_test > cfg->i_max || !fs_nonneg(cfg->t_level) || !fs_nonneg(cfg->psi_f_hint)
-        || !fs_nonneg(cfg->J_hint) || !fs_nonneg(cfg->motion_max))
-        return FS_ERR_PARAM;
-    if (cfg->t_level > 0.0f && cfg->t_level < 100.0f * cfg->Ts) return FS_ERR_PARAM;   /* fewer samples than batches can hold */
-    id->cfg = *cfg;
-    fs_ident_reset(id);
-    return FS_OK;
+    fs_status ret;
+    if (!id || !cfg) { ret = FS_ERR_NULL; }
+    else if (!fs_pos(cfg->Ts)) { ret = FS_ERR_TS; }
+    else if ((cfg->delay != 0.0f) && (cfg->delay != 1.0f)) { ret = FS_ERR_PARAM; }
+    else if (cfg->pole_pairs < 1) { ret = FS_ERR_POLE_PAIRS; }
+    else if (!fs_pos(cfg->i_max)) { ret = FS_ERR_I_MAX; }
+    else if (!fs_pos(cfg->w_spin) || !fs_pos(cfg->t_ramp) || !fs_nonneg(cfg->u_dc_min)) { ret = FS_ERR_PARAM; }
+    else if (cfg->t_ramp < (100.0f * cfg->Ts)) { ret = FS_ERR_PARAM; }   /* a ramp of fewer samples is a step */
+    else if (((cfg->standstill_only | cfg->locked | cfg->skip_map) & ~1) != 0) { ret = FS_ERR_PARAM; }   /* flags: 0 or 1 */
+    else if (!fs_nonneg(cfg->i_test) || (cfg->i_test > cfg->i_max) || !fs_nonneg(cfg->t_level) || !fs_nonneg(cfg->psi_f_hint)
+        || !fs_nonneg(cfg->J_hint) || !fs_nonneg(cfg->motion_max)) {
+        ret = FS_ERR_PARAM;
+    }
+    else if ((cfg->t_level > 0.0f) && (cfg->t_level < (100.0f * cfg->Ts))) { ret = FS_ERR_PARAM; }   /* fewer samples than batches can hold */
+    else {
+        id->cfg = *cfg;
+        fs_ident_reset(id);
+        ret = FS_OK;
+    }
+    return ret;
+}
+
+/* the HF phasors' sums cleared */
+static void hf_clear(fs_ident *id)
+{
+    id->hf_u[0] = 0.0f;
+    id->hf_u[1] = 0.0f;
+    id->hf_i[0][0] = 0.0f;
+    id->hf_i[0][1] = 0.0f;
+    id->hf_i[1][0] = 0.0f;
+    id->hf_i[1][1] = 0.0f;
 }
 
 static void acc_clear(fs_ident *id)
 {
-    id->s_u = id->s_i = id->s_uu = id->s_ib2 = id->s_ii = id->s_ia = 0.0f;
-    id->e_abs = id->w_abs = 0.0f;
+    id->s_u = 0.0f;
+    id->s_i = 0.0f;
+    id->s_uu = 0.0f;
+    id->s_ib2 = 0.0f;
+    id->s_ii = 0.0f;
+    id->s_ia = 0.0f;
+    id->e_abs = 0.0f;
+    id->w_abs = 0.0f;
     id->n_acc = 0;
 }
 
@@ -88,19 +110,20 @@ void fs_ident_reset(fs_ident *id)
     const fs_ident_config *c = &id->cfg;
     id->res = none;
     /* what the configuration leaves out is skipped, with its reason */
-    const int run_reason = c->locked ? FS_IDR_LOCKED : c->standstill_only ? FS_IDR_STANDSTILL : FS_IDR_NONE;
-    if (run_reason != FS_IDR_NONE) {
-        for (int q = FS_IDQ_PSI_F; q <= FS_IDQ_FRICTION; ++q) {
+    const int run_reason = c->locked ? (int)FS_IDR_LOCKED : c->standstill_only ? (int)FS_IDR_STANDSTILL : (int)FS_IDR_NONE;
+    if (run_reason != (int)FS_IDR_NONE) {
+        for (int q = FS_IDQ_PSI_F; q <= (int)FS_IDQ_FRICTION; ++q) {
             id->res.status[q] = FS_IDS_SKIPPED;
             id->res.reason[q] = run_reason;
         }
     }
-    if (c->skip_map) {
+    if (c->skip_map != 0) {
         id->res.status[FS_IDQ_MAP] = FS_IDS_SKIPPED;
         id->res.reason[FS_IDQ_MAP] = FS_IDR_NOT_ASKED;
     }
     id->step = FS_IDENT_START;
-    id->k = id->sub = 0;
+    id->k = 0;
+    id->sub = 0;
     id->L0 = 0.0f;
     id->u_p = 0.0f;
     id->n_p = 2;
@@ -111,44 +134,65 @@ void fs_ident_reset(fs_ident *id)
     fs_pi_reset(&id->pi_q);
     id->u_max = 0.0f;
     id->theta_s = 0.0f;
-    id->aligned = id->pol_known = 0;
+    id->aligned = 0;
+    id->pol_known = 0;
     id->i_ref0 = 0.0f;
     acc_clear(id);
-    id->u0 = id->i0 = 0.0f;
-    for (int b = 0; b < FS_IDENT_NBATCH; ++b) id->batch[b] = 0.0f;
-    id->hf_u[0] = id->hf_u[1] = 0.0f;
-    id->hf_i[0][0] = id->hf_i[0][1] = id->hf_i[1][0] = id->hf_i[1][1] = 0.0f;
-    for (int a = 0; a < 8; ++a) (&id->ax_i[0][0][0])[a] = (&id->ax_u[0][0][0])[a] = 0.0f;
-    id->U_h = id->w_h = 0.0f;
-    id->theta = id->w = id->w_target = id->bw_pll = id->i_if = id->i_acc = id->w0 = 0.0f;
-    id->u_prev[0].alpha = id->u_prev[0].beta = 0.0f;
+    id->u0 = 0.0f;
+    id->i0 = 0.0f;
+    for (int b = 0; b < FS_IDENT_NBATCH; ++b) { id->batch[b] = 0.0f; }
+    hf_clear(id);
+    for (int a = 0; a < 8; ++a) {
+        (&id->ax_i[0][0][0])[a] = 0.0f;
+        (&id->ax_u[0][0][0])[a] = 0.0f;
+    }
+    id->U_h = 0.0f;
+    id->w_h = 0.0f;
+    id->theta = 0.0f;
+    id->w = 0.0f;
+    id->w_target = 0.0f;
+    id->bw_pll = 0.0f;
+    id->i_if = 0.0f;
+    id->i_acc = 0.0f;
+    id->w0 = 0.0f;
+    id->u_prev[0].alpha = 0.0f;
+    id->u_prev[0].beta = 0.0f;
     id->u_prev[1] = id->u_prev[0];
-    id->u_dq.d = id->u_dq.q = 0.0f;
-    id->e_abs = id->w_abs = 0.0f;
+    id->u_dq.d = 0.0f;
+    id->u_dq.q = 0.0f;
+    id->e_abs = 0.0f;
+    id->w_abs = 0.0f;
     id->tries = 0;
-    id->rec_n = id->rec_k = 0;
+    id->rec_n = 0;
+    id->rec_k = 0;
     id->rec_dec = 1;
-    id->t_acc = id->w_acc = 0.0f;
+    id->t_acc = 0.0f;
+    id->w_acc = 0.0f;
 }
 
 float fs_ident_leg_error(const fs_ident *id, float i)
 {
-    const float ue = id->res.u_e, ie = id->res.i_e;
-    if (id->res.status[FS_IDQ_VERR] != FS_IDS_OK) return 0.0f;
-    return ue * i / sqrtf(i * i + ie * ie + 1e-30f);
+    float ret;
+    const float ue = id->res.u_e;
+    const float ie = id->res.i_e;
+    if (id->res.status[FS_IDQ_VERR] != (int)FS_IDS_OK) { ret = 0.0f; }
+    else {
+        ret = ue * i / sqrtf((i * i) + (ie * ie) + 1e-30f);
+    }
+    return ret;
 }
 
 /* The quantity q failed for a reason; the ones not measured yet fail as
  * needing it, and the sequence ends. */
 static void ident_fail(fs_ident *id, int q, int reason)
 {
-    for (int k = 0; k < FS_IDQ_N; ++k) {
-        if (id->res.status[k] == FS_IDS_PENDING) {
+    for (int k = 0; k < (int)FS_IDQ_N; ++k) {
+        if (id->res.status[k] == (int)FS_IDS_PENDING) {
             id->res.status[k] = FS_IDS_FAILED;
-            id->res.reason[k] = k == q ? reason : FS_IDR_PREREQ;
+            id->res.reason[k] = (k == q) ? reason : (int)FS_IDR_PREREQ;
         }
     }
-    if (id->res.status[q] != FS_IDS_FAILED) {   /* a quantity already given is withdrawn */
+    if (id->res.status[q] != (int)FS_IDS_FAILED) {   /* a quantity already given is withdrawn */
         id->res.status[q] = FS_IDS_FAILED;
         id->res.reason[q] = reason;
     }
@@ -164,7 +208,7 @@ static void ident_ok(fs_ident *id, int q)
 static void ident_goto(fs_ident *id, int step)
 {
     fs_ident_result *r = &id->res;
-    if (step != id->step && r->n_visit < FS_IDENT_NVISIT) {
+    if ((step != id->step) && (r->n_visit < FS_IDENT_NVISIT)) {
         r->visit_step[r->n_visit] = step;
         r->visit_at[r->n_visit++] = r->n_total;
     }
@@ -178,9 +222,9 @@ static void ident_goto(fs_ident *id, int step)
 static void ident_design_pi(fs_ident *id, float L_d, float L_q, float R)
 {
     fs_pi_config c;
-    const float u_lim = id->u_max > 0.0f ? id->u_max : 1.0f;
-    if (fs_pi_design(&c, id->cfg.Ts, L_d, R, id->w_c, u_lim) == FS_OK) fs_pi_init(&id->pi_d, &c);
-    if (fs_pi_design(&c, id->cfg.Ts, L_q, R, id->w_c, u_lim) == FS_OK) fs_pi_init(&id->pi_q, &c);
+    const float u_lim = (id->u_max > 0.0f) ? id->u_max : 1.0f;
+    if (fs_pi_design(&c, id->cfg.Ts, L_d, R, id->w_c, u_lim) == FS_OK) { (void)fs_pi_init(&id->pi_d, &c); }
+    if (fs_pi_design(&c, id->cfg.Ts, L_q, R, id->w_c, u_lim) == FS_OK) { (void)fs_pi_init(&id->pi_q, &c); }
 }
 
 /* The stationary inverter error of the fitted leg model at the phase currents of i_ab. */
@@ -199,84 +243,102 @@ static float pi_out(const fs_pi *pi, float ref, float meas) { return fs_pi_outpu
  * s) and the means of t and w. Returns false with fewer than 3 points. */
 static bool rec_fit(const fs_ident *id, int a, int b, float *slope, float *t_m, float *w_m)
 {
+    bool ret;
     const int n = b - a;
-    if (n < 3) return false;
-    float st = 0.0f, sw = 0.0f;
-    for (int k = a; k < b; ++k) {
-        st += id->rec_t[k];
-        sw += id->rec_w[k];
+    if (n < 3) { ret = false; }
+    else {
+        float st = 0.0f;
+        float sw = 0.0f;
+        for (int k = a; k < b; ++k) {
+            st += id->rec_t[k];
+            sw += id->rec_w[k];
+        }
+        st /= (float)n;
+        sw /= (float)n;
+        float stt = 0.0f;
+        float stw = 0.0f;
+        for (int k = a; k < b; ++k) {
+            const float dt = id->rec_t[k] - st;
+            stt += dt * dt;
+            stw += dt * (id->rec_w[k] - sw);
+        }
+        if (!(stt > 0.0f)) { ret = false; }
+        else {
+            *slope = stw / stt;
+            *t_m = st;
+            *w_m = sw;
+            ret = true;
+        }
     }
-    st /= (float)n;
-    sw /= (float)n;
-    float stt = 0.0f, stw = 0.0f;
-    for (int k = a; k < b; ++k) {
-        const float dt = id->rec_t[k] - st;
-        stt += dt * dt;
-        stw += dt * (id->rec_w[k] - sw);
-    }
-    if (!(stt > 0.0f)) return false;
-    *slope = stw / stt;
-    *t_m = st;
-    *w_m = sw;
-    return true;
+    return ret;
 }
 
 /* Records (t, w) every rec_dec-th call; when full, pairs are averaged and the
  * decimation doubles, so any duration fits in FS_IDENT_NREC points. */
 static void rec_push(fs_ident *id, float t, float w)
 {
-    if (++id->rec_k < id->rec_dec) return;
-    id->rec_k = 0;
-    if (id->rec_n == FS_IDENT_NREC) {
-        for (int k = 0; k < FS_IDENT_NREC / 2; ++k) {
-            id->rec_t[k] = 0.5f * (id->rec_t[2 * k] + id->rec_t[2 * k + 1]);
-            id->rec_w[k] = 0.5f * (id->rec_w[2 * k] + id->rec_w[2 * k + 1]);
+    if (++id->rec_k < id->rec_dec) { /* nothing more to do */ }
+    else {
+        id->rec_k = 0;
+        if (id->rec_n == FS_IDENT_NREC) {
+            for (int k = 0; k < (FS_IDENT_NREC / 2); ++k) {
+                id->rec_t[k] = 0.5f * (id->rec_t[2 * k] + id->rec_t[(2 * k) + 1]);
+                id->rec_w[k] = 0.5f * (id->rec_w[2 * k] + id->rec_w[(2 * k) + 1]);
+            }
+            id->rec_n = FS_IDENT_NREC / 2;
+            id->rec_dec *= 2;
         }
-        id->rec_n = FS_IDENT_NREC / 2;
-        id->rec_dec *= 2;
+        id->rec_t[id->rec_n] = t;
+        id->rec_w[id->rec_n] = w;
+        id->rec_n++;
     }
-    id->rec_t[id->rec_n] = t;
-    id->rec_w[id->rec_n] = w;
-    id->rec_n++;
 }
 
 static void rec_clear(fs_ident *id)
 {
-    id->rec_n = id->rec_k = 0;
+    id->rec_n = 0;
+    id->rec_k = 0;
     id->rec_dec = 1;
 }
 
 /* ---- PROBE: pulses +u_p for n_p samples, -u_p for n_p, rest 2 n_p + 4 ---- */
 static fs_ab step_probe(fs_ident *id, fs_ab i)
 {
+    fs_ab ret;
     const fs_ident_config *c = &id->cfg;
-    const int n_cycle = 4 * id->n_p + 4;
-    if (id->k == 0 && id->sub == 0) id->u_p = 0.01f * id->u_max;   /* the smallest pulse: 1 % of the link */
+    const int n_cycle = (4 * id->n_p) + 4;
+    if ((id->k == 0) && (id->sub == 0)) { id->u_p = 0.01f * id->u_max; }   /* the smallest pulse: 1 % of the link */
     id->i_peak = fs_maxf(id->i_peak, fabsf(i.alpha));
     fs_ab u = {0.0f, 0.0f};
-    if (id->k < id->n_p) u.alpha = id->u_p;
-    else if (id->k < 2 * id->n_p) u.alpha = -id->u_p;
-    if (++id->k < n_cycle) return u;
-    /* the cycle is over */
-    const float target = I_PROBE * c->i_max;
-    if (id->i_peak >= 0.5f * target) {
-        id->L0 = id->u_p * (float)id->n_p * c->Ts / id->i_peak;   /* L di/dt = u, R and the dead time neglected */
-        id->sigma_i = 0.0f;
-        ident_design_pi(id, id->L0, id->L0, 0.0f);
-        ident_goto(id, FS_IDENT_AXIS);
-        return u;
+    if (id->k < id->n_p) { u.alpha = id->u_p; }
+    else if (id->k < (2 * id->n_p)) { u.alpha = -id->u_p; }
+    else { /* between the pulses: no voltage */ }
+    if (++id->k < n_cycle) { ret = u; }
+    else {
+        /* the cycle is over */
+        const float target = I_PROBE * c->i_max;
+        if (id->i_peak >= (0.5f * target)) {
+            id->L0 = id->u_p * (float)id->n_p * c->Ts / id->i_peak;   /* L di/dt = u, R and the dead time neglected */
+            id->sigma_i = 0.0f;
+            ident_design_pi(id, id->L0, id->L0, 0.0f);
+            ident_goto(id, FS_IDENT_AXIS);
+            ret = u;
+        }
+        else {
+            if ((2.0f * id->u_p) <= (0.9f * id->u_max)) {
+                id->u_p *= 2.0f;
+            } else if (id->n_p < 256) {
+                id->n_p *= 2;
+            } else {
+                ident_fail(id, FS_IDQ_VERR, FS_IDR_NO_CURRENT);
+            }
+            id->k = 0;
+            id->sub++;
+            id->i_peak = 0.0f;
+            ret = u;
+        }
     }
-    if (2.0f * id->u_p <= 0.9f * id->u_max) {
-        id->u_p *= 2.0f;
-    } else if (id->n_p < 256) {
-        id->n_p *= 2;
-    } else {
-        ident_fail(id, FS_IDQ_VERR, FS_IDR_NO_CURRENT);
-    }
-    id->k = 0;
-    id->sub++;
-    id->i_peak = 0.0f;
-    return u;
+    return ret;
 }
 
 /* alpha current-controlled to i_ref, beta held at zero voltage: that short
@@ -302,10 +364,12 @@ static fs_ab dc_on_alpha(fs_ident *id, fs_ab i, float i_ref)
 static fs_ab dc_on_d(fs_ident *id, fs_ab i, float i_ref)
 {
     const float lim = 0.95f * id->u_max;
-    const float u = pi_out(&id->pi_d, i_ref, i.alpha), ur = fs_clamp_sym(u, lim);
+    const float u = pi_out(&id->pi_d, i_ref, i.alpha);
+    const float ur = fs_clamp_sym(u, lim);
     fs_pi_update(&id->pi_d, i_ref, i.alpha, u, ur);
-    const float lq = sqrtf(fs_maxf(lim * lim - ur * ur, 0.0f));
-    const float v = pi_out(&id->pi_q, 0.0f, i.beta), vr = fs_clamp_sym(v, lq);
+    const float lq = sqrtf(fs_maxf((lim * lim) - (ur * ur), 0.0f));
+    const float v = pi_out(&id->pi_q, 0.0f, i.beta);
+    const float vr = fs_clamp_sym(v, lq);
     fs_pi_update(&id->pi_q, 0.0f, i.beta, v, vr);
     return (fs_ab){ur, vr};
 }
@@ -313,7 +377,8 @@ static fs_ab dc_on_d(fs_ident *id, fs_ab i, float i_ref)
 /* the ALIGN's short in a frame at angle th (the alignment's first direction) */
 static fs_ab dc_in_frame(fs_ident *id, fs_ab i_ab, float i_ref, float th)
 {
-    const float ct = fs_cosf(th), st = fs_sinf(th);
+    const float ct = fs_cosf(th);
+    const float st = fs_sinf(th);
     const fs_dq i = fs_park(i_ab, ct, st);
     const fs_ab u = dc_on_alpha(id, (fs_ab){i.d, i.q}, i_ref);
     return fs_inv_park((fs_dq){u.alpha, u.beta}, ct, st);
@@ -337,7 +402,8 @@ static void acc_add(fs_ident *id, float u, fs_ab i)
         id->u0 = u;
         id->i0 = i.alpha;
     }
-    const float du = u - id->u0, di = i.alpha - id->i0;
+    const float du = u - id->u0;
+    const float di = i.alpha - id->i0;
     id->s_u += du;
     id->s_uu += du * du;
     id->s_i += di;
@@ -349,13 +415,14 @@ static void acc_add(fs_ident *id, float u, fs_ab i)
 static float acc_std(float s, float ss, int n)
 {
     const float m = s / (float)n;
-    return sqrtf(fs_maxf(ss / (float)n - m * m, 0.0f));
+    return sqrtf(fs_maxf(ss / (float)n - (m * m), 0.0f));
 }
 
 /* a loop holding its axis' current at zero, its output within lim */
 static float pi_hold(fs_pi *pi, float meas, float lim)
 {
-    const float u = pi_out(pi, 0.0f, meas), ur = fs_clamp_sym(u, lim);
+    const float u = pi_out(pi, 0.0f, meas);
+    const float ur = fs_clamp_sym(u, lim);
     fs_pi_update(pi, 0.0f, meas, u, ur);
     return ur;
 }
@@ -363,27 +430,26 @@ static float pi_hold(fs_pi *pi, float meas, float lim)
 static void ldq_clear(fs_ident *id)
 {
     id->k = 0;
-    id->hf_u[0] = id->hf_u[1] = 0.0f;
-    id->hf_i[0][0] = id->hf_i[0][1] = id->hf_i[1][0] = id->hf_i[1][1] = 0.0f;
+    hf_clear(id);
 }
 
 /* complex arithmetic for AXIS's 2 x 2 phasor algebra */
-typedef struct { float re, im; } cx;
-static cx cmul(cx a, cx b) { return (cx){a.re * b.re - a.im * b.im, a.re * b.im + a.im * b.re}; }
+typedef struct { float re; float im; } cx;
+static cx cmul(cx a, cx b) { return (cx){(a.re * b.re) - (a.im * b.im), (a.re * b.im) + (a.im * b.re)}; }
 static cx csub(cx a, cx b) { return (cx){a.re - b.re, a.im - b.im}; }
 static cx cdiv(cx a, cx b)
 {
-    const float n = b.re * b.re + b.im * b.im;
-    return (cx){(a.re * b.re + a.im * b.im) / n, (a.im * b.re - a.re * b.im) / n};
+    const float n = (b.re * b.re) + (b.im * b.im);
+    return (cx){((a.re * b.re) + (a.im * b.im)) / n, ((a.im * b.re) - (a.re * b.im)) / n};
 }
 static cx ph(const float x[2][2][2], int j, int a) { return (cx){x[j][a][0], x[j][a][1]}; }
 
 /* HF phasors of a cosine carrier's period position kk: cos, sin of its phase */
 static void hf_phase(int kk, float *cu, float *su)
 {
-    const float ph = FS_TWO_PI * (float)kk / (float)N_HF;
-    *cu = fs_cosf(ph);
-    *su = fs_sinf(ph);
+    const float phase = FS_TWO_PI * (float)kk / (float)N_HF;
+    *cu = fs_cosf(phase);
+    *su = fs_sinf(phase);
 }
 
 /* ---- AXIS: an HF voltage on alpha and on beta in turn, at zero current ----
@@ -406,23 +472,26 @@ static void hf_phase(int kk, float *cu, float *su)
  * and back (0.1 el.deg there). */
 static fs_ab step_axis(fs_ident *id, fs_ab i)
 {
+    fs_ab ret;
     const fs_ident_config *c = &id->cfg;
     const int ax = id->sub & 1;
-    if (id->k == 0 && id->sub == 0) {
+    if ((id->k == 0) && (id->sub == 0)) {
         id->w_h = FS_TWO_PI / ((float)N_HF * c->Ts);
         id->U_h = fs_minf(I_HF_D * c->i_max * id->w_h * id->L0, 0.5f * id->u_max);
-        for (int j = 0; j < 2; ++j)
-            for (int a = 0; a < 2; ++a) id->ax_i[j][a][0] = id->ax_i[j][a][1] = id->ax_u[j][a][0] = id->ax_u[j][a][1] = 0.0f;
+        for (int j = 0; j < 2; ++j) {
+            for (int a = 0; a < 2; ++a) { id->ax_i[j][a][0] = 0.0f; id->ax_i[j][a][1] = 0.0f; id->ax_u[j][a][0] = 0.0f; id->ax_u[j][a][1] = 0.0f; }
+        }
     }
     const int kh = id->k;
-    const int skip = id->sub < 2 ? HF_SKIP : AX_SKIP;   /* the first turn of each: the loops' start too */
-    float cu, su;
+    const int skip = (id->sub < 2) ? (int)HF_SKIP : (int)AX_SKIP;   /* the first turn of each: the loops' start too */
+    float cu;
+    float su;
     hf_phase(kh % N_HF, &cu, &su);
     fs_ab u;
     const float lim = 0.45f * id->u_max;
-    u.alpha = pi_hold(&id->pi_d, i.alpha, lim) + (ax == 0 ? id->U_h * cu : 0.0f);
-    u.beta = pi_hold(&id->pi_q, i.beta, lim) + (ax == 1 ? id->U_h * cu : 0.0f);
-    if (kh >= skip * N_HF) {
+    u.alpha = pi_hold(&id->pi_d, i.alpha, lim) + ((ax == 0) ? (id->U_h * cu) : 0.0f);
+    u.beta = pi_hold(&id->pi_q, i.beta, lim) + ((ax == 1) ? (id->U_h * cu) : 0.0f);
+    if (kh >= (skip * N_HF)) {
         id->ax_i[ax][0][0] += i.alpha * cu;
         id->ax_i[ax][0][1] -= i.alpha * su;
         id->ax_i[ax][1][0] += i.beta * cu;
@@ -433,87 +502,114 @@ static fs_ab step_axis(fs_ident *id, fs_ab i)
         id->ax_u[ax][1][1] -= u.beta * su;
     }
     id->k++;
-    if (kh + 1 < (skip + AX_CHUNK) * N_HF) return u;   /* a whole number of periods: the carrier ends at zero current */
-    id->k = 0;
-    if (++id->sub < 2 * AX_TURNS) return u;
+    if ((kh + 1) < (skip + AX_CHUNK) * N_HF) { ret = u; }   /* a whole number of periods: the carrier ends at zero current */
+    else {
+        id->k = 0;
+        if (++id->sub < (2 * AX_TURNS)) { ret = u; }
+        else {
 
-    fs_ident_result *r = &id->res;
-    const cx I00 = ph(id->ax_i, 0, 0), I10 = ph(id->ax_i, 0, 1), I01 = ph(id->ax_i, 1, 0), I11 = ph(id->ax_i, 1, 1);
-    const cx U00 = ph(id->ax_u, 0, 0), U10 = ph(id->ax_u, 0, 1), U01 = ph(id->ax_u, 1, 0), U11 = ph(id->ax_u, 1, 1);
-    const cx det = csub(cmul(I00, I11), cmul(I01, I10));
-    if (!(det.re * det.re + det.im * det.im > 0.0f)) {
-        ident_fail(id, FS_IDQ_LD, FS_IDR_NO_CURRENT);
-        return u;
-    }
-    const float wt = id->w_h * c->Ts;
-    const float _Complex e = fs_cis(-wt * c->delay);
-    const cx g = cdiv((cx){fs_cre(e) * c->Ts / fs_sinf(wt), fs_cim(e) * c->Ts / fs_sinf(wt)}, det);
-    /* M = U I^-1, I^-1 = [I11, -I01; -I10, I00] / det */
-    const float L_aa = cmul(g, csub(cmul(U00, I11), cmul(U01, I10))).im;
-    const float L_ab1 = cmul(g, csub(cmul(U01, I00), cmul(U00, I01))).im;
-    const float L_ba = cmul(g, csub(cmul(U10, I11), cmul(U11, I10))).im;
-    const float L_bb = cmul(g, csub(cmul(U11, I00), cmul(U10, I01))).im;
-    const float L_ab = 0.5f * (L_ab1 + L_ba);
-    const float L_s = 0.5f * (L_aa + L_bb), D = sqrtf(0.25f * (L_aa - L_bb) * (L_aa - L_bb) + L_ab * L_ab);
-    r->L_d_axis = L_s - D;
-    r->L_q_axis = L_s + D;
-    r->saliency = L_s > 0.0f ? D / L_s : 0.0f;
-    if (!(r->L_d_axis > 0.0f) || !fs_fin(r->L_q_axis)) {
-        ident_fail(id, FS_IDQ_LD, FS_IDR_FIT);
-        return u;
-    }
-    if (r->saliency < SAL_MIN) {   /* no axis to see standing: the rotor is turned to alpha */
-        ident_design_pi(id, r->L_d_axis, r->L_d_axis, 0.0f);
-        if (c->standstill_only && !c->locked) {
-            ident_fail(id, FS_IDQ_VERR, FS_IDR_NO_AXIS);
-        } else if (c->locked) {   /* on alpha: R_s, the inverter's error and L (one value) need no axis; the map does */
-            id->theta_s = r->theta_axis = 0.0f;
-            r->status[FS_IDQ_MAP] = FS_IDS_FAILED;
-            r->reason[FS_IDQ_MAP] = FS_IDR_NO_AXIS;
-            ident_goto(id, FS_IDENT_LEVELS);
-        } else {
-            ident_goto(id, FS_IDENT_ALIGN);
+            fs_ident_result *r = &id->res;
+            const cx I00 = ph(id->ax_i, 0, 0);
+            const cx I10 = ph(id->ax_i, 0, 1);
+            const cx I01 = ph(id->ax_i, 1, 0);
+            const cx I11 = ph(id->ax_i, 1, 1);
+            const cx U00 = ph(id->ax_u, 0, 0);
+            const cx U10 = ph(id->ax_u, 0, 1);
+            const cx U01 = ph(id->ax_u, 1, 0);
+            const cx U11 = ph(id->ax_u, 1, 1);
+            const cx det = csub(cmul(I00, I11), cmul(I01, I10));
+            if (!(((det.re * det.re) + (det.im * det.im)) > 0.0f)) {
+                ident_fail(id, FS_IDQ_LD, FS_IDR_NO_CURRENT);
+                ret = u;
+            }
+            else {
+                const float wt = id->w_h * c->Ts;
+                const float _Complex e = fs_cis(-wt * c->delay);
+                const cx g = cdiv((cx){fs_cre(e) * c->Ts / fs_sinf(wt), fs_cim(e) * c->Ts / fs_sinf(wt)}, det);
+                /* M = U I^-1, I^-1 = [I11, -I01; -I10, I00] / det */
+                const float L_aa = cmul(g, csub(cmul(U00, I11), cmul(U01, I10))).im;
+                const float L_ab1 = cmul(g, csub(cmul(U01, I00), cmul(U00, I01))).im;
+                const float L_ba = cmul(g, csub(cmul(U10, I11), cmul(U11, I10))).im;
+                const float L_bb = cmul(g, csub(cmul(U11, I00), cmul(U10, I01))).im;
+                const float L_ab = 0.5f * (L_ab1 + L_ba);
+                const float L_s = 0.5f * (L_aa + L_bb);
+                const float D = sqrtf(0.25f * (L_aa - L_bb) * (L_aa - L_bb) + (L_ab * L_ab));
+                r->L_d_axis = L_s - D;
+                r->L_q_axis = L_s + D;
+                r->saliency = 0.0f;
+                if (L_s > 0.0f) { r->saliency = D / L_s; }
+                if (!(r->L_d_axis > 0.0f) || !fs_fin(r->L_q_axis)) {
+                    ident_fail(id, FS_IDQ_LD, FS_IDR_FIT);
+                    ret = u;
+                }
+                else if (r->saliency < SAL_MIN) {   /* no axis to see standing: the rotor is turned to alpha */
+                    ident_design_pi(id, r->L_d_axis, r->L_d_axis, 0.0f);
+                    if (c->standstill_only && !c->locked) {
+                        ident_fail(id, FS_IDQ_VERR, FS_IDR_NO_AXIS);
+                    } else if (c->locked != 0) {   /* on alpha: R_s, the inverter's error and L (one value) need no axis; the map does */
+                        id->theta_s = 0.0f;
+                        r->theta_axis = 0.0f;
+                        r->status[FS_IDQ_MAP] = FS_IDS_FAILED;
+                        r->reason[FS_IDQ_MAP] = FS_IDR_NO_AXIS;
+                        ident_goto(id, FS_IDENT_LEVELS);
+                    } else {
+                        ident_goto(id, FS_IDENT_ALIGN);
+                    }
+                    ret = (fs_ab){0.0f, 0.0f};
+                }
+                else {
+                    ident_design_pi(id, r->L_d_axis, r->L_q_axis, 0.0f);
+                    r->theta_hf = 0.5f * fs_atan2f(-2.0f * L_ab, -(L_aa - L_bb));
+                    r->theta_axis = r->theta_hf;
+                    id->theta_s = r->theta_hf;
+                    /* the d sweep alone: R_s and the inverter's error not known yet (0: its ramp's voltage well above their
+                     * drop); the nameplate's psi_f and J bound it where the free rotor would turn away */
+                    const fs_mapid_config mc = {c->Ts, c->delay, c->i_max, r->L_d_axis, r->L_q_axis, 0.0f, 0.0f, c->pole_pairs,
+                                                c->locked ? 0.0f : c->psi_f_hint, c->locked ? 0.0f : c->J_hint,
+                                                (c->motion_max > 0.0f) ? c->motion_max : MOTION_MAX, id->w_c, 1, 0};
+                    ident_goto(id, (fs_mapid_init(&id->map, &mc) == FS_OK) ? FS_IDENT_POLARITY : FS_IDENT_LEVELS);
+                    ret = (fs_ab){0.0f, 0.0f};
+                }
+            }
         }
-        return (fs_ab){0.0f, 0.0f};
     }
-    ident_design_pi(id, r->L_d_axis, r->L_q_axis, 0.0f);
-    id->theta_s = r->theta_axis = r->theta_hf = 0.5f * fs_atan2f(-2.0f * L_ab, -(L_aa - L_bb));
-    /* the d sweep alone: R_s and the inverter's error not known yet (0: its ramp's voltage well above their
-     * drop); the nameplate's psi_f and J bound it where the free rotor would turn away */
-    const fs_mapid_config mc = {c->Ts, c->delay, c->i_max, r->L_d_axis, r->L_q_axis, 0.0f, 0.0f, c->pole_pairs,
-                                c->locked ? 0.0f : c->psi_f_hint, c->locked ? 0.0f : c->J_hint,
-                                c->motion_max > 0.0f ? c->motion_max : MOTION_MAX, id->w_c, 1, 0};
-    ident_goto(id, fs_mapid_init(&id->map, &mc) == FS_OK ? FS_IDENT_POLARITY : FS_IDENT_LEVELS);
-    return (fs_ab){0.0f, 0.0f};
+    return ret;
 }
 
 /* ---- POLARITY: the map's d sweep on the axis: which end is the north ---- */
 static fs_ab step_polarity(fs_ident *id, fs_ab i_ab)
 {
+    fs_ab ret;
     const fs_ident_config *c = &id->cfg;
-    const float ct = fs_cosf(id->theta_s), st = fs_sinf(id->theta_s);
+    const float ct = fs_cosf(id->theta_s);
+    const float st = fs_sinf(id->theta_s);
     const fs_dq u = fs_mapid_step(&id->map, fs_park(i_ab, ct, st), (fs_dq){0.0f, 0.0f}, id->u_max);
-    if (id->map.stage != FS_MAPID_DONE) return fs_inv_park(u, ct, st);
-    fs_ident_result *r = &id->res;
-    r->pol_asym = id->map.res.asym;
-    r->pol_decided = id->map.res.decided;
-    r->pol_flipped = id->map.res.flipped;
-    r->pol_amp = id->map.res.d_amp;
-    /* (the d sweep's axis offset, from its q flux, is not applied: before R_s and the inverter's error
-     * are known the dead time's q part at the axis' angle puts up to 5 el.deg into it, zoo machine 12) */
-    if (r->pol_flipped) id->theta_s = fs_wrap_pi(id->theta_s + FS_PI);
-    r->theta_axis = id->theta_s;
-    id->pol_known = r->pol_decided;
-    /* no polarity standing: where the rotor may turn, ALIGN pulls its north onto the axis (up to half a
-     * turn); locked, the levels alternate. A free rotor that may not turn cannot take them: -I pushes
-     * the magnet away, and on a salient rotor the reluctance torque of any d current turns its q axis
-     * towards the current (the servo of tests/test_identify.py, 0.02 N m of friction: 12 turns) */
-    if (!id->pol_known && c->standstill_only && !c->locked) {
-        ident_fail(id, FS_IDQ_VERR, FS_IDR_NO_POLARITY);
-        return (fs_ab){0.0f, 0.0f};
+    if (id->map.stage != (int)FS_MAPID_DONE) { ret = fs_inv_park(u, ct, st); }
+    else {
+        fs_ident_result *r = &id->res;
+        r->pol_asym = id->map.res.asym;
+        r->pol_decided = id->map.res.decided;
+        r->pol_flipped = id->map.res.flipped;
+        r->pol_amp = id->map.res.d_amp;
+        /* (the d sweep's axis offset, from its q flux, is not applied: before R_s and the inverter's error
+         * are known the dead time's q part at the axis' angle puts up to 5 el.deg into it, zoo machine 12) */
+        if (r->pol_flipped != 0) { id->theta_s = fs_wrap_pi(id->theta_s + FS_PI); }
+        r->theta_axis = id->theta_s;
+        id->pol_known = r->pol_decided;
+        /* no polarity standing: where the rotor may turn, ALIGN pulls its north onto the axis (up to half a
+         * turn); locked, the levels alternate. A free rotor that may not turn cannot take them: -I pushes
+         * the magnet away, and on a salient rotor the reluctance torque of any d current turns its q axis
+         * towards the current (the servo of tests/test_identify.py, 0.02 N m of friction: 12 turns) */
+        if (!id->pol_known && c->standstill_only && !c->locked) {
+            ident_fail(id, FS_IDQ_VERR, FS_IDR_NO_POLARITY);
+            ret = (fs_ab){0.0f, 0.0f};
+        }
+        else {
+            ident_goto(id, (!id->pol_known && !c->locked) ? FS_IDENT_ALIGN : FS_IDENT_LEVELS);
+            ret = (fs_ab){0.0f, 0.0f};
+        }
     }
-    ident_goto(id, !id->pol_known && !c->locked ? FS_IDENT_ALIGN : FS_IDENT_LEVELS);
-    return (fs_ab){0.0f, 0.0f};
+    return ret;
 }
 
 /* ---- ALIGN: ramp to the alignment current over 0.2 s, hold until the rotor is still ----
@@ -529,52 +625,63 @@ static fs_ab step_polarity(fs_ident *id, fs_ab i_ab)
  * small rotor's swing, so it creeps rather than swings. */
 static fs_ab step_align(fs_ident *id, fs_ab i)
 {
+    fs_ab ret;
     const fs_ident_config *c = &id->cfg;
     const float dL = id->res.L_q_axis - id->res.L_d_axis;
     float I_top = I_ALIGN * c->i_max;
-    if (c->psi_f_hint > 0.0f && dL > 0.0f && id->res.saliency >= SAL_MIN) I_top = fs_minf(I_top, 0.5f * c->psi_f_hint / dL);
-    const int n_ramp = (int)(0.2f / c->Ts) + 1;
+    if ((c->psi_f_hint > 0.0f) && (dL > 0.0f) && (id->res.saliency >= SAL_MIN)) { I_top = fs_minf(I_top, 0.5f * c->psi_f_hint / dL); }
+    const float n_ramp_f = 0.2f / c->Ts;
+    const int n_ramp = (int)n_ramp_f + 1;
     /* 20 ms windows (several swings of a small rotor), at least half the
      * swing's period where the nameplate's psi_f and J give it: a window
      * shorter than that can fall on a swing's turning point, the rotor
      * still for a moment (the Prius-like machine at 20 A swings at 5 Hz) */
     float t_win = 0.02f;
-    if (c->psi_f_hint > 0.0f && c->J_hint > 0.0f) {
+    if ((c->psi_f_hint > 0.0f) && (c->J_hint > 0.0f)) {
         const float p = (float)c->pole_pairs;
         const float K = 1.5f * p * I_top * (c->psi_f_hint - fs_maxf(dL, 0.0f) * I_top);   /* N m per el. rad */
-        if (K > 0.0f) t_win = fs_maxf(t_win, FS_PI / sqrtf(p * K / c->J_hint));
+        if (K > 0.0f) { t_win = fs_maxf(t_win, FS_PI / sqrtf(p * K / c->J_hint)); }
     }
     const int n_win = (int)(t_win / c->Ts) + 1;
     const float i_ref = I_top * fs_minf((float)id->k / (float)n_ramp, 1.0f);
     /* first on beta, then turned to alpha over the next ramp time: a rotor
      * that sits where the current points the other way (no torque, an
      * unstable rest) is pulled off it by the first direction */
-    const float th = 0.5f * FS_PI * fs_clamp01((float)(3 * n_ramp - id->k) / (float)n_ramp);
-    fs_ab u = th > 0.0f ? dc_in_frame(id, i, i_ref, th) : dc_on_alpha(id, i, i_ref);
+    const int n_left = (3 * n_ramp) - id->k;
+    const float th = 0.5f * FS_PI * fs_clamp01((float)n_left / (float)n_ramp);
+    fs_ab u = (th > 0.0f) ? dc_in_frame(id, i, i_ref, th) : dc_on_alpha(id, i, i_ref);
     id->k++;
-    if (id->k <= 3 * n_ramp) return u;
-    acc_add(id, u.alpha, i);
-    if (id->n_acc < n_win) return u;
-    /* still when i_q is within noise and 5 % of the current (a
-     * low-resistance machine creeps into its last degrees for seconds,
-     * its EMF over R_s a few percent of the current; harmless to the
-     * levels, see below); at most 3 s */
-    const float s_a = acc_std(id->s_i, id->s_ii, id->n_acc);
-    const float rms_b = sqrtf(id->s_ib2 / (float)id->n_acc);
-    /* against the sensors' noise (START's; a swing moves the d current too: its spread is not the noise) */
-    const bool still = rms_b < 0.03f * I_top + 3.0f * (id->res.noise_i > 0.0f ? id->res.noise_i : s_a);
-    id->tries = still ? id->tries + 1 : 0;
-    if (id->tries >= 2 && (float)id->k * c->Ts >= 0.3f) {   /* two windows in a row: not a swing's turning point */
-        id->theta_s = id->res.theta_axis = 0.0f;   /* the rotor's north on alpha */
-        id->aligned = 1;
-        id->pol_known = 1;
-        id->tries = 0;
-        ident_goto(id, FS_IDENT_LEVELS);
-    } else if ((float)id->k * c->Ts > 3.0f) {
-        ident_fail(id, FS_IDQ_VERR, FS_IDR_MOVED);
+    if (id->k <= (3 * n_ramp)) { ret = u; }
+    else {
+        acc_add(id, u.alpha, i);
+        if (id->n_acc < n_win) { ret = u; }
+        else {
+            /* still when i_q is within noise and 5 % of the current (a
+             * low-resistance machine creeps into its last degrees for seconds,
+             * its EMF over R_s a few percent of the current; harmless to the
+             * levels, see below); at most 3 s */
+            const float s_a = acc_std(id->s_i, id->s_ii, id->n_acc);
+            const float rms_b = sqrtf(id->s_ib2 / (float)id->n_acc);
+            /* against the sensors' noise (START's; a swing moves the d current too: its spread is not the noise) */
+            const bool still = rms_b < ((0.03f * I_top) + (3.0f * ((id->res.noise_i > 0.0f) ? id->res.noise_i : s_a)));
+            id->tries = still ? (id->tries + 1) : 0;
+            if ((id->tries >= 2) && ((float)id->k * c->Ts) >= 0.3f) {   /* two windows in a row: not a swing's turning point */
+                id->theta_s = 0.0f;
+                id->res.theta_axis = 0.0f;   /* the rotor's north on alpha */
+                id->aligned = 1;
+                id->pol_known = 1;
+                id->tries = 0;
+                ident_goto(id, FS_IDENT_LEVELS);
+            } else if (((float)id->k * c->Ts) > 3.0f) {
+                ident_fail(id, FS_IDQ_VERR, FS_IDR_MOVED);
+            } else {
+                /* not yet still: wait on */
+            }
+            acc_clear(id);
+            ret = u;
+        }
     }
-    acc_clear(id);
-    return u;
+    return ret;
 }
 
 /* The leg error model's fit to E_j = U_j - R I_j: i_e on a log grid, u_e
@@ -585,17 +692,19 @@ static float fit_leg_error(fs_ident *id, const float E[], const float I_j[])
     float best = INFINITY;
     for (int g = 0; g <= 40; ++g) {
         const float ie = 1e-3f * i_max * powf(10.0f, 2.5f * (float)g / 40.0f);   /* 1e-3 .. 0.3 i_max */
-        float shh = 0.0f, seh = 0.0f, h[FS_IDENT_NLEV];
+        float shh = 0.0f;
+        float seh = 0.0f;
+        float h[FS_IDENT_NLEV];
         for (int j = 0; j < FS_IDENT_NLEV; ++j) {
             const float I = I_j[j];
             /* d-axis current i on alpha: legs at i, -i/2, -i/2: E = 2/3 (g(i) + g(i/2)) */
-            h[j] = (2.0f / 3.0f) * (I / sqrtf(I * I + ie * ie) + 0.5f * I / sqrtf(0.25f * I * I + ie * ie));
+            h[j] = (2.0f / 3.0f) * (I / sqrtf((I * I) + (ie * ie)) + (0.5f * I / sqrtf((0.25f * I * I) + (ie * ie))));
             shh += h[j] * h[j];
             seh += E[j] * h[j];
         }
         const float ue = seh / shh;
         float sr = 0.0f;
-        for (int j = 0; j < FS_IDENT_NLEV; ++j) sr += (E[j] - ue * h[j]) * (E[j] - ue * h[j]);
+        for (int j = 0; j < FS_IDENT_NLEV; ++j) { sr += (E[j] - (ue * h[j])) * (E[j] - (ue * h[j])); }
         if (sr < best) {
             best = sr;
             id->res.u_e = ue;
@@ -613,10 +722,11 @@ static float fit_leg_error(fs_ident *id, const float E[], const float I_j[])
 static float level_top(const fs_ident *id)
 {
     const fs_ident_config *c = &id->cfg;
-    float I = c->i_test > 0.0f ? c->i_test : I_TEST * c->i_max;
+    float I = (c->i_test > 0.0f) ? c->i_test : (I_TEST * c->i_max);
     const float dL = id->res.L_q_axis - id->res.L_d_axis;
-    if (id->pol_known && !c->locked && c->psi_f_hint > 0.0f && dL > 0.0f && id->res.saliency >= SAL_MIN)
+    if (id->pol_known && !c->locked && (c->psi_f_hint > 0.0f) && (dL > 0.0f) && (id->res.saliency >= SAL_MIN)) {
         I = fs_minf(I, 0.5f * c->psi_f_hint / dL);
+    }
     return I;
 }
 
@@ -629,118 +739,140 @@ static float level_top(const fs_ident *id)
  * -I would push the magnet away. */
 static fs_ab step_levels(fs_ident *id, fs_ab i_ab)
 {
+    fs_ab ret;
     const fs_ident_config *c = &id->cfg;
     const bool alt = !id->pol_known;
-    const int j = alt ? id->sub / 2 : id->sub;
+    const int j = alt ? (id->sub / 2) : id->sub;
     const float sgn = (alt && (id->sub & 1)) ? -1.0f : 1.0f;
-    if (id->sub == 0 && id->k == 0) id->res.i_level_top = level_top(id);
+    if ((id->sub == 0) && (id->k == 0)) { id->res.i_level_top = level_top(id); }
     const float i_test = id->res.i_level_top;
-    const float t_top = c->t_level > 0.0f ? c->t_level : T_LEVEL;
+    const float t_top = (c->t_level > 0.0f) ? c->t_level : T_LEVEL;
     const float I_ref = sgn * LEV_FRAC[j] * i_test;
-    const int n_set = (int)(30.0f / (id->w_c * c->Ts)) + 1;
+    const float n_set_f = 30.0f / (id->w_c * c->Ts);
+    const int n_set = (int)n_set_f + 1;
     /* the three levels R_s comes from (its slope is the small difference
      * of large voltages) the longer window, the rest half of it; one
      * sign alone twice as long */
-    const int n_meas = (int)((j < 3 ? 1.0f : 0.5f) * (alt ? 1.0f : 2.0f) * t_top / c->Ts) + 1;
+    const float n_meas_f = ((j < 3) ? 1.0f : 0.5f) * (alt ? 1.0f : 2.0f) * t_top / c->Ts;
+    const int n_meas = (int)n_meas_f + 1;
     const fs_ab i = to_frame(id, i_ab);
     const fs_ab u = id->aligned ? dc_on_alpha(id, i, I_ref) : dc_on_d(id, i, I_ref);
     id->k++;
-    if (id->k <= n_set) return from_frame(id, u);
-    acc_add(id, u.alpha, i);
-    id->e_abs += u.beta;
-    /* batch means of u: the loop's noise is correlated from sample to
-     * sample, so the noise of the mean comes from the batches' spread */
-    const int n_b = n_meas / FS_IDENT_NBATCH;
-    if (id->n_acc % n_b == 0 && id->n_acc / n_b <= FS_IDENT_NBATCH)
-        id->batch[id->n_acc / n_b - 1] = id->s_u;   /* running sums; differenced below */
-    if (id->n_acc < n_meas) return from_frame(id, u);
-    const int n = id->n_acc;
-    fs_ident_result *r = &id->res;
-    const float I_m = id->i0 + id->s_i / (float)n, U_m = id->u0 + id->s_u / (float)n;
-    if (sgn > 0.0f) {
-        r->I_lev[j] = I_m;
-        r->U_lev[j] = U_m;
-    } else {
-        r->I_levn[j] = I_m;
-        r->U_levn[j] = U_m;
-    }
-    const float s_a = acc_std(id->s_i, id->s_ii, n);
-    const float s_u = acc_std(id->s_u, id->s_uu, n);
-    const float rms_b = sqrtf(id->s_ib2 / (float)n);
-    /* moved: after ALIGN (q shorted), a q current of a tenth of the level. A
-     * rotor creeping into its last degree against Coulomb friction drives a
-     * few percent through the shorted q axis of a low-resistance machine
-     * (its EMF over R_s) but puts no voltage on d; a turning one drives the
-     * level's order. On the axis (q held at zero), a q voltage beyond the
-     * dead time's q part (at most tan 30 deg of its d part, within the
-     * level's voltage): a back-EMF */
-    const float uq_m = id->e_abs / (float)n;
-    if (id->aligned ? rms_b > 0.1f * fabsf(I_ref) + 4.0f * s_a + 0.01f * c->i_max
-                    : fabsf(uq_m) > 0.7f * fabsf(U_m) + 4.0f * s_u + 0.01f * id->u_max) {
-        r->i_moved = I_ref;
-        ident_fail(id, FS_IDQ_VERR, FS_IDR_MOVED);
-        return from_frame(id, u);
-    }
-    if (j < 3) {   /* the noise of a level's mean voltage, from the top levels */
-        id->sigma_i = fs_maxf(id->sigma_i, s_a);
-        float prev = 0.0f, sb = 0.0f, sbb = 0.0f;
-        for (int b = 0; b < FS_IDENT_NBATCH; ++b) {
-            const float m = (id->batch[b] - prev) / (float)(n_meas / FS_IDENT_NBATCH);
-            prev = id->batch[b];
-            sb += m;
-            sbb += m * m;
+    if (id->k <= n_set) { ret = from_frame(id, u); }
+    else {
+        acc_add(id, u.alpha, i);
+        id->e_abs += u.beta;
+        /* batch means of u: the loop's noise is correlated from sample to
+         * sample, so the noise of the mean comes from the batches' spread */
+        const int n_b = n_meas / FS_IDENT_NBATCH;
+        if (((id->n_acc % n_b) == 0) && ((id->n_acc / n_b) <= FS_IDENT_NBATCH)) {
+            id->batch[(id->n_acc / n_b) - 1] = id->s_u;   /* running sums; differenced below */
         }
-        const float s_mean = acc_std(sb, sbb, FS_IDENT_NBATCH) / sqrtf((float)(FS_IDENT_NBATCH - 1));
-        r->snr_rs = fs_maxf(r->snr_rs, fs_maxf(s_mean, s_u / (float)n));   /* held here as that noise, V */
-    }
-    id->k = 0;
-    acc_clear(id);
-    if (++id->sub < (alt ? 2 : 1) * FS_IDENT_NLEV) return from_frame(id, u);
+        if (id->n_acc < n_meas) { ret = from_frame(id, u); }
+        else {
+            const int n = id->n_acc;
+            fs_ident_result *r = &id->res;
+            const float I_m = id->i0 + (id->s_i / (float)n);
+            const float U_m = id->u0 + (id->s_u / (float)n);
+            if (sgn > 0.0f) {
+                r->I_lev[j] = I_m;
+                r->U_lev[j] = U_m;
+            } else {
+                r->I_levn[j] = I_m;
+                r->U_levn[j] = U_m;
+            }
+            const float s_a = acc_std(id->s_i, id->s_ii, n);
+            const float s_u = acc_std(id->s_u, id->s_uu, n);
+            const float rms_b = sqrtf(id->s_ib2 / (float)n);
+            /* moved: after ALIGN (q shorted), a q current of a tenth of the level. A
+             * rotor creeping into its last degree against Coulomb friction drives a
+             * few percent through the shorted q axis of a low-resistance machine
+             * (its EMF over R_s) but puts no voltage on d; a turning one drives the
+             * level's order. On the axis (q held at zero), a q voltage beyond the
+             * dead time's q part (at most tan 30 deg of its d part, within the
+             * level's voltage): a back-EMF */
+            const float uq_m = id->e_abs / (float)n;
+            if (id->aligned ? rms_b > 0.1f * fabsf(I_ref) + (4.0f * s_a) + (0.01f * c->i_max)
+                            : fabsf(uq_m) > 0.7f * fabsf(U_m) + (4.0f * s_u) + (0.01f * id->u_max)) {
+                r->i_moved = I_ref;
+                ident_fail(id, FS_IDQ_VERR, FS_IDR_MOVED);
+                ret = from_frame(id, u);
+            }
+            else {
+                if (j < 3) {   /* the noise of a level's mean voltage, from the top levels */
+                    id->sigma_i = fs_maxf(id->sigma_i, s_a);
+                    float prev = 0.0f;
+                    float sb = 0.0f;
+                    float sbb = 0.0f;
+                    for (int b = 0; b < FS_IDENT_NBATCH; ++b) {
+                        const float m = (id->batch[b] - prev) / (float)(n_meas / FS_IDENT_NBATCH);
+                        prev = id->batch[b];
+                        sb += m;
+                        sbb += m * m;
+                    }
+                    const float s_mean = acc_std(sb, sbb, FS_IDENT_NBATCH) / sqrtf((float)(FS_IDENT_NBATCH - 1));
+                    r->snr_rs = fs_maxf(r->snr_rs, fs_maxf(s_mean, s_u / (float)n));   /* held here as that noise, V */
+                }
+                id->k = 0;
+                acc_clear(id);
+                if (++id->sub < (alt ? 2 : 1) * FS_IDENT_NLEV) { ret = from_frame(id, u); }
+                else {
 
-    /* each level's current and voltage: half the difference of the signs' */
-    float I_j[FS_IDENT_NLEV], U_j[FS_IDENT_NLEV];
-    for (int k = 0; k < FS_IDENT_NLEV; ++k) {
-        I_j[k] = alt ? 0.5f * (r->I_lev[k] - r->I_levn[k]) : r->I_lev[k];
-        U_j[k] = alt ? 0.5f * (r->U_lev[k] - r->U_levn[k]) : r->U_lev[k];
+                    /* each level's current and voltage: half the difference of the signs' */
+                    float I_j[FS_IDENT_NLEV];
+                    float U_j[FS_IDENT_NLEV];
+                    for (int k = 0; k < FS_IDENT_NLEV; ++k) {
+                        I_j[k] = alt ? 0.5f * (r->I_lev[k] - r->I_levn[k]) : r->I_lev[k];
+                        U_j[k] = alt ? 0.5f * (r->U_lev[k] - r->U_levn[k]) : r->U_lev[k];
+                    }
+                    /* R_s: least squares through the top three levels */
+                    float mi = 0.0f;
+                    float mu = 0.0f;
+                    float sii = 0.0f;
+                    float siu = 0.0f;
+                    for (int k = 0; k < 3; ++k) {
+                        mi += I_j[k] / 3.0f;
+                        mu += U_j[k] / 3.0f;
+                    }
+                    for (int k = 0; k < 3; ++k) {
+                        sii += (I_j[k] - mi) * (I_j[k] - mi);
+                        siu += (I_j[k] - mi) * (U_j[k] - mu);
+                    }
+                    r->R_s = siu / sii;
+                    const float span = r->R_s * (I_j[0] - I_j[2]);
+                    const float mid = U_j[1] - (mu + (r->R_s * (I_j[1] - mi)));
+                    /* the noise of a level's voltage: the sign's, or of half a difference */
+                    const float noise = alt ? (r->snr_rs * FS_INV_SQRT3 * 1.2247449f) : r->snr_rs;   /* x sqrt(2)/2 */
+                    r->r_fit_rs = fabsf(mid) / fs_maxf(fabsf(span), 1e-30f);
+                    r->snr_rs = fabsf(span) / fs_maxf(noise, 1e-30f);
+                    float E[FS_IDENT_NLEV];
+                    for (int k = 0; k < FS_IDENT_NLEV; ++k) { E[k] = U_j[k] - (r->R_s * I_j[k]); }
+                    const float resid = fit_leg_error(id, E, I_j);
+                    /* the error model within a tenth of its size, or within the noise (and
+                     * float's resolution of the level voltages: an ideal inverter's is 0) */
+                    if (resid > 0.1f * fabsf(r->u_e) + (5.0f * noise) + (1e-4f * id->u_max)) {
+                        ident_fail(id, FS_IDQ_VERR, FS_IDR_FIT);
+                        ret = from_frame(id, u);
+                    }
+                    else {
+                        ident_ok(id, FS_IDQ_VERR);
+                        if (!(r->R_s > 0.0f)) {
+                            ident_fail(id, FS_IDQ_RS, FS_IDR_FIT);
+                        } else if (r->snr_rs < 30.0f) {   /* the slope's noise below 3 %/ (2 sigma) */
+                            ident_fail(id, FS_IDQ_RS, FS_IDR_LOW_SIGNAL);
+                        } else if (r->r_fit_rs > 0.03f) {  /* the middle level off the line by 3 % of the span: the error is not flat there */
+                            ident_fail(id, FS_IDQ_RS, FS_IDR_FIT);
+                        } else {
+                            ident_ok(id, FS_IDQ_RS);
+                            ident_goto(id, FS_IDENT_LDQ);
+                        }
+                        ret = from_frame(id, u);
+                    }
+                }
+            }
+        }
     }
-    /* R_s: least squares through the top three levels */
-    float mi = 0.0f, mu = 0.0f, sii = 0.0f, siu = 0.0f;
-    for (int k = 0; k < 3; ++k) {
-        mi += I_j[k] / 3.0f;
-        mu += U_j[k] / 3.0f;
-    }
-    for (int k = 0; k < 3; ++k) {
-        sii += (I_j[k] - mi) * (I_j[k] - mi);
-        siu += (I_j[k] - mi) * (U_j[k] - mu);
-    }
-    r->R_s = siu / sii;
-    const float span = r->R_s * (I_j[0] - I_j[2]);
-    const float mid = U_j[1] - (mu + r->R_s * (I_j[1] - mi));
-    /* the noise of a level's voltage: the sign's, or of half a difference */
-    const float noise = alt ? r->snr_rs * FS_INV_SQRT3 * 1.2247449f : r->snr_rs;   /* x sqrt(2)/2 */
-    r->r_fit_rs = fabsf(mid) / fs_maxf(fabsf(span), 1e-30f);
-    r->snr_rs = fabsf(span) / fs_maxf(noise, 1e-30f);
-    float E[FS_IDENT_NLEV];
-    for (int k = 0; k < FS_IDENT_NLEV; ++k) E[k] = U_j[k] - r->R_s * I_j[k];
-    const float resid = fit_leg_error(id, E, I_j);
-    /* the error model within a tenth of its size, or within the noise (and
-     * float's resolution of the level voltages: an ideal inverter's is 0) */
-    if (resid > 0.1f * fabsf(r->u_e) + 5.0f * noise + 1e-4f * id->u_max) {
-        ident_fail(id, FS_IDQ_VERR, FS_IDR_FIT);
-        return from_frame(id, u);
-    }
-    ident_ok(id, FS_IDQ_VERR);
-    if (!(r->R_s > 0.0f)) {
-        ident_fail(id, FS_IDQ_RS, FS_IDR_FIT);
-    } else if (r->snr_rs < 30.0f) {   /* the slope's noise below 3 %/ (2 sigma) */
-        ident_fail(id, FS_IDQ_RS, FS_IDR_LOW_SIGNAL);
-    } else if (r->r_fit_rs > 0.03f) {  /* the middle level off the line by 3 % of the span: the error is not flat there */
-        ident_fail(id, FS_IDQ_RS, FS_IDR_FIT);
-    } else {
-        ident_ok(id, FS_IDQ_RS);
-        ident_goto(id, FS_IDENT_LDQ);
-    }
-    return from_frame(id, u);
+    return ret;
 }
 
 /* L of a sampled R-L branch from its voltage and current phasors at w Ts:
@@ -749,17 +881,30 @@ static fs_ab step_levels(fs_ident *id, fs_ab i_ab)
  * with the current, adds to Re(W) only. */
 static float hf_inductance(const fs_ident *id, float Ur, float Ui, float Ir, float Ii)
 {
-    const float Ts = id->cfg.Ts, wt = id->w_h * Ts, d = id->cfg.delay;
-    const float den = Ir * Ir + Ii * Ii;
-    if (!(den > 0.0f)) return NAN;
-    const float Yr = (Ur * Ir + Ui * Ii) / den, Yi = (Ui * Ir - Ur * Ii) / den;
-    const float cd = fs_cosf(wt * d), sd = fs_sinf(wt * d);
-    const float Wr = Yr * cd + Yi * sd, Wi = Yi * cd - Yr * sd;   /* W = Y e^{-j w Ts d} */
-    if (!(Wi > 0.0f)) return NAN;
-    const float b = fs_sinf(wt) / Wi;
-    const float a = fs_cosf(wt) - b * Wr;
-    if (a > 0.0f && a < 0.999f) return (1.0f - a) * Ts / (-logf(a) * b);   /* L = R Ts / x, R = (1 - a)/b, x = -ln a */
-    return Ts / b;
+    float ret;
+    const float Ts = id->cfg.Ts;
+    const float wt = id->w_h * Ts;
+    const float d = id->cfg.delay;
+    const float den = (Ir * Ir) + (Ii * Ii);
+    if (!(den > 0.0f)) { ret = NAN; }
+    else {
+        const float Yr = ((Ur * Ir) + (Ui * Ii)) / den;
+        const float Yi = ((Ui * Ir) - (Ur * Ii)) / den;
+        const float cd = fs_cosf(wt * d);
+        const float sd = fs_sinf(wt * d);
+        const float Wr = (Yr * cd) + (Yi * sd);                               /* W = Y e^{-j w Ts d} */
+        const float Wi = (Yi * cd) - (Yr * sd);
+        if (!(Wi > 0.0f)) { ret = NAN; }
+        else {
+            const float b = fs_sinf(wt) / Wi;
+            const float a = fs_cosf(wt) - (b * Wr);
+            if ((a > 0.0f) && (a < 0.999f)) { ret = (1.0f - a) * Ts / (-logf(a) * b); }   /* L = R Ts / x, R = (1 - a)/b, x = -ln a */
+            else {
+                ret = Ts / b;
+            }
+        }
+    }
+    return ret;
 }
 
 /* Frame current control at i_ref: PI per axis with the cross-coupling fed
@@ -768,12 +913,17 @@ static float hf_inductance(const fs_ident *id, float Ur, float Ui, float Ir, flo
 static fs_ab frame_current(fs_ident *id, fs_ab i_ab, fs_dq i_ref)
 {
     const fs_ident_result *r = &id->res;
-    const float ct = fs_cosf(id->theta), st = fs_sinf(id->theta);
+    const float ct = fs_cosf(id->theta);
+    const float st = fs_sinf(id->theta);
     const fs_dq i = fs_park(i_ab, ct, st);
-    const float ff_d = -id->w * r->L_q * i.q, ff_q = id->w * r->L_d * i.d;
-    const float vd = pi_out(&id->pi_d, i_ref.d, i.d), vq = pi_out(&id->pi_q, i_ref.q, i.q);
-    float ud = vd + ff_d, uq = vq + ff_q;
-    const float m = sqrtf(ud * ud + uq * uq), lim = 0.95f * id->u_max;
+    const float ff_d = -id->w * r->L_q * i.q;
+    const float ff_q = id->w * r->L_d * i.d;
+    const float vd = pi_out(&id->pi_d, i_ref.d, i.d);
+    const float vq = pi_out(&id->pi_q, i_ref.q, i.q);
+    float ud = vd + ff_d;
+    float uq = vq + ff_q;
+    const float m = sqrtf((ud * ud) + (uq * uq));
+    const float lim = 0.95f * id->u_max;
     if (m > lim) {
         ud *= lim / m;
         uq *= lim / m;
@@ -781,7 +931,7 @@ static fs_ab frame_current(fs_ident *id, fs_ab i_ab, fs_dq i_ref)
     fs_pi_update(&id->pi_d, i_ref.d, i.d, vd, ud - ff_d);
     fs_pi_update(&id->pi_q, i_ref.q, i.q, vq, uq - ff_q);
     id->u_dq = (fs_dq){ud, uq};
-    const float th = id->theta + id->w * id->cfg.Ts * (id->cfg.delay + 0.5f);
+    const float th = id->theta + (id->w * id->cfg.Ts * (id->cfg.delay + 0.5f));
     return fs_inv_park(id->u_dq, fs_cosf(th), fs_sinf(th));
 }
 
@@ -790,22 +940,24 @@ static fs_ab frame_current(fs_ident *id, fs_ab i_ab, fs_dq i_ref)
 static fs_dq frame_emf(const fs_ident *id, fs_ab i_ab)
 {
     const fs_ident_result *r = &id->res;
-    const float ct = fs_cosf(id->theta), st = fs_sinf(id->theta);
+    const float ct = fs_cosf(id->theta);
+    const float st = fs_sinf(id->theta);
     const fs_dq i = fs_park(i_ab, ct, st);
     const fs_dq ue = fs_park(ident_inv_error(id, i_ab), ct, st);
-    return (fs_dq){id->u_dq.d - ue.d - r->R_s * i.d + id->w * r->L_q * i.q,
-                   id->u_dq.q - ue.q - r->R_s * i.q - id->w * r->L_d * i.d};
+    return (fs_dq){id->u_dq.d - ue.d - (r->R_s * i.d) + (id->w * r->L_q * i.q),
+                   id->u_dq.q - ue.q - (r->R_s * i.q) - (id->w * r->L_d * i.d)};
 }
 
 /* The PLL on the EMF: the frame's d axis onto the magnet's (e on +q). */
 static float frame_pll(fs_ident *id, fs_ab i_ab)
 {
     const fs_dq e = frame_emf(id, i_ab);
-    const float phi = fs_atan2f(-e.d, e.q) * (id->w >= 0.0f ? 1.0f : -1.0f);
-    const float kp = 2.0f * id->bw_pll, ki = id->bw_pll * id->bw_pll;   /* double pole at bw_pll */
+    const float phi = fs_atan2f(-e.d, e.q) * ((id->w >= 0.0f) ? 1.0f : -1.0f);
+    const float kp = 2.0f * id->bw_pll;                                 /* double pole at bw_pll */
+    const float ki = id->bw_pll * id->bw_pll;
     id->w0 += ki * phi * id->cfg.Ts;                                       /* w0: the integral, the speed */
-    id->w = id->w0 + kp * phi;
-    id->theta = fs_wrap_pi(id->theta + id->w * id->cfg.Ts);
+    id->w = id->w0 + (kp * phi);
+    id->theta = fs_wrap_pi(id->theta + (id->w * id->cfg.Ts));
     return phi;
 }
 
@@ -829,12 +981,12 @@ static float frame_pll(fs_ident *id, fs_ab i_ab)
 static float ldq_bias(const fs_ident *id, int level)
 {
     const float i_max = id->cfg.i_max;
-    float I_b = fs_clampf(FS_SQRT3 * I_HF * i_max + 6.0f * id->res.i_e, 0.2f * i_max, 0.4f * i_max);
+    float I_b = fs_clampf((FS_SQRT3 * I_HF * i_max) + (6.0f * id->res.i_e), 0.2f * i_max, 0.4f * i_max);
     /* on the north pole I_b and 2 I_b within the levels' bound (the carrier's clearance given up first:
      * a negative bias there would push the magnet away); else +-I_b */
     const bool north = id->aligned || id->pol_known;
-    if (north) I_b = fs_minf(I_b, 0.5f * id->res.i_level_top);
-    return level == 0 ? I_b : (north ? 2.0f : -1.0f) * I_b;
+    if (north) { I_b = fs_minf(I_b, 0.5f * id->res.i_level_top); }
+    return (level == 0) ? I_b : (north ? 2.0f : -1.0f) * I_b;
 }
 
 /* The rotor's axis against the frame's from the cross response r (the
@@ -842,26 +994,33 @@ static float ldq_bias(const fs_ident *id, int level)
  * r = g sin 2e / (1 + g cos 2e) with g the saliency (L_q - L_d)/(L_q + L_d). */
 static float axis_offset(float r, float g)
 {
-    if (!(g > 0.0f)) return 0.0f;
-    const float s = fs_clampf(r / (g * sqrtf(1.0f + r * r)), -1.0f, 1.0f);
-    return 0.5f * (fs_atanf(r) + asinf(s));
+    float ret;
+    if (!(g > 0.0f)) { ret = 0.0f; }
+    else {
+        const float s = fs_clampf(r / (g * sqrtf(1.0f + (r * r))), -1.0f, 1.0f);
+        ret = 0.5f * (fs_atanf(r) + asinf(s));
+    }
+    return ret;
 }
 
 static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
 {
     const fs_ident_config *c = &id->cfg;
-    const bool check = id->step == FS_IDENT_CHECK;
-    const int n_set = (int)(30.0f / (id->w_c * c->Ts)) + 1;
+    const bool check = id->step == (int)FS_IDENT_CHECK;
+    const float n_set_f = 30.0f / (id->w_c * c->Ts);
+    const int n_set = (int)n_set_f + 1;
     /* sub 0: d at zero current (its cross response turns the frame onto the rotor's axis before the
      * q carrier: L_q measured on a frame 1.4 el.deg off read -2 % on zoo machine 12); 1, 2: q at the first
      * and second bias */
-    const bool d_meas = check || id->sub == 0;
-    const int axis = d_meas ? 0 : 1, level = id->sub - 1;
+    const bool d_meas = check || (id->sub == 0);
+    const int axis = d_meas ? (int)0 : (int)1;
+    const int level = id->sub - 1;
     const float I_b = d_meas ? 0.0f : ldq_bias(id, level);
     if (id->k == 0) {
         id->w_h = FS_TWO_PI / ((float)N_HF * c->Ts);
-        const float R = id->res.R_s, X = id->w_h * id->L0;   /* the probe's L: the amplitudes B-IDENT was tuned on */
-        id->U_h = fs_minf((axis ? I_HF : I_HF_D) * c->i_max * sqrtf(R * R + X * X), 0.5f * id->u_max);
+        const float R = id->res.R_s;                         /* the probe's L: the amplitudes B-IDENT was tuned on */
+        const float X = id->w_h * id->L0;
+        id->U_h = fs_minf((axis ? I_HF : I_HF_D) * c->i_max * sqrtf((R * R) + (X * X)), 0.5f * id->u_max);
         ldq_clear(id);
     }
     const fs_ab i = to_frame(id, i_ab);
@@ -871,12 +1030,13 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
         return from_frame(id, u);
     }
     const int kh = id->k - n_set;
-    float cu, su;
+    float cu;
+    float su;
     hf_phase(kh % N_HF, &cu, &su);
     const float uh = id->U_h * cu;   /* a cosine voltage: the inductive current starts at its own zero */
-    if (axis == 0) u.alpha += uh; else u.beta += uh;
-    const float ua = axis == 0 ? u.alpha : u.beta;   /* all of the axis' voltage: the bias loop answers the carrier too */
-    if (kh >= HF_SKIP * N_HF) {
+    if (axis == 0) { u.alpha += uh; } else { u.beta += uh; }
+    const float ua = (axis == 0) ? u.alpha : u.beta;   /* all of the axis' voltage: the bias loop answers the carrier too */
+    if (kh >= (HF_SKIP * N_HF)) {
         /* phasors X = sum x[k] e^{-j w k Ts}: the current sampled now, the reference of now */
         id->hf_u[0] += ua * cu;
         id->hf_u[1] -= ua * su;
@@ -886,17 +1046,18 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
         id->hf_i[1][1] -= i.beta * su;
     }
     id->k++;
-    if (kh + 1 < (HF_SKIP + HF_MEAS) * N_HF) return from_frame(id, u);
+    if ((kh + 1) < (HF_SKIP + HF_MEAS) * N_HF) { return from_frame(id, u); }
 
     fs_ident_result *r = &id->res;
     const int n = HF_MEAS * N_HF;
-    const float *Iax = id->hf_i[axis], *Ix = id->hf_i[1 - axis];
+    const float *Iax = id->hf_i[axis];
+    const float *Ix = id->hf_i[1 - axis];
     const float L = hf_inductance(id, id->hf_u[0], id->hf_u[1], Iax[0], Iax[1]);
     /* amplitude 2|I|/n against the noise sigma sqrt(2/n) of that estimate */
-    const float amp = 2.0f * sqrtf(Iax[0] * Iax[0] + Iax[1] * Iax[1]) / (float)n;
+    const float amp = 2.0f * sqrtf((Iax[0] * Iax[0]) + (Iax[1] * Iax[1])) / (float)n;
     const float snr = amp / fs_maxf(id->sigma_i * sqrtf(2.0f / (float)n), 1e-6f * c->i_max);
-    const int q = check ? FS_IDQ_MAP : axis == 0 ? FS_IDQ_LD : FS_IDQ_LQ;
-    if (!check) r->snr_l = id->sub == 0 ? snr : fs_minf(r->snr_l, snr);
+    const int q = check ? (int)FS_IDQ_MAP : (axis == 0) ? (int)FS_IDQ_LD : (int)FS_IDQ_LQ;
+    if (!check) { r->snr_l = (id->sub == 0) ? snr : fs_minf(r->snr_l, snr); }
     if (!(L > 0.0f) || !fs_fin(L)) {
         ident_fail(id, q, FS_IDR_FIT);
         return from_frame(id, u);
@@ -907,10 +1068,10 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
     }
     if (d_meas) {
         /* the cross response's in-phase part: the rotor's axis against the frame's */
-        const float den = Iax[0] * Iax[0] + Iax[1] * Iax[1];
-        const float e = axis_offset((Ix[0] * Iax[0] + Ix[1] * Iax[1]) / den, r->saliency);
+        const float den = (Iax[0] * Iax[0]) + (Iax[1] * Iax[1]);
+        const float e = axis_offset(((Ix[0] * Iax[0]) + (Ix[1] * Iax[1])) / den, r->saliency);
         id->theta_s = fs_wrap_pi(id->theta_s + e);   /* onto the rotor's axis */
-        if (check && r->status[FS_IDQ_MAP] == FS_IDS_PENDING) {   /* before MAP: the frame onto the axis the biases left */
+        if (check && (r->status[FS_IDQ_MAP] == (int)FS_IDS_PENDING)) {   /* before MAP: the frame onto the axis the biases left */
             r->motion_premap = e;
             ident_goto(id, FS_IDENT_MAP);
             return (fs_ab){0.0f, 0.0f};
@@ -927,8 +1088,9 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
         r->eps_align = e;
         /* the carrier on a frame e off the rotor's axis sees 1/L = (1/L_d + 1/L_q)/2 + (1/L_d - 1/L_q)/2 cos 2e:
          * L_d from it with AXIS's L_q */
-        const float c2 = fs_cosf(2.0f * e), lq = r->L_q_axis;
-        r->L_d = lq > 0.0f ? (1.0f + c2) / (2.0f / L - (1.0f - c2) / lq) : L;
+        const float c2 = fs_cosf(2.0f * e);
+        const float lq = r->L_q_axis;
+        r->L_d = (lq > 0.0f) ? (1.0f + c2) / ((2.0f / L) - (1.0f - c2) / lq) : L;
     } else {
         r->L_q_bias[level] = L;
         r->I_bias[level] = I_b;
@@ -939,7 +1101,7 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
     }
     /* L_q at zero current, linear in i_d through the two biases */
     r->dL_q = (r->L_q_bias[1] - r->L_q_bias[0]) / (r->I_bias[1] - r->I_bias[0]);
-    r->L_q = r->L_q_bias[0] - r->I_bias[0] * r->dL_q;
+    r->L_q = r->L_q_bias[0] - (r->I_bias[0] * r->dL_q);
     if (!(r->L_q > 0.0f)) {   /* a curve too bent to extrapolate */
         ident_fail(id, FS_IDQ_LQ, FS_IDR_FIT);
         return from_frame(id, u);
@@ -953,10 +1115,10 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
         return from_frame(id, u);
     }
     ident_design_pi(id, r->L_d, r->L_q, r->R_s);
-    if (r->status[FS_IDQ_MAP] == FS_IDS_PENDING) {
+    if (r->status[FS_IDQ_MAP] == (int)FS_IDS_PENDING) {
         fs_mapid_config mc = {c->Ts, c->delay, c->i_max, r->L_d, r->L_q, r->R_s, fabsf(r->u_e), c->pole_pairs,
                               c->locked ? 0.0f : c->psi_f_hint, c->locked ? 0.0f : c->J_hint,
-                              c->motion_max > 0.0f ? c->motion_max : MOTION_MAX, id->w_c, 0, id->pol_known};
+                              (c->motion_max > 0.0f) ? c->motion_max : MOTION_MAX, id->w_c, 0, id->pol_known};
         if (fs_mapid_init(&id->map, &mc) != FS_OK) {
             r->status[FS_IDQ_MAP] = FS_IDS_FAILED;
             r->reason[FS_IDQ_MAP] = FS_IDR_FIT;
@@ -969,27 +1131,35 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
 /* ---- MAP: the flux map's sweeps (fs_mapid.h) on the standstill frame ---- */
 static fs_ab step_map(fs_ident *id, fs_ab i_ab)
 {
-    const float ct = fs_cosf(id->theta_s), st = fs_sinf(id->theta_s);
-    const fs_dq i = fs_park(i_ab, ct, st), e = fs_park(ident_inv_error(id, i_ab), ct, st);
+    fs_ab ret;
+    const float ct = fs_cosf(id->theta_s);
+    const float st = fs_sinf(id->theta_s);
+    const fs_dq i = fs_park(i_ab, ct, st);
+    const fs_dq e = fs_park(ident_inv_error(id, i_ab), ct, st);
     fs_dq u = fs_mapid_step(&id->map, i, e, id->u_max);
     id->k++;
-    if (id->map.stage != FS_MAPID_DONE) return fs_inv_park(u, ct, st);
-    const fs_mapid_result *m = &id->map.res;
-    int n_read = 0;   /* the d axis read to +-3/4 i_max (+-i_max where the sweep's peaks reached it, else from beyond) */
-    for (int k = 1; k < FS_MAPID_ND - 1; ++k) n_read += m->n_d[k] > 0;
-    if (m->flipped) id->theta_s = fs_wrap_pi(id->theta_s + FS_PI);   /* the magnet's north */
-    id->pol_known = id->pol_known || m->decided;   /* ALIGN's or the polarity sweep's stands */
-    id->res.theta_axis = id->theta_s;
-    /* the d sweep read its whole axis: the map has its spine (the q sweeps
-     * read what the disc and the motion leave them) */
-    if (n_read == FS_MAPID_ND - 2) {
-        ident_ok(id, FS_IDQ_MAP);
-    } else {
-        id->res.status[FS_IDQ_MAP] = FS_IDS_FAILED;
-        id->res.reason[FS_IDQ_MAP] = m->d_limit == FS_MAPID_LIM_UNSTABLE ? FS_IDR_UNSTABLE : FS_IDR_INCOMPLETE;
+    if (id->map.stage != (int)FS_MAPID_DONE) { ret = fs_inv_park(u, ct, st); }
+    else {
+        const fs_mapid_result *m = &id->map.res;
+        int n_read = 0;   /* the d axis read to +-3/4 i_max (+-i_max where the sweep's peaks reached it, else from beyond) */
+        for (int k = 1; k < (FS_MAPID_ND - 1); ++k) {
+            if (m->n_d[k] > 0) { ++n_read; }
+        }
+        if (m->flipped != 0) { id->theta_s = fs_wrap_pi(id->theta_s + FS_PI); }   /* the magnet's north */
+        id->pol_known = id->pol_known || m->decided;   /* ALIGN's or the polarity sweep's stands */
+        id->res.theta_axis = id->theta_s;
+        /* the d sweep read its whole axis: the map has its spine (the q sweeps
+         * read what the disc and the motion leave them) */
+        if (n_read == (FS_MAPID_ND - 2)) {
+            ident_ok(id, FS_IDQ_MAP);
+        } else {
+            id->res.status[FS_IDQ_MAP] = FS_IDS_FAILED;
+            id->res.reason[FS_IDQ_MAP] = (m->d_limit == (int)FS_MAPID_LIM_UNSTABLE) ? (int)FS_IDR_UNSTABLE : (int)FS_IDR_INCOMPLETE;
+        }
+        ident_goto(id, FS_IDENT_CHECK);
+        ret = (fs_ab){0.0f, 0.0f};
     }
-    ident_goto(id, FS_IDENT_CHECK);
-    return (fs_ab){0.0f, 0.0f};
+    return ret;
 }
 
 /* ---- SPIN: I/f, the current ramped in 20 ms at standstill, then the frame ramp ---- */
@@ -999,29 +1169,37 @@ static fs_ab step_spin(fs_ident *id, fs_ab i)
     /* polarity unknown: 0.2 s to the current 90 deg off the axis, 0.2 s
      * turning to it, 0.2 s on it (ALIGN's times: slower than a small
      * rotor's swing); else 20 ms to the current on the axis */
-    const int n_a = id->pol_known ? 0 : (int)(0.2f / c->Ts) + 1;
-    const int n_in = id->pol_known ? (int)(0.02f / c->Ts) + 1 : 3 * n_a;
-    const float i_d = id->i_if * fs_minf((float)id->k / (float)(id->pol_known ? n_in : n_a), 1.0f);
-    if (!id->pol_known && id->k <= n_in)
-        id->theta = fs_wrap_pi(id->theta_s + 0.5f * FS_PI * fs_clamp01((float)(2 * n_a - id->k) / (float)n_a));
+    const float n_a_f = 0.2f / c->Ts;
+    const float n_in_f = 0.02f / c->Ts;
+    const float n_speed_f = 0.05f / c->Ts;   /* 50 ms at speed */
+    const int n_a = id->pol_known ? 0 : (int)n_a_f + 1;
+    const int n_in = id->pol_known ? ((int)n_in_f + 1) : (3 * n_a);
+    const int n_to = id->pol_known ? n_in : n_a;
+    const float i_d = id->i_if * fs_minf((float)id->k / (float)n_to, 1.0f);
+    if (!id->pol_known && (id->k <= n_in)) {
+        const int n_left = (2 * n_a) - id->k;
+        id->theta = fs_wrap_pi(id->theta_s + (0.5f * FS_PI * fs_clamp01((float)n_left / (float)n_a)));
+    }
     fs_ab u = frame_current(id, i, (fs_dq){i_d, 0.0f});
     id->k++;
     if (id->k > n_in) {
         if (id->sub == 0) {
-            const float m = sqrtf(id->u_dq.d * id->u_dq.d + id->u_dq.q * id->u_dq.q);
-            if (id->w >= c->w_spin || m > U_SPIN * id->u_max) {
+            const float m = sqrtf((id->u_dq.d * id->u_dq.d) + (id->u_dq.q * id->u_dq.q));
+            if ((id->w >= c->w_spin) || (m > (U_SPIN * id->u_max))) {
                 id->sub = 1;   /* hold the speed reached */
                 id->w_target = id->w;
                 id->n_acc = 0;
             } else {
                 id->w += c->w_spin / c->t_ramp * c->Ts;
             }
-        } else if (++id->n_acc > (int)(0.05f / c->Ts)) {   /* 50 ms at speed */
+        } else if (++id->n_acc > (int)n_speed_f) {   /* 50 ms at speed */
             id->bw_pll = fs_minf(0.1f * id->w_c, 0.5f * id->w_target);   /* below the current loop, and a few turns to settle */
             id->w0 = id->w;
             ident_goto(id, FS_IDENT_FLUX);
+        } else {
+            /* at speed, not yet 50 ms */
         }
-        id->theta = fs_wrap_pi(id->theta + id->w * c->Ts);
+        id->theta = fs_wrap_pi(id->theta + (id->w * c->Ts));
     }
     return u;
 }
@@ -1029,65 +1207,78 @@ static fs_ab step_spin(fs_ident *id, fs_ab i)
 /* ---- FLUX: zero current on the EMF-locked frame; 10/bw to lock, 20/bw to read ---- */
 static fs_ab step_flux(fs_ident *id, fs_ab i)
 {
+    fs_ab ret;
     const fs_ident_config *c = &id->cfg;
     fs_ab u = frame_current(id, i, (fs_dq){0.0f, 0.0f});
     const float phi = frame_pll(id, i);
-    const int n_lock = (int)(10.0f / (id->bw_pll * c->Ts)) + 1, n_meas = (int)(20.0f / (id->bw_pll * c->Ts)) + 1;
+    const float n_lock_f = 10.0f / (id->bw_pll * c->Ts);
+    const int n_lock = (int)n_lock_f + 1;
+    const float n_meas_f = 20.0f / (id->bw_pll * c->Ts);
+    const int n_meas = (int)n_meas_f + 1;
     id->k++;
-    if (id->k <= n_lock) return u;
-    const fs_dq e = frame_emf(id, i);
-    /* the EMF's q part in the locked frame, not its magnitude: the
-     * voltage carries the dead time's error of random sign at zero current
-     * (16 V on a 637 V link), and the mean magnitude of a noisy vector is
-     * biased up by sigma^2 / 2|e| (+5 % on zoo machine 39); e_q's mean is
-     * not (cos phi of the lock's small jitter aside) */
-    const float em = e.q * (id->w >= 0.0f ? 1.0f : -1.0f);
-    /* the frame's own speed w (not the PLL's integral w0, which lags a
-     * decelerating rotor by 2 a / bw_pll: 6 % on a machine whose friction
-     * halves its speed in the window): its mean is the frame's turn over
-     * the window, which is the rotor's */
-    const float ratio = em / fs_maxf(fabsf(id->w), 1e-6f);
-    if (id->n_acc == 0) id->u0 = ratio;
-    id->e_abs += em;
-    id->w_abs += fabsf(id->w);
-    id->s_u += ratio - id->u0;
-    id->s_uu += (ratio - id->u0) * (ratio - id->u0);
-    id->s_i += phi;   /* signed: its mean is the lock's offset, the noise averages out */
-    id->n_acc++;
-    if (id->n_acc < n_meas << (2 * id->sub)) return u;
-    fs_ident_result *r = &id->res;
-    const int n = id->n_acc;
-    r->w_flux = id->w_abs / (float)n;
-    if (r->w_flux < 0.1f * id->w_target) {
-        ident_fail(id, FS_IDQ_PSI_F, FS_IDR_NOT_TURNING);
-        return u;
+    if (id->k <= n_lock) { ret = u; }
+    else {
+        const fs_dq e = frame_emf(id, i);
+        /* the EMF's q part in the locked frame, not its magnitude: the
+         * voltage carries the dead time's error of random sign at zero current
+         * (16 V on a 637 V link), and the mean magnitude of a noisy vector is
+         * biased up by sigma^2 / 2|e| (+5 % on zoo machine 39); e_q's mean is
+         * not (cos phi of the lock's small jitter aside) */
+        const float em = e.q * ((id->w >= 0.0f) ? 1.0f : -1.0f);
+        /* the frame's own speed w (not the PLL's integral w0, which lags a
+         * decelerating rotor by 2 a / bw_pll: 6 % on a machine whose friction
+         * halves its speed in the window): its mean is the frame's turn over
+         * the window, which is the rotor's */
+        const float ratio = em / fs_maxf(fabsf(id->w), 1e-6f);
+        if (id->n_acc == 0) { id->u0 = ratio; }
+        id->e_abs += em;
+        id->w_abs += fabsf(id->w);
+        id->s_u += ratio - id->u0;
+        id->s_uu += (ratio - id->u0) * (ratio - id->u0);
+        id->s_i += phi;   /* signed: its mean is the lock's offset, the noise averages out */
+        id->n_acc++;
+        if (id->n_acc < (n_meas << (2 * id->sub))) { ret = u; }
+        else {
+            fs_ident_result *r = &id->res;
+            const int n = id->n_acc;
+            r->w_flux = id->w_abs / (float)n;
+            if (r->w_flux < (0.1f * id->w_target)) {
+                ident_fail(id, FS_IDQ_PSI_F, FS_IDR_NOT_TURNING);
+                ret = u;
+            }
+            else if ((r->w_flux > (1.5f * id->w_target)) || (r->w_flux < (0.5f * id->w_target)) || fabsf(id->s_i) / (float)n > 0.1f) {
+                ident_fail(id, FS_IDQ_PSI_F, FS_IDR_LOST_SYNC);
+                ret = u;
+            }
+            else {
+                r->psi_f = id->e_abs / id->w_abs;
+                r->snr_psi = r->psi_f / fs_maxf(acc_std(id->s_u, id->s_uu, n) / sqrtf((float)n), 1e-30f);
+                if ((r->snr_psi < 50.0f) && (r->snr_psi > 10.0f) && (id->sub < 2)) {
+                    id->sub++;   /* a noisy EMF: the window four times longer, twice at most */
+                    ret = u;
+                }
+                /* below: the EMF lost in the inverter's error of random sign at zero
+                 * current (the Prius-like bench at 0.3 of rated speed: 27 V against
+                 * 15 V a leg; [identify] speed_frac raises it) */
+                else if (r->snr_psi < 50.0f) {
+                    ident_fail(id, FS_IDQ_PSI_F, FS_IDR_LOW_SIGNAL);
+                    ret = u;
+                }
+                else {
+                    ident_ok(id, FS_IDQ_PSI_F);
+                    id->i_acc = I_ACC * c->i_max;
+                    id->w_target = id->w0;
+                    rec_clear(id);
+                    ident_goto(id, (id->res.status[FS_IDQ_MAP] == (int)FS_IDS_OK) ? FS_IDENT_DCURVE : FS_IDENT_ACCEL);
+                    ret = u;
+                }
+            }
+        }
     }
-    if (r->w_flux > 1.5f * id->w_target || r->w_flux < 0.5f * id->w_target || fabsf(id->s_i) / (float)n > 0.1f) {
-        ident_fail(id, FS_IDQ_PSI_F, FS_IDR_LOST_SYNC);
-        return u;
-    }
-    r->psi_f = id->e_abs / id->w_abs;
-    r->snr_psi = r->psi_f / fs_maxf(acc_std(id->s_u, id->s_uu, n) / sqrtf((float)n), 1e-30f);
-    if (r->snr_psi < 50.0f && r->snr_psi > 10.0f && id->sub < 2) {
-        id->sub++;   /* a noisy EMF: the window four times longer, twice at most */
-        return u;
-    }
-    /* below: the EMF lost in the inverter's error of random sign at zero
-     * current (the Prius-like bench at 0.3 of rated speed: 27 V against
-     * 15 V a leg; [identify] speed_frac raises it) */
-    if (r->snr_psi < 50.0f) {
-        ident_fail(id, FS_IDQ_PSI_F, FS_IDR_LOW_SIGNAL);
-        return u;
-    }
-    ident_ok(id, FS_IDQ_PSI_F);
-    id->i_acc = I_ACC * c->i_max;
-    id->w_target = id->w0;
-    rec_clear(id);
-    ident_goto(id, id->res.status[FS_IDQ_MAP] == FS_IDS_OK ? FS_IDENT_DCURVE : FS_IDENT_ACCEL);
-    return u;
+    return ret;
 }
 
-static int abs_level(int k) { return k < 0 ? -k : k; }
+static int abs_level(int k) { return (k < 0) ? -k : k; }
 
 /* ---- DCURVE: the map's d levels at speed, i_q = 0, each settled then averaged ----
  * psi_d(i_d, 0) = (u_q - R_s i_q) / w less the inverter's error, from the
@@ -1097,53 +1288,63 @@ static int abs_level(int k) { return k < 0 ? -k : k; }
  * to the standstill sweep. */
 static fs_ab step_dcurve(fs_ident *id, fs_ab i_ab)
 {
+    fs_ab ret;
     const fs_ident_config *c = &id->cfg;
     fs_ident_result *r = &id->res;
-    const int n_set = (int)(30.0f / (id->w_c * c->Ts)) + 1;
+    const float n_set_f = 30.0f / (id->w_c * c->Ts);
+    const int n_set = (int)n_set_f + 1;
     while (id->sub < FS_MAPID_ND) {   /* the next level the voltage and the frame's lock allow (0 is psi_f, read by FLUX) */
-        const int kk = id->sub - FS_MAPID_ND / 2;
+        const int kk = id->sub - (FS_MAPID_ND / 2);
         const float I = 0.25f * (float)kk * c->i_max;
-        if (kk != 0 && abs_level(kk) <= DCURVE_LEVELS && fabsf(id->w) * (r->psi_f + r->L_d * I) < U_DCURVE * id->u_max)
+        if ((kk != 0) && (abs_level(kk) <= DCURVE_LEVELS) && ((fabsf(id->w) * (r->psi_f + (r->L_d * I))) < (U_DCURVE * id->u_max))) {
             break;
+        }
         id->sub++;
     }
-    const float I = id->sub < FS_MAPID_ND ? 0.25f * (float)(id->sub - FS_MAPID_ND / 2) * c->i_max : 0.0f;
+    const int k_level = id->sub - (FS_MAPID_ND / 2);
+    const float I = (id->sub < FS_MAPID_ND) ? (0.25f * (float)k_level * c->i_max) : 0.0f;
     /* each level reached by a ramp from the last over a third of the settling (a step of i_max overshoots at speed) */
     const float ramp = fs_minf(3.0f * (float)id->k / (float)n_set, 1.0f);
     fs_ab u = frame_current(id, i_ab, (fs_dq){id->i_ref0 + (I - id->i_ref0) * ramp, 0.0f});
-    frame_pll(id, i_ab);
+    (void)frame_pll(id, i_ab);
     if (id->sub >= FS_MAPID_ND) {   /* all read: back to zero current, then ACCEL from this speed */
         if (++id->k > n_set) {
             id->w_target = id->w0;
             rec_clear(id);
             ident_goto(id, FS_IDENT_ACCEL);
         }
-        return u;
+        ret = u;
     }
-    if (++id->k <= n_set) return u;
-    const fs_dq e = frame_emf(id, i_ab);
-    const float ct = fs_cosf(id->theta), st = fs_sinf(id->theta);
-    const fs_dq i = fs_park(i_ab, ct, st);
-    id->s_u += e.q / id->w + r->L_d * i.d;   /* psi_d = e_q / w + L_d i_d (frame_emf took w L_d i_d out) */
-    id->s_i += i.d;
-    id->s_ia += id->w;
-    id->s_ii += fabsf(fs_atan2f(-e.d, e.q));   /* the frame's lock on the d axis: the PLL's phase error */
-    if (id->n_acc == 0) id->u0 = id->w;
-    if (++id->n_acc < n_set) return u;
-    const float n = (float)id->n_acc;
-    /* a level is read where the frame held the d axis (the PLL's error within DCURVE_LOCK) and the
-     * speed within 10 %: a frame off the axis turns the d current into torque, and the torque turns
-     * the frame further off (zoo machine 0 stopped under -i_max from 4 el.deg) */
-    if (id->s_ii / n < DCURVE_LOCK && fabsf(id->w - id->u0) < 0.1f * fabsf(id->u0)) {
-        r->psi_d_w[id->sub] = id->s_u / n;
-        r->i_d_w[id->sub] = id->s_i / n;
-        r->w_d_w[id->sub] = id->s_ia / n;
+    else if (++id->k <= n_set) { ret = u; }
+    else {
+        const fs_dq e = frame_emf(id, i_ab);
+        const float ct = fs_cosf(id->theta);
+        const float st = fs_sinf(id->theta);
+        const fs_dq i = fs_park(i_ab, ct, st);
+        id->s_u += (e.q / id->w) + (r->L_d * i.d);   /* psi_d = e_q / w + L_d i_d (frame_emf took w L_d i_d out) */
+        id->s_i += i.d;
+        id->s_ia += id->w;
+        id->s_ii += fabsf(fs_atan2f(-e.d, e.q));   /* the frame's lock on the d axis: the PLL's phase error */
+        if (id->n_acc == 0) { id->u0 = id->w; }
+        if (++id->n_acc < n_set) { ret = u; }
+        else {
+            const float n = (float)id->n_acc;
+            /* a level is read where the frame held the d axis (the PLL's error within DCURVE_LOCK) and the
+             * speed within 10 %: a frame off the axis turns the d current into torque, and the torque turns
+             * the frame further off (zoo machine 0 stopped under -i_max from 4 el.deg) */
+            if (((id->s_ii / n) < DCURVE_LOCK) && (fabsf(id->w - id->u0) < (0.1f * fabsf(id->u0)))) {
+                r->psi_d_w[id->sub] = id->s_u / n;
+                r->i_d_w[id->sub] = id->s_i / n;
+                r->w_d_w[id->sub] = id->s_ia / n;
+            }
+            acc_clear(id);
+            id->k = 0;
+            id->sub++;
+            id->i_ref0 = I;
+            ret = u;
+        }
     }
-    acc_clear(id);
-    id->k = 0;
-    id->sub++;
-    id->i_ref0 = I;
-    return u;
+    return ret;
 }
 
 /* ---- ACCEL: i_q = i_acc until the speed is 1.4x, the voltage at U_ACC, or 20 ramp times ---- */
@@ -1151,20 +1352,23 @@ static fs_ab step_accel(fs_ident *id, fs_ab i)
 {
     const fs_ident_config *c = &id->cfg;
     fs_ab u = frame_current(id, i, (fs_dq){0.0f, id->i_acc});
-    frame_pll(id, i);
+    (void)frame_pll(id, i);
     const float t = (float)id->k * c->Ts;
     rec_push(id, t, id->w0);
     id->k++;
-    const float m = sqrtf(id->u_dq.d * id->u_dq.d + id->u_dq.q * id->u_dq.q);
-    if (id->w0 >= 1.4f * id->w_target || m > U_ACC * id->u_max || t > 20.0f * c->t_ramp) {
+    const float m = sqrtf((id->u_dq.d * id->u_dq.d) + (id->u_dq.q * id->u_dq.q));
+    if ((id->w0 >= (1.4f * id->w_target)) || (m > (U_ACC * id->u_max)) || (t > (20.0f * c->t_ramp))) {
         id->t_acc = t;
         /* the fit skips the PLL's transient, 4/bw: what is left must hold 10/bw */
-        const float t_skip = 4.0f / id->bw_pll, t_need = t_skip + 10.0f / id->bw_pll;
-        float a, tm, wm;
+        const float t_skip = 4.0f / id->bw_pll;
+        const float t_need = t_skip + (10.0f / id->bw_pll);
+        float a;
+        float tm;
+        float wm;
         int k0 = 0;
-        while (k0 < id->rec_n && id->rec_t[k0] < t_skip) ++k0;
-        if (t < t_need || !rec_fit(id, k0, id->rec_n, &a, &tm, &wm)) {
-            if (id->i_acc > 0.03f * c->i_max && id->tries < 3) {   /* again at a quarter of the torque, after the coast */
+        while ((k0 < id->rec_n) && (id->rec_t[k0] < t_skip)) { ++k0; }
+        if ((t < t_need) || !rec_fit(id, k0, id->rec_n, &a, &tm, &wm)) {
+            if ((id->i_acc > (0.03f * c->i_max)) && (id->tries < 3)) {   /* again at a quarter of the torque, after the coast */
                 id->tries++;
                 id->sub = 1;
                 id->i_acc *= 0.25f;
@@ -1188,80 +1392,96 @@ static fs_ab step_accel(fs_ident *id, fs_ab i)
 /* ---- COAST: zero current until back at the start speed, or 4 t_acc (at least 20/bw) ---- */
 static fs_ab step_coast(fs_ident *id, fs_ab i)
 {
+    fs_ab ret;
     const fs_ident_config *c = &id->cfg;
     fs_ab u = frame_current(id, i, (fs_dq){0.0f, 0.0f});
-    frame_pll(id, i);
+    (void)frame_pll(id, i);
     const float t = (float)id->k * c->Ts;
     rec_push(id, t, id->w0);
     id->k++;
     const float t_max = fs_maxf(4.0f * id->t_acc, 20.0f / id->bw_pll);
-    if (id->w0 > id->w_target && t < t_max) return u;
-    fs_ident_result *r = &id->res;
-    if (id->w0 < 0.2f * id->w_target) {
-        ident_fail(id, FS_IDQ_J, FS_IDR_LOST_SYNC);
-        return u;
+    if ((id->w0 > id->w_target) && (t < t_max)) { ret = u; }
+    else {
+        fs_ident_result *r = &id->res;
+        if (id->w0 < (0.2f * id->w_target)) {
+            ident_fail(id, FS_IDQ_J, FS_IDR_LOST_SYNC);
+            ret = u;
+        }
+        else if (id->sub == 1) {   /* a retry of the acceleration at the current set above */
+            id->w_target = id->w0;
+            rec_clear(id);
+            ident_goto(id, FS_IDENT_ACCEL);
+            ret = u;
+        }
+        else {
+            /* the deceleration in two halves, after the PLL's transient */
+            int k0 = 0;
+            while ((k0 < id->rec_n) && (id->rec_t[k0] < (4.0f / id->bw_pll))) { ++k0; }
+            const int kh = (k0 + id->rec_n) / 2;
+            float a1;
+            float a2;
+            float t1;
+            float t2;
+            float w1;
+            float w2;
+            if (!rec_fit(id, k0, kh, &a1, &t1, &w1) || !rec_fit(id, kh, id->rec_n, &a2, &t2, &w2)) {
+                ident_fail(id, FS_IDQ_J, FS_IDR_TOO_FAST);
+                ret = u;
+            }
+            else {
+                const float w_acc = id->w_acc;
+                float slope = 0.0f;
+                float a_c = 0.5f * (a1 + a2);
+                if (fabsf(w1 - w2) > (0.02f * fabsf(w1))) {   /* two distinct speeds: a line a(w) */
+                    slope = (a1 - a2) / (w1 - w2);
+                    a_c = a1 + (slope * (w_acc - w1));
+                }
+                r->a_coast = a_c;
+                const float p = (float)c->pole_pairs;
+                const float T = 1.5f * p * r->psi_f * id->i_acc;
+                const float da = r->a_acc - a_c;
+                if (!(da > 0.0f)) {
+                    ident_fail(id, FS_IDQ_J, FS_IDR_FIT);
+                    ret = u;
+                }
+                /* the test torque must not be below friction: J comes from a
+                 * difference of accelerations, the coast's taken at other currents and
+                 * speeds (zou2021 with a retry at a third of friction: J 24 % off;
+                 * a quarter refused four zoo machines whose J was within 9 %) */
+                else if (fabsf(a_c) > da) {
+                    ident_fail(id, FS_IDQ_J, FS_IDR_FRICTION);
+                    ret = u;
+                }
+                else {
+                    r->J = T * p / da;   /* a_e = p a_m */
+                    ident_ok(id, FS_IDQ_J);
+                    /* a_e = -(B/J) w_e - p T_c / J */
+                    r->B = fs_maxf(-slope * r->J, 0.0f);
+                    r->T_c = -(a1 - (slope * w1)) * r->J / p;
+                    if (!(slope < 0.0f)) {   /* one speed, or friction falling with speed: all of it as Coulomb at the mean speed */
+                        r->B = 0.0f;
+                        r->T_c = -a_c * r->J / p;
+                    }
+                    ident_ok(id, FS_IDQ_FRICTION);
+                    ident_goto(id, FS_IDENT_DONE);
+                    ret = u;
+                }
+            }
+        }
     }
-    if (id->sub == 1) {   /* a retry of the acceleration at the current set above */
-        id->w_target = id->w0;
-        rec_clear(id);
-        ident_goto(id, FS_IDENT_ACCEL);
-        return u;
-    }
-    /* the deceleration in two halves, after the PLL's transient */
-    int k0 = 0;
-    while (k0 < id->rec_n && id->rec_t[k0] < 4.0f / id->bw_pll) ++k0;
-    const int kh = (k0 + id->rec_n) / 2;
-    float a1, a2, t1, t2, w1, w2;
-    if (!rec_fit(id, k0, kh, &a1, &t1, &w1) || !rec_fit(id, kh, id->rec_n, &a2, &t2, &w2)) {
-        ident_fail(id, FS_IDQ_J, FS_IDR_TOO_FAST);
-        return u;
-    }
-    const float w_acc = id->w_acc;
-    float slope = 0.0f, a_c = 0.5f * (a1 + a2);
-    if (fabsf(w1 - w2) > 0.02f * fabsf(w1)) {   /* two distinct speeds: a line a(w) */
-        slope = (a1 - a2) / (w1 - w2);
-        a_c = a1 + slope * (w_acc - w1);
-    }
-    r->a_coast = a_c;
-    const float p = (float)c->pole_pairs;
-    const float T = 1.5f * p * r->psi_f * id->i_acc;
-    const float da = r->a_acc - a_c;
-    if (!(da > 0.0f)) {
-        ident_fail(id, FS_IDQ_J, FS_IDR_FIT);
-        return u;
-    }
-    /* the test torque must not be below friction: J comes from a
-     * difference of accelerations, the coast's taken at other currents and
-     * speeds (zou2021 with a retry at a third of friction: J 24 % off;
-     * a quarter refused four zoo machines whose J was within 9 %) */
-    if (fabsf(a_c) > da) {
-        ident_fail(id, FS_IDQ_J, FS_IDR_FRICTION);
-        return u;
-    }
-    r->J = T * p / da;   /* a_e = p a_m */
-    ident_ok(id, FS_IDQ_J);
-    /* a_e = -(B/J) w_e - p T_c / J */
-    r->B = fs_maxf(-slope * r->J, 0.0f);
-    r->T_c = -(a1 - slope * w1) * r->J / p;
-    if (!(slope < 0.0f)) {   /* one speed, or friction falling with speed: all of it as Coulomb at the mean speed */
-        r->B = 0.0f;
-        r->T_c = -a_c * r->J / p;
-    }
-    ident_ok(id, FS_IDQ_FRICTION);
-    ident_goto(id, FS_IDENT_DONE);
-    return u;
+    return ret;
 }
 
 fs_ab fs_ident_step(fs_ident *id, fs_ab i_ab, float u_dc)
 {
     const fs_ident_config *c = &id->cfg;
     id->u_max = fs_maxf(u_dc, 0.0f) * FS_INV_SQRT3;
-    const float i_mag = sqrtf(i_ab.alpha * i_ab.alpha + i_ab.beta * i_ab.beta);
+    const float i_mag = sqrtf((i_ab.alpha * i_ab.alpha) + (i_ab.beta * i_ab.beta));
     fs_ab u = {0.0f, 0.0f};
-    if (id->step >= 0 && id->step < FS_IDENT_NSTEPS) id->res.n_step[id->step]++;
+    if ((id->step >= 0) && (id->step < (int)FS_IDENT_NSTEPS)) { id->res.n_step[id->step]++; }
     id->res.n_total++;
-    const float trip = (id->step == FS_IDENT_MAP || id->step == FS_IDENT_POLARITY) ? 1.15f : 1.1f;
-    if (id->step != FS_IDENT_FAILED && id->step != FS_IDENT_DONE && i_mag > trip * c->i_max) {
+    const float trip = ((id->step == (int)FS_IDENT_MAP) || (id->step == (int)FS_IDENT_POLARITY)) ? 1.15f : 1.1f;
+    if ((id->step != (int)FS_IDENT_FAILED) && (id->step != (int)FS_IDENT_DONE) && (i_mag > (trip * c->i_max))) {
         /* 10 % over i_max: the HF and the loops' overshoot stay below; 15 % in MAP: its q sweeps stop at
          * 1.06 (fs_mapid.h), the period of delay and one step on */
         static const int q_of_step[FS_IDENT_NSTEPS] = {
@@ -1273,7 +1493,7 @@ fs_ab fs_ident_step(fs_ident *id, fs_ab i_ab, float u_dc)
     case FS_IDENT_START:
         /* N_NOISE periods at zero voltage: the current sensors' noise (ALIGN tells a rotor at rest by it) */
         if (u_dc > fs_maxf(c->u_dc_min, 1.0f)) {
-            id->s_ii += 0.5f * (i_ab.alpha * i_ab.alpha + i_ab.beta * i_ab.beta);
+            id->s_ii += 0.5f * ((i_ab.alpha * i_ab.alpha) + (i_ab.beta * i_ab.beta));
             if (++id->k >= N_NOISE) {
                 id->res.noise_i = sqrtf(id->s_ii / (float)id->k);
                 ident_goto(id, FS_IDENT_PROBE);
@@ -1296,12 +1516,12 @@ fs_ab fs_ident_step(fs_ident *id, fs_ab i_ab, float u_dc)
         /* zero current on the tracking frame while the rotor coasts: zero
          * voltage would short the EMF */
         u = frame_current(id, i_ab, (fs_dq){0.0f, 0.0f});
-        if (id->bw_pll > 0.0f && fabsf(id->w0) > 0.05f * id->w_target) frame_pll(id, i_ab);
+        if ((id->bw_pll > 0.0f) && fabsf(id->w0) > (0.05f * id->w_target)) { (void)frame_pll(id, i_ab); }
         break;
     default:   /* FAILED: zero current where a frame is known (tracking the EMF once it was), else zero voltage */
-        if (id->res.status[FS_IDQ_LQ] == FS_IDS_OK) {
+        if (id->res.status[FS_IDQ_LQ] == (int)FS_IDS_OK) {
             u = frame_current(id, i_ab, (fs_dq){0.0f, 0.0f});
-            if (id->bw_pll > 0.0f && fabsf(id->w0) > 0.05f * id->w_target) frame_pll(id, i_ab);
+            if ((id->bw_pll > 0.0f) && fabsf(id->w0) > (0.05f * id->w_target)) { (void)frame_pll(id, i_ab); }
         }
         break;
     }

@@ -3,20 +3,24 @@
 
 FS_COLD fs_status fs_lpf_init(fs_lpf *f, const fs_lpf_config *cfg)
 {
-    if (!f || !cfg) return FS_ERR_NULL;
-    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
-    if (!fs_pos(cfg->w_c_min)) return FS_ERR_BANDWIDTH;
-    f->cfg = *cfg;
-    fs_lpf_reset(f);
-    return FS_OK;
+    fs_status ret;
+    if (!f || !cfg) { ret = FS_ERR_NULL; }
+    else if (!fs_pos(cfg->Ts)) { ret = FS_ERR_TS; }
+    else if (!fs_pos(cfg->w_c_min)) { ret = FS_ERR_BANDWIDTH; }
+    else {
+        f->cfg = *cfg;
+        fs_lpf_reset(f);
+        ret = FS_OK;
+    }
+    return ret;
 }
 
-void fs_lpf_reset(fs_lpf *f) { f->y.alpha = f->y.beta = 0.0f; }
+void fs_lpf_reset(fs_lpf *f) { f->y.alpha = 0.0f; f->y.beta = 0.0f; }
 
 float fs_lpf_gain(const fs_lpf *f, float w_c)
 {
     const float wc = fs_maxf(fabsf(w_c), f->cfg.w_c_min);
-    return wc * f->cfg.Ts / (1.0f + wc * f->cfg.Ts);   /* backward Euler */
+    return wc * f->cfg.Ts / (1.0f + (wc * f->cfg.Ts));   /* backward Euler */
 }
 
 fs_ab fs_lpf_step_gain(fs_lpf *f, fs_ab x, float g)

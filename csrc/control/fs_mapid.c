@@ -43,31 +43,44 @@ static const int Q_ORDER[] = {0, 1, -1, 2, -2, 3, -3};
 
 FS_COLD fs_status fs_mapid_init(fs_mapid *m, const fs_mapid_config *cfg)
 {
-    if (!m || !cfg) return FS_ERR_NULL;
-    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
-    if (cfg->delay != 0.0f && cfg->delay != 1.0f) return FS_ERR_PARAM;
-    if (!fs_pos(cfg->i_max)) return FS_ERR_I_MAX;
-    if (!fs_pos(cfg->L_d)) return FS_ERR_LD;
-    if (!fs_pos(cfg->L_q)) return FS_ERR_LQ;
-    if (!fs_nonneg(cfg->R_s) || !fs_nonneg(cfg->u_e) || cfg->pole_pairs < 1 || !fs_nonneg(cfg->psi_f) || !fs_nonneg(cfg->J)
-        || !fs_nonneg(cfg->motion_max) || !fs_pos(cfg->w_c) || (cfg->d_only & ~1) || (cfg->pol_known & ~1))
-        return FS_ERR_PARAM;
-    m->cfg = *cfg;
-    fs_pi_config c;
-    fs_status st = fs_pi_design(&c, cfg->Ts, cfg->L_d, cfg->R_s, cfg->w_c, 0.0f);
-    if (st == FS_OK) st = fs_pi_init(&m->pi_d, &c);
-    if (st == FS_OK) st = fs_pi_design(&c, cfg->Ts, cfg->L_q, cfg->R_s, cfg->w_c, 0.0f);
-    if (st == FS_OK) st = fs_pi_init(&m->pi_q, &c);
-    if (st != FS_OK) return st;
-    fs_mapid_reset(m);
-    return FS_OK;
+    fs_status ret;
+    if (!m || !cfg) { ret = FS_ERR_NULL; }
+    else if (!fs_pos(cfg->Ts)) { ret = FS_ERR_TS; }
+    else if ((cfg->delay != 0.0f) && (cfg->delay != 1.0f)) { ret = FS_ERR_PARAM; }
+    else if (!fs_pos(cfg->i_max)) { ret = FS_ERR_I_MAX; }
+    else if (!fs_pos(cfg->L_d)) { ret = FS_ERR_LD; }
+    else if (!fs_pos(cfg->L_q)) { ret = FS_ERR_LQ; }
+    else if (!fs_nonneg(cfg->R_s) || !fs_nonneg(cfg->u_e) || (cfg->pole_pairs < 1) || !fs_nonneg(cfg->psi_f) || !fs_nonneg(cfg->J)
+        || !fs_nonneg(cfg->motion_max) || !fs_pos(cfg->w_c) || (cfg->d_only & ~1) || (cfg->pol_known & ~1)) {
+        ret = FS_ERR_PARAM;
+    }
+    else {
+        m->cfg = *cfg;
+        fs_pi_config c;
+        fs_status st = fs_pi_design(&c, cfg->Ts, cfg->L_d, cfg->R_s, cfg->w_c, 0.0f);
+        if (st == FS_OK) { st = fs_pi_init(&m->pi_d, &c); }
+        if (st == FS_OK) { st = fs_pi_design(&c, cfg->Ts, cfg->L_q, cfg->R_s, cfg->w_c, 0.0f); }
+        if (st == FS_OK) { st = fs_pi_init(&m->pi_q, &c); }
+        if (st != FS_OK) { ret = st; }
+        else {
+            fs_mapid_reset(m);
+            ret = FS_OK;
+        }
+    }
+    return ret;
 }
 
 static void sums_clear(fs_mapid *m)
 {
     for (int t = 0; t < FS_MAPID_NT; ++t) {
-        m->s_x[t] = m->s_y[t] = m->s_i[t] = m->s_up[t] = m->s_dn[t] = 0.0f;
-        m->s_n[t] = m->c_up[t] = m->c_dn[t] = 0;
+        m->s_x[t] = 0.0f;
+        m->s_y[t] = 0.0f;
+        m->s_i[t] = 0.0f;
+        m->s_up[t] = 0.0f;
+        m->s_dn[t] = 0.0f;
+        m->s_n[t] = 0;
+        m->c_up[t] = 0;
+        m->c_dn[t] = 0;
     }
 }
 
@@ -76,14 +89,28 @@ void fs_mapid_reset(fs_mapid *m)
     static const fs_mapid_result none;
     m->res = none;
     m->stage = FS_MAPID_DSWEEP;
-    m->level = m->k = m->leg = m->rleg = 0;
+    m->level = 0;
+    m->k = 0;
+    m->leg = 0;
+    m->rleg = 0;
     fs_pi_reset(&m->pi_d);
     fs_pi_reset(&m->pi_q);
-    m->I_d = m->I_amp = m->U = 0.0f;
-    m->n_rise = m->n_trim = m->restarts = 0;
-    m->impulse = m->torque_imp = 0.0f;
-    m->psi_d = m->psi_q = m->x_prev = m->y_prev = m->e_prev_d = m->e_prev_q = 0.0f;
-    m->u_out[0] = m->u_out[1] = (fs_dq){0.0f, 0.0f};
+    m->I_d = 0.0f;
+    m->I_amp = 0.0f;
+    m->U = 0.0f;
+    m->n_rise = 0;
+    m->n_trim = 0;
+    m->restarts = 0;
+    m->impulse = 0.0f;
+    m->torque_imp = 0.0f;
+    m->psi_d = 0.0f;
+    m->psi_q = 0.0f;
+    m->x_prev = 0.0f;
+    m->y_prev = 0.0f;
+    m->e_prev_d = 0.0f;
+    m->e_prev_q = 0.0f;
+    m->u_out[0] = (fs_dq){0.0f, 0.0f};
+    m->u_out[1] = (fs_dq){0.0f, 0.0f};
     m->seen = 0u;
     sums_clear(m);
 }
@@ -102,10 +129,11 @@ static float hold(fs_pi *pi, float ref, float meas, float lim)
  * the mean of its two current samples. */
 static void integrate(fs_mapid *m, fs_dq i, fs_dq e, fs_dq i_prev)
 {
-    const fs_dq u = m->cfg.delay > 0.5f ? m->u_out[1] : m->u_out[0];
-    const float Ts = m->cfg.Ts, R = m->cfg.R_s;
-    m->psi_d += Ts * (u.d - R * 0.5f * (i.d + i_prev.d) - 0.5f * (e.d + m->e_prev_d));
-    m->psi_q += Ts * (u.q - R * 0.5f * (i.q + i_prev.q) - 0.5f * (e.q + m->e_prev_q));
+    const fs_dq u = (m->cfg.delay > 0.5f) ? m->u_out[1] : m->u_out[0];
+    const float Ts = m->cfg.Ts;
+    const float R = m->cfg.R_s;
+    m->psi_d += Ts * (u.d - (R * 0.5f * (i.d + i_prev.d)) - (0.5f * (e.d + m->e_prev_d)));
+    m->psi_q += Ts * (u.q - (R * 0.5f * (i.q + i_prev.q)) - (0.5f * (e.q + m->e_prev_q)));
 }
 
 /* A sweep's sample: the grid values (index t of value (t - n) h) the
@@ -116,33 +144,37 @@ static void crossings(fs_mapid *m, float x, float y, float psx, float psy, float
 {
     const float dx = x - m->x_prev;
     int dir = (m->rleg & 1) ? -1 : 1;
-    if (m->rleg < m->leg && dx * (float)dir < 0.0f) {   /* the current has turned: the next leg reads */
+    if ((m->rleg < m->leg) && dx * (float)dir < 0.0f) {   /* the current has turned: the next leg reads */
         m->rleg++;
         m->seen = 0u;
         dir = -dir;
     }
-    if (!(dx * (float)dir > 0.0f)) return;
-    const float mid = 0.5f * (x + m->x_prev);
-    for (int t = 0; t <= 2 * n; ++t) {   /* the steps near each value, for its incremental L */
-        if (fabsf(mid - (float)(t - n) * h) > 0.5f * h) continue;
-        if (dir > 0) {
-            m->s_up[t] += dx;
-            m->c_up[t]++;
-        } else {
-            m->s_dn[t] += dx;
-            m->c_dn[t]++;
+    if (!(dx * (float)dir > 0.0f)) { /* nothing more to do */ }
+    else {
+        const float mid = 0.5f * (x + m->x_prev);
+        for (int t = 0; t <= (2 * n); ++t) {   /* the steps near each value, for its incremental L */
+            const int tn = t - n;
+            if (fabsf(mid - (float)tn * h) > (0.5f * h)) { continue; }
+            if (dir > 0) {
+                m->s_up[t] += dx;
+                m->c_up[t]++;
+            } else {
+                m->s_dn[t] += dx;
+                m->c_dn[t]++;
+            }
         }
-    }
-    for (int t = 0; t <= 2 * n; ++t) {
-        const float v = (float)(t - n) * h;
-        const bool passed = dir > 0 ? (m->x_prev < v && x >= v) : (m->x_prev > v && x <= v);
-        if (!passed || (m->seen & (1u << t))) continue;
-        const float f = (v - m->x_prev) / dx;
-        m->seen |= 1u << t;
-        m->s_x[t] += psx0 + f * (psx - psx0);   /* the swept axis' flux */
-        m->s_y[t] += psy0 + f * (psy - psy0);   /* the held axis' (d in the q sweeps) */
-        m->s_i[t] += m->y_prev + f * (y - m->y_prev);
-        m->s_n[t]++;
+        for (int t = 0; t <= (2 * n); ++t) {
+            const int tn = t - n;
+            const float v = (float)tn * h;
+            const bool passed = (dir > 0) ? ((m->x_prev < v) && (x >= v)) : ((m->x_prev > v) && (x <= v));
+            if (!passed || ((m->seen & (1u << (unsigned)t)) != 0u)) { continue; }
+            const float f = (v - m->x_prev) / dx;
+            m->seen |= 1u << (unsigned)t;
+            m->s_x[t] += psx0 + (f * (psx - psx0));   /* the swept axis' flux */
+            m->s_y[t] += psy0 + (f * (psy - psy0));   /* the held axis' (d in the q sweeps) */
+            m->s_i[t] += m->y_prev + (f * (y - m->y_prev));
+            m->s_n[t]++;
+        }
     }
 }
 
@@ -152,13 +184,17 @@ static void crossings(fs_mapid *m, float x, float y, float psx, float psy, float
  * the current back to 0. */
 static bool leg_next(fs_mapid *m, float x, const float *turn)
 {
+    bool ret;
     const bool up = !(m->leg & 1);
-    if (turn[m->leg] == 0.0f) return up ? x >= 0.0f : x <= 0.0f;
-    /* where the current peaks if reversed now (the delay's periods on), and half a step: the peak within half a step */
-    const float ahead = x + (m->cfg.delay + 0.5f) * (x - m->x_prev);
-    const float at = turn[m->leg] * m->I_amp;
-    if (up ? ahead >= at : ahead <= -at) m->leg++;   /* the voltage turns now, the current a delay later (crossings reads on till then) */
-    return false;
+    if (turn[m->leg] == 0.0f) { ret = up ? (x >= 0.0f) : (x <= 0.0f); }
+    else {
+        /* where the current peaks if reversed now (the delay's periods on), and half a step: the peak within half a step */
+        const float ahead = x + (m->cfg.delay + 0.5f) * (x - m->x_prev);
+        const float at = turn[m->leg] * m->I_amp;
+        if (up ? (ahead >= at) : (ahead <= -at)) { m->leg++; }   /* the voltage turns now, the current a delay later (crossings reads on till then) */
+        ret = false;
+    }
+    return ret;
 }
 
 /* +-U, and the drop the current meets fed forward (R_s x and the inverter's
@@ -166,14 +202,16 @@ static bool leg_next(fs_mapid *m, float x, const float *turn)
 
 static float sweep_voltage(const fs_mapid *m, float x, float e_x)
 {
-    return ((m->leg & 1) ? -m->U : m->U) + m->cfg.R_s * x + e_x;
+    return ((m->leg & 1) ? -m->U : m->U) + (m->cfg.R_s * x) + e_x;
 }
 
 static void sweep_start(fs_mapid *m, float x, float y)
 {
     sums_clear(m);
-    m->psi_d = m->psi_q = 0.0f;
-    m->leg = m->rleg = 0;
+    m->psi_d = 0.0f;
+    m->psi_q = 0.0f;
+    m->leg = 0;
+    m->rleg = 0;
     m->impulse = 0.0f;
     m->x_prev = x;
     m->y_prev = y;
@@ -182,10 +220,10 @@ static void sweep_start(fs_mapid *m, float x, float y)
 }
 
 /* mean of a sum at grid value t, or NAN */
-static float mean_at(const float *s, const int *n, int t) { return n[t] > 0 ? s[t] / (float)n[t] : NAN; }
+static float mean_at(const float *s, const int *n, int t) { return (n[t] > 0) ? s[t] / (float)n[t] : NAN; }
 
 /* the voltage a current I needs at standstill: R_s I and the inverter's error (4/3 u_e on an axis through a leg) */
-static float drop(const fs_mapid_config *c, float I) { return c->R_s * I + 1.3333333f * c->u_e; }
+static float drop(const fs_mapid_config *c, float I) { return (c->R_s * I) + (1.3333333f * c->u_e); }
 
 /* The exponent by which the d sweep at amplitude I and voltage U would
  * grow a misalignment of the free rotor (fs_mapid.h): the integral over
@@ -196,18 +234,23 @@ static float drop(const fs_mapid_config *c, float I) { return c->R_s * I + 1.333
  * or J is not known (a locked rotor). */
 static float d_growth(const fs_mapid_config *c, float I, float U)
 {
-    if (!(c->psi_f > 0.0f && c->J > 0.0f && c->motion_max > 0.0f) || !(U > 0.0f)) return 0.0f;
-    const float p = (float)c->pole_pairs, dL = c->L_q - c->L_d;
-    float sum = 0.0f;
-    for (int n = 0; n < 16; ++n) {
-        const float x = ((float)n + 0.5f) * I / 16.0f;
-        const float w = x < TURN[0] * I ? 2.0f : 1.0f;   /* the inner part is passed twice as often */
-        for (int side = -1; side <= 1; side += 2) {
-            const float K = 1.5f * p * ((float)side * c->psi_f * x - dL * x * x);
-            if (K < 0.0f) sum += 2.0f * w * sqrtf(-p * K / c->J);
+    float ret;
+    if (!((c->psi_f > 0.0f) && (c->J > 0.0f) && (c->motion_max > 0.0f)) || !(U > 0.0f)) { ret = 0.0f; }
+    else {
+        const float p = (float)c->pole_pairs;
+        const float dL = c->L_q - c->L_d;
+        float sum = 0.0f;
+        for (int n = 0; n < 16; ++n) {
+            const float x = ((float)n + 0.5f) * I / 16.0f;
+            const float w = (x < (TURN[0] * I)) ? 2.0f : 1.0f;   /* the inner part is passed twice as often */
+            for (int side = -1; side <= 1; side += 2) {
+                const float K = 1.5f * p * (((float)side * c->psi_f * x) - (dL * x * x));
+                if (K < 0.0f) { sum += 2.0f * w * sqrtf(-p * K / c->J); }
+            }
         }
+        ret = sum * (I / 16.0f) * c->L_d / U;
     }
-    return sum * (I / 16.0f) * c->L_d / U;
+    return ret;
 }
 
 /* The d sweep's amplitude and voltage: I_REACH i_max (d_only: I_REACH_POL)
@@ -220,16 +263,17 @@ static void d_design(fs_mapid *m, float u_max)
     const fs_mapid_config *c = &m->cfg;
     fs_mapid_result *r = &m->res;
     float I = (c->d_only ? I_REACH_POL : I_REACH) * c->i_max;
-    float U = fs_minf(D_STEP * c->i_max * c->L_d / c->Ts, fs_maxf(U_SWEEP * u_max - drop(c, I), 0.0f));
+    float U = fs_minf(D_STEP * c->i_max * c->L_d / c->Ts, fs_maxf((U_SWEEP * u_max) - drop(c, I), 0.0f));
     const float e_max = GROWTH_EXP;
     r->d_limit = FS_MAPID_LIM_DISC;
     if (d_growth(c, I, U) > e_max) {
-        U = fs_maxf(U, fs_minf(U_SWEEP * u_max - drop(c, I), D_STEP_MAX * c->i_max * c->L_d / c->Ts));
-        while (d_growth(c, I, U) > e_max && I > D_MIN * c->i_max) I = fs_maxf(0.95f * I, D_MIN * c->i_max);
+        U = fs_maxf(U, fs_minf((U_SWEEP * u_max) - drop(c, I), D_STEP_MAX * c->i_max * c->L_d / c->Ts));
+        while ((d_growth(c, I, U) > e_max) && (I > (D_MIN * c->i_max))) { I = fs_maxf(0.95f * I, D_MIN * c->i_max); }
         r->d_limit = FS_MAPID_LIM_UNSTABLE;
-        if (d_growth(c, I, U) > e_max) I = 0.0f;
+        if (d_growth(c, I, U) > e_max) { I = 0.0f; }
     }
-    m->I_amp = r->d_amp = I;
+    m->I_amp = I;
+    r->d_amp = I;
     m->U = U;
     r->d_growth = d_growth(c, I, U);
 }
@@ -242,36 +286,37 @@ static void d_finish(fs_mapid *m)
     const float z = mean_at(m->s_x, m->s_n, n);
     for (int k = 0; k < FS_MAPID_ND; ++k) {
         /* complete: the pattern reads a value 4 times within its inner turning points, twice beyond, zero 5 times */
-        const bool full = m->s_n[n] == 5 && (k == n || m->s_n[k] == 2 || m->s_n[k] == 4);
+        const bool full = (m->s_n[n] == 5) && ((k == n) || (m->s_n[k] == 2) || (m->s_n[k] == 4));
         r->n_d[k] = full ? m->s_n[k] : 0;
-        r->dpsi_d[k] = full ? mean_at(m->s_x, m->s_n, k) - z : 0.0f;
+        r->dpsi_d[k] = full ? (mean_at(m->s_x, m->s_n, k) - z) : 0.0f;
     }
     /* the incremental L_d at +-i_max/2 from the current's steps up and down near it */
     for (int side = -1; side <= 1; side += 2) {
-        const int t = n + 2 * side;
-        const float up = m->c_up[t] ? m->s_up[t] / (float)m->c_up[t] : 0.0f, dn = m->c_dn[t] ? m->s_dn[t] / (float)m->c_dn[t] : 0.0f;
-        const float L = up - dn > 0.0f ? 2.0f * m->U * m->cfg.Ts / (up - dn) : 0.0f;
-        if (side < 0) r->L_neg = L; else r->L_pos = L;
+        const int t = n + (2 * side);
+        const float up = m->c_up[t] ? m->s_up[t] / (float)m->c_up[t] : 0.0f;
+        const float dn = m->c_dn[t] ? m->s_dn[t] / (float)m->c_dn[t] : 0.0f;
+        const float L = ((up - dn) > 0.0f) ? 2.0f * m->U * m->cfg.Ts / (up - dn) : 0.0f;
+        if (side < 0) { r->L_neg = L; } else { r->L_pos = L; }
     }
-    if (r->L_pos > 0.0f && r->L_neg > 0.0f) r->asym = (r->L_neg - r->L_pos) / fs_maxf(r->L_neg, r->L_pos);
+    if ((r->L_pos > 0.0f) && (r->L_neg > 0.0f)) { r->asym = (r->L_neg - r->L_pos) / fs_maxf(r->L_neg, r->L_pos); }
     /* the axis' offset from the q flux at +-i_max/2 (the held axis' flux is in s_y): psi_q,frame =
      * offset (psi_d(i_d) - psi_f - L_q i_d), psi_d's change read by the sweep itself (saturated) */
     if (m->s_n[n + 2] && m->s_n[n - 2]) {
         const float dq = mean_at(m->s_y, m->s_n, n + 2) - mean_at(m->s_y, m->s_n, n - 2);
-        const float dd = mean_at(m->s_x, m->s_n, n + 2) - mean_at(m->s_x, m->s_n, n - 2) - m->cfg.L_q * m->cfg.i_max;
-        if (fabsf(dd) > 0.0f) r->axis_offset = fs_clampf(dq / dd, -0.2f, 0.2f);
+        const float dd = mean_at(m->s_x, m->s_n, n + 2) - mean_at(m->s_x, m->s_n, n - 2) - (m->cfg.L_q * m->cfg.i_max);
+        if (fabsf(dd) > 0.0f) { r->axis_offset = fs_clampf(dq / dd, -0.2f, 0.2f); }
     }
     /* decided on enough steps: a low-inductance machine on a high link
      * (zoo machine 39: 0.13 mH, 637 V, a leg error of 16 V the sweep's
      * voltage must clear) steps 20 % of i_max a sample, a step or two near
      * each of +-i_max/2, where the reversals' overshoot is: no polarity */
-    int steps = 1 << 30;
+    int steps = 0x40000000;   /* 2^30 */
     for (int side = -2; side <= 2; side += 4) {
-        steps = m->c_up[n + side] < steps ? m->c_up[n + side] : steps;
-        steps = m->c_dn[n + side] < steps ? m->c_dn[n + side] : steps;
+        steps = (m->c_up[n + side] < steps) ? m->c_up[n + side] : steps;
+        steps = (m->c_dn[n + side] < steps) ? m->c_dn[n + side] : steps;
     }
-    r->decided = fabsf(r->asym) >= POL_MIN && steps >= POL_STEPS;
-    if (r->decided && r->asym < 0.0f && !m->cfg.pol_known) {   /* the frame's d axis is the magnet's south: turn it by pi */
+    r->decided = (fabsf(r->asym) >= POL_MIN) && (steps >= POL_STEPS);
+    if (r->decided && (r->asym < 0.0f) && !m->cfg.pol_known) {   /* the frame's d axis is the magnet's south: turn it by pi */
         r->flipped = 1;
         r->asym = -r->asym;
         m->torque_imp = -m->torque_imp;   /* the q axis turned too */
@@ -279,8 +324,10 @@ static void d_finish(fs_mapid *m)
         r->L_pos = r->L_neg;
         r->L_neg = Lp;
         for (int k = 0; k < n; ++k) {
-            const float a = r->dpsi_d[k], b = r->dpsi_d[FS_MAPID_ND - 1 - k];
-            const int na = r->n_d[k], nb = r->n_d[FS_MAPID_ND - 1 - k];
+            const float a = r->dpsi_d[k];
+            const float b = r->dpsi_d[FS_MAPID_ND - 1 - k];
+            const int na = r->n_d[k];
+            const int nb = r->n_d[FS_MAPID_ND - 1 - k];
             r->dpsi_d[k] = -b;
             r->dpsi_d[FS_MAPID_ND - 1 - k] = -a;
             r->n_d[k] = nb;
@@ -294,21 +341,29 @@ static void d_finish(fs_mapid *m)
  * not known (a locked rotor). */
 static bool unstable(const fs_mapid *m, int n_settle)
 {
+    bool ret;
     const fs_mapid_config *c = &m->cfg;
-    if (!(c->psi_f > 0.0f && c->J > 0.0f && c->motion_max > 0.0f) || m->I_d == 0.0f) return false;
-    const float p = (float)c->pole_pairs, I = m->I_d;
-    const float K = 1.5f * p * (c->psi_f * I - (c->L_q - c->L_d) * I * I);   /* N m per el. rad of misalignment, restoring when > 0 */
-    if (K >= 0.0f) return false;
-    const float rate = sqrtf(-p * K / c->J);
-    const float t_L = (float)(2 * n_settle + 7 * m->n_rise) * c->Ts;   /* in, the pattern's 6.5 rises and the trim, out */
-    return coshf(rate * t_L) > GROWTH;
+    if (!((c->psi_f > 0.0f) && (c->J > 0.0f) && (c->motion_max > 0.0f)) || (m->I_d == 0.0f)) { ret = false; }
+    else {
+        const float p = (float)c->pole_pairs;
+        const float I = m->I_d;
+        const float K = 1.5f * p * ((c->psi_f * I) - (c->L_q - c->L_d) * I * I);   /* N m per el. rad of misalignment, restoring when > 0 */
+        if (K >= 0.0f) { ret = false; }
+        else {
+            const float rate = sqrtf(-p * K / c->J);
+            const int n_L = (2 * n_settle) + (7 * m->n_rise);
+            const float t_L = (float)n_L * c->Ts;   /* in, the pattern's 6.5 rises and the trim, out */
+            ret = coshf(rate * t_L) > GROWTH;
+        }
+    }
+    return ret;
 }
 
 /* The torque per A of q current at d current i_d, relative to the magnet's
  * alone: (psi_f + (L_d - L_q) i_d) / psi_f (1 where psi_f is not known). */
 static float torque_weight(const fs_mapid_config *c, float i_d)
 {
-    return c->psi_f > 0.0f ? 1.0f + (c->L_d - c->L_q) * i_d / c->psi_f : 1.0f;
+    return (c->psi_f > 0.0f) ? 1.0f + (c->L_d - c->L_q) * i_d / c->psi_f : 1.0f;
 }
 
 /* ---- Q(k): the sweep's amplitude and voltage at d level I_d ---- */
@@ -317,14 +372,14 @@ static void q_design(fs_mapid *m, int kk, float u_max)
     const fs_mapid_config *c = &m->cfg;
     fs_mapid_result *r = &m->res;
     const float I_d = m->I_d;
-    float I = sqrtf(fs_maxf(I_REACH_Q * I_REACH_Q * c->i_max * c->i_max - I_d * I_d, 0.0f));
+    float I = sqrtf(fs_maxf((I_REACH_Q * I_REACH_Q * c->i_max * c->i_max) - (I_d * I_d), 0.0f));
     /* the ramp's voltage: what the link leaves after the held axis' drop and this one's (fed forward) */
-    const float U_lim = fs_maxf(U_SWEEP * u_max - drop(c, fabsf(I_d)) - drop(c, I), 0.0f);
+    const float U_lim = fs_maxf((U_SWEEP * u_max) - drop(c, fabsf(I_d)) - drop(c, I), 0.0f);
     int lim = FS_MAPID_LIM_DISC;
     /* the angular acceleration per A of q current at the rotor's rest (el. rad/s^2) */
     const float p = (float)c->pole_pairs;
-    const float k_a = (c->psi_f > 0.0f && c->J > 0.0f && c->motion_max > 0.0f)
-                          ? p * p * 1.5f * (c->psi_f + fabsf(c->L_q - c->L_d) * fabsf(I_d)) / c->J : 0.0f;
+    const float k_a = ((c->psi_f > 0.0f) && (c->J > 0.0f) && (c->motion_max > 0.0f))
+                          ? (p * p * 1.5f * (c->psi_f + fabsf(c->L_q - c->L_d) * fabsf(I_d)) / c->J) : 0.0f;
     const float t_min = (float)N_Q_MIN * c->Ts;
     if (k_a > 0.0f) {
         /* SWING a t^2 <= motion_max at the sampling's shortest rise, and at
@@ -342,14 +397,17 @@ static void q_design(fs_mapid *m, int kk, float u_max)
     } else if (c->L_q * I / ((float)N_Q_MAX_LOCKED * c->Ts) > U_lim) {   /* the voltage alone bounds it, at the longest rise */
         I = U_lim * (float)N_Q_MAX_LOCKED * c->Ts / c->L_q;
         lim = FS_MAPID_LIM_VOLTAGE;
+    } else {
+        /* locked, within the voltage: the current stays */
     }
     /* the rise: as long as the motion allows, within N_Q_MIN..N_Q_MAX samples (a locked rotor:
      * N_Q_MAX_LOCKED) and the voltage */
-    float t_q = (float)(k_a > 0.0f ? N_Q_MAX : N_Q_MAX_LOCKED) * c->Ts;
-    if (k_a > 0.0f && I > 0.0f) t_q = fs_minf(t_q, sqrtf(c->motion_max / (SWING * k_a * I)));
-    t_q = fs_maxf(t_q, fs_maxf(t_min, U_lim > 0.0f ? c->L_q * I / U_lim : t_min));
-    m->n_rise = (int)(t_q / c->Ts + 0.5f);
-    m->U = I > 0.0f ? fs_minf(c->L_q * I / t_q, U_lim) : 0.0f;
+    float t_q = (float)((k_a > 0.0f) ? N_Q_MAX : N_Q_MAX_LOCKED) * c->Ts;
+    if ((k_a > 0.0f) && (I > 0.0f)) { t_q = fs_minf(t_q, sqrtf(c->motion_max / (SWING * k_a * I))); }
+    t_q = fs_maxf(t_q, fs_maxf(t_min, (U_lim > 0.0f) ? (c->L_q * I / U_lim) : t_min));
+    const float n_rise_f = (t_q / c->Ts) + 0.5f;
+    m->n_rise = (int)n_rise_f;
+    m->U = (I > 0.0f) ? fs_minf(c->L_q * I / t_q, U_lim) : 0.0f;
     m->I_amp = I;
     r->i_q_amp[kk] = I;
     r->limit[kk] = lim;
@@ -363,11 +421,12 @@ static void q_finish(fs_mapid *m, int kk)
     const float z = mean_at(m->s_y, m->s_n, n);
     const bool z_full = m->s_n[n] == 5;   /* the start, three crossings, the end */
     for (int j = 1; j <= FS_MAPID_NQ; ++j) {
-        const int tp = n + j, tm = n - j;
+        const int tp = n + j;
+        const int tm = n - j;
         /* read on both sides alike: 4 times inside the inner turning points, twice beyond */
-        const bool full = z_full && m->s_n[tp] == m->s_n[tm] && (m->s_n[tp] == 2 || m->s_n[tp] == 4);
-        r->n_q[kk][j - 1] = full ? m->s_n[tp] + m->s_n[tm] : 0;
-        if (!full) continue;
+        const bool full = z_full && (m->s_n[tp] == m->s_n[tm]) && ((m->s_n[tp] == 2) || (m->s_n[tp] == 4));
+        r->n_q[kk][j - 1] = full ? (m->s_n[tp] + m->s_n[tm]) : 0;
+        if (!full) { continue; }
         r->psi_q[kk][j - 1] = 0.5f * (mean_at(m->s_x, m->s_n, tp) - mean_at(m->s_x, m->s_n, tm));
         r->dpsi_dq[kk][j - 1] = 0.5f * (mean_at(m->s_y, m->s_n, tp) + mean_at(m->s_y, m->s_n, tm)) - z;
         r->i_d_at[kk][j - 1] = 0.5f * (mean_at(m->s_i, m->s_n, tp) + mean_at(m->s_i, m->s_n, tm));
@@ -379,53 +438,62 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
 {
     const fs_mapid_config *c = &m->cfg;
     const float sgn = m->res.flipped ? -1.0f : 1.0f;   /* a frame on the south pole, turned by pi */
-    const fs_dq i = {sgn * i_in.d, sgn * i_in.q}, e = {sgn * e_in.d, sgn * e_in.q};
-    const fs_dq i_prev = m->stage == FS_MAPID_QSWEEP ? (fs_dq){m->y_prev, m->x_prev} : (fs_dq){m->x_prev, m->y_prev};
+    const fs_dq i = {sgn * i_in.d, sgn * i_in.q};
+    const fs_dq e = {sgn * e_in.d, sgn * e_in.q};
+    const fs_dq i_prev = (m->stage == (int)FS_MAPID_QSWEEP) ? (fs_dq){m->y_prev, m->x_prev} : (fs_dq){m->x_prev, m->y_prev};
     const float lim = 0.9f * u_max;
     fs_dq u = {0.0f, 0.0f};
-    const int n_settle = (int)(N_SETTLE / (c->w_c * c->Ts)) + 1;
+    const float n_settle_f = N_SETTLE / (c->w_c * c->Ts);
+    const int n_settle = (int)n_settle_f + 1;
     m->torque_imp += c->Ts * torque_weight(c, i.d) * i.q;
     switch (m->stage) {
     case FS_MAPID_DSWEEP: {
-        const bool away = m->k == 0 && (fabsf(i.d) > 0.02f * c->i_max || fabsf(i.q) > 0.02f * c->i_max);
-        if (m->n_trim > 0 || away) {   /* the sweep starts from zero current (a restart, or the caller's last bias) */
+        const bool away = (m->k == 0) && ((fabsf(i.d) > (0.02f * c->i_max)) || fabsf(i.q) > (0.02f * c->i_max));
+        if ((m->n_trim > 0) || away) {   /* the sweep starts from zero current (a restart, or the caller's last bias) */
             u.d = hold(&m->pi_d, 0.0f, i.d, lim);
             u.q = hold(&m->pi_q, 0.0f, i.q, fs_maxf(lim - fabsf(u.d), 0.0f));
-            if (m->n_trim > 0 && --m->n_trim == 0) m->k = 0;
+            if (m->n_trim > 0) {
+                --m->n_trim;
+                if (m->n_trim == 0) { m->k = 0; }
+            }
             break;
         }
         if (m->k == 0) {
             sweep_start(m, i.d, i.q);
-            if (m->n_rise == 0) d_design(m, u_max);   /* the first start; a restart keeps the U it raised */
+            if (m->n_rise == 0) { d_design(m, u_max); }   /* the first start; a restart keeps the U it raised */
             m->n_rise = 1;
             if (!(m->I_amp > 0.0f)) {   /* no sweep the free rotor would stand: nothing read */
                 d_finish(m);
                 m->stage = c->d_only ? FS_MAPID_DONE : FS_MAPID_IN;
-                m->level = m->k = m->n_rise = 0;
+                m->level = 0;
+                m->k = 0;
+                m->n_rise = 0;
                 break;
             }
             m->s_n[FS_MAPID_ND / 2] = 1;   /* the start reads 0 (its flux is the origin) */
-            m->seen = 1u << (FS_MAPID_ND / 2);
+            m->seen = 1u << ((unsigned)FS_MAPID_ND / 2u);
         } else {
-            const float pd0 = m->psi_d, pq0 = m->psi_q;
+            const float pd0 = m->psi_d;
+            const float pq0 = m->psi_q;
             integrate(m, i, e, i_prev);
             crossings(m, i.d, i.q, m->psi_d, m->psi_q, pd0, pq0, FS_MAPID_ND / 2, 0.25f * c->i_max);
         }
         m->k++;
         const int leg = m->leg;
-        if (leg == 0 && m->k > 1) m->impulse += i.d - m->x_prev;   /* the first leg's steps */
+        if ((leg == 0) && (m->k > 1)) { m->impulse += i.d - m->x_prev; }   /* the first leg's steps */
         const bool over = leg_next(m, i.d, TURN);
         const float step0 = m->U * c->Ts / c->L_d;   /* a sample's step at U alone */
-        const bool stalled = leg == 0 && (float)m->k > 3.0f * TURN[0] * m->I_amp / step0 + c->delay + 2.0f;
-        if ((leg == 0 && m->leg == 1) || stalled) {
+        const bool stalled = (leg == 0) && (float)m->k > ((3.0f * TURN[0] * m->I_amp / step0) + c->delay + 2.0f);
+        if (((leg == 0) && (m->leg == 1)) || stalled) {
             /* the first leg's steps against what U alone would make give the drop the feedforward
              * leaves (R_s and the inverter's error, before they are known; about half its value at the
              * sweep's ends, in the leg's mean); above a quarter of U the legs' slopes are too far apart
              * (a low link's R_s i, a high link's dead time, stall the rise): U raised to four times it
              * (twice where the rise stalled), and the sweep starts again from zero current */
-            const float drop_v = stalled ? 0.5f * m->U : fs_minf(1.0f - m->impulse / (float)(m->k - 1) / step0, 1.0f) * m->U;
+            const int k_prev = m->k - 1;
+            const float drop_v = stalled ? (0.5f * m->U) : fs_minf(1.0f - m->impulse / (float)k_prev / step0, 1.0f) * m->U;
             const float U_max = U_SWEEP * u_max;
-            if (drop_v > 0.25f * m->U && m->U < U_max && m->restarts < 3) {
+            if ((drop_v > (0.25f * m->U)) && (m->U < U_max) && (m->restarts < 3)) {
                 m->U = fs_minf(4.0f * drop_v, U_max);
                 m->restarts++;
                 m->n_trim = n_settle;
@@ -439,7 +507,8 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
         m->y_prev = i.q;
         u.d = sweep_voltage(m, i.d, e.d);
         u.q = hold(&m->pi_q, 0.0f, i.q, fs_maxf(lim - m->U, 0.0f));
-        if (over || m->k > 40 * (int)(1.0f / D_STEP)) {   /* over, or stuck (a current that does not follow) */
+        const float n_step_f = 1.0f / D_STEP;
+        if (over || (m->k > (40 * (int)n_step_f))) {   /* over, or stuck (a current that does not follow) */
             d_finish(m);
             fs_pi_reset(&m->pi_d);
             fs_pi_reset(&m->pi_q);
@@ -455,12 +524,13 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
     case FS_MAPID_IN:   /* the level's d current, q at zero */
         m->I_d = 0.25f * (float)Q_ORDER[m->level] * c->i_max;
         if (m->k == 0) {
-            const int kk = Q_ORDER[m->level] + FS_MAPID_ND / 2;
+            const int kk = Q_ORDER[m->level] + (FS_MAPID_ND / 2);
             q_design(m, kk, u_max);
             if (unstable(m, n_settle)) {   /* the level would turn the rotor: not swept */
                 m->res.limit[kk] = FS_MAPID_LIM_UNSTABLE;
                 m->res.i_q_amp[kk] = 0.0f;
-                m->stage = ++m->level < N_LEVELS ? FS_MAPID_IN : FS_MAPID_DONE;
+                ++m->level;
+                m->stage = (m->level < N_LEVELS) ? (int)FS_MAPID_IN : (int)FS_MAPID_DONE;
                 break;
             }
         }
@@ -469,25 +539,26 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
         if (++m->k >= n_settle) {
             sweep_start(m, i.q, i.d);
             m->s_n[FS_MAPID_NQ] = 1;
-            m->seen = 1u << FS_MAPID_NQ;
-            m->stage = m->I_amp > 0.0f && m->U > 0.0f ? FS_MAPID_QSWEEP : FS_MAPID_OUT;
+            m->seen = (uint32_t)1u << (unsigned)FS_MAPID_NQ;
+            m->stage = ((m->I_amp > 0.0f) && (m->U > 0.0f)) ? FS_MAPID_QSWEEP : FS_MAPID_OUT;
             fs_pi_reset(&m->pi_q);
         }
         m->x_prev = i.q;
         m->y_prev = i.d;
         break;
     case FS_MAPID_QSWEEP: {
-        const float pd0 = m->psi_d, pq0 = m->psi_q;
+        const float pd0 = m->psi_d;
+        const float pq0 = m->psi_q;
         integrate(m, i, e, i_prev);
         crossings(m, i.q, i.d, m->psi_q, m->psi_d, pq0, pd0, FS_MAPID_NQ, 0.125f * c->i_max);
         m->k++;
-        const bool over = leg_next(m, i.q, TURN) || fabsf(i.q) > I_ABORT * c->i_max;
+        const bool over = leg_next(m, i.q, TURN) || (fabsf(i.q) > (I_ABORT * c->i_max));
         m->x_prev = i.q;
         m->y_prev = i.d;
         u.q = sweep_voltage(m, i.q, e.q);
         u.d = hold(&m->pi_d, m->I_d, i.d, fs_maxf(lim - m->U, 0.0f));
         if (over) {
-            q_finish(m, Q_ORDER[m->level] + FS_MAPID_ND / 2);
+            q_finish(m, Q_ORDER[m->level] + (FS_MAPID_ND / 2));
             fs_pi_reset(&m->pi_q);
             m->stage = FS_MAPID_TRIM;
             m->k = 0;
@@ -504,18 +575,24 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
         u.d = hold(&m->pi_d, m->I_d, i.d, fs_maxf(lim - m->U, 0.0f));
         if (m->n_trim < 0) {
             u.q = hold(&m->pi_q, 0.0f, i.q, fs_maxf(lim - fabsf(u.d), 0.0f));
-            if (fabsf(i.q) < 0.02f * c->i_max || ++m->k > n_settle) {
+            bool settled = fabsf(i.q) < (0.02f * c->i_max);
+            if (!settled) {
+                ++m->k;
+                settled = m->k > n_settle;
+            }
+            if (settled) {
                 const float dI = m->U * c->Ts / c->L_q;
                 const float imp = m->torque_imp / torque_weight(c, m->I_d);
-                m->n_trim = (int)(sqrtf(fabsf(imp) / (dI * c->Ts)) + 0.5f);
-                m->leg = imp > 0.0f ? 1 : 0;   /* the first half against the impulse */
+                const float n_trim_f = sqrtf(fabsf(imp) / (dI * c->Ts)) + 0.5f;
+                m->n_trim = (int)n_trim_f;
+                m->leg = (imp > 0.0f) ? (int)1 : (int)0;   /* the first half against the impulse */
                 m->k = 0;
             }
         } else {
-            if (m->k == m->n_trim) m->leg ^= 1;
+            if (m->k == m->n_trim) { m->leg ^= 1; }
             u.q = sweep_voltage(m, i.q, e.q);
-            if (++m->k > 2 * m->n_trim) {   /* the loop takes what is left to zero */
-                m->res.impulse_left[Q_ORDER[m->level] + FS_MAPID_ND / 2] = m->torque_imp;
+            if (++m->k > (2 * m->n_trim)) {   /* the loop takes what is left to zero */
+                m->res.impulse_left[Q_ORDER[m->level] + (FS_MAPID_ND / 2)] = m->torque_imp;
                 m->torque_imp = 0.0f;
                 fs_pi_reset(&m->pi_q);
                 m->stage = FS_MAPID_OUT;
@@ -529,14 +606,17 @@ fs_dq fs_mapid_step(fs_mapid *m, fs_dq i_in, fs_dq e_in, float u_max)
     case FS_MAPID_OUT:   /* back to zero current; a q voltage there beyond the inverter's error: the rotor turning */
         u.d = hold(&m->pi_d, 0.0f, i.d, lim);
         u.q = hold(&m->pi_q, 0.0f, i.q, fs_maxf(lim - fabsf(u.d), 0.0f));
-        if (m->k >= n_settle / 2) m->impulse += u.q - e.q;   /* the second half: the current back at zero */
+        if (m->k >= (n_settle / 2)) { m->impulse += u.q - e.q; }   /* the second half: the current back at zero */
         if (++m->k >= n_settle) {
-            const int kk = Q_ORDER[m->level] + FS_MAPID_ND / 2;
-            const float e_q = m->impulse / (float)(n_settle - n_settle / 2);   /* V: the mean back-EMF */
-            const float t_L = (float)(2 * n_settle + 7 * m->n_rise) * c->Ts;
+            const int kk = Q_ORDER[m->level] + (FS_MAPID_ND / 2);
+            const int n_read = n_settle - (n_settle / 2);
+            const float e_q = m->impulse / (float)n_read;   /* V: the mean back-EMF */
+            const int n_L = (2 * n_settle) + (7 * m->n_rise);
+            const float t_L = (float)n_L * c->Ts;
             m->k = 0;
-            m->stage = ++m->level < N_LEVELS ? FS_MAPID_IN : FS_MAPID_DONE;
-            if (c->psi_f > 0.0f && fabsf(e_q) > c->psi_f * EMF_TURN / t_L + 1.3333333f * c->u_e) {
+            ++m->level;
+            m->stage = (m->level < N_LEVELS) ? (int)FS_MAPID_IN : (int)FS_MAPID_DONE;
+            if ((c->psi_f > 0.0f) && fabsf(e_q) > ((c->psi_f * EMF_TURN / t_L) + (1.3333333f * c->u_e))) {
                 m->res.limit[kk] = FS_MAPID_LIM_MOVING;
                 m->stage = FS_MAPID_DONE;
             }

@@ -91,7 +91,7 @@
 #include "fs_transforms.h"
 #include "fs_types.h"
 
-enum { FS_MAPID_ND = 9, FS_MAPID_NQ = 8, FS_MAPID_NT = 2 * FS_MAPID_NQ + 1 };
+enum { FS_MAPID_ND = 9, FS_MAPID_NQ = 8, FS_MAPID_NT = (2 * FS_MAPID_NQ) + 1 };
 
 typedef enum { FS_MAPID_DSWEEP = 0, FS_MAPID_IN = 1, FS_MAPID_QSWEEP = 2, FS_MAPID_TRIM = 3, FS_MAPID_OUT = 4, FS_MAPID_DONE = 5 } fs_mapid_stage;
 

@@ -3,40 +3,51 @@
 
 FS_COLD fs_status fs_pi_init(fs_pi *pi, const fs_pi_config *cfg)
 {
-    if (!pi || !cfg) return FS_ERR_NULL;
-    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
-    if (!fs_nonneg(cfg->k_p) || !fs_nonneg(cfg->k_i) || !fs_nonneg(cfg->k_t) || !fs_fin(cfg->u_max))
-        return FS_ERR_PARAM;
-    pi->cfg = *cfg;
-    pi->k_i_Ts = cfg->Ts * cfg->k_i;
-    fs_pi_reset(pi);
-    return FS_OK;
+    fs_status ret;
+    if (!pi || !cfg) { ret = FS_ERR_NULL; }
+    else if (!fs_pos(cfg->Ts)) { ret = FS_ERR_TS; }
+    else if (!fs_nonneg(cfg->k_p) || !fs_nonneg(cfg->k_i) || !fs_nonneg(cfg->k_t) || !fs_fin(cfg->u_max)) {
+        ret = FS_ERR_PARAM;
+    }
+    else {
+        pi->cfg = *cfg;
+        pi->k_i_Ts = cfg->Ts * cfg->k_i;
+        fs_pi_reset(pi);
+        ret = FS_OK;
+    }
+    return ret;
 }
 
 FS_COLD fs_status fs_pi_design(fs_pi_config *cfg, float Ts, float L, float R, float alpha, float u_max)
 {
-    if (!cfg) return FS_ERR_NULL;
-    if (!fs_pos(Ts)) return FS_ERR_TS;
-    if (!fs_pos(L) || !fs_nonneg(R) || !fs_fin(u_max)) return FS_ERR_PARAM;
-    if (!(alpha > 0.0f) || !(alpha * Ts <= 2.0f)) return FS_ERR_BANDWIDTH;
-    /* r = 1 - a and q = 1 - p by expm1f, which keeps them exact when small */
-    float r = -expm1f(-R * Ts / L);
-    float q = -expm1f(-alpha * Ts);
-    float b = (R > 0.0f && r > 0.0f) ? r / R : Ts / L;
-    cfg->Ts = Ts;
-    cfg->k_t = q / b;
-    cfg->k_p = fs_maxf((2.0f * q - r) / b, 0.0f);  /* (1 + a - 2p) / b */
-    cfg->k_i = q * q / (b * Ts);
-    cfg->u_max = u_max;
-    /* gains beyond the float range (L / Ts or R / (1 - a) too large) */
-    return fs_fin(cfg->k_t) && fs_fin(cfg->k_i) ? FS_OK : FS_ERR_PARAM;
+    fs_status ret;
+    if (!cfg) { ret = FS_ERR_NULL; }
+    else if (!fs_pos(Ts)) { ret = FS_ERR_TS; }
+    else if (!fs_pos(L) || !fs_nonneg(R) || !fs_fin(u_max)) { ret = FS_ERR_PARAM; }
+    else if (!(alpha > 0.0f) || !((alpha * Ts) <= 2.0f)) { ret = FS_ERR_BANDWIDTH; }
+    else {
+        /* r = 1 - a and q = 1 - p by expm1f, which keeps them exact when small */
+        float r = -expm1f(-R * Ts / L);
+        float q = -expm1f(-alpha * Ts);
+        float b;
+        if ((R > 0.0f) && (r > 0.0f)) { b = r / R; }
+        else { b = Ts / L; }
+        cfg->Ts = Ts;
+        cfg->k_t = q / b;
+        cfg->k_p = fs_maxf(((2.0f * q) - r) / b, 0.0f);  /* (1 + a - 2p) / b */
+        cfg->k_i = q * q / (b * Ts);
+        cfg->u_max = u_max;
+        /* gains beyond the float range (L / Ts or R / (1 - a) too large) */
+        ret = fs_fin(cfg->k_t) && fs_fin(cfg->k_i) ? FS_OK : FS_ERR_PARAM;
+    }
+    return ret;
 }
 
 void fs_pi_reset(fs_pi *pi) { pi->integ = 0.0f; }
 
 float fs_pi_output(const fs_pi *pi, float ref, float meas)
 {
-    return pi->cfg.k_t * ref - pi->cfg.k_p * meas + pi->integ;
+    return (pi->cfg.k_t * ref) - (pi->cfg.k_p * meas) + pi->integ;
 }
 
 void fs_pi_update(fs_pi *pi, float ref, float meas, float u, float u_real)

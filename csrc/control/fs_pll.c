@@ -3,15 +3,19 @@
 
 FS_COLD fs_status fs_pll_init(fs_pll *pll, const fs_pll_config *cfg)
 {
-    if (!pll || !cfg) return FS_ERR_NULL;
-    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
-    if (!(cfg->bandwidth > 0.0f) || !(cfg->bandwidth * cfg->Ts <= 0.5f)) return FS_ERR_BANDWIDTH;
-    if (!fs_fin(cfg->w_max)) return FS_ERR_LIMIT;
-    pll->cfg = *cfg;
-    pll->k_p = 2.0f * cfg->bandwidth;               /* eq. (13), poles at -w_b */
-    pll->k_i = cfg->bandwidth * cfg->bandwidth;
-    fs_pll_reset(pll, 0.0f, 0.0f);
-    return FS_OK;
+    fs_status ret;
+    if (!pll || !cfg) { ret = FS_ERR_NULL; }
+    else if (!fs_pos(cfg->Ts)) { ret = FS_ERR_TS; }
+    else if (!(cfg->bandwidth > 0.0f) || !((cfg->bandwidth * cfg->Ts) <= 0.5f)) { ret = FS_ERR_BANDWIDTH; }
+    else if (!fs_fin(cfg->w_max)) { ret = FS_ERR_LIMIT; }
+    else {
+        pll->cfg = *cfg;
+        pll->k_p = 2.0f * cfg->bandwidth;               /* eq. (13), poles at -w_b */
+        pll->k_i = cfg->bandwidth * cfg->bandwidth;
+        fs_pll_reset(pll, 0.0f, 0.0f);
+        ret = FS_OK;
+    }
+    return ret;
 }
 
 void fs_pll_reset(fs_pll *pll, float theta, float w)
@@ -30,6 +34,6 @@ float fs_pll_step(fs_pll *pll, float err)
     /* The angle moves with k_p err + integral; the speed estimate is the
      * integral alone, which the loop filters (no proportional noise). */
     pll->w = pll->integ;
-    pll->theta = fs_wrap_pi(pll->theta + pll->cfg.Ts * (pll->k_p * err + pll->integ));
+    pll->theta = fs_wrap_pi(pll->theta + (pll->cfg.Ts * ((pll->k_p * err) + pll->integ)));
     return pll->theta;
 }

@@ -3,18 +3,22 @@
 
 FS_COLD fs_status fs_srff_init(fs_srff *f, const fs_srff_config *cfg)
 {
-    if (!f || !cfg) return FS_ERR_NULL;
-    if (!(cfg->Ts > 0.0f) || !isfinite(cfg->Ts)) return FS_ERR_TS;
-    if (!(cfg->w_b > 0.0f) || !(cfg->w_b * cfg->Ts <= 0.5f)) return FS_ERR_BANDWIDTH;
-    f->cfg = *cfg;
-    f->a = expf(-cfg->w_b * cfg->Ts);  /* pole of w_b / (s + w_b), held input */
-    f->b = 1.0f - f->a;
-    f->g = 0.5f * (1.0f + f->a);       /* low-pass read mid-period */
-    fs_srff_reset(f);
-    return FS_OK;
+    fs_status ret;
+    if (!f || !cfg) { ret = FS_ERR_NULL; }
+    else if (!(cfg->Ts > 0.0f) || !isfinite(cfg->Ts)) { ret = FS_ERR_TS; }
+    else if (!(cfg->w_b > 0.0f) || !((cfg->w_b * cfg->Ts) <= 0.5f)) { ret = FS_ERR_BANDWIDTH; }
+    else {
+        f->cfg = *cfg;
+        f->a = expf(-cfg->w_b * cfg->Ts);  /* pole of w_b / (s + w_b), held input */
+        f->b = 1.0f - f->a;
+        f->g = 0.5f * (1.0f + f->a);       /* low-pass read mid-period */
+        fs_srff_reset(f);
+        ret = FS_OK;
+    }
+    return ret;
 }
 
-void fs_srff_reset(fs_srff *f) { f->lp.d = f->lp.q = 0.0f; }
+void fs_srff_reset(fs_srff *f) { f->lp.d = 0.0f; f->lp.q = 0.0f; }
 
 fs_ab fs_srff_step(fs_srff *f, fs_ab x, float theta_x)
 {

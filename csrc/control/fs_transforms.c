@@ -4,7 +4,7 @@
 fs_ab fs_clarke(float x_a, float x_b, float x_c)
 {
     fs_ab y;
-    y.alpha = (2.0f * x_a - x_b - x_c) * (1.0f / 3.0f);
+    y.alpha = ((2.0f * x_a) - x_b - x_c) * (1.0f / 3.0f);
     y.beta = (x_b - x_c) * FS_INV_SQRT3;
     return y;
 }
@@ -12,23 +12,23 @@ fs_ab fs_clarke(float x_a, float x_b, float x_c)
 void fs_inv_clarke(fs_ab x, float x_abc[3])
 {
     x_abc[0] = x.alpha;
-    x_abc[1] = -0.5f * x.alpha + 0.5f * FS_SQRT3 * x.beta;
-    x_abc[2] = -0.5f * x.alpha - 0.5f * FS_SQRT3 * x.beta;
+    x_abc[1] = (-0.5f * x.alpha) + (0.5f * FS_SQRT3 * x.beta);
+    x_abc[2] = (-0.5f * x.alpha) - (0.5f * FS_SQRT3 * x.beta);
 }
 
 fs_dq fs_park(fs_ab x, float cos_theta, float sin_theta)
 {
     fs_dq y;
-    y.d = cos_theta * x.alpha + sin_theta * x.beta;
-    y.q = -sin_theta * x.alpha + cos_theta * x.beta;
+    y.d = (cos_theta * x.alpha) + (sin_theta * x.beta);
+    y.q = (-sin_theta * x.alpha) + (cos_theta * x.beta);
     return y;
 }
 
 fs_ab fs_inv_park(fs_dq x, float cos_theta, float sin_theta)
 {
     fs_ab y;
-    y.alpha = cos_theta * x.d - sin_theta * x.q;
-    y.beta = sin_theta * x.d + cos_theta * x.q;
+    y.alpha = (cos_theta * x.d) - (sin_theta * x.q);
+    y.beta = (sin_theta * x.d) + (cos_theta * x.q);
     return y;
 }
 
@@ -60,18 +60,21 @@ FS_OUT_OF_LINE float _Complex cis_far(float theta);
 float _Complex fs_cis(float theta)
 {
     /* pi/2 = P1 + P2 + P34: its first 17 significant bits, the next 17, the rest */
-    const float P1 = 1.5707855225f, P2 = 1.0804273188e-05f, P34 = 6.0771006283e-11f;
+    const float P1 = 1.5707855225f;
+    const float P2 = 1.0804273188e-05f;
+    const float P34 = 6.0771006283e-11f;
     const float M = 12582912.0f;   /* 1.5 2^23: x + M - M rounds x to an integer, for |x| < 2^22 */
     const float x = theta;
-    if (!(fabsf(x) < 199.0f)) return cis_far(x);   /* k would need more than 7 bits */
-    const float k = (x * 0.636619772f + M) - M;
-    const float t = x - k * P1;                              /* exact */
-    const float r = t - k * P2;
-    const float r_lo = ((t - r) - k * P2) - k * P34;         /* what r lost */
+    if (!(fabsf(x) < 199.0f)) { return cis_far(x); }   /* k would need more than 7 bits */
+    const float k = ((x * 0.636619772f) + M) - M;
+    const float t = x - (k * P1);                              /* exact */
+    const float r = t - (k * P2);
+    const float r_lo = ((t - r) - (k * P2)) - (k * P34);         /* what r lost */
     const float _Complex e = fs_cis_poly(r, r_lo);
-    const float c = fs_cre(e), s = fs_cim(e);
+    const float c = fs_cre(e);
+    const float s = fs_cim(e);
     switch ((int)k & 3) {
-    case 0: return cis(c, s != 0.0f ? s : x);   /* sin(-0) = -0 */
+    case 0: return cis(c, (s != 0.0f) ? s : x);   /* sin(-0) = -0 */
     case 1: return cis(-s, c);
     case 2: return cis(-c, -s);
     default: return cis(s, -c);
@@ -82,8 +85,12 @@ float _Complex fs_cis(float theta)
  * common path needs no stack frame) */
 FS_OUT_OF_LINE float _Complex cis_far(float theta)
 {
-    if (!(fabsf(theta) < INFINITY)) return cis(theta - theta, theta - theta);   /* NaN, as sinf and cosf */
-    return fs_cis(fs_wrap_pi(theta));
+    float _Complex ret;
+    if (!(fabsf(theta) < INFINITY)) { ret = cis(theta - theta, theta - theta); }   /* NaN, as sinf and cosf */
+    else {
+        ret = fs_cis(fs_wrap_pi(theta));
+    }
+    return ret;
 }
 
 /* atan(y/x) in the quadrant of (x, y), as atan2f (its zeros, infinities and
@@ -97,17 +104,24 @@ FS_OUT_OF_LINE float _Complex cis_far(float theta)
  * (glibc's atan2f on 84 %): the division's rounding is what is left. */
 float fs_atan2f(float y, float x)
 {
-    const float PI4_HI = 7.85398185e-01f, PI4_LO = -2.18556941e-08f;   /* pi/4 = HI + LO */
-    const float PI2_HI = 1.57079637e+00f, PI2_LO = -4.37113883e-08f;
-    const float PI_HI = 3.14159274e+00f, PI_LO = -8.74227766e-08f;
-    const float ax = fabsf(x), ay = fabsf(y);
+    const float PI4_HI = 7.85398185e-01f;                              /* pi/4 = HI + LO */
+    const float PI4_LO = -2.18556941e-08f;
+    const float PI2_HI = 1.57079637e+00f;
+    const float PI2_LO = -4.37113883e-08f;
+    const float PI_HI = 3.14159274e+00f;
+    const float PI_LO = -8.74227766e-08f;
+    const float ax = fabsf(x);
+    const float ay = fabsf(y);
     const bool swap = ay > ax;
-    float num = swap ? ax : ay, den = swap ? ay : ax;   /* num <= den (or a NaN) */
-    float u, hi, lo;
-    if (!(num > 0.0f && den < 1e38f)) {   /* zeros, infinities, NaN; num + den could overflow */
-        if (num != num || den != den) return x + y;
+    float num = swap ? ax : ay;                         /* num <= den (or a NaN) */
+    float den = swap ? ay : ax;
+    float u;
+    float hi;
+    float lo;
+    if (!((num > 0.0f) && (den < 1e38f))) {   /* zeros, infinities, NaN; num + den could overflow */
+        if ((num != num) || (den != den)) { return x + y; }
         if (den == INFINITY) {
-            num = num == INFINITY ? 1.0f : 0.0f;
+            num = (num == INFINITY) ? 1.0f : 0.0f;
             den = 1.0f;
         } else if (num > 0.0f) {
             num *= 0.25f;
@@ -116,26 +130,30 @@ float fs_atan2f(float y, float x)
             den = 1.0f;   /* 0/0 and 0/x: the angle 0, then the quadrant */
         }
     }
-    if (num >= 0.5f * den) {
+    if (num >= (0.5f * den)) {
         u = (num - den) / (num + den);
         hi = PI4_HI;
         lo = PI4_LO;
     } else {
         u = num / den;
-        hi = lo = 0.0f;
+        hi = 0.0f;
+        lo = 0.0f;
     }
     const float z = u * u;
-    const float p = u * z * (-0.33333233f + z * (0.19994226f + z * (-0.14175011f + z * (0.10160015f + z * -0.05132597f))));
-    const float s1 = hi + u, e1 = (hi - s1) + u;   /* exact: |hi| >= |u| or hi = 0 */
+    const float p = u * z * (-0.33333233f + (z * (0.19994226f + (z * (-0.14175011f + (z * (0.10160015f + (z * -0.05132597f))))))));
+    const float s1 = hi + u;                       /* exact: |hi| >= |u| or hi = 0 */
+    const float e1 = (hi - s1) + u;
     float a;
     if (swap) {   /* pi/2 - the angle */
-        const float s2 = PI2_HI - s1, e2 = (PI2_HI - s2) - s1;
+        const float s2 = PI2_HI - s1;
+        const float e2 = (PI2_HI - s2) - s1;
         a = s2 + (e2 + (PI2_LO - (e1 + (lo + p))));
     } else {
         a = s1 + (e1 + (lo + p));
     }
-    if (signbit(x)) {   /* pi - the angle */
-        const float s3 = PI_HI - a, e3 = (PI_HI - s3) - a;
+    if (signbit(x) != 0) {   /* pi - the angle */
+        const float s3 = PI_HI - a;
+        const float e3 = (PI_HI - s3) - a;
         a = s3 + (e3 + PI_LO);
     }
     return copysignf(a, y);

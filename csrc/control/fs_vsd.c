@@ -28,7 +28,7 @@ fs_vsd5 fs_vsd5_forward(const float x[5])
 void fs_vsd5_inverse(const fs_vsd5 *v, float x[5])
 {
     for (int k = 0; k < 5; ++k) {
-        x[k] = v->ab.alpha * cos_1[k] + v->ab.beta * sin_1[k] + v->xy.alpha * cos_3[k] + v->xy.beta * sin_3[k]
+        x[k] = (v->ab.alpha * cos_1[k]) + (v->ab.beta * sin_1[k]) + (v->xy.alpha * cos_3[k]) + (v->xy.beta * sin_3[k])
                + v->zero;
     }
 }
