@@ -160,10 +160,11 @@ ZOO_REFUSED: dict[int, str] = {}
 
 
 def _load(scen: str, overrides: dict):
-    """A catalog scenario by name, or zoo machine k's as "zoo:k", with the overrides."""
+    """A catalog scenario by name, or zoo machine k's as "zoo:k", with the
+    overrides (no warning formed: the campaign reads the runs' traces alone)."""
     if scen.startswith("zoo:"):
-        return scenario_from_dict(deep_merge(zoo_scenario(int(scen[4:])), overrides), scen)
-    return load_scenario(scen, overrides)
+        return scenario_from_dict(deep_merge(zoo_scenario(int(scen[4:])), overrides), scen, warn=False)
+    return load_scenario(scen, overrides, warn=False)
 
 
 def _base_cases(name: str, spec: tuple, rng: np.random.Generator, healthy: int, kinds=KINDS,
