@@ -103,7 +103,8 @@ COMPARE_UNTIL = {"smo": 0.6, "blend": 0.6}
 TOLERANCE = {"duty": 1e-3, "theta_e": 5e-3, "w_e_rel": 1e-3, "stage": 0}
 MAGIC = 0x4C495046
 OUT_HEADER = 8 * 4      # pil_header_out: 8 words
-CFLAGS_HOST = ["-O3", "-std=c99", "-fno-math-errno", "-fPIC"]   # as src/fullspeed/_build.py builds the core
+CFLAGS_HOST = ["-O3", "-std=c99", "-fno-math-errno", "-fPIC"]   # as src/fullspeed/_build.py compiles the core (its
+# link-time optimisation left out: it moves no bit, bench/trace_hashes.py, and would slow the build on a fresh clone)
 
 
 class PilError(Exception):
