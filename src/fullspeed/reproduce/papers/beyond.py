@@ -338,7 +338,7 @@ def thermal(out: Path) -> Measurement:
 # el.deg, twelve more zoo machines; about 12 s of CPU, 40 % of the campaign) is neither in the claim's
 # statement nor in its verdict: `python -m fullspeed.workflows.lock_campaign OUT` runs it beside the original
 # set and prints both, and tests/test_lock.py runs a sample of it.
-@register("B-LOCK", cost=18)
+@register("B-LOCK", cost=16)
 def lock(out: Path) -> Measurement:
     folder = sweep_dir(out, "B-LOCK")
     shutil.rmtree(folder, ignore_errors=True)   # measured afresh (common.sweep_dir)
@@ -410,7 +410,7 @@ IDENT_SAMPLE = 100
 IDENTIFIED: dict[Path, dict[int, dict]] = {}
 
 
-@register("B-IDENT", shares="the zoo's runs", cost=32)
+@register("B-IDENT", shares="the zoo's runs", cost=31)
 def ident(out: Path) -> Measurement:
     # B-MAPID's second half runs its first machines on their identified files: written here
     rows = zoo_campaign(range(IDENT_SAMPLE), out / "B-IDENT-runs", keep=MAPID_KEEP)
@@ -448,7 +448,7 @@ def ident(out: Path) -> Measurement:
 
 
 
-@register("B-MAPID", shares="the zoo's runs", cost=10)
+@register("B-MAPID", shares="the zoo's runs", cost=7)
 def mapid(out: Path) -> Measurement:
     ks = range(0, 2 * MAPID_SAMPLE, 2)
     known = IDENTIFIED.get(out, {})

@@ -105,7 +105,7 @@ def summarize(rows: list[dict]) -> dict:
     return out
 
 
-@register("B-START", cost=6)
+@register("B-START", cost=5)
 def start_claim(out: Path) -> Measurement:
     folder = sweep_dir(out, "B-START")
     shutil.rmtree(folder, ignore_errors=True)
