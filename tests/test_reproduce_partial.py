@@ -92,11 +92,13 @@ def test_the_lanes_summary_counts_each_lanes_claims_and_its_end():
     rows = [{"id": "A", "cpu_s": 30.0, "wall_s": 20.0, "lane": 0, "start_s": 0.0},
             {"id": "B", "cpu_s": 5.0, "wall_s": 4.0, "lane": 1, "start_s": 0.5},
             {"id": "C", "cpu_s": 2.0, "wall_s": 3.0, "lane": 1, "start_s": 30.0},
-            {"id": "D", "cpu_s": 1.0, "wall_s": 1.0, "lane": 0, "start_s": 20.0}]
+            {"id": "D", "cpu_s": 1.0, "wall_s": 1.0, "lane": 0, "start_s": 20.0},
+            {"id": "E", "cpu_s": 0.5, "wall_s": 9.0, "lane": 2, "start_s": 1.0}]
     lines = rp.lanes_summary(rows)
-    assert lines[0] == "By CPU time: A 30.0 s, B 5.0 s, C 2.0 s, D 1.0 s."
+    assert lines[0] == "By CPU time: A 30.0 s, B 5.0 s, C 2.0 s, D 1.0 s, E 0.5 s."
     assert lines[1] == "Lane 0 (foreground): 2 claims, 31 s of CPU, its last ended at 21 s."
     assert lines[2] == "Lane 1: 2 claims, 7 s of CPU, its last ended at 33 s."
+    assert lines[3] == "Lane 2: 1 claim, 0 s of CPU, its last ended at 10 s."
 
 
 def test_a_shared_group_runs_in_claims_order_and_the_longest_first():

@@ -143,7 +143,7 @@ def lanes_summary(rows: list[dict]) -> list[str]:
     for k in lanes:
         mine = [r for r in rows if r.get("lane") == k]
         end = max(r["start_s"] + r.get("wall_s", 0.0) for r in mine)
-        out.append(f"Lane {k}{' (foreground)' if k == 0 else ''}: {len(mine)} claims, "
+        out.append(f"Lane {k}{' (foreground)' if k == 0 else ''}: {len(mine)} claim{'s' if len(mine) > 1 else ''}, "
                    f"{sum(r.get('cpu_s', 0.0) for r in mine):.0f} s of CPU, its last ended at {end:.0f} s.")
     return out
 
