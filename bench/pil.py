@@ -103,7 +103,8 @@ COMPARE_UNTIL = {"smo": 0.6, "blend": 0.6}
 TOLERANCE = {"duty": 1e-3, "theta_e": 5e-3, "w_e_rel": 1e-3, "stage": 0}
 MAGIC = 0x4C495046
 OUT_HEADER = 8 * 4      # pil_header_out: 8 words
-CFLAGS_HOST = ["-O3", "-std=c99", "-fno-math-errno", "-fPIC"]   # as src/fullspeed/_build.py builds the core
+CFLAGS_HOST = ["-O3", "-std=c99", "-fno-math-errno", "-fPIC"]   # as src/fullspeed/_build.py compiles the core (its
+# link-time optimisation left out: it moves no bit, bench/trace_hashes.py, and would slow the build on a fresh clone)
 
 
 class PilError(Exception):
@@ -215,14 +216,43 @@ def _link_image(t: dict, objs: list[Path], elf: Path, what: str) -> None:
           "-Wl,--gc-sections", f"-T{HERE / 'mps2_an386.ld'}", *map(str, objs), "-lm", "-o", str(elf)], what)
 
 
+def _host_build(t: dict, work: Path) -> Path:
+    """The recording host simulator and the QEMU plugin, in a directory of
+    their own keyed by their sources and flags (COMPLETE): the target's
+    builds (the PIL image's flags, the firmware's) share them, where each
+    built them again, the same objects (about 7 s of CPU on a fresh clone)."""
+    host_srcs = (sorted((CSRC / "control").glob("*.c")) + sorted((CSRC / "plant").glob("*.c"))
+                 + sorted((CSRC / "sim").glob("*.c")))
+    key = "host-" + _digest([*host_srcs, *sorted(CSRC.glob("*/*.h")), HERE / "pil_hook.c", HERE / "insn_count.c"],
+                            " ".join(CFLAGS_HOST))
+    d = work / key
+    if not (d / COMPLETE).is_file():
+        st = Path(tempfile.mkdtemp(prefix=key + ".build-", dir=work))
+        try:
+            jobs, hobjs = [], []
+            for src in [*host_srcs, HERE / "pil_hook.c"]:
+                o = st / (src.stem + ".o")
+                hook = ["-Dfs_drive_step=pil_hook_step"] if src.name == "fs_sim.c" else []
+                jobs.append(([t["cc"], *CFLAGS_HOST, *hook, f"-I{CSRC}", "-c", str(src), "-o", str(o)], f"compiling {src.name} for the host"))
+                hobjs.append(o)
+            jobs.append(([t["cc"], "-O2", "-shared", "-fPIC", str(HERE / "insn_count.c"), "-o", str(st / "insn_count.so")],
+                         "building the QEMU plugin"))
+            _parallel(jobs)
+            _run([t["cc"], "-shared", *map(str, hobjs), "-lm", "-o", str(st / "host_sim.so")], "linking the host simulator")
+            _publish(st, d)
+        finally:
+            shutil.rmtree(st, ignore_errors=True)   # gone if published
+    return d
+
+
 def build(t: dict, work: Path, extra_flags: list[str] = ()) -> Builds:
-    """Build the target image, the plugin and the recording host simulator into work
-    (reused when the sources are unchanged; see COMPLETE)."""
+    """Build the target image into work, with the plugin and the recording host simulator
+    (_host_build) beside it (each reused when its sources are unchanged; see COMPLETE)."""
     work.mkdir(parents=True, exist_ok=True)
+    host = _host_build(t, work)
     control = sorted((CSRC / "control").glob("*.c"))
-    host_srcs = control + sorted((CSRC / "plant").glob("*.c")) + sorted((CSRC / "sim").glob("*.c"))
     headers = sorted(CSRC.glob("*/*.h"))
-    key = _digest([*host_srcs, *headers, *HERE.iterdir()], " ".join([*fw.CFLAGS, *extra_flags]))
+    key = _digest([*control, *headers, *HERE.iterdir()], " ".join([*fw.CFLAGS, *extra_flags]))
     d = work / key
     if not (d / COMPLETE).is_file():
         st = Path(tempfile.mkdtemp(prefix=key + ".build-", dir=work))
@@ -235,18 +265,8 @@ def build(t: dict, work: Path, extra_flags: list[str] = ()) -> Builds:
                 o.parent.mkdir(exist_ok=True)
                 jobs.append(([t["gcc"], *flags, "-c", str(src), "-o", str(o)], f"compiling {src.name} for the target"))
                 objs.append(o)
-            hobjs = []
-            for src in [*host_srcs, HERE / "pil_hook.c"]:
-                o = st / "host" / (src.stem + ".o")
-                o.parent.mkdir(exist_ok=True)
-                hook = ["-Dfs_drive_step=pil_hook_step"] if src.name == "fs_sim.c" else []
-                jobs.append(([t["cc"], *CFLAGS_HOST, *hook, f"-I{CSRC}", "-c", str(src), "-o", str(o)], f"compiling {src.name} for the host"))
-                hobjs.append(o)
-            jobs.append(([t["cc"], "-O2", "-shared", "-fPIC", str(HERE / "insn_count.c"), "-o", str(st / "insn_count.so")],
-                         "building the QEMU plugin"))
             _parallel(jobs)
             _link_image(t, objs, st / "pil.elf", "linking the PIL image")
-            _run([t["cc"], "-shared", *map(str, hobjs), "-lm", "-o", str(st / "host_sim.so")], "linking the host simulator")
             _publish(st, d)
         finally:
             shutil.rmtree(st, ignore_errors=True)   # gone if published
@@ -255,7 +275,7 @@ def build(t: dict, work: Path, extra_flags: list[str] = ()) -> Builds:
     mark = next((int(ln.split()[0], 16) & ~1 for ln in nm.splitlines() if ln.split()[-1] == "pil_mark"), None)
     if mark is None:
         raise PilError("pil_mark not found in the PIL image")
-    return Builds(tgt, mark, d / "insn_count.so", d / "host_sim.so", d, stack_usage(d / "arm"))
+    return Builds(tgt, mark, host / "insn_count.so", host / "host_sim.so", d, stack_usage(d / "arm"))
 
 
 def stack_usage(objdir: Path) -> dict[str, tuple[int, str]]:

@@ -10,7 +10,7 @@ import pytest
 from fullspeed.model.errors import ConfigError
 from fullspeed.model.fluxmap import FluxMapWarning, load_map, zero_current_values
 from fullspeed.design.machine import load_machine
-from fullspeed.design.scenario import scenario_from_dict
+from fullspeed.design.scenario import load_scenario, scenario_from_dict
 from fullspeed.sim import simulate
 
 PSI_F, L_D, L_Q = 0.0105, 0.30e-3, 0.55e-3        # a 48 V IPMSM of the trial's kind
@@ -178,3 +178,48 @@ def test_a_map_whose_saliency_vanishes_under_load_says_how_much_torque_injection
     assert i_cross * 0.8 < I < i_cross * 1.3        # on the locus, on a map of 5 A steps
     mild = load_map(write_csv(tmp_path / "b.csv", i_q=i_q, i_sat=200.0), "magnetic.file")
     assert saliency_warnings(mild, 40.0, 3, 4, 5.0, "m") == []
+
+
+def _bilinear(mag, name, i_d, i_q):
+    """The plant's bilinear lookup written out on the 2-D table (the
+    reference the design's interp_tables must equal bit for bit)."""
+    e_d, e_q = np.asarray(mag["i_d"]), np.asarray(mag["i_q"])
+    x = np.clip((np.asarray(i_d, float) - e_d[0]) / (e_d[1] - e_d[0]), 0.0, e_d.size - 1.0)
+    y = np.clip((np.asarray(i_q, float) - e_q[0]) / (e_q[1] - e_q[0]), 0.0, e_q.size - 1.0)
+    k, n = np.minimum(x.astype(int), e_d.size - 2), np.minimum(y.astype(int), e_q.size - 2)
+    a, b = x - k, y - n
+    t = np.asarray(mag[name])
+    return (1 - a) * (1 - b) * t[k, n] + a * (1 - b) * t[k + 1, n] + (1 - a) * b * t[k, n + 1] + a * b * t[k + 1, n + 1]
+
+
+@pytest.mark.parametrize("k", [0, 6])
+def test_the_design_reads_a_map_and_searches_mtpa_as_the_whole_grid_would_bit_for_bit(k):
+    """interp_tables (weights made once, corners from the flat table) and
+    mtpa_locus (a few magnitudes a pass) against the formula and the whole
+    grid's search: the same bits, on a non-square table (a saturating zoo
+    machine's, cut) and at points beyond its edges, where it holds."""
+    from fullspeed.design.envelope import flux_table
+    from fullspeed.design.magnetics import MTPA_ANGLES, MTPA_N, mtpa_locus
+    from fullspeed.model.fluxmap import interp_tables
+
+    sc = load_scenario("beyond-zoo", {"machine": {"zoo": k}}, False)
+    m, i_max = sc.machine, sc.data["controller"]["i_max"]
+    full = flux_table(m, i_max)
+    mag = {"i_d": full["i_d"], "i_q": full["i_q"][:-5], "psi_d": full["psi_d"][:, :-5], "psi_q": full["psi_q"][:, :-5]}
+    rng = np.random.default_rng(k)
+    i_d, i_q = rng.uniform(-1.3 * i_max, 0.3 * i_max, (30, 7)), rng.uniform(-0.3 * i_max, 1.3 * i_max, (30, 7))
+    got = interp_tables(mag, ("psi_d", "psi_q"), i_d, i_q)
+    for name, g in zip(("psi_d", "psi_q"), got):
+        assert g.tobytes() == _bilinear(mag, name, i_d, i_q).tobytes()
+    assert float(interp_tables(mag, ("psi_q",), -0.2 * i_max, 0.4 * i_max)[0]) == float(_bilinear(mag, "psi_q", -0.2 * i_max, 0.4 * i_max))
+    I = i_max * np.arange(MTPA_N) / (MTPA_N - 1)
+    g = np.linspace(0.5 * np.pi, np.pi, MTPA_ANGLES)
+    d, q = np.outer(I, np.cos(g)), np.outer(I, np.sin(g))
+    T = 0.5 * m.phases * m.pole_pairs * (_bilinear(full, "psi_d", d, q) * q - _bilinear(full, "psi_q", d, q) * d)
+    best = np.argmax(T, axis=1)
+    r = np.arange(MTPA_N)
+    ref = [T[r, best], d[r, best], q[r, best]]
+    for x in ref:
+        x[0] = 0.0
+    for x, y in zip(mtpa_locus(full, i_max, m.phases, m.pole_pairs), ref):
+        assert x.tobytes() == y.tobytes()

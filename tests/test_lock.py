@@ -261,3 +261,32 @@ def test_the_campaign_judges_flags_against_the_truth():
     assert (ad["runs"], ad["true_losses"], ad["detected"], ad["delay_median_ms"]) == (3, 2, 2, 15.0)
     assert oh["false_alarm_pct"] == pytest.approx(50.0) and o["detection_pct"] == 0.0
     assert s["all"]["runs"] == 7
+
+
+def test_the_claim_measures_the_original_set_alone(tmp_path, monkeypatch):
+    """B-LOCK in the reproduction runs the campaign's original set (its
+    statement and verdict; the added set is the module's command), and its
+    value is that set's counts: a false alarm, a miss and the delays as
+    summary gives them."""
+    from fullspeed.reproduce.papers import beyond
+
+    asked = {}
+    rows = [{"set": "original", "kind": "healthy", "base": "b", "estimator": "smo", "label": f"healthy {k}",
+             "true_loss_at": None, "flag_at": 0.5 if k == 0 else None, "stop_reason": "done", "time_off_s": 0.0,
+             "max_err_deg": 3.0} for k in range(4)]
+    rows += [{"set": "original", "kind": "polarity", "base": "b", "estimator": "hfi", "label": "polarity off",
+              "true_loss_at": 0.1, "flag_at": f, "stop_reason": "done", "time_off_s": 0.5, "max_err_deg": 180.0}
+             for f in (0.11, 0.14, None)]
+
+    def campaign(out, **kw):
+        asked.update(kw)
+        return rows
+    monkeypatch.setattr(lc, "run_campaign", campaign)
+    m = beyond.lock(tmp_path)
+    assert asked == {"added": False}
+    v = m.value
+    assert v["runs"] == 7 and v["true_losses"] == 3 and v["detected"] == 2
+    assert v["healthy_runs"] == 4 and v["false_alarms_healthy"] == 1 and v["false_alarm_pct"] == 25.0
+    assert v["delay_median_ms"] == pytest.approx(25.0) and not m.passed
+    assert not any(k.startswith(("added_", "enlarged_")) for k in v)
+    assert "not run here" in m.note

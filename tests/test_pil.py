@@ -122,7 +122,20 @@ def test_a_build_directory_is_read_only_when_complete(builds, tmp_path):
     b = pil.build(TOOLS, tmp_path)
     assert b.work == half and (half / pil.COMPLETE).is_file() and b.mark == builds.mark
     assert b.target.stat().st_size == builds.target.stat().st_size
-    assert [p.name for p in tmp_path.iterdir()] == [key]   # no stage nor stale copy left behind
+    # no stage nor stale copy left behind: the target's directory and the host's (_host_build)
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([key, builds.host_sim.parent.name])
+    assert b.host_sim.parent.name == builds.host_sim.parent.name and (b.host_sim.parent / pil.COMPLETE).is_file()
+
+
+def test_the_firmwares_build_shares_the_host_simulator_and_the_plugin(builds):
+    """The firmware's flags make a target of their own; the recording host
+    simulator and the QEMU plugin, whose sources and flags are the same, are
+    the PIL image's, not built again."""
+    made = builds.host_sim.stat().st_mtime_ns
+    bf = pil.build(TOOLS, builds.work.parent, extra_flags=[*pil.fw.LTO, *pil.fw.OPTIONS])
+    assert bf.work != builds.work and bf.target != builds.target
+    assert bf.host_sim == builds.host_sim and bf.plugin == builds.plugin
+    assert builds.host_sim.stat().st_mtime_ns == made
 
 
 def test_a_second_publisher_keeps_the_first_build(tmp_path):

@@ -231,9 +231,9 @@ def test_a_long_axis_is_checked_at_a_bounded_spread_and_a_huge_one_refused(tmp_p
     calls = []
     real = fullspeed.workflows.sweep.scenario_from_dict
 
-    def counted(d, source=None):
+    def counted(d, source=None, **kw):   # kw: warn (the checks form no warning)
         calls.append(d["references"]["i_q"])
-        return real(d, source)
+        return real(d, source, **kw)
     monkeypatch.setattr(fullspeed.workflows.sweep, "scenario_from_dict", counted)
     sw = load_sweep_file(sweep_file(tmp_path / "s.toml", axes='"references.i_q" = { linspace = [0.0, 20.0, 100000] }'))
     assert len(sw.points()) == 100_000

@@ -26,7 +26,7 @@ STOP_AT = "U-THIRD"   # a claim of the default cost: measured late, after the lo
 
 
 def measured(out):
-    return Measurement({"pid": os.getpid()}, True, "stand-in")
+    return Measurement({"pid": os.getpid(), "nice": os.nice(0)}, True, "stand-in")
 
 
 def interrupted(out):
@@ -69,6 +69,36 @@ def test_a_whole_reproduction_says_it_is_complete_each_claim_with_its_wall_time(
         assert len({pid[c] for c, s in SHARES.items() if s == name}) == 1, name
     assert all(r["wall_s"] >= 0.0 for r in rows)
     assert "**Incomplete**" not in (tmp_path / "report.md").read_text()
+
+
+def test_the_longest_unit_runs_in_the_foreground_lane_the_others_below_it(tmp_path, monkeypatch):
+    """Lane 0 is the process that ran the first unit (the longest), at the
+    command's priority; a claim in another lane ran BACKGROUND_NICE below
+    it. Each row says its lane and start; the report sums them per lane."""
+    monkeypatch.setattr(rp, "MEASURES", fakes(stop=None))
+    rows = {r["id"]: r for r in rp.reproduce(None, tmp_path, progress=False, lanes=2)}
+    first = rp.units(CLAIMS)[0]
+    assert {rows[c.id]["lane"] for c in first} == {0}
+    here = os.nice(0)
+    for r in rows.values():
+        assert r["lane"] in (0, 1) and 0.0 <= r["start_s"] <= json.loads((tmp_path / "claims.json").read_text())["wall_s"] + 0.1
+        assert r["value"]["nice"] == (here if r["lane"] == 0 else min(19, here + rp.BACKGROUND_NICE)), r["id"]
+    assert len({r["value"]["pid"] for r in rows.values() if r["lane"] == 0}) == 1
+    report = (tmp_path / "report.md").read_text()
+    assert "Lane 0 (foreground): " in report and "By CPU time: " in report
+
+
+def test_the_lanes_summary_counts_each_lanes_claims_and_its_end():
+    rows = [{"id": "A", "cpu_s": 30.0, "wall_s": 20.0, "lane": 0, "start_s": 0.0},
+            {"id": "B", "cpu_s": 5.0, "wall_s": 4.0, "lane": 1, "start_s": 0.5},
+            {"id": "C", "cpu_s": 2.0, "wall_s": 3.0, "lane": 1, "start_s": 30.0},
+            {"id": "D", "cpu_s": 1.0, "wall_s": 1.0, "lane": 0, "start_s": 20.0},
+            {"id": "E", "cpu_s": 0.5, "wall_s": 9.0, "lane": 2, "start_s": 1.0}]
+    lines = rp.lanes_summary(rows)
+    assert lines[0] == "By CPU time: A 30.0 s, B 5.0 s, C 2.0 s, D 1.0 s, E 0.5 s."
+    assert lines[1] == "Lane 0 (foreground): 2 claims, 31 s of CPU, its last ended at 21 s."
+    assert lines[2] == "Lane 1: 2 claims, 7 s of CPU, its last ended at 33 s."
+    assert lines[3] == "Lane 2: 1 claim, 0 s of CPU, its last ended at 10 s."
 
 
 def test_a_shared_group_runs_in_claims_order_and_the_longest_first():

@@ -99,3 +99,23 @@ def test_chunks_double_while_fast_and_change_nothing(monkeypatch, wall_s, calls)
     assert res.stop_reason == fixed.stop_reason == "done"
     for ch in runner.CHANNELS:
         assert res[ch].tobytes() == fixed[ch].tobytes(), ch
+
+
+def test_a_whole_run_fits_the_buffer_it_started_with():
+    """The buffer is sized by the periods the run takes (fs_sim_steps, by
+    rounding), not by int(duration / Tc), which falls one short where the
+    division lands just below a whole number: the run's last call then
+    doubled the buffer and copied the whole trace."""
+    sim0 = runner.Simulation(SC)
+    Tc = sim0.period
+    # a duration in whole milliseconds whose division by Tc falls just short of its periods
+    T = next(m / 1000 for m in range(10, 500) if int((m / 1000) / Tc) < round((m / 1000) / Tc))
+    sc = load_scenario("bench-motulator-2kw", {"duration": T, "metrics": {"steady": None}})
+    sim = runner.Simulation(sc)
+    n = sim.steps(sc.duration)
+    assert int(sc.duration / Tc) == n - 1
+    buf = sim._buf
+    assert sim.advance(sc.duration) == "running" and sim.step_count == n   # simulate() calls it done
+    assert sim._buf is buf
+    tr = sim.traces()
+    assert tr["t"].size == n and tr["t"].base is buf

@@ -8,11 +8,15 @@ false, and the reason.
 
 The claims run concurrently in LANES processes, the longest first
 (registry.COST); the claims that share runs in memory (registry.SHARES) in
-one process, one after the other. One lane runs at the command's priority,
-the others below it (BACKGROUND_NICE): a campaign runs its own pool of
-workers on every core (workflows.journal), and a claim in the background
-takes only what the foreground leaves idle (its pool's last tasks, a
-claim's serial part) instead of slowing it. claims.json is written after
+one process, one after the other. The lane that runs the first (the
+longest) runs at the command's priority, the others below it
+(BACKGROUND_NICE): a campaign runs its own pool of workers on every core
+(workflows.journal), and a claim in the background takes only what the
+foreground leaves idle (its pool's last tasks, a claim's serial part)
+instead of slowing it; the longest, in the foreground, is not left to run
+alone at the end with its serial parts idling a core. Each claim's row
+says its lane and when it started, beside its wall and CPU time, so that
+the report shows how the claims packed. claims.json is written after
 every claim that finishes, in CLAIMS order, and says whether the
 reproduction is complete and which claims did not run (an interrupted one
 keeps what it measured and says so).
@@ -60,18 +64,41 @@ def measure(claim: Claim, out: Path, fn) -> dict:
     return row
 
 
-def _measure_unit(unit: list[tuple[Claim, object]], out: Path) -> list[dict]:
-    """A lane's job: the claims of one unit (claim, its function), in order."""
-    return [measure(claim, out, fn) for claim, fn in unit]
+# in a claim process: the background lanes' shared count (_lane), then this process's lane (_take_lane)
+_LANE: list = [None, None]
 
 
-def _lane(rank) -> None:
-    """A claim process: the first in the foreground, the others below it."""
-    with rank.get_lock():
-        k = rank.value
-        rank.value += 1
-    if k > 0:
-        os.nice(BACKGROUND_NICE)
+def _take_lane(k: int) -> int:
+    """This process's lane, fixed when it starts its first unit (the k-th of
+    units()): 0, the foreground, for the one that runs unit 0 (the longest);
+    the others numbered from 1 and below it (BACKGROUND_NICE). Here (no
+    claim processes): 0."""
+    if _LANE[1] is None:
+        if k == 0 or _LANE[0] is None:
+            _LANE[1] = 0
+        else:
+            with _LANE[0].get_lock():
+                _LANE[0].value += 1
+                _LANE[1] = _LANE[0].value
+            os.nice(BACKGROUND_NICE)
+    return _LANE[1]
+
+
+def _measure_unit(k: int, unit: list[tuple[Claim, object]], out: Path, t0: float) -> list[dict]:
+    """A lane's job, the k-th unit: its claims (claim, its function) in
+    order, each row with its lane and its start (s after t0, time.time())."""
+    lane = _take_lane(k)
+    rows = []
+    for claim, fn in unit:
+        start = time.time() - t0
+        rows.append(dict(measure(claim, out, fn), lane=lane, start_s=round(start, 2)))
+    return rows
+
+
+def _lane(background) -> None:
+    """A claim process starts: the count of background lanes kept for
+    _take_lane, every paper's module imported for its pools' workers."""
+    _LANE[0] = background
     preload(papers.__name__)   # the campaigns' pools fork their workers with every paper's module imported
 
 
@@ -102,6 +129,25 @@ def _fmt(v) -> str:
     return str(v)
 
 
+COSTLIEST = 8   # claims named by their CPU time at the report's head
+
+
+def lanes_summary(rows: list[dict]) -> list[str]:
+    """The report's lines on where the time went: the costliest claims by
+    CPU time, and per lane its claims, their CPU time and when its last
+    claim ended (a lane that ends early left its core to the others' pools,
+    or idle)."""
+    top = sorted(rows, key=lambda r: -r.get("cpu_s", 0.0))[:COSTLIEST]
+    out = ["By CPU time: " + ", ".join(f"{r['id']} {r.get('cpu_s', 0.0):.1f} s" for r in top) + "."]
+    lanes = sorted({r["lane"] for r in rows if r.get("lane") is not None})
+    for k in lanes:
+        mine = [r for r in rows if r.get("lane") == k]
+        end = max(r["start_s"] + r.get("wall_s", 0.0) for r in mine)
+        out.append(f"Lane {k}{' (foreground)' if k == 0 else ''}: {len(mine)} claim{'s' if len(mine) > 1 else ''}, "
+                   f"{sum(r.get('cpu_s', 0.0) for r in mine):.0f} s of CPU, its last ended at {end:.0f} s.")
+    return out
+
+
 def write_report(rows: list[dict], out: Path, paper: str | None, not_run=(), wall_s: float | None = None,
                  lanes: int = 1) -> Path:
     n_pass = sum(r["pass"] for r in rows)
@@ -118,18 +164,19 @@ def write_report(rows: list[dict], out: Path, paper: str | None, not_run=(), wal
         lines += [f"Wall time {wall_s:.0f} s, the claims in {lanes} concurrent processes; each claim's wall time",
                   "is from its start to its end (with others running beside it), its CPU time what it cost, its",
                   f"campaigns' workers and its compilers included ({cpu:.0f} s over all claims)."]
+        lines += lanes_summary(rows)
     lines += [
         "Every value below was measured in this run; a claim that cannot be measured yet",
         "is listed with no value and `pass: false`. The claims and their conditions: docs/CLAIMS.md",
         "in the repository (generated from src/fullspeed/reproduce/claims.py).",
         "",
-        "| id | paper | target | measured | unit | pass | scenario | wall (s) | CPU (s) |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| id | paper | target | measured | unit | pass | scenario | wall (s) | CPU (s) | lane | start (s) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         lines.append(f"| {r['id']} | {r['paper']} | {r['target']} | {_fmt(r['value'])} | {r['unit']} | "
                      f"{'yes' if r['pass'] else 'no'} | {r['scenario']} | {r.get('wall_s', 0.0):.1f} | "
-                     f"{r.get('cpu_s', 0.0):.1f} |")
+                     f"{r.get('cpu_s', 0.0):.1f} | {r.get('lane', '—')} | {_fmt(r.get('start_s'))} |")
     lines.append("")
     for r in rows:
         lines += [f"## {r['id']} ({r['paper']})", "", f"Conditions: {r['text']}", "",
@@ -164,11 +211,12 @@ def reproduce(paper: str | None, out: Path, progress: bool = True, lanes: int | 
     if progress:
         from tqdm import tqdm
         bar = tqdm(total=len(claims), desc="claims", unit="claim", leave=False)
+    t_start = time.time()   # the lanes' clock for each claim's start (start_s)
     if lanes > 1 and len(jobs) > 1:
-        stream = in_pool(_measure_unit, {k: (j, out) for k, j in enumerate(jobs)}, lanes, _lane,
+        stream = in_pool(_measure_unit, {k: (k, j, out, t_start) for k, j in enumerate(jobs)}, lanes, _lane,
                          (multiprocessing.get_context("forkserver").Value("i", 0),), (__name__,), "groups of claims")
     else:
-        stream = ((k, _measure_unit(j, out)) for k, j in enumerate(jobs))
+        stream = ((k, _measure_unit(k, j, out, t_start)) for k, j in enumerate(jobs))
     try:
         for _, rows in stream:
             done.update((r["id"], r) for r in rows)

@@ -147,8 +147,10 @@ class Simulation:
             raise SimulationError(f"{scenario.source or scenario.name}: {ffi.string(err).decode()}")
         self._sim = ffi.gc(ptr, lib.fs_sim_destroy)
         # one buffer the C runner writes into, a row per channel (each
-        # channel's samples contiguous: the metrics read them so), grown by doubling
-        rows = int(scenario.duration / (self._cfg.drive.Ts * self._cfg.decimation)) + 2
+        # channel's samples contiguous: the metrics read them so), grown by doubling; sized by the
+        # periods the run takes (fs_sim_steps, the count advance_steps asks room for: int(duration / Ts)
+        # could fall one short of it and double the buffer with a copy at the run's last chunk)
+        rows = lib.fs_sim_steps(ptr, scenario.duration) // self._cfg.decimation + 2
         self._buf = np.empty((lib.FS_CH_N, rows))
         self._n = 0
         # rows the C runner wrote in its last call and that are not in _n yet:

@@ -267,15 +267,15 @@ def check_points(sw: Sweep, source: str) -> None:
     chosen the same way: refused when none of them is valid (a distribution
     beyond the field's range); one that is partly valid runs, a draw the
     scenario refuses being its point's error row (a tail past a limit)."""
-    data = deep_merge(sw.base, sw.overrides)
+    data = deep_merge(sw.base, sw.overrides)   # each checked for its refusal alone: no warning formed
     try:
-        scenario_from_dict(data, source)
+        scenario_from_dict(data, source, warn=False)
     except ConfigError as exc:
         raise _noted(exc, "the base with its overrides", source) from None
     for a in sw.grid:
         for v in _checked(a.values):
             try:
-                scenario_from_dict(_set_axis(data, a, v), source)
+                scenario_from_dict(_set_axis(data, a, v), source, warn=False)
             except ConfigError as exc:
                 raise _noted(exc, f"axes.{a.name} = {v!r}", source) from None
     points = sw.points() if any(a.random for a in sw.axes) else []
@@ -296,7 +296,7 @@ def _check_draws(data: dict, a: Axis, draws: list, source: str) -> None:
     first = None
     for v in draws:
         try:
-            scenario_from_dict(_set_axis(data, a, v), source)
+            scenario_from_dict(_set_axis(data, a, v), source, warn=False)
             return
         except ConfigError as exc:
             first = first or (v, exc)
@@ -339,8 +339,9 @@ def load_sweep_file(name_or_path: str | Path) -> Sweep:
 
 
 def run_point(task: dict) -> dict:
-    """One point: build its scenario, run it, keep the chosen metrics."""
-    res = simulate(scenario_from_dict(task["scenario"], task["source"]))
+    """One point: build its scenario, run it, keep the chosen metrics (its
+    scalars: the warnings, a list, are never among them, so none is formed)."""
+    res = simulate(scenario_from_dict(task["scenario"], task["source"], warn=False))
     if res.stop_reason == "interrupted":   # Ctrl-C: not a finished point (the sweep stops, the point runs on resume)
         raise KeyboardInterrupt
     m = flat_metrics(res.metrics)

@@ -333,56 +333,48 @@ def thermal(out: Path) -> Measurement:
     return Measurement(value, bool(ok), note, [fig])
 
 
-@register("B-LOCK", cost=28)
+# B-LOCK measures the claim's campaign, lock_campaign's original set (358 runs). Its added set (144 probes of
+# the checks fs_monitor.h gained: the yang2022 full range as a base of its own, pi-off starts from 150 and 210
+# el.deg, twelve more zoo machines; about 12 s of CPU, 40 % of the campaign) is neither in the claim's
+# statement nor in its verdict: `python -m fullspeed.workflows.lock_campaign OUT` runs it beside the original
+# set and prints both, and tests/test_lock.py runs a sample of it.
+@register("B-LOCK", cost=16)
 def lock(out: Path) -> Measurement:
     folder = sweep_dir(out, "B-LOCK")
     shutil.rmtree(folder, ignore_errors=True)   # measured afresh (common.sweep_dir)
-    rows = lock_campaign.run_campaign(folder)
+    rows = lock_campaign.run_campaign(folder, added=False)
     s = lock_campaign.summary(rows)
     (out / "B-LOCK-table.md").write_text(lock_campaign.table(s) + "\n")
-    # the claim's campaign is the original set; the added probes (and the
-    # whole) are reported beside it under their own names
-    value = {}
-    for prefix, key in (("", "original set"), ("added_", "added set"), ("enlarged_", "all")):
-        a = s.get(key, s["all"])
-        h = s.get(f"{key}, healthy", s["healthy"])
-        value.update({f"{prefix}runs": a["runs"], f"{prefix}true_losses": a["true_losses"],
-                      f"{prefix}detected": a["detected"], f"{prefix}detection_pct": a["detection_pct"],
-                      f"{prefix}healthy_runs": h["not_lost"], f"{prefix}false_alarms_healthy": h["false_alarms"],
-                      f"{prefix}false_alarm_pct": h["false_alarm_pct"],
-                      f"{prefix}flagged_without_true_loss": a["false_alarms"], f"{prefix}of_them_slipping": a["slipping_flags"],
-                      f"{prefix}delay_median_ms": a["delay_median_ms"], f"{prefix}delay_worst_ms": a["delay_worst_ms"],
-                      f"{prefix}refused": a["errors"]})
+    a, h = s["all"], s["healthy"]
+    value = {"runs": a["runs"], "true_losses": a["true_losses"], "detected": a["detected"],
+             "detection_pct": a["detection_pct"], "healthy_runs": h["not_lost"],
+             "false_alarms_healthy": h["false_alarms"], "false_alarm_pct": h["false_alarm_pct"],
+             "flagged_without_true_loss": a["false_alarms"], "of_them_slipping": a["slipping_flags"],
+             "delay_median_ms": a["delay_median_ms"], "delay_worst_ms": a["delay_worst_ms"], "refused": a["errors"]}
     ok = (value["detection_pct"] is not None and value["detection_pct"] >= 99.0
           and value["false_alarm_pct"] is not None and value["false_alarm_pct"] <= 1.0
           and value["delay_median_ms"] is not None and value["delay_median_ms"] <= 20.0)
-    a = s["all"]
-    flagged = [r for r in rows if r.get("set") == "original" and lock_campaign.judge(r)["false_alarm"]]
+    flagged = [r for r in rows if lock_campaign.judge(r)["false_alarm"]]
     stopped = sum(r["stop_reason"] not in ("done", "error") for r in flagged)
-    wrong = [r for r in lock_campaign.misses(rows) if r.get("set") == "added"
-             and (lock_campaign.judge(r)["lost"] or r["kind"] == "healthy")]
     pol = [r["flag_at"] for r in rows if r["kind"] == "polarity" and r.get("flag_at") is not None]
     fig = _figure_lock(rows, out / "B-LOCK.png", f"B-LOCK: {a['runs']} runs, {a['true_losses']} true losses")
     note = (f"Campaign fullspeed.workflows.lock_campaign (seed {lock_campaign.SEED}), monitor in detect mode so that every run "
-            "goes on to its end: " + lock_campaign.DESCRIPTION + " Truth: metrics.true_loss_at (the loops' angle "
+            "goes on to its end; the claim's " + lock_campaign.ORIGINAL
+            + " Truth: metrics.true_loss_at (the loops' angle "
             "more than 90 el.deg off in a sensorless stage for 20 ms net). Delay: first lock_lost minus the true "
             "loss, 0 for a flag before it. False alarms: runs of the healthy kind that never truly lost and were "
-            f"flagged. The claim is judged on the original set ({value['runs']} runs); the added set (probes of the "
-            f"slip and jump checks, the full range, more pi-off starts) gives detection {value['added_detection_pct']:.1f} % "
-            f"of {value['added_true_losses']}, {value['added_false_alarms_healthy']} false alarms in "
-            f"{value['added_healthy_runs']} healthy runs, median delay {value['added_delay_median_ms']:.0f} ms (its true "
-            "losses are mostly pi-off starts, found when the acceleration answers the rising torque the other way "
-            "(the torque's sign), the runaway's implied load passes the rating or the back-EMF shows them"
-            + (f", {1e3 * min(pol):.0f}-{1e3 * max(pol):.0f} ms after the start, median {1e3 * float(np.median(pol)):.0f} ms"
-               if pol else "") + "); wrong there: "
-            + ("; ".join(f"{r['base']} {r['label']} ({'missed' if lock_campaign.judge(r)['lost'] else 'flagged'}, "
-                         f"{r['stop_reason']}, max error {r['max_err_deg']:.0f} el.deg)" for r in wrong) or "none")
-            + ". Beside them, "
-            f"{value['flagged_without_true_loss']} runs of the original set were flagged without a true loss; "
+            f"flagged: {value['false_alarms_healthy']} in {value['healthy_runs']} (none in 190 bounds the rate below "
+            "1.6 % with 95 % confidence). The pi-off starts"
+            + (f" were flagged {1e3 * min(pol):.0f}-{1e3 * max(pol):.0f} ms after the start, median "
+               f"{1e3 * float(np.median(pol)):.0f} ms" if pol else " were not flagged") + ". Beside them, "
+            f"{value['flagged_without_true_loss']} runs were flagged without a true loss; "
             f"{value['of_them_slipping']} of these had the error past 90 el.deg for 20 ms or more in all (an estimate "
             "slipping through +-180 el.deg, which the net count of the truth does not see as lost), the others are "
             f"overloads beyond the torque limit and parameters off by x2 that swing the estimate; {stopped} of the "
-            f"{len(flagged)} ended in a protection stop. By kind and set: B-LOCK-table.md."
+            f"{len(flagged)} ended in a protection stop. By kind: B-LOCK-table.md. The campaign's added set (144 "
+            "probes of the slip and jump checks: the yang2022 full range as a base, pi-off starts from 150 and 210 "
+            "el.deg, twelve more zoo machines) is not the claim's and is not run here: python -m "
+            "fullspeed.workflows.lock_campaign OUT runs it beside this set."
             + "".join(f" Zoo machine {k} left out: its scenario is refused ({why})." for k, why in
                       lock_campaign.ZOO_REFUSED.items()))
     return Measurement(value, bool(ok), note, [fig])
@@ -418,7 +410,7 @@ IDENT_SAMPLE = 100
 IDENTIFIED: dict[Path, dict[int, dict]] = {}
 
 
-@register("B-IDENT", shares="the zoo's runs", cost=32)
+@register("B-IDENT", shares="the zoo's runs", cost=31)
 def ident(out: Path) -> Measurement:
     # B-MAPID's second half runs its first machines on their identified files: written here
     rows = zoo_campaign(range(IDENT_SAMPLE), out / "B-IDENT-runs", keep=MAPID_KEEP)
@@ -456,7 +448,7 @@ def ident(out: Path) -> Measurement:
 
 
 
-@register("B-MAPID", shares="the zoo's runs", cost=10)
+@register("B-MAPID", shares="the zoo's runs", cost=7)
 def mapid(out: Path) -> Measurement:
     ks = range(0, 2 * MAPID_SAMPLE, 2)
     known = IDENTIFIED.get(out, {})

@@ -35,7 +35,7 @@ def loop_within_claim(host: dict, target: dict) -> dict[str, bool]:
     return out
 
 
-@register("B-PIL", cost=28)
+@register("B-PIL", cost=18)
 def pil(out: Path) -> Measurement:
     if not BENCH.is_file():
         return Measurement(None, False, "not measured: bench/pil.py is not here (an installed package without "
