@@ -270,7 +270,7 @@ def _machine_ok(r: dict) -> bool:
             and r["err_max"] < ANGLE_MAX and r["steady_mean"] is not None and abs(r["steady_mean"]) < STEADY_MEAN)
 
 
-@register("B-REAL", cost=13)
+@register("B-REAL", cost=16)
 def real(out: Path) -> Measurement:
     names = published_machines()
     angles = {n: sensorless_angle(n) for n in names}
