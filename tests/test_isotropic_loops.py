@@ -72,6 +72,16 @@ def test_the_switch_keeps_the_integrals_and_back_restores_the_design():
     assert cc.pi_q.cfg.k_p == k_p_q and (cc.pi_d.integ, cc.pi_q.integ) == (-2.0, 3.0)
 
 
+def test_explicit_gains_are_kept_and_the_ask_is_remembered():
+    """A paper's gains stay as given; the ask is kept, so that the drive,
+    which compares with it, calls once per change and not every step."""
+    cc = ffi.new("fs_current_ctrl *")
+    cfg = ffi.new("fs_current_ctrl_config *", [Ts, R, L_d, L_q, 0.0, bw, 1, 10.0, 500.0, 60.0, 3000.0])
+    assert lib.fs_current_ctrl_init(cc, cfg) == lib.FS_OK
+    lib.fs_current_ctrl_set_isotropic(cc, True)
+    assert cc.iso_asked and not cc.iso and cc.pi_q.cfg.k_p == 60.0 and cc.pi_d.cfg.k_p == 10.0
+
+
 @pytest.mark.parametrize("name", ["baldor-ecs101m0h7ef4", "syre-thor"])
 def test_a_pm_syrm_starts_from_a_rotor_90_degrees_off(name):
     """B-REAL's full range from an initial angle 90 el.deg from its own

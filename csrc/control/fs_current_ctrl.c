@@ -56,6 +56,7 @@ FS_COLD fs_status fs_current_ctrl_init(fs_current_ctrl *cc, const fs_current_ctr
     if (st != FS_OK) return st;
     st = design_axis(&cc->pi_q, cfg->Ts, cfg->L_q, cfg->R_s, cfg->bandwidth, cfg->k_p_q, cfg->k_i_q);
     if (st != FS_OK) return st;
+    cc->iso_asked = false;
     cc->iso = false;
     cc->L_d_pi = cfg->L_d;
     cc->L_q_pi = cfg->L_q;
@@ -80,13 +81,15 @@ FS_COLD void fs_current_ctrl_set_isotropic(fs_current_ctrl *cc, bool on)
 {
     const fs_current_ctrl_config *c = &cc->cfg;
     const bool designed = (c->k_p_d == 0.0f) && (c->k_i_d == 0.0f);
-    if (designed && (on != cc->iso)) {
+    const bool iso = on && designed;
+    cc->iso_asked = on;
+    if (iso != cc->iso) {
         const float L_min = fs_minf(c->L_d, c->L_q);
         const float integ_d = cc->pi_d.integ;
         const float integ_q = cc->pi_q.integ;
-        cc->iso = on;
-        cc->L_d_pi = on ? L_min : c->L_d;
-        cc->L_q_pi = on ? L_min : c->L_q;
+        cc->iso = iso;
+        cc->L_d_pi = iso ? L_min : c->L_d;
+        cc->L_q_pi = iso ? L_min : c->L_q;
         sampled_plant(c->Ts, cc->L_d_pi, c->R_s, &cc->a_d, &cc->b_d);
         sampled_plant(c->Ts, cc->L_q_pi, c->R_s, &cc->a_q, &cc->b_q);
         /* checked at init with the larger inductances: the smaller one's gains are finite too */

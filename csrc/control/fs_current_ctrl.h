@@ -54,8 +54,10 @@ typedef struct {
     bool map;
     fs_dq i0, psi0;
     float L_dd, L_qq, s_d, s_q;
-    /* fs_current_ctrl_set_isotropic: both axes on the smaller inductance; the
-     * inductances the PIs and the predictor's plant are designed for */
+    /* fs_current_ctrl_set_isotropic: its caller's last ask, and whether both
+     * axes are on the smaller inductance (asked, and the gains designed
+     * here); the inductances the PIs and the predictor's plant are designed for */
+    bool iso_asked;
     bool iso;
     float L_d_pi;
     float L_q_pi;

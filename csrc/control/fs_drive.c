@@ -886,7 +886,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
         const bool locking = polarity && (drive_motion(c) ? (drv->mt.stage == (int)FS_MOTION_LOCK)
                                                            : (drv->pol.stage == (int)FS_POLARITY_LOCK));
         const bool unsure = in->sensorless && (starting || locking || recovering);
-        if (unsure != drv->cc.iso) {
+        if (unsure != drv->cc.iso_asked) {
             fs_current_ctrl_set_isotropic(&drv->cc, unsure);
         }
         i_ref = drive_current_ref(drv, in, i_loop, w_e, weakens, &T_ref);
