@@ -192,8 +192,9 @@ def held_scenario(name: str, rpm: float, angle: str) -> dict:
     held at the speed, and which lost SyR-e's THOR from 1,037 rpm up. The
     reference on the shaft's own speed made the encoder drive brake at its
     full torque on the ramp: the 2DOF speed loop without the ramp's
-    acceleration lags it, and the step from there tripped the Baldor.) The ramp is no faster than the machine's own acceleration at
-    rated torque (J w / T_rated, at least RAMP_MIN), so that the sensorless
+    acceleration lags it, and the step from there tripped the Baldor.) The
+    ramp is no faster than the machine's own acceleration at rated torque
+    (J w / T_rated, at least RAMP_MIN), so that the sensorless
     drive passes its hand-over as it would alone; a flying start at speed is
     not what is measured. SETTLE after the shaft is at speed the reference
     steps to where the speed loop asks for its most torque at once
@@ -319,7 +320,8 @@ def real(out: Path) -> Measurement:
             t = runs_turned[n] or {"refused": None, "stop_reason": "not run"}
             turned_ok = _machine_ok(t)
             rows[n]["turned"] = {k: t.get(k) for k in ("stop_reason", "lock_lost_at", "err_max", "steady_mean")} | {"run_ok": turned_ok}
-            rows[n]["run_ok"] = run_ok = run_ok and turned_ok
+            run_ok = run_ok and turned_ok
+            rows[n]["run_ok"] = run_ok
         ok_all &= run_ok and held_ok
     fig = _figure(rows, out)
     n_run = sum(v["run_ok"] and not v.get("refused") for v in rows.values())
