@@ -123,6 +123,7 @@ void fs_monitor_reset(fs_monitor *m)
     m->e_s1.d = m->e_s1.q = m->e_s2.d = m->e_s2.q = 0.0f;
     m->e_d = m->e_q = m->x_f = m->p_f = 0.0f;
     m->w_f = m->T_f = m->id_f = m->i_f = m->ierr_f = 0.0f;
+    m->iq_f = 0.0f;
     m->w_f2 = m->w_f3 = m->T_f2 = m->T_f3 = m->c_xy = m->c_xx = 0.0f;
     m->th_prev = m->w_prev = m->jump = 0.0f;
     m->jumped = false;
@@ -161,6 +162,7 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
         m->th_prev = in->theta;
         m->w_prev = in->w;
         m->T_f = m->T_f2 = m->T_f3 = in->T_ref;
+        m->iq_f = in->i_dq.q;
         m->i_prev = in->i;
         m->u_q1 = m->u_q2 = in->u_next;
         return 0.0f;
@@ -204,6 +206,8 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
     m->c_xy += m->b_c * (x * y - m->c_xy);
     m->c_xx += m->b_c * (x * x - m->c_xx);
     m->id_f += b * (i_dq.d - m->id_f);
+    const float diq = b * (i_dq.q - m->iq_f);   /* the low-passed q current's change this period */
+    m->iq_f += diq;
     m->i_f += b * (sqrtf(i_dq.d * i_dq.d + i_dq.q * i_dq.q) - m->i_f);
     m->ierr_f += b * (sqrtf(in->i_err.d * in->i_err.d + in->i_err.q * in->i_err.q) - m->ierr_f);
     m->i_prev = in->i;
@@ -214,14 +218,15 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
     const float aw = fabsf(m->w_f);
     const float s = m->w_f < 0.0f ? -1.0f : 1.0f;
     m->E_hat = fs_maxf(aw * (c->psi_f + m->L_dq * m->id_f), 0.0f);
-    m->E_err = m->u_err * in->u_dc + c->R_s * m->i_f + aw * m->L_max * fabsf(m->id_f);
+    const float e_iq = m->L_dq * diq / c->Ts;   /* (L_d - L_q) di_q/dt, low-passed as e_q (header, 1.) */
+    m->E_err = m->u_err * in->u_dc + c->R_s * m->i_f + aw * m->L_max * fabsf(m->id_f) + fabsf(e_iq);
     /* d(w_f)/dt: the low-passed speed's own derivative, s / (tau s + 1) w */
     const float T_L = m->T_f - m->J_p * (m->w_f - w_f_prev) / c->Ts - m->B_p * m->w_f;
     m->T_L_hat += b * (T_L - m->T_L_hat);   /* a second pole: the speed's noise differentiated */
     if (m->k < m->n_warm) return 0.0f;
     m->jumped = m->jumped || fabsf(m->jump) > 0.5f * FS_PI;
 
-    const float p = s * m->e_q;
+    const float p = s * (m->e_q + e_iq);
     /* where the loops' speed makes an EMF that stands out, one that does not
      * show in their frame is a loss; anywhere, one that points backwards
      * beyond the error bound is */

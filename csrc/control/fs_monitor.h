@@ -14,7 +14,14 @@
  *    (p = sgn(w_hat) e_q), it is compared with E_hat = |w_hat| psi_f +
  *    w_hat (L_d - L_q) i_d, what the loops' speed says:
  *      r_dir = 1 + (k_dir E_hat - E_err - p) / (E_hat + E_err)
- *    exceeds 1 when p < k_dir E_hat - E_err. A pi-off estimate gives p =
+ *    exceeds 1 when p < k_dir E_hat - E_err. The q current's rate is taken
+ *    out of p first, p = sgn(w_hat) (e_q + (L_d - L_q) di_q/dt) (the same
+ *    low-pass), and its size, |L_d - L_q| |di_q/dt|, added to E_err: the
+ *    part of E_ext that does not turn with the speed, which at standstill
+ *    under a rising load read as a backward EMF (the Baldor PM-SyRM, L_q -
+ *    L_d = 84 mH, its q current rising at 140 A/s while a load rolled it
+ *    back at -14 rpm: e_q = +15 V against E_err 6 V, a false alarm with the
+ *    estimate within 1 el.deg). A pi-off estimate gives p =
  *    -E_ext, an estimate that slips or spins against the rotor averages e_q
  *    to about 0. The k_dir term only where E_hat >= 3 E_err (an EMF that
  *    should stand out); below, r_dir > 1 only for an EMF that points
@@ -153,6 +160,7 @@ typedef struct {
     fs_dq e_s1, e_s2;         /* the EMF in the loops' frame through the pre-filter's two poles, V */
     float x_f, p_f;           /* low-passed cross and dot products of e_s2 with the last period's, V^2 */
     float w_f, T_f, id_f, i_f;    /* low-passed: speed, torque reference, d current, |i| */
+    float iq_f;               /* low-passed q current (1.: its rate, the extended EMF's part that does not turn with the speed) */
     float ierr_f;             /* low-passed |i_ref - i| */
     float w_f2, w_f3, T_f2, T_f3; /* the second and third low-passes of the speed (w_f the first) and of the torque (T_f) (6.) */
     float c_xy, c_xx;         /* the torque's sign (6.): low-passed products over t_lost, N^2 m^2 */
