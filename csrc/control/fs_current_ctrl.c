@@ -12,10 +12,9 @@ static void sampled_plant(float Ts, float L, float R, float *a, float *b)
 /* Explicit gains (k_p > 0) or the design from the bandwidth. */
 static FS_COLD fs_status design_axis(fs_pi *pi, float Ts, float L, float R, float alpha, float k_p, float k_i)
 {
-    fs_pi_config c = {Ts, k_p, k_p, k_i, 0.0f};
+    const fs_pi_config c = {Ts, k_p, k_p, k_i, 0.0f};
     /* limited as a vector by the modulator, see fs_current_ctrl_update */
-    fs_status st = k_p > 0.0f ? FS_OK : fs_pi_design(&c, Ts, L, R, alpha, 0.0f);
-    return st != FS_OK ? st : fs_pi_init(pi, &c);
+    return k_p > 0.0f ? fs_pi_init(pi, &c) : fs_pi_design_init(pi, Ts, L, R, alpha, 0.0f);
 }
 
 /* One axis of fs_current_ctrl_internal_model (fs_current_ctrl.h): alpha L

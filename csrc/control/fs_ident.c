@@ -221,10 +221,9 @@ static void ident_goto(fs_ident *id, int step)
 /* The current loops' PIs for inductances L_d, L_q and resistance R. */
 static void ident_design_pi(fs_ident *id, float L_d, float L_q, float R)
 {
-    fs_pi_config c;
     const float u_lim = (id->u_max > 0.0f) ? id->u_max : 1.0f;
-    if (fs_pi_design(&c, id->cfg.Ts, L_d, R, id->w_c, u_lim) == FS_OK) { (void)fs_pi_init(&id->pi_d, &c); }
-    if (fs_pi_design(&c, id->cfg.Ts, L_q, R, id->w_c, u_lim) == FS_OK) { (void)fs_pi_init(&id->pi_q, &c); }
+    (void)fs_pi_design_init(&id->pi_d, id->cfg.Ts, L_d, R, id->w_c, u_lim);   /* a failed design leaves the PI as it was */
+    (void)fs_pi_design_init(&id->pi_q, id->cfg.Ts, L_q, R, id->w_c, u_lim);
 }
 
 /* The stationary inverter error of the fitted leg model at the phase currents of i_ab. */

@@ -56,11 +56,8 @@ FS_COLD fs_status fs_mapid_init(fs_mapid *m, const fs_mapid_config *cfg)
     }
     else {
         m->cfg = *cfg;
-        fs_pi_config c;
-        fs_status st = fs_pi_design(&c, cfg->Ts, cfg->L_d, cfg->R_s, cfg->w_c, 0.0f);
-        if (st == FS_OK) { st = fs_pi_init(&m->pi_d, &c); }
-        if (st == FS_OK) { st = fs_pi_design(&c, cfg->Ts, cfg->L_q, cfg->R_s, cfg->w_c, 0.0f); }
-        if (st == FS_OK) { st = fs_pi_init(&m->pi_q, &c); }
+        fs_status st = fs_pi_design_init(&m->pi_d, cfg->Ts, cfg->L_d, cfg->R_s, cfg->w_c, 0.0f);
+        if (st == FS_OK) { st = fs_pi_design_init(&m->pi_q, cfg->Ts, cfg->L_q, cfg->R_s, cfg->w_c, 0.0f); }
         if (st != FS_OK) { ret = st; }
         else {
             fs_mapid_reset(m);

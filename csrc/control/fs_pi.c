@@ -43,6 +43,14 @@ FS_COLD fs_status fs_pi_design(fs_pi_config *cfg, float Ts, float L, float R, fl
     return ret;
 }
 
+FS_COLD fs_status fs_pi_design_init(fs_pi *pi, float Ts, float L, float R, float alpha, float u_max)
+{
+    fs_pi_config c;
+    fs_status st = fs_pi_design(&c, Ts, L, R, alpha, u_max);
+    if (st == FS_OK) { st = fs_pi_init(pi, &c); }
+    return st;
+}
+
 void fs_pi_reset(fs_pi *pi) { pi->integ = 0.0f; }
 
 float fs_pi_output(const fs_pi *pi, float ref, float meas)

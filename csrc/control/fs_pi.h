@@ -34,6 +34,9 @@ fs_status fs_pi_init(fs_pi *pi, const fs_pi_config *cfg);
  * For small alpha Ts these are k_t = alpha L, k_p = 2 alpha L - R,
  * k_i = alpha^2 L (Harnefors' continuous-time 2DOF design). */
 fs_status fs_pi_design(fs_pi_config *cfg, float Ts, float L, float R, float alpha, float u_max);
+/* fs_pi_design, then fs_pi_init with its gains: the status of the first
+ * that fails (the PI untouched where the design does). */
+fs_status fs_pi_design_init(fs_pi *pi, float Ts, float L, float R, float alpha, float u_max);
 void fs_pi_reset(fs_pi *pi);
 /* Unlimited output for (r, y); does not change the state. */
 float fs_pi_output(const fs_pi *pi, float ref, float meas);

@@ -20,18 +20,12 @@ FS_COLD fs_status fs_xyctrl_init(fs_xyctrl *x, const fs_xyctrl_config *cfg)
         else if (!fs_pos(c->bandwidth) || !((c->bandwidth * c->Ts) <= 0.25f)) { ret = FS_ERR_BANDWIDTH; }
         else {
             x->cfg = *cfg;
-            fs_pi_config pc;
-            fs_status st = fs_pi_design(&pc, c->Ts, c->L_d3, c->R_s, c->bandwidth, 0.0f);
-            if (st == FS_OK) { st = fs_pi_init(&x->pi_d3, &pc); }
+            fs_status st = fs_pi_design_init(&x->pi_d3, c->Ts, c->L_d3, c->R_s, c->bandwidth, 0.0f);
+            if (st == FS_OK) { st = fs_pi_design_init(&x->pi_q3, c->Ts, c->L_q3, c->R_s, c->bandwidth, 0.0f); }
             if (st != FS_OK) { ret = st; }
             else {
-                st = fs_pi_design(&pc, c->Ts, c->L_q3, c->R_s, c->bandwidth, 0.0f);
-                if (st == FS_OK) { st = fs_pi_init(&x->pi_q3, &pc); }
-                if (st != FS_OK) { ret = st; }
-                else {
-                    fs_xyctrl_reset(x);
-                    ret = FS_OK;
-                }
+                fs_xyctrl_reset(x);
+                ret = FS_OK;
             }
         }
     }
