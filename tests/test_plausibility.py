@@ -137,3 +137,36 @@ def test_pole_pairs_given_as_poles_on_a_reluctance_machine_are_named(name, ratio
     (w,) = plausibility(d)
     assert w.startswith("machine.pole_pairs:") and "on its flux map" in w and ratio in w
     assert f"pole_pairs given as poles ({d['pole_pairs']} for {d['pole_pairs'] // 2} pairs)" in w
+
+
+def rated_speed(d: dict) -> list[str]:
+    """The rated-speed lines of a speed scenario on machine table d (its link, its current limit)."""
+    sc = scenario_from_dict({"name": "p", "duration": 0.1, "machine": copy.deepcopy(d),
+                             "controller": {"mode": "speed"}, "references": {"speed_rpm": 100.0}})
+    return [w for w in sc.warnings if w.startswith(("machine.rated.speed_rpm", "machine.rated.power", "machine.electrical.R_s"))]
+
+
+def test_a_rated_speed_given_in_rad_s_is_named_not_r_s():
+    """The trial's Prius MG2 with its 1200 rpm typed as 125.7 (rad/s): the
+    copper loss against T_rated w_rated (137 % of a power ten times too
+    small) had named R_s; the rated power, where given, or the voltage the
+    rated current leaves unused at rated speed now name the speed."""
+    assert rated_speed(prius()) == []
+    assert rated_speed(prius(rated__power=50e3)) == []   # ORNL's 50 kW: 0.995 x 400 N m at 1200 rpm
+    w_rad_s = 1200.0 * 2.0 * math.pi / 60.0
+    (w,) = rated_speed(prius(rated__speed_rpm=round(w_rad_s, 1), rated__power=50e3))
+    assert w.startswith("machine.rated.speed_rpm:") and "9.5 x" in w and "rad/s" in w and "1200.3 rpm" in w
+    # without the power: the rated current on MTPA meets the link's voltage at 570 rpm on this linear copy,
+    # 4.5 x the 125.7 rpm given
+    (w,) = rated_speed(prius(rated__speed_rpm=round(w_rad_s, 1)))
+    assert w.startswith("machine.rated.speed_rpm:") and "0.221 x" in w and "569.8" in w and "rad/s" in w
+    # a power in kW is the power's mistake
+    (w,) = rated_speed(prius(rated__power=50.0))
+    assert w.startswith("machine.rated.power:") and "kW" in w
+
+
+def test_the_rated_speed_check_is_quiet_on_the_catalog_and_the_zoo():
+    for name in catalog_names():
+        assert rated_speed(catalog_data(name)) == [], name
+    for k in range(0, zoo.SIZE, 3):
+        assert rated_speed(zoo.machine(k)) == [], k

@@ -12,10 +12,11 @@ hardware.
 - plausibility: parameters far outside what machines have (time constants,
   the back-EMF at rated speed against the rated voltage or the link, the
   torque at rated current with its reluctance part against the rated
-  torque, copper losses), which are unit and definition mistakes more often
-  than machines (H for mH, kg m^2 for g m^2, poles for pole pairs, psi_f
-  from a line-to-line Ke, the rated current as rms), each line naming the
-  field and the likely mistake;
+  torque, the rated speed against the rated power or the voltage limit,
+  copper losses), which are unit and definition mistakes more often than
+  machines (H for mH, kg m^2 for g m^2, poles for pole pairs, psi_f from a
+  line-to-line Ke, the rated current as rms, the rated speed in rad/s, the
+  power in kW), each line naming the field and the likely mistake;
 - the speed loop against the observer whose speed it takes (a given
   controller.bw_speed above what design.scenario allows it);
 - polarity pulses on a machine without the d-axis saturation asymmetry
@@ -65,6 +66,14 @@ K_T_TOTAL = (0.7, 2.4)
 # 2: 2.10; SyR-e's THOR 1.00 -> 1.99), which on a reluctance machine the back-EMF check cannot see (its magnet
 # flux is small)
 K_T_MAP = (0.7, 1.6)
+# The rated speed over the speed at which the rated current on MTPA meets the voltage limit (its base speed):
+# the catalog's 0.58 (grin-all-axle-5t) .. 2.04 (hefei-h27, rated deep in flux weakening); a machine whose
+# rated speed leaves it more than three quarters of its voltage unused is a speed given in rad/s (the catalog's
+# then at 0.06..0.21) or krpm more often than a machine
+RATED_SPEED_MIN = 0.25
+# The rated power over T_rated w_rated, where the machine gives it: the catalog's 0.99..1.27 (the power at
+# base speed, or above it in flux weakening); a speed in rad/s puts it at x 9.55, a power in kW at / 1000
+POWER_PER_TW = (0.3, 3.0)
 COPPER = 0.5             # copper losses at rated current, of rated power: small low-voltage machines reach 0.4 (yang2022: 0.41 at its 40 A rms)
 # psi_f (Wb, peak phase flux linkage) from a datasheet's Ke (V per 1000 rpm, line-to-line rms), as the
 # machine template says it (model.reference.machine_template)
@@ -110,9 +119,11 @@ def warnings_of(d: dict, m, bw_speed_given: bool = False) -> list[str]:
                    f"{TAU_M[0]:g}..{TAU_M[1]:g} s: check J's unit (kg m^2)")
     out += emf_warnings(m, u_lin)
     out += torque_warnings(m)
+    speed = rated_speed_warnings(d, m)
+    out += speed
     p_rated = m.T_rated * m.w_m_rated
     loss = 0.5 * m.phases * m.R_s * m.i_rated ** 2
-    if loss > COPPER * p_rated:
+    if loss > COPPER * p_rated and not speed:   # a wrong rated speed is the wrong rated power too
         out.append(f"machine.electrical.R_s: the copper losses at rated current, {loss:.4g} W, are {loss / p_rated:.0%} "
                    f"of the rated power: check R_s (ohm, per phase)")
 
@@ -363,6 +374,39 @@ def _mistakes(m, psi_ok: bool, p_ok: bool, henry_ok: bool = False) -> list[tuple
     if henry_ok:
         out.append(("machine.electrical.L_d", f"L_d and L_q in mH typed as H ({m.L_d:g} and {m.L_q:g})"))
     return out
+
+
+def rated_speed_warnings(d: dict, m) -> list[str]:
+    """The rated speed against the rated power where the machine gives it
+    (POWER_PER_TW), else against the speed at which the rated current on
+    MTPA meets the scenario's voltage limit (RATED_SPEED_MIN), naming a
+    speed given in rad/s where rpm would fit."""
+    rpm = rad_s_to_rpm(m.w_m_rated)
+    as_rad_s = f"likely the rated speed given in rad/s ({rpm:g} rad/s is {rad_s_to_rpm(rpm):.5g} rpm)"
+    if m.P_rated:
+        r = m.P_rated / (m.T_rated * m.w_m_rated)
+        if POWER_PER_TW[0] <= r <= POWER_PER_TW[1]:
+            return []
+        head = (f"the rated power, {m.P_rated:.4g} W, is {r:.3g} x the rated torque at the rated speed "
+                f"({m.T_rated:g} N m at {rpm:g} rpm), outside {POWER_PER_TW[0]:g}..{POWER_PER_TW[1]:g}")
+        if POWER_PER_TW[0] <= r / (60.0 / (2.0 * math.pi)) <= POWER_PER_TW[1]:
+            return [f"machine.rated.speed_rpm: {head}: {as_rad_s}"]
+        if POWER_PER_TW[0] <= r * 1e3 <= POWER_PER_TW[1]:
+            return [f"machine.rated.power: {head}: likely the power given in kW (W)"]
+        return [f"machine.rated.power: {head}: check the rated power (W), torque (N m) and speed_rpm"]
+    try:
+        lim, how = _limits(d, m, coarse=True)
+    except ConfigError:   # a flux map short of the scenario's i_max: said by envelope_warnings
+        return []
+    _, i_d, i_q = lim.mtpa(np.array([min(m.i_rated, lim.i_max)]))
+    w_base = float(lim.w_limit(i_d, i_q)[0]) / m.pole_pairs
+    r = m.w_m_rated / w_base if w_base > 0 else math.inf
+    if r >= RATED_SPEED_MIN:
+        return []
+    why = as_rad_s if r * 60.0 / (2.0 * math.pi) >= RATED_SPEED_MIN else "check speed_rpm, psi_f (Wb) and converter.u_dc"
+    return [f"machine.rated.speed_rpm: {rpm:g} rpm is {r:.3g} x the speed at which the rated current on MTPA "
+            f"({min(m.i_rated, lim.i_max):g} A) meets the voltage limit ({rad_s_to_rpm(w_base):.5g} rpm, {how}), "
+            f"below {RATED_SPEED_MIN:g}: {why}"]
 
 
 def _likely(found: list[tuple[str, str]], first: str, otherwise: str) -> str:

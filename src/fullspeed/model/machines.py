@@ -200,6 +200,7 @@ class Machine:
     # the bench's limits and bandwidths as given or designed (design.rules.Value, by key;
     # empty until design.machine.design_machine has formed them)
     design: dict = field(default_factory=dict)
+    P_rated: float | None = None  # W, the rated power where given ([rated] power)
     origin: str | None = None     # where its table was read (a machine file, the scenario holding it): errors name it
     prefix: str = "machine"       # the fields' prefix in that file's errors
 
@@ -274,7 +275,7 @@ def parse_machine(data: dict, source: str | None = None, prefix: str = "machine"
         R_s=e["R_s"], L_d=e["L_d"], L_q=e["L_q"], psi_f=e["psi_f"],
         J=m["J"], B=m["B"], T_coulomb=m["T_coulomb"],
         T_rated=r["torque"], i_rated=r["current"], w_m_rated=rpm_to_rad_s(r["speed_rpm"]), u_rated=r["voltage"],
-        magnetic=d["magnetic"], bench=b, extra=extra, source=d["source"], description=d["description"],
+        P_rated=r["power"], magnetic=d["magnetic"], bench=b, extra=extra, source=d["source"], description=d["description"],
         L_d3=th["L_d3"], L_q3=th["L_q3"], psi_f3=th["psi_f3"], thermal=d["thermal"],
         harmonics=d["harmonics"], losses=d["losses"], converter=d["converter"], origin=source, prefix=prefix,
     )
