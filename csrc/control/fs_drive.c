@@ -374,6 +374,13 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
             if (!drv->injecting && c->hfi.lag) {
                 fs_hfi_reset(&drv->hfi, drv->blend.theta_hat, drv->blend.w_hat);
                 drv->hfi.gain = drv->hfi.gain_prev = 0.0f;   /* fades in */
+                /* ... and its error is read once the filters have settled on the whole carrier: ramped in over
+                 * n_settle, the carrier leaves them behind by a third of it at the ramp's end (its slope times
+                 * their time constant), and the positive carrier's image that the negative sequence's filter
+                 * then held turned the Baldor PM-SyRM's estimate by 12 el.deg at its first corrections
+                 * (B-REAL's reversal, through 100 rpm); at standstill (fs_drive_reset) the start's own
+                 * stages wait for it */
+                drv->hfi.k_settle = 2 * drv->hfi.n_settle;
             } else if (!drv->injecting) {
                 fs_hfi_set_angle(&drv->hfi, drv->blend.theta_hat, drv->blend.w_hat);
             }
