@@ -191,7 +191,9 @@ void fs_fwmap_trim(fs_fwmap *f, float u, float u_plan, float x)
 {
     /* down to the base speed's x = 1 (x / (1 + trim) is the ratio without it), and at most by half */
     const float lo = fs_maxf((1.0f + f->trim) / x - 1.0f, -0.5f);
-    f->trim = fs_clampf(f->trim + f->k_trim * (u - u_plan) / u_plan, fs_minf(lo, 0.0f), 1.0f);
+    const float e = (u - u_plan) / u_plan;
+    const float k = (e > 0.0f) ? f->k_trim : (FS_FWMAP_TRIM_APPROACH * f->k_trim);   /* away from the limit fast, towards it slowly */
+    f->trim = fs_clampf(f->trim + (k * e), fs_minf(lo, 0.0f), 1.0f);
 }
 
 fs_dq fs_fwmap_step(const fs_fwmap *f, float x, float T_ref, float *T_real)

@@ -51,7 +51,8 @@
  * FS_FWMAP_TRIM_PER_BW of the current loop's bandwidth (well inside it),
  * raises x, the speed ratio the flux limit is taken at (x (1 + trim), trim
  * up to 1), and lets it back down as the excess goes; below the plan it
- * lowers x (down to 1, base speed, and at most by half), so that in
+ * lowers x (down to 1, base speed, and at most by half; at
+ * FS_FWMAP_TRIM_APPROACH of the rate, towards the limit), so that in
  * steady state the voltage asked is the plan's: the resistive drop, planned
  * for as R_s |i| (its whole magnitude against the flux's voltage), and the
  * map's interpolation leave the references inside the limit by a little,
@@ -80,6 +81,15 @@ typedef struct {
 } fs_fwmap_config;
 
 #define FS_FWMAP_TRIM_PER_BW 0.05f
+/* The trim's rate towards the voltage limit (lowering x: the voltage asked below the plan) over its
+ * rate away from it. Beyond the limit the d current is lost within a few periods (the current loops
+ * saturate and the back-EMF drives i_d towards zero, the flux and the voltage asked rise further), inside
+ * it only some torque: approached as fast as it is left, the trim overshot below its steady value, the
+ * d current collapsed, the trim wound back up, and with the back-EMF observer's angle in the loop (its
+ * torque feed-forward wrong while the loops saturate) this made a 15 Hz limit cycle: on SyR-e's THOR held
+ * by a load machine at 2,765..3,800 rpm the trim swung between -0.19 and +0.52 and the drive held 14 to
+ * 80 % less torque than with the encoder; approached at a quarter of the rate, within 0.2 % of it */
+#define FS_FWMAP_TRIM_APPROACH 0.25f
 
 typedef struct {
     float psi_mtpa;          /* Wb, |psi| of MTPA at i_max (x = 1) */
