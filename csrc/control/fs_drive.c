@@ -362,8 +362,16 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
          * blended estimate. */
         const float aw = fabsf(drv->blend.w_hat);
         /* ... and, with the blend's gate, only once the SMO has converged
-         * (fs_blend.h: a load release can carry the rotor past it before) */
-        if (c->w_inject_max > 0.0f && drv->inject_on && aw > c->w_inject_max && drv->blend.trust >= 1.0f) {
+         * (fs_blend.h: a load release can carry the rotor past it before):
+         * at full trust, or where the planned flux weakening is on (its
+         * voltage is short and the carrier's amplitude comes off it) once
+         * the SMO has converged at all. Waiting there for the trust (4 / w_o
+         * of the blend's filter) kept the carrier on SyR-e's THOR, taken by
+         * a load machine to 3,456 rpm in 0.1 s, to 3,450 rpm, 14 times
+         * w_inject_max, where the plan's voltage less the carrier's left no
+         * torque, and the drive lost the rotor */
+        const bool handed_over = (drv->blend.trust >= 1.0f) || (drv->fw_map_on && drv->smo.converged);
+        if ((c->w_inject_max > 0.0f) && drv->inject_on && (aw > c->w_inject_max) && handed_over) {
             drv->inject_on = false;
             fs_smo_hold(&drv->smo, drv->hfi.n_settle);   /* ... and out */
         } else if (c->w_inject_max > 0.0f && !drv->inject_on && aw < 0.9f * c->w_inject_max) {
