@@ -50,7 +50,9 @@ def test_a_lock_lost_at_speed_is_caught_on_the_fly_where_detect_drives_on():
     assert ev["rotor_rpm"] < -300.0                                      # caught spinning backwards
     assert ev["speed_rpm"] == pytest.approx(ev["rotor_rpm"], rel=0.1)   # on the rotor's speed
     t, err = res["t"], np.degrees(np.abs(res["theta_err"]))
-    assert np.max(err[(t > ev["t_done"] + 0.01)]) < 15.0                # on track from then on
+    # on track from then on, through the band at 6,000 rpm/s (14.9 el.deg when the injection's estimate
+    # coasted through its settling instead of following the converged SMO)
+    assert np.max(err[(t > ev["t_done"] + 0.01)]) < 10.0
     assert abs(rad_s_to_rpm(res["w_m"][-1]) - 1000.0) < 20.0
     assert m["true_loss_unanswered_at"] is None and not m["silent_failure"] and run_verdict(res) == []
     assert any("by a flying restart" in line for line in summary_lines(m))

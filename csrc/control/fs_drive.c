@@ -339,6 +339,15 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
             fs_smo_reset(&drv->smo, drv->blend.theta_hat, drv->blend.w_hat);
         }
         fs_smo_step(&drv->smo, i_f, drive_smo_u(drv, i_f));
+        /* while the injection's estimate settles it coasts on its model: where the SMO has converged, it
+         * follows the SMO instead, so that its weight in the blend and its first corrections start from the
+         * better estimate (the example lock-loss.toml, caught at -590 rpm by its flying restart and
+         * accelerating through the band at 6,000 rpm/s: the coasting estimate ran 34 el.deg off and the
+         * drive's 38, while the SMO stayed within 2) */
+        if ((drv->hfi.k_settle > 0) && drv->smo.converged) {
+            fs_hfi_set_angle(&drv->hfi, drv->smo.theta, drv->smo.w);
+            fs_hfi_set_load(&drv->hfi, drv->smo.mo.T_d_hat);
+        }
         fs_blend_step_gated(&drv->blend, drv->smo.theta, drv->hfi.theta, T_ff,   /* Fig. 6 */
                             drv->smo.converged || !c->blend.gate, drv->injecting && drv->hfi.gain >= 1.0f);
         /* With a flux map, above the band the blend is the back-EMF observer's own tracker (its torque
