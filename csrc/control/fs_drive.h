@@ -533,6 +533,7 @@ typedef struct {
     /* the start (fs_drive_start.c), past everything the run reads */
     fs_motion_test mt;       /* polarity by motion (cfg.motion.i_push > 0) */
     float mt_ff;             /* N m: the feed-forward of the motion test's push taken back out of the observers' loads */
+    bool hfi_aligned;        /* the polarity stage's estimate set on the saliency's axis from the carrier (fs_drive_start.c) */
     fs_if_start ifs;         /* the I/f frame (cfg.i_start > 0) */
 } fs_drive;
 

@@ -74,7 +74,24 @@ FS_COLD void fs_drive_start_reset(fs_drive *drv)
     if (drive_injects(c) && drive_motion(c)) fs_motion_test_reset(&drv->mt);
     if (FS_WITH_IF_START && c->i_start > 0.0f) fs_if_start_reset(&drv->ifs, 0.0f, 0.0f);
     drv->mt_ff = 0.0f;
+    drv->hfi_aligned = false;
     drv->fault = FS_FAULT_NONE;
+}
+
+/* The polarity stage's first settled step: the estimate set on the
+ * saliency's axis from the carrier's own angle (fs_hfi_axis_error), not
+ * left to the observer's pull-in, which from near 90 el.deg off (the
+ * saliency's unstable equilibrium, where eq. (26)'s sin 2 dtheta vanishes)
+ * takes arbitrarily long: SyR-e's THOR started 90 el.deg from its estimate
+ * pulled in over 80 ms, overshooting, and its light rotor (J = 0.0042 kg
+ * m^2) drifted at 6 rpm from the transient's torque, which made the motion
+ * test wait a second lock into the load's arrival and refuse. */
+static void drive_hfi_align(fs_drive *drv)
+{
+    const float theta = fs_wrap_pi(drv->hfi.theta + fs_hfi_axis_error(&drv->hfi));
+    fs_hfi_set_angle(&drv->hfi, theta, 0.0f);
+    if (drv->cfg.angle_source == (int)FS_ANGLE_BLEND) { fs_blend_reset(&drv->blend, theta, 0.0f); }
+    drv->hfi_aligned = true;
 }
 
 /* Polarity found: turn the estimates by pi if they point at the south pole. */
@@ -116,6 +133,7 @@ static void drive_motion_ff(fs_drive *drv, float i_q)
 FS_COLD fs_dq fs_drive_polarity_step(fs_drive *drv)
 {
     fs_dq i_ref = {0.0f, 0.0f};
+    if (!drv->hfi_aligned && (drv->hfi.k_settle == 0) && (drv->hfi.gain >= 1.0f)) { drive_hfi_align(drv); }
     if (drive_motion(&drv->cfg)) {
         i_ref.q = fs_motion_test_step(&drv->mt, drv->hfi.theta);
         drive_motion_ff(drv, i_ref.q);

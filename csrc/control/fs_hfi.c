@@ -125,6 +125,7 @@ FS_COLD void fs_hfi_reset(fs_hfi *h, float theta, float w)
     h->unit_n = h->unit_p;
     h->i_f.alpha = h->i_f.beta = 0.0f;
     h->i_hn = h->i_f;
+    h->ref = h->i_f;
     h->i_p = h->i_n = 0.0f;
     h->i_n_avg = h->i_n_design;
     h->eps = h->delta = h->i_q = h->iq_sum = 0.0f;
@@ -141,6 +142,13 @@ FS_COLD void fs_hfi_set_angle(fs_hfi *h, float theta, float w)
     if (h->cfg.lag) fs_motion_obs_reset(&h->obs_w, theta, w);
     h->theta = h->obs.theta_hat;
     h->w = h->cfg.lag ? h->obs_w.w_hat : h->obs.w_hat;
+}
+
+FS_COLD float fs_hfi_axis_error(const fs_hfi *h)
+{
+    const float cross = (h->ref.alpha * h->i_hn.beta) - (h->ref.beta * h->i_hn.alpha);
+    const float dot = (h->ref.alpha * h->i_hn.alpha) + (h->ref.beta * h->i_hn.beta);
+    return 0.5f * fs_atan2f(cross, dot);
 }
 
 void fs_hfi_set_load(fs_hfi *h, float T_d)
@@ -217,6 +225,7 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
      * e^{j(-theta_h + 2 (theta_hat + delta) + phi_ref)} with i_hn: e_n turned
      * by phi_ref (and by 2 delta with a table) */
     const fs_ab ref = fs_inv_park((fs_dq){e_n.alpha, e_n.beta}, h->rot_ref.alpha, h->rot_ref.beta);
+    h->ref = ref;
     const float c = ref.alpha, s = ref.beta;
     float eps_n = 0.0f;
     const bool settling = h->k_settle > 0;

@@ -208,6 +208,7 @@ typedef struct {
     /* outputs of the last step */
     fs_ab i_f;                 /* fundamental current, A */
     fs_ab i_hn;                /* negative-sequence carrier current, A */
+    fs_ab ref;                 /* its expected direction at the estimate, eq. (26) (the last step's) */
     float i_p, i_n;            /* positive and negative carrier amplitudes (the SRFFs' states), A */
     float i_n_avg;             /* the averaged negative amplitude eq. (26) divides by, A */
     float eps;                 /* eps_n / 2, rad: the angle error seen */
@@ -244,6 +245,11 @@ void fs_hfi_set_angle(fs_hfi *h, float theta, float w);
 /* The load both observers carry (N m; fs_motion_obs.h's T_d_hat): set_angle
  * and reset clear it. */
 void fs_hfi_set_load(fs_hfi *h, float T_d);
+/* The angle from the estimate to the saliency's axis, el. rad in (-pi/2, pi/2]:
+ * half the angle of the negative-sequence carrier from its expected
+ * direction (eq. (26) in full, atan2 for the small-angle eps), modulo pi
+ * (the axis, not its polarity). Meaningful once the filters have settled. */
+float fs_hfi_axis_error(const fs_hfi *h);
 /* One step on the sampled current with the torque that acted over the
  * period that just ended (N m). Returns the estimated angle. */
 float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff);
