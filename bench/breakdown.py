@@ -46,7 +46,8 @@ HERE = Path(__file__).resolve()
 SCENARIO = "bench-motulator-2kw"
 MODES = ("averaged", "switching")
 WHATS = ("base", "simulate", "metrics", "notrace")
-PLANT_FNS = ("fs_pmsm_rk4", "fs_pmsm_rk4_at", "fs_inverter_mean_voltage", "fs_inverter_segments", "fs_inverter_voltage")
+PLANT_FNS = ("fs_pmsm_rk4", "fs_pmsm_rk4_at", "fs_inverter_mean_voltage", "fs_inverter_mean_voltage_ideal",
+             "fs_inverter_segments", "fs_inverter_voltage")
 CURRENTS = ("phase_currents", "phase_currents_at")   # the state's phase currents (fs_sim.c), by either name
 ONE_ROW = 1_000_000          # trace.decimation that leaves one row of the run
 LOOP_FNS = ("fs_sim_run_steps", "fs_sim_run_cols")   # the runner's loop: row-major (fs_sim_run's), column-major (the front's)

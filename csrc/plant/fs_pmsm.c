@@ -271,19 +271,26 @@ FS_SPECIALISE void outputs(fs_pmsm *m, const double *x, const fs_pmsm_input *in,
     *T_shaft = T;
 }
 
-void fs_pmsm_outputs(fs_pmsm *m, const double *x, const fs_pmsm_input *in,
-                     double *i_d, double *i_q, double *T_e, double *T_shaft)
+void fs_pmsm_outputs_at(fs_pmsm *m, const double *x, const fs_pmsm_input *in, const fs_pmsm_at *a,
+                        double *i_d, double *i_q, double *T_e, double *T_shaft)
 {
     double i_d3, i_q3;
     const double T_fe = m->cfg.losses ? iron_drag(m, x) : 0.0;
+    const fs_pmsm_at *i_at = a && a->reuse ? a : NULL;   /* reuse: no harmonics (fs_pmsm_at_state) */
     if (m->cfg.phases == 5) {
-        outputs(m, x, in, 0.0, 0.0, 1, 0, T_fe, NULL, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
+        outputs(m, x, in, 0.0, 0.0, 1, 0, T_fe, i_at, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
     } else if (m->harm) {
         const double th = m->cfg.pole_pairs * x[FS_X_THETA_M];
         outputs(m, x, in, cos(th), sin(th), 0, 1, T_fe, NULL, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
     } else {
-        outputs(m, x, in, 0.0, 0.0, 0, 0, T_fe, NULL, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
+        outputs(m, x, in, 0.0, 0.0, 0, 0, T_fe, i_at, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
     }
+}
+
+void fs_pmsm_outputs(fs_pmsm *m, const double *x, const fs_pmsm_input *in,
+                     double *i_d, double *i_q, double *T_e, double *T_shaft)
+{
+    fs_pmsm_outputs_at(m, x, in, NULL, i_d, i_q, T_e, T_shaft);
 }
 
 void fs_pmsm_current_dq(fs_pmsm *m, const double *x, double cs, double sn, double *i_d, double *i_q)

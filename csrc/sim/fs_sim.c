@@ -499,19 +499,25 @@ static void integrate_period(fs_sim *s, double t0, int cur_ok)
             int ideal = inv->t_dead == 0.0 && inv->u_on == 0.0 && inv->r_on == 0.0 && !inv->dev.enabled;
             if (ideal) {
                 for (int k = 0; k < FS_INV_MAX_LEGS; ++k) i_ph[k] = 0.0;
-                fs_inverter_mean_voltage(inv, s->duty_now, i_ph, &in.u_alpha, &in.u_beta, &in.u_x, &in.u_y);
+                fs_inverter_mean_voltage_ideal(inv, s->duty_now, &in.u_alpha, &in.u_beta, &in.u_x, &in.u_y);
                 if (s->losses) fs_inverter_mean_legs(inv, s->duty_now, i_ph, rail, drop);
             }
             for (int m = 0; m < steps; ++m) {
                 fs_pmsm_at at;
+                const fs_pmsm_at *first = NULL;   /* the step's first stage: the state's angle and currents */
                 if (!ideal) {
                     currents_now(s, &cur_ok, i_ph, &at);
                     fs_inverter_mean_voltage(inv, s->duty_now, i_ph, &in.u_alpha, &in.u_beta, &in.u_x,
                                              &in.u_y);
                     if (s->losses) fs_inverter_mean_legs(inv, s->duty_now, i_ph, rail, drop);
+                    first = &at;
+                } else if (cur_ok) {   /* the overcurrent check's, as the switching model takes them: the same bits */
+                    at = s->cur_at;
+                    cur_ok = 0;
+                    first = &at;
                 }
                 if (s->losses) clear_current_integrals(s);
-                fs_pmsm_rk4_at(&s->pmsm, s->x, &in, hstep, ideal ? NULL : &at);
+                fs_pmsm_rk4_at(&s->pmsm, s->x, &in, hstep, first);
                 if (s->losses) meter_legs(s, rail, drop);
             }
         }
@@ -702,10 +708,11 @@ static double conduction_loss(const fs_sim *s, const double *i_ph)
     return p;
 }
 
-/* The sampling instant at t: the true phase and rotor-frame currents, and
- * the drive's inputs as the hardware gives them (the sensors, the dc link,
- * the references and the load machine's speed at t). */
-static void sample(fs_sim *s, double t, fs_drive_in *din, double *i_ph, double *i_d, double *i_q)
+/* The sampling instant at t: the true phase currents, in a the angle's
+ * cosine and sine and the rotor-frame currents (fs_pmsm_at_state), and the
+ * drive's inputs as the hardware gives them (the sensors, the dc link, the
+ * references and the load machine's speed at t). */
+static void sample(fs_sim *s, double t, fs_drive_in *din, double *i_ph, fs_pmsm_at *a)
 {
     const fs_sim_config *c = &s->cfg;
     const int p = c->plant.pole_pairs;
@@ -719,10 +726,9 @@ static void sample(fs_sim *s, double t, fs_drive_in *din, double *i_ph, double *
 
     if (s->cur_ok) {
         for (int k = 0; k < FS_INV_MAX_LEGS; ++k) i_ph[k] = s->cur_ph[k];
-        *i_d = s->cur_at.i_d;
-        *i_q = s->cur_at.i_q;
+        *a = s->cur_at;
     } else {
-        phase_currents(s, s->x, i_ph, i_d, i_q);
+        phase_currents_at(s, s->x, i_ph, a);
     }
     for (int k = 0; k < s->phases; ++k) din->i_ph[k] = (float)adc(s, k, i_ph[k], t);
     for (int k = s->phases; k < FS_PHASES_MAX; ++k) din->i_ph[k] = 0.0f;
@@ -775,9 +781,10 @@ static void command(fs_sim *s, const float *duty, const fs_imc_rect *rect)
 #endif
 
 /* The plant's channels of a trace row at time t (the state as it is, its
- * wrapped electrical angle theta_e; u_dc the dc link sampled at t), the
- * drive's left as they are. */
-FS_SPECIALISE void row_plant(fs_sim *s, double t, double theta_e, const double *i_ph, double i_d, double i_q,
+ * wrapped electrical angle theta_e, its phase currents i_ph and a as
+ * phase_currents_at gives them; u_dc the dc link sampled at t), the drive's
+ * left as they are. */
+FS_SPECIALISE void row_plant(fs_sim *s, double t, double theta_e, const double *i_ph, const fs_pmsm_at *a,
                              double u_dc, double *r, const long st)
 {
     const fs_sim_config *c = &s->cfg;
@@ -785,14 +792,14 @@ FS_SPECIALISE void row_plant(fs_sim *s, double t, double theta_e, const double *
     pin.T_load = prof(s, P_T_LOAD, t, NULL);
     pin.w_load = prof(s, P_W_LOAD, t, NULL);
     double Te, Tl, id2, iq2;
-    fs_pmsm_outputs(&s->pmsm, s->x, &pin, &id2, &iq2, &Te, &Tl);
+    fs_pmsm_outputs_at(&s->pmsm, s->x, &pin, a, &id2, &iq2, &Te, &Tl);
     r[FS_CH_T * st] = t;
     r[FS_CH_THETA_E * st] = theta_e;
     r[FS_CH_W_M * st] = s->x[FS_X_W_M];
     r[FS_CH_PSI_D * st] = s->x[FS_X_PSI_D];
     r[FS_CH_PSI_Q * st] = s->x[FS_X_PSI_Q];
-    r[FS_CH_I_D * st] = i_d;
-    r[FS_CH_I_Q * st] = i_q;
+    r[FS_CH_I_D * st] = a->i_d;
+    r[FS_CH_I_Q * st] = a->i_q;
     r[FS_CH_I_A * st] = i_ph[0];
     r[FS_CH_I_B * st] = i_ph[1];
     r[FS_CH_I_C * st] = i_ph[2];
@@ -927,9 +934,10 @@ FS_SPECIALISE int run(fs_sim *s, long long k_end, double *trace, long stride, in
         int record = (s->k % c->decimation) == 0;
         if (record && *rows >= max_rows) return FS_RUN_BUFFER_FULL;
         double t = (double)s->k * s->Tc;
-        double i_ph[FS_INV_MAX_LEGS], i_d, i_q;
+        double i_ph[FS_INV_MAX_LEGS];
+        fs_pmsm_at at;
         fs_drive_in din;
-        sample(s, t, &din, i_ph, &i_d, &i_q);
+        sample(s, t, &din, i_ph, &at);
         fs_drive_out dout;
         memset(&dout, 0, sizeof dout);   /* the fields a mode leaves unwritten (ident_step) read 0, not the stack's */
         fs_drive_step(&s->drive, &din, &dout);
@@ -937,7 +945,7 @@ FS_SPECIALISE int run(fs_sim *s, long long k_end, double *trace, long stride, in
         if (record) {
             const long st = cols ? stride : 1;
             double *r = cols ? trace + *rows : trace + (size_t)(*rows) * FS_CH_N;
-            row_plant(s, t, s->theta_e, i_ph, i_d, i_q, din.u_dc, r, st);
+            row_plant(s, t, s->theta_e, i_ph, &at, din.u_dc, r, st);
             row_drive(s, s->theta_e, &din, &dout, r, st);
             ++*rows;
         }
@@ -988,9 +996,10 @@ int fs_sim_sample(fs_sim *s, fs_drive_in *in, double *t)
 {
     if (!s || !in || !t) return FS_RUN_ERR_NULL;
     if (s->stopped) return s->stopped;
-    double i_ph[FS_INV_MAX_LEGS], i_d, i_q;
+    double i_ph[FS_INV_MAX_LEGS];
+    fs_pmsm_at at;
     *t = (double)s->k * s->Tc;
-    sample(s, *t, in, i_ph, &i_d, &i_q);
+    sample(s, *t, in, i_ph, &at);
     s->sampled = 1;
     return FS_RUN_DONE;
 }
@@ -1009,13 +1018,14 @@ void fs_sim_plant_row(fs_sim *s, double *row)
 {
     if (!s || !row) return;
     const double t = fs_sim_time(s);
-    double i_ph[FS_INV_MAX_LEGS], i_d, i_q;
-    phase_currents(s, s->x, i_ph, &i_d, &i_q);
+    double i_ph[FS_INV_MAX_LEGS];
+    fs_pmsm_at at;
+    phase_currents_at(s, s->x, i_ph, &at);
     double u_dc = s->cfg.inverter.u_dc;
     if (!s->imc && (s->prof[P_U_DC_SCALE].n > 0 || s->held[P_U_DC_SCALE]))
         u_dc = s->u_dc0 * prof(s, P_U_DC_SCALE, t, NULL);
     if (s->imc && s->k > 0) u_dc = (float)(s->g_int[1] / s->Tc);   /* as the drive samples it */
-    row_plant(s, t, wrap_pi(s->cfg.plant.pole_pairs * s->x[FS_X_THETA_M]), i_ph, i_d, i_q, (float)u_dc, row, 1);
+    row_plant(s, t, wrap_pi(s->cfg.plant.pole_pairs * s->x[FS_X_THETA_M]), i_ph, &at, (float)u_dc, row, 1);
 }
 
 void fs_sim_dc_link(fs_sim *s, double *u_dc, double *i_dc, double *p_dc)
