@@ -61,6 +61,9 @@ struct fs_sim {
     int imc_real;            /* the matrix converter with devices, dead time or meters (imc_deriv_real) */
     double e_dc, e_cond, e_rect, e_sw;   /* the converter's meters (fs_sim.h), J */
     int leg_state[FS_INV_MAX_LEGS];      /* switching inverter, with meters: the legs' states in the last segment */
+    int inv_ideal;           /* no dead time, drops or devices: the mean voltage does not depend on the currents */
+    int half_steps;          /* averaged inverter: RK4 steps a half period, */
+    double half_h;           /* each this long (substeps of T_pwm / 2) */
 };
 
 /* The runner passes drive duties to the inverter and phase currents back. */
@@ -78,12 +81,38 @@ static double prof(fs_sim *s, int p, double t, double *slope)
 
 static double pi_const(void) { return 3.14159265358979323846; }
 
+/* fmod(x, y) for y > 0 and |x| >= 2 y, bit for bit (fmod is exact, so any
+ * exact way to its value gives its bits): |x| less y 2^j where that fits,
+ * for j from the largest with y 2^j <= |x| down to 0, each difference exact
+ * (Sterbenz: m <= a < 2 m), with x's sign, a zero's too, as the controller's
+ * fs_fmod_2pi does. For |x| < 2^16 y (the electrical angle of a wrapped
+ * rotor angle is below 2 p pi); NaN, infinities and beyond take fmod. */
+#if defined(__GNUC__)
+__attribute__((noinline))   /* the rare path, kept out of wrap_pi so that wrap_pi stays inlined */
+#endif
+static double fmod_far(double x, double y)
+{
+    double a = fabs(x);
+    if (!(a < 65536.0 * y)) return fmod(x, y);
+    double m = y;
+    int n = 0;
+    while (a >= 2.0 * m) {
+        m *= 2.0;
+        ++n;
+    }
+    for (int j = 0; j <= n; ++j) {   /* a < 2 m throughout */
+        if (a >= m) a -= m;
+        m *= 0.5;
+    }
+    return copysign(a, x);
+}
+
 /* fmod(x, y) for y > 0, bit for bit, without the library call where |x| <
  * 2 y (an angle wrapped once a sample never leaves that band): fmod is exact
  * (x - n y for n = trunc(x / y)), so it is x itself for |x| < y, and for y
  * <= |x| < 2 y it is x -+ y, which the subtraction gives exactly (Sterbenz:
- * y / 2 <= |x| <= 2 y), with fmod's sign (x's) where that is zero. NaN,
- * infinities and the rest take fmod. */
+ * y / 2 <= |x| <= 2 y), with fmod's sign (x's) where that is zero. The rest
+ * take fmod_far. */
 static double fmod_near(double x, double y)
 {
     if (x >= 0.0) {
@@ -93,7 +122,7 @@ static double fmod_near(double x, double y)
         if (x > -y) return x;
         return x == -y ? -0.0 : x + y;   /* fmod keeps x's sign: -y gives -0 */
     }
-    return fmod(x, y);
+    return fmod_far(x, y);
 }
 
 static double wrap_pi(double x)
@@ -203,6 +232,7 @@ static void phase_currents(fs_sim *s, const double *x, double *i_ph, double *i_d
 }
 
 static void thermal_apply(fs_sim *s);
+static int substeps(double T, double h_max);
 
 #define FAIL(...) do { snprintf(err, (size_t)err_len, __VA_ARGS__); fs_sim_destroy(s); return NULL; } while (0)
 
@@ -315,6 +345,10 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
     s->adc_sat_time = NAN;
     for (int k = 0; k < FS_INV_MAX_LEGS; ++k)
         s->sensor_fault |= cfg->fault.i_gain[k] != 0.0 || cfg->fault.i_offset[k] != 0.0;
+    const fs_inverter_config *inv = &cfg->inverter;
+    s->inv_ideal = inv->t_dead == 0.0 && inv->u_on == 0.0 && inv->r_on == 0.0 && !inv->dev.enabled;
+    s->half_steps = substeps(0.5 * inv->T_pwm, cfg->h_max);
+    s->half_h = 0.5 * inv->T_pwm / s->half_steps;
     s->u_dc0 = cfg->inverter.u_dc;
     s->psi_f_true = cfg->plant.mag.psi_f;
     s->k_mag = 1.0;
@@ -480,9 +514,8 @@ static void integrate_period(fs_sim *s, double t0, int cur_ok)
                 if (s->losses) meter_legs(s, rail, drop);
             }
         } else {
-            double Th = 0.5 * inv->T_pwm;
-            int steps = substeps(Th, s->cfg.h_max);
-            double hstep = Th / steps;
+            const int steps = s->half_steps;
+            const double hstep = s->half_h;
             if (s->losses) {   /* one edge of each switching leg in the half period: low to high in the first */
                 int before[FS_INV_MAX_LEGS], after[FS_INV_MAX_LEGS];
                 for (int k = 0; k < s->phases; ++k) {
@@ -496,7 +529,7 @@ static void integrate_period(fs_sim *s, double t0, int cur_ok)
             }
             /* the mean voltage depends on the currents only through dead time
              * and drops: without them it is one value for the half period */
-            int ideal = inv->t_dead == 0.0 && inv->u_on == 0.0 && inv->r_on == 0.0 && !inv->dev.enabled;
+            const int ideal = s->inv_ideal;
             if (ideal) {
                 for (int k = 0; k < FS_INV_MAX_LEGS; ++k) i_ph[k] = 0.0;
                 fs_inverter_mean_voltage_ideal(inv, s->duty_now, &in.u_alpha, &in.u_beta, &in.u_x, &in.u_y);
