@@ -14,6 +14,9 @@ typedef char fs_sim_profile_check[((int)P_W_M_REF == (int)FS_SIM_W_M_REF && (int
                                    && (int)P_W_LOAD == (int)FS_SIM_W_LOAD && (int)P_U_DC_SCALE == (int)FS_SIM_U_DC_SCALE
                                    && (int)P_N == (int)FS_SIM_PROFILES) ? 1 : -1];
 
+/* The trace's channel groups a configuration can hold constant (row_group). */
+enum { G_IMC, G_THERMAL, G_METERS, G_LOSSES, G_FIVE, G_ADAPT, G_N, G_MAX = 6 };
+
 struct fs_sim {
     fs_sim_config cfg;
     fs_pmsm pmsm;
@@ -62,6 +65,7 @@ struct fs_sim {
     double e_dc, e_cond, e_rect, e_sw;   /* the converter's meters (fs_sim.h), J */
     int leg_state[FS_INV_MAX_LEGS];      /* switching inverter, with meters: the legs' states in the last segment */
     int inv_ideal;           /* no dead time, drops or devices: the mean voltage does not depend on the currents */
+    int held_group[G_N];     /* the trace's channel groups the configuration holds constant (G_*, row_group) */
     int half_steps;          /* averaged inverter: RK4 steps a half period, */
     double half_h;           /* each this long (substeps of T_pwm / 2) */
 };
@@ -361,6 +365,12 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
         s->thermal_on = 1;
         thermal_apply(s);
     }
+    s->held_group[G_IMC] = !s->imc;
+    s->held_group[G_THERMAL] = !s->thermal_on;   /* R_s and the magnet move with it alone */
+    s->held_group[G_METERS] = !s->losses && !s->imc;
+    s->held_group[G_LOSSES] = !s->losses;
+    s->held_group[G_FIVE] = s->phases != 5;
+    s->held_group[G_ADAPT] = !(cfg->drive.adapt.T_f > 0.0f);
     return s;
 }
 
@@ -813,14 +823,93 @@ static void command(fs_sim *s, const float *duty, const fs_imc_rect *rect)
 #define FS_SPECIALISE static inline
 #endif
 
+/* Channels that a run's configuration can hold constant (enum G_*, at the
+ * top), in groups: the matrix converter's (0 without it), the thermal
+ * model's (without it), the converter's meters (0 without loss meters and
+ * matrix converter), the machine's loss meters (0 without), the
+ * third-harmonic currents (0 with three phases), the controller's corrected
+ * R_s and psi_f (its configured ones without the correction). A group's
+ * values as a row writes them: */
+static const int GROUP_N[G_N] = {6, 4, 4, 3, 2, 2};
+static const int GROUP_CH[G_N][G_MAX] = {
+    {FS_CH_I_GRID_A, FS_CH_V_PN, FS_CH_U_AB, FS_CH_E_GRID, FS_CH_E_RF, FS_CH_W_FILTER},
+    {FS_CH_T_WINDING, FS_CH_T_MAGNET, FS_CH_R_S_TRUE, FS_CH_PSI_F_TRUE},
+    {FS_CH_E_DC, FS_CH_E_COND, FS_CH_E_RECT, FS_CH_E_SW},
+    {FS_CH_E_FE, FS_CH_E_MECH, FS_CH_E_SHAFT},
+    {FS_CH_I_D3, FS_CH_I_Q3},
+    {FS_CH_R_S_HAT, FS_CH_PSI_F_HAT}};
+
+FS_SPECIALISE void group_values(const fs_sim *s, const int g, double *v)
+{
+    const fs_sim_config *c = &s->cfg;
+    if (g == G_IMC) {
+        const int imc_mean = s->imc && s->k > 0;
+        v[0] = imc_mean ? s->g_int[0] / s->Tc : 0.0;
+        v[1] = imc_mean ? s->g_int[1] / s->Tc : 0.0;
+        v[2] = imc_mean ? s->g_int[2] / s->Tc : 0.0;
+        v[3] = s->imc ? s->g[FS_GRID_X_E_GRID] : 0.0;
+        v[4] = s->imc ? s->g[FS_GRID_X_E_RF] : 0.0;
+        v[5] = s->imc ? fs_grid_energy(&c->grid, s->g) : 0.0;
+    } else if (g == G_THERMAL) {
+        v[0] = s->thermal_on ? s->thermal.T_w : 0.0;
+        v[1] = s->thermal_on ? s->thermal.T_m : 0.0;
+        v[2] = s->pmsm.cfg.R_s;
+        v[3] = s->psi_f_true;
+    } else if (g == G_METERS) {
+        v[0] = s->e_dc;
+        v[1] = s->e_cond;
+        v[2] = s->e_rect;
+        v[3] = s->e_sw;
+    } else if (g == G_LOSSES) {
+        v[0] = s->losses ? s->x[FS_X_E_FE] : 0.0;
+        v[1] = s->losses ? s->x[FS_X_E_MECH] : 0.0;
+        v[2] = s->losses ? s->x[FS_X_E_SHAFT] : 0.0;
+    } else if (g == G_FIVE) {
+        fs_pmsm_currents3(&s->pmsm, s->x, &v[0], &v[1]);
+    } else {
+        const int adapt = c->drive.adapt.T_f > 0.0f;
+        v[0] = adapt ? s->drive.adapt.R_s : c->drive.R_s;
+        v[1] = adapt ? s->drive.adapt.psi_f : c->drive.psi_f;
+    }
+}
+
+/* Group g's channels of a row, unless the column-major trace (all 0) gets
+ * them from fill_held: where the configuration holds them (s->held_group). */
+FS_SPECIALISE void row_group(const fs_sim *s, const int g, double *r, const long st, const int all)
+{
+    if (all || !s->held_group[g]) {
+        double v[G_MAX];
+        group_values(s, g, v);
+        for (int i = 0; i < GROUP_N[g]; ++i) r[GROUP_CH[g][i] * st] = v[i];
+    }
+}
+
+/* The held groups' columns of the n rows a column-major chunk wrote from
+ * trace: one fill a channel, the values a row would have had. */
+static void fill_held(const fs_sim *s, double *trace, long stride, int n)
+{
+    for (int g = 0; g < G_N; ++g) {
+        if (!s->held_group[g]) continue;
+        double v[G_MAX];
+        group_values(s, g, v);
+        for (int i = 0; i < GROUP_N[g]; ++i) {
+            double *col = trace + (size_t)GROUP_CH[g][i] * (size_t)stride;
+            if (v[i] == 0.0 && !signbit(v[i])) {
+                memset(col, 0, sizeof(double) * (size_t)n);   /* +0.0 is all zero bits (IEEE 754) */
+            } else {
+                for (int k = 0; k < n; ++k) col[k] = v[i];
+            }
+        }
+    }
+}
+
 /* The plant's channels of a trace row at time t (the state as it is, its
  * wrapped electrical angle theta_e, its phase currents i_ph and a as
  * phase_currents_at gives them; u_dc the dc link sampled at t), the drive's
  * left as they are. */
 FS_SPECIALISE void row_plant(fs_sim *s, double t, double theta_e, const double *i_ph, const fs_pmsm_at *a,
-                             double u_dc, double *r, const long st)
+                             double u_dc, double *r, const long st, const int all)
 {
-    const fs_sim_config *c = &s->cfg;
     fs_pmsm_input pin = {0};
     pin.T_load = prof(s, P_T_LOAD, t, NULL);
     pin.w_load = prof(s, P_W_LOAD, t, NULL);
@@ -844,35 +933,18 @@ FS_SPECIALISE void row_plant(fs_sim *s, double t, double theta_e, const double *
     r[FS_CH_E_CU * st] = s->x[FS_X_E_CU];
     r[FS_CH_E_AIRGAP * st] = s->x[FS_X_E_AIRGAP];
     r[FS_CH_W_MAG * st] = fs_pmsm_energy(&s->pmsm, s->x);
-    double i_d3, i_q3;
-    fs_pmsm_currents3(&s->pmsm, s->x, &i_d3, &i_q3);
-    r[FS_CH_I_D3 * st] = i_d3;
-    r[FS_CH_I_Q3 * st] = i_q3;
-    const int imc_mean = s->imc && s->k > 0;
-    r[FS_CH_I_GRID_A * st] = imc_mean ? s->g_int[0] / s->Tc : 0.0;
-    r[FS_CH_V_PN * st] = imc_mean ? s->g_int[1] / s->Tc : 0.0;
-    r[FS_CH_U_AB * st] = imc_mean ? s->g_int[2] / s->Tc : 0.0;
-    r[FS_CH_E_GRID * st] = s->imc ? s->g[FS_GRID_X_E_GRID] : 0.0;
-    r[FS_CH_E_RF * st] = s->imc ? s->g[FS_GRID_X_E_RF] : 0.0;
-    r[FS_CH_W_FILTER * st] = s->imc ? fs_grid_energy(&c->grid, s->g) : 0.0;
     r[FS_CH_U_DC * st] = u_dc;
-    r[FS_CH_T_WINDING * st] = s->thermal_on ? s->thermal.T_w : 0.0;
-    r[FS_CH_T_MAGNET * st] = s->thermal_on ? s->thermal.T_m : 0.0;
-    r[FS_CH_R_S_TRUE * st] = s->pmsm.cfg.R_s;
-    r[FS_CH_PSI_F_TRUE * st] = s->psi_f_true;
-    r[FS_CH_E_DC * st] = s->e_dc;
-    r[FS_CH_E_COND * st] = s->e_cond;
-    r[FS_CH_E_RECT * st] = s->e_rect;
-    r[FS_CH_E_SW * st] = s->e_sw;
-    r[FS_CH_E_FE * st] = s->losses ? s->x[FS_X_E_FE] : 0.0;
-    r[FS_CH_E_MECH * st] = s->losses ? s->x[FS_X_E_MECH] : 0.0;
-    r[FS_CH_E_SHAFT * st] = s->losses ? s->x[FS_X_E_SHAFT] : 0.0;
+    row_group(s, G_FIVE, r, st, all);
+    row_group(s, G_IMC, r, st, all);
+    row_group(s, G_THERMAL, r, st, all);
+    row_group(s, G_METERS, r, st, all);
+    row_group(s, G_LOSSES, r, st, all);
 }
 
 /* The drive's channels of a trace row: its inputs and outputs at this
  * sample (theta_e: the true angle, as row_plant wrote it). */
 FS_SPECIALISE void row_drive(const fs_sim *s, double theta_e, const fs_drive_in *din, const fs_drive_out *dout,
-                             double *r, const long st)
+                             double *r, const long st, const int all)
 {
     const fs_sim_config *c = &s->cfg;
     const int p = c->plant.pole_pairs;
@@ -906,9 +978,7 @@ FS_SPECIALISE void row_drive(const fs_sim *s, double theta_e, const fs_drive_in 
     r[FS_CH_LOCK_LOST * st] = dout->lock_lost;
     r[FS_CH_STAGE * st] = dout->stage;
     r[FS_CH_RECOVERIES * st] = dout->recoveries;
-    const int adapt = c->drive.adapt.T_f > 0.0f;
-    r[FS_CH_R_S_HAT * st] = adapt ? s->drive.adapt.R_s : c->drive.R_s;
-    r[FS_CH_PSI_F_HAT * st] = adapt ? s->drive.adapt.psi_f : c->drive.psi_f;
+    row_group(s, G_ADAPT, r, st, all);
 }
 
 /* The plant over the period from the sample at t with the duties acting,
@@ -978,8 +1048,8 @@ FS_SPECIALISE int run(fs_sim *s, long long k_end, double *trace, long stride, in
         if (record) {
             const long st = cols ? stride : 1;
             double *r = cols ? trace + *rows : trace + (size_t)(*rows) * FS_CH_N;
-            row_plant(s, t, s->theta_e, i_ph, &at, din.u_dc, r, st);
-            row_drive(s, s->theta_e, &din, &dout, r, st);
+            row_plant(s, t, s->theta_e, i_ph, &at, din.u_dc, r, st, !cols);
+            row_drive(s, s->theta_e, &din, &dout, r, st, !cols);
             ++*rows;
         }
         if (c->lock_stop && dout.lock_lost) {
@@ -1013,7 +1083,9 @@ int fs_sim_run_steps(fs_sim *s, long long k_end, double *trace, int max_rows, in
 int fs_sim_run_cols(fs_sim *s, long long k_end, double *trace, long stride, int max_rows, int *rows)
 {
     if (stride < max_rows || stride < 1) return FS_RUN_ERR_STRIDE;
-    return run(s, k_end, trace, stride, max_rows, rows, 1);
+    const int rc = run(s, k_end, trace, stride, max_rows, rows, 1);
+    if (s && rows && *rows > 0) fill_held(s, trace, stride, *rows);
+    return rc;
 }
 
 int fs_sim_hold(fs_sim *s, int which, double value, double slope)
@@ -1058,7 +1130,7 @@ void fs_sim_plant_row(fs_sim *s, double *row)
     if (!s->imc && (s->prof[P_U_DC_SCALE].n > 0 || s->held[P_U_DC_SCALE]))
         u_dc = s->u_dc0 * prof(s, P_U_DC_SCALE, t, NULL);
     if (s->imc && s->k > 0) u_dc = (float)(s->g_int[1] / s->Tc);   /* as the drive samples it */
-    row_plant(s, t, wrap_pi(s->cfg.plant.pole_pairs * s->x[FS_X_THETA_M]), i_ph, &at, (float)u_dc, row, 1);
+    row_plant(s, t, wrap_pi(s->cfg.plant.pole_pairs * s->x[FS_X_THETA_M]), i_ph, &at, (float)u_dc, row, 1, 1);
 }
 
 void fs_sim_dc_link(fs_sim *s, double *u_dc, double *i_dc, double *p_dc)
