@@ -1,4 +1,5 @@
 #include "fs_pmsm.h"
+#include "fs_magnetic_inline.h"
 
 #include <math.h>
 #include <string.h>
@@ -252,7 +253,7 @@ FS_SPECIALISE void outputs(fs_pmsm *m, const double *x, const fs_pmsm_input *in,
         harm_current(m, x, cs, sn, i_d, i_q, &dW);
         *T_e = 1.5 * m->cfg.pole_pairs * (x[FS_X_PSI_D] * *i_q - x[FS_X_PSI_Q] * *i_d - dW);
     } else {
-        fs_mag_current(&m->mag, x[FS_X_PSI_D], x[FS_X_PSI_Q], i_d, i_q);
+        fs_mag_current_at(&m->mag, x[FS_X_PSI_D], x[FS_X_PSI_Q], i_d, i_q);
     }
     if (five) {
         currents3(m, x, i_d3, i_q3);
@@ -298,7 +299,7 @@ void fs_pmsm_current_dq(fs_pmsm *m, const double *x, double cs, double sn, doubl
     if (m->harm) {
         harm_current(m, x, cs, sn, i_d, i_q, NULL);
     } else {
-        fs_mag_current(&m->mag, x[FS_X_PSI_D], x[FS_X_PSI_Q], i_d, i_q);
+        fs_mag_current_at(&m->mag, x[FS_X_PSI_D], x[FS_X_PSI_Q], i_d, i_q);
     }
 }
 

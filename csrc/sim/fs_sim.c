@@ -807,10 +807,10 @@ static void sample(fs_sim *s, double t, fs_drive_in *din, double *i_ph, fs_pmsm_
 static void command(fs_sim *s, const float *duty, const fs_imc_rect *rect)
 {
     for (int k = 0; k < s->phases; ++k) s->duty_next[k] = duty[k];
-    if (rect) s->rect_next = *rect;
+    if (rect && s->imc) s->rect_next = *rect;   /* read by the matrix converter alone */
     if (!s->cfg.delay) {
         for (int k = 0; k < s->phases; ++k) s->duty_now[k] = s->duty_next[k];
-        s->rect_now = s->rect_next;
+        if (s->imc) s->rect_now = s->rect_next;
     }
 }
 
@@ -993,7 +993,7 @@ static int advance(fs_sim *s, double t)
     if (s->thermal_on) thermal_period(s);
     if (c->delay) {
         for (int k = 0; k < s->phases; ++k) s->duty_now[k] = s->duty_next[k];
-        s->rect_now = s->rect_next;
+        if (s->imc) s->rect_now = s->rect_next;
     }
     ++s->k;
     s->x[FS_X_THETA_M] = fmod_near(s->x[FS_X_THETA_M], 2.0 * pi_const());
