@@ -179,7 +179,7 @@ def true_loss_at(tr, threshold: float = math.pi / 2, t_net: float = 0.02) -> flo
     sensorless = in_stages(tr["stage"], SENSORLESS_STAGES)
     state = np.where(sensorless & (e > threshold), 1, np.where(~sensorless | (e < 0.5 * threshold), -1, 0)).astype(np.int8)
     # segments of equal state: the counter moves linearly within each
-    edges = np.r_[0, np.flatnonzero(np.diff(state)) + 1, state.size]
+    edges = np.concatenate(([0], np.flatnonzero(np.diff(state)) + 1, [state.size]))   # np.r_'s, without its parsing
     acc = 0.0
     for a, b in zip(edges[:-1], edges[1:]):
         if state[a] == 1:
@@ -337,12 +337,16 @@ def stage_metrics(tr) -> dict:
         return {}
     dt = float(t[1] - t[0])
     err = np.abs(np.asarray(tr["theta_err"]))   # in degrees at the max: rounding is monotone, the same bits
-    entries = np.r_[0, np.flatnonzero(np.diff(s)) + 1]
+    entries = np.concatenate(([0], np.flatnonzero(np.diff(s)) + 1))
+    # each stay's length and largest error, then each stage's over its stays (the max of maxima, NaN as
+    # np.max carries it): a pass over the run, not one a stage
+    codes, lengths = s[entries], np.diff(np.append(entries, s.size))
+    stay_max = np.maximum.reduceat(err, entries)
     out = {}
-    for code in dict.fromkeys(s[entries]):
-        m = s == code
-        out[STAGES[code]] = {"time": float(np.count_nonzero(m) * dt), "entries": int(np.count_nonzero(s[entries] == code)),
-                             "theta_err_max_deg": float(np.degrees(np.max(err[m])))}
+    for code in dict.fromkeys(codes):
+        k = codes == code
+        out[STAGES[code]] = {"time": float(int(np.sum(lengths[k])) * dt), "entries": int(np.count_nonzero(k)),
+                             "theta_err_max_deg": float(np.degrees(np.max(stay_max[k])))}
     return out
 
 
@@ -484,7 +488,7 @@ def start_motion(res) -> dict | None:
     if kind not in START_KINDS or t.size == 0:
         return None
     on = in_stages(tr["stage"], SENSORLESS_STAGES)
-    on = on & np.r_[on[1:], False]   # for two samples at least: the step a start halts in reads as one
+    on = on & np.append(on[1:], False)   # for two samples at least: the step a start halts in reads as one
     k = int(np.argmax(on)) if on.any() else t.size - 1
     theta = unwrap(np.asarray(tr["theta_e"])[: k + 1])
     turn = float(np.degrees(np.max(np.abs(theta - theta[0]))))
@@ -557,23 +561,26 @@ def compute_metrics(res) -> dict:
         out["start_given"] = given
     if not m.any():
         return out
+    # the window as a slice where the samples rise (a run's always do): views, not copies of the masked samples;
+    # the same samples in the same order, so the same sums
+    sel = window_slice(t, *win) if np.all(t[1:] > t[:-1]) else m
     mode = res.scenario.data["controller"]["mode"]
     if mode == "speed":
-        w_ref = float(np.mean(tr["w_m_ref"][m]))
-        w = float(np.mean(tr["w_m"][m]))
+        w_ref = float(np.mean(tr["w_m_ref"][sel]))
+        w = float(np.mean(tr["w_m"][sel]))
         out["speed_ref_rpm"] = rad_s_to_rpm(w_ref)
         out["speed_rpm"] = rad_s_to_rpm(w)
         out["speed_error_pct"] = 100.0 * (w - w_ref) / abs(w_ref) if w_ref != 0 else None
     if mode in ("speed", "current"):
-        out["i_d_error_rms"] = float(np.sqrt(np.mean((tr["i_d_ref"][m] - tr["i_d"][m]) ** 2)))
-        out["i_q_error_rms"] = float(np.sqrt(np.mean((tr["i_q_ref"][m] - tr["i_q"][m]) ** 2)))
-    out["T_e_mean"] = float(np.mean(tr["T_e"][m]))
-    out["T_e_pp"] = float(np.ptp(tr["T_e"][m]))
+        out["i_d_error_rms"] = float(np.sqrt(np.mean((tr["i_d_ref"][sel] - tr["i_d"][sel]) ** 2)))
+        out["i_q_error_rms"] = float(np.sqrt(np.mean((tr["i_q_ref"][sel] - tr["i_q"][sel]) ** 2)))
+    out["T_e_mean"] = float(np.mean(tr["T_e"][sel]))
+    out["T_e_pp"] = float(np.ptp(tr["T_e"][sel]))
     power = power_metrics(res, m)
     if power is not None:
         out["power"] = power
-    out["theta_err_deg"] = angle_error_stats(tr["theta_err"][m])
-    out["est_err_deg"] = angle_error_stats(tr["est_err"][m])
+    out["theta_err_deg"] = angle_error_stats(tr["theta_err"][sel])
+    out["est_err_deg"] = angle_error_stats(tr["est_err"][sel])
     return out
 
 
