@@ -65,6 +65,15 @@ def test_channels_held_by_the_configuration_or_moving_are_the_row_major_bits(nam
     assert np.isnan(buf[:, len(ref):]).all()
 
 
+def test_a_call_without_a_trace_is_refused_and_writes_nothing():
+    # the held channels' fill runs after the loop: not on a call refused for a missing trace, whose row
+    # count is the caller's own (here 5: a fill would write five rows through the null pointer)
+    sim = runner.Simulation(SC)
+    rows = ffi.new("int *", 5)
+    assert lib.fs_sim_run_cols(sim._sim, sim.steps(SC.duration), ffi.NULL, 10, 10, rows) == lib.FS_RUN_ERR_NULL
+    assert rows[0] == 5 and sim.step_count == 0
+
+
 def test_a_full_buffer_stops_the_call_and_the_next_goes_on():
     _, ref = rows_major(SC, SC.duration, 200)
     sim = runner.Simulation(SC)

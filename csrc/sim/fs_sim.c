@@ -1084,7 +1084,8 @@ int fs_sim_run_cols(fs_sim *s, long long k_end, double *trace, long stride, int 
 {
     if (stride < max_rows || stride < 1) return FS_RUN_ERR_STRIDE;
     const int rc = run(s, k_end, trace, stride, max_rows, rows, 1);
-    if (s && rows && *rows > 0) fill_held(s, trace, stride, *rows);
+    /* rows it wrote, into a trace it had (a refused call leaves *rows as it was) */
+    if (rc != FS_RUN_ERR_NULL && *rows > 0) fill_held(s, trace, stride, *rows);
     return rc;
 }
 
