@@ -46,7 +46,9 @@ HERE = Path(__file__).resolve()
 SCENARIO = "bench-motulator-2kw"
 MODES = ("averaged", "switching")
 WHATS = ("base", "simulate", "metrics", "notrace")
-PLANT_FNS = ("fs_pmsm_rk4", "fs_inverter_mean_voltage", "fs_inverter_segments", "fs_inverter_voltage")
+PLANT_FNS = ("fs_pmsm_rk4", "fs_pmsm_rk4_at", "fs_inverter_mean_voltage", "fs_inverter_mean_voltage_ideal",
+             "fs_inverter_segments", "fs_inverter_voltage")
+CURRENTS = ("phase_currents", "phase_currents_at")   # the state's phase currents (fs_sim.c), by either name
 ONE_ROW = 1_000_000          # trace.decimation that leaves one row of the run
 LOOP_FNS = ("fs_sim_run_steps", "fs_sim_run_cols")   # the runner's loop: row-major (fs_sim_run's), column-major (the front's)
 WARM_RUNS = 2                # runs every driver makes first: simulate() and the one-row run
@@ -128,7 +130,31 @@ def parse_annotation(text: str) -> dict:
             for caller, c, k in caller_block:
                 calls[(caller, fn)] = (c, k)
             caller_block = []
-    return {"total": total, "incl": incl, "calls": calls}
+    return {"total": total, **by_base_name(incl, calls)}
+
+
+def base_name(fn: str) -> str:
+    """A function's name without the suffixes GCC gives its copies under
+    link-time optimisation and cloning (fs_sim_run_cols.part.0.constprop.0,
+    advance.lto_priv.0, fs_drive_step.localalias): the name in the source."""
+    return fn.split(".", 1)[0]
+
+
+def by_base_name(incl: dict, calls: dict) -> dict:
+    """incl and calls keyed by base_name: a function's copies (a clone and the
+    wrapper that calls it, an alias) summed, less the calls between copies
+    (the wrapper's inclusive count holds its clone's)."""
+    out_incl, out_calls = {}, {}
+    for fn, cost in incl.items():
+        out_incl[base_name(fn)] = out_incl.get(base_name(fn), 0) + cost
+    for (caller, callee), (cost, count) in calls.items():
+        a, b = base_name(caller), base_name(callee)
+        if a == b:
+            out_incl[a] -= cost
+            continue
+        c0, k0 = out_calls.get((a, b), (0, 0))
+        out_calls[(a, b)] = (c0 + cost, k0 + count)
+    return {"incl": out_incl, "calls": out_calls}
 
 
 def annotate(path: Path) -> dict:
@@ -143,10 +169,12 @@ def plant_ir(a: dict, samples: int) -> int:
     """The plant's instructions in one annotation: its functions, plus the
     phase currents computed inside the integration (the calls from the
     runner's advance beyond its one stop check a sample, at their mean cost)."""
-    ir = sum(a["incl"].get(f, 0) for f in PLANT_FNS)
-    cost, count = a["calls"].get(("advance", "phase_currents"), (0, 0))
-    if count > samples:
-        ir += round(cost * (count - samples) / count)
+    ir = sum(a["incl"].get(f, 0) for f in PLANT_FNS) - a["calls"].get(("fs_pmsm_rk4", "fs_pmsm_rk4_at"), (0, 0))[0]
+    for fn in CURRENTS:
+        cost, count = a["calls"].get(("advance", fn), (0, 0))
+        if count > samples:
+            ir += round(cost * (count - samples) / count)
+        ir += a["calls"].get(("integrate_period", fn), (0, 0))[0]   # the segments' (the core built with -flto)
     return ir
 
 

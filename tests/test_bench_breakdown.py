@@ -51,6 +51,22 @@ def test_the_annotation_gives_totals_inclusive_counts_and_calls():
     assert a["calls"][("sample", "phase_currents")] == (100, 1)
 
 
+def test_a_functions_copies_under_link_time_optimisation_count_as_the_function():
+    # the core is built with -flto: fs_sim_run_cols is a wrapper around its clone, fs_drive_step has an alias
+    # called from elsewhere, phase_currents_at is called from the integration's own function
+    a = bd.parse_annotation(annotation(
+        1_000_000, {"fs_sim_run_cols": 5_010, "fs_sim_run_cols.part.0.constprop.0": 5_000, "fs_drive_step": 300,
+                    "fs_drive_step.localalias.lto_priv.0": 200, "phase_currents_at.lto_priv.0": 90},
+        [("fs_sim_run_cols", "fs_sim_run_cols.part.0.constprop.0", 5_000, 1),
+         ("integrate_period.lto_priv.0", "phase_currents_at.lto_priv.0", 60, 2),
+         ("advance.lto_priv.0", "phase_currents_at.lto_priv.0", 30, 1)]))
+    assert a["incl"]["fs_sim_run_cols"] == 5_010            # the wrapper holds its clone: not 10,010
+    assert a["incl"]["fs_drive_step"] == 500                # two entries into the same code: both
+    assert a["calls"][("integrate_period", "phase_currents_at")] == (60, 2)
+    a["incl"]["fs_pmsm_rk4_at"] = 1_000
+    assert bd.plant_ir(a, samples=1) == 1_000 + 60          # the integration's currents; advance's one is the check
+
+
 def test_the_plant_takes_the_integrations_phase_currents_not_the_stop_check():
     a = {"incl": {"fs_pmsm_rk4": 1000, "fs_inverter_voltage": 50}, "calls": {("advance", "phase_currents"): (400, 4)}}
     assert bd.plant_ir(a, samples=1) == 1000 + 50 + 300      # three of the four calls are the integration's

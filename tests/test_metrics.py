@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from fullspeed.sim.metrics import _changes, stage_metrics, step_response, summary_lines
+from fullspeed.sim.metrics import _changes, in_stages, stage_metrics, step_response, summary_lines, unwrap
 from fullspeed.design.scenario import load_scenario
 from fullspeed.sim import UNITS, simulate
 from fullspeed.model.units import rpm_to_rad_s
@@ -16,6 +16,25 @@ def test_changes_merge_a_ramp_drawn_in_pieces_and_keep_steps_apart():
     # the jump and the rise after it go one way: one change, 0 -> 9 from 0.1 to 0.3 s
     assert _changes(prof) == [(0.1, 0.3, 0.0, 9.0), (0.5, 0.6, 9.0, 2.0)]
     assert _changes(([0.0], [3.0])) == []
+
+
+def test_unwrap_gives_numpys_bits_on_jumps_exact_half_turns_and_nan():
+    # the metrics' unwrap corrects only the steps of pi or more, where numpy's correction is not zeroed: the same
+    # bits on wrapped ramps both ways, steps of exactly +-pi (numpy's boundary rule), a NaN and infinities
+    rng = np.random.default_rng(7)
+    ramps = [np.angle(np.exp(1j * np.cumsum(rng.normal(w, 0.3, 5000)))) for w in (0.9, -1.7, 0.0)]
+    edges = np.array([0.0, np.pi, 0.0, -np.pi, 0.0, 3.0, -3.0 + 1e-16, np.nextafter(np.pi, 0), 0.0, 2 * np.pi])
+    for p in (*ramps, edges, np.r_[ramps[0][:50], np.nan, ramps[0][50:100]], np.r_[0.0, np.inf, 1.0, -np.inf]):
+        with np.errstate(invalid="ignore"):
+            a, b = unwrap(p), np.unwrap(p)
+        assert a.tobytes() == b.tobytes()
+    assert unwrap(np.array([2.0])).tolist() == [2.0] and unwrap(np.array([])).size == 0
+
+
+def test_in_stages_is_isin_on_every_code_and_set():
+    s = np.r_[np.arange(-2, 12), np.random.default_rng(3).integers(0, 9, 1000)].astype(float)
+    for stages in ((4, 5, 6, 7), (3, 4, 5, 6, 7), (2, 3), (8,), (2, 5), (7, 4, 6, 5)):
+        assert np.array_equal(in_stages(s, stages), np.isin(s.astype(int), stages)), stages
 
 
 def test_step_response_of_known_systems():

@@ -41,6 +41,39 @@ def test_columns_hold_the_row_major_trace_bit_for_bit_across_calls():
     assert np.isnan(buf[:, n:]).all()
 
 
+@pytest.mark.parametrize("name, over", [
+    ("zou2021-region-a", {}),                                                   # the matrix converter, its meters
+    ("yu2022-seq-dyn", {}),                                                     # five phases: i_d3, i_q3
+    ("beyond-thermal", {}),                                                     # the thermal model: R_s, the magnet
+    ("yang2022-encoder-speedstep", {"losses": {"devices": True, "iron": True}}),  # the loss meters
+])
+def test_channels_held_by_the_configuration_or_moving_are_the_row_major_bits(name, over):
+    # the column-major trace fills the channels a configuration holds constant once a call (fs_sim.c's groups);
+    # each of these runs moves a group (in its first 30 ms), which must then be written a row at a time as before
+    sc = load_scenario(name, {**over, "duration": 0.03, "metrics": {"steady": None}})
+    n = runner.Simulation(sc).steps(sc.duration) + 2
+    rc, ref = rows_major(sc, sc.duration, n)
+    sim = runner.Simulation(sc)
+    buf, rows = np.full((lib.FS_CH_N, n), np.nan), ffi.new("int *")
+    base = ffi.cast("double *", buf.ctypes.data)
+    half = lib.fs_sim_run_cols(sim._sim, sim.steps(sc.duration / 2), base, n, n, rows)
+    first = rows[0]
+    assert half == lib.FS_RUN_DONE and 0 < first < len(ref)
+    assert lib.fs_sim_run_cols(sim._sim, sim.steps(sc.duration), base + first, n, n - first, rows) == rc
+    assert first + rows[0] == len(ref) and len(ref) >= 20
+    assert buf[:, : len(ref)].tobytes() == np.ascontiguousarray(ref.T).tobytes()
+    assert np.isnan(buf[:, len(ref):]).all()
+
+
+def test_a_call_without_a_trace_is_refused_and_writes_nothing():
+    # the held channels' fill runs after the loop: not on a call refused for a missing trace, whose row
+    # count is the caller's own (here 5: a fill would write five rows through the null pointer)
+    sim = runner.Simulation(SC)
+    rows = ffi.new("int *", 5)
+    assert lib.fs_sim_run_cols(sim._sim, sim.steps(SC.duration), ffi.NULL, 10, 10, rows) == lib.FS_RUN_ERR_NULL
+    assert rows[0] == 5 and sim.step_count == 0
+
+
 def test_a_full_buffer_stops_the_call_and_the_next_goes_on():
     _, ref = rows_major(SC, SC.duration, 200)
     sim = runner.Simulation(SC)

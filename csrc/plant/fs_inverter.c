@@ -251,3 +251,12 @@ void fs_inverter_mean_voltage(const fs_inverter_config *c, const double *duty, c
     mean_pole_voltages(c, legs(c), duty, i_ph, v);
     stationary(c, v, u_alpha, u_beta, u_x, u_y);
 }
+
+void fs_inverter_mean_voltage_ideal(const fs_inverter_config *c, const double *duty, double *u_alpha,
+                                    double *u_beta, double *u_x, double *u_y)
+{
+    double v[FS_INV_MAX_LEGS];
+    const int nl = legs(c);
+    for (int k = 0; k < nl; ++k) v[k] = (clip01(duty[k]) - 0.5) * c->u_dc;   /* mean_pole_voltages at i = 0 */
+    stationary(c, v, u_alpha, u_beta, u_x, u_y);
+}

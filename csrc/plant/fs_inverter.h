@@ -100,6 +100,11 @@ void fs_inverter_voltage(const fs_inverter_config *c, const int *state, const do
 /* Averaged model: mean stationary voltage over the period, both planes. */
 void fs_inverter_mean_voltage(const fs_inverter_config *c, const double *duty, const double *i_ph,
                               double *u_alpha, double *u_beta, double *u_x, double *u_y);
+/* The same for an inverter without dead time, drops or devices, whose mean
+ * voltage the currents do not move: fs_inverter_mean_voltage's bits at zero
+ * currents, without its dead-time and drop terms (each an exact zero there). */
+void fs_inverter_mean_voltage_ideal(const fs_inverter_config *c, const double *duty, double *u_alpha,
+                                    double *u_beta, double *u_x, double *u_y);
 /* Each leg's rail s (1 upper, 0 lower) and the drop of its conducting
  * devices (signed as its current) in a segment's switch states, or over a
  * period of the averaged model (s its mean: the duty less the dead time's

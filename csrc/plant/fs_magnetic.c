@@ -1,4 +1,5 @@
 #include "fs_magnetic.h"
+#include "fs_magnetic_inline.h"
 
 #include <math.h>
 
@@ -164,8 +165,7 @@ void fs_mag_current(fs_mag *m, double psi_d, double psi_q, double *i_d, double *
         map_current(m, psi_d, psi_q, i_d, i_q);
         return;
     default:
-        *i_d = (psi_d - m->cfg.psi_f) / m->cfg.L_d;
-        *i_q = psi_q / m->cfg.L_q;
+        fs_mag_current_linear(m, psi_d, psi_q, i_d, i_q);
     }
 }
 

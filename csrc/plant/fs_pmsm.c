@@ -1,4 +1,5 @@
 #include "fs_pmsm.h"
+#include "fs_magnetic_inline.h"
 
 #include <math.h>
 #include <string.h>
@@ -252,7 +253,7 @@ FS_SPECIALISE void outputs(fs_pmsm *m, const double *x, const fs_pmsm_input *in,
         harm_current(m, x, cs, sn, i_d, i_q, &dW);
         *T_e = 1.5 * m->cfg.pole_pairs * (x[FS_X_PSI_D] * *i_q - x[FS_X_PSI_Q] * *i_d - dW);
     } else {
-        fs_mag_current(&m->mag, x[FS_X_PSI_D], x[FS_X_PSI_Q], i_d, i_q);
+        fs_mag_current_at(&m->mag, x[FS_X_PSI_D], x[FS_X_PSI_Q], i_d, i_q);
     }
     if (five) {
         currents3(m, x, i_d3, i_q3);
@@ -271,19 +272,26 @@ FS_SPECIALISE void outputs(fs_pmsm *m, const double *x, const fs_pmsm_input *in,
     *T_shaft = T;
 }
 
-void fs_pmsm_outputs(fs_pmsm *m, const double *x, const fs_pmsm_input *in,
-                     double *i_d, double *i_q, double *T_e, double *T_shaft)
+void fs_pmsm_outputs_at(fs_pmsm *m, const double *x, const fs_pmsm_input *in, const fs_pmsm_at *a,
+                        double *i_d, double *i_q, double *T_e, double *T_shaft)
 {
     double i_d3, i_q3;
     const double T_fe = m->cfg.losses ? iron_drag(m, x) : 0.0;
+    const fs_pmsm_at *i_at = a && a->reuse ? a : NULL;   /* reuse: no harmonics (fs_pmsm_at_state) */
     if (m->cfg.phases == 5) {
-        outputs(m, x, in, 0.0, 0.0, 1, 0, T_fe, NULL, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
+        outputs(m, x, in, 0.0, 0.0, 1, 0, T_fe, i_at, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
     } else if (m->harm) {
         const double th = m->cfg.pole_pairs * x[FS_X_THETA_M];
         outputs(m, x, in, cos(th), sin(th), 0, 1, T_fe, NULL, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
     } else {
-        outputs(m, x, in, 0.0, 0.0, 0, 0, T_fe, NULL, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
+        outputs(m, x, in, 0.0, 0.0, 0, 0, T_fe, i_at, i_d, i_q, &i_d3, &i_q3, T_e, T_shaft);
     }
+}
+
+void fs_pmsm_outputs(fs_pmsm *m, const double *x, const fs_pmsm_input *in,
+                     double *i_d, double *i_q, double *T_e, double *T_shaft)
+{
+    fs_pmsm_outputs_at(m, x, in, NULL, i_d, i_q, T_e, T_shaft);
 }
 
 void fs_pmsm_current_dq(fs_pmsm *m, const double *x, double cs, double sn, double *i_d, double *i_q)
@@ -291,7 +299,7 @@ void fs_pmsm_current_dq(fs_pmsm *m, const double *x, double cs, double sn, doubl
     if (m->harm) {
         harm_current(m, x, cs, sn, i_d, i_q, NULL);
     } else {
-        fs_mag_current(&m->mag, x[FS_X_PSI_D], x[FS_X_PSI_Q], i_d, i_q);
+        fs_mag_current_at(&m->mag, x[FS_X_PSI_D], x[FS_X_PSI_Q], i_d, i_q);
     }
 }
 

@@ -185,5 +185,9 @@ typedef struct {
 void fs_pmsm_at_state(fs_pmsm *m, const double *x, fs_pmsm_at *a);
 /* fs_pmsm_rk4 from state x, whose fs_pmsm_at is a: the same result to the bit. */
 void fs_pmsm_rk4_at(fs_pmsm *m, double *x, const fs_pmsm_input *in, double h, const fs_pmsm_at *a);
+/* fs_pmsm_outputs of state x, whose fs_pmsm_at is a (or NULL): the currents
+ * taken from a where a->reuse says they are the same bits. */
+void fs_pmsm_outputs_at(fs_pmsm *m, const double *x, const fs_pmsm_input *in, const fs_pmsm_at *a,
+                        double *i_d, double *i_q, double *T_e, double *T_shaft);
 
 #endif /* FS_PMSM_H */

@@ -14,6 +14,9 @@ typedef char fs_sim_profile_check[((int)P_W_M_REF == (int)FS_SIM_W_M_REF && (int
                                    && (int)P_W_LOAD == (int)FS_SIM_W_LOAD && (int)P_U_DC_SCALE == (int)FS_SIM_U_DC_SCALE
                                    && (int)P_N == (int)FS_SIM_PROFILES) ? 1 : -1];
 
+/* The trace's channel groups a configuration can hold constant (row_group). */
+enum { G_IMC, G_THERMAL, G_METERS, G_LOSSES, G_FIVE, G_ADAPT, G_N, G_MAX = 6 };
+
 struct fs_sim {
     fs_sim_config cfg;
     fs_pmsm pmsm;
@@ -61,6 +64,10 @@ struct fs_sim {
     int imc_real;            /* the matrix converter with devices, dead time or meters (imc_deriv_real) */
     double e_dc, e_cond, e_rect, e_sw;   /* the converter's meters (fs_sim.h), J */
     int leg_state[FS_INV_MAX_LEGS];      /* switching inverter, with meters: the legs' states in the last segment */
+    int inv_ideal;           /* no dead time, drops or devices: the mean voltage does not depend on the currents */
+    int held_group[G_N];     /* the trace's channel groups the configuration holds constant (G_*, row_group) */
+    int half_steps;          /* averaged inverter: RK4 steps a half period, */
+    double half_h;           /* each this long (substeps of T_pwm / 2) */
 };
 
 /* The runner passes drive duties to the inverter and phase currents back. */
@@ -78,12 +85,38 @@ static double prof(fs_sim *s, int p, double t, double *slope)
 
 static double pi_const(void) { return 3.14159265358979323846; }
 
+/* fmod(x, y) for y > 0 and |x| >= 2 y, bit for bit (fmod is exact, so any
+ * exact way to its value gives its bits): |x| less y 2^j where that fits,
+ * for j from the largest with y 2^j <= |x| down to 0, each difference exact
+ * (Sterbenz: m <= a < 2 m), with x's sign, a zero's too, as the controller's
+ * fs_fmod_2pi does. For |x| < 2^16 y (the electrical angle of a wrapped
+ * rotor angle is below 2 p pi); NaN, infinities and beyond take fmod. */
+#if defined(__GNUC__)
+__attribute__((noinline))   /* the rare path, kept out of wrap_pi so that wrap_pi stays inlined */
+#endif
+static double fmod_far(double x, double y)
+{
+    double a = fabs(x);
+    if (!(a < 65536.0 * y)) return fmod(x, y);
+    double m = y;
+    int n = 0;
+    while (a >= 2.0 * m) {
+        m *= 2.0;
+        ++n;
+    }
+    for (int j = 0; j <= n; ++j) {   /* a < 2 m throughout */
+        if (a >= m) a -= m;
+        m *= 0.5;
+    }
+    return copysign(a, x);
+}
+
 /* fmod(x, y) for y > 0, bit for bit, without the library call where |x| <
  * 2 y (an angle wrapped once a sample never leaves that band): fmod is exact
  * (x - n y for n = trunc(x / y)), so it is x itself for |x| < y, and for y
  * <= |x| < 2 y it is x -+ y, which the subtraction gives exactly (Sterbenz:
- * y / 2 <= |x| <= 2 y), with fmod's sign (x's) where that is zero. NaN,
- * infinities and the rest take fmod. */
+ * y / 2 <= |x| <= 2 y), with fmod's sign (x's) where that is zero. The rest
+ * take fmod_far. */
 static double fmod_near(double x, double y)
 {
     if (x >= 0.0) {
@@ -93,7 +126,7 @@ static double fmod_near(double x, double y)
         if (x > -y) return x;
         return x == -y ? -0.0 : x + y;   /* fmod keeps x's sign: -y gives -0 */
     }
-    return fmod(x, y);
+    return fmod_far(x, y);
 }
 
 static double wrap_pi(double x)
@@ -203,6 +236,7 @@ static void phase_currents(fs_sim *s, const double *x, double *i_ph, double *i_d
 }
 
 static void thermal_apply(fs_sim *s);
+static int substeps(double T, double h_max);
 
 #define FAIL(...) do { snprintf(err, (size_t)err_len, __VA_ARGS__); fs_sim_destroy(s); return NULL; } while (0)
 
@@ -315,6 +349,10 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
     s->adc_sat_time = NAN;
     for (int k = 0; k < FS_INV_MAX_LEGS; ++k)
         s->sensor_fault |= cfg->fault.i_gain[k] != 0.0 || cfg->fault.i_offset[k] != 0.0;
+    const fs_inverter_config *inv = &cfg->inverter;
+    s->inv_ideal = inv->t_dead == 0.0 && inv->u_on == 0.0 && inv->r_on == 0.0 && !inv->dev.enabled;
+    s->half_steps = substeps(0.5 * inv->T_pwm, cfg->h_max);
+    s->half_h = 0.5 * inv->T_pwm / s->half_steps;
     s->u_dc0 = cfg->inverter.u_dc;
     s->psi_f_true = cfg->plant.mag.psi_f;
     s->k_mag = 1.0;
@@ -327,6 +365,12 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
         s->thermal_on = 1;
         thermal_apply(s);
     }
+    s->held_group[G_IMC] = !s->imc;
+    s->held_group[G_THERMAL] = !s->thermal_on;   /* R_s and the magnet move with it alone */
+    s->held_group[G_METERS] = !s->losses && !s->imc;
+    s->held_group[G_LOSSES] = !s->losses;
+    s->held_group[G_FIVE] = s->phases != 5;
+    s->held_group[G_ADAPT] = !(cfg->drive.adapt.T_f > 0.0f);
     return s;
 }
 
@@ -480,9 +524,8 @@ static void integrate_period(fs_sim *s, double t0, int cur_ok)
                 if (s->losses) meter_legs(s, rail, drop);
             }
         } else {
-            double Th = 0.5 * inv->T_pwm;
-            int steps = substeps(Th, s->cfg.h_max);
-            double hstep = Th / steps;
+            const int steps = s->half_steps;
+            const double hstep = s->half_h;
             if (s->losses) {   /* one edge of each switching leg in the half period: low to high in the first */
                 int before[FS_INV_MAX_LEGS], after[FS_INV_MAX_LEGS];
                 for (int k = 0; k < s->phases; ++k) {
@@ -496,22 +539,28 @@ static void integrate_period(fs_sim *s, double t0, int cur_ok)
             }
             /* the mean voltage depends on the currents only through dead time
              * and drops: without them it is one value for the half period */
-            int ideal = inv->t_dead == 0.0 && inv->u_on == 0.0 && inv->r_on == 0.0 && !inv->dev.enabled;
+            const int ideal = s->inv_ideal;
             if (ideal) {
                 for (int k = 0; k < FS_INV_MAX_LEGS; ++k) i_ph[k] = 0.0;
-                fs_inverter_mean_voltage(inv, s->duty_now, i_ph, &in.u_alpha, &in.u_beta, &in.u_x, &in.u_y);
+                fs_inverter_mean_voltage_ideal(inv, s->duty_now, &in.u_alpha, &in.u_beta, &in.u_x, &in.u_y);
                 if (s->losses) fs_inverter_mean_legs(inv, s->duty_now, i_ph, rail, drop);
             }
             for (int m = 0; m < steps; ++m) {
                 fs_pmsm_at at;
+                const fs_pmsm_at *first = NULL;   /* the step's first stage: the state's angle and currents */
                 if (!ideal) {
                     currents_now(s, &cur_ok, i_ph, &at);
                     fs_inverter_mean_voltage(inv, s->duty_now, i_ph, &in.u_alpha, &in.u_beta, &in.u_x,
                                              &in.u_y);
                     if (s->losses) fs_inverter_mean_legs(inv, s->duty_now, i_ph, rail, drop);
+                    first = &at;
+                } else if (cur_ok) {   /* the overcurrent check's, as the switching model takes them: the same bits */
+                    at = s->cur_at;
+                    cur_ok = 0;
+                    first = &at;
                 }
                 if (s->losses) clear_current_integrals(s);
-                fs_pmsm_rk4_at(&s->pmsm, s->x, &in, hstep, ideal ? NULL : &at);
+                fs_pmsm_rk4_at(&s->pmsm, s->x, &in, hstep, first);
                 if (s->losses) meter_legs(s, rail, drop);
             }
         }
@@ -702,10 +751,11 @@ static double conduction_loss(const fs_sim *s, const double *i_ph)
     return p;
 }
 
-/* The sampling instant at t: the true phase and rotor-frame currents, and
- * the drive's inputs as the hardware gives them (the sensors, the dc link,
- * the references and the load machine's speed at t). */
-static void sample(fs_sim *s, double t, fs_drive_in *din, double *i_ph, double *i_d, double *i_q)
+/* The sampling instant at t: the true phase currents, in a the angle's
+ * cosine and sine and the rotor-frame currents (fs_pmsm_at_state), and the
+ * drive's inputs as the hardware gives them (the sensors, the dc link, the
+ * references and the load machine's speed at t). */
+static void sample(fs_sim *s, double t, fs_drive_in *din, double *i_ph, fs_pmsm_at *a)
 {
     const fs_sim_config *c = &s->cfg;
     const int p = c->plant.pole_pairs;
@@ -719,10 +769,9 @@ static void sample(fs_sim *s, double t, fs_drive_in *din, double *i_ph, double *
 
     if (s->cur_ok) {
         for (int k = 0; k < FS_INV_MAX_LEGS; ++k) i_ph[k] = s->cur_ph[k];
-        *i_d = s->cur_at.i_d;
-        *i_q = s->cur_at.i_q;
+        *a = s->cur_at;
     } else {
-        phase_currents(s, s->x, i_ph, i_d, i_q);
+        phase_currents_at(s, s->x, i_ph, a);
     }
     for (int k = 0; k < s->phases; ++k) din->i_ph[k] = (float)adc(s, k, i_ph[k], t);
     for (int k = s->phases; k < FS_PHASES_MAX; ++k) din->i_ph[k] = 0.0f;
@@ -758,10 +807,10 @@ static void sample(fs_sim *s, double t, fs_drive_in *din, double *i_ph, double *
 static void command(fs_sim *s, const float *duty, const fs_imc_rect *rect)
 {
     for (int k = 0; k < s->phases; ++k) s->duty_next[k] = duty[k];
-    if (rect) s->rect_next = *rect;
+    if (rect && s->imc) s->rect_next = *rect;   /* read by the matrix converter alone */
     if (!s->cfg.delay) {
         for (int k = 0; k < s->phases; ++k) s->duty_now[k] = s->duty_next[k];
-        s->rect_now = s->rect_next;
+        if (s->imc) s->rect_now = s->rect_next;
     }
 }
 
@@ -774,25 +823,105 @@ static void command(fs_sim *s, const float *duty, const fs_imc_rect *rect)
 #define FS_SPECIALISE static inline
 #endif
 
-/* The plant's channels of a trace row at time t (the state as it is, its
- * wrapped electrical angle theta_e; u_dc the dc link sampled at t), the
- * drive's left as they are. */
-FS_SPECIALISE void row_plant(fs_sim *s, double t, double theta_e, const double *i_ph, double i_d, double i_q,
-                             double u_dc, double *r, const long st)
+/* Channels that a run's configuration can hold constant (enum G_*, at the
+ * top), in groups: the matrix converter's (0 without it), the thermal
+ * model's (without it), the converter's meters (0 without loss meters and
+ * matrix converter), the machine's loss meters (0 without), the
+ * third-harmonic currents (0 with three phases), the controller's corrected
+ * R_s and psi_f (its configured ones without the correction). A group's
+ * values as a row writes them: */
+static const int GROUP_N[G_N] = {6, 4, 4, 3, 2, 2};
+static const int GROUP_CH[G_N][G_MAX] = {
+    {FS_CH_I_GRID_A, FS_CH_V_PN, FS_CH_U_AB, FS_CH_E_GRID, FS_CH_E_RF, FS_CH_W_FILTER},
+    {FS_CH_T_WINDING, FS_CH_T_MAGNET, FS_CH_R_S_TRUE, FS_CH_PSI_F_TRUE},
+    {FS_CH_E_DC, FS_CH_E_COND, FS_CH_E_RECT, FS_CH_E_SW},
+    {FS_CH_E_FE, FS_CH_E_MECH, FS_CH_E_SHAFT},
+    {FS_CH_I_D3, FS_CH_I_Q3},
+    {FS_CH_R_S_HAT, FS_CH_PSI_F_HAT}};
+
+FS_SPECIALISE void group_values(const fs_sim *s, const int g, double *v)
 {
     const fs_sim_config *c = &s->cfg;
+    if (g == G_IMC) {
+        const int imc_mean = s->imc && s->k > 0;
+        v[0] = imc_mean ? s->g_int[0] / s->Tc : 0.0;
+        v[1] = imc_mean ? s->g_int[1] / s->Tc : 0.0;
+        v[2] = imc_mean ? s->g_int[2] / s->Tc : 0.0;
+        v[3] = s->imc ? s->g[FS_GRID_X_E_GRID] : 0.0;
+        v[4] = s->imc ? s->g[FS_GRID_X_E_RF] : 0.0;
+        v[5] = s->imc ? fs_grid_energy(&c->grid, s->g) : 0.0;
+    } else if (g == G_THERMAL) {
+        v[0] = s->thermal_on ? s->thermal.T_w : 0.0;
+        v[1] = s->thermal_on ? s->thermal.T_m : 0.0;
+        v[2] = s->pmsm.cfg.R_s;
+        v[3] = s->psi_f_true;
+    } else if (g == G_METERS) {
+        v[0] = s->e_dc;
+        v[1] = s->e_cond;
+        v[2] = s->e_rect;
+        v[3] = s->e_sw;
+    } else if (g == G_LOSSES) {
+        v[0] = s->losses ? s->x[FS_X_E_FE] : 0.0;
+        v[1] = s->losses ? s->x[FS_X_E_MECH] : 0.0;
+        v[2] = s->losses ? s->x[FS_X_E_SHAFT] : 0.0;
+    } else if (g == G_FIVE) {
+        fs_pmsm_currents3(&s->pmsm, s->x, &v[0], &v[1]);
+    } else {
+        const int adapt = c->drive.adapt.T_f > 0.0f;
+        v[0] = adapt ? s->drive.adapt.R_s : c->drive.R_s;
+        v[1] = adapt ? s->drive.adapt.psi_f : c->drive.psi_f;
+    }
+}
+
+/* Group g's channels of a row, unless the column-major trace (all 0) gets
+ * them from fill_held: where the configuration holds them (s->held_group). */
+FS_SPECIALISE void row_group(const fs_sim *s, const int g, double *r, const long st, const int all)
+{
+    if (all || !s->held_group[g]) {
+        double v[G_MAX];
+        group_values(s, g, v);
+        for (int i = 0; i < GROUP_N[g]; ++i) r[GROUP_CH[g][i] * st] = v[i];
+    }
+}
+
+/* The held groups' columns of the n rows a column-major chunk wrote from
+ * trace: one fill a channel, the values a row would have had. */
+static void fill_held(const fs_sim *s, double *trace, long stride, int n)
+{
+    for (int g = 0; g < G_N; ++g) {
+        if (!s->held_group[g]) continue;
+        double v[G_MAX];
+        group_values(s, g, v);
+        for (int i = 0; i < GROUP_N[g]; ++i) {
+            double *col = trace + (size_t)GROUP_CH[g][i] * (size_t)stride;
+            if (v[i] == 0.0 && !signbit(v[i])) {
+                memset(col, 0, sizeof(double) * (size_t)n);   /* +0.0 is all zero bits (IEEE 754) */
+            } else {
+                for (int k = 0; k < n; ++k) col[k] = v[i];
+            }
+        }
+    }
+}
+
+/* The plant's channels of a trace row at time t (the state as it is, its
+ * wrapped electrical angle theta_e, its phase currents i_ph and a as
+ * phase_currents_at gives them; u_dc the dc link sampled at t), the drive's
+ * left as they are. */
+FS_SPECIALISE void row_plant(fs_sim *s, double t, double theta_e, const double *i_ph, const fs_pmsm_at *a,
+                             double u_dc, double *r, const long st, const int all)
+{
     fs_pmsm_input pin = {0};
     pin.T_load = prof(s, P_T_LOAD, t, NULL);
     pin.w_load = prof(s, P_W_LOAD, t, NULL);
     double Te, Tl, id2, iq2;
-    fs_pmsm_outputs(&s->pmsm, s->x, &pin, &id2, &iq2, &Te, &Tl);
+    fs_pmsm_outputs_at(&s->pmsm, s->x, &pin, a, &id2, &iq2, &Te, &Tl);
     r[FS_CH_T * st] = t;
     r[FS_CH_THETA_E * st] = theta_e;
     r[FS_CH_W_M * st] = s->x[FS_X_W_M];
     r[FS_CH_PSI_D * st] = s->x[FS_X_PSI_D];
     r[FS_CH_PSI_Q * st] = s->x[FS_X_PSI_Q];
-    r[FS_CH_I_D * st] = i_d;
-    r[FS_CH_I_Q * st] = i_q;
+    r[FS_CH_I_D * st] = a->i_d;
+    r[FS_CH_I_Q * st] = a->i_q;
     r[FS_CH_I_A * st] = i_ph[0];
     r[FS_CH_I_B * st] = i_ph[1];
     r[FS_CH_I_C * st] = i_ph[2];
@@ -804,35 +933,18 @@ FS_SPECIALISE void row_plant(fs_sim *s, double t, double theta_e, const double *
     r[FS_CH_E_CU * st] = s->x[FS_X_E_CU];
     r[FS_CH_E_AIRGAP * st] = s->x[FS_X_E_AIRGAP];
     r[FS_CH_W_MAG * st] = fs_pmsm_energy(&s->pmsm, s->x);
-    double i_d3, i_q3;
-    fs_pmsm_currents3(&s->pmsm, s->x, &i_d3, &i_q3);
-    r[FS_CH_I_D3 * st] = i_d3;
-    r[FS_CH_I_Q3 * st] = i_q3;
-    const int imc_mean = s->imc && s->k > 0;
-    r[FS_CH_I_GRID_A * st] = imc_mean ? s->g_int[0] / s->Tc : 0.0;
-    r[FS_CH_V_PN * st] = imc_mean ? s->g_int[1] / s->Tc : 0.0;
-    r[FS_CH_U_AB * st] = imc_mean ? s->g_int[2] / s->Tc : 0.0;
-    r[FS_CH_E_GRID * st] = s->imc ? s->g[FS_GRID_X_E_GRID] : 0.0;
-    r[FS_CH_E_RF * st] = s->imc ? s->g[FS_GRID_X_E_RF] : 0.0;
-    r[FS_CH_W_FILTER * st] = s->imc ? fs_grid_energy(&c->grid, s->g) : 0.0;
     r[FS_CH_U_DC * st] = u_dc;
-    r[FS_CH_T_WINDING * st] = s->thermal_on ? s->thermal.T_w : 0.0;
-    r[FS_CH_T_MAGNET * st] = s->thermal_on ? s->thermal.T_m : 0.0;
-    r[FS_CH_R_S_TRUE * st] = s->pmsm.cfg.R_s;
-    r[FS_CH_PSI_F_TRUE * st] = s->psi_f_true;
-    r[FS_CH_E_DC * st] = s->e_dc;
-    r[FS_CH_E_COND * st] = s->e_cond;
-    r[FS_CH_E_RECT * st] = s->e_rect;
-    r[FS_CH_E_SW * st] = s->e_sw;
-    r[FS_CH_E_FE * st] = s->losses ? s->x[FS_X_E_FE] : 0.0;
-    r[FS_CH_E_MECH * st] = s->losses ? s->x[FS_X_E_MECH] : 0.0;
-    r[FS_CH_E_SHAFT * st] = s->losses ? s->x[FS_X_E_SHAFT] : 0.0;
+    row_group(s, G_FIVE, r, st, all);
+    row_group(s, G_IMC, r, st, all);
+    row_group(s, G_THERMAL, r, st, all);
+    row_group(s, G_METERS, r, st, all);
+    row_group(s, G_LOSSES, r, st, all);
 }
 
 /* The drive's channels of a trace row: its inputs and outputs at this
  * sample (theta_e: the true angle, as row_plant wrote it). */
 FS_SPECIALISE void row_drive(const fs_sim *s, double theta_e, const fs_drive_in *din, const fs_drive_out *dout,
-                             double *r, const long st)
+                             double *r, const long st, const int all)
 {
     const fs_sim_config *c = &s->cfg;
     const int p = c->plant.pole_pairs;
@@ -866,9 +978,7 @@ FS_SPECIALISE void row_drive(const fs_sim *s, double theta_e, const fs_drive_in 
     r[FS_CH_LOCK_LOST * st] = dout->lock_lost;
     r[FS_CH_STAGE * st] = dout->stage;
     r[FS_CH_RECOVERIES * st] = dout->recoveries;
-    const int adapt = c->drive.adapt.T_f > 0.0f;
-    r[FS_CH_R_S_HAT * st] = adapt ? s->drive.adapt.R_s : c->drive.R_s;
-    r[FS_CH_PSI_F_HAT * st] = adapt ? s->drive.adapt.psi_f : c->drive.psi_f;
+    row_group(s, G_ADAPT, r, st, all);
 }
 
 /* The plant over the period from the sample at t with the duties acting,
@@ -883,7 +993,7 @@ static int advance(fs_sim *s, double t)
     if (s->thermal_on) thermal_period(s);
     if (c->delay) {
         for (int k = 0; k < s->phases; ++k) s->duty_now[k] = s->duty_next[k];
-        s->rect_now = s->rect_next;
+        if (s->imc) s->rect_now = s->rect_next;
     }
     ++s->k;
     s->x[FS_X_THETA_M] = fmod_near(s->x[FS_X_THETA_M], 2.0 * pi_const());
@@ -927,9 +1037,10 @@ FS_SPECIALISE int run(fs_sim *s, long long k_end, double *trace, long stride, in
         int record = (s->k % c->decimation) == 0;
         if (record && *rows >= max_rows) return FS_RUN_BUFFER_FULL;
         double t = (double)s->k * s->Tc;
-        double i_ph[FS_INV_MAX_LEGS], i_d, i_q;
+        double i_ph[FS_INV_MAX_LEGS];
+        fs_pmsm_at at;
         fs_drive_in din;
-        sample(s, t, &din, i_ph, &i_d, &i_q);
+        sample(s, t, &din, i_ph, &at);
         fs_drive_out dout;
         memset(&dout, 0, sizeof dout);   /* the fields a mode leaves unwritten (ident_step) read 0, not the stack's */
         fs_drive_step(&s->drive, &din, &dout);
@@ -937,8 +1048,8 @@ FS_SPECIALISE int run(fs_sim *s, long long k_end, double *trace, long stride, in
         if (record) {
             const long st = cols ? stride : 1;
             double *r = cols ? trace + *rows : trace + (size_t)(*rows) * FS_CH_N;
-            row_plant(s, t, s->theta_e, i_ph, i_d, i_q, din.u_dc, r, st);
-            row_drive(s, s->theta_e, &din, &dout, r, st);
+            row_plant(s, t, s->theta_e, i_ph, &at, din.u_dc, r, st, !cols);
+            row_drive(s, s->theta_e, &din, &dout, r, st, !cols);
             ++*rows;
         }
         if (c->lock_stop && dout.lock_lost) {
@@ -972,7 +1083,10 @@ int fs_sim_run_steps(fs_sim *s, long long k_end, double *trace, int max_rows, in
 int fs_sim_run_cols(fs_sim *s, long long k_end, double *trace, long stride, int max_rows, int *rows)
 {
     if (stride < max_rows || stride < 1) return FS_RUN_ERR_STRIDE;
-    return run(s, k_end, trace, stride, max_rows, rows, 1);
+    const int rc = run(s, k_end, trace, stride, max_rows, rows, 1);
+    /* rows it wrote, into a trace it had (a refused call leaves *rows as it was) */
+    if (rc != FS_RUN_ERR_NULL && *rows > 0) fill_held(s, trace, stride, *rows);
+    return rc;
 }
 
 int fs_sim_hold(fs_sim *s, int which, double value, double slope)
@@ -988,9 +1102,10 @@ int fs_sim_sample(fs_sim *s, fs_drive_in *in, double *t)
 {
     if (!s || !in || !t) return FS_RUN_ERR_NULL;
     if (s->stopped) return s->stopped;
-    double i_ph[FS_INV_MAX_LEGS], i_d, i_q;
+    double i_ph[FS_INV_MAX_LEGS];
+    fs_pmsm_at at;
     *t = (double)s->k * s->Tc;
-    sample(s, *t, in, i_ph, &i_d, &i_q);
+    sample(s, *t, in, i_ph, &at);
     s->sampled = 1;
     return FS_RUN_DONE;
 }
@@ -1009,13 +1124,14 @@ void fs_sim_plant_row(fs_sim *s, double *row)
 {
     if (!s || !row) return;
     const double t = fs_sim_time(s);
-    double i_ph[FS_INV_MAX_LEGS], i_d, i_q;
-    phase_currents(s, s->x, i_ph, &i_d, &i_q);
+    double i_ph[FS_INV_MAX_LEGS];
+    fs_pmsm_at at;
+    phase_currents_at(s, s->x, i_ph, &at);
     double u_dc = s->cfg.inverter.u_dc;
     if (!s->imc && (s->prof[P_U_DC_SCALE].n > 0 || s->held[P_U_DC_SCALE]))
         u_dc = s->u_dc0 * prof(s, P_U_DC_SCALE, t, NULL);
     if (s->imc && s->k > 0) u_dc = (float)(s->g_int[1] / s->Tc);   /* as the drive samples it */
-    row_plant(s, t, wrap_pi(s->cfg.plant.pole_pairs * s->x[FS_X_THETA_M]), i_ph, i_d, i_q, (float)u_dc, row, 1);
+    row_plant(s, t, wrap_pi(s->cfg.plant.pole_pairs * s->x[FS_X_THETA_M]), i_ph, &at, (float)u_dc, row, 1, 1);
 }
 
 void fs_sim_dc_link(fs_sim *s, double *u_dc, double *i_dc, double *p_dc)

@@ -132,6 +132,36 @@ START_STAGES = (2, 3)    # polarity detection, the I/f start
 RECOVERY = 8
 
 
+def in_stages(stage, stages: tuple) -> np.ndarray:
+    """np.isin(stage as int, stages), by two comparisons where the stages
+    are a run of consecutive codes (all of the sets above: a tenth of
+    isin's time over a run's samples)."""
+    s = np.asarray(stage).astype(int)
+    lo, hi = min(stages), max(stages)
+    if tuple(stages) == tuple(range(lo, hi + 1)):
+        return (s >= lo) & (s <= hi)
+    return np.isin(s, stages)
+
+
+def unwrap(p: np.ndarray) -> np.ndarray:
+    """np.unwrap(p) (period 2 pi), the same bits: its correction formed only
+    where a step is not below pi (elsewhere numpy zeroes it), so the
+    remainder runs over the few jumps and not over every sample."""
+    p = np.asarray(p, dtype=float)
+    if p.size < 2:
+        return p.copy()
+    dd = np.diff(p)
+    jump = np.flatnonzero(~(np.abs(dd) < np.pi))         # NaN steps too, as numpy leaves them
+    ph_correct = np.zeros(dd.size)
+    d = dd[jump]
+    ddmod = np.mod(d + np.pi, 2.0 * np.pi) - np.pi        # numpy: mod(dd - interval_low, period) + interval_low
+    np.copyto(ddmod, np.pi, where=(ddmod == -np.pi) & (d > 0))
+    ph_correct[jump] = ddmod - d
+    up = p.copy()
+    up[1:] = p[1:] + ph_correct.cumsum()
+    return up
+
+
 def true_loss_at(tr, threshold: float = math.pi / 2, t_net: float = 0.02) -> float | None:
     """When the simulation's truth says lock was lost: the loops' angle more
     than `threshold` (rad) from the rotor's, in a sensorless stage, for
@@ -146,10 +176,10 @@ def true_loss_at(tr, threshold: float = math.pi / 2, t_net: float = 0.02) -> flo
         return None
     dt = float(t[1] - t[0])
     e = np.abs(np.asarray(tr["theta_err"]))
-    sensorless = np.isin(np.asarray(tr["stage"]).astype(int), SENSORLESS_STAGES)
+    sensorless = in_stages(tr["stage"], SENSORLESS_STAGES)
     state = np.where(sensorless & (e > threshold), 1, np.where(~sensorless | (e < 0.5 * threshold), -1, 0)).astype(np.int8)
     # segments of equal state: the counter moves linearly within each
-    edges = np.r_[0, np.flatnonzero(np.diff(state)) + 1, state.size]
+    edges = np.concatenate(([0], np.flatnonzero(np.diff(state)) + 1, [state.size]))   # np.r_'s, without its parsing
     acc = 0.0
     for a, b in zip(edges[:-1], edges[1:]):
         if state[a] == 1:
@@ -306,13 +336,17 @@ def stage_metrics(tr) -> dict:
     if s.size < 2:
         return {}
     dt = float(t[1] - t[0])
-    err = np.degrees(np.abs(np.asarray(tr["theta_err"])))
-    entries = np.r_[0, np.flatnonzero(np.diff(s)) + 1]
+    err = np.abs(np.asarray(tr["theta_err"]))   # in degrees at the max: rounding is monotone, the same bits
+    entries = np.concatenate(([0], np.flatnonzero(np.diff(s)) + 1))
+    # each stay's length and largest error, then each stage's over its stays (the max of maxima, NaN as
+    # np.max carries it): a pass over the run, not one a stage
+    codes, lengths = s[entries], np.diff(np.append(entries, s.size))
+    stay_max = np.maximum.reduceat(err, entries)
     out = {}
-    for code in dict.fromkeys(s[entries]):
-        m = s == code
-        out[STAGES[code]] = {"time": float(np.count_nonzero(m) * dt), "entries": int(np.count_nonzero(s[entries] == code)),
-                             "theta_err_max_deg": float(np.max(err[m]))}
+    for code in dict.fromkeys(codes):
+        k = codes == code
+        out[STAGES[code]] = {"time": float(int(np.sum(lengths[k])) * dt), "entries": int(np.count_nonzero(k)),
+                             "theta_err_max_deg": float(np.degrees(np.max(stay_max[k])))}
     return out
 
 
@@ -341,7 +375,7 @@ def sensorless_error_max(tr, after_step: float = 0.05, t_from: float = 0.0,
     start's frame, which the rotor follows at its load angle, left out,
     and the 50 ms after its hand-over with it)."""
     t = np.asarray(tr["t"])
-    on = np.isin(np.asarray(tr["stage"]).astype(int), stages) & (t >= t_from - 1e-12)
+    on = in_stages(tr["stage"], stages) & (t >= t_from - 1e-12)
     entries = [float(t[k + 1]) for k in np.flatnonzero(on[1:] & ~on[:-1])]
     keep = on.copy()
     starts = np.array(step_times(tr) + entries, dtype=float)
@@ -402,13 +436,13 @@ def lock_events(res) -> tuple[float | None, list[dict]]:
     return first, events
 
 
-def true_loss_unanswered(tr, events: list[dict]) -> float | None:
+def true_loss_unanswered(tr, events: list[dict], whole=...) -> float | None:
     """The truth's loss of lock (true_loss_at) after the drive's last
     re-acquisition: a loss before it was answered (the drive's recovery
-    followed it)."""
+    followed it). whole: true_loss_at(tr) if the caller has it."""
     t0 = max((ev["t_done"] for ev in events if ev["action"] != "stopped" and ev["t_done"] is not None), default=None)
     if t0 is None:
-        return true_loss_at(tr)
+        return true_loss_at(tr) if whole is ... else whole
     keep = np.asarray(tr["t"]) >= t0
     return true_loss_at({k: np.asarray(tr[k])[keep] for k in ("t", "theta_err", "stage")})
 
@@ -429,7 +463,7 @@ def job_checks(res) -> dict:
         since = np.flatnonzero(st != st[-1])
         t_in = float(t[since[-1] + 1]) if since.size else float(t[0])
         out["start_unfinished"] = {"stage": STAGES[st[-1]], "since": t_in,
-                                   "never_left": not np.any(np.isin(st, SENSORLESS_STAGES))}
+                                   "never_left": not np.any(in_stages(st, SENSORLESS_STAGES))}
     if sc.data["controller"]["mode"] == "speed":
         m = t >= t[-1] - 1.0 / sc.data["controller"]["bw_speed"] - 1e-12
         w, w_ref = float(np.mean(tr["w_m"][m])), float(np.mean(tr["w_m_ref"][m]))
@@ -453,10 +487,10 @@ def start_motion(res) -> dict | None:
     t = np.asarray(tr["t"])
     if kind not in START_KINDS or t.size == 0:
         return None
-    on = np.isin(np.asarray(tr["stage"]).astype(int), SENSORLESS_STAGES)
-    on = on & np.r_[on[1:], False]   # for two samples at least: the step a start halts in reads as one
+    on = in_stages(tr["stage"], SENSORLESS_STAGES)
+    on = on & np.append(on[1:], False)   # for two samples at least: the step a start halts in reads as one
     k = int(np.argmax(on)) if on.any() else t.size - 1
-    theta = np.unwrap(np.asarray(tr["theta_e"])[: k + 1])
+    theta = unwrap(np.asarray(tr["theta_e"])[: k + 1])
     turn = float(np.degrees(np.max(np.abs(theta - theta[0]))))
     p = res.scenario.machine.pole_pairs
     return {"kind": kind, "until": float(t[k]) if on.any() else None, "turn_deg": turn, "turn_deg_mech": turn / p,
@@ -474,7 +508,7 @@ def start_given(res) -> dict | None:
     tr = res.traces
     if st.get("kind") != "sensor" or np.asarray(tr["t"]).size == 0:
         return None
-    on = np.isin(np.asarray(tr["stage"]).astype(int), SENSORLESS_STAGES)
+    on = in_stages(tr["stage"], SENSORLESS_STAGES)
     if not on.any():
         return None
     k = int(np.argmax(on))
@@ -496,7 +530,7 @@ def compute_metrics(res) -> dict:
     win, out["steady_basis"] = _steady(res)
     out["steady_window"] = list(win) if win else None
     m = window_mask(t, *win) if win else np.zeros(t.size, bool)
-    out["i_phase_max"] = float(np.max(np.abs(np.stack([tr["i_a"], tr["i_b"], tr["i_c"]]))))
+    out["i_phase_max"] = float(np.max([np.max(np.abs(tr[ch])) for ch in ("i_a", "i_b", "i_c")]))   # NaN as one
     out["lock_lost_at"], out["lock_events"] = lock_events(res)
     out["recoveries"] = int(tr["recoveries"][-1])
     if res.polarity is not None:
@@ -506,7 +540,7 @@ def compute_metrics(res) -> dict:
     out["ideal_hardware"] = ideal_hardware(res.scenario.data)
     out["warnings"] = list(res.scenario.warnings)
     out["true_loss_at"] = true_loss_at(tr)
-    out["true_loss_unanswered_at"] = true_loss_unanswered(tr, out["lock_events"])
+    out["true_loss_unanswered_at"] = true_loss_unanswered(tr, out["lock_events"], out["true_loss_at"])
     out["false_alarm_err_deg"] = false_alarm(tr, out["lock_lost_at"], out["true_loss_at"])
     t_sl = sensorless_from(res.scenario)
     out["sensorless_err_deg_max"] = None if t_sl is None else sensorless_error_max(tr, t_from=t_sl)
@@ -527,23 +561,26 @@ def compute_metrics(res) -> dict:
         out["start_given"] = given
     if not m.any():
         return out
+    # the window as a slice where the samples rise (a run's always do): views, not copies of the masked samples;
+    # the same samples in the same order, so the same sums
+    sel = window_slice(t, *win) if np.all(t[1:] > t[:-1]) else m
     mode = res.scenario.data["controller"]["mode"]
     if mode == "speed":
-        w_ref = float(np.mean(tr["w_m_ref"][m]))
-        w = float(np.mean(tr["w_m"][m]))
+        w_ref = float(np.mean(tr["w_m_ref"][sel]))
+        w = float(np.mean(tr["w_m"][sel]))
         out["speed_ref_rpm"] = rad_s_to_rpm(w_ref)
         out["speed_rpm"] = rad_s_to_rpm(w)
         out["speed_error_pct"] = 100.0 * (w - w_ref) / abs(w_ref) if w_ref != 0 else None
     if mode in ("speed", "current"):
-        out["i_d_error_rms"] = float(np.sqrt(np.mean((tr["i_d_ref"][m] - tr["i_d"][m]) ** 2)))
-        out["i_q_error_rms"] = float(np.sqrt(np.mean((tr["i_q_ref"][m] - tr["i_q"][m]) ** 2)))
-    out["T_e_mean"] = float(np.mean(tr["T_e"][m]))
-    out["T_e_pp"] = float(np.ptp(tr["T_e"][m]))
+        out["i_d_error_rms"] = float(np.sqrt(np.mean((tr["i_d_ref"][sel] - tr["i_d"][sel]) ** 2)))
+        out["i_q_error_rms"] = float(np.sqrt(np.mean((tr["i_q_ref"][sel] - tr["i_q"][sel]) ** 2)))
+    out["T_e_mean"] = float(np.mean(tr["T_e"][sel]))
+    out["T_e_pp"] = float(np.ptp(tr["T_e"][sel]))
     power = power_metrics(res, m)
     if power is not None:
         out["power"] = power
-    out["theta_err_deg"] = angle_error_stats(tr["theta_err"][m])
-    out["est_err_deg"] = angle_error_stats(tr["est_err"][m])
+    out["theta_err_deg"] = angle_error_stats(tr["theta_err"][sel])
+    out["est_err_deg"] = angle_error_stats(tr["est_err"][sel])
     return out
 
 
@@ -661,7 +698,7 @@ def false_alarm(tr, lock_lost_at: float | None, true_loss: float | None) -> floa
     if lock_lost_at is None or true_loss is not None:
         return None
     t = np.asarray(tr["t"])
-    on = np.isin(np.asarray(tr["stage"]).astype(int), SENSORLESS_STAGES) & (t <= lock_lost_at + 1e-12)
+    on = in_stages(tr["stage"], SENSORLESS_STAGES) & (t <= lock_lost_at + 1e-12)
     return float(np.degrees(np.max(np.abs(np.asarray(tr["theta_err"])[on])))) if on.any() else None
 
 
