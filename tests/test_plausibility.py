@@ -170,3 +170,24 @@ def test_the_rated_speed_check_is_quiet_on_the_catalog_and_the_zoo():
         assert rated_speed(catalog_data(name)) == [], name
     for k in range(0, zoo.SIZE, 3):
         assert rated_speed(zoo.machine(k)) == [], k
+
+
+def test_a_design_refused_on_implausible_data_names_the_datas_likely_mistake():
+    """The trial's first mistake, L_d and L_q in mH typed as H: the design
+    refuses (no voltage left for a carrier: 2.6e5 V needed), and the
+    refusal now also names the field the data's plausibility finds wrong,
+    which the warnings printed after a successful design never reached."""
+    from fullspeed.model.errors import ConfigError
+    from fullspeed.reproduce.papers.real import real_scenario
+    d = {"name": "p", "duration": 1.0, "machine": prius(electrical__L_d=2.26, electrical__L_q=6.15),
+         "controller": {"mode": "speed", "angle": "blend"}, "references": {"speed_rpm": 1000.0}}
+    with pytest.raises(ConfigError) as exc:
+        scenario_from_dict(d)
+    text = str(exc.value)
+    assert exc.value.field == "injection.u_h" and "no voltage left for a carrier" in text
+    assert "the machine's data: machine.electrical.L_d:" in text and "H, not mH" in text
+    # a refusal on plausible data is left as it was: the H27's I/f start against B-REAL's load
+    data, _ = real_scenario("hefei-h27", "smo")
+    with pytest.raises(ConfigError) as exc:
+        scenario_from_dict(data)
+    assert "the machine's data" not in str(exc.value) and "cannot carry" in str(exc.value)

@@ -101,15 +101,13 @@ def top_speed(m, u: float, T: float, i_d: float = 0.0) -> float:
     return max((-b + math.sqrt(disc)) / (2 * a), 0.0) / m.pole_pairs
 
 
-def warnings_of(d: dict, m, bw_speed_given: bool = False) -> list[str]:
-    """The warning lines of a validated scenario (data d, machine m;
-    bw_speed_given: the scenario sets controller.bw_speed)."""
+def plausibility_warnings(d: dict, m) -> list[str]:
+    """The machine's data against what machines have (time constants, the
+    back-EMF, the torque and the rated speed against their ratings, the
+    copper losses), each line naming the field and the likely mistake; d is
+    a scenario's data whose converter's u_dc is known."""
     out = []
-    ctl = d["controller"]
     u_lin = u_linear(d["converter"]["u_dc"], m.phases)
-    w_e_rated = m.pole_pairs * m.w_m_rated
-
-    # plausibility
     if m.R_s > 0 and not TAU_E[0] <= m.L_d / m.R_s <= TAU_E[1]:
         out.append(f"machine.electrical.L_d: L_d / R_s = {m.L_d / m.R_s:.3g} s is outside {TAU_E[0]:g}..{TAU_E[1]:g} s, "
                    "unusual for a PMSM: check the units (H, not mH) of L_d, L_q and R_s (ohm)")
@@ -126,6 +124,14 @@ def warnings_of(d: dict, m, bw_speed_given: bool = False) -> list[str]:
     if loss > COPPER * p_rated and not speed:   # a wrong rated speed is the wrong rated power too
         out.append(f"machine.electrical.R_s: the copper losses at rated current, {loss:.4g} W, are {loss / p_rated:.0%} "
                    f"of the rated power: check R_s (ohm, per phase)")
+    return out
+
+
+def warnings_of(d: dict, m, bw_speed_given: bool = False) -> list[str]:
+    """The warning lines of a validated scenario (data d, machine m;
+    bw_speed_given: the scenario sets controller.bw_speed)."""
+    out = plausibility_warnings(d, m)
+    ctl = d["controller"]
 
     # feasibility of the references and the load against the machine's envelope
     out += envelope_warnings(d, m)

@@ -15,7 +15,7 @@ from ..model.errors import ConfigError
 from ..model.machines import Machine
 from ..model.scenario import Scenario, parse_scenario, plant_machine, scenario_data, xcomp_table
 from ..model.units import rad_s_to_rpm, rpm_to_rad_s
-from .checks import warnings_of
+from .checks import plausibility_warnings, warnings_of
 from .envelope import envelope, torque_at
 from .controller import controller_model, hfi_design, injection_inductances
 from .machine import design_machine, mtpa_torque
@@ -43,7 +43,38 @@ def scenario_from_dict(data: dict, source: str | None = None, warn: bool = True)
     warnings of what it asks (design.checks). warn=False leaves the
     warnings out (UNWARNED in their place), for a caller that reads none:
     an envelope's bisection runs past the envelope on purpose, and the
-    warning's search of the torque there was most of such a run's CPU."""
+    warning's search of the torque there was most of such a run's CPU.
+    A refusal of the design carries the machine data's likeliest mistake
+    where its plausibility finds one (a unit typed wrong is often what
+    makes a design impossible: L in H, not mH, leaves no voltage for a
+    carrier)."""
+    try:
+        return _designed(data, source, warn)
+    except ConfigError as exc:
+        hint = _data_mistake(data, source)
+        if hint is None or type(exc) is not ConfigError:
+            raise
+        raise ConfigError(exc.field, exc.value, f"{exc.allowed}; the machine's data: {hint}", exc.source) from None
+
+
+def _data_mistake(data: dict, source: str | None) -> str | None:
+    """The first plausibility line of the scenario's machine (None where the
+    data does not parse, or nothing is implausible)."""
+    try:
+        d, m = parse_scenario(data, source)
+        m = design_machine(m)
+        if d["converter"]["u_dc"] is None:
+            d["converter"]["u_dc"] = m.bench["u_dc"]
+        if d["controller"]["i_max"] is None:
+            d["controller"]["i_max"] = m.bench["i_max"]
+        lines = plausibility_warnings(d, m)
+    except (ConfigError, ValueError, KeyError, TypeError):
+        return None
+    return lines[0] if lines else None
+
+
+def _designed(data: dict, source: str | None, warn: bool) -> Scenario:
+    """scenario_from_dict's work."""
     d, m = parse_scenario(data, source)
     m = design_machine(m)
     b = m.bench
