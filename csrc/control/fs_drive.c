@@ -304,6 +304,14 @@ static inline fs_ab drive_smo_u(const fs_drive *drv, fs_ab i)
     return u;
 }
 
+/* Whether the injection may stop above w_inject_max (drive_injection_step):
+ * the blend's trust whole, or the planned flux weakening on and the SMO
+ * converged. A function so that the step evaluates it only there. */
+static inline bool drive_handed_over(const fs_drive *drv)
+{
+    return (drv->blend.trust >= 1.0f) || (drv->fw_map_on && drv->smo.converged);
+}
+
 /* HFI (while injecting), the SMO on the fundamental, the blend; the
  * fundamental current is returned for the loops. */
 static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
@@ -379,8 +387,7 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
          * a load machine to 3,456 rpm in 0.1 s, to 3,450 rpm, 14 times
          * w_inject_max, where the plan's voltage less the carrier's left no
          * torque, and the drive lost the rotor */
-        const bool handed_over = (drv->blend.trust >= 1.0f) || (drv->fw_map_on && drv->smo.converged);
-        if ((c->w_inject_max > 0.0f) && drv->inject_on && (aw > c->w_inject_max) && handed_over) {
+        if ((c->w_inject_max > 0.0f) && drv->inject_on && (aw > c->w_inject_max) && drive_handed_over(drv)) {
             drv->inject_on = false;
             fs_smo_hold(&drv->smo, drv->hfi.n_settle);   /* ... and out */
         } else if (c->w_inject_max > 0.0f && !drv->inject_on && aw < 0.9f * c->w_inject_max) {
