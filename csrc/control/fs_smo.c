@@ -21,7 +21,11 @@ FS_OUT_OF_LINE FS_COLD void smo_redesign(fs_smo *o, float want)
 
 static inline void smo_schedule(fs_smo *o)
 {
-    const float w_emf = o->e_raw / o->cfg.psi_f;
+    /* the EMF's speed: over the active flux at the current (psi_x), not
+     * the magnet's alone, which under load on a salient machine reads the
+     * speed several times too high (the 2004 Prius MG2 at 200 N m: psi_x
+     * 0.51 Wb, psi_f 0.16) and schedules the tracker beyond its filter */
+    const float w_emf = o->e_raw / o->psi_x;
     const float want = fs_minf(FS_SMO_BW_PER_W * fs_maxf(w_emf, o->w_sched_min), o->cfg.bw_pll);
     const float now = o->mo.cfg.bandwidth;
     if (!(fabsf(want - now) <= 0.1f * now)) smo_redesign(o, want);   /* a NaN re-designs, as before */
@@ -110,6 +114,9 @@ FS_COLD void fs_smo_reset(fs_smo *o, float theta, float w)
     o->valid = false;
     o->n_cross = 0;
     o->n_hold = 0;
+    o->T_hold = 0.0f;
+    o->w_hold = 0.0f;
+    o->th_hold = 0.0f;
     o->r_i = o->eps = o->e_mag = 0.0f;
 }
 
@@ -118,8 +125,12 @@ void fs_smo_follow(fs_smo *o, float theta, float w, float T_d)
     /* only while its own EMF says the rotor is below w_valid: a caller's
      * estimate that has slipped (the injection's, thrown out of its range)
      * would otherwise hold the observer on itself, never valid, never
-     * converged, and the two could not be told apart */
-    if (o->cfg.form != FS_SMO_FORM_TRACKING || o->valid || o->e_raw >= o->cfg.w_valid * o->cfg.psi_f) return;
+     * converged, and the two could not be told apart. The EMF over the
+     * active flux at the current (psi_x), not the magnet's alone: under
+     * load on a salient machine the EMF of w_valid is several times
+     * w_valid psi_f (the 2004 Prius MG2 at 200 N m: psi_x 0.51 Wb, psi_f
+     * 0.16), and the hand-over ended at a third of w_valid */
+    if ((o->cfg.form != FS_SMO_FORM_TRACKING) || o->valid || (o->e_raw >= (o->cfg.w_valid * o->psi_x))) return;
     fs_motion_obs_reset(&o->mo, theta, w);
     o->mo.T_d_hat = T_d;
     o->theta = o->mo.theta_hat;
@@ -139,6 +150,8 @@ void fs_smo_hold(fs_smo *o, int n)
 {
     if (o->valid && (n > 0)) {   /* read by the tracking form only */
         o->n_hold = n;
+        o->w_hold = 0.0f;
+        o->th_hold = 0.0f;
     }
 }
 
@@ -263,7 +276,7 @@ FS_OUT_OF_LINE FS_COLD void smo_cross_step(fs_smo *o, float T)
          * low-pass's settling says the rotor is not in the band: the
          * estimate fell below it on its own (a disturbance), not with the
          * rotor; the crossing ends and the EMF is read again */
-        o->n_emf = (o->e_raw >= (c->w_valid * c->psi_f)) ? (o->n_emf + 1) : 0;
+        o->n_emf = (o->e_raw >= (c->w_valid * o->psi_x)) ? (o->n_emf + 1) : 0;
         contradicted = (((float)o->n_emf * c->bw_pll) * c->Ts) > 3.0f;
     } else {
         /* past zero with the filter settled: through once beyond w_valid */
@@ -274,14 +287,27 @@ FS_OUT_OF_LINE FS_COLD void smo_cross_step(fs_smo *o, float T)
 
 /* A step on the model alone: the caller's hold (fs_smo_hold), else a
  * zero crossing's */
-FS_OUT_OF_LINE FS_COLD void smo_model_step(fs_smo *o, float T)
+FS_OUT_OF_LINE FS_COLD bool smo_model_step(fs_smo *o, float T)
 {
+    bool stepped = true;
     if (o->n_hold > 0) {
-        --o->n_hold;
-        (void)fs_motion_obs_predict(&o->mo, T);
+        /* the angle and speed the torque's change since the hold began has
+         * given the model: past FS_SMO_HOLD_DRIFT by the hold's end, the
+         * hold ends and the EMF corrects again, this step on (fs_smo.h) */
+        const float Ts = o->cfg.Ts;
+        o->w_hold += o->mo.k_u * (T - o->T_hold) * Ts;
+        o->th_hold += o->w_hold * Ts;
+        if (fabsf(o->th_hold + (o->w_hold * (float)o->n_hold * Ts)) > FS_SMO_HOLD_DRIFT) {
+            o->n_hold = 0;
+            stepped = false;
+        } else {
+            --o->n_hold;
+            (void)fs_motion_obs_predict(&o->mo, T);
+        }
     } else {
         smo_cross_step(o, T);
     }
+    return stepped;
 }
 
 float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
@@ -365,11 +391,12 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
          * unknown frame nor a load learnt at speed (T_d held) accelerates
          * the estimate */
         T_step = T;
-        if ((o->n_hold > 0) || (o->n_cross > 0)) {
-            smo_model_step(o, T);   /* a hold or a zero crossing, on the model alone (header; rare, out of line) */
-        } else {
+        /* a hold or a zero crossing, on the model alone (header; rare, out of line) */
+        const bool modelled = ((o->n_hold > 0) || (o->n_cross > 0)) && smo_model_step(o, T);
+        if (!modelled) {
             const float T_net = o->valid ? kappa * T - (1.0f - kappa) * o->mo.T_d_hat : -o->mo.T_d_hat;
             fs_motion_obs_step(&o->mo, kappa * err, T_net);
+            o->T_hold = T;
             /* Becoming valid (below, on this speed), the model's acceleration,
              * nil until now, stays continuous: T_d starts at -T and learns the
              * rest. Whatever T_d held (a load from before, or none) counted in

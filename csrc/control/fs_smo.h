@@ -213,6 +213,10 @@ typedef enum { FS_SMO_LAG_EXACT = 0, FS_SMO_LAG_PAPER = 1 } fs_smo_lag;
  * (fs_smo_step): one slower than that is a stop near zero speed, where the
  * model's torque fades with the EMF as before */
 #define FS_SMO_CROSS_MAX 0.5f
+/* The furthest a hold's model alone may drift on a torque change it cannot
+ * place (fs_smo_hold), rad: `converged`'s bound on the innovation (5 el.deg),
+ * so that the correction resumes on an error it would still call settled */
+#define FS_SMO_HOLD_DRIFT 0.0873f
 typedef enum { FS_SMO_FORM_PAPER = 0, FS_SMO_FORM_TRACKING = 1 } fs_smo_form;
 
 typedef struct {
@@ -273,6 +277,12 @@ typedef struct {
     float L_q_run;       /* the model's L_q this step: cfg.L_q, or a flux map's secant (fs_smo_set_model) */
     float psi_run;       /* with a map: the active flux psi_d - L_q i_d (the EMF over the speed), Wb */
     bool map;            /* fs_smo_set_model was called: psi_run replaces psi_f + (L_d - L_q) i_d */
+    /* the hold's drift (fs_smo_hold), last: beside n_hold they moved the
+     * members after them to longer offsets, 116 B more of the image's flash */
+    float T_hold;        /* FS_SMO_FORM_TRACKING: the current's torque at the last corrected step, N m: a hold ends where the
+                            torque has left it (fs_smo_hold) */
+    float w_hold;        /* in a hold: the speed (rad/s) the torque's change since it began has given the model */
+    float th_hold;       /* ... and the angle, rad */
 } fs_smo;
 
 fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg);
@@ -288,7 +298,23 @@ void fs_smo_set_dir(fs_smo *o, float w);
  * changing carrier only within their settling, and on a saturating machine
  * its harmonics pass them), so the tracker runs on its motion model alone
  * meanwhile (the current's torque and its load in full, no correction), as
- * through a zero crossing. No effect otherwise. */
+ * through a zero crossing. No effect otherwise.
+ *
+ * The model alone knows the rotor's motion only while the torque stays
+ * where the load estimate balanced it: a torque change dT in the hold goes
+ * to the rotor (a free rotor) or to the load (a rotor held by a load
+ * machine, a vehicle), which the model cannot tell apart without the EMF,
+ * and the two differ by p dT t^2 / (2 J) after a time t. The hold ends, and
+ * the EMF corrects again, as soon as the difference so far, with its speed
+ * carried over the hold's remaining steps, would pass FS_SMO_HOLD_DRIFT (the
+ * integrals, not the torque of one step: the fading carrier's harmonics
+ * move the current's torque by tens of N m from step to step, and a hold
+ * ended on them corrects on the EMF they disturb: the Prius reversing
+ * under 200 N m, its tracker's speed jumped by 200 rpm). On the 2004 Prius
+ * MG2 held at 294 rpm by a load machine, the torque asked from 40 to 486
+ * N m just as the estimate passed the injection's stop speed: the model
+ * alone, 9.6 ms on a 0.035 kg m^2 rotor, ran the estimate to 660 rpm and
+ * 100 el.deg off. */
 void fs_smo_hold(fs_smo *o, int n);
 /* FS_SMO_FORM_TRACKING, while not valid and its own EMF (e_raw) below that
  * of w_valid: the tracker takes an estimate the caller trusts (angle,
