@@ -40,7 +40,7 @@ from .controller import controller_model, hfi_design, injection_inductances
 from .envelope import OVERMODULATION, Limits, limits
 from .machine import mtpa_torque
 from .magnetics import mtpa_locus, saliency_warnings
-from .rules import CARRIER_LOOP_ACTION_MAX, carrier_loop_action, control_period, u_linear
+from .rules import CARRIER_LOOP_ACTION_MAX, LOAD_STEP_ANGLE, carrier_loop_action, control_period, load_ramp_max, u_linear
 from .start import POLARITY_LOAD, RESOLUTION_MIN, largest_on, polarity_blind
 
 # The bands of plausibility, each with its reason.
@@ -139,6 +139,7 @@ def warnings_of(d: dict, m, bw_speed_given: bool = False) -> list[str]:
     # the speed loop against the observer whose speed it takes
     if bw_speed_given:
         out += speed_loop_warning(d, m)
+    out += load_ramp_warning(d, m)
 
     # the start (design.start)
     pol, inj, st = d.get("polarity", {}), d.get("injection", {}), d.get("start", {})
@@ -512,6 +513,29 @@ def speed_loop_bound(d: dict, m) -> tuple[float, str] | None:
     if ctl["angle"] == "swvi":
         return inj["bw_pll"] / 2.0, f"half the square wave's PLL (injection.bw_pll = {inj['bw_pll']:.4g} rad/s)"
     return None
+
+
+def load_ramp_warning(d: dict, m) -> list[str]:
+    """A line when the blend's motion observer, whose angle and speed the
+    loops take, lags the scenario's steepest load ramp by more than
+    LOAD_STEP_ANGLE (design.rules.observer_for_load_ramp): given too slow, or
+    designed at its cap, the injection's own observer."""
+    ctl, load = d["controller"], d["load"]
+    if ctl["angle"] != "blend" or load["kind"] != "torque" or ctl["gains"] == "paper":
+        return []
+    ramp = load_ramp_max(load["torque"])
+    b = speed_loop_bound(d, m) if ramp > 0.0 else None
+    if b is None:
+        return []
+    w_o = 2.0 * b[0]
+    lag = m.pole_pairs * ramp / (m.J * w_o ** 3)
+    if not lag > LOAD_STEP_ANGLE * (1 + 1e-6):
+        return []
+    return [f"blending.bw_observer: the blend's observer ({w_o:.4g} rad/s) lags the load's steepest ramp "
+            f"({ramp:.4g} N m/s on J = {m.J:.4g} kg m^2) by {math.degrees(lag):.3g} el.deg, more than "
+            f"{math.degrees(LOAD_STEP_ANGLE):g}: the loops take that lag, and the speed loop at half the observer lets the "
+            "rotor roll back under it; let the load rise more slowly, or leave blending.bw_observer to the design "
+            "(up to the injection's own observer, injection.bw_filter_n)"]
 
 
 def speed_loop_warning(d: dict, m) -> list[str]:

@@ -88,6 +88,10 @@ LOAD_STEP_ANGLE = math.radians(5.0)
 # under rated load grows to 9..15 el.deg, and from 0.99 up the injection's loop cycles at 35 Hz
 # (20 kHz with 3500 or 4000 rad/s, 40 kHz with 3000, 10 kHz with 5000: +-20..45 el.deg)
 CARRIER_LOOP_ACTION_MAX = 0.8
+# A load that changes over this long or longer is a ramp the estimate must follow as it rises
+# (observer_for_load_ramp); a faster change is a step, which the runs' metrics forgive for the 50 ms after it
+# (sim.metrics.sensorless_error_max) and pll_for_load_step bounds
+LOAD_RAMP_MIN = 0.05
 # The overspeed stop (csrc/control/fs_drive_protect.h) over the fastest the drive is designed for or asked: a
 # speed loop's overshoot on a step (5-15 %) and a reversal's stay below it; a rotor 20 % past that is a runaway
 # (an active load overhauling the drive, a loss the monitor has not flagged yet) whose back-EMF outgrows what
@@ -324,6 +328,26 @@ def machine_values(m) -> dict:
         out.update(psi_f=m.design["map.psi_f"].value, L_d_hf=m.design["map.L_d_hf"].value, L_q_hf=m.design["map.L_q_hf"].value,
                    flux=lambda i_d, i_q: (table_at(mag, "psi_d", i_d, i_q), table_at(mag, "psi_q", i_d, i_q)))
     return out
+
+
+def observer_for_load_ramp(pole_pairs: int, J: float, dT_dt: float) -> float:
+    """The motion observer's bandwidth that follows an unknown load ramp
+    dT/dt (N m/s) within LOAD_STEP_ANGLE, rad/s. Its triple pole at w_o
+    (fs_motion_obs) takes a ramp of unmodelled acceleration, r = p (dT/dt) / J
+    a second, as e(s) = r / (s (s + w_o)^3): a steady lag r / w_o^3. The
+    rotor's own inertia only, as pll_for_load_step."""
+    return (pole_pairs * dT_dt / (J * LOAD_STEP_ANGLE)) ** (1.0 / 3.0)
+
+
+def load_ramp_max(profile) -> float:
+    """The steepest ramp (N m/s) of a load torque profile, a constant or
+    (times, values) as parsed, over its segments that last LOAD_RAMP_MIN or
+    longer; 0 for a constant or steps only."""
+    if not isinstance(profile, tuple):
+        return 0.0
+    t, y = profile
+    return max((abs(y1 - y0) / (t1 - t0) for t0, t1, y0, y1 in zip(t, t[1:], y, y[1:]) if t1 - t0 >= LOAD_RAMP_MIN),
+               default=0.0)
 
 
 def pll_for_load_step(m) -> float:

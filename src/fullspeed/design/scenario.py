@@ -22,8 +22,8 @@ from .machine import design_machine, mtpa_torque
 from .magnetics import controller_values
 from .start import (POLARITY_ASYMMETRY, RESOLUTION_MIN, design_if, design_motion, design_pulses, injection_resolution,
                     polarity_blind, polarity_reversed)
-from .rules import (Value, control_period, design_band, design_carrier, design_injection, design_observer_pll,
-                    design_overspeed, machine_values, u_linear)
+from .rules import (LOAD_STEP_ANGLE, Value, control_period, design_band, design_carrier, design_injection,
+                    design_observer_pll, design_overspeed, load_ramp_max, machine_values, observer_for_load_ramp, u_linear)
 from .xcomp import check_table_settings, designed_table
 
 # The trace is held in memory: one row of doubles per recorded sample.
@@ -411,6 +411,49 @@ def _choose_start(d: dict, m: Machine, source) -> dict:
     return {}
 
 
+def _blend_for_load_ramp(d: dict, m: Machine, h) -> None:
+    """The blend's motion observer, whose angle and speed the loops take,
+    fast enough for the scenario's steepest load ramp (rules.
+    observer_for_load_ramp), where the injection's default (the paper's
+    rule, w_b_n / 5) is not: up to the injection's own observer (h.cfg.obs,
+    w_b_n with its filter's lag), beyond which it would pass the carrier's
+    ripple and noise. The speed loop follows it (half of it, below). On the
+    2004 Prius MG2, 200 N m rising over 0.15 s at standstill on its 0.035
+    kg m^2 rotor: at the default 62.8 rad/s the blend's estimate lagged 35
+    el.deg and the rotor, its speed loop at half that, rolled back to -660
+    rpm and was lost; at 120 rad/s the lag is 5 el.deg.
+
+    Not on magnetics that cross-saturate (a designed or given
+    injection.xcomp table): there the carrier's angle moves with the
+    current faster than the table says (fs_hfi.h), and an observer faster
+    than the paper's rule passes those moves to the loops' angle and speed
+    (B-MAPID's zoo machine 0 reversing under load, from three initial
+    angles 1e-3 el.deg apart: 10.3, 17.3 and 6.4 el.deg with the blend
+    raised to 91 rad/s and the speed loop at the default's half; 3.6, 3.6
+    and 4.0 at the default). The lag the ramp then leaves is
+    checks.load_ramp_warning's line."""
+    ramp = load_ramp_max(d["load"]["torque"])
+    if not ramp > 0.0:
+        return
+    w_need = observer_for_load_ramp(m.pole_pairs, m.J, ramp)
+    if not w_need > h.w_o_blend:
+        return
+    xc = d["injection"]["xcomp"]
+    if (xc not in (None, False)) or designed_table(m, d["controller"]["i_max"])[0] is not None:
+        return
+    w_cap = h.cfg.obs.bandwidth
+    w = min(w_need, w_cap)
+    d["blending"]["bw_observer"] = w
+    lag = math.degrees(m.pole_pairs * ramp / (m.J * w ** 3))
+    d.setdefault("_notes", {})["blending.bw_observer"] = Value(w, "rad/s", (
+        f"follows the scenario's steepest load ramp, {ramp:.4g} N m/s on J = {m.J:.4g} kg m^2, "
+        f"within {lag:.3g} el.deg (p (dT/dt) / (J w^3))"
+        + ("" if w_need <= w_cap else f"; capped at the injection's own observer ({w_cap:.4g} rad/s), "
+           f"{w_need:.4g} rad/s would keep it within {math.degrees(LOAD_STEP_ANGLE):g}")
+        + f"; the injection's default {h.w_o_blend:.4g} rad/s would lag "
+        f"{math.degrees(m.pole_pairs * ramp / (m.J * h.w_o_blend ** 3)):.3g} el.deg"))
+
+
 def _injection_fields(d: dict, m: Machine, source, bw_speed_given: bool = True, designed_pll=None) -> None:
     """Fill in and check the injection, polarity and blending tables."""
     ctl, inj, pol, bl = d["controller"], d["injection"], d["polarity"], d["blending"]
@@ -433,6 +476,8 @@ def _injection_fields(d: dict, m: Machine, source, bw_speed_given: bool = True, 
     h = hfi_design(inj, Ts, L_d, L_q, source)   # the bandwidths and the held amplitude as the estimator designs them
     # the observer whose speed the loops take: the blend's, or the injection's speed observer (fs_hfi.h: with
     # tracking = "lag" not the fast one, whose speed carries the angle's response to the loop's own current)
+    if ctl["angle"] == "blend" and bl["bw_observer"] is None and d["load"]["kind"] == "torque":
+        _blend_for_load_ramp(d, m, h)
     w_o = (bl["bw_observer"] if ctl["angle"] == "blend" else None) or h.w_o_blend
     if not bw_speed_given and ctl["bw_speed"] > 0.5 * w_o:
         # the speed loop at half its bandwidth keeps the observer's lag small (on the machine zoo: 28 of 50
