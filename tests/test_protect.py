@@ -67,11 +67,13 @@ def test_a_lock_lost_near_standstill_restarts_the_start_sequence():
     """Smaller impacts (37..44 N m for 50 ms) leave the rotor near
     standstill: every run gets back to its 1000 rpm with a clean verdict,
     at least half of them by the start sequence (the injection finds the
-    rotor again), and only below 150 rpm. Not at every impact: after the
-    zero-current wait the back-EMF observer can read a speed several times
-    the rotor's (at 40 N m -159 rpm at a -22 rpm rotor: near zero current
-    the dead time's voltage is no EMF the observer can tell apart) and
-    takes the flying restart, which catches the rotor. Four of the eight
+    rotor again), and only below 150 rpm. Not at every impact: the rotor,
+    thrown from about 380 rpm through zero within the zero-current wait,
+    is at the wait's end where neither the back-EMF observer nor the wait's
+    EMF (a low-pass over a quarter of the lock time) has followed it (at 40
+    N m the observer read -159 rpm at a -22 rpm rotor, at 41 N m +297 at
+    -58), and the drive takes the flying restart, which catches the rotor.
+    Four of the eight
     restart (37, 38, 39, 42 N m; 44 N m leaves the rotor at -160 rpm, a
     flying restart's); on 27134c9 five, the flying restarts near
     standstill at 41 and 43 N m (-62 and -127 rpm), and since the
