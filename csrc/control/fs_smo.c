@@ -392,7 +392,10 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
          * the estimate */
         T_step = T;
         /* a hold or a zero crossing, on the model alone (header; rare, out of line) */
-        const bool modelled = ((o->n_hold > 0) || (o->n_cross > 0)) && smo_model_step(o, T);
+        bool modelled = false;
+        if ((o->n_hold > 0) || (o->n_cross > 0)) {
+            modelled = smo_model_step(o, T);
+        }
         if (!modelled) {
             const float T_net = o->valid ? kappa * T - (1.0f - kappa) * o->mo.T_d_hat : -o->mo.T_d_hat;
             fs_motion_obs_step(&o->mo, kappa * err, T_net);

@@ -40,7 +40,8 @@ from .controller import controller_model, hfi_design, injection_inductances
 from .envelope import OVERMODULATION, Limits, limits
 from .machine import mtpa_torque
 from .magnetics import mtpa_locus, saliency_warnings
-from .rules import CARRIER_LOOP_ACTION_MAX, LOAD_STEP_ANGLE, carrier_loop_action, control_period, load_ramp_max, u_linear
+from .rules import (CARRIER_LOOP_ACTION_MAX, LOAD_STEP_ANGLE, carrier_loop_action, control_period, load_ramp_lag,
+                    load_ramp_max, u_linear)
 from .start import POLARITY_LOAD, RESOLUTION_MIN, largest_on, polarity_blind
 
 # The bands of plausibility, each with its reason.
@@ -496,6 +497,15 @@ def torque_warnings(m) -> list[str]:
     return out
 
 
+def injection_loop_observer(d: dict, m) -> float:
+    """The bandwidth (rad/s) of the motion observer whose angle and speed
+    the loops take with the injection (controller.angle hfi or blend): the
+    blend's, or the injection's speed observer (design.scenario's rule)."""
+    cm = controller_model(d["controller"], m)
+    h = hfi_design(d["injection"], control_period(d), cm["L_d"], cm["L_q"])
+    return (d["blending"]["bw_observer"] if d["controller"]["angle"] == "blend" else None) or h.w_o_blend
+
+
 def speed_loop_bound(d: dict, m) -> tuple[float, str] | None:
     """The fastest speed loop the observer feeding it allows (design.scenario's
     rule) and why; None where the loop takes the encoder's speed or a
@@ -504,9 +514,7 @@ def speed_loop_bound(d: dict, m) -> tuple[float, str] | None:
     if ctl["gains"] == "paper":
         return None
     if ctl["angle"] in ("hfi", "blend"):
-        cm = controller_model(ctl, m)
-        h = hfi_design(inj, control_period(d), cm["L_d"], cm["L_q"])
-        w_o = (d["blending"]["bw_observer"] if ctl["angle"] == "blend" else None) or h.w_o_blend
+        w_o = injection_loop_observer(d, m)
         return 0.5 * w_o, f"half the bandwidth of the observer whose speed it takes ({w_o:.4g} rad/s)"
     if ctl["angle"] == "smo":
         return obs["bw_pll"] / 6.0, f"a sixth of the back-EMF observer's PLL (observer.bw_pll = {obs['bw_pll']:.4g} rad/s)"
@@ -524,11 +532,10 @@ def load_ramp_warning(d: dict, m) -> list[str]:
     if ctl["angle"] != "blend" or load["kind"] != "torque" or ctl["gains"] == "paper":
         return []
     ramp = load_ramp_max(load["torque"])
-    b = speed_loop_bound(d, m) if ramp > 0.0 else None
-    if b is None:
+    if not ramp > 0.0:
         return []
-    w_o = 2.0 * b[0]
-    lag = m.pole_pairs * ramp / (m.J * w_o ** 3)
+    w_o = injection_loop_observer(d, m)
+    lag = load_ramp_lag(m.pole_pairs, m.J, ramp, w_o)
     if not lag > LOAD_STEP_ANGLE * (1 + 1e-6):
         return []
     return [f"blending.bw_observer: the blend's observer ({w_o:.4g} rad/s) lags the load's steepest ramp "

@@ -330,12 +330,18 @@ def machine_values(m) -> dict:
     return out
 
 
+def load_ramp_lag(pole_pairs: int, J: float, dT_dt: float, w_o: float) -> float:
+    """The steady lag (el. rad) of a motion observer at w_o behind an unknown
+    load ramp dT/dt (N m/s). Its triple pole (fs_motion_obs) takes a ramp of
+    unmodelled acceleration, r = p (dT/dt) / J a second, as
+    e(s) = r / (s (s + w_o)^3): r / w_o^3. The rotor's own inertia only, as
+    pll_for_load_step."""
+    return pole_pairs * dT_dt / (J * w_o ** 3)
+
+
 def observer_for_load_ramp(pole_pairs: int, J: float, dT_dt: float) -> float:
-    """The motion observer's bandwidth that follows an unknown load ramp
-    dT/dt (N m/s) within LOAD_STEP_ANGLE, rad/s. Its triple pole at w_o
-    (fs_motion_obs) takes a ramp of unmodelled acceleration, r = p (dT/dt) / J
-    a second, as e(s) = r / (s (s + w_o)^3): a steady lag r / w_o^3. The
-    rotor's own inertia only, as pll_for_load_step."""
+    """The motion observer's bandwidth (rad/s) whose load_ramp_lag is
+    LOAD_STEP_ANGLE."""
     return (pole_pairs * dT_dt / (J * LOAD_STEP_ANGLE)) ** (1.0 / 3.0)
 
 

@@ -23,7 +23,8 @@ from .magnetics import controller_values
 from .start import (POLARITY_ASYMMETRY, RESOLUTION_MIN, design_if, design_motion, design_pulses, injection_resolution,
                     polarity_blind, polarity_reversed)
 from .rules import (LOAD_STEP_ANGLE, Value, control_period, design_band, design_carrier, design_injection,
-                    design_observer_pll, design_overspeed, load_ramp_max, machine_values, observer_for_load_ramp, u_linear)
+                    design_observer_pll, design_overspeed, load_ramp_lag, load_ramp_max, machine_values,
+                    observer_for_load_ramp, u_linear)
 from .xcomp import check_table_settings, designed_table
 
 # The trace is held in memory: one row of doubles per recorded sample.
@@ -444,14 +445,15 @@ def _blend_for_load_ramp(d: dict, m: Machine, h) -> None:
     w_cap = h.cfg.obs.bandwidth
     w = min(w_need, w_cap)
     d["blending"]["bw_observer"] = w
-    lag = math.degrees(m.pole_pairs * ramp / (m.J * w ** 3))
+    def lag(w_o: float) -> float:
+        return math.degrees(load_ramp_lag(m.pole_pairs, m.J, ramp, w_o))
+
     d.setdefault("_notes", {})["blending.bw_observer"] = Value(w, "rad/s", (
         f"follows the scenario's steepest load ramp, {ramp:.4g} N m/s on J = {m.J:.4g} kg m^2, "
-        f"within {lag:.3g} el.deg (p (dT/dt) / (J w^3))"
+        f"within {lag(w):.3g} el.deg (p (dT/dt) / (J w^3))"
         + ("" if w_need <= w_cap else f"; capped at the injection's own observer ({w_cap:.4g} rad/s), "
            f"{w_need:.4g} rad/s would keep it within {math.degrees(LOAD_STEP_ANGLE):g}")
-        + f"; the injection's default {h.w_o_blend:.4g} rad/s would lag "
-        f"{math.degrees(m.pole_pairs * ramp / (m.J * h.w_o_blend ** 3)):.3g} el.deg"))
+        + f"; the injection's default {h.w_o_blend:.4g} rad/s would lag {lag(h.w_o_blend):.3g} el.deg"))
 
 
 def _injection_fields(d: dict, m: Machine, source, bw_speed_given: bool = True, designed_pll=None) -> None:
