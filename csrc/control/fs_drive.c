@@ -190,7 +190,7 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     if (cfg->lock_time > 0.0f) {
         fs_lock_config lc = {Tl, cfg->lock_time};
         SUB("lock_time", fs_lock_init(&drv->lock, &lc));
-        drv->lock_a = expf(-4.0f * Tl / cfg->lock_time);
+        drv->lock_a = fs_exp_pole(-4.0f * Tl / cfg->lock_time);
         /* the rating: T_max, or in current mode the torque of i_max on q */
         const float T_lim = fs_maxf(cfg->T_max, fabsf(drive_torque(cfg, (fs_dq){0.0f, cfg->i_max})));
         fs_monitor_config mc = {Tl, (int)(cfg->delay + 0.5f), cfg->R_s, cfg->L_d, cfg->L_q, cfg->psi_f,

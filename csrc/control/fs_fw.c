@@ -14,7 +14,7 @@ FS_COLD fs_status fs_fw_init(fs_fw *fw, const fs_fw_config *cfg)
     float wl = cfg->w_e_max * cfg->L;
     fw->beta = cfg->gain / (wl * wl);            /* eq. (31) */
     if (!fs_fin(fw->beta)) return FS_ERR_PARAM;   /* w_e,max L too small for a float */
-    fw->a = expf(-cfg->bandwidth * cfg->Ts);
+    fw->a = fs_exp_pole(-cfg->bandwidth * cfg->Ts);
     fs_fw_reset(fw);
     return FS_OK;
 }

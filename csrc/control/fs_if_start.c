@@ -15,8 +15,8 @@ FS_COLD fs_status fs_if_start_init(fs_if_start *s, const fs_if_start_config *cfg
     if (!fs_fin(cfg->i_max) || !(cfg->i_max >= cfg->i_start)) return FS_ERR_I_MAX;
     if (!fs_nonneg(cfg->t_handover)) return FS_ERR_PARAM;
     s->cfg = *cfg;
-    s->a_hp = expf(-0.25f * cfg->w_swing * cfg->Ts);
-    s->b_lp = 1.0f - expf(-fs_minf(4.0f * cfg->w_swing * cfg->Ts, 0.1f));
+    s->a_hp = fs_exp_pole(-0.25f * cfg->w_swing * cfg->Ts);
+    s->b_lp = -expm1f(-fs_minf(4.0f * cfg->w_swing * cfg->Ts, 0.1f));
     fs_if_start_reset(s, 0.0f, 0.0f);
     return FS_OK;
 }

@@ -128,6 +128,12 @@ float _Complex fs_cis(float theta) FS_CONST;
 static inline float fs_cre(float _Complex e) { return ((const float *)&e)[0]; }
 static inline float fs_cim(float _Complex e) { return ((const float *)&e)[1]; }
 
+/* e^x for a discrete filter's pole (x in [-1, 0]) as 1 + expm1f(x): within
+ * an ulp there, and the image links one exponential (expm1f, which the
+ * complements 1 - e^-x need exact when small) instead of two: newlib's
+ * expf and its helpers took 0.5 kB of the target's flash */
+static inline float fs_exp_pole(float x) { return 1.0f + expm1f(x); }
+
 static inline float fs_cosf(float x) { return fs_cre(fs_cis(x)); }
 static inline float fs_sinf(float x) { return fs_cim(fs_cis(x)); }
 

@@ -91,11 +91,11 @@ FS_COLD fs_status fs_monitor_init(fs_monitor *m, const fs_monitor_config *cfg)
     if (!(cfg->t_lost >= 4.0f * cfg->Ts) || !fs_fin(cfg->t_lost)) return FS_ERR_LIMIT;
     if (!fs_nonneg(cfg->w_h)) return FS_ERR_BANDWIDTH;
     m->cfg = *cfg;
-    m->b = 1.0f - expf(-cfg->Ts / cfg->tau);
-    m->a_s = 1.0f - expf(-FS_MONITOR_PRE * (cfg->w_h > 0.0f ? cfg->w_h : FS_PI / cfg->Ts) * cfg->Ts);
+    m->b = -expm1f(-cfg->Ts / cfg->tau);
+    m->a_s = -expm1f(-FS_MONITOR_PRE * (cfg->w_h > 0.0f ? cfg->w_h : FS_PI / cfg->Ts) * cfg->Ts);
     m->x_max = fs_tanf(FS_PI * cfg->Ts / cfg->t_lost);
-    m->a_j = expf(-2.0f * cfg->Ts / cfg->t_lost);
-    m->b_c = 1.0f - expf(-cfg->Ts / cfg->t_lost);
+    m->a_j = fs_exp_pole(-2.0f * cfg->Ts / cfg->t_lost);
+    m->b_c = -expm1f(-cfg->Ts / cfg->t_lost);
     m->k_y = cfg->J / ((float)cfg->pole_pairs * cfg->tau);
     const float x_exc = FS_MONITOR_K_EXC * cfg->T_max * cfg->tau / cfg->t_lost;
     m->c_exc = x_exc * x_exc;

@@ -21,7 +21,7 @@ FS_COLD fs_status fs_param_adapt_init(fs_param_adapt *a, const fs_param_adapt_co
         const float T_u = (float)a->decim * cfg->Ts;
         if (!fs_pos(cfg->T_f) || !(cfg->T_f >= (20.0f * T_u)) || !(cfg->T_f <= (1e7f * T_u))) { ret = FS_ERR_PARAM; }
         else {
-            a->lambda = expf(-T_u / cfg->T_f);
+            a->lambda = fs_exp_pole(-T_u / cfg->T_f);
             a->n_fill = fs_ceil_int(cfg->T_f / T_u);
             /* 20 rad/s: -50 dB at a 1 kHz injection carrier, and a lag of 50 ms,
              * short against the seconds a drive cycle holds a point */

@@ -9,7 +9,7 @@ FS_COLD fs_status fs_srff_init(fs_srff *f, const fs_srff_config *cfg)
     else if (!(cfg->w_b > 0.0f) || !((cfg->w_b * cfg->Ts) <= 0.5f)) { ret = FS_ERR_BANDWIDTH; }
     else {
         f->cfg = *cfg;
-        f->a = expf(-cfg->w_b * cfg->Ts);  /* pole of w_b / (s + w_b), held input */
+        f->a = fs_exp_pole(-cfg->w_b * cfg->Ts);  /* pole of w_b / (s + w_b), held input */
         f->b = 1.0f - f->a;
         f->g = 0.5f * (1.0f + f->a);       /* low-pass read mid-period */
         fs_srff_reset(f);
