@@ -33,7 +33,7 @@ enum { F = 0, N = 1, P = 2 };
     X(swvi.u_h, F, FS_ERR_PARAM) X(swvi.bandwidth, F, FS_ERR_BANDWIDTH) X(swvi.w_max, F, FS_ERR_LIMIT) \
     X(k_p_d, N, FS_ERR_PARAM) X(k_i_d, N, FS_ERR_PARAM) X(k_p_q, N, FS_ERR_PARAM) X(k_i_q, N, FS_ERR_PARAM) \
     X(k_p_w, N, FS_ERR_PARAM) X(k_i_w, N, FS_ERR_PARAM) X(imc_w_grid, N, FS_ERR_PARAM) \
-    X(imc_i_lim, F, FS_ERR_I_MAX) X(imc_V_im, F, FS_ERR_LIMIT)
+    X(imc_i_lim, F, FS_ERR_I_MAX) X(imc_V_im, F, FS_ERR_LIMIT) X(T_slew, N, FS_ERR_LIMIT)
 /* two bytes a field: its offset in floats, its kind and status; the names
  * in one string, in the same order, each ended by a NUL */
 #define FIELD_ENTRY(f, kind, status) {(uint8_t)(offsetof(fs_drive_config, f) / sizeof(float)), (uint8_t)((kind) << 6 | (status))},
@@ -553,6 +553,15 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
         i_ref = fs_drive_if_step(drv, in, i_ab);
     } else if (c->mode == FS_MODE_SPEED) {
         *T_ref = fs_speed_ctrl_step(&drv->sc, in->w_m_ref, w_e / (float)c->pole_pairs);
+        if (drv->injecting && (drv->blend.g_w < 1.0f)) {   /* the torque's slew while injecting (fs_drive.h) */
+            const float lim = c->T_slew * c->Ts;
+            const float dT = *T_ref - drv->T_ff;
+            if ((fabsf(dT) > lim) && (lim > 0.0f)) {
+                const float T_s = drv->T_ff + copysignf(lim, dT);
+                fs_speed_ctrl_realised(&drv->sc, *T_ref, T_s);
+                *T_ref = T_s;
+            }
+        }
         i_ref = weakens && drive_fw_plans(drv) ? drive_fw_map(drv, in->u_dc, w_e, T_ref) : fs_mtpa_step(&drv->mtpa, *T_ref);
         /* zou2021 eq. (30): i_d* = i_d0* + the filtered correction, i_q*
          * kept; then held inside the current limit circle, whose radius

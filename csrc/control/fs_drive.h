@@ -386,6 +386,13 @@ typedef struct {
      * off; Ts, R_s, L_d, psi_f and i_max are taken from above, w_e_max 0
      * from smo.w_e_max */
     fs_param_adapt_config adapt;
+    /* speed mode while injecting: the speed loop's torque changes at most
+     * T_slew N m/s (0: no limit). The observers feed the torque forward on
+     * J; one the shaft does not follow (a load machine, a vehicle) is an
+     * unknown load to them, and this bounds how fast it can come
+     * (fullspeed.design: the ramp the injection's observer follows within
+     * 5 el.deg). */
+    float T_slew;
     /* the machine's flux map (fs_fluxmap.h; di_d = 0: none, the model of
      * L_d, L_q, psi_f above), resampled by fullspeed.design.magnetics. With
      * it: the MTPA locus is searched on the map at init (fs_mtpa.h); each

@@ -345,6 +345,12 @@ def observer_for_load_ramp(pole_pairs: int, J: float, dT_dt: float) -> float:
     return (pole_pairs * dT_dt / (J * LOAD_STEP_ANGLE)) ** (1.0 / 3.0)
 
 
+def load_ramp_for_observer(pole_pairs: int, J: float, w_o: float) -> float:
+    """The steepest unknown load ramp (N m/s) whose load_ramp_lag at w_o is
+    LOAD_STEP_ANGLE."""
+    return LOAD_STEP_ANGLE * J * w_o ** 3 / pole_pairs
+
+
 def load_ramp_max(profile) -> float:
     """The steepest ramp (N m/s) of a load torque profile, a constant or
     (times, values) as parsed, over its segments that last LOAD_RAMP_MIN or

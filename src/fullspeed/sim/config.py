@@ -171,6 +171,7 @@ def build_config(sc: Scenario):
     dc.t_recover, dc.lock_retries = ctl["recover_time"], ctl["lock_retries"]
     cfg.lock_stop = ctl["lock"] in ("stop", "recover")   # with recovery: once the retries are spent
     dc.w_over = m.pole_pairs * rpm_to_rad_s(ctl["overspeed_rpm"])
+    dc.T_slew = ctl["torque_slew"] or 0.0
 
     p = m.pole_pairs
     obs = d["observer"]

@@ -78,7 +78,7 @@ KEYS = {
     "fw_w_e_max": "controller.fw_top_speed_rpm", "fw_gain": "controller.fw_gain", "fw_cutoff": "controller.fw_cutoff",
     "fw_hold": "controller.fw_excess", "map_fw_only": "controller.fw_method", "cc_internal_model": "controller.gains",
     "lock_time": "controller.lock_time", "lock_recover": "controller.lock", "t_recover": "controller.recover_time",
-    "lock_retries": "controller.lock_retries", "w_over": "controller.overspeed_rpm",
+    "lock_retries": "controller.lock_retries", "w_over": "controller.overspeed_rpm", "T_slew": "controller.torque_slew",
     "i_start": "observer.i_start", "a_start": "observer.start_accel_rpm_s", "w_handover": "observer.start_handover_rpm",
     "r_damp": "observer.start_damping", "w_swing": "observer.start_damping", "t_handover": "observer.start_timeout",
     "w_restart": "observer.restart_rpm", "motion.i_push": "start.i_push", "motion.i_push_max": "start.i_push",
