@@ -386,3 +386,15 @@ def test_free_rotors_swing_is_not_read_into_the_map():
     assert row["motion"]["steps"]["map"] > 0.5   # the rotor did swing in the sweeps
     assert row["map"]["rms_q_pct"] <= 0.3, row["map"]
 
+
+def test_J_from_the_measured_torque_is_not_biased_high(tmp_path):
+    """J = p T / (a_acc - a_coast) with T the measured current's torque, as
+    the acceleration's fit weighs it: the reference's torque left the
+    current loop's error under the rising back-EMF in J (100 of the zoo's
+    100 above the truth, by 1.9 % on average, machine 0 by 3.0 %). Over zoo
+    machines 0..7 the errors are centred on zero and each within 1.5 %."""
+    from fullspeed.workflows.identify import zoo_campaign
+
+    rows = zoo_campaign(range(8), tmp_path, workers=1)
+    e = np.array([r["errors_pct"]["J"] for r in rows])
+    assert abs(e.mean()) <= 0.5 and np.abs(e).max() <= 1.5, e
