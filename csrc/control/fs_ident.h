@@ -69,7 +69,10 @@
  *           held: psi_d(i_d, 0) = (u_q - R_s i_q) / w from the steady
  *           voltage equations (no torque: i_q = 0 and psi_q(i_d, 0) = 0,
  *           so the PLL stays on the d axis), where the voltage allows.
- *   ACCEL   i_q = i_acc in that frame: the acceleration of a known torque.
+ *   ACCEL   i_q = i_acc in that frame: the acceleration of a known torque,
+ *           the measured current's (in the rotor's frame: the frame's lag
+ *           behind the back-EMF turned out) weighed as the speed's fit
+ *           weighs the acceleration (the same fit of its impulse).
  *   COAST   zero current again: the deceleration by friction alone, over
  *           two halves (B and T_coulomb); J = T / (a_acc - a_coast).
  * and DONE (zero current held on the tracking frame) or FAILED. With
@@ -236,9 +239,13 @@ typedef struct {
     fs_dq u_dq;          /* the last frame voltage */
     float e_abs, w_abs;  /* sums over the psi_f window */
     int tries;
-    /* the (t, w) record, decimated by doubling when full */
-    float rec_t[FS_IDENT_NREC], rec_w[FS_IDENT_NREC];
+    /* the (t, w, g) record, decimated by doubling when full: g the torque's
+     * impulse, N m s, since the record began (ACCEL's, from the measured
+     * current in the rotor's frame; 0 in COAST) */
+    float rec_t[FS_IDENT_NREC], rec_w[FS_IDENT_NREC], rec_g[FS_IDENT_NREC];
     int rec_n, rec_dec, rec_k;
+    float g_acc;         /* N m s: the torque's impulse since ACCEL began */
+    float T_acc;         /* N m: the torque as the acceleration's fit weighs it (the slope of g over its window) */
     float t_acc;         /* s the acceleration took */
     float w_acc;         /* el. rad/s, its mean speed */
 } fs_ident;

@@ -8,7 +8,12 @@
  * holds the other axis' current. The flux is integrated over each period
  * from the voltage that acted in it (the reference of d periods before)
  * less R_s i and the inverter's fitted error, at the mean of the period's
- * two current samples; at a crossing of a grid value it is interpolated
+ * two current samples, and less the speed voltage of a free rotor's swing
+ * (w psi_q on d, -w psi_d on q; w from the torque's impulse since the
+ * rotor was last at rest, over the psi_f and J given: the swing's angle
+ * theta would read psi_d theta into the q flux and -psi_q theta into the
+ * d flux, 1.7 % of psi_f an el.deg; a J given 30 % off leaves 30 % of it,
+ * and friction is left out); at a crossing of a grid value it is interpolated
  * between the two samples around it. Each leg records each grid value
  * once, in its own direction (a leg is read until the current has turned,
  * the computation delay after the voltage).
