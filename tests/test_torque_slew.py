@@ -19,7 +19,7 @@ import pytest
 
 from fullspeed._core import ffi, lib
 from fullspeed.design.rules import LOAD_STEP_ANGLE, load_ramp_for_observer, load_ramp_lag
-from fullspeed.design.scenario import scenario_from_dict
+from fullspeed.design.scenario import load_scenario, scenario_from_dict
 from fullspeed.model.errors import ConfigError
 from fullspeed.reproduce.papers.real import held_scenario
 from fullspeed.sim import Simulation
@@ -92,3 +92,21 @@ def test_a_negative_slew_is_refused_before_any_work():
     drv = ffi.new("fs_drive *")
     assert lib.fs_drive_init(drv, cfg) == lib.FS_ERR_LIMIT
     assert ffi.string(drv.fail) == b"T_slew"
+
+
+def test_the_injection_alone_has_its_whole_weight_from_init():
+    """Without a blend (angle = "hfi") the slew reads the blend's weight as
+    the injection's share: fs_drive_init sets it (0), whatever the memory
+    held before (here every byte 0x7f, a large float that would read as the
+    back-EMF observer's alone and leave the torque unlimited)."""
+    sc = load_scenario("yang2022-hfi-steady-100rpm")
+    assert sc.data["controller"]["angle"] == "hfi"
+    cfg = ffi.new("fs_drive_config *")
+    cfg[0] = lib.fs_sim_drive(Simulation(sc)._sim).cfg
+    cfg.T_slew = 1e3
+    n = ffi.sizeof("fs_drive")
+    drv = ffi.new("fs_drive *")
+    ffi.memmove(drv, b"\x7f" * n, n)
+    assert drv.blend.g_w > 1.0
+    assert lib.fs_drive_init(drv, cfg) == lib.FS_OK
+    assert drv.blend.g_w == 0.0

@@ -255,6 +255,7 @@ FS_COLD void fs_drive_reset(fs_drive *drv)
     if (drive_injects(&drv->cfg)) {
         fs_hfi_reset(&drv->hfi, 0.0f, 0.0f);
         drv->hfi.gain = drv->hfi.gain_prev = 0.0f;   /* fades in */
+        drv->blend.g_w = 0.0f;   /* the injection's weight whole without a blend: the torque's slew reads it */
         if (drv->cfg.angle_source == FS_ANGLE_BLEND) fs_blend_reset(&drv->blend, 0.0f, 0.0f);
     }
     fs_drive_start_reset(drv);
