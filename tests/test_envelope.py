@@ -16,6 +16,7 @@ import pytest
 from fullspeed.design.envelope import (OVERMODULATION, Limits, envelope, plant_flux, plant_mag, table_speeds,
                                        torque_at)
 from fullspeed.design.machine import load_machine, machine_from_dict, mtpa_torque
+from fullspeed.design.report import envelope_report, scenario_envelope
 from fullspeed.design.scenario import scenario_from_dict
 from fullspeed.model import zoo
 from fullspeed.model.fluxmap import interp
@@ -525,3 +526,16 @@ def test_design_prints_the_envelope_and_writes_its_figure(tmp_path):
     p = subprocess.run([sys.executable, "-m", "fullspeed", "design", "yang2022", "--out", str(tmp_path / "afile")],
                        capture_output=True, text=True, timeout=120, cwd=tmp_path)
     assert p.returncode == 2 and "--out" in p.stderr
+
+
+def test_the_report_says_where_mtpv_lies_beyond_the_table():
+    """SyR-e's THOR: its characteristic current lies within i_max (top speed
+    infinite), and its MTPV onset beyond the table's last speed, where the
+    report read w_mtpv (None) and `fullspeed design syre-thor` stopped with
+    an internal error after printing its settings."""
+    d = {"name": "thor-envelope", "machine": "syre-thor", "duration": 1.0,
+         "controller": {"mode": "speed", "angle": "encoder", "flux_weakening": True}}
+    env, how = scenario_envelope(scenario_from_dict(d, "thor", warn=False))
+    assert not env.top_finite and env.w_mtpv is None
+    text = envelope_report(env, how)
+    assert f"beyond the table's last speed, {rad_s_to_rpm(env.w_m[-1]):.0f} rpm, MTPV" in text

@@ -101,8 +101,11 @@ def envelope_report(env: Envelope, how: str) -> str:
                      f"{env.i_d[-1]:.4g} A the voltage reaches {env.u_max:.4g} V with no torque left (the characteristic "
                      "current is beyond i_max: flux weakening on the current limit up to there)")
     else:
-        lines.append(f"  top speed               infinite     the characteristic current is within i_max: above "
-                     f"{rpm(env.w_mtpv):.1f} rpm MTPV holds the torque falling about as 1/speed (no voltage limit to "
+        # the MTPV onset may lie beyond the table's last speed (SyR-e's THOR: none found up to its end)
+        onset = (f"above {rpm(env.w_mtpv):.1f} rpm MTPV" if env.w_mtpv is not None
+                 else f"beyond the table's last speed, {rpm(env.w_m[-1]):.0f} rpm, MTPV")
+        lines.append(f"  top speed               infinite     the characteristic current is within i_max: {onset} "
+                     f"holds the torque falling about as 1/speed (no voltage limit to "
                      f"the speed at no load; mechanics and iron losses limit it); the table runs to "
                      f"{rpm(env.w_m[-1]):.0f} rpm, where the torque is {100 * env.T[-1] / env.T[0]:.0f} % of standstill's")
     if env.w_mtpv is not None and env.top_finite:
