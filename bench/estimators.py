@@ -183,20 +183,34 @@ def run_fullspeed(name, overrides: dict | None, windows) -> dict:
             "wall_s": res.wall_time, "t_err_over_90deg_s": lost, "windows": stats}, traces
 
 
-def run_peer(case: str, windows) -> tuple[dict, dict | None]:
+def peer_run(script: Path, args: list[str], files: dict[str, str] | None = None) -> tuple[dict, dict]:
+    """A peer runner's run in motulator's virtual environment: script with
+    args and --out FILE.npz, files ({name: text}) written beside it first
+    and named in args as {name}; its last stdout line's JSON and the npz's
+    arrays, or ({"status": "missing", "reason": ...}, {}) where it cannot
+    run or fails."""
     try:
         py = wall.peer_python()
     except wall.Skip as exc:
-        return {"status": "missing", "reason": str(exc)}, None
+        return {"status": "missing", "reason": str(exc)}, {}
     with tempfile.TemporaryDirectory() as tmp:
         npz = Path(tmp) / "peer.npz"
-        r = subprocess.run([py, str(PEER), "--case", case, "--out", str(npz)], capture_output=True, text=True,
-                           env=dict(os.environ, TQDM_DISABLE="1"))
+        named = {}
+        for name, text in (files or {}).items():
+            named[name] = Path(tmp) / name
+            named[name].write_text(text)
+        cmd = [py, str(script), *(a.format(**named) for a in args), "--out", str(npz)]
+        r = subprocess.run(cmd, capture_output=True, text=True, env=dict(os.environ, TQDM_DISABLE="1"))
         if r.returncode != 0:
             last = (r.stderr.strip().splitlines() or ["(no output)"])[-1]
-            return {"status": "missing", "reason": f"motulator run failed: {last}"}, None
-        info = json.loads(r.stdout.strip().splitlines()[-1])
-        d = dict(np.load(npz))
+            return {"status": "missing", "reason": f"motulator run failed: {last}"}, {}
+        return json.loads(r.stdout.strip().splitlines()[-1]), dict(np.load(npz))
+
+
+def run_peer(case: str, windows) -> tuple[dict, dict | None]:
+    info, d = peer_run(PEER, ["--case", case])
+    if info.get("status") == "missing":
+        return info, None
     t = d["t"]
     err = _wrap(d["theta_e"] - d["theta_hat"])
     stats = window_stats(t, err, d["w_m"], d["w_m_hat"], d["w_m_ref"], windows)
@@ -256,7 +270,12 @@ def figure(case_id: str, case: dict, traces: dict, out: Path) -> str | None:
     ax1.legend(fontsize=7, loc="upper right")
     ax1.grid(alpha=0.3)
     ax2.grid(alpha=0.3)
-    path = out / f"estimators_case_{case_id}.png"
+    return save_figure(fig, out / f"estimators_case_{case_id}.png")
+
+
+def save_figure(fig, path: Path) -> str:
+    """A figure written atomically (a temporary beside it, then renamed), closed."""
+    import matplotlib.pyplot as plt
     tmp = path.with_name(f".{path.stem}.tmp.png")
     fig.savefig(tmp, dpi=110)
     plt.close(fig)
@@ -333,15 +352,24 @@ def format_report(rep: dict) -> str:
     return "\n".join(lines)
 
 
+def pick(flag: str, text: str, allowed) -> list[str] | None:
+    """The comma-separated names of a flag's value, each among allowed;
+    None, with the line saying so on stderr, where one is not or none is
+    given."""
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    if not names or any(n not in allowed for n in names):
+        print(f"{flag} = {text}: must be among {', '.join(allowed)}", file=sys.stderr)
+        return None
+    return names
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=Path("out/bench"))
     ap.add_argument("--cases", default="a,b", help="comma-separated among a, b (default both)")
     a = ap.parse_args(argv)
-    cases = [c.strip() for c in a.cases.split(",") if c.strip()]
-    bad = [c for c in cases if c not in CASES]
-    if bad or not cases:
-        print(f"--cases = {a.cases}: must be among a, b", file=sys.stderr)
+    cases = pick("--cases", a.cases, CASES)
+    if cases is None:
         return 2
     rep = estimators_report(a.out, cases)
     print(format_report(rep))
