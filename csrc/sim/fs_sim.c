@@ -1034,7 +1034,8 @@ FS_SPECIALISE int run(fs_sim *s, long long k_end, double *trace, long stride, in
     if (s->stopped) return s->stopped;
     const fs_sim_config *c = &s->cfg;
     while (s->k < k_end) {
-        int record = (s->k % c->decimation) == 0;
+        /* every sample at decimation 1 (the default): no 64-bit division a sample for it */
+        const int record = c->decimation == 1 || (s->k % c->decimation) == 0;
         if (record && *rows >= max_rows) return FS_RUN_BUFFER_FULL;
         double t = (double)s->k * s->Tc;
         double i_ph[FS_INV_MAX_LEGS];
