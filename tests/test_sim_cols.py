@@ -152,3 +152,18 @@ def test_a_whole_run_fits_the_buffer_it_started_with():
     assert sim._buf is buf
     tr = sim.traces()
     assert tr["t"].size == n and tr["t"].base is buf
+
+
+def test_a_flat_profile_read_without_its_piece_gives_the_bits_of_the_piece():
+    # a profile of one point is read as its one value (fs_sim.c's fixed profiles); the same value drawn as two
+    # points goes through the profile's piece: both runs must hold the same bits, and a master's hold
+    # (fs_sim_hold) still takes its place
+    flat = {"duration": 0.03, "metrics": {"steady": None}, "load": {"torque": [[0.0, 3.7]]}}
+    drawn = {**flat, "load": {"torque": [[0.0, 3.7], [0.5, 3.7]]}}
+    a, b = (runner.simulate(load_scenario("bench-motulator-2kw", o)) for o in (flat, drawn))
+    assert a["T_L"][-1] == 3.7 and np.all(a["T_L"] == 3.7)
+    assert all(a[ch].tobytes() == b[ch].tobytes() for ch in runner.CHANNELS)
+    sim = runner.Simulation(load_scenario("bench-motulator-2kw", flat))
+    assert lib.fs_sim_hold(sim._sim, lib.FS_SIM_T_LOAD, -1.25, 0.0) == 0
+    sim.advance(0.01)
+    assert np.all(sim.traces()["T_L"] == -1.25)
