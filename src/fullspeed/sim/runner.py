@@ -270,9 +270,10 @@ class Simulation:
 
 
 # Without a progress bar or a chunk asked for, the chunks of simulated time
-# double while one takes less wall time than this: a short run is a few C
-# calls (each a few microseconds of Python), and Ctrl-C still lands within
-# about twice this.
+# grow while one takes less wall time than this: each at least doubles, and
+# takes as many periods as half of it holds at the last call's rate, so that
+# a short run is two C calls (the first, T / 100, measures the rate) and
+# Ctrl-C still lands within about this.
 CHUNK_WALL_S = 0.05
 
 
@@ -305,10 +306,13 @@ def simulate(scenario: Scenario | str, progress: bool = False, chunk: float | No
         while sim.step_count < n_end and status == "running":
             before, w0 = sim.step_count, time.perf_counter()
             status = sim.advance_steps(min(sim.step_count + n_chunk, n_end))
+            dt = time.perf_counter() - w0
             if bar is not None:
                 bar.update(sim.step_count - before)
-            elif grow and time.perf_counter() - w0 < CHUNK_WALL_S:
-                n_chunk *= 2
+            elif grow and dt < CHUNK_WALL_S:
+                # doubling alone took seven calls for the bench's 12,800 periods, each its Python and its C entry
+                fit = (sim.step_count - before) * (0.5 * CHUNK_WALL_S / dt) if dt > 0 else math.inf
+                n_chunk = max(2 * n_chunk, int(min(fit, n_end)))
     except KeyboardInterrupt:
         status = "interrupted"
     finally:
