@@ -473,8 +473,10 @@ FS_SPECIALISE void deriv_stage(fs_pmsm *m, const double *x0, const double *y,
  * were never used; every state still takes the step's sum. */
 FS_SPECIALISE void stage_state(const double *x, double c, const double *k, const int five, double *y)
 {
-    for (int n = FS_X_PSI_D; n <= FS_X_LOAD_I; ++n) y[n] = x[n] + c * k[n];
-    if (five) {
+    for (int n = FS_X_PSI_D; n <= FS_X_LOAD_I; ++n) {
+        y[n] = x[n] + c * k[n];
+    }
+    if (five != 0) {
         y[FS_X_PSI_D3] = x[FS_X_PSI_D3] + c * k[FS_X_PSI_D3];
         y[FS_X_PSI_Q3] = x[FS_X_PSI_Q3] + c * k[FS_X_PSI_Q3];
     }

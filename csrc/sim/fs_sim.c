@@ -82,7 +82,7 @@ typedef char fs_sim_legs_check[((int)FS_INV_MAX_LEGS >= (int)FS_PHASES_MAX) ? 1 
  * profile's one value (fixed). */
 static double prof(fs_sim *s, int p, double t, double *slope)
 {
-    if (s->fixed[p]) {
+    if (s->fixed[p] != 0) {
         if (slope) *slope = s->fixed_slope[p];
         return s->fixed_y[p];
     }
@@ -261,8 +261,8 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
     for (int p = 0; p < P_N; ++p) {
         if (fs_pwl_copy(&s->prof[p], src[p]) != 0)
             FAIL("profile %s: times must be non-decreasing", names[p]);
-        s->fixed[p] = s->prof[p].n <= 1;
-        s->fixed_y[p] = s->prof[p].n == 1 ? s->prof[p].y[0] : 0.0;
+        s->fixed[p] = (s->prof[p].n <= 1);
+        s->fixed_y[p] = (s->prof[p].n == 1) ? s->prof[p].y[0] : 0.0;
     }
     if (!(cfg->inverter.T_pwm > 0.0) || !isfinite(cfg->inverter.T_pwm))
         FAIL("inverter.T_pwm = %g: must be finite and > 0", cfg->inverter.T_pwm);
@@ -1043,7 +1043,7 @@ FS_SPECIALISE int run(fs_sim *s, long long k_end, double *trace, long stride, in
     const fs_sim_config *c = &s->cfg;
     while (s->k < k_end) {
         /* every sample at decimation 1 (the default): no 64-bit division a sample for it */
-        const int record = c->decimation == 1 || (s->k % c->decimation) == 0;
+        const int record = (c->decimation == 1) || ((s->k % c->decimation) == 0);
         if (record && *rows >= max_rows) return FS_RUN_BUFFER_FULL;
         double t = (double)s->k * s->Tc;
         double i_ph[FS_INV_MAX_LEGS];
