@@ -70,6 +70,21 @@ def test_ratios_are_peer_over_fullspeed_medians_and_paired_round_by_round():
     assert not wall.pair_report(runs, "averaged")["ratios"]["motulator-export"]["met"]   # 29.4x
 
 
+def test_the_metrics_read_after_the_call_are_reported_beside_and_judged_on_the_call():
+    runs = {"motulator-export": [run(0.20), run(0.10), run(0.15)],
+            "fullspeed": [{**run(0.004), "metrics_s": 0.002}, {**run(0.005), "metrics_s": 0.001},
+                          {**run(0.010), "metrics_s": 0.003}]}
+    m = wall.pair_report(runs, "averaged")
+    r = m["ratios"]["motulator-export"]
+    assert r["ratio"] == pytest.approx(0.15 / 0.005) and r["met"]              # the goal: the call alone
+    assert r["ratio_with_metrics"] == pytest.approx(0.15 / 0.006)              # medians of 6, 6 and 13 ms
+    assert m["engines"]["fullspeed"]["metrics_s"]["median"] == pytest.approx(0.002)
+    text = wall.format_report({"status": "ok", "repeat": 3, "peers": [], "engines": ["motulator-export", "fullspeed"],
+                               "modes": {"averaged": m}, "load_average": {"before": None}})
+    assert "25.0x with the metrics read" in text and "2.00 / 2.00 / 3.00 ms" not in text
+    assert "1.00 / 2.00 / 3.00 ms" in text
+
+
 def test_a_fullspeed_run_that_stopped_fails_the_check():
     runs = {"motulator": [run(3.0)], "fullspeed": [run(0.01, stop="loss_of_lock")]}
     assert not wall.pair_report(runs, "switching")["trajectory"]["ok"]

@@ -94,6 +94,27 @@ def test_no_steady_window_on_a_run_that_ends_on_a_ramp():
     assert res.metrics["steps"] == []   # the ramp is no step, and the load step at 0.6 s is after the end
 
 
+def test_metrics_are_formed_at_their_first_read_and_kept(monkeypatch):
+    """simulate() leaves the metrics to the first read of Result.metrics
+    (a caller of the traces alone does not pay for them): then they are
+    compute_metrics of the run, once."""
+    import json
+
+    from fullspeed.model.files import json_safe
+    from fullspeed.sim import runner
+    from fullspeed.sim.metrics import compute_metrics
+
+    calls = []
+    monkeypatch.setattr(runner, "compute_metrics", lambda r: calls.append(r) or compute_metrics(r))
+    res = simulate(load_scenario("yang2022-encoder-speedstep", {"duration": 0.05, "metrics": {"steady": None}}))
+    assert calls == []
+    m = res.metrics
+    assert calls == [res] and res.metrics is m and len(calls) == 1
+    assert json.dumps(json_safe(m), sort_keys=True) == json.dumps(json_safe(compute_metrics(res)), sort_keys=True)
+    res.metrics = {"given": 1.0}   # a caller's own, as before
+    assert res.metrics == {"given": 1.0} and len(calls) == 1
+
+
 def test_dataframe_has_units_time_index_and_stage_names():
     res = simulate(load_scenario("yang2022-encoder-speedstep", {"duration": 0.05, "metrics": {"steady": None}}))
     df = res.to_dataframe()

@@ -119,15 +119,16 @@ class _Counting:
         return lib.fs_sim_run_cols(*args)
 
 
-@pytest.mark.parametrize("wall_s, calls", [(float("inf"), 7), (0.0, 100)])
-def test_chunks_double_while_fast_and_change_nothing(monkeypatch, wall_s, calls):
+@pytest.mark.parametrize("wall_s, calls", [(float("inf"), 2), (0.0, 100)])
+def test_chunks_grow_while_fast_and_change_nothing(monkeypatch, wall_s, calls):
     sc = load_scenario("bench-motulator-2kw", {"duration": 0.2, "metrics": {"steady": None}})
     fixed = runner.simulate(sc, chunk=sc.duration / 100)
     counting = _Counting()
     monkeypatch.setattr(runner, "lib", counting)
     monkeypatch.setattr(runner, "CHUNK_WALL_S", wall_s)
     res = runner.simulate(sc)
-    # T/100 doubling: 1 + 2 + ... + 64 = 127 hundredths, the seventh call ends the run; never faster: 100
+    # T/100, then as many periods as the budget holds at its rate (all of them, in no time): two calls; never
+    # faster than the budget: 100
     assert counting.calls == calls
     assert res.stop_reason == fixed.stop_reason == "done"
     for ch in runner.CHANNELS:
@@ -152,3 +153,18 @@ def test_a_whole_run_fits_the_buffer_it_started_with():
     assert sim._buf is buf
     tr = sim.traces()
     assert tr["t"].size == n and tr["t"].base is buf
+
+
+def test_a_flat_profile_read_without_its_piece_gives_the_bits_of_the_piece():
+    # a profile of one point is read as its one value (fs_sim.c's fixed profiles); the same value drawn as two
+    # points goes through the profile's piece: both runs must hold the same bits, and a master's hold
+    # (fs_sim_hold) still takes its place
+    flat = {"duration": 0.03, "metrics": {"steady": None}, "load": {"torque": [[0.0, 3.7]]}}
+    drawn = {**flat, "load": {"torque": [[0.0, 3.7], [0.5, 3.7]]}}
+    a, b = (runner.simulate(load_scenario("bench-motulator-2kw", o)) for o in (flat, drawn))
+    assert a["T_L"][-1] == 3.7 and np.all(a["T_L"] == 3.7)
+    assert all(a[ch].tobytes() == b[ch].tobytes() for ch in runner.CHANNELS)
+    sim = runner.Simulation(load_scenario("bench-motulator-2kw", flat))
+    assert lib.fs_sim_hold(sim._sim, lib.FS_SIM_T_LOAD, -1.25, 0.0) == 0
+    sim.advance(0.01)
+    assert np.all(sim.traces()["T_L"] == -1.25)

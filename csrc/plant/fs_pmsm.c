@@ -465,6 +465,23 @@ FS_SPECIALISE void deriv_stage(fs_pmsm *m, const double *x0, const double *y,
     deriv_cs(m, y, in, c0 * cd - s0 * sd, s0 * cd + c0 * sd, five, harm, losses, NULL, dx);
 }
 
+/* A stage's state y = x + c k, formed only where the right-hand side reads
+ * it: the fluxes, the speed, the angle and the load machine's integral
+ * (FS_X_PSI_D .. FS_X_LOAD_I), and a five-phase machine's d3-q3 fluxes. No
+ * derivative reads a meter (the energies, UD_INT and UQ_INT, the loss
+ * meters, the currents' integrals), so their stage values, formed before,
+ * were never used; every state still takes the step's sum. */
+FS_SPECIALISE void stage_state(const double *x, double c, const double *k, const int five, double *y)
+{
+    for (int n = FS_X_PSI_D; n <= FS_X_LOAD_I; ++n) {
+        y[n] = x[n] + c * k[n];
+    }
+    if (five != 0) {
+        y[FS_X_PSI_D3] = x[FS_X_PSI_D3] + c * k[FS_X_PSI_D3];
+        y[FS_X_PSI_Q3] = x[FS_X_PSI_Q3] + c * k[FS_X_PSI_Q3];
+    }
+}
+
 /* RK4 over the first NX states (FS_X_N3: three phases, FS_X_N5: five;
  * FS_X_N with the loss meters); harm: the three-phase machine with its
  * spatial harmonics. */
@@ -484,11 +501,11 @@ FS_SPECIALISE void rk4(fs_pmsm *m, double *x, const fs_pmsm_input *in, double h,
         s0 = sin(th);
     }
     deriv_cs(m, x, in, c0, s0, five, harm, losses, !harm && a && a->reuse ? a : NULL, k1);
-    for (int n = 0; n < nx; ++n) y[n] = x[n] + 0.5 * h * k1[n];
+    stage_state(x, 0.5 * h, k1, five, y);
     deriv_stage(m, x, y, in, c0, s0, five, harm, losses, k2);
-    for (int n = 0; n < nx; ++n) y[n] = x[n] + 0.5 * h * k2[n];
+    stage_state(x, 0.5 * h, k2, five, y);
     deriv_stage(m, x, y, in, c0, s0, five, harm, losses, k3);
-    for (int n = 0; n < nx; ++n) y[n] = x[n] + h * k3[n];
+    stage_state(x, h, k3, five, y);
     deriv_stage(m, x, y, in, c0, s0, five, harm, losses, k4);
     for (int n = 0; n < nx; ++n) x[n] += h / 6.0 * (k1[n] + 2.0 * k2[n] + 2.0 * k3[n] + k4[n]);
 }

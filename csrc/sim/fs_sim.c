@@ -46,7 +46,12 @@ struct fs_sim {
     double k_mag;            /* the magnet factor the plant has */
     double psi_f_true;       /* the plant's open-circuit magnet flux, Wb */
     int held[P_N];           /* fs_sim_hold: the master's value in place of the profile */
-    double held_y[P_N], held_slope[P_N];
+    /* A profile whose value and slope are the same at every time: held
+     * (fs_sim_hold), or of one point or none (a constant reference, most of
+     * a scenario's), whose value fs_pwl_eval gives as y[0] (0 for none) and
+     * slope 0 at every time: read from here, without the piece's tests */
+    int fixed[P_N];
+    double fixed_y[P_N], fixed_slope[P_N];
     int sampled;             /* fs_sim_sample ran and fs_sim_actuate has not */
     double e_in0, p_cond0;   /* at the last sample: the input energy meter, J, and the devices' conduction loss, W */
     double theta_e;          /* at the last sample: the true electrical angle, wrapped (its trace row's) */
@@ -73,12 +78,13 @@ struct fs_sim {
 /* The runner passes drive duties to the inverter and phase currents back. */
 typedef char fs_sim_legs_check[((int)FS_INV_MAX_LEGS >= (int)FS_PHASES_MAX) ? 1 : -1];
 
-/* Profile p at t, and its slope: the master's held value where it holds one (fs_sim_hold). */
+/* Profile p at t, and its slope: the master's held value where it holds one (fs_sim_hold), a flat
+ * profile's one value (fixed). */
 static double prof(fs_sim *s, int p, double t, double *slope)
 {
-    if (s->held[p]) {
-        if (slope) *slope = s->held_slope[p];
-        return s->held_y[p];
+    if (s->fixed[p] != 0) {
+        if (slope) *slope = s->fixed_slope[p];
+        return s->fixed_y[p];
     }
     return fs_pwl_eval(&s->prof[p], t, slope);
 }
@@ -255,6 +261,8 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
     for (int p = 0; p < P_N; ++p) {
         if (fs_pwl_copy(&s->prof[p], src[p]) != 0)
             FAIL("profile %s: times must be non-decreasing", names[p]);
+        s->fixed[p] = (s->prof[p].n <= 1);
+        s->fixed_y[p] = (s->prof[p].n == 1) ? s->prof[p].y[0] : 0.0;
     }
     if (!(cfg->inverter.T_pwm > 0.0) || !isfinite(cfg->inverter.T_pwm))
         FAIL("inverter.T_pwm = %g: must be finite and > 0", cfg->inverter.T_pwm);
@@ -1034,7 +1042,8 @@ FS_SPECIALISE int run(fs_sim *s, long long k_end, double *trace, long stride, in
     if (s->stopped) return s->stopped;
     const fs_sim_config *c = &s->cfg;
     while (s->k < k_end) {
-        int record = (s->k % c->decimation) == 0;
+        /* every sample at decimation 1 (the default): no 64-bit division a sample for it */
+        const int record = (c->decimation == 1) || ((s->k % c->decimation) == 0);
         if (record && *rows >= max_rows) return FS_RUN_BUFFER_FULL;
         double t = (double)s->k * s->Tc;
         double i_ph[FS_INV_MAX_LEGS];
@@ -1093,8 +1102,9 @@ int fs_sim_hold(fs_sim *s, int which, double value, double slope)
 {
     if (!s || which < 0 || which >= P_N) return -1;
     s->held[which] = 1;
-    s->held_y[which] = value;
-    s->held_slope[which] = slope;
+    s->fixed[which] = 1;
+    s->fixed_y[which] = value;
+    s->fixed_slope[which] = slope;
     return 0;
 }
 
