@@ -86,6 +86,16 @@ def test_the_slew_holds_the_prius_against_a_load_machine_the_unlimited_step_lose
 def test_a_negative_slew_is_refused_before_any_work():
     with pytest.raises(ConfigError, match="controller.torque_slew"):
         _held(-1.0)
+    # given where it cannot act (no injection, or no speed loop): refused, not ignored
+    d = held_scenario("prius2004-mg2", RPM, "encoder")
+    d["controller"]["torque_slew"] = 1e4
+    with pytest.raises(ConfigError, match="controller.torque_slew .* needs controller.mode"):
+        scenario_from_dict(d, "enc", warn=False)
+    d = held_scenario("prius2004-mg2", RPM, "blend")
+    d["controller"].update(mode="current", torque_slew=1e4)
+    d["references"] = {"i_q": 10.0}
+    with pytest.raises(ConfigError, match="controller.torque_slew"):
+        scenario_from_dict(d, "current", warn=False)
     cfg = ffi.new("fs_drive_config *")
     cfg[0] = lib.fs_sim_drive(Simulation(_held())._sim).cfg
     cfg.T_slew = -1.0

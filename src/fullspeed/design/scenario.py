@@ -176,6 +176,10 @@ def _designed(data: dict, source: str | None, warn: bool) -> Scenario:
         ctl["overspeed_rpm"] = notes["controller.overspeed_rpm"].value
     else:
         notes["controller.overspeed_rpm"] = Value(ctl["overspeed_rpm"], "rpm", "given in the scenario", True)
+    if ctl["torque_slew"] is not None and not (ctl["mode"] == "speed" and ctl["angle"] in ("hfi", "blend")):
+        raise ConfigError("controller.torque_slew", ctl["torque_slew"], "limits the speed loop's torque while the "
+                          "rotating injection runs: it needs controller.mode = \"speed\" and angle \"hfi\" or "
+                          f"\"blend\" (here {ctl['mode']!r}, {ctl['angle']!r}); leave it out", source)
     if ctl["lock"] is None:   # the drive acts on a loss (fs_drive_protect.h); the square wave has no restart sequence
         ctl["lock"] = "stop" if ctl["angle"] == "swvi" else "recover"
     if obs["start"] == "if":

@@ -108,8 +108,8 @@ SCENARIO = {
         "overspeed_rpm": NONNEG(None, hi=1e6, doc="the drive stops with the PWM off above this speed (stop reason overspeed; "
                                 "fs_drive_protect.h); default designed: 1.2 x the fastest the drive is designed for or asked "
                                 "(fullspeed design); 0: no overspeed stop"),
-        "torque_slew": NONNEG(None, hi=1e9, doc="N m/s: while the injection runs (speed mode), the speed loop's torque "
-                              "changes at most this fast; default designed: what the injection's observer follows within "
+        "torque_slew": NONNEG(None, hi=1e9, doc="N m/s: while the injection runs (speed mode, angle hfi or blend; refused "
+                              "elsewhere), the speed loop's torque changes at most this fast; default designed: what the injection's observer follows within "
                               "5 el.deg if the shaft does not move with it (a load machine, a vehicle); 0: no limit"),
         "param_adapt": B(False, doc="online correction of R_s and psi_f while sensorless (fs_param_adapt.h)"),
         "adapt_time": POS(5.0, hi=1e4, doc="s, its least squares' forgetting time: long against the drive's cycle of operating points, short against the machine's heating"),
