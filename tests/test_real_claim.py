@@ -142,3 +142,22 @@ def test_the_held_torque_is_the_drives_not_its_speed_loops_wind_up():
     sl = held_torque({"machine": name, "rpm": rpm, "angle": angle})
     assert enc["stop_reason"] == sl["stop_reason"] == "done"
     assert sl["T"] >= (1.0 - HELD_TOL) * enc["T"], (sl, enc)
+
+
+def test_a_machine_whose_held_runs_did_not_run_has_held_nothing():
+    """held_rows: the B-REAL run that lost its worker processes counted all
+    eight machines as holding their torque, with no held run made."""
+    from fullspeed.design.envelope import envelope
+    from fullspeed.design.machine import load_machine
+    from fullspeed.reproduce.papers.real import held_rows
+    m = load_machine("siemens-1ft6084")
+    env = envelope(m, m.bench["u_dc"], m.bench["i_max"])
+    T = float(env.T[0])
+    enc = {"rpm": 100.0, "angle": "encoder"}
+    sl = {"rpm": 100.0, "angle": "blend"}
+    assert held_rows([], env, env, True) == ([], False)
+    assert held_rows([(enc, None), (sl, None)], env, env, True)[1] is False
+    assert held_rows([(enc, {"T": T}), (sl, None)], env, env, True)[1] is False            # sensorless did not run
+    assert held_rows([(enc, {"T": T}), (sl, {"T": T})], env, env, True)[1] is True
+    assert held_rows([(enc, {"T": T})], env, env, False)[1] is True                        # refused sensorless
+    assert held_rows([(enc, {"T": 0.5 * T}), (sl, {"T": 0.5 * T})], env, env, True)[1] is False   # half the torque

@@ -271,6 +271,28 @@ def _machine_ok(r: dict) -> bool:
             and r["err_max"] < ANGLE_MAX and r["steady_mean"] is not None and abs(r["steady_mean"]) < STEADY_MEAN)
 
 
+def held_rows(runs: list[tuple[dict, dict | None]], env, env_om, sensorless: bool) -> tuple[list[dict], bool]:
+    """One machine's held runs (task, result or None where it did not run)
+    as a table per speed, and whether every speed held its torque: the
+    encoder within the envelope's band, sensorless (where the machine runs
+    sensorless) within the encoder's and the band's top. A run that did not
+    run holds nothing, and a machine none of whose speeds ran has held
+    nothing: not held."""
+    speeds = [(task["rpm"], task["angle"], h.get("T") if h else None) for task, h in runs]
+    enc = {rpm: T for rpm, a, T in speeds if a == "encoder"}
+    sl = {rpm: T for rpm, a, T in speeds if a != "encoder"}
+    table, held_ok = [], bool(enc)
+    for rpm in sorted(enc):
+        T_env, T_om = (torque_at(e, rpm * 2 * math.pi / 60) for e in (env, env_om))
+        T_e, T_s = enc[rpm], sl.get(rpm)
+        e_ok = held_within(T_e, T_env, T_om)
+        # a machine refused sensorless has no sensorless torque to hold
+        s_ok = not sensorless or (T_e is not None and held_within(T_s, T_e, T_om))
+        held_ok &= e_ok and s_ok
+        table.append({"rpm": rpm, "T_envelope": T_env, "T_envelope_om": T_om, "T_encoder": T_e, "T_sensorless": T_s})
+    return table, held_ok
+
+
 @register("B-REAL", cost=16)
 def real(out: Path) -> Measurement:
     names = published_machines()
@@ -297,23 +319,8 @@ def real(out: Path) -> Measurement:
     for n, r in zip(names, runs):
         r = r or {"refused": None, "stop_reason": "not run"}
         env, env_om = envs[n]
-        speeds = []
-        for task, h in zip(held_tasks, held):
-            if task["machine"] != n or h is None:
-                continue
-            speeds.append((task["rpm"], task["angle"], h.get("T")))
-        enc = {rpm: T for rpm, a, T in speeds if a == "encoder"}
-        sl = {rpm: T for rpm, a, T in speeds if a != "encoder"}
-        table = []
-        held_ok = True
-        for rpm in sorted(enc):
-            T_env, T_om = (torque_at(e, rpm * 2 * math.pi / 60) for e in (env, env_om))
-            T_e, T_s = enc[rpm], sl.get(rpm)
-            e_ok = held_within(T_e, T_env, T_om)
-            # a machine refused sensorless has no sensorless torque to hold
-            s_ok = angles[n][0] is None or (T_e is not None and held_within(T_s, T_e, T_om))
-            held_ok &= e_ok and s_ok
-            table.append({"rpm": rpm, "T_envelope": T_env, "T_envelope_om": T_om, "T_encoder": T_e, "T_sensorless": T_s})
+        table, held_ok = held_rows([(t, h) for t, h in zip(held_tasks, held) if t["machine"] == n], env, env_om,
+                                   angles[n][0] is not None)
         run_ok = _machine_ok(r)
         rows[n] = {**{k: v for k, v in r.items() if k != "machine"}, "held": table, "run_ok": run_ok, "held_ok": held_ok}
         if n in runs_turned:   # the same run from the rotor turned by TURNED: the machine runs only if it runs from both
