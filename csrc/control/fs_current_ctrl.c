@@ -73,6 +73,8 @@ FS_COLD void fs_current_ctrl_reset(fs_current_ctrl *cc)
     cc->u_ff = cc->ref;
     cc->u_prev = cc->ref;
     cc->map = false;   /* until the drive gives a map's values (fs_current_ctrl_set_flux) */
+    cc->psi_ref_on = false;
+    cc->on_flux = false;
     cc->i0 = cc->ref;
 }
 
@@ -99,6 +101,12 @@ FS_COLD void fs_current_ctrl_set_isotropic(fs_current_ctrl *cc, bool on)
     }
 }
 
+void fs_current_ctrl_set_flux_ref(fs_current_ctrl *cc, fs_dq psi_ref)
+{
+    cc->psi_ref = psi_ref;
+    cc->psi_ref_on = true;
+}
+
 void fs_current_ctrl_set_flux(fs_current_ctrl *cc, fs_dq i0, const fs_fluxmap_point *p)
 {
     cc->map = true;
@@ -106,6 +114,8 @@ void fs_current_ctrl_set_flux(fs_current_ctrl *cc, fs_dq i0, const fs_fluxmap_po
     cc->psi0 = p->psi;
     cc->L_dd = p->L_dd;
     cc->L_qq = p->L_qq;
+    cc->L_dq = p->L_dq;
+    cc->L_qd = p->L_qd;
     if (cc->iso) {   /* fs_current_ctrl_set_isotropic: the map's smaller incremental inductance on both */
         const float L_min = fs_minf(p->L_dd, p->L_qq);
         cc->s_d = L_min / cc->L_d_pi;
@@ -116,11 +126,12 @@ void fs_current_ctrl_set_flux(fs_current_ctrl *cc, fs_dq i0, const fs_fluxmap_po
     }
 }
 
-/* The step on a flux map (fs_current_ctrl.h): the predictor's plant per axis
- * at the incremental inductance, i+ = i + (1 - a) / s ... with b / s; the
- * fluxes at the measured and at the predicted current from the map's
- * linearisation; the PIs on s i (their gains times s). */
-static fs_dq current_ctrl_step_map(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, float w_e)
+/* The loops' signals on a flux map, on the currents (fs_current_ctrl.h):
+ * the predictor's plant per axis at the incremental inductance, i+ = i +
+ * (1 - a) / s ... with b / s; the fluxes at the measured and at the
+ * predicted current from the map's linearisation; the PIs on s i (their
+ * gains times s). Writes the feed-forward. */
+static void map_on_currents(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, float w_e, fs_dq *r, fs_dq *y)
 {
     const fs_current_ctrl_config *c = &cc->cfg;
     if (c->predict) {
@@ -132,7 +143,58 @@ static fs_dq current_ctrl_step_map(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, fl
     }
     cc->u_ff.d = -w_e * (cc->psi0.q + cc->L_qq * (i.q - cc->i0.q));
     cc->u_ff.q = w_e * (cc->psi0.d + cc->L_dd * (i.d - cc->i0.d));
-    const fs_dq r = {cc->s_d * i_ref.d, cc->s_q * i_ref.q}, y = {cc->s_d * i.d, cc->s_q * i.q};
+    r->d = cc->s_d * i_ref.d;
+    r->q = cc->s_q * i_ref.q;
+    y->d = cc->s_d * i.d;
+    y->q = cc->s_q * i.q;
+}
+
+/* ... and on the fluxes (fs_current_ctrl_set_flux_ref): the flux at the
+ * measured current from the map's linearisation with its cross terms, one
+ * period ahead on the voltage equation itself, d psi / dt = u - R i - j w
+ * psi (exact in the flux, whatever the inductances), and the PIs on the
+ * flux over the inductance they are designed for, the magnet's flux taken
+ * off d so that both stay near the currents they stand for. */
+static void map_on_fluxes(fs_current_ctrl *cc, fs_dq i, float w_e, fs_dq *r, fs_dq *y)
+{
+    const fs_current_ctrl_config *c = &cc->cfg;
+    const float di_d = i.d - cc->i0.d, di_q = i.q - cc->i0.q;
+    fs_dq psi = {cc->psi0.d + cc->L_dd * di_d + cc->L_dq * di_q, cc->psi0.q + cc->L_qd * di_d + cc->L_qq * di_q};
+    if (c->predict) {
+        const float psi_d = psi.d + c->Ts * (cc->u_prev.d - c->R_s * i.d + w_e * psi.q);
+        psi.q += c->Ts * (cc->u_prev.q - c->R_s * i.q - w_e * psi.d);
+        psi.d = psi_d;
+    }
+    cc->u_ff.d = -w_e * psi.q;
+    cc->u_ff.q = w_e * psi.d;
+    r->d = (cc->psi_ref.d - c->psi_f) / cc->L_d_pi;
+    r->q = cc->psi_ref.q / cc->L_q_pi;
+    y->d = (psi.d - c->psi_f) / cc->L_d_pi;
+    y->q = psi.q / cc->L_q_pi;
+}
+
+/* The step on a flux map: on the fluxes where the caller gave this step's
+ * reference flux (and the loops are not the isotropic ones), else on the
+ * currents. Where it changes from one to the other the integrals take the
+ * change of the PIs' proportional parts, so that the output does not step
+ * (the hand-over from the encoder to an estimate). */
+static fs_dq current_ctrl_step_map(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, float w_e)
+{
+    const bool flux = cc->psi_ref_on && !cc->iso;
+    cc->psi_ref_on = false;   /* given again for the next step, or that step is on the currents */
+    fs_dq r, y;
+    if (flux) map_on_fluxes(cc, i, w_e, &r, &y);
+    else map_on_currents(cc, i_ref, i, w_e, &r, &y);
+    if (flux != cc->on_flux) {
+        fs_dq r0, y0;
+        const fs_dq u_ff = cc->u_ff;
+        if (flux) map_on_currents(cc, i_ref, i, w_e, &r0, &y0);
+        else map_on_fluxes(cc, i, w_e, &r0, &y0);
+        cc->u_ff = u_ff;
+        cc->pi_d.integ += fs_pi_output(&cc->pi_d, r0.d, y0.d) - fs_pi_output(&cc->pi_d, r.d, y.d);
+        cc->pi_q.integ += fs_pi_output(&cc->pi_q, r0.q, y0.q) - fs_pi_output(&cc->pi_q, r.q, y.q);
+        cc->on_flux = flux;
+    }
     cc->u.d = fs_pi_output(&cc->pi_d, r.d, y.d) + cc->u_ff.d;
     cc->u.q = fs_pi_output(&cc->pi_q, r.q, y.q) + cc->u_ff.q;
     cc->ref = r;
