@@ -158,11 +158,14 @@ static void map_on_currents(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, float w_e
 static void map_on_fluxes(fs_current_ctrl *cc, fs_dq i, float w_e, fs_dq *r, fs_dq *y)
 {
     const fs_current_ctrl_config *c = &cc->cfg;
-    const float di_d = i.d - cc->i0.d, di_q = i.q - cc->i0.q;
-    fs_dq psi = {cc->psi0.d + cc->L_dd * di_d + cc->L_dq * di_q, cc->psi0.q + cc->L_qd * di_d + cc->L_qq * di_q};
-    if (c->predict) {
-        const float psi_d = psi.d + c->Ts * (cc->u_prev.d - c->R_s * i.d + w_e * psi.q);
-        psi.q += c->Ts * (cc->u_prev.q - c->R_s * i.q - w_e * psi.d);
+    const float di_d = i.d - cc->i0.d;
+    const float di_q = i.q - cc->i0.q;
+    fs_dq psi;
+    psi.d = cc->psi0.d + (cc->L_dd * di_d) + (cc->L_dq * di_q);
+    psi.q = cc->psi0.q + (cc->L_qd * di_d) + (cc->L_qq * di_q);
+    if (c->predict != 0) {
+        const float psi_d = psi.d + (c->Ts * ((cc->u_prev.d - (c->R_s * i.d)) + (w_e * psi.q)));
+        psi.q += c->Ts * ((cc->u_prev.q - (c->R_s * i.q)) - (w_e * psi.d));
         psi.d = psi_d;
     }
     cc->u_ff.d = -w_e * psi.q;
@@ -181,15 +184,23 @@ static void map_on_fluxes(fs_current_ctrl *cc, fs_dq i, float w_e, fs_dq *r, fs_
 static fs_dq current_ctrl_step_map(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, float w_e)
 {
     const bool flux = cc->psi_ref_on && !cc->iso;
+    fs_dq r;
+    fs_dq y;
     cc->psi_ref_on = false;   /* given again for the next step, or that step is on the currents */
-    fs_dq r, y;
-    if (flux) map_on_fluxes(cc, i, w_e, &r, &y);
-    else map_on_currents(cc, i_ref, i, w_e, &r, &y);
+    if (flux) {
+        map_on_fluxes(cc, i, w_e, &r, &y);
+    } else {
+        map_on_currents(cc, i_ref, i, w_e, &r, &y);
+    }
     if (flux != cc->on_flux) {
-        fs_dq r0, y0;
+        fs_dq r0;
+        fs_dq y0;
         const fs_dq u_ff = cc->u_ff;
-        if (flux) map_on_currents(cc, i_ref, i, w_e, &r0, &y0);
-        else map_on_fluxes(cc, i, w_e, &r0, &y0);
+        if (flux) {
+            map_on_currents(cc, i_ref, i, w_e, &r0, &y0);
+        } else {
+            map_on_fluxes(cc, i, w_e, &r0, &y0);
+        }
         cc->u_ff = u_ff;
         cc->pi_d.integ += fs_pi_output(&cc->pi_d, r0.d, y0.d) - fs_pi_output(&cc->pi_d, r.d, y.d);
         cc->pi_q.integ += fs_pi_output(&cc->pi_q, r0.q, y0.q) - fs_pi_output(&cc->pi_q, r.q, y.q);

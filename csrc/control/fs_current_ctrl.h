@@ -58,11 +58,13 @@ typedef struct {
     bool map;
     fs_dq i0, psi0;
     float L_dd, L_qq, s_d, s_q;
-    float L_dq, L_qd;          /* the cross terms, for the flux at the measured current (set_flux_ref) */
+    float L_dq;                /* the cross terms, for the flux at the measured current (set_flux_ref) */
+    float L_qd;
     /* the map's flux at the coming step's reference (fs_current_ctrl_set_flux_ref), given for that
      * step (psi_ref_on); whether the last step was on the fluxes */
     fs_dq psi_ref;
-    bool psi_ref_on, on_flux;
+    bool psi_ref_on;
+    bool on_flux;
     /* fs_current_ctrl_set_isotropic: its caller's last ask, and whether both
      * axes are on the smaller inductance (asked, and the gains designed
      * here); the inductances the PIs and the predictor's plant are designed for */

@@ -935,7 +935,9 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
          * THOR held at 4,147 rpm by a load machine, and the Prius MG2 stepped to its full torque at 294 rpm,
          * where the loops on the currents did not (the map's flux at the measured current is the
          * machine's in the machine's frame only: an estimate's error turns the magnet's flux into q) */
-        if (drive_map(drv) && !in->sensorless) fs_current_ctrl_set_flux_ref(&drv->cc, fs_fluxmap_eval(&drv->map, i_ref).psi);
+        if (drive_map(drv) && !in->sensorless) {
+            fs_current_ctrl_set_flux_ref(&drv->cc, fs_fluxmap_eval(&drv->map, i_ref).psi);
+        }
         u_ref = fs_current_ctrl_step(&drv->cc, i_ref, i_dq, w_e);
     }
 
