@@ -14,8 +14,9 @@
  *
  * With a flux map (fs_current_ctrl_set_flux, each step) the cross-coupling
  * and the back-EMF are the map's fluxes, u_d' = -w psi_q(i), u_q' = w
- * psi_d(i), linearised at the last reference with the map's incremental
- * inductances, in the predictor and the feed-forward; and the gains and
+ * psi_d(i), linearised at the caller's point (the drive: the last measured
+ * current) with the map's incremental inductances, in the predictor and
+ * the feed-forward; and the gains and
  * the predictor's plant follow the incremental inductances (the gains
  * scale with L, k_t ~ alpha L: the loop keeps its bandwidth where the
  * machine saturates). Without the map's fluxes a saturated machine's
