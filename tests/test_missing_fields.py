@@ -203,3 +203,13 @@ def test_config_errors_cross_a_process_boundary_whole():
 
 def _raise(exc):
     raise exc
+
+
+def test_a_designed_value_in_a_refusal_reads_as_a_number_not_as_float_noise():
+    """B-REAL's H27 refusal read "observer.i_start = 4.800000000000001"
+    (1.2 x 4 A, formed by the design); a value as a user writes it stays."""
+    from fullspeed.model.errors import ConfigError
+    assert str(ConfigError("observer.i_start", 1.2 * 4.0, "x")) == "observer.i_start = 4.8: x"
+    assert str(ConfigError("a", 0.1 + 0.2, "x")) == "a = 0.3: x"
+    for given in (3.0, 1e-320, 0.125, -2.5e-07):
+        assert str(ConfigError("a", given, "x")) == f"a = {given!r}: x"

@@ -82,6 +82,11 @@ def one_line(text: str) -> str:
 def _repr(value) -> str:
     """repr, bounded in depth and length: a 5,000-deep table or a 5,000-digit
     integer from the input must not raise while its error is being made."""
+    if isinstance(value, float):
+        # a long repr shortened to 12 digits where that is shorter: a value the design formed (1.2 x 4 A)
+        # reads 4.8, not 4.800000000000001; a value as a user writes it reads as written (3.0, 1e-320)
+        r = repr(value)
+        return r if len(r) <= 12 else min(r, f"{value:.12g}", key=len)
     if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 256:
         return f"<an integer of {len(str(value)) if value.bit_length() < 14000 else 'over 4000'} digits>"
     r = reprlib.Repr()
