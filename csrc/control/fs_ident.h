@@ -151,6 +151,7 @@ enum { FS_IDENT_NLEV = 7, FS_IDENT_NREC = 128, FS_IDENT_NBATCH = 8, FS_IDENT_NVI
 
 typedef struct {
     float Ts;            /* control period, s */
+    float T_pwm;         /* carrier period, s (Ts or 2 Ts; 0: Ts): the current's ripple the inverter's error sees */
     float delay;         /* computation delay, control periods: 0 or 1 */
     int pole_pairs;
     float i_max;         /* A peak: no test current above it */
