@@ -437,3 +437,35 @@ def test_identified_linear_machine_starts_as_the_true_one(tmp_path):
     assert true.data["start"]["kind"] == "if"
     assert ident.data["start"]["kind"] == true.data["start"]["kind"]
     assert ident.data["controller"]["angle"] == true.data["controller"]["angle"]
+
+
+@pytest.mark.parametrize("name, rms_max", [("baldor-ecs101m0h7ef4", 3.0), ("syre-thor", 5.0)])
+def test_pm_syrm_locked_map_not_mirrored(name, rms_max):
+    """The catalog's PM-SyRMs locked (their free rotors turn through LEVELS):
+    their incremental L_d peaks at a positive d current (the ribs the magnet
+    saturates relieved) and is still higher at +i_max/2 than at -i_max/2, so
+    a polarity read there took the north for the south and mirrored the map
+    (Baldor 13.4 %, THOR 38.6 % of psi_f RMS from this angle). Read at
+    +-3/4 i_max, where the main path's saturation decides (fs_mapid.c), and
+    on a locked rotor left to MAP's full d sweep where the polarity sweep
+    could not step there: the d axis read within 1 % of psi_f of the truth.
+    The Baldor's map is within B-MAPID's 3 %; THOR's is not from every
+    angle (2.6 % from 0 el.deg, 4.8 % from this one, where MAP turns the
+    frame and the q sweeps at +i_max/4 let the held d current drift to 17 A;
+    the map's own grid, the truth at its points, is 2.1 % off over the
+    disc), so it is held to 5 % here, the 3 % reported as not met. From
+    this angle the right polarity also took THOR's q sweep at +i_max/4 past
+    the sequence's 1.1 i_max (its L_q falls 15-fold towards i_max, and the
+    reversal was predicted on the last step): the steps' growth is taken on
+    now (fs_mapid.c, leg_next)."""
+    from fullspeed.workflows.identify import true_flux
+
+    res = identify(_scenario(name, identify={"locked": True}))
+    assert res.status["map"] in ("ok", "outside goal"), res.reason["map"]
+    assert res.map["errors"]["rms_pct"] <= rms_max, res.map["errors"]
+    g = res.map["grid"]
+    flux = true_flux(load_machine(name))
+    psi_f = load_machine(name).psi_f
+    nq = len(g["i_q"]) // 2
+    for k, i_d in enumerate(g["i_d"]):   # the d axis, both sides of the magnet
+        assert abs(g["psi_d"][k, nq] - float(flux(i_d, 0.0)[0])) <= 0.01 * psi_f, (i_d, g["psi_d"][k, nq])

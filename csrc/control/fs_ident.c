@@ -626,7 +626,12 @@ static fs_ab step_polarity(fs_ident *id, fs_ab i_ab)
          * are known the dead time's q part at the axis' angle puts up to 5 el.deg into it, zoo machine 12) */
         if (r->pol_flipped != 0) { id->theta_s = fs_wrap_pi(id->theta_s + FS_PI); }
         r->theta_axis = id->theta_s;
-        id->pol_known = r->pol_decided;
+        /* read at +-i_max/2 only (the sweep stepped too coarsely at 3/4: a high link's U), a locked rotor's
+         * polarity is left to MAP's full d sweep, which reads it at 3/4 and turns the frame where it
+         * differs: near zero a PM-SyRM's ribs turn the asymmetry round (fs_mapid.c; syre-thor's locked map
+         * came out mirrored, 39 % of psi_f off). LEVELS alternate meanwhile, as with no polarity; a free
+         * rotor keeps it: its levels hold the magnet on the north it found */
+        id->pol_known = r->pol_decided && !(c->locked && (id->map.res.pol_level < 0.7f));
         /* no polarity standing: where the rotor may turn, ALIGN pulls its north onto the axis (up to half a
          * turn); locked, the levels alternate. A free rotor that may not turn cannot take them: -I pushes
          * the magnet away, and on a salient rotor the reluctance torque of any d current turns its q axis

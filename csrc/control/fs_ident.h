@@ -180,7 +180,7 @@ typedef struct {
     float motion_ldq, motion_premap, motion_check;  /* el. rad: the rotor's turn seen by LDQ's d carrier (since AXIS: POLARITY,
                                                       LEVELS), by CHECK before MAP (LDQ's biases) and after it (MAP) */
     float i_moved;               /* A: the test current when a step found the rotor moving (its sign: the d axis') */
-    float pol_asym;              /* POLARITY: the d sweep's asymmetry (incremental L_d at -i_max/2 against +i_max/2, relative) */
+    float pol_asym;              /* POLARITY: the d sweep's asymmetry (incremental L_d at -3/4 i_max against +3/4 i_max, or at +-i_max/2 where the sweep did not step there enough; relative) */
     int pol_decided, pol_flipped;/* it decided the polarity; the axis was the south pole (turned by pi) */
     float pol_amp;               /* A: its sweep's amplitude (cut where the free rotor would turn away; 0: not swept) */
     float i_level_top;           /* A: the levels' top current as used (i_test, or the reluctance bound) */
