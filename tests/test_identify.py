@@ -469,3 +469,31 @@ def test_pm_syrm_locked_map_not_mirrored(name, rms_max):
     nq = len(g["i_q"]) // 2
     for k, i_d in enumerate(g["i_d"]):   # the d axis, both sides of the magnet
         assert abs(g["psi_d"][k, nq] - float(flux(i_d, 0.0)[0])) <= 0.01 * psi_f, (i_d, g["psi_d"][k, nq])
+
+
+def test_light_rotors_acceleration_is_sized_from_what_it_showed():
+    """The Prius MG2 free (0.035 kg m^2, 271 A, no friction): its first
+    acceleration rose 40 % in 49 ms, and a quarter of the current a retry
+    left it at 5 A, whose rise took 0.19 s against the 0.25 s its fit needs:
+    J failed "too fast". The retry's current now comes from the acceleration
+    the try showed (fs_ident.c, step_accel): J within its goal. From 0
+    el.deg, B-REAL's angle (from 137 el.deg the standstill steps do not hold
+    this rotor: test_catalog_flux_map_machine_identified_locked_or_refused_naming_the_motion)."""
+    res = identify(_scenario("prius2004-mg2", initial={"theta_e_deg": 0.0}))
+    assert res.status["J"] == "ok", res.reason["J"]
+    assert abs(res.errors_pct()["J"]) <= GOALS_PCT["J"]
+
+
+def test_speed_lost_at_speed_stops_the_d_levels():
+    """anaheim-bly171d free (J 2.4e-6 kg m^2, J/B = 0.21 s): the rotor halved
+    its speed in FLUX and turned backwards in DCURVE's first d level (a frame
+    a little off the axis makes torque of the d current, which turns it
+    further off); ACCEL then held its current on a frame off the rotor for
+    the whole 20 s allowed and J failed "too fast". The levels stop below
+    half of FLUX's speed and when a level moves the speed by a fifth: the
+    sequence ends, J and friction measured (J still 35 % high on this rotor,
+    reported outside its goal)."""
+    res = identify(_scenario("anaheim-bly171d"))
+    assert res.step == "done", res.failures()
+    assert res.status["J"] in ("ok", "outside goal") and res.status["friction"] == "ok", res.failures()
+    assert res.times["steps"]["accel"] < 2.0   # not the 20 s of a frame off the rotor

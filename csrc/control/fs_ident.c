@@ -170,6 +170,7 @@ void fs_ident_reset(fs_ident *id)
     id->T_acc = 0.0f;
     id->t_acc = 0.0f;
     id->w_acc = 0.0f;
+    id->w_level = 0.0f;
 }
 
 float fs_ident_leg_error(const fs_ident *id, float i)
@@ -1329,6 +1330,25 @@ static fs_ab step_dcurve(fs_ident *id, fs_ab i_ab)
     fs_ident_result *r = &id->res;
     const float n_set_f = 30.0f / (id->w_c * c->Ts);
     const int n_set = (int)n_set_f + 1;
+    /* the rotor coasts at i_q = 0: below half the speed FLUX ended at, where the PLL's bandwidth (half the
+     * spin's speed) nears the speed itself, no more levels (the standstill sweep has them). A light rotor
+     * with viscous friction (anaheim-bly171d, J/B = 0.21 s) halved its speed in FLUX and turned backwards
+     * in DCURVE, the frame lost: ACCEL then pushed its torque on a frame off the rotor for 20 s */
+    if ((id->k == 0) && (id->sub < FS_MAPID_ND) && (fabsf(id->w0) < (0.5f * fabsf(id->w_target)))) { id->sub = FS_MAPID_ND; }
+    /* nor on once a level moved the speed by a fifth (at i_q = 0 only a frame off the axis makes torque,
+     * and its torque turns the frame further off: the light rotor above reversed within a level); its
+     * current ramps back to zero from where it is */
+    if (id->k == 0) { id->w_level = id->w0; }
+    else if ((id->sub < FS_MAPID_ND) && (fabsf(id->w0 - id->w_level) > (0.2f * fabsf(id->w_level)))) {
+        id->i_ref0 = (id->k <= n_set) ? (id->i_ref0 + ((0.25f * (float)(id->sub - (FS_MAPID_ND / 2)) * c->i_max) - id->i_ref0)
+                                                        * fs_minf(3.0f * (float)id->k / (float)n_set, 1.0f))
+                                      : (0.25f * (float)(id->sub - (FS_MAPID_ND / 2)) * c->i_max);
+        acc_clear(id);
+        id->k = 0;
+        id->sub = FS_MAPID_ND;
+    } else {
+        /* the level holds the speed */
+    }
     while (id->sub < FS_MAPID_ND) {   /* the next level the voltage and the frame's lock allow (0 is psi_f, read by FLUX) */
         const int kk = id->sub - (FS_MAPID_ND / 2);
         const float I = 0.25f * (float)kk * c->i_max;
@@ -1431,10 +1451,20 @@ static fs_ab step_accel(fs_ident *id, fs_ab i)
         float gm;
         if ((t < t_need) || !rec_fit(id, id->rec_w, k0, id->rec_n, &a, &tm, &wm)
             || !rec_fit(id, id->rec_g, k0, id->rec_n, &T_fit, &tm, &gm)) {
-            if ((id->i_acc > (0.03f * c->i_max)) && (id->tries < 3)) {   /* again at a quarter of the torque, after the coast */
+            /* again after the coast, at a quarter of the current, or less where this try showed the rotor
+             * light for it: the current that makes the next rise (0.4 of the speed it starts from, which a
+             * frictionless rotor keeps from this one) take twice t_need at the acceleration seen here.
+             * A quarter a try left the frictionless Prius MG2 (0.035 kg m^2, 271 A) at 5 A, its rise 0.19 s
+             * against 0.25 s needed, and J failed "too fast". The next current above three times the
+             * sensors' noise (START), and 0.2 % of i_max (a few ADC steps), for the loop to hold it */
+            const float dw = id->w0 - ((id->rec_n > 0) ? id->rec_w[0] : id->w0);
+            const float a_seen = (t > 0.0f) ? (dw / t) : 0.0f;
+            float i_next = 0.25f * id->i_acc;
+            if (a_seen > 0.0f) { i_next = fs_minf(i_next, id->i_acc * (0.4f * fabsf(id->w0) / (2.0f * t_need)) / a_seen); }
+            if ((i_next > fs_maxf(3.0f * id->res.noise_i, 0.002f * c->i_max)) && (id->tries < 3)) {
                 id->tries++;
                 id->sub = 1;
-                id->i_acc *= 0.25f;
+                id->i_acc = i_next;
             } else {
                 ident_fail(id, FS_IDQ_J, FS_IDR_TOO_FAST);
                 return u;

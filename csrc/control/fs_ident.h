@@ -249,6 +249,7 @@ typedef struct {
     float T_acc;         /* N m: the torque as the acceleration's fit weighs it (the slope of g over its window) */
     float t_acc;         /* s the acceleration took */
     float w_acc;         /* el. rad/s, its mean speed */
+    float w_level;       /* el. rad/s: the speed a DCURVE level began at */
 } fs_ident;
 
 fs_status fs_ident_init(fs_ident *id, const fs_ident_config *cfg);
