@@ -497,3 +497,20 @@ def test_speed_lost_at_speed_stops_the_d_levels():
     assert res.step == "done", res.failures()
     assert res.status["J"] in ("ok", "outside goal") and res.status["friction"] == "ok", res.failures()
     assert res.times["steps"]["accel"] < 2.0   # not the 20 s of a frame off the rotor
+
+
+def test_refusals_carry_their_numbers():
+    """A refusal says the physical cause with its numbers, not its kind
+    alone: the free Prius MG2's map (the d currents that push its magnet
+    off the axis against the sweep's), the free H27's spin (the I/f
+    current, the speeds the frame and the rotor reached)."""
+    prius = identify(_scenario("prius2004-mg2", initial={"theta_e_deg": 0.0}))
+    assert prius.status["map"] == "failed"
+    why = prius.reason["map"]
+    assert "lock it" in why and "psi_f / (L_q - L_d)" in why and "0.1607 Wb" in why, why
+    dL = prius.values["L_q"] - prius.values["L_d"]
+    assert f"= {0.1607 / dL:.3g} A" in why and "+-270.7 A" in why, why
+    h27 = identify(_scenario("hefei-h27", initial={"theta_e_deg": 0.0}))
+    if h27.status["psi_f"] == "failed":
+        why = h27.reason["psi_f"]
+        assert "I/f frame at 3 A (50 % of i_max)" in why and "el. rad/s" in why, why
