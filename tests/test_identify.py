@@ -514,3 +514,19 @@ def test_refusals_carry_their_numbers():
     if h27.status["psi_f"] == "failed":
         why = h27.reason["psi_f"]
         assert "I/f frame at 3 A (50 % of i_max)" in why and "el. rad/s" in why, why
+
+
+def test_pm_syrm_spins_on_isotropic_loops():
+    """The Baldor PM-SyRM free (L_q 5.5 L_d): with the polarity read right its
+    standstill steps hold it, and the I/f spin follows. On the loops of the
+    aligned frame the spin's q loop, on the rotor's d axis while the rotor
+    lagged the ramp by up to a quarter turn, saw 5.5 times its designed gain,
+    rang at the voltage limit and stalled the spin at a fifth of its speed:
+    J failed "too fast". On the smaller inductance on both axes until FLUX
+    has locked the frame on the EMF (fs_ident.c): psi_f and J within their
+    goals."""
+    res = identify(_scenario("baldor-ecs101m0h7ef4", initial={"theta_e_deg": 0.0}))
+    for q in ("verr", "R_s", "L_d", "L_q", "psi_f", "J", "friction"):
+        assert res.status[q] == "ok", (q, res.reason[q])
+    assert res.details["w_flux"] > 0.8 * 0.3 * 2 * 1800 * 2 * np.pi / 60   # the spin reached its speed
+    assert res.motion["steps"]["levels"]["max_deg"] < 5.0

@@ -229,7 +229,6 @@ static void ident_design_pi(fs_ident *id, float L_d, float L_q, float R)
     (void)fs_pi_design_init(&id->pi_q, id->cfg.Ts, L_q, R, id->w_c, u_lim);
 }
 
-/* The stationary inverter error of the fitted leg model at the phase currents of i_ab. */
 /* The inverter's error at the sampled currents i_ab while the voltage u_ab
  * (the reference applied over the sampled period) is on the winding. A
  * centre-aligned carrier samples in a zero vector, where the winding of phase
@@ -1119,6 +1118,12 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
             id->i_if = I_IF * c->i_max;
             id->theta = id->theta_s;
             id->w = 0.0f;
+            /* the I/f frame is off the rotor by its load angle, up to a quarter turn while the rotor lags
+             * the ramp: the loops on the smaller inductance on both axes, so that neither sees more gain
+             * than it was designed for whichever axis of the rotor it sits on (the Baldor PM-SyRM, L_q 5.5
+             * L_d: its q loop on the rotor's d axis rang at the voltage limit and the spin stalled at a
+             * fifth of its speed); the frame's own L_d, L_q again once FLUX has locked it onto the EMF */
+            ident_design_pi(id, fs_minf(r->L_d, r->L_q), fs_minf(r->L_d, r->L_q), r->R_s);
             return (fs_ab){0.0f, 0.0f};
         }
         r->motion_ldq = e;
@@ -1253,6 +1258,15 @@ static fs_ab step_flux(fs_ident *id, fs_ab i)
     const float n_meas_f = 20.0f / (id->bw_pll * c->Ts);
     const int n_meas = (int)n_meas_f + 1;
     id->k++;
+    if (id->k == n_lock) {
+        /* the frame locked on the EMF: the loops on its own L_d, L_q again (SPIN had them isotropic), their
+         * integrators kept (at zero current the output is the integrator: they hold the EMF, no bump) */
+        const float integ_d = id->pi_d.integ;
+        const float integ_q = id->pi_q.integ;
+        ident_design_pi(id, id->res.L_d, id->res.L_q, id->res.R_s);
+        id->pi_d.integ = integ_d;
+        id->pi_q.integ = integ_q;
+    }
     if (id->k <= n_lock) { ret = u; }
     else {
         const fs_dq e = frame_emf(id, i);
