@@ -490,30 +490,28 @@ def test_speed_lost_at_speed_stops_the_d_levels():
     a little off the axis makes torque of the d current, which turns it
     further off); ACCEL then held its current on a frame off the rotor for
     the whole 20 s allowed and J failed "too fast". The levels stop below
-    half of FLUX's speed and when a level moves the speed by a fifth: the
-    sequence ends, J and friction measured (J still 35 % high on this rotor,
-    reported outside its goal)."""
+    half of FLUX's speed and when a level moves the speed by a fifth, and a
+    level whose d current turns a misaligned rotor away is run only where
+    that loop's rate sqrt(p |K| / J) is a third of the PLL's bandwidth
+    (322 rad/s at -i_max / 2 here against 250): the sequence ends, J
+    within its goal."""
     res = identify(_scenario("anaheim-bly171d"))
     assert res.step == "done", res.failures()
-    assert res.status["J"] in ("ok", "outside goal") and res.status["friction"] == "ok", res.failures()
+    assert res.status["J"] == "ok" and res.status["friction"] == "ok", res.failures()
+    assert abs(res.errors_pct()["J"]) <= GOALS_PCT["J"]
     assert res.times["steps"]["accel"] < 2.0   # not the 20 s of a frame off the rotor
 
 
 def test_refusals_carry_their_numbers():
     """A refusal says the physical cause with its numbers, not its kind
     alone: the free Prius MG2's map (the d currents that push its magnet
-    off the axis against the sweep's), the free H27's spin (the I/f
-    current, the speeds the frame and the rotor reached)."""
+    off the axis against the sweep's)."""
     prius = identify(_scenario("prius2004-mg2", initial={"theta_e_deg": 0.0}))
     assert prius.status["map"] == "failed"
     why = prius.reason["map"]
     assert "lock it" in why and "psi_f / (L_q - L_d)" in why and "0.1607 Wb" in why, why
     dL = prius.values["L_q"] - prius.values["L_d"]
     assert f"= {0.1607 / dL:.3g} A" in why and "+-270.7 A" in why, why
-    h27 = identify(_scenario("hefei-h27", initial={"theta_e_deg": 0.0}))
-    if h27.status["psi_f"] == "failed":
-        why = h27.reason["psi_f"]
-        assert "I/f frame at 3 A (50 % of i_max)" in why and "el. rad/s" in why, why
 
 
 def test_pm_syrm_spins_on_isotropic_loops():
@@ -530,3 +528,18 @@ def test_pm_syrm_spins_on_isotropic_loops():
         assert res.status[q] == "ok", (q, res.reason[q])
     assert res.details["w_flux"] > 0.8 * 0.3 * 2 * 1800 * 2 * np.pi / 60   # the spin reached its speed
     assert res.motion["steps"]["levels"]["max_deg"] < 5.0
+
+
+def test_check_holds_a_light_salient_rotor_before_the_spin():
+    """The free H27 (J 4e-4 kg m^2, no friction): the CHECK after MAP, a d
+    carrier at zero current, pushed its d axis away from itself (the
+    carrier's mean reluctance torque, an inverted pendulum) from 5 to 148
+    el.deg, and the I/f spin started on the axis CHECK read: "the rotor did
+    not follow the I/f frame", psi_f and J failed. A small d bias on the
+    north holds it (fs_ident.c): the spin follows, psi_f and J within their
+    goals."""
+    res = identify(_scenario("hefei-h27", initial={"theta_e_deg": 0.0}))
+    for q in ("psi_f", "J", "friction"):
+        assert res.status[q] == "ok", (q, res.reason[q])
+    assert abs(res.errors_pct()["psi_f"]) <= GOALS_PCT["psi_f"] and abs(res.errors_pct()["J"]) <= GOALS_PCT["J"]
+    assert res.motion["steps"]["check"]["max_deg"] < 90.0

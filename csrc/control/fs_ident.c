@@ -1051,7 +1051,26 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
     const bool d_meas = check || (id->sub == 0);
     const int axis = d_meas ? (int)0 : (int)1;
     const int level = id->sub - 1;
-    const float I_b = d_meas ? 0.0f : ldq_bias(id, level);
+    float I_b = d_meas ? 0.0f : ldq_bias(id, level);
+    /* CHECK after MAP on a free rotor whose north is known: the d carrier at zero current turns a salient
+     * rotor's d axis away from itself (its mean reluctance torque, -1.5 p (L_q - L_d) I_h^2 / 4 sin 2 delta
+     * for the frame delta off the rotor's axis, an inverted pendulum: the frictionless H27 from 5 to 148
+     * el.deg in it, and the I/f spin that starts on the axis CHECK read lost the rotor: psi_f, J failed); a
+     * d bias I_b on the north holds it with the magnet's 1.5 p psi_f I_b sin delta: four times the
+     * (L_q - L_d) I_h^2 / (2 psi_f) that balances the push (the nameplate's psi_f; far below the carrier,
+     * whose crossing of zero the d measurement wants), then back to zero before the spin. Not in the CHECK
+     * before MAP: there the pendulum it leaves swings through CHECK's window (the own machine's 130 ms
+     * against 90 ms), the offset read is the swing's mean, and MAP's d sweep began 3 el.deg off the rotor
+     * (its map 9.3 % of psi_f off against 4.6 %) */
+    const float dL = id->res.L_q - id->res.L_d;
+    if (check && (id->res.status[FS_IDQ_MAP] != (int)FS_IDS_PENDING) && id->pol_known && !c->locked && (c->psi_f_hint > 0.0f)
+        && (dL > 0.0f)) {
+        const float I_h = I_HF_D * c->i_max;
+        const float I_s = 4.0f * dL * I_h * I_h / (2.0f * c->psi_f_hint);
+        /* within the levels' bound (half of psi_f / (L_q - L_d): beyond, the bias' own reluctance torque
+         * pushes too); where the push needs more, none (the Prius MG2: 78 A against 10) */
+        if (I_s <= (0.5f * id->res.i_level_top)) { I_b = I_s; }
+    }
     if (id->k == 0) {
         id->w_h = FS_TWO_PI / ((float)N_HF * c->Ts);
         const float R = id->res.R_s;                         /* the probe's L: the amplitudes B-IDENT was tuned on */
@@ -1060,6 +1079,15 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
         ldq_clear(id);
     }
     const fs_ab i = to_frame(id, i_ab);
+    if (check && (id->sub == 3)) {   /* CHECK's holding bias back to zero, settled, before MAP or SPIN start from zero */
+        const fs_ab u0 = id->aligned ? dc_on_alpha(id, i, 0.0f) : dc_on_d(id, i, 0.0f);
+        if (++id->k >= n_set) {
+            const bool premap = (id->res.status[FS_IDQ_MAP] == (int)FS_IDS_PENDING);
+            ident_goto(id, premap ? FS_IDENT_MAP : ((c->standstill_only || c->locked) ? FS_IDENT_DONE : FS_IDENT_SPIN));
+            return (fs_ab){0.0f, 0.0f};
+        }
+        return from_frame(id, u0);
+    }
     fs_ab u = id->aligned ? dc_on_alpha(id, i, I_b) : dc_on_d(id, i, I_b);   /* the bias on d, q at zero (shorted after ALIGN) */
     if (id->k < n_set) {   /* each injection starts from a settled bias */
         id->k++;
@@ -1109,12 +1137,22 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
         id->theta_s = fs_wrap_pi(id->theta_s + e);   /* onto the rotor's axis */
         if (check && (r->status[FS_IDQ_MAP] == (int)FS_IDS_PENDING)) {   /* before MAP: the frame onto the axis the biases left */
             r->motion_premap = e;
+            if (I_b != 0.0f) {   /* its holding bias back to zero first: MAP's d sweep reads its first zero at the start */
+                id->sub = 3;
+                id->k = 0;
+                return from_frame(id, u);
+            }
             ident_goto(id, FS_IDENT_MAP);
             return (fs_ab){0.0f, 0.0f};
         }
         if (check) {
             r->motion_check = e;
-            ident_goto(id, (c->standstill_only || c->locked) ? FS_IDENT_DONE : FS_IDENT_SPIN);
+            if (I_b != 0.0f) {
+                id->sub = 3;
+                id->k = 0;
+            } else {
+                ident_goto(id, (c->standstill_only || c->locked) ? FS_IDENT_DONE : FS_IDENT_SPIN);
+            }
             id->i_if = I_IF * c->i_max;
             id->theta = id->theta_s;
             id->w = 0.0f;
@@ -1366,7 +1404,18 @@ static fs_ab step_dcurve(fs_ident *id, fs_ab i_ab)
     while (id->sub < FS_MAPID_ND) {   /* the next level the voltage and the frame's lock allow (0 is psi_f, read by FLUX) */
         const int kk = id->sub - (FS_MAPID_ND / 2);
         const float I = 0.25f * (float)kk * c->i_max;
-        if ((kk != 0) && (abs_level(kk) <= DCURVE_LEVELS) && ((fabsf(id->w) * (r->psi_f + (r->L_d * I))) < (U_DCURVE * id->u_max))) {
+        /* a level whose d current turns a misaligned rotor further off (1.5 p (psi_f I - (L_q - L_d) I^2) < 0:
+         * every I < 0, and I > psi_f / (L_q - L_d)) is a loop of the frame's lock error through the torque:
+         * its open rate sqrt(p |K| / J) must stay within half the PLL's bandwidth, or the frame loses the
+         * rotor (anaheim-bly171d: 322 rad/s at -i_max / 2 on J = 2.4e-6 kg m^2 against a 250 rad/s PLL; the
+         * rotor reversed in the level). At a third, siemens-1ft6084's -i_max/2 (54 rad/s against 157) was
+         * left to the standstill sweep, whose dead time reads a 10 % asymmetry into its linear d axis.
+         * The nameplate's J (unknown: no bound) */
+        const float K = 1.5f * (float)c->pole_pairs * ((r->psi_f * I) - ((r->L_q - r->L_d) * I * I));
+        const bool holds = !(K < 0.0f) || !(c->J_hint > 0.0f)
+                           || (((float)c->pole_pairs * -K / c->J_hint) < ((id->bw_pll * id->bw_pll) / 4.0f));
+        if ((kk != 0) && (abs_level(kk) <= DCURVE_LEVELS) && holds
+            && ((fabsf(id->w) * (r->psi_f + (r->L_d * I))) < (U_DCURVE * id->u_max))) {
             break;
         }
         id->sub++;

@@ -325,7 +325,7 @@ def _result(sc: Scenario, s: dict, drv, stop: str, sim_time: float, wall: float,
     n_step = [r.n_step[k] for k in range(lib.FS_IDENT_NSTEPS)]
     details = {"snr_rs": r.snr_rs, "r_fit_rs": r.r_fit_rs, "snr_l": r.snr_l, "snr_psi": r.snr_psi,
                "eps_align_deg": math.degrees(r.eps_align), "w_flux": r.w_flux, "a_acc": r.a_acc, "a_coast": r.a_coast,
-               "L_probe": drv.ident.L0, "i_acc": drv.ident.i_acc, "i_e": r.i_e,
+               "L_probe": drv.ident.L0, "i_acc": drv.ident.i_acc, "i_e": r.i_e, "bw_pll": drv.ident.bw_pll, "w_c": drv.ident.w_c,
                "I_bias": list(r.I_bias), "L_q_bias": list(r.L_q_bias), "dL_q": r.dL_q,
                "theta_axis_deg": math.degrees(r.theta_axis), "theta_hf_deg": math.degrees(r.theta_hf), "saliency": r.saliency,
                "L_d_axis": r.L_d_axis, "L_q_axis": r.L_q_axis, "pol_asym": r.pol_asym, "pol_decided": bool(r.pol_decided),

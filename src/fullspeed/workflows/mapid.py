@@ -52,6 +52,11 @@ def assemble(rd: dict, i_max: float, psi_f: float, L_d: float) -> dict:
     # the d axis: at speed where read (absolute), else the standstill sweep on psi_f
     d0 = np.array([psi_f + rd["dpsi_d"][k] if rd["n_d"][k] else np.nan for k in range(ND)])
     speed = np.array([rd["psi_d_w"][k] if rd["w_d_w"][k] else np.nan for k in range(ND)])
+    # at speed in pairs +-k only: read on one side alone, the speed's absolute level beside the standstill
+    # sweep's (its psi_f anchor and what the dead time leaves in it) on the other puts a step between them
+    # into the axis, an asymmetry the machine does not have (siemens-1ft6084, linear: 10 % at +-i_max/2,
+    # read at speed at +i_max/4 and +i_max/2 only, where its lock held the rotor)
+    speed = np.where(np.isfinite(speed) & np.isfinite(speed[::-1]), speed, np.nan)
     speed[ND // 2] = psi_f
     axis = np.where(np.isfinite(speed), speed, d0)
     read = np.isfinite(axis)
