@@ -122,6 +122,14 @@ def machine(name: str, out: Path) -> dict:
         used = f"the machine alone (its full-range scenario refused: {exc})"
     row = {"machine": name, "identify_scenario": used, "runs": {}}
     row["true_run"] = run(data, f"{name} true")
+    if "refused" in row["true_run"]:   # B-REAL's refusal (the H27: its I/f start cannot carry the load): half the load
+        refused = row["true_run"]["refused"]
+        data = copy.deepcopy(data)
+        data["load"]["torque"] = [[t, 0.5 * T] for t, T in data["load"]["torque"]]
+        row["true_run"] = run(data, f"{name} true, half load")
+        row["true_run"]["note"] = f"half of B-REAL's load: B-REAL's scenario refused ({refused[:120]})"
+        row["run_scenario"] = "B-REAL's at half load"
+        (out / f"scenario-{name}-run.toml").write_text(dumps(data))
     ids = {"free": identify(scen, out / f"id-{name}")}
     text = " ".join(ids["free"].get("reason", {}).values()) + ids["free"]["stderr"]
     if "lock" in text:   # the cure the identification named
@@ -149,7 +157,7 @@ def table(rows: list[dict]) -> str:
     for r in rows:
         t = r["true_run"]
         tr = (f"{fmt(t.get('err_max'), '{:.2f}')} / {fmt(t.get('steady_mean'))}, {t.get('stop')}" if "refused" not in t
-              else "refused: " + t["refused"][:90])
+              else "refused: " + t["refused"][:90]) + (" (half load)" if t.get("note") else "")
         for kind, i in r["identify"].items():
             e = i.get("error_pct", {})
             bad = "; ".join(f"{q}: {i['status'][q]}" for q in i.get("status", {}) if i["status"][q] not in ("ok", "skipped"))

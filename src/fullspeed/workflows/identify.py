@@ -669,6 +669,15 @@ def print_identification(res: Identification) -> None:
         pts = res.map["points"]
         print(f"         {pts.get('measured', 0)} grid points measured, {pts.get('at speed', 0)} at speed, "
               f"{pts.get('extrapolated', 0)} extrapolated (outside the disc or beyond the sweeps)")
+        rd, i_max = res.map["readings"], res.map["i_max"]
+        cut = {1: "the rotor's swing", 2: "the voltage", 3: "not swept: the d level would turn the free rotor away",
+               4: "the sweeps stopped: the rotor turning at the level's end"}
+        lim = [f"i_d {0.25 * (k - mapid.ND // 2) * i_max:+.3g} A: "
+               + (f"{cut[v]}" + (f" (to {rd['i_q_amp'][k]:.3g} A)" if v in (1, 2, 4) else "") if v in cut
+                  else "not reached (the sweeps stopped before it)")
+               for k, v in enumerate(rd["limit"]) if 0 < k < mapid.ND - 1 and (v in cut or not any(rd["n_q"][k]))]
+        if lim:
+            print("         q sweeps short of the disc: " + "; ".join(lim))
         a, at = pol["asymmetry"], pol.get("asymmetry_truth")
         print(f"         d-axis asymmetry at +-{pol['i_pulse']:.3g} A: {100 * a:.1f} % (truth "
               f"{100 * at:.1f} %; polarity detection needs {100 * pol['needed']:.0f} %: "
