@@ -462,6 +462,10 @@ def test_pm_syrm_locked_map_not_mirrored(name, rms_max):
 
     res = identify(_scenario(name, identify={"locked": True}))
     assert res.status["map"] in ("ok", "outside goal"), res.reason["map"]
+    if name.startswith("baldor"):
+        # L_q at zero current from biases +-I_b on a locked rotor: through I_b and 2 I_b on the north (its
+        # polarity now read) it extrapolated across the bend of its L_q near zero: +12 %
+        assert res.status["L_q"] == "ok" and abs(res.errors_pct()["L_q"]) <= GOALS_PCT["L_q"], res.errors_pct()
     assert res.map["errors"]["rms_pct"] <= rms_max, res.map["errors"]
     g = res.map["grid"]
     flux = true_flux(load_machine(name))
