@@ -8,8 +8,8 @@ Per machine:
    where B-REAL's scenario does not load (the H27: its I/f start cannot
    carry the load), the machine alone with the controller off.
 2. Where the free identification names the cure "lock it" (the standstill
-   steps turned the rotor, or the map's d sweep would), again with
-   `[identify] locked = true`, as the reason says.
+   steps turned the rotor, or the map's d sweep would), or its map is not
+   within its goal, again with `[identify] locked = true`.
 3. The same full-range scenario on the true machine file, and on each
    identified machine.toml with the true machine as `plant_machine` (the
    drive designed from the identified file, the simulation turning the
@@ -132,7 +132,9 @@ def machine(name: str, out: Path) -> dict:
         (out / f"scenario-{name}-run.toml").write_text(dumps(data))
     ids = {"free": identify(scen, out / f"id-{name}")}
     text = " ".join(ids["free"].get("reason", {}).values()) + ids["free"]["stderr"]
-    if "lock" in text:   # the cure the identification named
+    # the cure the identification named, or a map not within its goal (README: the map of a rotor the sweeps
+    # leave turning is identified locked)
+    if "lock" in text or ids["free"].get("status", {}).get("map") not in (None, "ok", "skipped"):
         locked = copy.deepcopy(tomllib.loads(scen.read_text()))
         locked["identify"] = {"locked": True}
         lscen = out / f"scenario-{name}-locked.toml"
