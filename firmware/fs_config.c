@@ -5,13 +5,13 @@
 #include <stddef.h>
 #include "fs_config.h"
 
-#if !defined(FS_CONFIG_EXPORT_ID) || FS_CONFIG_EXPORT_ID != 0xd568065cu
+#if !defined(FS_CONFIG_EXPORT_ID) || FS_CONFIG_EXPORT_ID != 0x1576a91du
 #error "fs_config.h is not the header exported with fs_config.c (another export, or one cut short): export again"
 #endif
 
 /* The layout this configuration was written for: a header that changed since
  * the export fails here, naming the field. */
-_Static_assert(sizeof(fs_drive_config) == 1848u, "fs_drive_config: size differs from the exported layout");
+_Static_assert(sizeof(fs_drive_config) == 1852u, "fs_drive_config: size differs from the exported layout");
 _Static_assert(offsetof(fs_drive_config, config_size) == 0u, "fs_drive_config.config_size moved");
 _Static_assert(offsetof(fs_drive_config, phases) == 4u, "fs_drive_config.phases moved");
 _Static_assert(offsetof(fs_drive_config, mode) == 8u, "fs_drive_config.mode moved");
@@ -171,36 +171,37 @@ _Static_assert(offsetof(fs_drive_config, map.psi_q) == 1294u, "fs_drive_config.m
 _Static_assert(offsetof(fs_drive_config, map_fw_only) == 1736u, "fs_drive_config.map_fw_only moved");
 _Static_assert(offsetof(fs_drive_config, ident) == 1740u, "fs_drive_config.ident moved");
 _Static_assert(offsetof(fs_drive_config, ident.Ts) == 1740u, "fs_drive_config.ident.Ts moved");
-_Static_assert(offsetof(fs_drive_config, ident.delay) == 1744u, "fs_drive_config.ident.delay moved");
-_Static_assert(offsetof(fs_drive_config, ident.pole_pairs) == 1748u, "fs_drive_config.ident.pole_pairs moved");
-_Static_assert(offsetof(fs_drive_config, ident.i_max) == 1752u, "fs_drive_config.ident.i_max moved");
-_Static_assert(offsetof(fs_drive_config, ident.w_spin) == 1756u, "fs_drive_config.ident.w_spin moved");
-_Static_assert(offsetof(fs_drive_config, ident.t_ramp) == 1760u, "fs_drive_config.ident.t_ramp moved");
-_Static_assert(offsetof(fs_drive_config, ident.u_dc_min) == 1764u, "fs_drive_config.ident.u_dc_min moved");
-_Static_assert(offsetof(fs_drive_config, ident.standstill_only) == 1768u, "fs_drive_config.ident.standstill_only moved");
-_Static_assert(offsetof(fs_drive_config, ident.locked) == 1772u, "fs_drive_config.ident.locked moved");
-_Static_assert(offsetof(fs_drive_config, ident.skip_map) == 1776u, "fs_drive_config.ident.skip_map moved");
-_Static_assert(offsetof(fs_drive_config, ident.i_test) == 1780u, "fs_drive_config.ident.i_test moved");
-_Static_assert(offsetof(fs_drive_config, ident.t_level) == 1784u, "fs_drive_config.ident.t_level moved");
-_Static_assert(offsetof(fs_drive_config, ident.psi_f_hint) == 1788u, "fs_drive_config.ident.psi_f_hint moved");
-_Static_assert(offsetof(fs_drive_config, ident.J_hint) == 1792u, "fs_drive_config.ident.J_hint moved");
-_Static_assert(offsetof(fs_drive_config, ident.motion_max) == 1796u, "fs_drive_config.ident.motion_max moved");
-_Static_assert(offsetof(fs_drive_config, motion) == 1800u, "fs_drive_config.motion moved");
-_Static_assert(offsetof(fs_drive_config, motion.Ts) == 1800u, "fs_drive_config.motion.Ts moved");
-_Static_assert(offsetof(fs_drive_config, motion.i_push) == 1804u, "fs_drive_config.motion.i_push moved");
-_Static_assert(offsetof(fs_drive_config, motion.i_push_max) == 1808u, "fs_drive_config.motion.i_push_max moved");
-_Static_assert(offsetof(fs_drive_config, motion.t_lock) == 1812u, "fs_drive_config.motion.t_lock moved");
-_Static_assert(offsetof(fs_drive_config, motion.t_push) == 1816u, "fs_drive_config.motion.t_push moved");
-_Static_assert(offsetof(fs_drive_config, motion.t_settle) == 1820u, "fs_drive_config.motion.t_settle moved");
-_Static_assert(offsetof(fs_drive_config, motion.theta_dec) == 1824u, "fs_drive_config.motion.theta_dec moved");
-_Static_assert(offsetof(fs_drive_config, motion.theta_max) == 1828u, "fs_drive_config.motion.theta_max moved");
-_Static_assert(offsetof(fs_drive_config, r_damp) == 1832u, "fs_drive_config.r_damp moved");
-_Static_assert(offsetof(fs_drive_config, w_swing) == 1836u, "fs_drive_config.w_swing moved");
-_Static_assert(offsetof(fs_drive_config, t_handover) == 1840u, "fs_drive_config.t_handover moved");
-_Static_assert(offsetof(fs_drive_config, w_restart) == 1844u, "fs_drive_config.w_restart moved");
+_Static_assert(offsetof(fs_drive_config, ident.T_pwm) == 1744u, "fs_drive_config.ident.T_pwm moved");
+_Static_assert(offsetof(fs_drive_config, ident.delay) == 1748u, "fs_drive_config.ident.delay moved");
+_Static_assert(offsetof(fs_drive_config, ident.pole_pairs) == 1752u, "fs_drive_config.ident.pole_pairs moved");
+_Static_assert(offsetof(fs_drive_config, ident.i_max) == 1756u, "fs_drive_config.ident.i_max moved");
+_Static_assert(offsetof(fs_drive_config, ident.w_spin) == 1760u, "fs_drive_config.ident.w_spin moved");
+_Static_assert(offsetof(fs_drive_config, ident.t_ramp) == 1764u, "fs_drive_config.ident.t_ramp moved");
+_Static_assert(offsetof(fs_drive_config, ident.u_dc_min) == 1768u, "fs_drive_config.ident.u_dc_min moved");
+_Static_assert(offsetof(fs_drive_config, ident.standstill_only) == 1772u, "fs_drive_config.ident.standstill_only moved");
+_Static_assert(offsetof(fs_drive_config, ident.locked) == 1776u, "fs_drive_config.ident.locked moved");
+_Static_assert(offsetof(fs_drive_config, ident.skip_map) == 1780u, "fs_drive_config.ident.skip_map moved");
+_Static_assert(offsetof(fs_drive_config, ident.i_test) == 1784u, "fs_drive_config.ident.i_test moved");
+_Static_assert(offsetof(fs_drive_config, ident.t_level) == 1788u, "fs_drive_config.ident.t_level moved");
+_Static_assert(offsetof(fs_drive_config, ident.psi_f_hint) == 1792u, "fs_drive_config.ident.psi_f_hint moved");
+_Static_assert(offsetof(fs_drive_config, ident.J_hint) == 1796u, "fs_drive_config.ident.J_hint moved");
+_Static_assert(offsetof(fs_drive_config, ident.motion_max) == 1800u, "fs_drive_config.ident.motion_max moved");
+_Static_assert(offsetof(fs_drive_config, motion) == 1804u, "fs_drive_config.motion moved");
+_Static_assert(offsetof(fs_drive_config, motion.Ts) == 1804u, "fs_drive_config.motion.Ts moved");
+_Static_assert(offsetof(fs_drive_config, motion.i_push) == 1808u, "fs_drive_config.motion.i_push moved");
+_Static_assert(offsetof(fs_drive_config, motion.i_push_max) == 1812u, "fs_drive_config.motion.i_push_max moved");
+_Static_assert(offsetof(fs_drive_config, motion.t_lock) == 1816u, "fs_drive_config.motion.t_lock moved");
+_Static_assert(offsetof(fs_drive_config, motion.t_push) == 1820u, "fs_drive_config.motion.t_push moved");
+_Static_assert(offsetof(fs_drive_config, motion.t_settle) == 1824u, "fs_drive_config.motion.t_settle moved");
+_Static_assert(offsetof(fs_drive_config, motion.theta_dec) == 1828u, "fs_drive_config.motion.theta_dec moved");
+_Static_assert(offsetof(fs_drive_config, motion.theta_max) == 1832u, "fs_drive_config.motion.theta_max moved");
+_Static_assert(offsetof(fs_drive_config, r_damp) == 1836u, "fs_drive_config.r_damp moved");
+_Static_assert(offsetof(fs_drive_config, w_swing) == 1840u, "fs_drive_config.w_swing moved");
+_Static_assert(offsetof(fs_drive_config, t_handover) == 1844u, "fs_drive_config.t_handover moved");
+_Static_assert(offsetof(fs_drive_config, w_restart) == 1848u, "fs_drive_config.w_restart moved");
 
 const fs_drive_config fs_config = {
-    .config_size = 1848u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator set it, and fs_drive_init refuses a configuration ...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
+    .config_size = 1852u,   /* sizeof(fs_drive_config) as the writer of this configuration saw it: `fullspeed export` and the simulator set it, and fs_drive_init refuses a configuration ...; sizeof(fs_drive_config) at export; fs_drive_init compares it with the library's */
     .phases = 3,   /* 3, or 5: the fundamental plane of the VSD, nearest-four-vector PWM; machine yang2022: phases */
     .mode = FS_MODE_SPEED,   /* fs_drive_mode; scenario beyond-full-range: [controller] mode */
     .angle_source = FS_ANGLE_BLEND,   /* fs_angle_source; scenario beyond-full-range: [controller] angle */
@@ -464,6 +465,7 @@ const fs_drive_config fs_config = {
     .map_fw_only = 0,   /* 1: the map only plans the flux weakening (fs_fwmap.h): a machine given by L_d, L_q, psi_f, whose map is the one those make; the current loops, MTPA ...; 0: taken from the drive's fields or designed by fs_drive_init, or off (controller.fw_method) */
     .ident = {   /* FS_MODE_IDENTIFY (three phases, inverter): Ts, delay, pole_pairs and i_max are taken from above */
         .Ts = 0.0f,   /* control period, s; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+        .T_pwm = 0.0f,   /* carrier period, s (Ts or 2 Ts; 0: Ts): the current's ripple the inverter's error sees; 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .delay = 0.0f,   /* computation delay, control periods: 0 or 1; 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .pole_pairs = 0,   /* 0: taken from the drive's fields or designed by fs_drive_init, or off */
         .i_max = 0.0f,   /* A peak: no test current above it; 0: taken from the drive's fields or designed by fs_drive_init, or off */

@@ -8,9 +8,9 @@
 
 /* sizeof(fs_drive_config) when exported; fs_config.config_size holds it too and
  * fs_drive_init refuses the configuration if the library's differs */
-#define FS_CONFIG_SIZE 1848u
+#define FS_CONFIG_SIZE 1852u
 /* this export: fs_config.c compiles only with the header exported with it */
-#define FS_CONFIG_EXPORT_ID 0xd568065cu
+#define FS_CONFIG_EXPORT_ID 0x1576a91du
 
 extern const fs_drive_config fs_config;
 

@@ -398,3 +398,194 @@ def test_J_from_the_measured_torque_is_not_biased_high(tmp_path):
     rows = zoo_campaign(range(8), tmp_path, workers=1)
     e = np.array([r["errors_pct"]["J"] for r in rows])
     assert abs(e.mean()) <= 0.5 and np.abs(e).max() <= 1.5, e
+
+
+def test_inverter_error_knee_follows_the_ripple():
+    """siemens-1ft6084's bench (2.5 us dead time at 5 kHz: 7 V a leg, 2.2 mH)
+    on its free, rubbing shaft: with the leg error's knee LEVELS fitted at dc
+    (29 mA), the 25 mA the current loop lags the coast's falling EMF by at
+    zero current took the whole 7 V for its sign, psi_f came out 3.9 % low,
+    and the map's d sweeps read a 20 % d-axis asymmetry into this linear
+    machine, so the drive designed from the identified file chose polarity
+    detection, which the true machine refused (polarity_undetermined). The
+    knee is the ripple's displacement at the leg's edges too (fs_ident.c):
+    psi_f within its goal, no asymmetry polarity detection would take for
+    one, and the identified file's start the true file's."""
+    from fullspeed.design.start import POLARITY_ASYMMETRY
+
+    res = identify(_scenario("siemens-1ft6084"))
+    assert res.status["psi_f"] == "ok" and abs(res.errors_pct()["psi_f"]) <= 1.0, res.errors_pct()
+    assert res.status["map"] == "ok", res.reason["map"]
+    pol = res.map["polarity"]
+    assert pol["asymmetry_truth"] == pytest.approx(0.0, abs=1e-6)
+    assert pol["asymmetry"] < POLARITY_ASYMMETRY and not pol["decides"], pol
+
+
+def test_identified_linear_machine_starts_as_the_true_one(tmp_path):
+    """identify, then run: the sensorless start the design chooses from the
+    identified siemens-1ft6084 file is the true file's (an I/f start: no
+    saliency), not a polarity detection its flux map would ask for."""
+    from fullspeed.workflows.identify import write_identification
+
+    sc = _scenario("siemens-1ft6084")
+    res = identify(sc)
+    write_identification(res, sc, tmp_path)
+    run = {"name": "r", "duration": 1.0, "controller": {"mode": "speed", "angle": "blend"}}
+    true = scenario_from_dict({**run, "machine": "siemens-1ft6084"}, warn=False)
+    ident = scenario_from_dict({**run, "machine": str(tmp_path / "machine.toml"), "plant_machine": "siemens-1ft6084"},
+                               warn=False)
+    assert true.data["start"]["kind"] == "if"
+    assert ident.data["start"]["kind"] == true.data["start"]["kind"]
+    assert ident.data["controller"]["angle"] == true.data["controller"]["angle"]
+
+
+@pytest.mark.parametrize("name, rms_max", [("baldor-ecs101m0h7ef4", 3.0), ("syre-thor", 5.0)])
+def test_pm_syrm_locked_map_not_mirrored(name, rms_max):
+    """The catalog's PM-SyRMs locked (their free rotors turn through LEVELS):
+    their incremental L_d peaks at a positive d current (the ribs the magnet
+    saturates relieved) and is still higher at +i_max/2 than at -i_max/2, so
+    a polarity read there took the north for the south and mirrored the map
+    (Baldor 13.4 %, THOR 38.6 % of psi_f RMS from this angle). Read at
+    +-3/4 i_max, where the main path's saturation decides (fs_mapid.c), and
+    on a locked rotor left to MAP's full d sweep where the polarity sweep
+    could not step there: the d axis read within 1 % of psi_f of the truth.
+    The Baldor's map is within B-MAPID's 3 %; THOR's is not from every
+    angle (2.6 % from 0 el.deg, 4.8 % from this one, where MAP turns the
+    frame and the q sweeps at +i_max/4 let the held d current drift to 17 A;
+    the map's own grid, the truth at its points, is 2.1 % off over the
+    disc), so it is held to 5 % here, the 3 % reported as not met. From
+    this angle the right polarity also took THOR's q sweep at +i_max/4 past
+    the sequence's 1.1 i_max (its L_q falls 15-fold towards i_max, and the
+    reversal was predicted on the last step): the steps' growth is taken on
+    now (fs_mapid.c, leg_next)."""
+    from fullspeed.workflows.identify import true_flux
+
+    res = identify(_scenario(name, identify={"locked": True}))
+    assert res.status["map"] in ("ok", "outside goal"), res.reason["map"]
+    if name.startswith("baldor"):
+        # L_q at zero current from biases +-I_b on a locked rotor: through I_b and 2 I_b on the north (its
+        # polarity now read) it extrapolated across the bend of its L_q near zero: +12 %
+        assert res.status["L_q"] == "ok" and abs(res.errors_pct()["L_q"]) <= GOALS_PCT["L_q"], res.errors_pct()
+    assert res.map["errors"]["rms_pct"] <= rms_max, res.map["errors"]
+    g = res.map["grid"]
+    flux = true_flux(load_machine(name))
+    psi_f = load_machine(name).psi_f
+    nq = len(g["i_q"]) // 2
+    i_max = res.map["i_max"]
+    for k, i_d in enumerate(g["i_d"]):   # the d axis, both sides of the magnet, within the current limit
+        if abs(i_d) > i_max * (1 + 1e-9):
+            continue
+        assert abs(g["psi_d"][k, nq] - float(flux(i_d, 0.0)[0])) <= 0.01 * psi_f, (i_d, g["psi_d"][k, nq])
+
+
+def test_light_rotors_acceleration_is_sized_from_what_it_showed():
+    """The Prius MG2 free (0.035 kg m^2, 271 A, no friction): its first
+    acceleration rose 40 % in 49 ms, and a quarter of the current a retry
+    left it at 5 A, whose rise took 0.19 s against the 0.25 s its fit needs:
+    J failed "too fast". The retry's current now comes from the acceleration
+    the try showed (fs_ident.c, step_accel): J within its goal. From 0
+    el.deg, B-REAL's angle (from 137 el.deg the standstill steps do not hold
+    this rotor: test_catalog_flux_map_machine_identified_locked_or_refused_naming_the_motion)."""
+    res = identify(_scenario("prius2004-mg2", initial={"theta_e_deg": 0.0}))
+    assert res.status["J"] == "ok", res.reason["J"]
+    assert abs(res.errors_pct()["J"]) <= GOALS_PCT["J"]
+
+
+def test_speed_lost_at_speed_stops_the_d_levels():
+    """anaheim-bly171d free (J 2.4e-6 kg m^2, J/B = 0.21 s): the rotor halved
+    its speed in FLUX and turned backwards in DCURVE's first d level (a frame
+    a little off the axis makes torque of the d current, which turns it
+    further off); ACCEL then held its current on a frame off the rotor for
+    the whole 20 s allowed and J failed "too fast". The levels stop below
+    half of FLUX's speed and when a level moves the speed by a fifth, and a
+    level whose d current turns a misaligned rotor away is run only where
+    that loop's rate sqrt(p |K| / J) is a third of the PLL's bandwidth
+    (322 rad/s at -i_max / 2 here against 250): the sequence ends, J
+    within its goal."""
+    res = identify(_scenario("anaheim-bly171d"))
+    assert res.step == "done", res.failures()
+    assert res.status["J"] == "ok" and res.status["friction"] == "ok", res.failures()
+    assert abs(res.errors_pct()["J"]) <= GOALS_PCT["J"]
+    assert res.times["steps"]["accel"] < 2.0   # not the 20 s of a frame off the rotor
+
+
+def test_refusals_carry_their_numbers():
+    """A refusal says the physical cause with its numbers, not its kind
+    alone: the free Prius MG2's map (the d currents that push its magnet
+    off the axis against the sweep's)."""
+    prius = identify(_scenario("prius2004-mg2", initial={"theta_e_deg": 0.0}))
+    assert prius.status["map"] == "failed"
+    why = prius.reason["map"]
+    assert "lock it" in why and "psi_f / (L_q - L_d)" in why and "0.1607 Wb" in why, why
+    dL = prius.values["L_q"] - prius.values["L_d"]
+    assert f"= {0.1607 / dL:.3g} A" in why and "+-270.7 A" in why, why
+
+
+def test_pm_syrm_spins_on_isotropic_loops():
+    """The Baldor PM-SyRM free (L_q 5.5 L_d): with the polarity read right its
+    standstill steps hold it, and the I/f spin follows. On the loops of the
+    aligned frame the spin's q loop, on the rotor's d axis while the rotor
+    lagged the ramp by up to a quarter turn, saw 5.5 times its designed gain,
+    rang at the voltage limit and stalled the spin at a fifth of its speed:
+    J failed "too fast". On the smaller inductance on both axes until FLUX
+    has locked the frame on the EMF (fs_ident.c): psi_f and J within their
+    goals."""
+    res = identify(_scenario("baldor-ecs101m0h7ef4", initial={"theta_e_deg": 0.0}))
+    for q in ("verr", "R_s", "L_d", "L_q", "psi_f", "J", "friction"):
+        assert res.status[q] == "ok", (q, res.reason[q])
+    assert res.details["w_flux"] > 0.8 * 0.3 * 2 * 1800 * 2 * np.pi / 60   # the spin reached its speed
+    assert res.motion["steps"]["levels"]["max_deg"] < 5.0
+
+
+def test_check_holds_a_light_salient_rotor_before_the_spin():
+    """The free H27 (J 4e-4 kg m^2, no friction): the CHECK after MAP, a d
+    carrier at zero current, pushed its d axis away from itself (the
+    carrier's mean reluctance torque, an inverted pendulum) from 5 to 148
+    el.deg, and the I/f spin started on the axis CHECK read: "the rotor did
+    not follow the I/f frame", psi_f and J failed. A small d bias on the
+    north holds it (fs_ident.c): the spin follows, psi_f and J within their
+    goals."""
+    res = identify(_scenario("hefei-h27", initial={"theta_e_deg": 0.0}))
+    for q in ("psi_f", "J", "friction"):
+        assert res.status[q] == "ok", (q, res.reason[q])
+    assert abs(res.errors_pct()["psi_f"]) <= GOALS_PCT["psi_f"] and abs(res.errors_pct()["J"]) <= GOALS_PCT["J"]
+    assert res.motion["steps"]["check"]["max_deg"] < 90.0
+
+
+def test_map_says_which_q_sweeps_fell_short(capsys):
+    """The Baldor free: its q sweeps stopped at i_d = 0 when the rotor was
+    still turning at the level's end, and the other levels were never
+    swept, so 134 of the grid's 153 points are extrapolated (10 % of psi_f
+    off). The summary names each level that fell short and why, where the
+    drive alone (no truth) would otherwise show only the counts."""
+    from fullspeed.workflows.identify import print_identification
+
+    res = identify(_scenario("baldor-ecs101m0h7ef4", initial={"theta_e_deg": 0.0}))
+    print_identification(res)
+    out = capsys.readouterr().out
+    line = next(x for x in out.splitlines() if "q sweeps short of the disc" in x)
+    assert "i_d +0 A: the sweeps stopped: the rotor turning" in line, line
+    assert line.count("not reached") == 6, line
+
+
+def test_identified_map_reaches_past_the_current_limit(tmp_path):
+    """The map written reaches a step past +-i_max on both axes (marked
+    extrapolated), so that the design has slopes at the limit: ending at
+    it, the cross-saturation table designed from zoo machine 2's identified
+    map led by 78 el.deg at the limit against the truth's 19 (the loader's
+    clamp read as a zero slope). Within 25 el.deg of the truth's there now."""
+    from fullspeed.design.machine import machine_from_dict
+    from fullspeed.design.xcomp import designed_table
+    from fullspeed.model.zoo import machine as zoo_machine
+    from fullspeed.workflows.identify import zoo_identification
+
+    row = zoo_identification(2, folder=str(tmp_path))
+    m = load_machine(row["machine_file"])
+    i_max = m.bench["i_max"]
+    assert min(m.magnetic["i_d"]) < -1.2 * i_max and max(m.magnetic["i_q"]) > 1.1 * i_max
+    ident, _ = designed_table(m, i_max)
+    true, _ = designed_table(machine_from_dict(zoo_machine(2)), i_max)
+    assert abs(ident["delta_deg"][-1] - true["delta_deg"][-1]) < 25.0, (ident["delta_deg"][-1], true["delta_deg"][-1])
+    rows = [x[2:] for x in (tmp_path / "fluxmap.csv").read_text().splitlines()[5:] if x.startswith("# ")]
+    assert len(rows) == 11 and rows[0] == rows[-1] == "e" * 19   # the rows past +-i_max, all extrapolated
+    assert all(r[0] == r[-1] == "e" for r in rows)

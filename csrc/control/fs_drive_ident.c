@@ -10,6 +10,7 @@ FS_COLD fs_status fs_drive_ident_init(fs_drive *drv, const fs_drive_config *cfg)
     else {
         fs_ident_config ic = cfg->ident;
         ic.Ts = cfg->Ts;
+        ic.T_pwm = cfg->T_pwm;
         ic.delay = cfg->delay;
         ic.pole_pairs = cfg->pole_pairs;
         ic.i_max = cfg->i_max;

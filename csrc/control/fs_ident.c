@@ -170,6 +170,7 @@ void fs_ident_reset(fs_ident *id)
     id->T_acc = 0.0f;
     id->t_acc = 0.0f;
     id->w_acc = 0.0f;
+    id->w_level = 0.0f;
 }
 
 float fs_ident_leg_error(const fs_ident *id, float i)
@@ -228,13 +229,39 @@ static void ident_design_pi(fs_ident *id, float L_d, float L_q, float R)
     (void)fs_pi_design_init(&id->pi_q, id->cfg.Ts, L_q, R, id->w_c, u_lim);
 }
 
-/* The stationary inverter error of the fitted leg model at the phase currents of i_ab. */
-static fs_ab ident_inv_error(const fs_ident *id, fs_ab i_ab)
+/* The inverter's error at the sampled currents i_ab while the voltage u_ab
+ * (the reference applied over the sampled period) is on the winding. A
+ * centre-aligned carrier samples in a zero vector, where the winding of phase
+ * x sees -u_x (its mean voltage); its leg's two edges sit (1 - d_x) T_pwm / 2
+ * either side of the sample, d_x = 1/2 + u_x / u_dc, so the ripple has moved
+ * the current there by about +-|u_x| (1 - 2 |u_x| / u_dc) T_pwm / (4 L), in
+ * opposite directions (exact for the leg that switches first; L = (L_d +
+ * L_q) / 2): below that displacement the two edges' errors cancel, so it is
+ * the leg's knee beside LEVELS' i_e. LEVELS fitted i_e at dc, where
+ * u = R i keeps the ripple small; at speed (the EMF) and in MAP's sweeps the
+ * ripple is amperes: with LEVELS' knee alone, the siemens-1ft6084 bench
+ * (2.5 us dead time at 5 kHz, 7 V a leg) read psi_f 3.9 % low at zero current
+ * (the loop's 25 mA lag under the coast's falling EMF took u_e for its sign)
+ * and its d sweeps a 20 % asymmetry on a linear machine. */
+static fs_ab ident_inv_error(const fs_ident *id, fs_ab i_ab, fs_ab u_ab)
 {
     float i_abc[3];
+    float u_abc[3];
+    float e_abc[3];
+    const fs_ident_result *r = &id->res;
+    const float T = (id->cfg.T_pwm > 0.0f) ? id->cfg.T_pwm : id->cfg.Ts;
+    const float L = 0.5f * (r->L_d + r->L_q);
+    const float k_r = (L > 0.0f) ? (0.25f * T / L) : 0.0f;   /* A per V: the ripple's displacement at a leg's edges */
     fs_inv_clarke(i_ab, i_abc);
-    return fs_clarke(fs_ident_leg_error(id, i_abc[0]), fs_ident_leg_error(id, i_abc[1]),
-                     fs_ident_leg_error(id, i_abc[2]));
+    fs_inv_clarke(u_ab, u_abc);
+    const float u_dc = FS_SQRT3 * id->u_max;
+    for (int x = 0; x < 3; ++x) {
+        const float d = k_r * u_abc[x] * ((u_dc > 0.0f) ? fs_maxf(1.0f - (2.0f * fabsf(u_abc[x]) / u_dc), 0.0f) : 0.0f);
+        const float ie = r->i_e;
+        e_abc[x] = (r->status[FS_IDQ_VERR] != (int)FS_IDS_OK) ? 0.0f
+                 : (r->u_e * i_abc[x] / sqrtf((i_abc[x] * i_abc[x]) + (ie * ie) + (d * d) + 1e-30f));
+    }
+    return fs_clarke(e_abc[0], e_abc[1], e_abc[2]);
 }
 
 /* PI output with anti-windup against a realised value set by the caller. */
@@ -599,7 +626,12 @@ static fs_ab step_polarity(fs_ident *id, fs_ab i_ab)
          * are known the dead time's q part at the axis' angle puts up to 5 el.deg into it, zoo machine 12) */
         if (r->pol_flipped != 0) { id->theta_s = fs_wrap_pi(id->theta_s + FS_PI); }
         r->theta_axis = id->theta_s;
-        id->pol_known = r->pol_decided;
+        /* read at +-i_max/2 only (the sweep stepped too coarsely at 3/4: a high link's U), a locked rotor's
+         * polarity is left to MAP's full d sweep, which reads it at 3/4 and turns the frame where it
+         * differs: near zero a PM-SyRM's ribs turn the asymmetry round (fs_mapid.c; syre-thor's locked map
+         * came out mirrored, 39 % of psi_f off). LEVELS alternate meanwhile, as with no polarity; a free
+         * rotor keeps it: its levels hold the magnet on the north it found */
+        id->pol_known = r->pol_decided && !(c->locked && (id->map.res.pol_level < 0.7f));
         /* no polarity standing: where the rotor may turn, ALIGN pulls its north onto the axis (up to half a
          * turn); locked, the levels alternate. A free rotor that may not turn cannot take them: -I pushes
          * the magnet away, and on a salient rotor the reluctance torque of any d current turns its q axis
@@ -947,7 +979,7 @@ static fs_dq frame_emf(const fs_ident *id, fs_ab i_ab)
     const float ct = fs_cosf(id->theta);
     const float st = fs_sinf(id->theta);
     const fs_dq i = fs_park(i_ab, ct, st);
-    const fs_dq ue = fs_park(ident_inv_error(id, i_ab), ct, st);
+    const fs_dq ue = fs_park(ident_inv_error(id, i_ab, id->u_prev[(id->cfg.delay > 0.0f) ? 1 : 0]), ct, st);
     return (fs_dq){id->u_dq.d - ue.d - (r->R_s * i.d) + (id->w * r->L_q * i.q),
                    id->u_dq.q - ue.q - (r->R_s * i.q) - (id->w * r->L_d * i.d)};
 }
@@ -988,7 +1020,11 @@ static float ldq_bias(const fs_ident *id, int level)
     float I_b = fs_clampf((FS_SQRT3 * I_HF * i_max) + (6.0f * id->res.i_e), 0.2f * i_max, 0.4f * i_max);
     /* on the north pole I_b and 2 I_b within the levels' bound (the carrier's clearance given up first:
      * a negative bias there would push the magnet away); else +-I_b */
-    const bool north = id->aligned || id->pol_known;
+    /* a locked rotor at +-I_b whatever its polarity: their mean is L_q at zero to the curve's second order,
+     * where the extrapolation through I_b and 2 I_b is first order in a bend near zero (the Baldor PM-SyRM's
+     * L_q peaks at +5 A: 145 and 133 mH at 5.6 and 11.2 A read 158 at zero, +12 %, the truth 141; the mean at
+     * +-5.6 A, 139) */
+    const bool north = (id->aligned || id->pol_known) && !id->cfg.locked;
     if (north) { I_b = fs_minf(I_b, 0.5f * id->res.i_level_top); }
     return (level == 0) ? I_b : (north ? 2.0f : -1.0f) * I_b;
 }
@@ -1019,7 +1055,26 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
     const bool d_meas = check || (id->sub == 0);
     const int axis = d_meas ? (int)0 : (int)1;
     const int level = id->sub - 1;
-    const float I_b = d_meas ? 0.0f : ldq_bias(id, level);
+    float I_b = d_meas ? 0.0f : ldq_bias(id, level);
+    /* CHECK after MAP on a free rotor whose north is known: the d carrier at zero current turns a salient
+     * rotor's d axis away from itself (its mean reluctance torque, -1.5 p (L_q - L_d) I_h^2 / 4 sin 2 delta
+     * for the frame delta off the rotor's axis, an inverted pendulum: the frictionless H27 from 5 to 148
+     * el.deg in it, and the I/f spin that starts on the axis CHECK read lost the rotor: psi_f, J failed); a
+     * d bias I_b on the north holds it with the magnet's 1.5 p psi_f I_b sin delta: four times the
+     * (L_q - L_d) I_h^2 / (2 psi_f) that balances the push (the nameplate's psi_f; far below the carrier,
+     * whose crossing of zero the d measurement wants), then back to zero before the spin. Not in the CHECK
+     * before MAP: there the pendulum it leaves swings through CHECK's window (the own machine's 130 ms
+     * against 90 ms), the offset read is the swing's mean, and MAP's d sweep began 3 el.deg off the rotor
+     * (its map 9.3 % of psi_f off against 4.6 %) */
+    const float dL = id->res.L_q - id->res.L_d;
+    if (check && (id->res.status[FS_IDQ_MAP] != (int)FS_IDS_PENDING) && id->pol_known && !c->locked && (c->psi_f_hint > 0.0f)
+        && (dL > 0.0f)) {
+        const float I_h = I_HF_D * c->i_max;
+        const float I_s = 4.0f * dL * I_h * I_h / (2.0f * c->psi_f_hint);
+        /* within the levels' bound (half of psi_f / (L_q - L_d): beyond, the bias' own reluctance torque
+         * pushes too); where the push needs more, none (the Prius MG2: 78 A against 10) */
+        if (I_s <= (0.5f * id->res.i_level_top)) { I_b = I_s; }
+    }
     if (id->k == 0) {
         id->w_h = FS_TWO_PI / ((float)N_HF * c->Ts);
         const float R = id->res.R_s;                         /* the probe's L: the amplitudes B-IDENT was tuned on */
@@ -1028,6 +1083,15 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
         ldq_clear(id);
     }
     const fs_ab i = to_frame(id, i_ab);
+    if (check && (id->sub == 3)) {   /* CHECK's holding bias back to zero, settled, before MAP or SPIN start from zero */
+        const fs_ab u0 = id->aligned ? dc_on_alpha(id, i, 0.0f) : dc_on_d(id, i, 0.0f);
+        if (++id->k >= n_set) {
+            const bool premap = (id->res.status[FS_IDQ_MAP] == (int)FS_IDS_PENDING);
+            ident_goto(id, premap ? FS_IDENT_MAP : ((c->standstill_only || c->locked) ? FS_IDENT_DONE : FS_IDENT_SPIN));
+            return (fs_ab){0.0f, 0.0f};
+        }
+        return from_frame(id, u0);
+    }
     fs_ab u = id->aligned ? dc_on_alpha(id, i, I_b) : dc_on_d(id, i, I_b);   /* the bias on d, q at zero (shorted after ALIGN) */
     if (id->k < n_set) {   /* each injection starts from a settled bias */
         id->k++;
@@ -1077,15 +1141,31 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
         id->theta_s = fs_wrap_pi(id->theta_s + e);   /* onto the rotor's axis */
         if (check && (r->status[FS_IDQ_MAP] == (int)FS_IDS_PENDING)) {   /* before MAP: the frame onto the axis the biases left */
             r->motion_premap = e;
+            if (I_b != 0.0f) {   /* its holding bias back to zero first: MAP's d sweep reads its first zero at the start */
+                id->sub = 3;
+                id->k = 0;
+                return from_frame(id, u);
+            }
             ident_goto(id, FS_IDENT_MAP);
             return (fs_ab){0.0f, 0.0f};
         }
         if (check) {
             r->motion_check = e;
-            ident_goto(id, (c->standstill_only || c->locked) ? FS_IDENT_DONE : FS_IDENT_SPIN);
+            if (I_b != 0.0f) {
+                id->sub = 3;
+                id->k = 0;
+            } else {
+                ident_goto(id, (c->standstill_only || c->locked) ? FS_IDENT_DONE : FS_IDENT_SPIN);
+            }
             id->i_if = I_IF * c->i_max;
             id->theta = id->theta_s;
             id->w = 0.0f;
+            /* the I/f frame is off the rotor by its load angle, up to a quarter turn while the rotor lags
+             * the ramp: the loops on the smaller inductance on both axes, so that neither sees more gain
+             * than it was designed for whichever axis of the rotor it sits on (the Baldor PM-SyRM, L_q 5.5
+             * L_d: its q loop on the rotor's d axis rang at the voltage limit and the spin stalled at a
+             * fifth of its speed); the frame's own L_d, L_q again once FLUX has locked it onto the EMF */
+            ident_design_pi(id, fs_minf(r->L_d, r->L_q), fs_minf(r->L_d, r->L_q), r->R_s);
             return (fs_ab){0.0f, 0.0f};
         }
         r->motion_ldq = e;
@@ -1139,7 +1219,7 @@ static fs_ab step_map(fs_ident *id, fs_ab i_ab)
     const float ct = fs_cosf(id->theta_s);
     const float st = fs_sinf(id->theta_s);
     const fs_dq i = fs_park(i_ab, ct, st);
-    const fs_dq e = fs_park(ident_inv_error(id, i_ab), ct, st);
+    const fs_dq e = fs_park(ident_inv_error(id, i_ab, id->u_prev[(id->cfg.delay > 0.0f) ? 1 : 0]), ct, st);
     fs_dq u = fs_mapid_step(&id->map, i, e, id->u_max);
     id->k++;
     if (id->map.stage != (int)FS_MAPID_DONE) { ret = fs_inv_park(u, ct, st); }
@@ -1220,6 +1300,15 @@ static fs_ab step_flux(fs_ident *id, fs_ab i)
     const float n_meas_f = 20.0f / (id->bw_pll * c->Ts);
     const int n_meas = (int)n_meas_f + 1;
     id->k++;
+    if (id->k == n_lock) {
+        /* the frame locked on the EMF: the loops on its own L_d, L_q again (SPIN had them isotropic), their
+         * integrators kept (at zero current the output is the integrator: they hold the EMF, no bump) */
+        const float integ_d = id->pi_d.integ;
+        const float integ_q = id->pi_q.integ;
+        ident_design_pi(id, id->res.L_d, id->res.L_q, id->res.R_s);
+        id->pi_d.integ = integ_d;
+        id->pi_q.integ = integ_q;
+    }
     if (id->k <= n_lock) { ret = u; }
     else {
         const fs_dq e = frame_emf(id, i);
@@ -1297,10 +1386,40 @@ static fs_ab step_dcurve(fs_ident *id, fs_ab i_ab)
     fs_ident_result *r = &id->res;
     const float n_set_f = 30.0f / (id->w_c * c->Ts);
     const int n_set = (int)n_set_f + 1;
+    /* the rotor coasts at i_q = 0: below half the speed FLUX ended at, where the PLL's bandwidth (half the
+     * spin's speed) nears the speed itself, no more levels (the standstill sweep has them). A light rotor
+     * with viscous friction (anaheim-bly171d, J/B = 0.21 s) halved its speed in FLUX and turned backwards
+     * in DCURVE, the frame lost: ACCEL then pushed its torque on a frame off the rotor for 20 s */
+    if ((id->k == 0) && (id->sub < FS_MAPID_ND) && (fabsf(id->w0) < (0.5f * fabsf(id->w_target)))) { id->sub = FS_MAPID_ND; }
+    /* nor on once a level moved the speed by a fifth (at i_q = 0 only a frame off the axis makes torque,
+     * and its torque turns the frame further off: the light rotor above reversed within a level); its
+     * current ramps back to zero from where it is */
+    if (id->k == 0) { id->w_level = id->w0; }
+    else if ((id->sub < FS_MAPID_ND) && (fabsf(id->w0 - id->w_level) > (0.2f * fabsf(id->w_level)))) {
+        id->i_ref0 = (id->k <= n_set) ? (id->i_ref0 + ((0.25f * (float)(id->sub - (FS_MAPID_ND / 2)) * c->i_max) - id->i_ref0)
+                                                        * fs_minf(3.0f * (float)id->k / (float)n_set, 1.0f))
+                                      : (0.25f * (float)(id->sub - (FS_MAPID_ND / 2)) * c->i_max);
+        acc_clear(id);
+        id->k = 0;
+        id->sub = FS_MAPID_ND;
+    } else {
+        /* the level holds the speed */
+    }
     while (id->sub < FS_MAPID_ND) {   /* the next level the voltage and the frame's lock allow (0 is psi_f, read by FLUX) */
         const int kk = id->sub - (FS_MAPID_ND / 2);
         const float I = 0.25f * (float)kk * c->i_max;
-        if ((kk != 0) && (abs_level(kk) <= DCURVE_LEVELS) && ((fabsf(id->w) * (r->psi_f + (r->L_d * I))) < (U_DCURVE * id->u_max))) {
+        /* a level whose d current turns a misaligned rotor further off (1.5 p (psi_f I - (L_q - L_d) I^2) < 0:
+         * every I < 0, and I > psi_f / (L_q - L_d)) is a loop of the frame's lock error through the torque:
+         * its open rate sqrt(p |K| / J) must stay within half the PLL's bandwidth, or the frame loses the
+         * rotor (anaheim-bly171d: 322 rad/s at -i_max / 2 on J = 2.4e-6 kg m^2 against a 250 rad/s PLL; the
+         * rotor reversed in the level). At a third, siemens-1ft6084's -i_max/2 (54 rad/s against 157) was
+         * left to the standstill sweep, whose dead time reads a 10 % asymmetry into its linear d axis.
+         * The nameplate's J (unknown: no bound) */
+        const float K = 1.5f * (float)c->pole_pairs * ((r->psi_f * I) - ((r->L_q - r->L_d) * I * I));
+        const bool holds = !(K < 0.0f) || !(c->J_hint > 0.0f)
+                           || (((float)c->pole_pairs * -K / c->J_hint) < ((id->bw_pll * id->bw_pll) / 4.0f));
+        if ((kk != 0) && (abs_level(kk) <= DCURVE_LEVELS) && holds
+            && ((fabsf(id->w) * (r->psi_f + (r->L_d * I))) < (U_DCURVE * id->u_max))) {
             break;
         }
         id->sub++;
@@ -1399,10 +1518,20 @@ static fs_ab step_accel(fs_ident *id, fs_ab i)
         float gm;
         if ((t < t_need) || !rec_fit(id, id->rec_w, k0, id->rec_n, &a, &tm, &wm)
             || !rec_fit(id, id->rec_g, k0, id->rec_n, &T_fit, &tm, &gm)) {
-            if ((id->i_acc > (0.03f * c->i_max)) && (id->tries < 3)) {   /* again at a quarter of the torque, after the coast */
+            /* again after the coast, at a quarter of the current, or less where this try showed the rotor
+             * light for it: the current that makes the next rise (0.4 of the speed it starts from, which a
+             * frictionless rotor keeps from this one) take twice t_need at the acceleration seen here.
+             * A quarter a try left the frictionless Prius MG2 (0.035 kg m^2, 271 A) at 5 A, its rise 0.19 s
+             * against 0.25 s needed, and J failed "too fast". The next current above three times the
+             * sensors' noise (START), and 0.2 % of i_max (a few ADC steps), for the loop to hold it */
+            const float dw = id->w0 - ((id->rec_n > 0) ? id->rec_w[0] : id->w0);
+            const float a_seen = (t > 0.0f) ? (dw / t) : 0.0f;
+            float i_next = 0.25f * id->i_acc;
+            if (a_seen > 0.0f) { i_next = fs_minf(i_next, id->i_acc * (0.4f * fabsf(id->w0) / (2.0f * t_need)) / a_seen); }
+            if ((i_next > fs_maxf(3.0f * id->res.noise_i, 0.002f * c->i_max)) && (id->tries < 3)) {
                 id->tries++;
                 id->sub = 1;
-                id->i_acc *= 0.25f;
+                id->i_acc = i_next;
             } else {
                 ident_fail(id, FS_IDQ_J, FS_IDR_TOO_FAST);
                 return u;

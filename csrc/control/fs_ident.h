@@ -151,6 +151,7 @@ enum { FS_IDENT_NLEV = 7, FS_IDENT_NREC = 128, FS_IDENT_NBATCH = 8, FS_IDENT_NVI
 
 typedef struct {
     float Ts;            /* control period, s */
+    float T_pwm;         /* carrier period, s (Ts or 2 Ts; 0: Ts): the current's ripple the inverter's error sees */
     float delay;         /* computation delay, control periods: 0 or 1 */
     int pole_pairs;
     float i_max;         /* A peak: no test current above it */
@@ -179,7 +180,7 @@ typedef struct {
     float motion_ldq, motion_premap, motion_check;  /* el. rad: the rotor's turn seen by LDQ's d carrier (since AXIS: POLARITY,
                                                       LEVELS), by CHECK before MAP (LDQ's biases) and after it (MAP) */
     float i_moved;               /* A: the test current when a step found the rotor moving (its sign: the d axis') */
-    float pol_asym;              /* POLARITY: the d sweep's asymmetry (incremental L_d at -i_max/2 against +i_max/2, relative) */
+    float pol_asym;              /* POLARITY: the d sweep's asymmetry (incremental L_d at -3/4 i_max against +3/4 i_max, or at +-i_max/2 where the sweep did not step there enough; relative) */
     int pol_decided, pol_flipped;/* it decided the polarity; the axis was the south pole (turned by pi) */
     float pol_amp;               /* A: its sweep's amplitude (cut where the free rotor would turn away; 0: not swept) */
     float i_level_top;           /* A: the levels' top current as used (i_test, or the reluctance bound) */
@@ -248,6 +249,7 @@ typedef struct {
     float T_acc;         /* N m: the torque as the acceleration's fit weighs it (the slope of g over its window) */
     float t_acc;         /* s the acceleration took */
     float w_acc;         /* el. rad/s, its mean speed */
+    float w_level;       /* el. rad/s: the speed a DCURVE level began at */
 } fs_ident;
 
 fs_status fs_ident_init(fs_ident *id, const fs_ident_config *cfg);

@@ -103,6 +103,7 @@ void fs_mapid_reset(fs_mapid *m)
     m->psi_d = 0.0f;
     m->psi_q = 0.0f;
     m->x_prev = 0.0f;
+    m->dx_last = 0.0f;
     m->y_prev = 0.0f;
     m->e_prev_d = 0.0f;
     m->e_prev_q = 0.0f;
@@ -216,12 +217,19 @@ static bool leg_next(fs_mapid *m, float x, const float *turn)
     const bool up = !(m->leg & 1);
     if (turn[m->leg] == 0.0f) { ret = up ? (x >= 0.0f) : (x <= 0.0f); }
     else {
-        /* where the current peaks if reversed now (the delay's periods on), and half a step: the peak within half a step */
-        const float ahead = x + (m->cfg.delay + 0.5f) * (x - m->x_prev);
+        /* where the current peaks if reversed now (the delay's periods on), and half a step: the peak within
+         * half a step. The steps grow where the incremental inductance falls with the current (syre-thor's
+         * L_q from 34 mH at zero to 2.3 mH at i_max): the last step taken on as grown by the ratio of the last
+         * two (squared: their sum over the delay's periods at most), else the locked THOR's q sweep at
+         * i_d = i_max/4 passed its 43 A by 5.4 A, beyond the sequence's 1.1 i_max */
+        const float dx = x - m->x_prev;
+        const float g = ((dx * m->dx_last) > 0.0f) ? fs_clampf(dx / m->dx_last, 1.0f, 2.0f) : 1.0f;
+        const float ahead = x + ((m->cfg.delay + 0.5f) * dx * g * g);
         const float at = turn[m->leg] * m->I_amp;
         if (up ? (ahead >= at) : (ahead <= -at)) { m->leg++; }   /* the voltage turns now, the current a delay later (crossings reads on till then) */
         ret = false;
     }
+    m->dx_last = x - m->x_prev;
     return ret;
 }
 
@@ -242,6 +250,7 @@ static void sweep_start(fs_mapid *m, float x, float y)
     m->rleg = 0;
     m->impulse = 0.0f;
     m->x_prev = x;
+    m->dx_last = 0.0f;
     m->y_prev = y;
     m->k = 0;
     m->seen = 0u;   /* the caller reads the start as the pattern's first zero */
@@ -318,14 +327,28 @@ static void d_finish(fs_mapid *m)
         r->n_d[k] = full ? m->s_n[k] : 0;
         r->dpsi_d[k] = full ? (mean_at(m->s_x, m->s_n, k) - z) : 0.0f;
     }
-    /* the incremental L_d at +-i_max/2 from the current's steps up and down near it */
+    /* the incremental L_d at +-3/4 i_max from the current's steps up and down near it, where the sweep
+     * took POL_STEPS each way on both sides, else at +-i_max/2. Near zero current the magnet's own
+     * saturation of the ribs sets the slope, and a rib the magnet saturates is relieved by the d current
+     * that adds to the magnet: on the PM-SyRMs' maps the incremental L_d peaks at a positive d current
+     * (syre-thor 16 mH at +5.5 A against 5 mH at 0; the Baldor 44 mH at +4.7 A against 26) and is still
+     * higher at +i_max/2 than at -i_max/2 (thor 3.00 against 2.86 mH, the Baldor 18.3 against 17.7), so
+     * the test there took the north for the south and mirrored their locked maps (39 % and 13 % of psi_f
+     * off). Further out the main path's saturation, which follows the total d flux the magnet raises on
+     * its north, decides as on an IPM: thor 2.52 against 2.66 mH, the Baldor 15.4 against 17.0 at 3/4. */
+    int t_pol = n + 3;
+    for (int side = -3; side <= 3; side += 6) {
+        if ((m->c_up[n + side] < POL_STEPS) || (m->c_dn[n + side] < POL_STEPS)) { t_pol = n + 2; }
+    }
+    const int kp = t_pol - n;
     for (int side = -1; side <= 1; side += 2) {
-        const int t = n + (2 * side);
+        const int t = n + (kp * side);
         const float up = m->c_up[t] ? m->s_up[t] / (float)m->c_up[t] : 0.0f;
         const float dn = m->c_dn[t] ? m->s_dn[t] / (float)m->c_dn[t] : 0.0f;
         const float L = ((up - dn) > 0.0f) ? 2.0f * m->U * m->cfg.Ts / (up - dn) : 0.0f;
         if (side < 0) { r->L_neg = L; } else { r->L_pos = L; }
     }
+    r->pol_level = 0.25f * (float)kp;
     if ((r->L_pos > 0.0f) && (r->L_neg > 0.0f)) { r->asym = (r->L_neg - r->L_pos) / fs_maxf(r->L_neg, r->L_pos); }
     /* the axis' offset from the q flux at +-i_max/2 (the held axis' flux is in s_y): psi_q,frame =
      * offset (psi_d(i_d) - psi_f - L_q i_d), psi_d's change read by the sweep itself (saturated) */
@@ -339,7 +362,7 @@ static void d_finish(fs_mapid *m)
      * voltage must clear) steps 20 % of i_max a sample, a step or two near
      * each of +-i_max/2, where the reversals' overshoot is: no polarity */
     int steps = 0x40000000;   /* 2^30 */
-    for (int side = -2; side <= 2; side += 4) {
+    for (int side = -kp; side <= kp; side += 2 * kp) {
         steps = (m->c_up[n + side] < steps) ? m->c_up[n + side] : steps;
         steps = (m->c_dn[n + side] < steps) ? m->c_dn[n + side] : steps;
     }

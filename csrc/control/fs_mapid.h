@@ -47,8 +47,10 @@
  *           current's 2 % of i_max a sample (the overshoot after a reversal
  *           within 5 % of i_max). Its asymmetry decides the polarity: a
  *           d current that adds to the magnet's flux saturates the iron, so
- *           the incremental L_d at +i_max/2 is below that at -i_max/2 when
- *           the frame's d axis is the magnet's north. L comes from the
+ *           the incremental L_d at +3/4 i_max is below that at -3/4 i_max
+ *           when the frame's d axis is the magnet's north (at +-i_max/2
+ *           where the sweep did not step there enough; nearer zero the
+ *           ribs the magnet saturates can turn it round: fs_mapid.c). L comes from the
  *           current's steps a sample on the legs up and down at the same
  *           current: 2 U Ts / (step up - step down), free of what the drop
  *           (R_s i and the inverter's error, the same on both legs) does
@@ -124,7 +126,9 @@ typedef struct {
     /* the d axis, i_q = 0: psi_d(k i_max/4, 0) - psi_d(0, 0), index k + 4 */
     float dpsi_d[FS_MAPID_ND];
     int n_d[FS_MAPID_ND];                    /* crossings read (0: not reached) */
-    float L_pos, L_neg;                      /* H: incremental L_d at +-i_max/2 (the current's steps there) */
+    float L_pos, L_neg;                      /* H: incremental L_d at +-pol_level i_max (the current's steps there) */
+    float pol_level;                         /* of i_max: where the asymmetry was read: 3/4 where the sweep stepped
+                                                there enough, else 1/2 */
     float asym;                              /* (L_neg - L_pos) / max: > 0 the frame was on the north */
     int flipped;                             /* it was on the south: turned by pi */
     int decided;                             /* the asymmetry decided the polarity (either way) */
@@ -161,6 +165,7 @@ typedef struct {
     int restarts;        /* the d sweep's restarts at a higher voltage */
     float psi_d, psi_q;  /* Wb: integrated since the sweep's start */
     float x_prev, y_prev;/* the last sample's swept and held currents */
+    float dx_last;       /* A: the swept current's last step (leg_next: the steps' growth) */
     float e_prev_d, e_prev_q;
     fs_dq u_out[2];      /* the last two outputs (the delay) */
     unsigned seen;       /* the grid values this leg has read */

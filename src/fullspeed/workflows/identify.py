@@ -325,7 +325,7 @@ def _result(sc: Scenario, s: dict, drv, stop: str, sim_time: float, wall: float,
     n_step = [r.n_step[k] for k in range(lib.FS_IDENT_NSTEPS)]
     details = {"snr_rs": r.snr_rs, "r_fit_rs": r.r_fit_rs, "snr_l": r.snr_l, "snr_psi": r.snr_psi,
                "eps_align_deg": math.degrees(r.eps_align), "w_flux": r.w_flux, "a_acc": r.a_acc, "a_coast": r.a_coast,
-               "L_probe": drv.ident.L0, "i_acc": drv.ident.i_acc, "i_e": r.i_e,
+               "L_probe": drv.ident.L0, "i_acc": drv.ident.i_acc, "i_e": r.i_e, "bw_pll": drv.ident.bw_pll, "w_c": drv.ident.w_c,
                "I_bias": list(r.I_bias), "L_q_bias": list(r.L_q_bias), "dL_q": r.dL_q,
                "theta_axis_deg": math.degrees(r.theta_axis), "theta_hf_deg": math.degrees(r.theta_hf), "saliency": r.saliency,
                "L_d_axis": r.L_d_axis, "L_q_axis": r.L_q_axis, "pol_asym": r.pol_asym, "pol_decided": bool(r.pol_decided),
@@ -347,6 +347,7 @@ def _result(sc: Scenario, s: dict, drv, stop: str, sim_time: float, wall: float,
             reason[q] += (f" (at {abs(r.i_moved):.3g} A on the d axis, sign {'+' if r.i_moved >= 0 else '-'}"
                           + (f"; it turned {turned:.1f} el.deg in step {st}" if turned is not None else "") + ")")
     _turned_cause(res, sc)
+    _numbers(res, sc, drv.ident, tr)
     if status["map"] == "ok":
         res.map = _map(sc, res, drv.ident)
     _goals(res)
@@ -385,6 +386,51 @@ def _turned_cause(res: Identification, sc: Scenario) -> None:
             res.status[q], res.reason[q] = "failed", cause
             for k in {"verr": ("u_e", "i_e"), "friction": ("B", "T_c")}.get(q, (q,)):
                 res.values.pop(k, None)
+
+
+D_MIN = 0.55   # fs_mapid.c: the smallest d sweep (of i_max) where a free rotor's motion bounds it
+
+
+def _numbers(res: Identification, sc: Scenario, ident, tr: np.ndarray) -> None:
+    """The physical numbers beside a refusal the drive names by its kind
+    alone: the map's d sweep that would turn a free rotor away (the currents
+    at which the d current pushes the magnet off the axis, against the
+    sweep's), and a spin the rotor did not follow (the I/f current, the
+    speed the frame and the rotor reached, the rotor's own speed when the
+    spin began)."""
+    m, r = sc.machine, ident.res
+    i_max = sc.data["controller"]["i_max"]
+    if res.status["map"] == "failed" and r.reason[QUANTITIES.index("map")] == lib.FS_IDR_UNSTABLE:
+        L_d, L_q = res.values.get("L_d", m.L_d), res.values.get("L_q", m.L_q)
+        dL = L_q - L_d
+        where = (f"below 0 A and above psi_f / (L_q - L_d) = {m.psi_f:.4g} Wb / {dL * 1e3:.4g} mH = {m.psi_f / dL:.3g} A"
+                 if dL > 0 else "below 0 A")
+        res.reason["map"] += (f" (a d current {where} pushes the magnet off the axis, the reluctance torque beating the "
+                              f"magnet's; the d sweep must reach +-{i_max:.4g} A, at least +-{D_MIN * i_max:.3g} A, where a "
+                              f"misalignment of this rotor, J = {m.J:.3g} kg m^2, grows more than "
+                              f"{math.cosh(1.7627472):.0f}-fold over the sweep)")
+    q = QUANTITIES.index("psi_f")
+    if res.status["psi_f"] == "failed" and r.reason[q] in (lib.FS_IDR_LOST_SYNC, lib.FS_IDR_NOT_TURNING):
+        visits = res.details.get("visits", [])
+        spin = next((v for v in visits if v[0] == "spin"), None)
+        p = m.pole_pairs
+        extra = f"the I/f frame at {ident.i_if:.3g} A ({100 * ident.i_if / i_max:.0f} % of i_max)"
+        if r.w_flux:
+            extra += f", the rotor at {r.w_flux:.4g} el. rad/s where psi_f was read against the frame's {ident.w_target:.4g}"
+        if spin is not None and tr.size:
+            k0 = int(np.searchsorted(tr[:, 0], spin[1]))
+            k1 = int(np.searchsorted(tr[:, 0], spin[2]))
+            if k0 < tr.shape[0]:
+                w0 = p * tr[k0, 2]
+                extra += f"; the rotor turned at {w0:+.4g} el. rad/s when the spin began"
+                if k1 > k0:
+                    w = p * tr[k0:k1, 2]
+                    extra += f", between {w.min():+.4g} and {w.max():+.4g} in it"
+                mo = res.motion.get("steps", {}).get("check")
+                if mo and mo["max_deg"] > 10.0:
+                    extra += (f" (the standstill steps before it left it turning: {mo['max_deg']:.0f} el.deg in CHECK, "
+                              f"after the map's sweeps)")
+        res.reason["psi_f"] += f" ({extra})"
 
 
 def _map(sc: Scenario, res: Identification, ident) -> dict:
@@ -623,6 +669,15 @@ def print_identification(res: Identification) -> None:
         pts = res.map["points"]
         print(f"         {pts.get('measured', 0)} grid points measured, {pts.get('at speed', 0)} at speed, "
               f"{pts.get('extrapolated', 0)} extrapolated (outside the disc or beyond the sweeps)")
+        rd, i_max = res.map["readings"], res.map["i_max"]
+        cut = {1: "the rotor's swing", 2: "the voltage", 3: "not swept: the d level would turn the free rotor away",
+               4: "the sweeps stopped: the rotor turning at the level's end"}
+        lim = [f"i_d {0.25 * (k - mapid.ND // 2) * i_max:+.3g} A: "
+               + (f"{cut[v]}" + (f" (to {rd['i_q_amp'][k]:.3g} A)" if v in (1, 2, 4) else "") if v in cut
+                  else "not reached (the sweeps stopped before it)")
+               for k, v in enumerate(rd["limit"]) if 0 < k < mapid.ND - 1 and (v in cut or not any(rd["n_q"][k]))]
+        if lim:
+            print("         q sweeps short of the disc: " + "; ".join(lim))
         a, at = pol["asymmetry"], pol.get("asymmetry_truth")
         print(f"         d-axis asymmetry at +-{pol['i_pulse']:.3g} A: {100 * a:.1f} % (truth "
               f"{100 * at:.1f} %; polarity detection needs {100 * pol['needed']:.0f} %: "
