@@ -251,7 +251,7 @@ static fs_ab ident_inv_error(const fs_ident *id, fs_ab i_ab, fs_ab u_ab)
     const fs_ident_result *r = &id->res;
     const float T = (id->cfg.T_pwm > 0.0f) ? id->cfg.T_pwm : id->cfg.Ts;
     const float L = 0.5f * (r->L_d + r->L_q);
-    const float k_r = (L > 0.0f) ? (0.25f * T / L) : 0.0f;   /* A per V: the ripple's displacement at a leg's edges */
+    const float k_r = (L > 0.0f) ? ((0.25f * T) / L) : 0.0f;   /* A per V: the ripple's displacement at a leg's edges */
     fs_inv_clarke(i_ab, i_abc);
     fs_inv_clarke(u_ab, u_abc);
     const float u_dc = FS_SQRT3 * id->u_max;
@@ -1083,18 +1083,25 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
         ldq_clear(id);
     }
     const fs_ab i = to_frame(id, i_ab);
-    if (check && (id->sub == 3)) {   /* CHECK's holding bias back to zero, settled, before MAP or SPIN start from zero */
-        const fs_ab u0 = id->aligned ? dc_on_alpha(id, i, 0.0f) : dc_on_d(id, i, 0.0f);
-        if (++id->k >= n_set) {
-            const bool premap = (id->res.status[FS_IDQ_MAP] == (int)FS_IDS_PENDING);
-            ident_goto(id, premap ? FS_IDENT_MAP : ((c->standstill_only || c->locked) ? FS_IDENT_DONE : FS_IDENT_SPIN));
-            return (fs_ab){0.0f, 0.0f};
-        }
-        return from_frame(id, u0);
-    }
-    fs_ab u = id->aligned ? dc_on_alpha(id, i, I_b) : dc_on_d(id, i, I_b);   /* the bias on d, q at zero (shorted after ALIGN) */
-    if (id->k < n_set) {   /* each injection starts from a settled bias */
+    const bool holding = check && (id->sub == 3);   /* CHECK's holding bias back to zero, settled, before MAP or SPIN start from zero */
+    const bool settling = !holding && (id->k < n_set);   /* each injection starts from a settled bias */
+    const float I_dc = holding ? 0.0f : I_b;
+    fs_ab u = id->aligned ? dc_on_alpha(id, i, I_dc) : dc_on_d(id, i, I_dc);   /* the bias on d, q at zero (shorted after ALIGN) */
+    if (holding || settling) {
         id->k++;
+        if (holding && (id->k >= n_set)) {
+            int next = FS_IDENT_SPIN;
+            if (id->res.status[FS_IDQ_MAP] == (int)FS_IDS_PENDING) {
+                next = FS_IDENT_MAP;
+            } else if ((c->standstill_only != 0) || (c->locked != 0)) {
+                next = FS_IDENT_DONE;
+            } else {
+                /* the free rotor's spin */
+            }
+            ident_goto(id, next);
+            u.alpha = 0.0f;
+            u.beta = 0.0f;
+        }
         return from_frame(id, u);
     }
     const int kh = id->k - n_set;
@@ -1186,16 +1193,20 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
     /* L_q at zero current, linear in i_d through the two biases */
     r->dL_q = (r->L_q_bias[1] - r->L_q_bias[0]) / (r->I_bias[1] - r->I_bias[0]);
     r->L_q = r->L_q_bias[0] - (r->I_bias[0] * r->dL_q);
-    if (!(r->L_q > 0.0f)) {   /* a curve too bent to extrapolate */
+    bool stop = !(r->L_q > 0.0f);
+    if (stop) {   /* a curve too bent to extrapolate */
         ident_fail(id, FS_IDQ_LQ, FS_IDR_FIT);
-        return from_frame(id, u);
+    } else {
+        ident_ok(id, FS_IDQ_LD);
+        ident_ok(id, FS_IDQ_LQ);
+        if (fabsf(r->eps_align) > 0.14f) {   /* 8 deg: L_d off by (L_q/L_d - 1) eps^2, 2 % at a saliency of 2 */
+            ident_fail(id, FS_IDQ_LD, FS_IDR_MISALIGNED);
+            id->res.status[FS_IDQ_LQ] = FS_IDS_FAILED;
+            id->res.reason[FS_IDQ_LQ] = FS_IDR_MISALIGNED;
+            stop = true;
+        }
     }
-    ident_ok(id, FS_IDQ_LD);
-    ident_ok(id, FS_IDQ_LQ);
-    if (fabsf(r->eps_align) > 0.14f) {   /* 8 deg: L_d off by (L_q/L_d - 1) eps^2, 2 % at a saliency of 2 */
-        ident_fail(id, FS_IDQ_LD, FS_IDR_MISALIGNED);
-        id->res.status[FS_IDQ_LQ] = FS_IDS_FAILED;
-        id->res.reason[FS_IDQ_LQ] = FS_IDR_MISALIGNED;
+    if (stop) {
         return from_frame(id, u);
     }
     ident_design_pi(id, r->L_d, r->L_q, r->R_s);
@@ -1396,9 +1407,10 @@ static fs_ab step_dcurve(fs_ident *id, fs_ab i_ab)
      * current ramps back to zero from where it is */
     if (id->k == 0) { id->w_level = id->w0; }
     else if ((id->sub < FS_MAPID_ND) && (fabsf(id->w0 - id->w_level) > (0.2f * fabsf(id->w_level)))) {
-        id->i_ref0 = (id->k <= n_set) ? (id->i_ref0 + ((0.25f * (float)(id->sub - (FS_MAPID_ND / 2)) * c->i_max) - id->i_ref0)
-                                                        * fs_minf(3.0f * (float)id->k / (float)n_set, 1.0f))
-                                      : (0.25f * (float)(id->sub - (FS_MAPID_ND / 2)) * c->i_max);
+        const int lvl = id->sub - (FS_MAPID_ND / 2);
+        const float i_lvl = 0.25f * (float)lvl * c->i_max;   /* the level's d current */
+        id->i_ref0 = (id->k <= n_set) ? (id->i_ref0 + ((i_lvl - id->i_ref0) * fs_minf((3.0f * (float)id->k) / (float)n_set, 1.0f)))
+                                      : i_lvl;
         acc_clear(id);
         id->k = 0;
         id->sub = FS_MAPID_ND;
@@ -1525,9 +1537,10 @@ static fs_ab step_accel(fs_ident *id, fs_ab i)
              * against 0.25 s needed, and J failed "too fast". The next current above three times the
              * sensors' noise (START), and 0.2 % of i_max (a few ADC steps), for the loop to hold it */
             const float dw = id->w0 - ((id->rec_n > 0) ? id->rec_w[0] : id->w0);
-            const float a_seen = (t > 0.0f) ? (dw / t) : 0.0f;
+            float a_seen = 0.0f;   /* el. rad/s^2 */
+            if (t > 0.0f) { a_seen = dw / t; }
             float i_next = 0.25f * id->i_acc;
-            if (a_seen > 0.0f) { i_next = fs_minf(i_next, id->i_acc * (0.4f * fabsf(id->w0) / (2.0f * t_need)) / a_seen); }
+            if (a_seen > 0.0f) { i_next = fs_minf(i_next, (id->i_acc * ((0.4f * fabsf(id->w0)) / (2.0f * t_need))) / a_seen); }
             if ((i_next > fs_maxf(3.0f * id->res.noise_i, 0.002f * c->i_max)) && (id->tries < 3)) {
                 id->tries++;
                 id->sub = 1;

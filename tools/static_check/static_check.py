@@ -121,14 +121,20 @@ def run_cppcheck(exe: str, version: str, folders, include: str, platform: str, j
     root/build/cppcheck/<key>
     (cppcheck's build dir: a file analysed before with the same tokens is
     not analysed again), the key covering the version, the options and the
-    rule texts."""
+    rule texts and the headers' contents."""
     table = rule_table()
     texts = rule_texts(table)
     files = sorted(str(p.relative_to(root)) for d in folders for p in (root / d).glob("*.c"))
     if not files:
         raise Untrusted(f"no .c file under {', '.join(folders)}")
     opts = ["--std=c99", f"--platform={platform}", f"--enable={ENABLE}", f"-I{include}", "--xml", "-q"]
-    key = hashlib.sha256(json.dumps([version, opts, texts]).encode()).hexdigest()[:16]
+    # the headers' contents in the key: cppcheck's build dir re-analyses a .c file whose own tokens changed,
+    # but kept the whole-program (CTU) records of a header as it was, and an edited header then counted
+    # findings of both versions (typedef and tag names "not unique", declarations that were split)
+    headers = hashlib.sha256()
+    for h in sorted(p for d in {*folders, include} for p in (root / d).glob("*.h")):
+        headers.update(h.name.encode() + b"\0" + h.read_bytes())
+    key = hashlib.sha256(json.dumps([version, opts, texts, headers.hexdigest()]).encode()).hexdigest()[:16]
     cache = root / "build" / "cppcheck" / key
     cache.mkdir(parents=True, exist_ok=True)
     (cache / "misra-rules.txt").write_text(texts)
