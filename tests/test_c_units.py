@@ -35,13 +35,7 @@ CFLAGS = [
 
 # Known bugs in the code under test: the C test stays, marked as an expected
 # failure (strict: it must fail until the bug is fixed, then this entry goes).
-KNOWN_BUGS: dict[str, str] = {
-    "test_hfi_amplitude.c": (
-        "issue 34 item 6: fs_hfi divides eq. (26) by the SRFF state's magnitude, the fundamental's leak included "
-        "(1.9 x the designed carrier at rated load on motulator's 2.2 kW IPMSM: the release lags 8.85 el.deg, "
-        "not the observer's 4.9), and a fade scales that leak's snapshot; the mend (fs_hfi.c) waits for "
-        "fs_drive.c's resume of the injection, which B-REAL and B-ZOO fail with the observer at its full gain"),
-}
+KNOWN_BUGS: dict[str, str] = {}
 
 SOURCES_RE = re.compile(r"fs-test-sources:([^\n]*)")
 

@@ -11,11 +11,9 @@ not where the design put them. The negative carrier eq. (26) is divided by
 was taken with the fundamental's leak in it (w_b_n / w_h of the rated
 current, 1.9 times the designed carrier's 0.16 A): the error was scaled by
 about 0.5 and the release lagged 8.85 el.deg, where the observer as
-designed lags 4.9 (fs_hfi.c, the amplitude with cfg.leak). One closed-loop
-run, 4 s simulated, about 0.05 s. A known bug for now (strict xfail): with
-the amplitude mended the drive's resume of the injection at speed fails
-B-REAL and B-ZOO (the observer at its full gain under load, where the leak
-had slowed it 4 to 10 times) until fs_drive.c's resume is mended too.
+designed lags 4.9 (fs_hfi.c, the amplitude with cfg.leak). With the leak's image
+taken out of the amplitude: 4.10 el.deg. One closed-loop run, 4 s
+simulated, about 0.05 s.
 """
 from __future__ import annotations
 
@@ -67,10 +65,6 @@ def designed_step_response(Ts: float, J: float, p: int, w_o: float, w_lag: float
     return worst
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "issue 34 item 6, a known bug: fs_hfi normalises eq. (26) by the leak-swollen amplitude (8.85 el.deg here, "
-    "4.1 with the mend); the mend in fs_hfi.c waits for fs_drive.c's resume of the injection (csrc/tests/"
-    "test_hfi_amplitude.c, tests/test_c_units.py KNOWN_BUGS)"))
 def test_designed_injection_holds_the_rated_load_release_at_standstill():
     data = est.designed_data("bench-motulator-2kw-hfi", "hfi")
     sc = scenario_from_dict(data, "test")

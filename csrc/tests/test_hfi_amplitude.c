@@ -10,13 +10,13 @@
  * under load the error the observer takes is scaled down (by 0.53 at rated
  * load on motulator's 2.2 kW IPMSM with its designed 0.16 A carrier: the
  * release lags 8.85 el.deg where the observer as designed lags 4.9) and a
- * fade scales a snapshot of the leak with the carrier. A known bug
- * (tests/test_c_units.py KNOWN_BUGS): the mend, in fs_hfi.c, takes the
- * leak's image (leak_p, leak_n) out of both, but it runs the observer at
- * its designed gain under load where the leak's inflation had slowed it
- * 4 to 10 times, and the drive's resume of the injection at speed then
- * fails B-REAL and B-ZOO until fs_drive.c stops following the back-EMF
- * observer's raw angle to the end of the filters' settling (issue 34).
+ * fade scales a snapshot of the leak with the carrier. The mend, in
+ * fs_hfi.c, takes the leak's image (leak_p, leak_n) out of both: the
+ * release lags 4.10 el.deg. It runs the observer at its designed gain under
+ * load, where the leak's inflation had slowed it 4 to 10 times; the drive's
+ * resume of the injection at speed (fs_drive.c) follows the back-EMF
+ * observer at the filters' bandwidth (fs_hfi_follow) and holds that
+ * observer only where it has converged (issue 34).
  *
  * The machine and its integration are test_hfi.c's (there the header says
  * how): R = 0.036 ohm, L_d = 65 uH, L_q = 90 uH, Ts = 1e-4 s, u_h = 5 V,
