@@ -399,8 +399,7 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
              * observer with its filter's lag starts afresh, settling first: its
              * fast gains would take the stale carriers' angle */
             if (!drv->injecting && c->hfi.lag) {
-                fs_hfi_reset(&drv->hfi, drv->blend.theta_hat, drv->blend.w_hat);
-                drv->hfi.gain = drv->hfi.gain_prev = 0.0f;   /* fades in */
+                fs_hfi_restart(&drv->hfi, drv->blend.theta_hat, drv->blend.w_hat);   /* fades in (fs_hfi.h) */
                 /* ... and its error is read once the filters have settled on the whole carrier: ramped in over
                  * n_settle, the carrier leaves them behind by a third of it at the ramp's end (its slope times
                  * their time constant), and the positive carrier's image that the negative sequence's filter

@@ -137,6 +137,17 @@ FS_COLD void fs_hfi_reset(fs_hfi *h, float theta, float w)
     h->u.alpha = h->u.beta = 0.0f;
 }
 
+FS_COLD void fs_hfi_restart(fs_hfi *h, float theta, float w)
+{
+    const fs_dq p = h->unit_p;
+    const fs_dq n = h->unit_n;
+    fs_hfi_reset(h, theta, w);
+    h->unit_p = p;
+    h->unit_n = n;
+    h->gain = 0.0f;
+    h->gain_prev = 0.0f;
+}
+
 FS_COLD void fs_hfi_set_angle(fs_hfi *h, float theta, float w)
 {
     fs_motion_obs_reset(&h->obs, theta, w);

@@ -242,6 +242,17 @@ void fs_hfi_reset(fs_hfi *h, float theta, float w);
 /* The resistance the carrier's phase compensation assumes (an online
  * estimate, fs_param_adapt.h); a value not finite or < 0 is ignored. */
 void fs_hfi_set_resistance(fs_hfi *h, float R_s);
+/* As fs_hfi_reset, at gain 0 for a fade-in, keeping the carriers per unit
+ * gain (unit_p, unit_n: the machine's at the operating point where the
+ * injection last ran at full gain), so that the fade adds them to the
+ * cleared filters as it goes. Cleared with the filters, the carrier ramped
+ * in over n_settle left the filters behind by a third of it at the ramp's
+ * end (its slope times their time constant), and the fundamental the
+ * back-EMF observer reads carried that residue: on B-REAL's scenario the
+ * zoo's saturating machines 0, 2 and 4, reversed through the band by their
+ * load, reached 4.8, 15.3 and 8.1 el.deg, 3.1, 6.1 and 6.1 with the
+ * carriers kept (bench: reproduce/papers/mapid.py's true-map runs). */
+void fs_hfi_restart(fs_hfi *h, float theta, float w);
 /* Move the observer only (polarity flip, re-sync), keeping filters and carrier. */
 void fs_hfi_set_angle(fs_hfi *h, float theta, float w);
 /* Move the observer toward theta (rad) at the filters' bandwidth w_b_n, its
