@@ -86,8 +86,10 @@ def test_the_prius_starts_under_its_load_ramp():
     """Standstill, 200 N m rising over 0.15 s from 0.2 s, then the
     acceleration from 0.5 s: with the designed blend (and the speed loop at
     half of it, 60 rad/s) the rotor rolls back to about -190 rpm and the
-    estimate stays within 10 el.deg; at the injection's default it rolls
-    back to -660 rpm and the drive loses it."""
+    estimate stays within 10 el.deg (5.6); at the injection's default it
+    rolls back to -660 rpm and the estimate leaves that bound (18.5 el.deg;
+    the drive lost it while the injection's observer ran at half its
+    designed gain, the fundamental's leak in its amplitude)."""
     res = simulate(_prius())
     t, w = np.asarray(res["t"]), np.asarray(res["w_m"]) * 30.0 / math.pi
     e = np.degrees(np.abs(np.asarray(res["theta_err"])))
@@ -95,7 +97,9 @@ def test_the_prius_starts_under_its_load_ramp():
     assert w[t < 0.5].min() > -250.0
     assert e[(t > 0.15) & (t < 0.7)].max() < 10.0
     default = simulate(_prius(blend_bw=2 * math.pi * 1000.0 / 20.0 / 5.0))   # w_b_n / 5 at the 1 kHz carrier
-    assert default.stop_reason != "done" or default.metrics.get("lock_lost_at") is not None
+    e0 = np.degrees(np.abs(np.asarray(default["theta_err"])))
+    t0 = np.asarray(default["t"])
+    assert default.stop_reason != "done" or e0[(t0 > 0.15) & (t0 < 0.7)].max() > 10.0
     assert np.asarray(default["w_m"])[np.asarray(default["t"]) < 0.35].min() * 30.0 / math.pi < -500.0
 
 
