@@ -615,7 +615,8 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
         const fs_monitor_in mi = {i_ab, drv->u_hist[0], in->u_dc, out->theta_e, out->w_e, cos_t, sin_t,
                                   {out->i_d, out->i_q}, drv->T_ff,   /* the torque of out->i_d_ref, i_q_ref */
                                   {out->i_d_ref - out->i_d, out->i_q_ref - out->i_q},
-                                  run && settled && (c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED)};
+                                  run && settled && (c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED),
+                                  out->over_modulation};
         r_mon = fs_monitor_step(&drv->mon, &mi);
         if (drv->mon.jumped) fs_lock_latch(&drv->lock);
     }

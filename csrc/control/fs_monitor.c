@@ -209,7 +209,9 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
     const float diq = b * (i_dq.q - m->iq_f);   /* the low-passed q current's change this period */
     m->iq_f += diq;
     m->i_f += b * (sqrtf(i_dq.d * i_dq.d + i_dq.q * i_dq.q) - m->i_f);
-    m->ierr_f += b * (sqrtf(in->i_err.d * in->i_err.d + in->i_err.q * in->i_err.q) - m->ierr_f);
+    if (!in->u_limited) {   /* header, 5. */
+        m->ierr_f += b * (sqrtf(in->i_err.d * in->i_err.d + in->i_err.q * in->i_err.q) - m->ierr_f);
+    }
     m->i_prev = in->i;
     m->u_q2 = m->u_q1;
     m->u_q1 = in->u_next;

@@ -71,7 +71,14 @@
  *    what a tracking estimate's speed is off by.
  * 5. The current loops' error |i_ref - i| low-passed against k_cur i_max:
  *    an estimate that spins against the rotor leaves the loops a rotating
- *    back-EMF they cannot follow.
+ *    back-EMF they cannot follow. Not while the modulator cannot realise
+ *    the voltage the loops ask (the low-pass holds): their error is then the
+ *    voltage limit's, which the flux weakening answers, whatever the angle;
+ *    a voltage short only at speed, where 1. and 2. judge the EMF. (SyR-e's
+ *    THOR held at 4,147 rpm by a load machine, its torque stepped to the
+ *    envelope's 25 N m: over-modulated for 20 ms, its d current at -7 A
+ *    against -43 A, this check alone read a loss with the estimate 7 el.deg
+ *    off, and the recovery that followed left it holding 21 N m.)
  * 6. The torque's sign (where the mechanics are judged). Inertia is
  *    positive: a change of the torque the loops command changes the
  *    rotor's acceleration, and that of an estimate following its motion,
@@ -134,6 +141,7 @@ typedef struct {
     float T_ref;              /* N m, the torque the current reference commands */
     fs_dq i_err;              /* i_ref - i, A, in the loops' frame */
     bool on;                  /* the loops run sensorless: check; else the filters rest */
+    bool u_limited;           /* the modulator could not realise the voltage asked (over-modulation): 5. holds */
 } fs_monitor_in;
 
 typedef struct {

@@ -70,7 +70,7 @@ static float run_emf_leak(double w, double k_th, double off, double u_leak, doub
         u.beta += (float)(u_leak * sin(ph));
         fs_monitor_in in = {current(t, w, k_th, off, i_q), u, U_DC,
                             (float)fs_test_wrap(th), (float)(k_th * w), (float)cos(th), (float)sin(th),
-                            {0.0f, (float)i_q}, 2.0f, {0.0f, 0.0f}, true};
+                            {0.0f, (float)i_q}, 2.0f, {0.0f, 0.0f}, true, false};
         float r = fs_monitor_step(m, &in);
         if (k >= 500 && r > r_max) r_max = r;
         if (k >= 500 && m->r_slip > *slip_max) *slip_max = m->r_slip;
@@ -97,7 +97,7 @@ static bool run_jump(double w, double step, double dw, fs_monitor *m, float *pea
         const double t = k * Ts, th = w * t + (k >= 500 ? step : 0.0);
         fs_monitor_in in = {current(t, w, 1.0, 0.0, i_q), model_u(t, w, 1.0, 0.0, i_q), U_DC,
                             (float)fs_test_wrap(th), (float)(w + (k >= 500 ? dw : 0.0)), (float)cos(th), (float)sin(th),
-                            {0.0f, (float)i_q}, 2.0f, {0.0f, 0.0f}, true};
+                            {0.0f, (float)i_q}, 2.0f, {0.0f, 0.0f}, true, false};
         fs_monitor_step(m, &in);
         if (fabsf(m->jump) > *peak) *peak = fabsf(m->jump);
     }
@@ -116,7 +116,7 @@ static float run_mech(float T_ref, double a, fs_monitor *m)
         const double th = 0.5 * a * t * t;
         fs_monitor_in in = {{0.0f, 5.0f}, {0.0f, 0.0f}, 100.0f, (float)fs_test_wrap(th), (float)(a * t),
                             (float)cos(th), (float)sin(th), {(float)(5.0 * sin(th)), (float)(5.0 * cos(th))},
-                            T_ref, {0.0f, 0.0f}, true};
+                            T_ref, {0.0f, 0.0f}, true, false};
         fs_monitor_step(m, &in);
     }
     return m->r_mech;
@@ -145,7 +145,7 @@ static float run_sign(double k_T, double emf_dir, double T_peak, fs_monitor *m, 
         const double th_n = th + w * Ts;   /* the EMF acting over the next period, along q */
         fs_monitor_in in = {{0.0f, 0.0f}, {(float)(-E * sin(th_n)), (float)(E * cos(th_n))}, 100.0f,
                             (float)fs_test_wrap(th), (float)w, (float)cos(th), (float)sin(th), {0.0f, 0.0f},
-                            (float)T_ref, {0.0f, 0.0f}, true};
+                            (float)T_ref, {0.0f, 0.0f}, true, false};
         fs_monitor_step(m, &in);
         r_max = fmaxf(r_max, m->r_sign);
         *r_other = fmaxf(*r_other, fmaxf(fmaxf(m->r_dir, m->r_slip), fmaxf(m->r_mech, m->r_cur)));
@@ -226,10 +226,15 @@ int main(void)
 
     /* the current loops' error */
     FS_CHECK(fs_monitor_init(&m, &CFG) == FS_OK, "init");
-    fs_monitor_in in = {{0.0f, 0.0f}, {0.0f, 0.0f}, U_DC, 0.0f, 0.0f, 1.0f, 0.0f, {0.0f, 0.0f}, 0.0f, {0.0f, 0.3f * CFG.i_max}, true};
+    fs_monitor_in in = {{0.0f, 0.0f}, {0.0f, 0.0f}, U_DC, 0.0f, 0.0f, 1.0f, 0.0f, {0.0f, 0.0f}, 0.0f, {0.0f, 0.3f * CFG.i_max}, true, false};
     for (int k = 0; k < 300; ++k) r = fs_monitor_step(&m, &in);
     FS_CHECK(r > 0.7f && r < 0.76f, "0.3 i_max of error: r_cur %g", r);
     in.i_err.q = 0.5f * CFG.i_max;
+    /* with the voltage short (over-modulation) the error is the limit's: held where it was */
+    in.u_limited = true;
+    for (int k = 0; k < 300; ++k) r = fs_monitor_step(&m, &in);
+    FS_CHECK(r > 0.7f && r < 0.76f, "0.5 i_max of error, the voltage short: r_cur held at %g", r);
+    in.u_limited = false;
     for (int k = 0; k < 300; ++k) r = fs_monitor_step(&m, &in);
     FS_CHECK(r > 1.1f, "0.5 i_max of error: r_cur %g", r);
     in.on = false;
