@@ -106,7 +106,7 @@ static void acc_clear(fs_ident *id)
 
 void fs_ident_reset(fs_ident *id)
 {
-    static const fs_ident_result none;   /* all zero: every quantity pending */
+    static const fs_ident_result none = { 0 };   /* all zero: every quantity pending */
     const fs_ident_config *c = &id->cfg;
     id->res = none;
     /* what the configuration leaves out is skipped, with its reason */

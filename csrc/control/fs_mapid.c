@@ -83,7 +83,7 @@ static void sums_clear(fs_mapid *m)
 
 void fs_mapid_reset(fs_mapid *m)
 {
-    static const fs_mapid_result none;
+    static const fs_mapid_result none = { 0 };
     m->res = none;
     m->stage = FS_MAPID_DSWEEP;
     m->level = 0;
