@@ -78,9 +78,9 @@ static inline float fs_fmod_2pi(float x)
  * fs_fmod_2pi) and one correction on either side. */
 FS_OUT_OF_LINE float fs_wrap_far(float x)
 {
-    if (x == FS_PI) return x;
+    if (x == FS_PI) { return x; }
     const float y = x > 0.0f ? x - FS_TWO_PI : x + FS_TWO_PI;
-    if (y > -FS_PI && y <= FS_PI && y != 0.0f) return y;   /* 0 is +-2 pi, whose sign fmodf sets */
+    if (y > -FS_PI && y <= FS_PI && y != 0.0f) { return y; }   /* 0 is +-2 pi, whose sign fmodf sets */
     x = fs_fmod_2pi(x);
     if (x > FS_PI) {
         x -= FS_TWO_PI;
@@ -188,7 +188,7 @@ static inline float _Complex fs_cis_poly(float r, float r_lo)
  * test_trig.c compares the two); elsewhere fs_cis itself. */
 static inline float _Complex fs_cis_small(float x)
 {
-    if (!(fabsf(x) < 0.78f)) return fs_cis(x);
+    if (!(fabsf(x) < 0.78f)) { return fs_cis(x); }
     /* fs_cis_poly(x, +0) without the tail's terms: x +0 and +0 w are
      * zeros the compiler must keep (x could be a NaN, a sum -0), and
      * adding them changes no result here (a zero sine is x's, below) */

@@ -3,22 +3,23 @@
 
 FS_COLD fs_status fs_polarity_init(fs_polarity *p, const fs_polarity_config *cfg)
 {
-    if (!p || !cfg) return FS_ERR_NULL;
-    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
-    if (!fs_pos(cfg->i_pulse)) return FS_ERR_I_MAX;
+    if (!p || !cfg) { return FS_ERR_NULL; }
+    if (!fs_pos(cfg->Ts)) { return FS_ERR_TS; }
+    if (!fs_pos(cfg->i_pulse)) { return FS_ERR_I_MAX; }
     /* the step counts must stay ints: below 1e9 */
     if (!(cfg->t_lock >= 0.0f) || !(cfg->t_pulse >= 4.0f * cfg->Ts) || !(cfg->t_lock + cfg->t_pulse < 1e3f)
-        || !((cfg->t_lock + cfg->t_pulse) / cfg->Ts < 1e9f))
+        || !((cfg->t_lock + cfg->t_pulse) / cfg->Ts < 1e9f)) {
         return FS_ERR_PARAM;
-    if (!fs_fin(cfg->i_pulse_max) || !(cfg->i_pulse_max == 0.0f || cfg->i_pulse_max >= cfg->i_pulse)) return FS_ERR_I_MAX;
-    if (!fs_fin(cfg->d_min) || !(cfg->d_min >= 0.0f && cfg->d_min < 1.0f)) return FS_ERR_PARAM;
-    if (!fs_fin(cfg->w_filter) || !(cfg->w_filter >= 0.0f)) return FS_ERR_BANDWIDTH;
-    if (cfg->n_carrier < 0) return FS_ERR_PARAM;
-    if (!fs_fin(cfg->w_max) || !(cfg->w_max >= 0.0f)) return FS_ERR_PARAM;
+    }
+    if (!fs_fin(cfg->i_pulse_max) || !(cfg->i_pulse_max == 0.0f || cfg->i_pulse_max >= cfg->i_pulse)) { return FS_ERR_I_MAX; }
+    if (!fs_fin(cfg->d_min) || !(cfg->d_min >= 0.0f && cfg->d_min < 1.0f)) { return FS_ERR_PARAM; }
+    if (!fs_fin(cfg->w_filter) || !(cfg->w_filter >= 0.0f)) { return FS_ERR_BANDWIDTH; }
+    if (cfg->n_carrier < 0) { return FS_ERR_PARAM; }
+    if (!fs_fin(cfg->w_max) || !(cfg->w_max >= 0.0f)) { return FS_ERR_PARAM; }
     p->cfg = *cfg;
-    if (p->cfg.i_pulse_max == 0.0f) p->cfg.i_pulse_max = cfg->i_pulse;
-    if (p->cfg.d_min == 0.0f) p->cfg.d_min = FS_POLARITY_D_MIN;
-    if (p->cfg.w_max == 0.0f) p->cfg.w_max = FS_POLARITY_W_MAX_PER_FILTER * cfg->w_filter;   /* stays 0 (no check) without it */
+    if (p->cfg.i_pulse_max == 0.0f) { p->cfg.i_pulse_max = cfg->i_pulse; }
+    if (p->cfg.d_min == 0.0f) { p->cfg.d_min = FS_POLARITY_D_MIN; }
+    if (p->cfg.w_max == 0.0f) { p->cfg.w_max = FS_POLARITY_W_MAX_PER_FILTER * cfg->w_filter; }   /* stays 0 (no check) without it */
     p->n_lock = (int)(cfg->t_lock / cfg->Ts + 0.5f);
     p->n_pulse = (int)(cfg->t_pulse / cfg->Ts + 0.5f);
     /* the second half of each pulse, in whole carrier periods when one fits */
@@ -90,8 +91,8 @@ static void polarity_decide(fs_polarity *p)
 static void polarity_sample(fs_polarity *p, float i_p, float *ref, float *sum, float *sq)
 {
     const int k0 = p->n_pulse - p->n_avg;
-    if (p->k < k0) return;
-    if (p->k == k0) *ref = i_p;
+    if (p->k < k0) { return; }
+    if (p->k == k0) { *ref = i_p; }
     p->acc += i_p - *ref;
     if ((p->k - k0 + 1) % p->n_per == 0) {
         const float x = p->acc / (float)p->n_per;
@@ -106,12 +107,12 @@ float fs_polarity_step(fs_polarity *p, float i_p, float w)
     /* the mean estimated speed over each half pulse against the half before
      * (means: the estimate's noise averages out, a spin-up does not) */
     if (p->stage == FS_POLARITY_POS || p->stage == FS_POLARITY_NEG) {
-        if (p->stage == FS_POLARITY_POS && p->k == 0) p->halves = 0;
+        if (p->stage == FS_POLARITY_POS && p->k == 0) { p->halves = 0; }
         p->w_sum += w;
         const int half = p->n_pulse / 2;
         if (p->k + 1 == half || p->k + 1 == p->n_pulse) {
             const float mean = p->w_sum / (float)(p->k + 1 == half ? half : p->n_pulse - half);
-            if (p->halves > 0) p->w_peak = fs_maxf(p->w_peak, fabsf(mean - p->w_prev));
+            if (p->halves > 0) { p->w_peak = fs_maxf(p->w_peak, fabsf(mean - p->w_prev)); }
             p->w_prev = mean;
             p->halves += 1;
             p->w_sum = 0.0f;
