@@ -135,7 +135,7 @@ void fs_current_ctrl_set_flux(fs_current_ctrl *cc, fs_dq i0, const fs_fluxmap_po
 static void map_on_currents(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, float w_e, fs_dq *r, fs_dq *y)
 {
     const fs_current_ctrl_config *c = &cc->cfg;
-    if (c->predict) {
+    if (c->predict != 0) {
         const float psi_d = cc->psi0.d + cc->L_dd * (i.d - cc->i0.d), psi_q = cc->psi0.q + cc->L_qq * (i.q - cc->i0.q);
         const float v_d = cc->u_prev.d + w_e * psi_q, v_q = cc->u_prev.q - w_e * psi_d;
         const float i_d = i.d + ((cc->a_d - 1.0f) * i.d + cc->b_d * v_d) / cc->s_d;
@@ -218,7 +218,7 @@ fs_dq fs_current_ctrl_step(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, float w_e)
 {
     const fs_current_ctrl_config *c = &cc->cfg;
     if (FS_WITH_FLUXMAP && cc->map) { return current_ctrl_step_map(cc, i_ref, i, w_e); }
-    if (c->predict) {
+    if (c->predict != 0) {
         /* current at the next sample, from the voltage acting until then:
          * the sampled plant i+ = a i + b (u - cross-coupling), per axis */
         float v_d = cc->u_prev.d + w_e * c->L_q * i.q;

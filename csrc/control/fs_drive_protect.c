@@ -80,6 +80,8 @@ static void drive_recover_end(fs_drive *drv, float E)
         if (c->mode == FS_MODE_SPEED) { fs_speed_ctrl_preset(&drv->sc, drv->smo.w / (float)c->pole_pairs, 0.0f); }
     } else if (!(E < drive_w_low(c) * c->psi_f) || !fs_drive_restart(drv)) {
         fs_drive_halt(drv, FS_FAULT_LOCK, NULL);
+    } else {
+        /* the EMF is low: fs_drive_restart has begun the start sequence again */
     }
 }
 

@@ -86,6 +86,8 @@ FS_OUT_OF_LINE float fs_wrap_far(float x)
         x -= FS_TWO_PI;
     } else if (x <= -FS_PI) {
         x += FS_TWO_PI;
+    } else {
+        /* in (-pi, pi] already */
     }
     return x;
 }
