@@ -1341,7 +1341,7 @@ static fs_ab step_flux(fs_ident *id, fs_ab i)
         id->s_uu += (ratio - id->u0) * (ratio - id->u0);
         id->s_i += phi;   /* signed: its mean is the lock's offset, the noise averages out */
         id->n_acc++;
-        if (id->n_acc < (n_meas << (2 * id->sub))) { ret = u; }
+        if ((uint32_t)id->n_acc < ((uint32_t)n_meas << (2u * (uint32_t)id->sub))) { ret = u; }   /* counts >= 0: shifted unsigned, the same */
         else {
             fs_ident_result *r = &id->res;
             const int n = id->n_acc;
