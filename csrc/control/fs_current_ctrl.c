@@ -29,32 +29,33 @@ static void internal_model_axis(float Ts, float L, float R, float alpha, float *
 
 void fs_current_ctrl_internal_model(fs_current_ctrl_config *cfg)
 {
-    if (!cfg) return;
+    if (!cfg) { return; }
     internal_model_axis(cfg->Ts, cfg->L_d, cfg->R_s, cfg->bandwidth, &cfg->k_p_d, &cfg->k_i_d);
     internal_model_axis(cfg->Ts, cfg->L_q, cfg->R_s, cfg->bandwidth, &cfg->k_p_q, &cfg->k_i_q);
 }
 
 FS_COLD fs_status fs_current_ctrl_init(fs_current_ctrl *cc, const fs_current_ctrl_config *cfg)
 {
-    if (!cc || !cfg) return FS_ERR_NULL;
-    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
-    if (!fs_nonneg(cfg->R_s)) return FS_ERR_RS;
-    if (!fs_pos(cfg->L_d)) return FS_ERR_LD;
-    if (!fs_pos(cfg->L_q)) return FS_ERR_LQ;
-    if (!fs_nonneg(cfg->psi_f)) return FS_ERR_PSI_F;
-    if (!(cfg->bandwidth > 0.0f) || !(cfg->bandwidth * cfg->Ts <= 1.0f)) return FS_ERR_BANDWIDTH;
+    if (!cc || !cfg) { return FS_ERR_NULL; }
+    if (!fs_pos(cfg->Ts)) { return FS_ERR_TS; }
+    if (!fs_nonneg(cfg->R_s)) { return FS_ERR_RS; }
+    if (!fs_pos(cfg->L_d)) { return FS_ERR_LD; }
+    if (!fs_pos(cfg->L_q)) { return FS_ERR_LQ; }
+    if (!fs_nonneg(cfg->psi_f)) { return FS_ERR_PSI_F; }
+    if (!(cfg->bandwidth > 0.0f) || !(cfg->bandwidth * cfg->Ts <= 1.0f)) { return FS_ERR_BANDWIDTH; }
     const bool explicit_d = cfg->k_p_d != 0.0f || cfg->k_i_d != 0.0f;
     const bool explicit_q = cfg->k_p_q != 0.0f || cfg->k_i_q != 0.0f;
-    if (explicit_d != explicit_q) return FS_ERR_PARAM;
-    if (explicit_d && !(fs_pos(cfg->k_p_d) && fs_nonneg(cfg->k_i_d) && fs_pos(cfg->k_p_q) && fs_nonneg(cfg->k_i_q)))
+    if (explicit_d != explicit_q) { return FS_ERR_PARAM; }
+    if (explicit_d && !(fs_pos(cfg->k_p_d) && fs_nonneg(cfg->k_i_d) && fs_pos(cfg->k_p_q) && fs_nonneg(cfg->k_i_q))) {
         return FS_ERR_PARAM;
+    }
     cc->cfg = *cfg;
     sampled_plant(cfg->Ts, cfg->L_d, cfg->R_s, &cc->a_d, &cc->b_d);
     sampled_plant(cfg->Ts, cfg->L_q, cfg->R_s, &cc->a_q, &cc->b_q);
     fs_status st = design_axis(&cc->pi_d, cfg->Ts, cfg->L_d, cfg->R_s, cfg->bandwidth, cfg->k_p_d, cfg->k_i_d);
-    if (st != FS_OK) return st;
+    if (st != FS_OK) { return st; }
     st = design_axis(&cc->pi_q, cfg->Ts, cfg->L_q, cfg->R_s, cfg->bandwidth, cfg->k_p_q, cfg->k_i_q);
-    if (st != FS_OK) return st;
+    if (st != FS_OK) { return st; }
     cc->iso_asked = false;
     cc->iso = false;
     cc->L_d_pi = cfg->L_d;
@@ -134,7 +135,7 @@ void fs_current_ctrl_set_flux(fs_current_ctrl *cc, fs_dq i0, const fs_fluxmap_po
 static void map_on_currents(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, float w_e, fs_dq *r, fs_dq *y)
 {
     const fs_current_ctrl_config *c = &cc->cfg;
-    if (c->predict) {
+    if (c->predict != 0) {
         const float psi_d = cc->psi0.d + cc->L_dd * (i.d - cc->i0.d), psi_q = cc->psi0.q + cc->L_qq * (i.q - cc->i0.q);
         const float v_d = cc->u_prev.d + w_e * psi_q, v_q = cc->u_prev.q - w_e * psi_d;
         const float i_d = i.d + ((cc->a_d - 1.0f) * i.d + cc->b_d * v_d) / cc->s_d;
@@ -216,8 +217,8 @@ static fs_dq current_ctrl_step_map(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, fl
 fs_dq fs_current_ctrl_step(fs_current_ctrl *cc, fs_dq i_ref, fs_dq i, float w_e)
 {
     const fs_current_ctrl_config *c = &cc->cfg;
-    if (FS_WITH_FLUXMAP && cc->map) return current_ctrl_step_map(cc, i_ref, i, w_e);
-    if (c->predict) {
+    if (FS_WITH_FLUXMAP && cc->map) { return current_ctrl_step_map(cc, i_ref, i, w_e); }
+    if (c->predict != 0) {
         /* current at the next sample, from the voltage acting until then:
          * the sampled plant i+ = a i + b (u - cross-coupling), per axis */
         float v_d = cc->u_prev.d + w_e * c->L_q * i.q;

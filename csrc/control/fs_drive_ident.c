@@ -33,7 +33,7 @@ void fs_drive_ident_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out
     fs_ident *id = &drv->ident;
     const fs_ab i_ab = fs_clarke(in->i_ph[0], in->i_ph[1], in->i_ph[2]);
     const fs_ab u = fs_ident_step(id, i_ab, in->u_dc);
-    static const fs_drive_out none;
+    static const fs_drive_out none = { 0 };
     *out = none;
     fs_ab u_real;
     out->over_modulation = fs_svpwm(u, in->u_dc, out->duty, &u_real);

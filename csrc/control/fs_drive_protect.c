@@ -11,8 +11,8 @@ FS_COLD void fs_drive_halt(fs_drive *drv, int fault, fs_drive_out *out)
 {
     drv->phase = FS_PHASE_HALT;
     drv->fault = fault;
-    if (!out) return;
-    for (int k = 0; k < drv->cfg.phases; ++k) out->duty[k] = 0.5f;
+    if (!out) { return; }
+    for (int k = 0; k < drv->cfg.phases; ++k) { out->duty[k] = 0.5f; }
     out->phase = FS_PHASE_HALT;
     out->fault = fault;
 }
@@ -23,14 +23,14 @@ FS_COLD void fs_drive_halt(fs_drive *drv, int fault, fs_drive_out *out)
 static bool drive_smo_catches(const fs_drive *drv)
 {
     const fs_drive_config *c = &drv->cfg;
-    if (!drive_has_smo(c) || !drv->smo.valid || !drv->smo.converged) return false;
-    return c->angle_source != FS_ANGLE_BLEND || fabsf(drv->smo.w) >= drv->blend.cfg.w_lower;
+    if (!drive_has_smo(c) || !drv->smo.valid || !drv->smo.converged) { return false; }
+    return c->angle_source != (int)FS_ANGLE_BLEND || fabsf(drv->smo.w) >= drv->blend.cfg.w_lower;
 }
 
 /* Every estimate takes the observer's angle and speed. */
 static void drive_catch(fs_drive *drv)
 {
-    if (drv->cfg.angle_source != FS_ANGLE_BLEND) return;
+    if (drv->cfg.angle_source != (int)FS_ANGLE_BLEND) { return; }
     fs_blend_reset(&drv->blend, drv->smo.theta, drv->smo.w);
     fs_hfi_set_angle(&drv->hfi, drv->smo.theta, drv->smo.w);
 }
@@ -40,8 +40,8 @@ static void drive_catch(fs_drive *drv)
  * injection alone: its estimator is the only one, at any speed). */
 static float drive_w_low(const fs_drive_config *c)
 {
-    if (c->angle_source == FS_ANGLE_BLEND) return c->blend.w_lower;
-    if (c->angle_source == FS_ANGLE_HFI) return FS_DRIVE_NO_LIMIT;
+    if (c->angle_source == (int)FS_ANGLE_BLEND) { return c->blend.w_lower; }
+    if (c->angle_source == (int)FS_ANGLE_HFI) { return FS_DRIVE_NO_LIMIT; }
     return drive_starts(c) ? c->w_handover : c->smo.w_valid;
 }
 
@@ -54,9 +54,9 @@ static void drive_recover_begin(fs_drive *drv)
     drv->w_over = FS_DRIVE_NO_LIMIT;   /* the estimate is lost: its speed means nothing until re-acquired */
     drv->e_rec = 0.0f;
     fs_lock_reset(&drv->lock);   /* the residual's low-passes restart out of FS_PHASE_RUN */
-    if (c->mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
-    if (drive_weakens(c)) fs_fw_reset(&drv->fw);
-    if (drive_smo_catches(drv)) drive_catch(drv);
+    if (c->mode == (int)FS_MODE_SPEED) { fs_speed_ctrl_reset(&drv->sc); }
+    if (drive_weakens(c)) { fs_fw_reset(&drv->fw); }
+    if (drive_smo_catches(drv)) { drive_catch(drv); }
 }
 
 FS_COLD void fs_drive_lock_lost(fs_drive *drv, fs_drive_out *out)
@@ -77,9 +77,11 @@ static void drive_recover_end(fs_drive *drv, float E)
     drv->w_over = c->w_over > 0.0f ? c->w_over : FS_DRIVE_NO_LIMIT;
     if (drive_smo_catches(drv)) {   /* the flying restart */
         drive_catch(drv);
-        if (c->mode == FS_MODE_SPEED) fs_speed_ctrl_preset(&drv->sc, drv->smo.w / (float)c->pole_pairs, 0.0f);
+        if (c->mode == (int)FS_MODE_SPEED) { fs_speed_ctrl_preset(&drv->sc, drv->smo.w / (float)c->pole_pairs, 0.0f); }
     } else if (!(E < drive_w_low(c) * c->psi_f) || !fs_drive_restart(drv)) {
         fs_drive_halt(drv, FS_FAULT_LOCK, NULL);
+    } else {
+        /* the EMF is low: fs_drive_restart has begun the start sequence again */
     }
 }
 
@@ -93,5 +95,5 @@ FS_COLD void fs_drive_recover_step(fs_drive *drv, fs_ab i_ab)
     const float e_a = u.alpha - c->R_s * i_ab.alpha, e_b = u.beta - c->R_s * i_ab.beta;
     drv->e_rec += (1.0f - drv->lock_a) * (sqrtf(e_a * e_a + e_b * e_b) - drv->e_rec);   /* over lock_time / 4 */
     drv->t_left -= c->Ts;
-    if (drv->t_left <= 0.0f) drive_recover_end(drv, drv->e_rec);
+    if (drv->t_left <= 0.0f) { drive_recover_end(drv, drv->e_rec); }
 }

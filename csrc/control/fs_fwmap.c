@@ -102,8 +102,8 @@ static FS_COLD fs_status fwmap_row(fs_fwmap *f, const fs_fwmap_config *c, fs_mtp
         fs_dq in_i = il;
         float I;
         const float T = fwmap_at(c, tol, psi_lim, d_lo - dd, &in_i, &I, &ok);
-        if (!ok) return FS_ERR_PARAM;
-        if (!(T < T_lo) || I > c->i_max) break;
+        if (!ok) { return FS_ERR_PARAM; }
+        if (!(T < T_lo) || I > c->i_max) { break; }
         d_lo -= dd;
         T_lo = T;
         il = in_i;
@@ -138,8 +138,8 @@ static FS_COLD fs_status fwmap_row(fs_fwmap *f, const fs_fwmap_config *c, fs_mtp
             const float mid = 0.5f * (lo + hi);
             float I;
             const float T = fwmap_at(c, tol, psi_lim, mid, &ib, &I, &ok);
-            if (!ok) return FS_ERR_PARAM;
-            if (T < T_j) lo = mid; else hi = mid;
+            if (!ok) { return FS_ERR_PARAM; }
+            if (T < T_j) { lo = mid; } else { hi = mid; }
         }
         f->i_d[n] = ib.d;
         f->i_q[n] = fs_maxf(ib.q, 0.0f);
@@ -149,16 +149,16 @@ static FS_COLD fs_status fwmap_row(fs_fwmap *f, const fs_fwmap_config *c, fs_mtp
 
 FS_COLD fs_status fs_fwmap_init(fs_fwmap *f, const fs_fwmap_config *cfg, fs_mtpa *mtpa)
 {
-    if (!f || !cfg || !cfg->map || !mtpa) return FS_ERR_NULL;
-    if (!fs_pos(cfg->i_max)) return FS_ERR_I_MAX;
-    if (!fs_pos(cfg->k_T)) return FS_ERR_PARAM;
-    if (!fs_pos(cfg->Ts) || !fs_pos(cfg->bw_current)) return FS_ERR_BANDWIDTH;
+    if (!f || !cfg || !cfg->map || !mtpa) { return FS_ERR_NULL; }
+    if (!fs_pos(cfg->i_max)) { return FS_ERR_I_MAX; }
+    if (!fs_pos(cfg->k_T)) { return FS_ERR_PARAM; }
+    if (!fs_pos(cfg->Ts) || !fs_pos(cfg->bw_current)) { return FS_ERR_BANDWIDTH; }
     f->k_trim = FS_FWMAP_TRIM_PER_BW * cfg->bw_current * cfg->Ts;
     fs_fwmap_reset(f);
     const fs_dq i_top = fs_mtpa_step(mtpa, INFINITY);   /* MTPA at i_max */
     const fs_fluxmap_point p = fs_fluxmap_eval(cfg->map, i_top);
     f->psi_mtpa = sqrtf(p.psi.d * p.psi.d + p.psi.q * p.psi.q);
-    if (!fs_pos(f->psi_mtpa)) return FS_ERR_PARAM;
+    if (!fs_pos(f->psi_mtpa)) { return FS_ERR_PARAM; }
     /* the least flux within the current limit, on the d axis (fs_fwmap.h): the top speed's ratio */
     float i_lf = 0.0f, psi_min = f->psi_mtpa;
     for (int n = 0; n <= FWMAP_NLF; ++n) {
@@ -175,7 +175,7 @@ FS_COLD fs_status fs_fwmap_init(fs_fwmap *f, const fs_fwmap_config *cfg, fs_mtpa
     for (int k = 0; k < FS_FWMAP_NX; ++k) {
         const float s = (float)k / (float)(FS_FWMAP_NX - 1);
         const fs_status st = fwmap_row(f, cfg, mtpa, k, f->psi_mtpa / (1.0f + x_n * s * s), i_lf);
-        if (st != FS_OK) return st;
+        if (st != FS_OK) { return st; }
     }
     return FS_OK;
 }
@@ -216,6 +216,6 @@ fs_dq fs_fwmap_step(const fs_fwmap *f, float x, float T_ref, float *T_real)
     const float q0 = Q[0] + b * (Q[1] - Q[0]), q1 = Q[FS_FWMAP_NT] + b * (Q[FS_FWMAP_NT + 1] - Q[FS_FWMAP_NT]);
     i.d = d0 + a * (d1 - d0);
     i.q = q0 + a * (q1 - q0);
-    if (T_ref < 0.0f) i.q = -i.q;
+    if (T_ref < 0.0f) { i.q = -i.q; }
     return i;
 }

@@ -1,15 +1,17 @@
 #include "fs_hfi_filter.h"
 #include "fs_math.h"
 
+#include <stddef.h>
+
 FS_COLD fs_status fs_hfi_filter_init(fs_hfi_filter *f, const fs_hfi_filter_config *cfg)
 {
-    if (!f || !cfg) return FS_ERR_NULL;
+    if (!f || !cfg) { return FS_ERR_NULL; }
     fs_srff_config c = {cfg->Ts, cfg->w_b_p};
     fs_status st = fs_srff_init(&f->srff_p, &c);
-    if (st != FS_OK) return st;
+    if (st != FS_OK) { return st; }
     c.w_b = cfg->w_b_n;
     st = fs_srff_init(&f->srff_n, &c);
-    if (st != FS_OK) return st;
+    if (st != FS_OK) { return st; }
     f->leak_n = f->srff_n;
     f->leak_p = f->srff_p;
     f->cfg = *cfg;
@@ -39,8 +41,8 @@ void fs_hfi_filter_step_cs(fs_hfi_filter *f, fs_ab i, fs_ab e_h, fs_ab e_n, fs_a
     fs_ab y = fs_srff_step_cs(&f->srff_p, i, e_h.alpha, e_h.beta);
     /* ... then the negative carrier at -w_h + 2 w_r_hat, eq. (24). */
     fs_ab fund = fs_srff_step_cs(&f->srff_n, y, e_n.alpha, e_n.beta);
-    if (i_f) *i_f = fund;
-    if (i_hn) {
+    if (i_f != NULL) { *i_f = fund; }
+    if (i_hn != NULL) {
         i_hn->alpha = y.alpha - fund.alpha;
         i_hn->beta = y.beta - fund.beta;
     }
@@ -53,8 +55,8 @@ void fs_hfi_filter_step_nl(fs_hfi_filter *f, fs_ab i, fs_ab e_h, fs_ab e_n, fs_a
     /* (1 - H_n) H_p on the fundamental: the leak i_hn carries */
     const fs_ab y = fs_srff_step_cs(&f->leak_p, i_fund, e_h.alpha, e_h.beta);
     const fs_ab yn = fs_srff_step_cs(&f->leak_n, y, e_n.alpha, e_n.beta);
-    if (i_f) *i_f = i_fund;
-    if (i_hn) {
+    if (i_f != NULL) { *i_f = i_fund; }
+    if (i_hn != NULL) {
         i_hn->alpha = hn.alpha - (y.alpha - yn.alpha);
         i_hn->beta = hn.beta - (y.beta - yn.beta);
     }

@@ -106,7 +106,7 @@ static void acc_clear(fs_ident *id)
 
 void fs_ident_reset(fs_ident *id)
 {
-    static const fs_ident_result none;   /* all zero: every quantity pending */
+    static const fs_ident_result none = { 0 };   /* all zero: every quantity pending */
     const fs_ident_config *c = &id->cfg;
     id->res = none;
     /* what the configuration leaves out is skipped, with its reason */
@@ -1341,7 +1341,7 @@ static fs_ab step_flux(fs_ident *id, fs_ab i)
         id->s_uu += (ratio - id->u0) * (ratio - id->u0);
         id->s_i += phi;   /* signed: its mean is the lock's offset, the noise averages out */
         id->n_acc++;
-        if (id->n_acc < (n_meas << (2 * id->sub))) { ret = u; }
+        if ((uint32_t)id->n_acc < ((uint32_t)n_meas << (2u * (uint32_t)id->sub))) { ret = u; }   /* counts >= 0: shifted unsigned, the same */
         else {
             fs_ident_result *r = &id->res;
             const int n = id->n_acc;

@@ -3,17 +3,17 @@
 
 FS_COLD fs_status fs_if_start_init(fs_if_start *s, const fs_if_start_config *cfg)
 {
-    if (!s || !cfg) return FS_ERR_NULL;
-    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
-    if (!fs_pos(cfg->i_start)) return FS_ERR_I_MAX;
-    if (!fs_pos(cfg->a_start) || !fs_pos(cfg->w_handover)) return FS_ERR_PARAM;
-    if (!fs_nonneg(cfg->R_s)) return FS_ERR_RS;
-    if (!fs_pos(cfg->L)) return FS_ERR_LD;
-    if (!fs_nonneg(cfg->psi_f)) return FS_ERR_PSI_F;
-    if (!fs_nonneg(cfg->r_damp)) return FS_ERR_PARAM;
-    if (cfg->r_damp > 0.0f && !(fs_pos(cfg->w_swing) && cfg->w_swing * cfg->Ts <= 0.1f)) return FS_ERR_BANDWIDTH;
-    if (!fs_fin(cfg->i_max) || !(cfg->i_max >= cfg->i_start)) return FS_ERR_I_MAX;
-    if (!fs_nonneg(cfg->t_handover)) return FS_ERR_PARAM;
+    if (!s || !cfg) { return FS_ERR_NULL; }
+    if (!fs_pos(cfg->Ts)) { return FS_ERR_TS; }
+    if (!fs_pos(cfg->i_start)) { return FS_ERR_I_MAX; }
+    if (!fs_pos(cfg->a_start) || !fs_pos(cfg->w_handover)) { return FS_ERR_PARAM; }
+    if (!fs_nonneg(cfg->R_s)) { return FS_ERR_RS; }
+    if (!fs_pos(cfg->L)) { return FS_ERR_LD; }
+    if (!fs_nonneg(cfg->psi_f)) { return FS_ERR_PSI_F; }
+    if (!fs_nonneg(cfg->r_damp)) { return FS_ERR_PARAM; }
+    if (cfg->r_damp > 0.0f && !(fs_pos(cfg->w_swing) && cfg->w_swing * cfg->Ts <= 0.1f)) { return FS_ERR_BANDWIDTH; }
+    if (!fs_fin(cfg->i_max) || !(cfg->i_max >= cfg->i_start)) { return FS_ERR_I_MAX; }
+    if (!fs_nonneg(cfg->t_handover)) { return FS_ERR_PARAM; }
     s->cfg = *cfg;
     s->a_hp = fs_exp_pole(-0.25f * cfg->w_swing * cfg->Ts);
     s->b_lp = -expm1f(-fs_minf(4.0f * cfg->w_swing * cfg->Ts, 0.1f));

@@ -39,7 +39,7 @@ static const float TURN[] = {0.618034f, 1.0f, 1.0f, 0.618034f, 0.0f};
  * the torque a misalignment makes with the magnet alternates too; +-i_max
  * has no q left in the disc (the d sweep reads it). */
 static const int Q_ORDER[] = {0, 1, -1, 2, -2, 3, -3};
-#define N_LEVELS ((int)(sizeof(Q_ORDER) / sizeof(Q_ORDER[0])))
+#define N_LEVELS ((int)sizeof(Q_ORDER) / (int)sizeof(Q_ORDER[0]))
 
 FS_COLD fs_status fs_mapid_init(fs_mapid *m, const fs_mapid_config *cfg)
 {
@@ -83,7 +83,7 @@ static void sums_clear(fs_mapid *m)
 
 void fs_mapid_reset(fs_mapid *m)
 {
-    static const fs_mapid_result none;
+    static const fs_mapid_result none = { 0 };
     m->res = none;
     m->stage = FS_MAPID_DSWEEP;
     m->level = 0;

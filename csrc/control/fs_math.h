@@ -78,14 +78,16 @@ static inline float fs_fmod_2pi(float x)
  * fs_fmod_2pi) and one correction on either side. */
 FS_OUT_OF_LINE float fs_wrap_far(float x)
 {
-    if (x == FS_PI) return x;
+    if (x == FS_PI) { return x; }
     const float y = x > 0.0f ? x - FS_TWO_PI : x + FS_TWO_PI;
-    if (y > -FS_PI && y <= FS_PI && y != 0.0f) return y;   /* 0 is +-2 pi, whose sign fmodf sets */
+    if (y > -FS_PI && y <= FS_PI && y != 0.0f) { return y; }   /* 0 is +-2 pi, whose sign fmodf sets */
     x = fs_fmod_2pi(x);
     if (x > FS_PI) {
         x -= FS_TWO_PI;
     } else if (x <= -FS_PI) {
         x += FS_TWO_PI;
+    } else {
+        /* in (-pi, pi] already */
     }
     return x;
 }
@@ -122,11 +124,39 @@ static inline bool fs_nonneg(float x) { return x >= 0.0f && x < INFINITY; }
  * function returning a struct would be called twice). */
 float _Complex fs_cis(float theta) FS_CONST;
 
-/* A complex float's parts (laid out as float[2], C99 6.2.5: real first):
- * read without <complex.h>'s crealf and cimagf, which a freestanding
- * build need not have */
-static inline float fs_cre(float _Complex e) { return ((const float *)&e)[0]; }
-static inline float fs_cim(float _Complex e) { return ((const float *)&e)[1]; }
+/* A complex float's parts (laid out as float[2], C99 6.2.5: real first),
+ * read through a union of the two (C99 6.5.2.3, footnote 82: a member
+ * read other than the one last stored gives the stored bytes as its own
+ * type), not through a cast of its address to float *, whose second float
+ * static analysers read as past the end of an object (cppcheck's
+ * objectIndex and uninitvar); and without <complex.h>'s crealf and
+ * cimagf, which a freestanding build need not have. */
+typedef union {
+    float _Complex z;
+    float part[2];   /* real, imaginary */
+} fs_cplx_parts;
+
+static inline float fs_cre(float _Complex e) { const fs_cplx_parts v = { .z = e }; return v.part[0]; }
+static inline float fs_cim(float _Complex e) { const fs_cplx_parts v = { .z = e }; return v.part[1]; }
+
+/* re + j im, both parts as given, bit for bit (re + im * I would compute
+ * sums: -0 + 0 is +0, and an infinite part makes a NaN of the other).
+ * GCC: its builtin, C11's CMPLXF without <complex.h>. The union's
+ * initialiser is the same value, but GCC's link-time optimisation kept a
+ * stack frame in the functions that return one (fs_cis, cis_far, the
+ * back-EMF tracker's step: 140 B more of the image's flash at -O2,
+ * bench/firmware.py); the builtin gives the very instructions that
+ * writing the parts through a float * gave. Other compilers (clang before
+ * 12 has no such builtin): the union. */
+static inline float _Complex fs_cplx(float re, float im)
+{
+#if defined(__GNUC__) && !defined(__clang__)
+    return __builtin_complex(re, im);
+#else
+    const fs_cplx_parts v = { .part = { re, im } };
+    return v.z;
+#endif
+}
 
 /* e^x for a discrete filter's pole (x in [-1, 0]) as 1 + expm1f(x): within
  * an ulp there, and the image links one exponential (expm1f, which the
@@ -148,10 +178,9 @@ static inline float fs_cis_qs(float z) { return -0.16666655f + z * (0.00833216f 
 static inline float _Complex fs_cis_poly(float r, float r_lo)
 {
     const float z = r * r, hz = 0.5f * z, w = 1.0f - hz;
-    float _Complex e;
-    ((float *)&e)[0] = w + (((1.0f - w) - hz) + (z * z * fs_cis_qc(z) - r * r_lo));
-    ((float *)&e)[1] = r + (r * z * fs_cis_qs(z) + r_lo * w);
-    return e;
+    const float c = w + (((1.0f - w) - hz) + (z * z * fs_cis_qc(z) - r * r_lo));
+    const float s = r + (r * z * fs_cis_qs(z) + r_lo * w);
+    return fs_cplx(c, s);   /* the parts named first: the instructions the float * writes gave (x86-64, -O3) */
 }
 
 /* e^{j x} for an angle that is mostly small (a step's turn, a compensation
@@ -161,15 +190,15 @@ static inline float _Complex fs_cis_poly(float r, float r_lo)
  * test_trig.c compares the two); elsewhere fs_cis itself. */
 static inline float _Complex fs_cis_small(float x)
 {
-    if (!(fabsf(x) < 0.78f)) return fs_cis(x);
+    if (!(fabsf(x) < 0.78f)) { return fs_cis(x); }
     /* fs_cis_poly(x, +0) without the tail's terms: x +0 and +0 w are
      * zeros the compiler must keep (x could be a NaN, a sum -0), and
      * adding them changes no result here (a zero sine is x's, below) */
     const float z = x * x, hz = 0.5f * z, w = 1.0f - hz;
-    float _Complex e;
-    ((float *)&e)[0] = w + (((1.0f - w) - hz) + z * z * fs_cis_qc(z));
-    ((float *)&e)[1] = x + x * z * fs_cis_qs(z);
-    if (((float *)&e)[1] == 0.0f) ((float *)&e)[1] = x;   /* sin(-0) = -0, as fs_cis */
+    const float c = w + (((1.0f - w) - hz) + z * z * fs_cis_qc(z));
+    const float s = x + x * z * fs_cis_qs(z);
+    float _Complex e = fs_cplx(c, s);   /* so, not fs_cplx(c, s != 0 ? s : x): the instructions as before */
+    if (s == 0.0f) { e = fs_cplx(c, x); }   /* sin(-0) = -0, as fs_cis */
     return e;
 }
 

@@ -75,21 +75,21 @@
 
 FS_COLD fs_status fs_monitor_init(fs_monitor *m, const fs_monitor_config *cfg)
 {
-    if (!m || !cfg) return FS_ERR_NULL;
-    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
-    if (cfg->delay < 0 || cfg->delay > 2) return FS_ERR_PARAM;
-    if (!fs_nonneg(cfg->R_s)) return FS_ERR_RS;
-    if (!fs_pos(cfg->L_d)) return FS_ERR_LD;
-    if (!fs_pos(cfg->L_q)) return FS_ERR_LQ;
-    if (!fs_nonneg(cfg->psi_f)) return FS_ERR_PSI_F;
-    if (cfg->pole_pairs < 1) return FS_ERR_POLE_PAIRS;
-    if (!fs_nonneg(cfg->J)) return FS_ERR_J;
-    if (!fs_nonneg(cfg->B) || !fs_nonneg(cfg->k_dead) || !(cfg->k_dead < 0.5f)) return FS_ERR_PARAM;
-    if (!fs_nonneg(cfg->T_max)) return FS_ERR_LIMIT;
-    if (!fs_pos(cfg->i_max)) return FS_ERR_I_MAX;
-    if (!(cfg->tau >= cfg->Ts) || !fs_fin(cfg->tau)) return FS_ERR_LIMIT;
-    if (!(cfg->t_lost >= 4.0f * cfg->Ts) || !fs_fin(cfg->t_lost)) return FS_ERR_LIMIT;
-    if (!fs_nonneg(cfg->w_h)) return FS_ERR_BANDWIDTH;
+    if (!m || !cfg) { return FS_ERR_NULL; }
+    if (!fs_pos(cfg->Ts)) { return FS_ERR_TS; }
+    if (cfg->delay < 0 || cfg->delay > 2) { return FS_ERR_PARAM; }
+    if (!fs_nonneg(cfg->R_s)) { return FS_ERR_RS; }
+    if (!fs_pos(cfg->L_d)) { return FS_ERR_LD; }
+    if (!fs_pos(cfg->L_q)) { return FS_ERR_LQ; }
+    if (!fs_nonneg(cfg->psi_f)) { return FS_ERR_PSI_F; }
+    if (cfg->pole_pairs < 1) { return FS_ERR_POLE_PAIRS; }
+    if (!fs_nonneg(cfg->J)) { return FS_ERR_J; }
+    if (!fs_nonneg(cfg->B) || !fs_nonneg(cfg->k_dead) || !(cfg->k_dead < 0.5f)) { return FS_ERR_PARAM; }
+    if (!fs_nonneg(cfg->T_max)) { return FS_ERR_LIMIT; }
+    if (!fs_pos(cfg->i_max)) { return FS_ERR_I_MAX; }
+    if (!(cfg->tau >= cfg->Ts) || !fs_fin(cfg->tau)) { return FS_ERR_LIMIT; }
+    if (!(cfg->t_lost >= 4.0f * cfg->Ts) || !fs_fin(cfg->t_lost)) { return FS_ERR_LIMIT; }
+    if (!fs_nonneg(cfg->w_h)) { return FS_ERR_BANDWIDTH; }
     m->cfg = *cfg;
     m->b = -expm1f(-cfg->Ts / cfg->tau);
     m->a_s = -expm1f(-FS_MONITOR_PRE * (cfg->w_h > 0.0f ? cfg->w_h : FS_PI / cfg->Ts) * cfg->Ts);
@@ -215,7 +215,7 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
     m->i_prev = in->i;
     m->u_q2 = m->u_q1;
     m->u_q1 = in->u_next;
-    if (m->k < m->n_warm) m->k++;
+    if (m->k < m->n_warm) { m->k++; }
 
     const float aw = fabsf(m->w_f);
     const float s = m->w_f < 0.0f ? -1.0f : 1.0f;
@@ -225,7 +225,7 @@ float fs_monitor_step(fs_monitor *m, const fs_monitor_in *in)
     /* d(w_f)/dt: the low-passed speed's own derivative, s / (tau s + 1) w */
     const float T_L = m->T_f - m->J_p * (m->w_f - w_f_prev) / c->Ts - m->B_p * m->w_f;
     m->T_L_hat += b * (T_L - m->T_L_hat);   /* a second pole: the speed's noise differentiated */
-    if (m->k < m->n_warm) return 0.0f;
+    if (m->k < m->n_warm) { return 0.0f; }
     m->jumped = m->jumped || fabsf(m->jump) > 0.5f * FS_PI;
 
     const float p = s * (m->e_q + e_iq);

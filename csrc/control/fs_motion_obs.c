@@ -44,14 +44,14 @@ FS_COLD fs_status fs_motion_obs_init(fs_motion_obs *obs, const fs_motion_obs_con
 
 FS_COLD fs_status fs_motion_obs_init_lag(fs_motion_obs *obs, const fs_motion_obs_config *cfg, int lag, float w_lag)
 {
-    if (!obs || !cfg) return FS_ERR_NULL;
-    if (!(cfg->Ts > 0.0f) || !isfinite(cfg->Ts)) return FS_ERR_TS;
-    if (!(cfg->J > 0.0f) || !isfinite(cfg->J)) return FS_ERR_J;
-    if (!(cfg->B >= 0.0f) || !isfinite(cfg->B)) return FS_ERR_PARAM;
-    if (cfg->pole_pairs < 1) return FS_ERR_POLE_PAIRS;
-    if (!(cfg->bandwidth > 0.0f) || !(cfg->bandwidth * cfg->Ts <= 0.5f)) return FS_ERR_BANDWIDTH;
-    if (lag < 0 || lag > 2) return FS_ERR_PARAM;
-    if (lag > 0 && (!(w_lag > 0.0f) || !(w_lag * cfg->Ts <= 0.5f))) return FS_ERR_BANDWIDTH;
+    if (!obs || !cfg) { return FS_ERR_NULL; }
+    if (!(cfg->Ts > 0.0f) || !isfinite(cfg->Ts)) { return FS_ERR_TS; }
+    if (!(cfg->J > 0.0f) || !isfinite(cfg->J)) { return FS_ERR_J; }
+    if (!(cfg->B >= 0.0f) || !isfinite(cfg->B)) { return FS_ERR_PARAM; }
+    if (cfg->pole_pairs < 1) { return FS_ERR_POLE_PAIRS; }
+    if (!(cfg->bandwidth > 0.0f) || !(cfg->bandwidth * cfg->Ts <= 0.5f)) { return FS_ERR_BANDWIDTH; }
+    if (lag < 0 || lag > 2) { return FS_ERR_PARAM; }
+    if (lag > 0 && (!(w_lag > 0.0f) || !(w_lag * cfg->Ts <= 0.5f))) { return FS_ERR_BANDWIDTH; }
     obs->cfg = *cfg;
     obs->lag = lag;
     obs->w_lag = lag > 0 ? w_lag : 0.0f;
@@ -89,7 +89,7 @@ FS_COLD fs_status fs_motion_obs_init_lag(fs_motion_obs *obs, const fs_motion_obs
     obs->l_theta = m1 - f1 * obs->l_w - f2 * obs->l_a;
     obs->a_lag = 1.0f;
     obs->c_theta = obs->c_f1 = obs->c_f2 = obs->l_f1 = obs->l_f2 = 0.0f;
-    if (lag > 0) lag_gains(obs, c, g, m3);
+    if (lag > 0) { lag_gains(obs, c, g, m3); }
     obs->l_T = obs->l_a / obs->k_u;
 
     /* continuous-time equivalents, on the electrical error (divided by p) */

@@ -32,14 +32,6 @@ fs_ab fs_inv_park(fs_dq x, float cos_theta, float sin_theta)
     return y;
 }
 
-static float _Complex cis(float c, float s)
-{
-    float _Complex e;
-    ((float *)&e)[0] = c;
-    ((float *)&e)[1] = s;
-    return e;
-}
-
 /* The quadrant k = round(theta 2/pi) and r = theta - k pi/2 in |r| <= pi/4,
  * then polynomials on r (weighted minimax fits on |r| <= pi/4, for float32:
  * within 0.06 ulp of the sine, 0.002 of the cosine) and the quadrant's
@@ -74,10 +66,10 @@ float _Complex fs_cis(float theta)
     const float c = fs_cre(e);
     const float s = fs_cim(e);
     switch ((int)k & 3) {
-    case 0: return cis(c, (s != 0.0f) ? s : x);   /* sin(-0) = -0 */
-    case 1: return cis(-s, c);
-    case 2: return cis(-c, -s);
-    default: return cis(s, -c);
+    case 0: return fs_cplx(c, (s != 0.0f) ? s : x);   /* sin(-0) = -0 */
+    case 1: return fs_cplx(-s, c);
+    case 2: return fs_cplx(-c, -s);
+    default: return fs_cplx(s, -c);
     }
 }
 
@@ -86,7 +78,7 @@ float _Complex fs_cis(float theta)
 FS_OUT_OF_LINE float _Complex cis_far(float theta)
 {
     float _Complex ret;
-    if (!(fabsf(theta) < INFINITY)) { ret = cis(theta - theta, theta - theta); }   /* NaN, as sinf and cosf */
+    if (!(fabsf(theta) < INFINITY)) { ret = fs_cplx(theta - theta, theta - theta); }   /* NaN, as sinf and cosf */
     else {
         ret = fs_cis(fs_wrap_pi(theta));
     }

@@ -17,16 +17,18 @@ BEFORE = Path(__file__).resolve().parent / "before.json"   # csrc/control at a66
 # only: every float operation stays as it is, in the same order, so that
 # every claim and trace is bit for bit the same (bench/trace_hashes.py).
 PLANS = {
-    "5.7": "Tool artefact: cppcheck 2.10 reports the six untagged size enums (`enum { FS_XCOMP_MAX = 33 }` "
-           "and those of fs_fluxmap.h, fs_mapid.h, fs_mtpa.h, fs_ident.h, fs_motion_test.h) as one "
-           "repeated tag. Give each its own tag (`enum fs_xcomp_size { ... }`); no generated code changes.",
+    "5.7": "Tool artefact: cppcheck 2.10 reports the eight untagged constant enums (`enum { FS_XCOMP_MAX = 33 }` "
+           "and those of fs_fluxmap.h, fs_fwmap.h, fs_ident.h, fs_mapid.h, fs_motion_test.h, fs_mtpa.h, "
+           "fs_types.h) as one repeated tag, though they declare none. Not to be tagged: a tag gives the "
+           "constants the enumeration's essential type instead of signed int, and each comparison with an "
+           "int then counts under 10.4 (tried: 10.4 92 -> 167). A false-positive record (no tag declared).",
     "9.2": "Two initialisers whose member is a struct given by a struct value (fs_drive.c's monitor input, "
            "fs_xyctrl.c's fs_vsd5). No brace is elided there; if the addon still reports them once the rest is "
            "clean, set those members by assignment after a zero initialiser, or record a deviation "
            "(false positive: a struct-typed expression initialises the whole member).",
-    "10.1": "Flags and counters used as booleans or shifted while signed (`!passed`, `n_meas << (2 * sub)`, "
-            "`seen & (1u << t)`): the flags become `bool` from <stdbool.h> and the shifted values `uint32_t`; "
-            "integers only, no float touched.",
+    "10.1": "Left: fs_drive.c's field table (`DRIVE_FIELDS(FIELD_ENTRY)`, uint8_t entries from the "
+            "X-macro). Done: fs_ident.c's `n_meas << (2 * sub)`, shifted as uint32_t (both >= 0: the same "
+            "values). Integers only, no float touched.",
     "10.3": "A comparison's result stored in an `int` (`const int dbl = ... <= ...`, `n_read += n_d[k] > 0`): "
             "store it in a `bool`, count with `if (...) { ++n_read; }`.",
     "10.4": "Mixed essential types across an operator: an enum against an int constant or macro "
@@ -36,9 +38,11 @@ PLANS = {
             "integer, which is the conversion C already makes, so the float result is the same.",
     "10.6": "A composite int expression stored wider (`const int d = c->delay > 0.5f ? 1 : 0`): the "
             "constants are char-sized essentially; write the choice as an if/else assignment or `bool`.",
-    "10.8": "A composite float expression cast to int (`(int)(t_lock / Ts + 0.5f)`, "
-            "`(int)(0.2f / Ts) + 1`): bind the float expression to a `const float` first and cast that. "
-            "Same float rounding (FLT_EVAL_METHOD 0 on the Cortex-M4F and x86-64 SSE), same integer.",
+    "10.8": "A composite expression cast to another type (`(int)(cfg->delay + 0.5f)`, "
+            "`(int)(2.0f * FS_PI / (w_h * Ts) + 0.5f)`, `(float)(2 * d + 1)`): bind it to a `const` of its "
+            "own type first and cast that, as fs_polarity.c's step counts now do. Same float rounding "
+            "(FLT_EVAL_METHOD 0 on the Cortex-M4F and x86-64 SSE), same integer; keep each store where the "
+            "cast was (computing both roundings before both stores moved -Os's scheduling).",
     "12.2": "`1 << 30` and `1u << FS_MAPID_NQ` (fs_mapid.c): the addon takes the constant 1's essential "
             "type (8 bits) as the shifted width. Shift a constant of the width meant (`(uint32_t)1u << 30`, "
             "converted once where an int is wanted); the same integer values.",
@@ -57,10 +61,12 @@ PLANS = {
     "15.7": "`if ... else if` chains without a final `else`: add `else { /* nothing: <why> */ }` "
             "where the chain's last case is deliberate.",
     "17.2": "fs_cis -> cis_far -> fs_cis (fs_transforms.c): the second call's argument is wrapped to "
-            "[-pi, pi], so it never reaches cis_far again (depth 1). Move fs_cis's reduced-argument path into "
-            "a static kernel that both call; cis_far then calls the kernel, not fs_cis. Same operations; "
-            "B-PIL's instruction count measured before and after (the kernel must stay inlined on the "
-            "common path). Deviation only if the count grows.",
+            "[-pi, pi], so it never reaches cis_far again (depth 1). Both ways out of the cycle were measured "
+            "and cost what the recursion does not: fs_cis's reduced-argument path as a static kernel that "
+            "both call is inlined into cis_far too (+324 B at -O2: the image 32,752 of 32,768 B); the wrap "
+            "moved into fs_cis itself (-16 B) gives fs_cis's common path, nine calls a step, a stack frame "
+            "(push/pop) that cis_far out of line avoids. Deviation record: rule 17.2, fs_cis/cis_far; guard: "
+            "fs_wrap_pi's result |x| <= pi < 199 rad, so the depth is one (test_trig.c's far arguments).",
     "17.7": "Results of step functions ignored where only their state update is wanted "
             "(`fs_hfi_step(...)`, `fs_motion_obs_step(...)`, `fs_smo_step(...)`): cast to `(void)`.",
     "20.7": "fs_drive.c's field table (`DRIVE_FIELDS(X)`, an X-macro): the parameter `f` is a member "
@@ -70,14 +76,11 @@ PLANS = {
             "name) and the compile-time size check beside the table.",
 }
 OWN_PLANS = {
-    "objectIndex": "fs_math.h and fs_transforms.c read and write a float _Complex through a float[2] view "
-                   "(`((float *)&e)[1]`), which C99 6.2.5 allows but cppcheck reads as indexing past a scalar. "
-                   "A union of the complex and float[2] makes the layout plain to the tool with the same "
-                   "stores and loads (advisory 19.2 is counted instead).",
-    "uninitvar": "The same float[2] view: cppcheck does not see the writes through it set `e`. "
-                 "Cleared by the same union.",
+    "objectIndex": "Cleared: fs_math.h reads a float _Complex's parts through a union with float[2] and "
+                   "builds one with fs_cplx (GCC's __builtin_complex), the same instructions; advisory 19.2 "
+                   "counts the union (+4).",
+    "uninitvar": "Cleared with objectIndex.",
 }
-
 
 def _row(*cells) -> str:
     return "| " + " | ".join(str(c) for c in cells) + " |"
