@@ -72,60 +72,61 @@ static FS_COLD fs_status drive_init_injection(fs_drive *drv, const fs_drive_conf
     hc.L_q = cfg->L_q_hf > 0.0f ? cfg->L_q_hf : cfg->L_q;
     mo.bandwidth = hc.obs.bandwidth;
     hc.obs = mo;
-    if (!fs_pos(cfg->J)) REFUSE("J", FS_ERR_J);
+    if (!fs_pos(cfg->J)) { REFUSE("J", FS_ERR_J); }
     SUB("hfi", fs_hfi_init(&drv->hfi, &hc));
     /* the carrier current's peak, I_p + I_n = u_h / (w_h min(L_d, L_q)) */
     drv->i_hf = hc.u_h / (drv->hfi.cfg.w_h * fs_minf(hc.L_d, hc.L_q));
-    if (!(drv->i_hf < 0.5f * cfg->i_max)) REFUSE("hfi.u_h", FS_ERR_ABOVE_I_MAX);
+    if (!(drv->i_hf < 0.5f * cfg->i_max)) { REFUSE("hfi.u_h", FS_ERR_ABOVE_I_MAX); }
     if (cfg->angle_source == FS_ANGLE_BLEND) {
         fs_blend_config bc = cfg->blend;
         mo.bandwidth = bc.obs.bandwidth > 0.0f ? bc.obs.bandwidth : drv->hfi.w_o_blend;   /* fs_hfi.h */
         bc.obs = mo;
         SUB("blend", fs_blend_init(&drv->blend, &bc));
-        if (cfg->w_inject_max > 0.0f && !(0.9f * cfg->w_inject_max >= bc.w_upper)) REFUSE("w_inject_max", FS_ERR_LIMIT);
+        if (cfg->w_inject_max > 0.0f && !(0.9f * cfg->w_inject_max >= bc.w_upper)) { REFUSE("w_inject_max", FS_ERR_LIMIT); }
     }
     return FS_OK;
 }
 
 FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
 {
-    if (!drv) return FS_ERR_NULL;
+    if (!drv) { return FS_ERR_NULL; }
     drv->fail = NULL;
-    if (!cfg) REFUSE("config", FS_ERR_NULL);
-    if (cfg->config_size != 0u && cfg->config_size != (unsigned int)sizeof(fs_drive_config)) REFUSE("config_size", FS_ERR_PARAM);
+    if (!cfg) { REFUSE("config", FS_ERR_NULL); }
+    if (cfg->config_size != 0u && cfg->config_size != (unsigned int)sizeof(fs_drive_config)) { REFUSE("config_size", FS_ERR_PARAM); }
     if (cfg->mode == FS_MODE_IDENTIFY) {   /* knows no machine yet */
-        if (!FS_WITH_IDENT) REFUSE("mode", FS_ERR_MODE);
+        if (!FS_WITH_IDENT) { REFUSE("mode", FS_ERR_MODE); }
         return fs_drive_ident_init(drv, cfg);
     }
     fs_status st = drive_check_fields(cfg, &drv->fail);
-    if (st != FS_OK) return st;
-    if (cfg->phases != 3 && cfg->phases != 5) REFUSE("phases", FS_ERR_PARAM);
+    if (st != FS_OK) { return st; }
+    if (cfg->phases != 3 && cfg->phases != 5) { REFUSE("phases", FS_ERR_PARAM); }
     /* what this build leaves out (fs_drive.h, FS_WITH_*) */
-    if (!FS_WITH_FIVE_PHASE && cfg->phases == 5) REFUSE("phases", FS_ERR_MODE);
-    if (!FS_WITH_SWVI && cfg->angle_source == FS_ANGLE_SWVI) REFUSE("angle_source", FS_ERR_MODE);
-    if (!FS_WITH_IMC && cfg->converter == FS_CONV_IMC) REFUSE("converter", FS_ERR_MODE);
-    if (!FS_WITH_ADAPT && cfg->adapt.T_f > 0.0f) REFUSE("adapt", FS_ERR_MODE);
-    if (!FS_WITH_DTCOMP && cfg->dt_predict) REFUSE("dt_predict", FS_ERR_MODE);
-    if (cfg->mode < FS_MODE_OFF || cfg->mode > FS_MODE_SPEED) REFUSE("mode", FS_ERR_MODE);
-    if (cfg->angle_source < FS_ANGLE_ENCODER || cfg->angle_source > FS_ANGLE_SWVI) REFUSE("angle_source", FS_ERR_MODE);
-    if (!(cfg->T_pwm >= cfg->Ts)) REFUSE("T_pwm", FS_ERR_TS);
-    if (!(cfg->delay >= 0.0f && cfg->delay <= 2.0f)) REFUSE("delay", FS_ERR_PARAM);
-    if (cfg->pole_pairs < 1) REFUSE("pole_pairs", FS_ERR_POLE_PAIRS);
-    if (!(cfg->t_dead_comp < 0.5f * cfg->T_pwm)) REFUSE("t_dead_comp", FS_ERR_PARAM);
+    if (!FS_WITH_FIVE_PHASE && cfg->phases == 5) { REFUSE("phases", FS_ERR_MODE); }
+    if (!FS_WITH_SWVI && cfg->angle_source == FS_ANGLE_SWVI) { REFUSE("angle_source", FS_ERR_MODE); }
+    if (!FS_WITH_IMC && cfg->converter == FS_CONV_IMC) { REFUSE("converter", FS_ERR_MODE); }
+    if (!FS_WITH_ADAPT && cfg->adapt.T_f > 0.0f) { REFUSE("adapt", FS_ERR_MODE); }
+    if (!FS_WITH_DTCOMP && cfg->dt_predict) { REFUSE("dt_predict", FS_ERR_MODE); }
+    if (cfg->mode < FS_MODE_OFF || cfg->mode > FS_MODE_SPEED) { REFUSE("mode", FS_ERR_MODE); }
+    if (cfg->angle_source < FS_ANGLE_ENCODER || cfg->angle_source > FS_ANGLE_SWVI) { REFUSE("angle_source", FS_ERR_MODE); }
+    if (!(cfg->T_pwm >= cfg->Ts)) { REFUSE("T_pwm", FS_ERR_TS); }
+    if (!(cfg->delay >= 0.0f && cfg->delay <= 2.0f)) { REFUSE("delay", FS_ERR_PARAM); }
+    if (cfg->pole_pairs < 1) { REFUSE("pole_pairs", FS_ERR_POLE_PAIRS); }
+    if (!(cfg->t_dead_comp < 0.5f * cfg->T_pwm)) { REFUSE("t_dead_comp", FS_ERR_PARAM); }
     drv->cfg = *cfg;
     drv->has_map = cfg->map.di_d != 0.0f;
-    if (!FS_WITH_FLUXMAP && drv->has_map) REFUSE("map", FS_ERR_MODE);
-    if (drive_fw_plans(drv)) SUB("map", fs_fluxmap_init(&drv->map, &drv->cfg.map));
+    if (!FS_WITH_FLUXMAP && drv->has_map) { REFUSE("map", FS_ERR_MODE); }
+    if (drive_fw_plans(drv)) { SUB("map", fs_fluxmap_init(&drv->map, &drv->cfg.map)); }
     drv->k_T = drive_torque_k(cfg);
     drv->dd_dead = cfg->t_dead_comp / cfg->T_pwm;
     const float Tl = drive_loop_Ts(cfg);
 
     fs_current_ctrl_config ccc = {Tl, cfg->R_s, cfg->L_d, cfg->L_q, cfg->psi_f, cfg->bw_current,
                                   cfg->delay > 0.5f, cfg->k_p_d, cfg->k_i_d, cfg->k_p_q, cfg->k_i_q};
-    if (cfg->cc_internal_model && ccc.k_p_d == 0.0f && ccc.k_i_d == 0.0f && ccc.k_p_q == 0.0f && ccc.k_i_q == 0.0f)
+    if (cfg->cc_internal_model && ccc.k_p_d == 0.0f && ccc.k_i_d == 0.0f && ccc.k_p_q == 0.0f && ccc.k_i_q == 0.0f) {
         fs_current_ctrl_internal_model(&ccc);   /* fs_drive.h */
+    }
     st = fs_current_ctrl_init(&drv->cc, &ccc);
-    if (st != FS_OK) REFUSE(st == FS_ERR_BANDWIDTH ? "bw_current" : "k_p_d, k_i_d, k_p_q, k_i_q", st);
+    if (st != FS_OK) { REFUSE(st == FS_ERR_BANDWIDTH ? "bw_current" : "k_p_d, k_i_d, k_p_q, k_i_q", st); }
 
     fs_pll_config pc = {cfg->Ts, cfg->bw_pll, 0.0f};
     SUB("bw_pll", fs_pll_init(&drv->pll, &pc));
@@ -161,30 +162,31 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         ac.L_d = cfg->L_d;
         ac.psi_f = cfg->psi_f;
         ac.i_max = cfg->i_max;
-        if (!(ac.w_e_max > 0.0f)) ac.w_e_max = cfg->smo.w_e_max;
+        if (!(ac.w_e_max > 0.0f)) { ac.w_e_max = cfg->smo.w_e_max; }
         SUB("adapt", fs_param_adapt_init(&drv->adapt, &ac));
     }
     if (cfg->mode == FS_MODE_SPEED) {
         fs_speed_ctrl_config scc = {Tl, cfg->J, cfg->B, cfg->bw_speed, cfg->T_max, cfg->k_p_w, cfg->k_i_w};
         st = fs_speed_ctrl_init(&drv->sc, &scc);
-        if (st != FS_OK)
+        if (st != FS_OK) {
             REFUSE(st == FS_ERR_J ? "J" : st == FS_ERR_BANDWIDTH ? "bw_speed" : st == FS_ERR_LIMIT ? "T_max" : "k_p_w, k_i_w", st);
+        }
         fs_mtpa_config mc = {cfg->L_d, cfg->L_q, cfg->psi_f, cfg->pole_pairs, cfg->i_max, cfg->phases,
                              drive_map(drv) ? &drv->map : NULL};
         st = fs_mtpa_init(&drv->mtpa, &mc);
-        if (st != FS_OK) REFUSE(st == FS_ERR_LQ ? "L_q" : drive_map(drv) ? "mtpa (map, i_max)" : "mtpa (psi_f, L_d, L_q, i_max)", st);
+        if (st != FS_OK) { REFUSE(st == FS_ERR_LQ ? "L_q" : drive_map(drv) ? "mtpa (map, i_max)" : "mtpa (psi_f, L_d, L_q, i_max)", st); }
         if (drive_weakens(cfg) && drive_fw_plans(drv)) {
-            if (drive_five(cfg) || drive_imc(cfg)) REFUSE("map", FS_ERR_MODE);   /* the voltage limit is the VSI's, three phases */
-            if (cfg->fw_hold) REFUSE("fw_hold", FS_ERR_MODE);   /* fs_fw.h's excess feeds no loop here */
+            if (drive_five(cfg) || drive_imc(cfg)) { REFUSE("map", FS_ERR_MODE); }   /* the voltage limit is the VSI's, three phases */
+            if (cfg->fw_hold) { REFUSE("fw_hold", FS_ERR_MODE); }   /* fs_fw.h's excess feeds no loop here */
             fs_fwmap_config wc = {&drv->map, cfg->i_max, drv->k_T, cfg->Ts, cfg->bw_current};
             SUB("map (flux weakening)", fs_fwmap_init(&drv->fwm, &wc, &drv->mtpa));
         }
         if (drive_weakens(cfg)) {
-            if (!(cfg->fw_gain >= 0.0f)) REFUSE("fw_gain", FS_ERR_PARAM);
+            if (!(cfg->fw_gain >= 0.0f)) { REFUSE("fw_gain", FS_ERR_PARAM); }
             fs_fw_config fc = {cfg->Ts, cfg->L_d, cfg->fw_w_e_max, cfg->fw_gain, cfg->fw_cutoff, cfg->i_max};
             fs_fw_design(&fc, cfg->bw_current, cfg->fw_hold != 0);   /* gain or cutoff 0: fs_drive.h */
             st = fs_fw_init(&drv->fw, &fc);
-            if (st != FS_OK) REFUSE(st == FS_ERR_BANDWIDTH ? "fw_cutoff" : "fw_w_e_max", st);
+            if (st != FS_OK) { REFUSE(st == FS_ERR_BANDWIDTH ? "fw_cutoff" : "fw_w_e_max", st); }
         }
     }
     if (cfg->lock_time > 0.0f) {
@@ -199,20 +201,20 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
                                 drive_injects(cfg) ? cfg->hfi.w_h : 0.0f};
         SUB("lock_time", fs_monitor_init(&drv->mon, &mc));
     }
-    if (cfg->lock_recover != 0 && cfg->lock_recover != 1) REFUSE("lock_recover", FS_ERR_PARAM);
+    if (cfg->lock_recover != 0 && cfg->lock_recover != 1) { REFUSE("lock_recover", FS_ERR_PARAM); }
     if (cfg->lock_recover) {
-        if (!(cfg->lock_time > 0.0f)) REFUSE("lock_time", FS_ERR_PARAM);
-        if (!fs_pos(cfg->t_recover)) REFUSE("t_recover", FS_ERR_PARAM);
-        if (cfg->lock_retries < 0) REFUSE("lock_retries", FS_ERR_PARAM);
-        if (drive_square(cfg)) REFUSE("lock_recover", FS_ERR_MODE);   /* no restart sequence for the square wave */
+        if (!(cfg->lock_time > 0.0f)) { REFUSE("lock_time", FS_ERR_PARAM); }
+        if (!fs_pos(cfg->t_recover)) { REFUSE("t_recover", FS_ERR_PARAM); }
+        if (cfg->lock_retries < 0) { REFUSE("lock_retries", FS_ERR_PARAM); }
+        if (drive_square(cfg)) { REFUSE("lock_recover", FS_ERR_MODE); }   /* no restart sequence for the square wave */
     }
     if (drive_injects(cfg)) {
         st = drive_init_injection(drv, cfg);
-        if (st != FS_OK) return st;
+        if (st != FS_OK) { return st; }
     }
     if (drive_square(cfg)) {
-        if (cfg->mode != FS_MODE_OFF && cfg->mode != FS_MODE_CURRENT && cfg->mode != FS_MODE_SPEED) REFUSE("mode", FS_ERR_MODE);
-        if (cfg->delay != 0.0f && cfg->delay != 1.0f) REFUSE("delay", FS_ERR_PARAM);
+        if (cfg->mode != FS_MODE_OFF && cfg->mode != FS_MODE_CURRENT && cfg->mode != FS_MODE_SPEED) { REFUSE("mode", FS_ERR_MODE); }
+        if (cfg->delay != 0.0f && cfg->delay != 1.0f) { REFUSE("delay", FS_ERR_PARAM); }
         fs_swvi_config wc = cfg->swvi;
         wc.Ts = cfg->Ts;
         wc.delay = (int)cfg->delay;
@@ -220,22 +222,22 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         wc.L_q = cfg->L_q;
         SUB("swvi", fs_swvi_init(&drv->sw, &wc));
     }
-    if (cfg->converter != FS_CONV_VSI && cfg->converter != FS_CONV_IMC) REFUSE("converter", FS_ERR_MODE);
+    if (cfg->converter != FS_CONV_VSI && cfg->converter != FS_CONV_IMC) { REFUSE("converter", FS_ERR_MODE); }
     if (drive_imc(cfg)) {
-        if (cfg->phases != 3 || drive_square(cfg)) REFUSE("converter", FS_ERR_MODE);
-        if (cfg->imc_region < FS_IMC_LINEAR || cfg->imc_region > FS_IMC_OM2) REFUSE("imc_region", FS_ERR_MODE);
+        if (cfg->phases != 3 || drive_square(cfg)) { REFUSE("converter", FS_ERR_MODE); }
+        if (cfg->imc_region < FS_IMC_LINEAR || cfg->imc_region > FS_IMC_OM2) { REFUSE("imc_region", FS_ERR_MODE); }
         if (drive_imc_depth(cfg)) {
-            if (!(cfg->imc_i_lim > 0.0f)) REFUSE("imc_i_lim", FS_ERR_I_MAX);
-            if (cfg->imc_i_lim > cfg->i_max) REFUSE("imc_i_lim", FS_ERR_ABOVE_I_MAX);
+            if (!(cfg->imc_i_lim > 0.0f)) { REFUSE("imc_i_lim", FS_ERR_I_MAX); }
+            if (cfg->imc_i_lim > cfg->i_max) { REFUSE("imc_i_lim", FS_ERR_ABOVE_I_MAX); }
             fs_imc_depth_config dc;
             st = fs_imc_depth_design(&dc, cfg->Ts, cfg->imc_i_lim, cfg->imc_V_im, cfg->fw_w_e_max,
                                      cfg->L_d, cfg->bw_speed);
-            if (st != FS_OK) REFUSE(st == FS_ERR_LIMIT ? "imc_V_im" : "imc_depth", st);
+            if (st != FS_OK) { REFUSE(st == FS_ERR_LIMIT ? "imc_V_im" : "imc_depth", st); }
             SUB("imc_depth", fs_imc_depth_init(&drv->depth, &dc));
         }
     }
     st = fs_drive_start_init(drv, cfg);
-    if (st != FS_OK) return st;
+    if (st != FS_OK) { return st; }
     fs_drive_reset(drv);
     return FS_OK;
 }
@@ -248,19 +250,19 @@ FS_COLD void fs_drive_reset(fs_drive *drv)
     }
     fs_current_ctrl_reset(&drv->cc);
     fs_pll_reset(&drv->pll, 0.0f, 0.0f);
-    if (drv->cfg.mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
-    if (drive_has_smo(&drv->cfg)) fs_smo_reset(&drv->smo, 0.0f, 0.0f);
-    if (drive_weakens(&drv->cfg)) fs_fw_reset(&drv->fw);
-    if (drive_weakens(&drv->cfg) && drive_fw_plans(drv)) fs_fwmap_reset(&drv->fwm);
+    if (drv->cfg.mode == FS_MODE_SPEED) { fs_speed_ctrl_reset(&drv->sc); }
+    if (drive_has_smo(&drv->cfg)) { fs_smo_reset(&drv->smo, 0.0f, 0.0f); }
+    if (drive_weakens(&drv->cfg)) { fs_fw_reset(&drv->fw); }
+    if (drive_weakens(&drv->cfg) && drive_fw_plans(drv)) { fs_fwmap_reset(&drv->fwm); }
     if (drive_injects(&drv->cfg)) {
         fs_hfi_reset(&drv->hfi, 0.0f, 0.0f);
         drv->hfi.gain = drv->hfi.gain_prev = 0.0f;   /* fades in */
         drv->blend.g_w = 0.0f;   /* the injection's weight whole without a blend: the torque's slew reads it */
-        if (drv->cfg.angle_source == FS_ANGLE_BLEND) fs_blend_reset(&drv->blend, 0.0f, 0.0f);
+        if (drv->cfg.angle_source == FS_ANGLE_BLEND) { fs_blend_reset(&drv->blend, 0.0f, 0.0f); }
     }
     fs_drive_start_reset(drv);
-    if (drive_square(&drv->cfg)) fs_swvi_reset(&drv->sw, 0.0f, 0.0f);
-    if (drive_imc_depth(&drv->cfg)) fs_imc_depth_reset(&drv->depth);
+    if (drive_square(&drv->cfg)) { fs_swvi_reset(&drv->sw, 0.0f, 0.0f); }
+    if (drive_imc_depth(&drv->cfg)) { fs_imc_depth_reset(&drv->depth); }
     if (drv->cfg.lock_time > 0.0f) {
         fs_lock_reset(&drv->lock);
         fs_monitor_reset(&drv->mon);
@@ -331,10 +333,10 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
         const bool own = drv->phase == FS_PHASE_RECOVER;
         const float w_dir = own ? drv->smo.w : drv->blend.w_hat;
         const float w_min = own ? drv->smo.cfg.w_valid : 0.5f * drv->blend.cfg.w_lower;
-        if (fabsf(w_dir) > w_min) fs_smo_set_dir(&drv->smo, w_dir);
+        if (fabsf(w_dir) > w_min) { fs_smo_set_dir(&drv->smo, w_dir); }
         /* below its validity the observer starts from the blended estimate
          * (fs_smo_follow; the tracking form only) */
-        if (!own) fs_smo_follow(&drv->smo, drv->blend.theta_hat, drv->blend.w_hat, drv->blend.obs.T_d_hat);
+        if (!own) { fs_smo_follow(&drv->smo, drv->blend.theta_hat, drv->blend.w_hat, drv->blend.obs.T_d_hat); }
         /* While injecting, an observer beyond the speed it is designed for
          * (smo.w_e_max) has no estimate: started afresh from the blend's. At
          * standstill under the carrier a saturating machine's current holds
@@ -480,9 +482,10 @@ static void drive_sensor_angle(fs_drive *drv, const fs_drive_in *in, float *thet
 static float drv_blend_theta(const fs_drive *drv)
 {
     const fs_hfi *h = &drv->hfi;
-    if (drv->blend.g_w >= 1.0f && !drv->injecting && drv->smo.converged && drv->cfg.smo.form == FS_SMO_FORM_TRACKING)
+    if (drv->blend.g_w >= 1.0f && !drv->injecting && drv->smo.converged && drv->cfg.smo.form == FS_SMO_FORM_TRACKING) {
         return drv->smo.theta;   /* above the band (header) */
-    if (!drv->cfg.hfi.lag || !drv->inject_on || h->gain < 1.0f || h->k_settle > 0) return drv->blend.theta_hat;
+    }
+    if (!drv->cfg.hfi.lag || !drv->inject_on || h->gain < 1.0f || h->k_settle > 0) { return drv->blend.theta_hat; }
     return fs_blend_angle_inline(drv->blend.theta_hat, h->theta, drv->blend.g_w);
 }
 
@@ -494,7 +497,7 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float
     if (c->angle_source == FS_ANGLE_SMO) {
         fs_smo_step(&drv->smo, *i_ab, drive_smo_u(drv, *i_ab));
         if (in->sensorless) {
-            if (FS_WITH_IF_START && c->w_restart > 0.0f && drv->phase == FS_PHASE_RUN) fs_drive_if_restart(drv, in);
+            if (FS_WITH_IF_START && c->w_restart > 0.0f && drv->phase == FS_PHASE_RUN) { fs_drive_if_restart(drv, in); }
             bool start = drv->phase == FS_PHASE_START;
             *theta = start ? drv->ifs.theta : drv->smo.theta;
             *w = start ? drv->ifs.w : drv->smo.w;
@@ -502,7 +505,7 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float
         }
     }
     if (drive_injects(c) && c->mode != FS_MODE_OFF) {   /* OFF injects nothing to estimate from */
-        if (!drv->est_started) fs_drive_start_estimators(drv, in);
+        if (!drv->est_started) { fs_drive_start_estimators(drv, in); }
         *i_ab = drive_injection_step(drv, *i_ab);
         if (in->sensorless) {
             bool blend = c->angle_source == FS_ANGLE_BLEND;
@@ -543,7 +546,7 @@ static fs_dq drive_fw_map(fs_drive *drv, float u_dc, float w_e, float *T_ref)
     fs_fwmap_trim(&drv->fwm, sqrtf(u0.d * u0.d + u0.q * u0.q), u_plan, x);
     float T_real;
     const fs_dq i = fs_fwmap_step(&drv->fwm, x, *T_ref, &T_real);
-    if (T_real != *T_ref) fs_speed_ctrl_realised(&drv->sc, *T_ref, T_real);
+    if (T_real != *T_ref) { fs_speed_ctrl_realised(&drv->sc, *T_ref, T_real); }
     *T_ref = T_real;
     return i;
 }
@@ -579,13 +582,13 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
          * kept; then held inside the current limit circle, whose radius
          * leaves room for the carrier's peak while injecting */
         const float i_lim = c->i_max - (drv->injecting ? drv->hfi.gain * drv->i_hf : 0.0f);
-        if (weakens && !drive_fw_plans(drv)) i_ref.d += drv->fw.i_d;   /* a map's flux weakening has its own trim */
+        if (weakens && !drive_fw_plans(drv)) { i_ref.d += drv->fw.i_d; }   /* a map's flux weakening has its own trim */
         i_ref.d = fs_clamp_sym(i_ref.d, i_lim);
         float iq_max = sqrtf(i_lim * i_lim - i_ref.d * i_ref.d);
         float i_q0 = i_ref.q;
         i_ref.q = fs_clamp_sym(i_ref.q, iq_max);
         /* the circle took torque away: the speed PI's integral must not wind up */
-        if (i_ref.q != i_q0) fs_speed_ctrl_realised(&drv->sc, *T_ref, *T_ref * i_ref.q / i_q0);
+        if (i_ref.q != i_q0) { fs_speed_ctrl_realised(&drv->sc, *T_ref, *T_ref * i_ref.q / i_q0); }
         if (drive_imc_depth(c)) {
             /* eqs. (32)-(33), gated by the polarity of i_d_fw (sec. 4.4;
              * the low-pass leaves a tail: 1 % of i_max counts as zero) */
@@ -618,7 +621,7 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
                                   run && settled && (c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED),
                                   out->over_modulation};
         r_mon = fs_monitor_step(&drv->mon, &mi);
-        if (drv->mon.jumped) fs_lock_latch(&drv->lock);
+        if (drv->mon.jumped) { fs_lock_latch(&drv->lock); }
     }
     const bool blend = c->angle_source == FS_ANGLE_BLEND;
     const float b = 1.0f - drv->lock_a;
@@ -639,8 +642,8 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
     const float r_smo = fs_maxf(0.5f * drv->lock_ri, 2.0f * fabsf(drv->lock_es));   /* 2 delta, sin 30 deg */
     const float r_inj = fabsf(drv->lock_eh) * (square ? 1.9098593f : 3.8197186f); /* 30 or 15 deg */
     float r = 0.0f;
-    if (c->angle_source == FS_ANGLE_SMO || (blend && g_w > 0.0f)) r = r_smo;
-    if (c->angle_source == FS_ANGLE_HFI || square || (blend && g_w < 1.0f)) r = fs_maxf(r, r_inj);
+    if (c->angle_source == FS_ANGLE_SMO || (blend && g_w > 0.0f)) { r = r_smo; }
+    if (c->angle_source == FS_ANGLE_HFI || square || (blend && g_w < 1.0f)) { r = fs_maxf(r, r_inj); }
     /* an observer on track above the band, whose EMF is as large as its
      * speed says (not a PLL swinging at low speed: at least half of the
      * |w| psi_f / sqrt 2 its filter passes), against the blended angle */
@@ -656,7 +659,7 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
  * five phases). */
 static fs_ab drive_clarke(const fs_drive_config *c, const float i_ph[])
 {
-    if (drive_five(c)) return fs_vsd5_forward(i_ph).ab;
+    if (drive_five(c)) { return fs_vsd5_forward(i_ph).ab; }
     return fs_clarke(i_ph[0], i_ph[1], i_ph[2]);
 }
 
@@ -673,17 +676,18 @@ static bool drive_modulate(fs_drive *drv, const fs_drive_in *in, float u_dc, fs_
 {
     const fs_drive_config *c = &drv->cfg;
     if (c->mode == FS_MODE_OFF) {
-        for (int k = 0; k < c->phases; ++k) duty[k] = 0.5f;
+        for (int k = 0; k < c->phases; ++k) { duty[k] = 0.5f; }
         u_f->alpha = u_f->beta = 0.0f;
         return false;
     }
     u_ref.alpha += u_inj.alpha;
     u_ref.beta += u_inj.beta;
     bool over = drive_five(c) ? fs_pwm5(u_ref, u_dc, duty, u_f) : fs_svpwm(u_ref, u_dc, duty, u_f);
-    if (drive_five(c) && c->bw_xy > 0.0f)   /* x-y current control on top of the nearest four vectors */
+    if (drive_five(c) && c->bw_xy > 0.0f) {   /* x-y current control on top of the nearest four vectors */
         fs_xyctrl_duties(fs_xyctrl_step(&drv->xy, in->i_ph, theta, w_e, u_dc), u_dc, duty);
-    if (FS_WITH_DTCOMP && c->dt_predict && c->t_dead_comp > 0.0f) fs_dtcomp_step(&drv->dtc, in->i_ph, u_inj, duty);
-    else if (c->t_dead_comp > 0.0f) fs_dtcomp_sampled(c->phases, in->i_ph, drv->dd_dead, c->i_dead_band, duty);
+    }
+    if (FS_WITH_DTCOMP && c->dt_predict && c->t_dead_comp > 0.0f) { fs_dtcomp_step(&drv->dtc, in->i_ph, u_inj, duty); }
+    else if (c->t_dead_comp > 0.0f) { fs_dtcomp_sampled(c->phases, in->i_ph, drv->dd_dead, c->i_dead_band, duty); }
     u_f->alpha -= u_inj.alpha;   /* the fundamental part */
     u_f->beta -= u_inj.beta;
     return over;
@@ -748,17 +752,18 @@ static float drive_map_step(fs_drive *drv, fs_dq i, fs_dq i_ref)
 static int drive_stage(const fs_drive *drv, const fs_drive_in *in, float g_w, bool weakens)
 {
     const fs_drive_config *c = &drv->cfg;
-    if (c->mode != FS_MODE_CURRENT && c->mode != FS_MODE_SPEED) return FS_STAGE_OPEN;
-    if (drv->phase == FS_PHASE_POLARITY) return FS_STAGE_POLARITY;
-    if (drv->phase >= FS_PHASE_RECOVER)   /* one comparison for both: RECOVER < HALT */
+    if (c->mode != FS_MODE_CURRENT && c->mode != FS_MODE_SPEED) { return FS_STAGE_OPEN; }
+    if (drv->phase == FS_PHASE_POLARITY) { return FS_STAGE_POLARITY; }
+    if (drv->phase >= FS_PHASE_RECOVER) {   /* one comparison for both: RECOVER < HALT */
         return drv->phase == FS_PHASE_RECOVER ? FS_STAGE_RECOVERY : FS_STAGE_OPEN;
-    if (in->sensorless && drv->phase == FS_PHASE_START) return FS_STAGE_START;
+    }
+    if (in->sensorless && drv->phase == FS_PHASE_START) { return FS_STAGE_START; }
     if (weakens) {
         const float lim = (drv->stage == FS_STAGE_FLUX_WEAKENING ? -0.01f : -0.02f) * c->i_max;
-        if (drv->fw.i_d < lim || drv->fw_map_on) return FS_STAGE_FLUX_WEAKENING;
+        if (drv->fw.i_d < lim || drv->fw_map_on) { return FS_STAGE_FLUX_WEAKENING; }
     }
-    if (!in->sensorless) return FS_STAGE_SENSOR;
-    if (g_w <= 0.0f) return FS_STAGE_INJECTION;
+    if (!in->sensorless) { return FS_STAGE_SENSOR; }
+    if (g_w <= 0.0f) { return FS_STAGE_INJECTION; }
     return g_w >= 1.0f ? FS_STAGE_BACKEMF : FS_STAGE_BLEND;
 }
 
@@ -776,8 +781,9 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     const int d = c->delay > 0.5f ? 1 : 0;
     float theta, w_e;
     if (c->mode != FS_MODE_OFF) {   /* OFF injects nothing to estimate from */
-        if (!drv->est_started && !in->sensorless)
+        if (!drv->est_started && !in->sensorless) {
             fs_swvi_reset(sw, fs_wrap_pi((float)c->pole_pairs * in->theta_m_enc), 0.0f);
+        }
         drv->est_started = true;
         fs_swvi_step(sw, i_ab);
     }
@@ -806,7 +812,7 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
         }
         fs_dq u_real = fs_park(u, cu, su);
         fs_current_ctrl_update(&drv->cc, u_real);
-        if (d == 0) drv->u_ff_hold = u; else drv->u_ff_next = u;
+        if (d == 0) { drv->u_ff_hold = u; } else { drv->u_ff_next = u; }
         h->i_d = i_dq.d;
         h->i_q = i_dq.q;
         h->i_d_ref = i_ref.d;
@@ -849,7 +855,7 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     drv->stage = drive_stage(drv, in, 0.0f, drive_weakens(c));
     out->stage = drv->stage;
     out->recoveries = 0;
-    if (fabsf(w_e) > drv->w_over) fs_drive_halt(drv, FS_FAULT_OVERSPEED, out);
+    if (fabsf(w_e) > drv->w_over) { fs_drive_halt(drv, FS_FAULT_OVERSPEED, out); }
 }
 
 /* Online R_s and psi_f (fs_param_adapt.h), learnt while the loops run
@@ -862,8 +868,9 @@ static void drive_adapt(fs_drive *drv, const fs_drive_in *in, fs_dq u, fs_dq i, 
         drv->smo.cfg.R_s = drv->adapt.R_s;
         drv->cc.cfg.psi_f = drv->adapt.psi_f;
         /* the injection's phase compensation (trigonometry): on a 1 % move */
-        if (drive_injects(&drv->cfg) && fabsf(drv->adapt.R_s - drv->hfi.cfg.R_s) > 0.01f * drv->cfg.R_s)
+        if (drive_injects(&drv->cfg) && fabsf(drv->adapt.R_s - drv->hfi.cfg.R_s) > 0.01f * drv->cfg.R_s) {
             fs_hfi_set_resistance(&drv->hfi, drv->adapt.R_s);
+        }
     }
 }
 
@@ -871,7 +878,7 @@ static void drive_adapt(fs_drive *drv, const fs_drive_in *in, fs_dq u, fs_dq i, 
 static void drive_step_halt(const fs_drive *drv, fs_ab i_ab, fs_drive_out *out)
 {
     *out = (fs_drive_out){0};
-    for (int k = 0; k < drv->cfg.phases; ++k) out->duty[k] = 0.5f;
+    for (int k = 0; k < drv->cfg.phases; ++k) { out->duty[k] = 0.5f; }
     fs_dq i = fs_park(i_ab, 1.0f, 0.0f);
     out->i_d = i.d;
     out->i_q = i.q;
@@ -960,21 +967,23 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     const float cos_u = cos_t * tc - sin_t * ts, sin_u = sin_t * tc + cos_t * ts;
     fs_ab u_ab_ref = fs_inv_park(u_ref, cos_u, sin_u);
     fs_ab u_inj = {0.0f, 0.0f};
-    if (drv->injecting && c->mode != FS_MODE_OFF) u_inj = drv->hfi.u;   /* eq. (22) */
+    if (drv->injecting && c->mode != FS_MODE_OFF) { u_inj = drv->hfi.u; }   /* eq. (22) */
     fs_ab u_ab;
     float u_dc = in->u_dc;
-    if (drive_imc(c)) u_dc = drive_imc_rectify(drv, in, &u_ab_ref, out);
+    if (drive_imc(c)) { u_dc = drive_imc_rectify(drv, in, &u_ab_ref, out); }
     out->over_modulation = drive_modulate(drv, in, u_dc, u_ab_ref, u_inj, theta, w_e, out->duty, &u_ab);
     drv->u_hist[1] = drv->u_hist[0];
     drv->u_hist[0] = u_ab;
     fs_dq u_real = fs_park(u_ab, cos_u, sin_u);
     const bool weakening = weakens && !starting && !polarity && !recovering;
-    if (closed_loop)   /* anti-windup; held: the regulators keep PART_1's input (fs_fw.h) */
+    if (closed_loop) {   /* anti-windup; held: the regulators keep PART_1's input (fs_fw.h) */
         fs_current_ctrl_update_held(&drv->cc, u_real,
                                     weakening && c->fw_hold ? fs_fw_hold(&drv->fw, u_ref, u_real, w_e) : u_real);
-    if (FS_WITH_ADAPT && c->adapt.T_f > 0.0f) drive_adapt(drv, in, u_real, i_dq, w_e, closed_loop);
-    if (weakening && !drive_fw_plans(drv))
+    }
+    if (FS_WITH_ADAPT && c->adapt.T_f > 0.0f) { drive_adapt(drv, in, u_real, i_dq, w_e, closed_loop); }
+    if (weakening && !drive_fw_plans(drv)) {
         fs_fw_step(&drv->fw, u_ref.q - u_real.q, w_e);   /* eq. (26): dv_q */
+    }
 
     out->theta_e = theta;
     out->w_e = w_e;
@@ -1015,10 +1024,10 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     if (c->lock_time > 0.0f) {
         out->lock_resid = drive_lock_residual(drv, in, out, i_loop, cos_t, sin_t);   /* the current the loops used, as out->i_d, i_q are it in their frame */
         out->lock_lost = fs_lock_step(&drv->lock, out->lock_resid);
-        if (out->lock_lost && c->lock_recover) fs_drive_lock_lost(drv, out);   /* recover, or halt (fs_drive_protect.h) */
+        if (out->lock_lost && c->lock_recover) { fs_drive_lock_lost(drv, out); }   /* recover, or halt (fs_drive_protect.h) */
     }
     drv->stage = drive_stage(drv, in, out->g_w, weakens);
     out->stage = drv->stage;
     out->recoveries = drv->recoveries;
-    if (fabsf(w_e) > drv->w_over) fs_drive_halt(drv, FS_FAULT_OVERSPEED, out);
+    if (fabsf(w_e) > drv->w_over) { fs_drive_halt(drv, FS_FAULT_OVERSPEED, out); }
 }

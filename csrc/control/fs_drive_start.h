@@ -8,7 +8,7 @@
 
 /* A refusal names the config field or sub-block at fault (fs_drive.fail). */
 #define REFUSE(where, status) do { drv->fail = (where); return (status); } while (0)
-#define SUB(where, call) do { fs_status st_ = (call); if (st_ != FS_OK) REFUSE((where), st_); } while (0)
+#define SUB(where, call) do { fs_status st_ = (call); if (st_ != FS_OK) { REFUSE((where), st_); } } while (0)
 
 static inline bool drive_starts(const fs_drive_config *c)
 {
