@@ -65,7 +65,7 @@ float fs_blend_step_gated(fs_blend *b, float theta_smo, float theta_hfi, float T
     else { b->trust = 1.0f; }
     b->g_w *= b->trust;
     b->theta_blnd = fs_blend_angle_inline(theta_smo, theta_hfi, b->g_w);  /* eq. (27) */
-    fs_motion_obs_step(&b->obs, fs_wrap_pi(b->theta_blnd - b->obs.theta_hat), T_ff);
+    (void)fs_motion_obs_step(&b->obs, fs_wrap_pi(b->theta_blnd - b->obs.theta_hat), T_ff);
     b->theta_hat = b->obs.theta_hat;
     b->w_hat = b->obs.w_hat;
     return b->theta_hat;

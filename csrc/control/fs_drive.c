@@ -55,7 +55,7 @@ static FS_COLD fs_status drive_check_fields(const fs_drive_config *cfg, const ch
             *name = s;
             return (fs_status)(drive_fields[k][1] & 63);
         }
-        while (*s++) {}
+        while (*s++ != '\0') {}
     }
     return FS_OK;
 }
@@ -177,7 +177,7 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         if (st != FS_OK) { REFUSE(st == FS_ERR_LQ ? "L_q" : drive_map(drv) ? "mtpa (map, i_max)" : "mtpa (psi_f, L_d, L_q, i_max)", st); }
         if (drive_weakens(cfg) && drive_fw_plans(drv)) {
             if (drive_five(cfg) || drive_imc(cfg)) { REFUSE("map", FS_ERR_MODE); }   /* the voltage limit is the VSI's, three phases */
-            if (cfg->fw_hold) { REFUSE("fw_hold", FS_ERR_MODE); }   /* fs_fw.h's excess feeds no loop here */
+            if (cfg->fw_hold != 0) { REFUSE("fw_hold", FS_ERR_MODE); }   /* fs_fw.h's excess feeds no loop here */
             fs_fwmap_config wc = {&drv->map, cfg->i_max, drv->k_T, cfg->Ts, cfg->bw_current};
             SUB("map (flux weakening)", fs_fwmap_init(&drv->fwm, &wc, &drv->mtpa));
         }
@@ -202,7 +202,7 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         SUB("lock_time", fs_monitor_init(&drv->mon, &mc));
     }
     if (cfg->lock_recover != 0 && cfg->lock_recover != 1) { REFUSE("lock_recover", FS_ERR_PARAM); }
-    if (cfg->lock_recover) {
+    if (cfg->lock_recover != 0) {
         if (!(cfg->lock_time > 0.0f)) { REFUSE("lock_time", FS_ERR_PARAM); }
         if (!fs_pos(cfg->t_recover)) { REFUSE("t_recover", FS_ERR_PARAM); }
         if (cfg->lock_retries < 0) { REFUSE("lock_retries", FS_ERR_PARAM); }
@@ -323,7 +323,7 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
     const float T_ff = drv->T_ff;
     fs_ab i_f = i_ab;
     if (drv->injecting) {
-        fs_hfi_step(&drv->hfi, i_ab, T_ff);
+        (void)fs_hfi_step(&drv->hfi, i_ab, T_ff);
         i_f = drv->hfi.i_f;
     }
     if (c->angle_source == FS_ANGLE_BLEND) {
@@ -349,7 +349,7 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
         if (!own && drv->injecting && !(fabsf(drv->smo.w) <= c->smo.w_e_max)) {
             fs_smo_reset(&drv->smo, drv->blend.theta_hat, drv->blend.w_hat);
         }
-        fs_smo_step(&drv->smo, i_f, drive_smo_u(drv, i_f));
+        (void)fs_smo_step(&drv->smo, i_f, drive_smo_u(drv, i_f));
         /* while the injection's estimate settles it coasts on its model: where the SMO has converged, it
          * follows the SMO instead, so that its weight in the blend and its first corrections start from the
          * better estimate (the example lock-loss.toml, caught at -590 rpm by its flying restart and
@@ -361,8 +361,8 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
             fs_hfi_follow(&drv->hfi, drv->smo.theta, drv->smo.w);
             fs_hfi_set_load(&drv->hfi, drv->smo.mo.T_d_hat);
         }
-        fs_blend_step_gated(&drv->blend, drv->smo.theta, drv->hfi.theta, T_ff,   /* Fig. 6 */
-                            drv->smo.converged || !c->blend.gate, drv->injecting && drv->hfi.gain >= 1.0f);
+        (void)fs_blend_step_gated(&drv->blend, drv->smo.theta, drv->hfi.theta, T_ff,   /* Fig. 6 */
+                                  drv->smo.converged || !c->blend.gate, drv->injecting && drv->hfi.gain >= 1.0f);
         /* With a flux map, above the band the blend is the back-EMF observer's own tracker (its torque
          * from the map, at up to observer.bw_pll): in deep flux weakening the torque feed-forward's
          * sensitivity to the angle, d T / d theta ~ (phases / 2) p psi_a (-i_d), pulls an estimate that
@@ -411,6 +411,8 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
                 drv->hfi.k_settle = 2 * drv->hfi.n_settle;
             } else if (!drv->injecting) {
                 fs_hfi_set_angle(&drv->hfi, drv->blend.theta_hat, drv->blend.w_hat);
+            } else {
+                /* still injecting (the carrier was fading out): the injection's estimate carries on */
             }
             if (!drv->injecting) {
                 fs_hfi_set_load(&drv->hfi, drv->blend.obs.T_d_hat);   /* the load it carries */
@@ -426,6 +428,9 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
                     fs_smo_hold(&drv->smo, drv->hfi.n_settle);
                 }
             }
+        } else {
+            /* the injection stays as it is: no w_inject_max, the speed within its hysteresis
+             * (0.9 to 1 times w_inject_max), or not yet handed over to the SMO */
         }
     }
     /* The amplitude fades in and out over the filters' settling time, so
@@ -453,7 +458,7 @@ static void drive_sensor_angle(fs_drive *drv, const fs_drive_in *in, float *thet
         drv->pll_started = true;
     }
     /* The PLL's angle is its prediction for this sample. */
-    fs_pll_step(&drv->pll, fs_wrap_pi(theta_enc - drv->pll.theta));
+    (void)fs_pll_step(&drv->pll, fs_wrap_pi(theta_enc - drv->pll.theta));
     *theta = theta_enc;
     *w = drv->pll.w;
 }
@@ -495,8 +500,8 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float
 {
     const fs_drive_config *c = &drv->cfg;
     if (c->angle_source == FS_ANGLE_SMO) {
-        fs_smo_step(&drv->smo, *i_ab, drive_smo_u(drv, *i_ab));
-        if (in->sensorless) {
+        (void)fs_smo_step(&drv->smo, *i_ab, drive_smo_u(drv, *i_ab));
+        if (in->sensorless != 0) {
             if (FS_WITH_IF_START && c->w_restart > 0.0f && drv->phase == FS_PHASE_RUN) { fs_drive_if_restart(drv, in); }
             bool start = drv->phase == FS_PHASE_START;
             *theta = start ? drv->ifs.theta : drv->smo.theta;
@@ -507,7 +512,7 @@ static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float
     if (drive_injects(c) && c->mode != FS_MODE_OFF) {   /* OFF injects nothing to estimate from */
         if (!drv->est_started) { fs_drive_start_estimators(drv, in); }
         *i_ab = drive_injection_step(drv, *i_ab);
-        if (in->sensorless) {
+        if (in->sensorless != 0) {
             bool blend = c->angle_source == FS_ANGLE_BLEND;
             *theta = blend ? drv_blend_theta(drv) : drv->hfi.theta;
             *w = blend ? drv->blend.w_hat : drv->hfi.w;
@@ -595,6 +600,8 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
             float i_amp = sqrtf(i_ref.d * i_ref.d + i_ref.q * i_ref.q);
             drv->alpha = fs_imc_depth_step(&drv->depth, i_amp, drv->fw.i_d < -0.01f * c->i_max);
         }
+    } else {
+        /* the current mode: the input's i_d_ref, i_q_ref as they are */
     }
     return i_ref;
 }
@@ -614,7 +621,7 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
     const bool settled = drv->t_quiet <= 0.0f;   /* after polarity detection (fs_drive_start.c) */
     const float g_w = out ? out->g_w : 0.0f;
     float r_mon = 0.0f;
-    if (out) {
+    if (out != NULL) {
         const fs_monitor_in mi = {i_ab, drv->u_hist[0], in->u_dc, out->theta_e, out->w_e, cos_t, sin_t,
                                   {out->i_d, out->i_q}, drv->T_ff,   /* the torque of out->i_d_ref, i_q_ref */
                                   {out->i_d_ref - out->i_d, out->i_q_ref - out->i_q},
@@ -688,6 +695,7 @@ static bool drive_modulate(fs_drive *drv, const fs_drive_in *in, float u_dc, fs_
     }
     if (FS_WITH_DTCOMP && c->dt_predict && c->t_dead_comp > 0.0f) { fs_dtcomp_step(&drv->dtc, in->i_ph, u_inj, duty); }
     else if (c->t_dead_comp > 0.0f) { fs_dtcomp_sampled(c->phases, in->i_ph, drv->dd_dead, c->i_dead_band, duty); }
+    else { /* no dead-time compensation (t_dead_comp = 0) */ }
     u_f->alpha -= u_inj.alpha;   /* the fundamental part */
     u_f->beta -= u_inj.beta;
     return over;
@@ -716,6 +724,8 @@ static float drive_imc_rectify(fs_drive *drv, const fs_drive_in *in, fs_ab *u_re
         }
     } else if (c->imc_region == FS_IMC_OM2) {
         alpha = drive_imc_depth(c) ? drv->alpha : fs_imc_alpha_for_vtr(V_im > 0.0f ? m / V_im : 0.0f);
+    } else {
+        /* FS_IMC_OM1, CASE 1 alone: the reference as it is, alpha 0 */
     }
     fs_imc_rectifier(u_pred, alpha, &out->rect);
     out->alpha = alpha;
@@ -785,9 +795,9 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
             fs_swvi_reset(sw, fs_wrap_pi((float)c->pole_pairs * in->theta_m_enc), 0.0f);
         }
         drv->est_started = true;
-        fs_swvi_step(sw, i_ab);
+        (void)fs_swvi_step(sw, i_ab);
     }
-    if (in->sensorless) {
+    if (in->sensorless != 0) {
         theta = sw->theta;
         w_e = sw->w;
     } else {
@@ -821,10 +831,12 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
         h->u_q = u_real.q;
     } else if (d == 1 && !sw->ff_fresh) {
         drv->u_ff_hold = drv->u_ff_next;   /* the window (k + 1, k + 3) starts at the next update */
+    } else {
+        /* the held voltage stands: between the loops' samples without a delay, or OFF */
     }
     fs_ab u_f;
     fs_ab u_inj = c->mode == FS_MODE_OFF ? (fs_ab){0.0f, 0.0f} : sw->u;
-    drive_modulate(drv, in, in->u_dc, drv->u_ff_hold, u_inj, theta, w_e, out->duty, &u_f);
+    (void)drive_modulate(drv, in, in->u_dc, drv->u_ff_hold, u_inj, theta, w_e, out->duty, &u_f);   /* over-modulation: the window's own check (h) */
 
     out->theta_e = theta;
     out->w_e = w_e;
@@ -982,7 +994,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     }
     if (FS_WITH_ADAPT && c->adapt.T_f > 0.0f) { drive_adapt(drv, in, u_real, i_dq, w_e, closed_loop); }
     if (weakening && !drive_fw_plans(drv)) {
-        fs_fw_step(&drv->fw, u_ref.q - u_real.q, w_e);   /* eq. (26): dv_q */
+        (void)fs_fw_step(&drv->fw, u_ref.q - u_real.q, w_e);   /* eq. (26): dv_q */
     }
 
     out->theta_e = theta;
@@ -1014,6 +1026,8 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
         out->w_est = drv->blend.w_hat;
         out->est_valid = drv->phase == FS_PHASE_RUN && drv->est_started && drv->hfi.k_settle == 0;
         out->g_w = drv->blend.g_w;
+    } else {
+        /* the encoder or an external angle: the loops' own angle and speed (above) */
     }
     out->injecting = drv->injecting && c->mode != FS_MODE_OFF;
     out->phase = drv->phase;

@@ -16,7 +16,7 @@ FS_COLD void fs_drive_start_estimators(fs_drive *drv, const fs_drive_in *in)
 {
     const fs_drive_config *c = &drv->cfg;
     drv->est_started = true;
-    if (in->sensorless) {
+    if (in->sensorless != 0) {
         bool closed_loop = c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED;
         if (closed_loop && drive_detects_polarity(c)) { drv->phase = FS_PHASE_POLARITY; }
         return;
@@ -124,7 +124,7 @@ static void drive_motion_ff(fs_drive *drv, float i_q)
     if (dT == 0.0f) { return; }
     drv->mt_ff = T;
     drv->hfi.obs.T_d_hat -= dT;
-    if (drv->cfg.hfi.lag) { drv->hfi.obs_w.T_d_hat -= dT; }
+    if (drv->cfg.hfi.lag != 0) { drv->hfi.obs_w.T_d_hat -= dT; }
     if (drv->cfg.angle_source == FS_ANGLE_BLEND) { drv->blend.obs.T_d_hat -= dT; }
 }
 
@@ -184,6 +184,8 @@ FS_COLD fs_dq fs_drive_if_step(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab)
         drv->phase = FS_PHASE_RUN;
     } else if (s->timed_out) {
         fs_drive_halt(drv, FS_FAULT_START, NULL);
+    } else {
+        /* the I/f start goes on: the observer has not yet agreed */
     }
     return i_ref;
 }

@@ -97,7 +97,7 @@ FS_COLD fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
         h->n_iq = n < FS_HFI_IQ_MAX ? n : FS_HFI_IQ_MAX;
         h->inv_n_iq = 1.0f / (float)h->n_iq;
     }
-    if (c.lag) {
+    if (c.lag != 0) {
         fs_motion_obs_config ow = c.obs;
         ow.bandwidth = h->w_o_blend;
         st = fs_motion_obs_init(&h->obs_w, &ow);
@@ -115,7 +115,7 @@ FS_COLD void fs_hfi_reset(fs_hfi *h, float theta, float w)
 {
     fs_hfi_filter_reset(&h->filt);
     fs_motion_obs_reset(&h->obs, theta, w);
-    if (h->cfg.lag) { fs_motion_obs_reset(&h->obs_w, theta, w); }
+    if (h->cfg.lag != 0) { fs_motion_obs_reset(&h->obs_w, theta, w); }
     h->theta_h = 0.0f;
     h->e_h.alpha = 1.0f;
     h->e_h.beta = 0.0f;
@@ -151,7 +151,7 @@ FS_COLD void fs_hfi_restart(fs_hfi *h, float theta, float w)
 FS_COLD void fs_hfi_set_angle(fs_hfi *h, float theta, float w)
 {
     fs_motion_obs_reset(&h->obs, theta, w);
-    if (h->cfg.lag) { fs_motion_obs_reset(&h->obs_w, theta, w); }
+    if (h->cfg.lag != 0) { fs_motion_obs_reset(&h->obs_w, theta, w); }
     h->theta = h->obs.theta_hat;
     h->w = h->cfg.lag ? h->obs_w.w_hat : h->obs.w_hat;
 }
@@ -173,7 +173,7 @@ FS_COLD float fs_hfi_axis_error(const fs_hfi *h)
 void fs_hfi_set_load(fs_hfi *h, float T_d)
 {
     h->obs.T_d_hat = T_d;
-    if (h->cfg.lag) { h->obs_w.T_d_hat = T_d; }
+    if (h->cfg.lag != 0) { h->obs_w.T_d_hat = T_d; }
 }
 
 float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
@@ -248,7 +248,7 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
     }
     /* Fig. 4b: fundamental and negative-sequence carrier; with cfg.leak the
      * fundamental's leak taken out of the latter (fs_hfi_filter_step_nl) */
-    if (h->cfg.leak) { fs_hfi_filter_step_nl(&h->filt, i, e_h, e_n, &h->i_f, &h->i_hn); }
+    if (h->cfg.leak != 0) { fs_hfi_filter_step_nl(&h->filt, i, e_h, e_n, &h->i_f, &h->i_hn); }
     else { fs_hfi_filter_step_cs(&h->filt, i, e_h, e_n, &h->i_f, &h->i_hn); }
     const fs_dq lp_p = h->filt.srff_p.lp, lp_n = h->filt.srff_n.lp;
     /* the negative carrier's amplitude, eq. (26)'s divisor: the second
@@ -281,17 +281,19 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
         --h->k_settle;
     } else if (h->i_n_avg > 0.0f) {
         eps_n = fs_clamp_sym((c * h->i_hn.beta - s * h->i_hn.alpha) / h->i_n_avg, 1.0f);
+    } else {
+        /* no negative-sequence carrier yet: no error to correct by */
     }
     h->eps = 0.5f * eps_n;   /* sin(2 dtheta) / 2 ~ dtheta */
 
     /* Fig. 5; with the filter's lag in the loop, nothing to take while the
      * filters settle (its image of the angle stays at the estimate) */
-    if (h->cfg.lag && settling) { fs_motion_obs_predict(&h->obs, T_ff); }
-    else { fs_motion_obs_step(&h->obs, h->eps, T_ff); }
+    if (h->cfg.lag && settling) { (void)fs_motion_obs_predict(&h->obs, T_ff); }
+    else { (void)fs_motion_obs_step(&h->obs, h->eps, T_ff); }
     h->theta = h->obs.theta_hat;
     h->w = h->obs.w_hat;
-    if (h->cfg.lag) {   /* the speed's observer on that angle (header) */
-        fs_motion_obs_step(&h->obs_w, fs_wrap_pi(h->theta - h->obs_w.theta_hat), T_ff);
+    if (h->cfg.lag != 0) {   /* the speed's observer on that angle (header) */
+        (void)fs_motion_obs_step(&h->obs_w, fs_wrap_pi(h->theta - h->obs_w.theta_hat), T_ff);
         h->w = h->obs_w.w_hat;
     }
 

@@ -160,6 +160,7 @@ void fs_smo_set_dir(fs_smo *o, float w)
 {
     if (w > 0.0f) { o->dir = 1.0f; }
     else if (w < 0.0f) { o->dir = -1.0f; }
+    else { /* no direction at zero (or NaN): the last one kept */ }
 }
 
 static float sat(float x, float delta)  /* eq. (6) */
@@ -210,6 +211,8 @@ static void smo_settle(fs_smo *o)
         o->converged = true;
     } else if (!in) {
         o->converged = false;
+    } else {
+        /* agreeing, not yet for n_settle steps: converged as it was */
     }
 }
 
@@ -399,7 +402,7 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
         }
         if (!modelled) {
             const float T_net = o->valid ? kappa * T - (1.0f - kappa) * o->mo.T_d_hat : -o->mo.T_d_hat;
-            fs_motion_obs_step(&o->mo, kappa * err, T_net);
+            (void)fs_motion_obs_step(&o->mo, kappa * err, T_net);
             o->T_hold = T;
             /* Becoming valid (below, on this speed), the model's acceleration,
              * nil until now, stays continuous: T_d starts at -T and learns the
@@ -434,7 +437,7 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
             eps *= o->dir;
         }
         o->psi_x = o->map ? o->psi_run : smo_psi_x(c, i.alpha * cth + i.beta * sth);   /* for `converged` */
-        fs_pll_step(&o->pll, eps);
+        (void)fs_pll_step(&o->pll, eps);
         o->eps = eps;
         o->e_mag = mag;
         o->w = o->pll.w;
@@ -446,6 +449,7 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
         if (!c->dir_external) {   /* the direction turns only past w_valid (above) */
             if (o->w > c->w_valid) { o->dir = 1.0f; }
             else if (o->w < -c->w_valid) { o->dir = -1.0f; }
+            else { /* within +-w_valid: the direction kept */ }
         }
     }
     float aw = fabsf(o->w);
