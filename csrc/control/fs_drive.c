@@ -36,7 +36,7 @@ enum { F = 0, N = 1, P = 2 };
     X(imc_i_lim, F, FS_ERR_I_MAX) X(imc_V_im, F, FS_ERR_LIMIT) X(T_slew, N, FS_ERR_LIMIT)
 /* two bytes a field: its offset in floats, its kind and status; the names
  * in one string, in the same order, each ended by a NUL */
-#define FIELD_ENTRY(f, kind, status) {(uint8_t)(offsetof(fs_drive_config, f) / sizeof(float)), (uint8_t)((kind) << 6 | (status))},
+#define FIELD_ENTRY(f, kind, status) {(uint8_t)((uint32_t)offsetof(fs_drive_config, f) / (uint32_t)sizeof(float)), (uint8_t)(((uint32_t)(kind) << 6u) | (uint32_t)(status))},
 #define FIELD_NAME(f, kind, status) #f "\0"
 static const uint8_t drive_fields[][2] = {DRIVE_FIELDS(FIELD_ENTRY)};
 static const char drive_field_names[] = DRIVE_FIELDS(FIELD_NAME);
@@ -53,7 +53,8 @@ static FS_COLD fs_status drive_check_fields(const fs_drive_config *cfg, const ch
         const int kind = drive_fields[k][1] >> 6;
         if (!fs_fin(x) || (kind == N && !(x >= 0.0f)) || (kind == P && !(x > 0.0f))) {
             *name = s;
-            return (fs_status)(drive_fields[k][1] & 63);
+            const uint32_t status = (uint32_t)drive_fields[k][1] & 63u;   /* the low six bits */
+            return (fs_status)status;
         }
         while (*s++ != '\0') {}
     }
@@ -77,7 +78,7 @@ static FS_COLD fs_status drive_init_injection(fs_drive *drv, const fs_drive_conf
     /* the carrier current's peak, I_p + I_n = u_h / (w_h min(L_d, L_q)) */
     drv->i_hf = hc.u_h / (drv->hfi.cfg.w_h * fs_minf(hc.L_d, hc.L_q));
     if (!(drv->i_hf < 0.5f * cfg->i_max)) { REFUSE("hfi.u_h", FS_ERR_ABOVE_I_MAX); }
-    if (cfg->angle_source == FS_ANGLE_BLEND) {
+    if (cfg->angle_source == (int)FS_ANGLE_BLEND) {
         fs_blend_config bc = cfg->blend;
         mo.bandwidth = bc.obs.bandwidth > 0.0f ? bc.obs.bandwidth : drv->hfi.w_o_blend;   /* fs_hfi.h */
         bc.obs = mo;
@@ -93,7 +94,7 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     drv->fail = NULL;
     if (!cfg) { REFUSE("config", FS_ERR_NULL); }
     if (cfg->config_size != 0u && cfg->config_size != (unsigned int)sizeof(fs_drive_config)) { REFUSE("config_size", FS_ERR_PARAM); }
-    if (cfg->mode == FS_MODE_IDENTIFY) {   /* knows no machine yet */
+    if (cfg->mode == (int)FS_MODE_IDENTIFY) {   /* knows no machine yet */
         if (!FS_WITH_IDENT) { REFUSE("mode", FS_ERR_MODE); }
         return fs_drive_ident_init(drv, cfg);
     }
@@ -102,12 +103,12 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
     if (cfg->phases != 3 && cfg->phases != 5) { REFUSE("phases", FS_ERR_PARAM); }
     /* what this build leaves out (fs_drive.h, FS_WITH_*) */
     if (!FS_WITH_FIVE_PHASE && cfg->phases == 5) { REFUSE("phases", FS_ERR_MODE); }
-    if (!FS_WITH_SWVI && cfg->angle_source == FS_ANGLE_SWVI) { REFUSE("angle_source", FS_ERR_MODE); }
-    if (!FS_WITH_IMC && cfg->converter == FS_CONV_IMC) { REFUSE("converter", FS_ERR_MODE); }
+    if (!FS_WITH_SWVI && cfg->angle_source == (int)FS_ANGLE_SWVI) { REFUSE("angle_source", FS_ERR_MODE); }
+    if (!FS_WITH_IMC && cfg->converter == (int)FS_CONV_IMC) { REFUSE("converter", FS_ERR_MODE); }
     if (!FS_WITH_ADAPT && cfg->adapt.T_f > 0.0f) { REFUSE("adapt", FS_ERR_MODE); }
     if (!FS_WITH_DTCOMP && cfg->dt_predict) { REFUSE("dt_predict", FS_ERR_MODE); }
-    if (cfg->mode < FS_MODE_OFF || cfg->mode > FS_MODE_SPEED) { REFUSE("mode", FS_ERR_MODE); }
-    if (cfg->angle_source < FS_ANGLE_ENCODER || cfg->angle_source > FS_ANGLE_SWVI) { REFUSE("angle_source", FS_ERR_MODE); }
+    if (cfg->mode < (int)FS_MODE_OFF || cfg->mode > (int)FS_MODE_SPEED) { REFUSE("mode", FS_ERR_MODE); }
+    if (cfg->angle_source < (int)FS_ANGLE_ENCODER || cfg->angle_source > (int)FS_ANGLE_SWVI) { REFUSE("angle_source", FS_ERR_MODE); }
     if (!(cfg->T_pwm >= cfg->Ts)) { REFUSE("T_pwm", FS_ERR_TS); }
     if (!(cfg->delay >= 0.0f && cfg->delay <= 2.0f)) { REFUSE("delay", FS_ERR_PARAM); }
     if (cfg->pole_pairs < 1) { REFUSE("pole_pairs", FS_ERR_POLE_PAIRS); }
@@ -142,7 +143,7 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         oc.B = cfg->B;
         oc.pole_pairs = cfg->pole_pairs;
         oc.phases = cfg->phases;
-        oc.dir_external = cfg->angle_source == FS_ANGLE_BLEND;
+        oc.dir_external = cfg->angle_source == (int)FS_ANGLE_BLEND;
         SUB("smo", fs_smo_init(&drv->smo, &oc));
     }
     if (cfg->phases == 5 && cfg->bw_xy > 0.0f) {
@@ -165,7 +166,7 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         if (!(ac.w_e_max > 0.0f)) { ac.w_e_max = cfg->smo.w_e_max; }
         SUB("adapt", fs_param_adapt_init(&drv->adapt, &ac));
     }
-    if (cfg->mode == FS_MODE_SPEED) {
+    if (cfg->mode == (int)FS_MODE_SPEED) {
         fs_speed_ctrl_config scc = {Tl, cfg->J, cfg->B, cfg->bw_speed, cfg->T_max, cfg->k_p_w, cfg->k_i_w};
         st = fs_speed_ctrl_init(&drv->sc, &scc);
         if (st != FS_OK) {
@@ -195,7 +196,8 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         drv->lock_a = fs_exp_pole(-4.0f * Tl / cfg->lock_time);
         /* the rating: T_max, or in current mode the torque of i_max on q */
         const float T_lim = fs_maxf(cfg->T_max, fabsf(drive_torque(cfg, (fs_dq){0.0f, cfg->i_max})));
-        fs_monitor_config mc = {Tl, (int)(cfg->delay + 0.5f), cfg->R_s, cfg->L_d, cfg->L_q, cfg->psi_f,
+        const float delay_steps = cfg->delay + 0.5f;   /* rounded by the truncation to int */
+        fs_monitor_config mc = {Tl, (int)delay_steps, cfg->R_s, cfg->L_d, cfg->L_q, cfg->psi_f,
                                 cfg->pole_pairs, fs_maxf(cfg->J, 0.0f), cfg->B, T_lim, cfg->i_max,
                                 cfg->t_dead_comp / cfg->T_pwm, 0.25f * cfg->lock_time, cfg->lock_time,
                                 drive_injects(cfg) ? cfg->hfi.w_h : 0.0f};
@@ -213,7 +215,7 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         if (st != FS_OK) { return st; }
     }
     if (drive_square(cfg)) {
-        if (cfg->mode != FS_MODE_OFF && cfg->mode != FS_MODE_CURRENT && cfg->mode != FS_MODE_SPEED) { REFUSE("mode", FS_ERR_MODE); }
+        if (cfg->mode != (int)FS_MODE_OFF && cfg->mode != (int)FS_MODE_CURRENT && cfg->mode != (int)FS_MODE_SPEED) { REFUSE("mode", FS_ERR_MODE); }
         if (cfg->delay != 0.0f && cfg->delay != 1.0f) { REFUSE("delay", FS_ERR_PARAM); }
         fs_swvi_config wc = cfg->swvi;
         wc.Ts = cfg->Ts;
@@ -222,10 +224,10 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         wc.L_q = cfg->L_q;
         SUB("swvi", fs_swvi_init(&drv->sw, &wc));
     }
-    if (cfg->converter != FS_CONV_VSI && cfg->converter != FS_CONV_IMC) { REFUSE("converter", FS_ERR_MODE); }
+    if (cfg->converter != (int)FS_CONV_VSI && cfg->converter != (int)FS_CONV_IMC) { REFUSE("converter", FS_ERR_MODE); }
     if (drive_imc(cfg)) {
         if (cfg->phases != 3 || drive_square(cfg)) { REFUSE("converter", FS_ERR_MODE); }
-        if (cfg->imc_region < FS_IMC_LINEAR || cfg->imc_region > FS_IMC_OM2) { REFUSE("imc_region", FS_ERR_MODE); }
+        if (cfg->imc_region < (int)FS_IMC_LINEAR || cfg->imc_region > (int)FS_IMC_OM2) { REFUSE("imc_region", FS_ERR_MODE); }
         if (drive_imc_depth(cfg)) {
             if (!(cfg->imc_i_lim > 0.0f)) { REFUSE("imc_i_lim", FS_ERR_I_MAX); }
             if (cfg->imc_i_lim > cfg->i_max) { REFUSE("imc_i_lim", FS_ERR_ABOVE_I_MAX); }
@@ -244,13 +246,13 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
 
 FS_COLD void fs_drive_reset(fs_drive *drv)
 {
-    if (FS_WITH_IDENT && drv->cfg.mode == FS_MODE_IDENTIFY) {
+    if (FS_WITH_IDENT && drv->cfg.mode == (int)FS_MODE_IDENTIFY) {
         fs_ident_reset(&drv->ident);
         return;
     }
     fs_current_ctrl_reset(&drv->cc);
     fs_pll_reset(&drv->pll, 0.0f, 0.0f);
-    if (drv->cfg.mode == FS_MODE_SPEED) { fs_speed_ctrl_reset(&drv->sc); }
+    if (drv->cfg.mode == (int)FS_MODE_SPEED) { fs_speed_ctrl_reset(&drv->sc); }
     if (drive_has_smo(&drv->cfg)) { fs_smo_reset(&drv->smo, 0.0f, 0.0f); }
     if (drive_weakens(&drv->cfg)) { fs_fw_reset(&drv->fw); }
     if (drive_weakens(&drv->cfg) && drive_fw_plans(drv)) { fs_fwmap_reset(&drv->fwm); }
@@ -258,7 +260,7 @@ FS_COLD void fs_drive_reset(fs_drive *drv)
         fs_hfi_reset(&drv->hfi, 0.0f, 0.0f);
         drv->hfi.gain = drv->hfi.gain_prev = 0.0f;   /* fades in */
         drv->blend.g_w = 0.0f;   /* the injection's weight whole without a blend: the torque's slew reads it */
-        if (drv->cfg.angle_source == FS_ANGLE_BLEND) { fs_blend_reset(&drv->blend, 0.0f, 0.0f); }
+        if (drv->cfg.angle_source == (int)FS_ANGLE_BLEND) { fs_blend_reset(&drv->blend, 0.0f, 0.0f); }
     }
     fs_drive_start_reset(drv);
     if (drive_square(&drv->cfg)) { fs_swvi_reset(&drv->sw, 0.0f, 0.0f); }
@@ -326,11 +328,11 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
         (void)fs_hfi_step(&drv->hfi, i_ab, T_ff);
         i_f = drv->hfi.i_f;
     }
-    if (c->angle_source == FS_ANGLE_BLEND) {
+    if (c->angle_source == (int)FS_ANGLE_BLEND) {
         /* the direction from the blended speed once it is clear of the
          * injection estimate's wander at standstill; while recovering from
          * a lost blend, from the observer's own speed past w_valid */
-        const bool own = drv->phase == FS_PHASE_RECOVER;
+        const bool own = drv->phase == (int)FS_PHASE_RECOVER;
         const float w_dir = own ? drv->smo.w : drv->blend.w_hat;
         const float w_min = own ? drv->smo.cfg.w_valid : 0.5f * drv->blend.cfg.w_lower;
         if (fabsf(w_dir) > w_min) { fs_smo_set_dir(&drv->smo, w_dir); }
@@ -375,7 +377,7 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
          * and the blend, left on its own model at its slower bandwidth, ran 40 el.deg off in 13 ms while
          * the tracker stayed within 11 */
         const bool trusted = drv->smo.converged || (drv->follows && drv->smo.valid);
-        drv->follows = drive_map(drv) && drv->blend.g_w >= 1.0f && trusted && c->smo.form == FS_SMO_FORM_TRACKING;
+        drv->follows = drive_map(drv) && drv->blend.g_w >= 1.0f && trusted && c->smo.form == (int)FS_SMO_FORM_TRACKING;
         if (drv->follows) {
             fs_blend_follow(&drv->blend, drv->smo.theta, drv->smo.w, drv->smo.mo.T_d_hat);
         }
@@ -447,7 +449,7 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
 static void drive_sensor_angle(fs_drive *drv, const fs_drive_in *in, float *theta, float *w)
 {
     const fs_drive_config *c = &drv->cfg;
-    if (c->angle_source == FS_ANGLE_EXTERNAL) {
+    if (c->angle_source == (int)FS_ANGLE_EXTERNAL) {
         *theta = in->theta_e_ext;
         *w = in->w_e_ext;
         return;
@@ -487,7 +489,7 @@ static void drive_sensor_angle(fs_drive *drv, const fs_drive_in *in, float *thet
 static float drv_blend_theta(const fs_drive *drv)
 {
     const fs_hfi *h = &drv->hfi;
-    if (drv->blend.g_w >= 1.0f && !drv->injecting && drv->smo.converged && drv->cfg.smo.form == FS_SMO_FORM_TRACKING) {
+    if (drv->blend.g_w >= 1.0f && !drv->injecting && drv->smo.converged && drv->cfg.smo.form == (int)FS_SMO_FORM_TRACKING) {
         return drv->smo.theta;   /* above the band (header) */
     }
     if (!drv->cfg.hfi.lag || !drv->inject_on || h->gain < 1.0f || h->k_settle > 0) { return drv->blend.theta_hat; }
@@ -499,21 +501,21 @@ static float drv_blend_theta(const fs_drive *drv)
 static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float *theta, float *w)
 {
     const fs_drive_config *c = &drv->cfg;
-    if (c->angle_source == FS_ANGLE_SMO) {
+    if (c->angle_source == (int)FS_ANGLE_SMO) {
         (void)fs_smo_step(&drv->smo, *i_ab, drive_smo_u(drv, *i_ab));
         if (in->sensorless != 0) {
-            if (FS_WITH_IF_START && c->w_restart > 0.0f && drv->phase == FS_PHASE_RUN) { fs_drive_if_restart(drv, in); }
-            bool start = drv->phase == FS_PHASE_START;
+            if (FS_WITH_IF_START && c->w_restart > 0.0f && drv->phase == (int)FS_PHASE_RUN) { fs_drive_if_restart(drv, in); }
+            bool start = drv->phase == (int)FS_PHASE_START;
             *theta = start ? drv->ifs.theta : drv->smo.theta;
             *w = start ? drv->ifs.w : drv->smo.w;
             return;
         }
     }
-    if (drive_injects(c) && c->mode != FS_MODE_OFF) {   /* OFF injects nothing to estimate from */
+    if (drive_injects(c) && c->mode != (int)FS_MODE_OFF) {   /* OFF injects nothing to estimate from */
         if (!drv->est_started) { fs_drive_start_estimators(drv, in); }
         *i_ab = drive_injection_step(drv, *i_ab);
         if (in->sensorless != 0) {
-            bool blend = c->angle_source == FS_ANGLE_BLEND;
+            bool blend = c->angle_source == (int)FS_ANGLE_BLEND;
             *theta = blend ? drv_blend_theta(drv) : drv->hfi.theta;
             *w = blend ? drv->blend.w_hat : drv->hfi.w;
             return;
@@ -564,14 +566,14 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
     const fs_drive_config *c = &drv->cfg;
     fs_dq i_ref = {in->i_d_ref, in->i_q_ref};
     *T_ref = 0.0f;
-    if (drv->phase == FS_PHASE_RECOVER) {
+    if (drv->phase == (int)FS_PHASE_RECOVER) {
         i_ref.d = i_ref.q = 0.0f;
         fs_drive_recover_step(drv, i_ab);
-    } else if (drv->phase == FS_PHASE_POLARITY) {
+    } else if (drv->phase == (int)FS_PHASE_POLARITY) {
         i_ref = fs_drive_polarity_step(drv);
-    } else if (FS_WITH_IF_START && c->mode == FS_MODE_SPEED && in->sensorless && drv->phase == FS_PHASE_START) {
+    } else if (FS_WITH_IF_START && c->mode == (int)FS_MODE_SPEED && in->sensorless && drv->phase == (int)FS_PHASE_START) {
         i_ref = fs_drive_if_step(drv, in, i_ab);
-    } else if (c->mode == FS_MODE_SPEED) {
+    } else if (c->mode == (int)FS_MODE_SPEED) {
         *T_ref = fs_speed_ctrl_step(&drv->sc, in->w_m_ref, w_e / (float)c->pole_pairs);
         if (drv->injecting && (drv->blend.g_w < 1.0f)) {   /* the torque's slew while injecting (fs_drive.h) */
             const float lim = c->T_slew * c->Ts;
@@ -616,7 +618,7 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
                                  float cos_t, float sin_t)
 {
     const fs_drive_config *c = &drv->cfg;
-    const bool run = in->sensorless && drv->phase == FS_PHASE_RUN;
+    const bool run = in->sensorless && drv->phase == (int)FS_PHASE_RUN;
     drv->t_quiet = run ? fs_maxf(drv->t_quiet - c->Ts, 0.0f) : drv->t_quiet;
     const bool settled = drv->t_quiet <= 0.0f;   /* after polarity detection (fs_drive_start.c) */
     const float g_w = out ? out->g_w : 0.0f;
@@ -625,12 +627,12 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
         const fs_monitor_in mi = {i_ab, drv->u_hist[0], in->u_dc, out->theta_e, out->w_e, cos_t, sin_t,
                                   {out->i_d, out->i_q}, drv->T_ff,   /* the torque of out->i_d_ref, i_q_ref */
                                   {out->i_d_ref - out->i_d, out->i_q_ref - out->i_q},
-                                  run && settled && (c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED),
+                                  run && settled && (c->mode == (int)FS_MODE_CURRENT || c->mode == (int)FS_MODE_SPEED),
                                   out->over_modulation};
         r_mon = fs_monitor_step(&drv->mon, &mi);
         if (drv->mon.jumped) { fs_lock_latch(&drv->lock); }
     }
-    const bool blend = c->angle_source == FS_ANGLE_BLEND;
+    const bool blend = c->angle_source == (int)FS_ANGLE_BLEND;
     const float b = 1.0f - drv->lock_a;
     /* each low-pass runs while its signal means something and starts from
      * 0 when it comes back, so that no stale value returns */
@@ -640,7 +642,7 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
      * over 30 deg (a rated load step swings it to about 28 on yu2022's
      * bench, U-XCOUPLE, and the estimate comes back) */
     const bool square = drive_square(c);
-    const bool inj_on = run && settled && (square ? c->mode != FS_MODE_OFF && drv->sw.k > 4
+    const bool inj_on = run && settled && (square ? c->mode != (int)FS_MODE_OFF && drv->sw.k > 4
                                                   : drive_injects(c) && drv->injecting && drv->hfi.k_settle == 0);
     const float eps_inj = square ? drv->sw.eps : drv->hfi.eps;
     drv->lock_ri = smo_on ? drv->lock_ri + b * (drv->smo.r_i - drv->lock_ri) : 0.0f;
@@ -649,8 +651,8 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
     const float r_smo = fs_maxf(0.5f * drv->lock_ri, 2.0f * fabsf(drv->lock_es));   /* 2 delta, sin 30 deg */
     const float r_inj = fabsf(drv->lock_eh) * (square ? 1.9098593f : 3.8197186f); /* 30 or 15 deg */
     float r = 0.0f;
-    if (c->angle_source == FS_ANGLE_SMO || (blend && g_w > 0.0f)) { r = r_smo; }
-    if (c->angle_source == FS_ANGLE_HFI || square || (blend && g_w < 1.0f)) { r = fs_maxf(r, r_inj); }
+    if (c->angle_source == (int)FS_ANGLE_SMO || (blend && g_w > 0.0f)) { r = r_smo; }
+    if (c->angle_source == (int)FS_ANGLE_HFI || square || (blend && g_w < 1.0f)) { r = fs_maxf(r, r_inj); }
     /* an observer on track above the band, whose EMF is as large as its
      * speed says (not a PLL swinging at low speed: at least half of the
      * |w| psi_f / sqrt 2 its filter passes), against the blended angle */
@@ -682,7 +684,7 @@ static bool drive_modulate(fs_drive *drv, const fs_drive_in *in, float u_dc, fs_
                            float theta, float w_e, float duty[], fs_ab *u_f)
 {
     const fs_drive_config *c = &drv->cfg;
-    if (c->mode == FS_MODE_OFF) {
+    if (c->mode == (int)FS_MODE_OFF) {
         for (int k = 0; k < c->phases; ++k) { duty[k] = 0.5f; }
         u_f->alpha = u_f->beta = 0.0f;
         return false;
@@ -716,13 +718,13 @@ static float drive_imc_rectify(fs_drive *drv, const fs_drive_in *in, fs_ab *u_re
     const float V_im = sqrtf(v.alpha * v.alpha + v.beta * v.beta);
     const float m = sqrtf(u_ref->alpha * u_ref->alpha + u_ref->beta * u_ref->beta);
     float alpha = 0.0f;
-    if (c->imc_region == FS_IMC_LINEAR) {
+    if (c->imc_region == (int)FS_IMC_LINEAR) {
         const float lim = fs_imc_vtr_max(FS_IMC_LINEAR, 0.0f) * V_im;
         if (m > lim) {
             u_ref->alpha *= lim / m;
             u_ref->beta *= lim / m;
         }
-    } else if (c->imc_region == FS_IMC_OM2) {
+    } else if (c->imc_region == (int)FS_IMC_OM2) {
         alpha = drive_imc_depth(c) ? drv->alpha : fs_imc_alpha_for_vtr(V_im > 0.0f ? m / V_im : 0.0f);
     } else {
         /* FS_IMC_OM1, CASE 1 alone: the reference as it is, alpha 0 */
@@ -762,14 +764,14 @@ static float drive_map_step(fs_drive *drv, fs_dq i, fs_dq i_ref)
 static int drive_stage(const fs_drive *drv, const fs_drive_in *in, float g_w, bool weakens)
 {
     const fs_drive_config *c = &drv->cfg;
-    if (c->mode != FS_MODE_CURRENT && c->mode != FS_MODE_SPEED) { return FS_STAGE_OPEN; }
-    if (drv->phase == FS_PHASE_POLARITY) { return FS_STAGE_POLARITY; }
-    if (drv->phase >= FS_PHASE_RECOVER) {   /* one comparison for both: RECOVER < HALT */
-        return drv->phase == FS_PHASE_RECOVER ? FS_STAGE_RECOVERY : FS_STAGE_OPEN;
+    if (c->mode != (int)FS_MODE_CURRENT && c->mode != (int)FS_MODE_SPEED) { return FS_STAGE_OPEN; }
+    if (drv->phase == (int)FS_PHASE_POLARITY) { return FS_STAGE_POLARITY; }
+    if (drv->phase >= (int)FS_PHASE_RECOVER) {   /* one comparison for both: RECOVER < HALT */
+        return drv->phase == (int)FS_PHASE_RECOVER ? FS_STAGE_RECOVERY : FS_STAGE_OPEN;
     }
-    if (in->sensorless && drv->phase == FS_PHASE_START) { return FS_STAGE_START; }
+    if (in->sensorless && drv->phase == (int)FS_PHASE_START) { return FS_STAGE_START; }
     if (weakens) {
-        const float lim = (drv->stage == FS_STAGE_FLUX_WEAKENING ? -0.01f : -0.02f) * c->i_max;
+        const float lim = (drv->stage == (int)FS_STAGE_FLUX_WEAKENING ? -0.01f : -0.02f) * c->i_max;
         if (drv->fw.i_d < lim || drv->fw_map_on) { return FS_STAGE_FLUX_WEAKENING; }
     }
     if (!in->sensorless) { return FS_STAGE_SENSOR; }
@@ -788,9 +790,10 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
 {
     const fs_drive_config *c = &drv->cfg;
     fs_swvi *sw = &drv->sw;
-    const int d = c->delay > 0.5f ? 1 : 0;
+    /* cfg->delay, 0 or 1 (init refuses any other for the square wave); the constants as wide as d */
+    const int d = (c->delay > 0.5f) ? (int)1 : (int)0;
     float theta, w_e;
-    if (c->mode != FS_MODE_OFF) {   /* OFF injects nothing to estimate from */
+    if (c->mode != (int)FS_MODE_OFF) {   /* OFF injects nothing to estimate from */
         if (!drv->est_started && !in->sensorless) {
             fs_swvi_reset(sw, fs_wrap_pi((float)c->pole_pairs * in->theta_m_enc), 0.0f);
         }
@@ -804,12 +807,13 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
         drive_sensor_angle(drv, in, &theta, &w_e);
     }
     fs_drive_out *h = &drv->held;
-    if (sw->ff_fresh && c->mode != FS_MODE_OFF) {
+    if (sw->ff_fresh && c->mode != (int)FS_MODE_OFF) {
         fs_dq i_dq = fs_park(sw->i_f, fs_cosf(theta), fs_sinf(theta));
         fs_dq i_ref = drive_current_ref(drv, in, sw->i_f, w_e, drive_weakens(c), &h->T_ref);
         fs_dq u_ref = fs_current_ctrl_step(&drv->cc, i_ref, i_dq, w_e);
         /* turned to the middle of the window it acts over */
-        const float theta_u = theta + w_e * c->Ts * (float)(2 * d + 1);
+        const int n_mid = (2 * d) + 1;   /* samples from k to the middle of the window (k + 2d, k + 2d + 2) */
+        const float theta_u = theta + w_e * c->Ts * (float)n_mid;
         const float cu = fs_cosf(theta_u), su = fs_sinf(theta_u);
         fs_ab u = fs_inv_park(u_ref, cu, su);
         /* what the modulator realises beside the carrier (anti-windup) */
@@ -835,7 +839,7 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
         /* the held voltage stands: between the loops' samples without a delay, or OFF */
     }
     fs_ab u_f;
-    fs_ab u_inj = c->mode == FS_MODE_OFF ? (fs_ab){0.0f, 0.0f} : sw->u;
+    fs_ab u_inj = c->mode == (int)FS_MODE_OFF ? (fs_ab){0.0f, 0.0f} : sw->u;
     (void)drive_modulate(drv, in, in->u_dc, drv->u_ff_hold, u_inj, theta, w_e, out->duty, &u_f);   /* over-modulation: the window's own check (h) */
 
     out->theta_e = theta;
@@ -854,7 +858,7 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     out->phase = FS_PHASE_RUN;
     out->i_d_fw = 0.0f;
     out->g_w = 0.0f;
-    out->injecting = c->mode != FS_MODE_OFF;
+    out->injecting = c->mode != (int)FS_MODE_OFF;
     out->i_hf_d = sw->i_h.d;
     out->i_hf_q = sw->i_h.q;
     /* loss of lock (fs_drive.h), at the loops' rate */
@@ -875,7 +879,7 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
  * current loop's feed-forward take them. */
 static void drive_adapt(fs_drive *drv, const fs_drive_in *in, fs_dq u, fs_dq i, float w_e, bool closed_loop)
 {
-    const bool learn = closed_loop && in->sensorless && drv->phase == FS_PHASE_RUN;
+    const bool learn = closed_loop && in->sensorless && drv->phase == (int)FS_PHASE_RUN;
     if (fs_param_adapt_step(&drv->adapt, u, i, w_e, learn)) {
         drv->smo.cfg.R_s = drv->adapt.R_s;
         drv->cc.cfg.psi_f = drv->adapt.psi_f;
@@ -898,18 +902,18 @@ static void drive_step_halt(const fs_drive *drv, fs_ab i_ab, fs_drive_out *out)
     out->stage = FS_STAGE_OPEN;
     out->fault = drv->fault;
     out->recoveries = drv->recoveries;
-    out->lock_lost = drv->fault == FS_FAULT_LOCK;
+    out->lock_lost = drv->fault == (int)FS_FAULT_LOCK;
 }
 
 void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
 {
     const fs_drive_config *c = &drv->cfg;
-    if (FS_WITH_IDENT && c->mode == FS_MODE_IDENTIFY) {
+    if (FS_WITH_IDENT && c->mode == (int)FS_MODE_IDENTIFY) {
         fs_drive_ident_step(drv, in, out);
         return;
     }
     fs_ab i_ab = drive_clarke(c, in->i_ph);
-    if (drv->phase == FS_PHASE_HALT) {
+    if (drv->phase == (int)FS_PHASE_HALT) {
         drive_step_halt(drv, i_ab, out);
         return;
     }
@@ -930,14 +934,14 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     fs_dq u_ref = {0.0f, 0.0f};
     fs_dq i_ref = {0.0f, 0.0f};
     float T_ref = 0.0f;
-    bool closed_loop = (c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED);
+    bool closed_loop = (c->mode == (int)FS_MODE_CURRENT || c->mode == (int)FS_MODE_SPEED);
     const bool weakens = drive_weakens(c);   /* once: the compiler cannot keep it across the stores below */
 
-    if (c->mode == FS_MODE_VOLTAGE_DQ || c->mode == FS_MODE_VF) {
+    if (c->mode == (int)FS_MODE_VOLTAGE_DQ || c->mode == (int)FS_MODE_VF) {
         theta = drv->theta_ol;
         w_e = in->w_e_ref;
         drv->theta_ol = fs_wrap_pi(drv->theta_ol + c->Ts * in->w_e_ref);
-        if (c->mode == FS_MODE_VOLTAGE_DQ) {
+        if (c->mode == (int)FS_MODE_VOLTAGE_DQ) {
             u_ref.d = in->u_d_ref;
             u_ref.q = in->u_q_ref;
         } else {
@@ -946,9 +950,9 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     }
     float cos_t = fs_cosf(theta), sin_t = fs_sinf(theta);
     fs_dq i_dq = fs_park(i_loop, cos_t, sin_t);
-    bool starting = in->sensorless && drv->phase == FS_PHASE_START;
-    bool polarity = drv->phase == FS_PHASE_POLARITY;
-    const bool recovering = drv->phase == FS_PHASE_RECOVER;
+    bool starting = in->sensorless && drv->phase == (int)FS_PHASE_START;
+    bool polarity = drv->phase == (int)FS_PHASE_POLARITY;
+    const bool recovering = drv->phase == (int)FS_PHASE_RECOVER;
 
     if (closed_loop) {
         /* the frame's axes not yet found: loops that hold in any frame (fs_current_ctrl.h): an I/f
@@ -979,7 +983,7 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     const float cos_u = cos_t * tc - sin_t * ts, sin_u = sin_t * tc + cos_t * ts;
     fs_ab u_ab_ref = fs_inv_park(u_ref, cos_u, sin_u);
     fs_ab u_inj = {0.0f, 0.0f};
-    if (drv->injecting && c->mode != FS_MODE_OFF) { u_inj = drv->hfi.u; }   /* eq. (22) */
+    if (drv->injecting && c->mode != (int)FS_MODE_OFF) { u_inj = drv->hfi.u; }   /* eq. (22) */
     fs_ab u_ab;
     float u_dc = in->u_dc;
     if (drive_imc(c)) { u_dc = drive_imc_rectify(drv, in, &u_ab_ref, out); }
@@ -1012,24 +1016,24 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     out->w_est = w_e;
     out->est_valid = true;
     out->g_w = 1.0f;
-    if (c->angle_source == FS_ANGLE_SMO) {
+    if (c->angle_source == (int)FS_ANGLE_SMO) {
         out->theta_est = drv->smo.theta;
         out->w_est = drv->smo.w;
         out->est_valid = drv->smo.valid;
-    } else if (c->angle_source == FS_ANGLE_HFI) {
+    } else if (c->angle_source == (int)FS_ANGLE_HFI) {
         out->theta_est = drv->hfi.theta;
         out->w_est = drv->hfi.w;
-        out->est_valid = drv->phase == FS_PHASE_RUN && drv->injecting && drv->hfi.k_settle == 0;
+        out->est_valid = drv->phase == (int)FS_PHASE_RUN && drv->injecting && drv->hfi.k_settle == 0;
         out->g_w = 0.0f;
-    } else if (c->angle_source == FS_ANGLE_BLEND) {
+    } else if (c->angle_source == (int)FS_ANGLE_BLEND) {
         out->theta_est = drv->blend.theta_hat;
         out->w_est = drv->blend.w_hat;
-        out->est_valid = drv->phase == FS_PHASE_RUN && drv->est_started && drv->hfi.k_settle == 0;
+        out->est_valid = drv->phase == (int)FS_PHASE_RUN && drv->est_started && drv->hfi.k_settle == 0;
         out->g_w = drv->blend.g_w;
     } else {
         /* the encoder or an external angle: the loops' own angle and speed (above) */
     }
-    out->injecting = drv->injecting && c->mode != FS_MODE_OFF;
+    out->injecting = drv->injecting && c->mode != (int)FS_MODE_OFF;
     out->phase = drv->phase;
     out->i_d_fw = weakens ? drv->fw.i_d : 0.0f;
     out->i_hf_d = out->i_hf_q = 0.0f;

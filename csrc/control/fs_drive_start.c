@@ -17,13 +17,13 @@ FS_COLD void fs_drive_start_estimators(fs_drive *drv, const fs_drive_in *in)
     const fs_drive_config *c = &drv->cfg;
     drv->est_started = true;
     if (in->sensorless != 0) {
-        bool closed_loop = c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED;
+        bool closed_loop = c->mode == (int)FS_MODE_CURRENT || c->mode == (int)FS_MODE_SPEED;
         if (closed_loop && drive_detects_polarity(c)) { drv->phase = FS_PHASE_POLARITY; }
         return;
     }
     float theta = fs_wrap_pi((float)c->pole_pairs * in->theta_m_enc);
     fs_hfi_set_angle(&drv->hfi, theta, 0.0f);
-    if (c->angle_source == FS_ANGLE_BLEND) { fs_blend_reset(&drv->blend, theta, 0.0f); }
+    if (c->angle_source == (int)FS_ANGLE_BLEND) { fs_blend_reset(&drv->blend, theta, 0.0f); }
 }
 
 /* The start's units: the polarity detection (pulses or the motion test;
@@ -41,7 +41,8 @@ FS_COLD fs_status fs_drive_start_init(fs_drive *drv, const fs_drive_config *cfg)
         /* the retries up to the current limit less the carrier's peak */
         if (pc.i_pulse_max == 0.0f) { pc.i_pulse_max = fs_maxf(cfg->i_max - drv->i_hf, pc.i_pulse); }
         pc.w_filter = drv->hfi.cfg.w_b_p;
-        pc.n_carrier = (int)(2.0f * FS_PI / (drv->hfi.cfg.w_h * cfg->Ts) + 0.5f);
+        const float carrier_steps = (2.0f * FS_PI / (drv->hfi.cfg.w_h * cfg->Ts)) + 0.5f;   /* rounded by the truncation */
+        pc.n_carrier = (int)carrier_steps;
         SUB("polarity", fs_polarity_init(&drv->pol, &pc));
     }
     if (drive_injects(cfg) && drive_motion(cfg)) {
@@ -102,12 +103,12 @@ static void drive_polarity_done(fs_drive *drv, bool flip, float t_quiet)
         const float theta = fs_wrap_pi(drv->hfi.theta + FS_PI), T_d = drv->hfi.obs.T_d_hat;
         fs_hfi_set_angle(&drv->hfi, theta, drv->hfi.w);
         fs_hfi_set_load(&drv->hfi, T_d);   /* the load does not turn with the estimate */
-        if (drv->cfg.angle_source == FS_ANGLE_BLEND) {
+        if (drv->cfg.angle_source == (int)FS_ANGLE_BLEND) {
             fs_blend_reset(&drv->blend, theta, drv->hfi.w);
             drv->blend.obs.T_d_hat = T_d;
         }
     }
-    if (drv->cfg.mode == FS_MODE_SPEED) { fs_speed_ctrl_reset(&drv->sc); }
+    if (drv->cfg.mode == (int)FS_MODE_SPEED) { fs_speed_ctrl_reset(&drv->sc); }
     /* the lock's checks start once the estimate has settled (t_quiet): the
      * loops' angle that turned by pi is not a jump (fs_monitor.h, 4.) */
     drv->t_quiet = t_quiet;
@@ -125,7 +126,7 @@ static void drive_motion_ff(fs_drive *drv, float i_q)
     drv->mt_ff = T;
     drv->hfi.obs.T_d_hat -= dT;
     if (drv->cfg.hfi.lag != 0) { drv->hfi.obs_w.T_d_hat -= dT; }
-    if (drv->cfg.angle_source == FS_ANGLE_BLEND) { drv->blend.obs.T_d_hat -= dT; }
+    if (drv->cfg.angle_source == (int)FS_ANGLE_BLEND) { drv->blend.obs.T_d_hat -= dT; }
 }
 
 /* One step of the polarity detection: the d-current pulses or the motion
@@ -138,10 +139,10 @@ FS_COLD fs_dq fs_drive_polarity_step(fs_drive *drv)
     if (drive_motion(&drv->cfg)) {
         i_ref.q = fs_motion_test_step(&drv->mt, drv->hfi.theta);
         drive_motion_ff(drv, i_ref.q);
-        if (drv->mt.stage == FS_MOTION_DONE) {   /* it ends on a settled estimate: its turn is read with no current */
+        if (drv->mt.stage == (int)FS_MOTION_DONE) {   /* it ends on a settled estimate: its turn is read with no current */
             drive_polarity_done(drv, drv->mt.flip, 2.0f * drv->cfg.Ts);
         }
-        if (drv->mt.stage == FS_MOTION_UNDETERMINED) { fs_drive_halt(drv, FS_FAULT_POLARITY, NULL); }
+        if (drv->mt.stage == (int)FS_MOTION_UNDETERMINED) { fs_drive_halt(drv, FS_FAULT_POLARITY, NULL); }
         return i_ref;
     }
     i_ref.d = fs_polarity_step(&drv->pol, drv->hfi.i_p, drv->hfi.w);
@@ -150,8 +151,8 @@ FS_COLD fs_dq fs_drive_polarity_step(fs_drive *drv)
      * (polarity.t_lock), and only then does its error say whether it tracks
      * (a saturating 30 kW traction machine: 24 el.deg off after its 74 A
      * pulses, back within 30 ms) */
-    if (drv->pol.stage == FS_POLARITY_DONE) { drive_polarity_done(drv, drv->pol.flip, fs_maxf(drv->cfg.polarity.t_lock, 2.0f * drv->cfg.Ts)); }
-    if (drv->pol.stage == FS_POLARITY_UNDETERMINED) { fs_drive_halt(drv, FS_FAULT_POLARITY, NULL); }
+    if (drv->pol.stage == (int)FS_POLARITY_DONE) { drive_polarity_done(drv, drv->pol.flip, fs_maxf(drv->cfg.polarity.t_lock, 2.0f * drv->cfg.Ts)); }
+    if (drv->pol.stage == (int)FS_POLARITY_UNDETERMINED) { fs_drive_halt(drv, FS_FAULT_POLARITY, NULL); }
     return i_ref;
 }
 
@@ -216,7 +217,7 @@ FS_COLD bool fs_drive_restart(fs_drive *drv)
     const fs_drive_config *c = &drv->cfg;
     if (drive_injects(c)) {
         drv->inject_on = true;
-        if (c->angle_source == FS_ANGLE_BLEND) { fs_blend_reset(&drv->blend, drv->hfi.theta, drv->hfi.w); }
+        if (c->angle_source == (int)FS_ANGLE_BLEND) { fs_blend_reset(&drv->blend, drv->hfi.theta, drv->hfi.w); }
         if (drive_detects_polarity(c)) {
             fs_drive_start_reset(drv);
             drv->phase = FS_PHASE_POLARITY;

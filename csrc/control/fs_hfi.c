@@ -93,7 +93,8 @@ FS_COLD fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
     h->k_follow = -expm1f(-c.w_b_n * c.Ts);   /* fs_hfi_follow: the filters' bandwidth */
     h->w_o_blend = c.lag ? FS_HFI_OBS_PER_FILTER * c.w_b_n : c.obs.bandwidth;
     {   /* the table's i_q over a carrier period (header) */
-        const int n = (int)(2.0f * FS_PI / (c.w_h * c.Ts) + 0.5f);
+        const float period_steps = (2.0f * FS_PI / (c.w_h * c.Ts)) + 0.5f;   /* rounded by the truncation to int */
+        const int n = (int)period_steps;
         h->n_iq = n < FS_HFI_IQ_MAX ? n : FS_HFI_IQ_MAX;
         h->inv_n_iq = 1.0f / (float)h->n_iq;
     }

@@ -43,8 +43,8 @@ FS_COLD fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
         return FS_ERR_LIMIT;
     }
     if (!fs_nonneg(cfg->k) || !fs_nonneg(cfg->delta) || !fs_nonneg(cfg->w_valid)) { return FS_ERR_PARAM; }
-    if (cfg->lag != FS_SMO_LAG_EXACT && cfg->lag != FS_SMO_LAG_PAPER) { return FS_ERR_MODE; }
-    if (cfg->form != FS_SMO_FORM_PAPER && cfg->form != FS_SMO_FORM_TRACKING) { return FS_ERR_MODE; }
+    if (cfg->lag != (int)FS_SMO_LAG_EXACT && cfg->lag != (int)FS_SMO_LAG_PAPER) { return FS_ERR_MODE; }
+    if (cfg->form != (int)FS_SMO_FORM_PAPER && cfg->form != (int)FS_SMO_FORM_TRACKING) { return FS_ERR_MODE; }
     o->cfg = *cfg;
     /* eq. (18): k > max(|e_alpha|, |e_beta|) / 2, with the extended EMF
      * E_ex = w psi_f + (L_d - L_q) w i_d at most w_max (psi_f + |L_d - L_q| i_max) */
@@ -70,7 +70,7 @@ FS_COLD fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
     /* converged: 4 time constants of the tracker without a break */
     o->n_settle = fs_ceil_int(4.0f / (cfg->bw_pll * cfg->Ts));
     o->a_emf = -expm1f(-cfg->bw_pll * cfg->Ts);
-    if (cfg->form == FS_SMO_FORM_TRACKING) {
+    if (cfg->form == (int)FS_SMO_FORM_TRACKING) {
         if (cfg->phases != 3 && cfg->phases != 5) { return FS_ERR_PARAM; }
         if (!fs_pos(cfg->psi_f)) { return FS_ERR_PSI_F; }   /* the schedule's speed is the EMF over psi_f */
         /* checked at the top bandwidth: the schedule only lowers it */
@@ -101,7 +101,7 @@ FS_COLD void fs_smo_reset(fs_smo *o, float theta, float w)
     o->psi_x = o->cfg.psi_f;   /* at no current */
     o->w_emf = o->w_emf_lp = w;
     o->gen = false;
-    if (o->cfg.form == FS_SMO_FORM_TRACKING) {
+    if (o->cfg.form == (int)FS_SMO_FORM_TRACKING) {
         fs_motion_obs_reset(&o->mo, theta, w);
         smo_schedule(o);
     }
@@ -131,7 +131,7 @@ void fs_smo_follow(fs_smo *o, float theta, float w, float T_d)
      * load on a salient machine the EMF of w_valid is several times
      * w_valid psi_f (the 2004 Prius MG2 at 200 N m: psi_x 0.51 Wb, psi_f
      * 0.16), and the hand-over ended at a third of w_valid */
-    if ((o->cfg.form != FS_SMO_FORM_TRACKING) || o->valid || (o->e_raw >= (o->cfg.w_valid * o->psi_x))) { return; }
+    if ((o->cfg.form != (int)FS_SMO_FORM_TRACKING) || o->valid || (o->e_raw >= (o->cfg.w_valid * o->psi_x))) { return; }
     fs_motion_obs_reset(&o->mo, theta, w);
     o->mo.T_d_hat = T_d;
     o->theta = o->mo.theta_hat;
@@ -202,7 +202,7 @@ static void smo_settle(fs_smo *o)
     /* the EMF's own speed, signed with the direction the angle assumes,
      * against the estimate (fs_smo.h, convergence) */
     const float tol = FS_SMO_AGREE * fs_maxf(fabsf(o->w), o->cfg.w_valid);
-    const float e = o->cfg.form == FS_SMO_FORM_TRACKING ? o->w_emf_lp * o->psi_x : o->dir * o->e_raw;
+    const float e = o->cfg.form == (int)FS_SMO_FORM_TRACKING ? o->w_emf_lp * o->psi_x : o->dir * o->e_raw;
     const bool agree = fabsf(e - o->w * o->psi_x) <= tol * o->psi_x;
     const bool in = agree && o->r_i <= 1.0f && fabsf(o->eps) < 0.0872f;   /* sin 5 deg */
     o->k_settled = in ? o->k_settled + 1 : 0;
@@ -227,7 +227,7 @@ static void smo_settle(fs_smo *o)
 fs_ab fs_smo_transient(const fs_smo *o, fs_ab i, const fs_fluxmap_point *p)
 {
     const fs_smo_config *c = &o->cfg;
-    if (c->form != FS_SMO_FORM_TRACKING) { return (fs_ab){0.0f, 0.0f}; }
+    if (c->form != (int)FS_SMO_FORM_TRACKING) { return (fs_ab){0.0f, 0.0f}; }
     const float Ts = c->Ts, k = 1.0f / Ts, w = o->mo.w_hat;
     const fs_ab i0 = o->have_prev ? o->i_prev : i;
     const float th = o->mo.theta_hat + 0.5f * Ts * w, cm = fs_cosf(th), sm = fs_sinf(th);
@@ -317,7 +317,7 @@ FS_OUT_OF_LINE FS_COLD bool smo_model_step(fs_smo *o, float T)
 float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
 {
     const fs_smo_config *c = &o->cfg;
-    const bool track = c->form == FS_SMO_FORM_TRACKING;
+    const bool track = c->form == (int)FS_SMO_FORM_TRACKING;
     float T_step = 0.0f;   /* the tracking form's torque of the period, for a zero crossing's start (below) */
     const fs_ab e_hat = o->lpf.y;
     const float w = track ? o->mo.w_hat : o->pll.w;
@@ -442,7 +442,7 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
         o->e_mag = mag;
         o->w = o->pll.w;
         float w_c = fs_maxf(fabsf(o->w), c->w_c_min);
-        float lag = (c->lag == FS_SMO_LAG_PAPER) ? fs_signf(o->w) * 0.25f * FS_PI
+        float lag = (c->lag == (int)FS_SMO_LAG_PAPER) ? fs_signf(o->w) * 0.25f * FS_PI
                                                  : fs_atanf(o->w / (2.0f * w_c));
         /* the PLL now predicts the next mid-period; back half a period to the sample */
         o->theta = fs_wrap_pi(o->pll.theta - 0.5f * c->Ts * o->w + lag);
