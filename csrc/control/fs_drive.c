@@ -624,7 +624,7 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
     const float g_w = out ? out->g_w : 0.0f;
     float r_mon = 0.0f;
     if (out != NULL) {
-        const fs_monitor_in mi = {i_ab, drv->u_hist[0], in->u_dc, out->theta_e, out->w_e, cos_t, sin_t,
+        const fs_monitor_in mi = {i_ab, {drv->u_hist[0].alpha, drv->u_hist[0].beta}, in->u_dc, out->theta_e, out->w_e, cos_t, sin_t,
                                   {out->i_d, out->i_q}, drv->T_ff,   /* the torque of out->i_d_ref, i_q_ref */
                                   {out->i_d_ref - out->i_d, out->i_q_ref - out->i_q},
                                   run && settled && (c->mode == (int)FS_MODE_CURRENT || c->mode == (int)FS_MODE_SPEED),
