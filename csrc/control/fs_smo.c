@@ -441,9 +441,9 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
         o->eps = eps;
         o->e_mag = mag;
         o->w = o->pll.w;
-        float w_c = fs_maxf(fabsf(o->w), c->w_c_min);
+        float w_c_pll = fs_maxf(fabsf(o->w), c->w_c_min);   /* the filter's cutoff at the PLL's speed */
         float lag = (c->lag == (int)FS_SMO_LAG_PAPER) ? fs_signf(o->w) * 0.25f * FS_PI
-                                                 : fs_atanf(o->w / (2.0f * w_c));
+                                                 : fs_atanf(o->w / (2.0f * w_c_pll));
         /* the PLL now predicts the next mid-period; back half a period to the sample */
         o->theta = fs_wrap_pi(o->pll.theta - 0.5f * c->Ts * o->w + lag);
         if (!c->dir_external) {   /* the direction turns only past w_valid (above) */
