@@ -36,7 +36,7 @@ enum { F = 0, N = 1, P = 2 };
     X(imc_i_lim, F, FS_ERR_I_MAX) X(imc_V_im, F, FS_ERR_LIMIT) X(T_slew, N, FS_ERR_LIMIT)
 /* two bytes a field: its offset in floats, its kind and status; the names
  * in one string, in the same order, each ended by a NUL */
-#define FIELD_ENTRY(f, kind, status) {(uint8_t)(offsetof(fs_drive_config, f) / sizeof(float)), (uint8_t)((kind) << 6 | (status))},
+#define FIELD_ENTRY(f, kind, status) {(uint8_t)((uint32_t)offsetof(fs_drive_config, f) / (uint32_t)sizeof(float)), (uint8_t)(((uint32_t)(kind) << 6u) | (uint32_t)(status))},
 #define FIELD_NAME(f, kind, status) #f "\0"
 static const uint8_t drive_fields[][2] = {DRIVE_FIELDS(FIELD_ENTRY)};
 static const char drive_field_names[] = DRIVE_FIELDS(FIELD_NAME);
@@ -53,9 +53,10 @@ static FS_COLD fs_status drive_check_fields(const fs_drive_config *cfg, const ch
         const int kind = drive_fields[k][1] >> 6;
         if (!fs_fin(x) || (kind == N && !(x >= 0.0f)) || (kind == P && !(x > 0.0f))) {
             *name = s;
-            return (fs_status)(drive_fields[k][1] & 63);
+            const uint32_t status = (uint32_t)drive_fields[k][1] & 63u;   /* the low six bits */
+            return (fs_status)status;
         }
-        while (*s++) {}
+        while (*s++ != '\0') {}
     }
     return FS_OK;
 }
@@ -72,60 +73,61 @@ static FS_COLD fs_status drive_init_injection(fs_drive *drv, const fs_drive_conf
     hc.L_q = cfg->L_q_hf > 0.0f ? cfg->L_q_hf : cfg->L_q;
     mo.bandwidth = hc.obs.bandwidth;
     hc.obs = mo;
-    if (!fs_pos(cfg->J)) REFUSE("J", FS_ERR_J);
+    if (!fs_pos(cfg->J)) { REFUSE("J", FS_ERR_J); }
     SUB("hfi", fs_hfi_init(&drv->hfi, &hc));
     /* the carrier current's peak, I_p + I_n = u_h / (w_h min(L_d, L_q)) */
     drv->i_hf = hc.u_h / (drv->hfi.cfg.w_h * fs_minf(hc.L_d, hc.L_q));
-    if (!(drv->i_hf < 0.5f * cfg->i_max)) REFUSE("hfi.u_h", FS_ERR_ABOVE_I_MAX);
-    if (cfg->angle_source == FS_ANGLE_BLEND) {
+    if (!(drv->i_hf < 0.5f * cfg->i_max)) { REFUSE("hfi.u_h", FS_ERR_ABOVE_I_MAX); }
+    if (cfg->angle_source == (int)FS_ANGLE_BLEND) {
         fs_blend_config bc = cfg->blend;
         mo.bandwidth = bc.obs.bandwidth > 0.0f ? bc.obs.bandwidth : drv->hfi.w_o_blend;   /* fs_hfi.h */
         bc.obs = mo;
         SUB("blend", fs_blend_init(&drv->blend, &bc));
-        if (cfg->w_inject_max > 0.0f && !(0.9f * cfg->w_inject_max >= bc.w_upper)) REFUSE("w_inject_max", FS_ERR_LIMIT);
+        if (cfg->w_inject_max > 0.0f && !(0.9f * cfg->w_inject_max >= bc.w_upper)) { REFUSE("w_inject_max", FS_ERR_LIMIT); }
     }
     return FS_OK;
 }
 
 FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
 {
-    if (!drv) return FS_ERR_NULL;
+    if (!drv) { return FS_ERR_NULL; }
     drv->fail = NULL;
-    if (!cfg) REFUSE("config", FS_ERR_NULL);
-    if (cfg->config_size != 0u && cfg->config_size != (unsigned int)sizeof(fs_drive_config)) REFUSE("config_size", FS_ERR_PARAM);
-    if (cfg->mode == FS_MODE_IDENTIFY) {   /* knows no machine yet */
-        if (!FS_WITH_IDENT) REFUSE("mode", FS_ERR_MODE);
+    if (!cfg) { REFUSE("config", FS_ERR_NULL); }
+    if (cfg->config_size != 0u && cfg->config_size != (unsigned int)sizeof(fs_drive_config)) { REFUSE("config_size", FS_ERR_PARAM); }
+    if (cfg->mode == (int)FS_MODE_IDENTIFY) {   /* knows no machine yet */
+        if (!FS_WITH_IDENT) { REFUSE("mode", FS_ERR_MODE); }
         return fs_drive_ident_init(drv, cfg);
     }
     fs_status st = drive_check_fields(cfg, &drv->fail);
-    if (st != FS_OK) return st;
-    if (cfg->phases != 3 && cfg->phases != 5) REFUSE("phases", FS_ERR_PARAM);
+    if (st != FS_OK) { return st; }
+    if (cfg->phases != 3 && cfg->phases != 5) { REFUSE("phases", FS_ERR_PARAM); }
     /* what this build leaves out (fs_drive.h, FS_WITH_*) */
-    if (!FS_WITH_FIVE_PHASE && cfg->phases == 5) REFUSE("phases", FS_ERR_MODE);
-    if (!FS_WITH_SWVI && cfg->angle_source == FS_ANGLE_SWVI) REFUSE("angle_source", FS_ERR_MODE);
-    if (!FS_WITH_IMC && cfg->converter == FS_CONV_IMC) REFUSE("converter", FS_ERR_MODE);
-    if (!FS_WITH_ADAPT && cfg->adapt.T_f > 0.0f) REFUSE("adapt", FS_ERR_MODE);
-    if (!FS_WITH_DTCOMP && cfg->dt_predict) REFUSE("dt_predict", FS_ERR_MODE);
-    if (cfg->mode < FS_MODE_OFF || cfg->mode > FS_MODE_SPEED) REFUSE("mode", FS_ERR_MODE);
-    if (cfg->angle_source < FS_ANGLE_ENCODER || cfg->angle_source > FS_ANGLE_SWVI) REFUSE("angle_source", FS_ERR_MODE);
-    if (!(cfg->T_pwm >= cfg->Ts)) REFUSE("T_pwm", FS_ERR_TS);
-    if (!(cfg->delay >= 0.0f && cfg->delay <= 2.0f)) REFUSE("delay", FS_ERR_PARAM);
-    if (cfg->pole_pairs < 1) REFUSE("pole_pairs", FS_ERR_POLE_PAIRS);
-    if (!(cfg->t_dead_comp < 0.5f * cfg->T_pwm)) REFUSE("t_dead_comp", FS_ERR_PARAM);
+    if (!FS_WITH_FIVE_PHASE && cfg->phases == 5) { REFUSE("phases", FS_ERR_MODE); }
+    if (!FS_WITH_SWVI && cfg->angle_source == (int)FS_ANGLE_SWVI) { REFUSE("angle_source", FS_ERR_MODE); }
+    if (!FS_WITH_IMC && cfg->converter == (int)FS_CONV_IMC) { REFUSE("converter", FS_ERR_MODE); }
+    if (!FS_WITH_ADAPT && cfg->adapt.T_f > 0.0f) { REFUSE("adapt", FS_ERR_MODE); }
+    if (!FS_WITH_DTCOMP && cfg->dt_predict) { REFUSE("dt_predict", FS_ERR_MODE); }
+    if (cfg->mode < (int)FS_MODE_OFF || cfg->mode > (int)FS_MODE_SPEED) { REFUSE("mode", FS_ERR_MODE); }
+    if (cfg->angle_source < (int)FS_ANGLE_ENCODER || cfg->angle_source > (int)FS_ANGLE_SWVI) { REFUSE("angle_source", FS_ERR_MODE); }
+    if (!(cfg->T_pwm >= cfg->Ts)) { REFUSE("T_pwm", FS_ERR_TS); }
+    if (!(cfg->delay >= 0.0f && cfg->delay <= 2.0f)) { REFUSE("delay", FS_ERR_PARAM); }
+    if (cfg->pole_pairs < 1) { REFUSE("pole_pairs", FS_ERR_POLE_PAIRS); }
+    if (!(cfg->t_dead_comp < 0.5f * cfg->T_pwm)) { REFUSE("t_dead_comp", FS_ERR_PARAM); }
     drv->cfg = *cfg;
     drv->has_map = cfg->map.di_d != 0.0f;
-    if (!FS_WITH_FLUXMAP && drv->has_map) REFUSE("map", FS_ERR_MODE);
-    if (drive_fw_plans(drv)) SUB("map", fs_fluxmap_init(&drv->map, &drv->cfg.map));
+    if (!FS_WITH_FLUXMAP && drv->has_map) { REFUSE("map", FS_ERR_MODE); }
+    if (drive_fw_plans(drv)) { SUB("map", fs_fluxmap_init(&drv->map, &drv->cfg.map)); }
     drv->k_T = drive_torque_k(cfg);
     drv->dd_dead = cfg->t_dead_comp / cfg->T_pwm;
     const float Tl = drive_loop_Ts(cfg);
 
     fs_current_ctrl_config ccc = {Tl, cfg->R_s, cfg->L_d, cfg->L_q, cfg->psi_f, cfg->bw_current,
                                   cfg->delay > 0.5f, cfg->k_p_d, cfg->k_i_d, cfg->k_p_q, cfg->k_i_q};
-    if (cfg->cc_internal_model && ccc.k_p_d == 0.0f && ccc.k_i_d == 0.0f && ccc.k_p_q == 0.0f && ccc.k_i_q == 0.0f)
+    if (cfg->cc_internal_model && ccc.k_p_d == 0.0f && ccc.k_i_d == 0.0f && ccc.k_p_q == 0.0f && ccc.k_i_q == 0.0f) {
         fs_current_ctrl_internal_model(&ccc);   /* fs_drive.h */
+    }
     st = fs_current_ctrl_init(&drv->cc, &ccc);
-    if (st != FS_OK) REFUSE(st == FS_ERR_BANDWIDTH ? "bw_current" : "k_p_d, k_i_d, k_p_q, k_i_q", st);
+    if (st != FS_OK) { REFUSE(st == FS_ERR_BANDWIDTH ? "bw_current" : "k_p_d, k_i_d, k_p_q, k_i_q", st); }
 
     fs_pll_config pc = {cfg->Ts, cfg->bw_pll, 0.0f};
     SUB("bw_pll", fs_pll_init(&drv->pll, &pc));
@@ -141,7 +143,7 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         oc.B = cfg->B;
         oc.pole_pairs = cfg->pole_pairs;
         oc.phases = cfg->phases;
-        oc.dir_external = cfg->angle_source == FS_ANGLE_BLEND;
+        oc.dir_external = cfg->angle_source == (int)FS_ANGLE_BLEND;
         SUB("smo", fs_smo_init(&drv->smo, &oc));
     }
     if (cfg->phases == 5 && cfg->bw_xy > 0.0f) {
@@ -161,30 +163,31 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         ac.L_d = cfg->L_d;
         ac.psi_f = cfg->psi_f;
         ac.i_max = cfg->i_max;
-        if (!(ac.w_e_max > 0.0f)) ac.w_e_max = cfg->smo.w_e_max;
+        if (!(ac.w_e_max > 0.0f)) { ac.w_e_max = cfg->smo.w_e_max; }
         SUB("adapt", fs_param_adapt_init(&drv->adapt, &ac));
     }
-    if (cfg->mode == FS_MODE_SPEED) {
+    if (cfg->mode == (int)FS_MODE_SPEED) {
         fs_speed_ctrl_config scc = {Tl, cfg->J, cfg->B, cfg->bw_speed, cfg->T_max, cfg->k_p_w, cfg->k_i_w};
         st = fs_speed_ctrl_init(&drv->sc, &scc);
-        if (st != FS_OK)
+        if (st != FS_OK) {
             REFUSE(st == FS_ERR_J ? "J" : st == FS_ERR_BANDWIDTH ? "bw_speed" : st == FS_ERR_LIMIT ? "T_max" : "k_p_w, k_i_w", st);
+        }
         fs_mtpa_config mc = {cfg->L_d, cfg->L_q, cfg->psi_f, cfg->pole_pairs, cfg->i_max, cfg->phases,
                              drive_map(drv) ? &drv->map : NULL};
         st = fs_mtpa_init(&drv->mtpa, &mc);
-        if (st != FS_OK) REFUSE(st == FS_ERR_LQ ? "L_q" : drive_map(drv) ? "mtpa (map, i_max)" : "mtpa (psi_f, L_d, L_q, i_max)", st);
+        if (st != FS_OK) { REFUSE(st == FS_ERR_LQ ? "L_q" : drive_map(drv) ? "mtpa (map, i_max)" : "mtpa (psi_f, L_d, L_q, i_max)", st); }
         if (drive_weakens(cfg) && drive_fw_plans(drv)) {
-            if (drive_five(cfg) || drive_imc(cfg)) REFUSE("map", FS_ERR_MODE);   /* the voltage limit is the VSI's, three phases */
-            if (cfg->fw_hold) REFUSE("fw_hold", FS_ERR_MODE);   /* fs_fw.h's excess feeds no loop here */
+            if (drive_five(cfg) || drive_imc(cfg)) { REFUSE("map", FS_ERR_MODE); }   /* the voltage limit is the VSI's, three phases */
+            if (cfg->fw_hold != 0) { REFUSE("fw_hold", FS_ERR_MODE); }   /* fs_fw.h's excess feeds no loop here */
             fs_fwmap_config wc = {&drv->map, cfg->i_max, drv->k_T, cfg->Ts, cfg->bw_current};
             SUB("map (flux weakening)", fs_fwmap_init(&drv->fwm, &wc, &drv->mtpa));
         }
         if (drive_weakens(cfg)) {
-            if (!(cfg->fw_gain >= 0.0f)) REFUSE("fw_gain", FS_ERR_PARAM);
+            if (!(cfg->fw_gain >= 0.0f)) { REFUSE("fw_gain", FS_ERR_PARAM); }
             fs_fw_config fc = {cfg->Ts, cfg->L_d, cfg->fw_w_e_max, cfg->fw_gain, cfg->fw_cutoff, cfg->i_max};
             fs_fw_design(&fc, cfg->bw_current, cfg->fw_hold != 0);   /* gain or cutoff 0: fs_drive.h */
             st = fs_fw_init(&drv->fw, &fc);
-            if (st != FS_OK) REFUSE(st == FS_ERR_BANDWIDTH ? "fw_cutoff" : "fw_w_e_max", st);
+            if (st != FS_OK) { REFUSE(st == FS_ERR_BANDWIDTH ? "fw_cutoff" : "fw_w_e_max", st); }
         }
     }
     if (cfg->lock_time > 0.0f) {
@@ -193,26 +196,27 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         drv->lock_a = fs_exp_pole(-4.0f * Tl / cfg->lock_time);
         /* the rating: T_max, or in current mode the torque of i_max on q */
         const float T_lim = fs_maxf(cfg->T_max, fabsf(drive_torque(cfg, (fs_dq){0.0f, cfg->i_max})));
-        fs_monitor_config mc = {Tl, (int)(cfg->delay + 0.5f), cfg->R_s, cfg->L_d, cfg->L_q, cfg->psi_f,
+        const float delay_steps = cfg->delay + 0.5f;   /* rounded by the truncation to int */
+        fs_monitor_config mc = {Tl, (int)delay_steps, cfg->R_s, cfg->L_d, cfg->L_q, cfg->psi_f,
                                 cfg->pole_pairs, fs_maxf(cfg->J, 0.0f), cfg->B, T_lim, cfg->i_max,
                                 cfg->t_dead_comp / cfg->T_pwm, 0.25f * cfg->lock_time, cfg->lock_time,
                                 drive_injects(cfg) ? cfg->hfi.w_h : 0.0f};
         SUB("lock_time", fs_monitor_init(&drv->mon, &mc));
     }
-    if (cfg->lock_recover != 0 && cfg->lock_recover != 1) REFUSE("lock_recover", FS_ERR_PARAM);
-    if (cfg->lock_recover) {
-        if (!(cfg->lock_time > 0.0f)) REFUSE("lock_time", FS_ERR_PARAM);
-        if (!fs_pos(cfg->t_recover)) REFUSE("t_recover", FS_ERR_PARAM);
-        if (cfg->lock_retries < 0) REFUSE("lock_retries", FS_ERR_PARAM);
-        if (drive_square(cfg)) REFUSE("lock_recover", FS_ERR_MODE);   /* no restart sequence for the square wave */
+    if (cfg->lock_recover != 0 && cfg->lock_recover != 1) { REFUSE("lock_recover", FS_ERR_PARAM); }
+    if (cfg->lock_recover != 0) {
+        if (!(cfg->lock_time > 0.0f)) { REFUSE("lock_time", FS_ERR_PARAM); }
+        if (!fs_pos(cfg->t_recover)) { REFUSE("t_recover", FS_ERR_PARAM); }
+        if (cfg->lock_retries < 0) { REFUSE("lock_retries", FS_ERR_PARAM); }
+        if (drive_square(cfg)) { REFUSE("lock_recover", FS_ERR_MODE); }   /* no restart sequence for the square wave */
     }
     if (drive_injects(cfg)) {
         st = drive_init_injection(drv, cfg);
-        if (st != FS_OK) return st;
+        if (st != FS_OK) { return st; }
     }
     if (drive_square(cfg)) {
-        if (cfg->mode != FS_MODE_OFF && cfg->mode != FS_MODE_CURRENT && cfg->mode != FS_MODE_SPEED) REFUSE("mode", FS_ERR_MODE);
-        if (cfg->delay != 0.0f && cfg->delay != 1.0f) REFUSE("delay", FS_ERR_PARAM);
+        if (cfg->mode != (int)FS_MODE_OFF && cfg->mode != (int)FS_MODE_CURRENT && cfg->mode != (int)FS_MODE_SPEED) { REFUSE("mode", FS_ERR_MODE); }
+        if (cfg->delay != 0.0f && cfg->delay != 1.0f) { REFUSE("delay", FS_ERR_PARAM); }
         fs_swvi_config wc = cfg->swvi;
         wc.Ts = cfg->Ts;
         wc.delay = (int)cfg->delay;
@@ -220,47 +224,47 @@ FS_COLD fs_status fs_drive_init(fs_drive *drv, const fs_drive_config *cfg)
         wc.L_q = cfg->L_q;
         SUB("swvi", fs_swvi_init(&drv->sw, &wc));
     }
-    if (cfg->converter != FS_CONV_VSI && cfg->converter != FS_CONV_IMC) REFUSE("converter", FS_ERR_MODE);
+    if (cfg->converter != (int)FS_CONV_VSI && cfg->converter != (int)FS_CONV_IMC) { REFUSE("converter", FS_ERR_MODE); }
     if (drive_imc(cfg)) {
-        if (cfg->phases != 3 || drive_square(cfg)) REFUSE("converter", FS_ERR_MODE);
-        if (cfg->imc_region < FS_IMC_LINEAR || cfg->imc_region > FS_IMC_OM2) REFUSE("imc_region", FS_ERR_MODE);
+        if (cfg->phases != 3 || drive_square(cfg)) { REFUSE("converter", FS_ERR_MODE); }
+        if (cfg->imc_region < (int)FS_IMC_LINEAR || cfg->imc_region > (int)FS_IMC_OM2) { REFUSE("imc_region", FS_ERR_MODE); }
         if (drive_imc_depth(cfg)) {
-            if (!(cfg->imc_i_lim > 0.0f)) REFUSE("imc_i_lim", FS_ERR_I_MAX);
-            if (cfg->imc_i_lim > cfg->i_max) REFUSE("imc_i_lim", FS_ERR_ABOVE_I_MAX);
+            if (!(cfg->imc_i_lim > 0.0f)) { REFUSE("imc_i_lim", FS_ERR_I_MAX); }
+            if (cfg->imc_i_lim > cfg->i_max) { REFUSE("imc_i_lim", FS_ERR_ABOVE_I_MAX); }
             fs_imc_depth_config dc;
             st = fs_imc_depth_design(&dc, cfg->Ts, cfg->imc_i_lim, cfg->imc_V_im, cfg->fw_w_e_max,
                                      cfg->L_d, cfg->bw_speed);
-            if (st != FS_OK) REFUSE(st == FS_ERR_LIMIT ? "imc_V_im" : "imc_depth", st);
+            if (st != FS_OK) { REFUSE(st == FS_ERR_LIMIT ? "imc_V_im" : "imc_depth", st); }
             SUB("imc_depth", fs_imc_depth_init(&drv->depth, &dc));
         }
     }
     st = fs_drive_start_init(drv, cfg);
-    if (st != FS_OK) return st;
+    if (st != FS_OK) { return st; }
     fs_drive_reset(drv);
     return FS_OK;
 }
 
 FS_COLD void fs_drive_reset(fs_drive *drv)
 {
-    if (FS_WITH_IDENT && drv->cfg.mode == FS_MODE_IDENTIFY) {
+    if (FS_WITH_IDENT && drv->cfg.mode == (int)FS_MODE_IDENTIFY) {
         fs_ident_reset(&drv->ident);
         return;
     }
     fs_current_ctrl_reset(&drv->cc);
     fs_pll_reset(&drv->pll, 0.0f, 0.0f);
-    if (drv->cfg.mode == FS_MODE_SPEED) fs_speed_ctrl_reset(&drv->sc);
-    if (drive_has_smo(&drv->cfg)) fs_smo_reset(&drv->smo, 0.0f, 0.0f);
-    if (drive_weakens(&drv->cfg)) fs_fw_reset(&drv->fw);
-    if (drive_weakens(&drv->cfg) && drive_fw_plans(drv)) fs_fwmap_reset(&drv->fwm);
+    if (drv->cfg.mode == (int)FS_MODE_SPEED) { fs_speed_ctrl_reset(&drv->sc); }
+    if (drive_has_smo(&drv->cfg)) { fs_smo_reset(&drv->smo, 0.0f, 0.0f); }
+    if (drive_weakens(&drv->cfg)) { fs_fw_reset(&drv->fw); }
+    if (drive_weakens(&drv->cfg) && drive_fw_plans(drv)) { fs_fwmap_reset(&drv->fwm); }
     if (drive_injects(&drv->cfg)) {
         fs_hfi_reset(&drv->hfi, 0.0f, 0.0f);
         drv->hfi.gain = drv->hfi.gain_prev = 0.0f;   /* fades in */
         drv->blend.g_w = 0.0f;   /* the injection's weight whole without a blend: the torque's slew reads it */
-        if (drv->cfg.angle_source == FS_ANGLE_BLEND) fs_blend_reset(&drv->blend, 0.0f, 0.0f);
+        if (drv->cfg.angle_source == (int)FS_ANGLE_BLEND) { fs_blend_reset(&drv->blend, 0.0f, 0.0f); }
     }
     fs_drive_start_reset(drv);
-    if (drive_square(&drv->cfg)) fs_swvi_reset(&drv->sw, 0.0f, 0.0f);
-    if (drive_imc_depth(&drv->cfg)) fs_imc_depth_reset(&drv->depth);
+    if (drive_square(&drv->cfg)) { fs_swvi_reset(&drv->sw, 0.0f, 0.0f); }
+    if (drive_imc_depth(&drv->cfg)) { fs_imc_depth_reset(&drv->depth); }
     if (drv->cfg.lock_time > 0.0f) {
         fs_lock_reset(&drv->lock);
         fs_monitor_reset(&drv->mon);
@@ -321,20 +325,20 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
     const float T_ff = drv->T_ff;
     fs_ab i_f = i_ab;
     if (drv->injecting) {
-        fs_hfi_step(&drv->hfi, i_ab, T_ff);
+        (void)fs_hfi_step(&drv->hfi, i_ab, T_ff);
         i_f = drv->hfi.i_f;
     }
-    if (c->angle_source == FS_ANGLE_BLEND) {
+    if (c->angle_source == (int)FS_ANGLE_BLEND) {
         /* the direction from the blended speed once it is clear of the
          * injection estimate's wander at standstill; while recovering from
          * a lost blend, from the observer's own speed past w_valid */
-        const bool own = drv->phase == FS_PHASE_RECOVER;
+        const bool own = drv->phase == (int)FS_PHASE_RECOVER;
         const float w_dir = own ? drv->smo.w : drv->blend.w_hat;
         const float w_min = own ? drv->smo.cfg.w_valid : 0.5f * drv->blend.cfg.w_lower;
-        if (fabsf(w_dir) > w_min) fs_smo_set_dir(&drv->smo, w_dir);
+        if (fabsf(w_dir) > w_min) { fs_smo_set_dir(&drv->smo, w_dir); }
         /* below its validity the observer starts from the blended estimate
          * (fs_smo_follow; the tracking form only) */
-        if (!own) fs_smo_follow(&drv->smo, drv->blend.theta_hat, drv->blend.w_hat, drv->blend.obs.T_d_hat);
+        if (!own) { fs_smo_follow(&drv->smo, drv->blend.theta_hat, drv->blend.w_hat, drv->blend.obs.T_d_hat); }
         /* While injecting, an observer beyond the speed it is designed for
          * (smo.w_e_max) has no estimate: started afresh from the blend's. At
          * standstill under the carrier a saturating machine's current holds
@@ -347,7 +351,7 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
         if (!own && drv->injecting && !(fabsf(drv->smo.w) <= c->smo.w_e_max)) {
             fs_smo_reset(&drv->smo, drv->blend.theta_hat, drv->blend.w_hat);
         }
-        fs_smo_step(&drv->smo, i_f, drive_smo_u(drv, i_f));
+        (void)fs_smo_step(&drv->smo, i_f, drive_smo_u(drv, i_f));
         /* while the injection's estimate settles it coasts on its model: where the SMO has converged, it
          * follows the SMO instead, so that its weight in the blend and its first corrections start from the
          * better estimate (the example lock-loss.toml, caught at -590 rpm by its flying restart and
@@ -359,8 +363,8 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
             fs_hfi_follow(&drv->hfi, drv->smo.theta, drv->smo.w);
             fs_hfi_set_load(&drv->hfi, drv->smo.mo.T_d_hat);
         }
-        fs_blend_step_gated(&drv->blend, drv->smo.theta, drv->hfi.theta, T_ff,   /* Fig. 6 */
-                            drv->smo.converged || !c->blend.gate, drv->injecting && drv->hfi.gain >= 1.0f);
+        (void)fs_blend_step_gated(&drv->blend, drv->smo.theta, drv->hfi.theta, T_ff,   /* Fig. 6 */
+                                  drv->smo.converged || !c->blend.gate, drv->injecting && drv->hfi.gain >= 1.0f);
         /* With a flux map, above the band the blend is the back-EMF observer's own tracker (its torque
          * from the map, at up to observer.bw_pll): in deep flux weakening the torque feed-forward's
          * sensitivity to the angle, d T / d theta ~ (phases / 2) p psi_a (-i_d), pulls an estimate that
@@ -373,7 +377,7 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
          * and the blend, left on its own model at its slower bandwidth, ran 40 el.deg off in 13 ms while
          * the tracker stayed within 11 */
         const bool trusted = drv->smo.converged || (drv->follows && drv->smo.valid);
-        drv->follows = drive_map(drv) && drv->blend.g_w >= 1.0f && trusted && c->smo.form == FS_SMO_FORM_TRACKING;
+        drv->follows = drive_map(drv) && drv->blend.g_w >= 1.0f && trusted && c->smo.form == (int)FS_SMO_FORM_TRACKING;
         if (drv->follows) {
             fs_blend_follow(&drv->blend, drv->smo.theta, drv->smo.w, drv->smo.mo.T_d_hat);
         }
@@ -409,6 +413,8 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
                 drv->hfi.k_settle = 2 * drv->hfi.n_settle;
             } else if (!drv->injecting) {
                 fs_hfi_set_angle(&drv->hfi, drv->blend.theta_hat, drv->blend.w_hat);
+            } else {
+                /* still injecting (the carrier was fading out): the injection's estimate carries on */
             }
             if (!drv->injecting) {
                 fs_hfi_set_load(&drv->hfi, drv->blend.obs.T_d_hat);   /* the load it carries */
@@ -424,6 +430,9 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
                     fs_smo_hold(&drv->smo, drv->hfi.n_settle);
                 }
             }
+        } else {
+            /* the injection stays as it is: no w_inject_max, the speed within its hysteresis
+             * (0.9 to 1 times w_inject_max), or not yet handed over to the SMO */
         }
     }
     /* The amplitude fades in and out over the filters' settling time, so
@@ -440,7 +449,7 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
 static void drive_sensor_angle(fs_drive *drv, const fs_drive_in *in, float *theta, float *w)
 {
     const fs_drive_config *c = &drv->cfg;
-    if (c->angle_source == FS_ANGLE_EXTERNAL) {
+    if (c->angle_source == (int)FS_ANGLE_EXTERNAL) {
         *theta = in->theta_e_ext;
         *w = in->w_e_ext;
         return;
@@ -451,7 +460,7 @@ static void drive_sensor_angle(fs_drive *drv, const fs_drive_in *in, float *thet
         drv->pll_started = true;
     }
     /* The PLL's angle is its prediction for this sample. */
-    fs_pll_step(&drv->pll, fs_wrap_pi(theta_enc - drv->pll.theta));
+    (void)fs_pll_step(&drv->pll, fs_wrap_pi(theta_enc - drv->pll.theta));
     *theta = theta_enc;
     *w = drv->pll.w;
 }
@@ -480,9 +489,10 @@ static void drive_sensor_angle(fs_drive *drv, const fs_drive_in *in, float *thet
 static float drv_blend_theta(const fs_drive *drv)
 {
     const fs_hfi *h = &drv->hfi;
-    if (drv->blend.g_w >= 1.0f && !drv->injecting && drv->smo.converged && drv->cfg.smo.form == FS_SMO_FORM_TRACKING)
+    if (drv->blend.g_w >= 1.0f && !drv->injecting && drv->smo.converged && drv->cfg.smo.form == (int)FS_SMO_FORM_TRACKING) {
         return drv->smo.theta;   /* above the band (header) */
-    if (!drv->cfg.hfi.lag || !drv->inject_on || h->gain < 1.0f || h->k_settle > 0) return drv->blend.theta_hat;
+    }
+    if (!drv->cfg.hfi.lag || !drv->inject_on || h->gain < 1.0f || h->k_settle > 0) { return drv->blend.theta_hat; }
     return fs_blend_angle_inline(drv->blend.theta_hat, h->theta, drv->blend.g_w);
 }
 
@@ -491,21 +501,21 @@ static float drv_blend_theta(const fs_drive *drv)
 static void drive_angle(fs_drive *drv, const fs_drive_in *in, fs_ab *i_ab, float *theta, float *w)
 {
     const fs_drive_config *c = &drv->cfg;
-    if (c->angle_source == FS_ANGLE_SMO) {
-        fs_smo_step(&drv->smo, *i_ab, drive_smo_u(drv, *i_ab));
-        if (in->sensorless) {
-            if (FS_WITH_IF_START && c->w_restart > 0.0f && drv->phase == FS_PHASE_RUN) fs_drive_if_restart(drv, in);
-            bool start = drv->phase == FS_PHASE_START;
+    if (c->angle_source == (int)FS_ANGLE_SMO) {
+        (void)fs_smo_step(&drv->smo, *i_ab, drive_smo_u(drv, *i_ab));
+        if (in->sensorless != 0) {
+            if (FS_WITH_IF_START && c->w_restart > 0.0f && drv->phase == (int)FS_PHASE_RUN) { fs_drive_if_restart(drv, in); }
+            bool start = drv->phase == (int)FS_PHASE_START;
             *theta = start ? drv->ifs.theta : drv->smo.theta;
             *w = start ? drv->ifs.w : drv->smo.w;
             return;
         }
     }
-    if (drive_injects(c) && c->mode != FS_MODE_OFF) {   /* OFF injects nothing to estimate from */
-        if (!drv->est_started) fs_drive_start_estimators(drv, in);
+    if (drive_injects(c) && c->mode != (int)FS_MODE_OFF) {   /* OFF injects nothing to estimate from */
+        if (!drv->est_started) { fs_drive_start_estimators(drv, in); }
         *i_ab = drive_injection_step(drv, *i_ab);
-        if (in->sensorless) {
-            bool blend = c->angle_source == FS_ANGLE_BLEND;
+        if (in->sensorless != 0) {
+            bool blend = c->angle_source == (int)FS_ANGLE_BLEND;
             *theta = blend ? drv_blend_theta(drv) : drv->hfi.theta;
             *w = blend ? drv->blend.w_hat : drv->hfi.w;
             return;
@@ -543,7 +553,7 @@ static fs_dq drive_fw_map(fs_drive *drv, float u_dc, float w_e, float *T_ref)
     fs_fwmap_trim(&drv->fwm, sqrtf(u0.d * u0.d + u0.q * u0.q), u_plan, x);
     float T_real;
     const fs_dq i = fs_fwmap_step(&drv->fwm, x, *T_ref, &T_real);
-    if (T_real != *T_ref) fs_speed_ctrl_realised(&drv->sc, *T_ref, T_real);
+    if (T_real != *T_ref) { fs_speed_ctrl_realised(&drv->sc, *T_ref, T_real); }
     *T_ref = T_real;
     return i;
 }
@@ -556,14 +566,14 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
     const fs_drive_config *c = &drv->cfg;
     fs_dq i_ref = {in->i_d_ref, in->i_q_ref};
     *T_ref = 0.0f;
-    if (drv->phase == FS_PHASE_RECOVER) {
+    if (drv->phase == (int)FS_PHASE_RECOVER) {
         i_ref.d = i_ref.q = 0.0f;
         fs_drive_recover_step(drv, i_ab);
-    } else if (drv->phase == FS_PHASE_POLARITY) {
+    } else if (drv->phase == (int)FS_PHASE_POLARITY) {
         i_ref = fs_drive_polarity_step(drv);
-    } else if (FS_WITH_IF_START && c->mode == FS_MODE_SPEED && in->sensorless && drv->phase == FS_PHASE_START) {
+    } else if (FS_WITH_IF_START && c->mode == (int)FS_MODE_SPEED && in->sensorless && drv->phase == (int)FS_PHASE_START) {
         i_ref = fs_drive_if_step(drv, in, i_ab);
-    } else if (c->mode == FS_MODE_SPEED) {
+    } else if (c->mode == (int)FS_MODE_SPEED) {
         *T_ref = fs_speed_ctrl_step(&drv->sc, in->w_m_ref, w_e / (float)c->pole_pairs);
         if (drv->injecting && (drv->blend.g_w < 1.0f)) {   /* the torque's slew while injecting (fs_drive.h) */
             const float lim = c->T_slew * c->Ts;
@@ -579,19 +589,21 @@ static fs_dq drive_current_ref(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab,
          * kept; then held inside the current limit circle, whose radius
          * leaves room for the carrier's peak while injecting */
         const float i_lim = c->i_max - (drv->injecting ? drv->hfi.gain * drv->i_hf : 0.0f);
-        if (weakens && !drive_fw_plans(drv)) i_ref.d += drv->fw.i_d;   /* a map's flux weakening has its own trim */
+        if (weakens && !drive_fw_plans(drv)) { i_ref.d += drv->fw.i_d; }   /* a map's flux weakening has its own trim */
         i_ref.d = fs_clamp_sym(i_ref.d, i_lim);
         float iq_max = sqrtf(i_lim * i_lim - i_ref.d * i_ref.d);
         float i_q0 = i_ref.q;
         i_ref.q = fs_clamp_sym(i_ref.q, iq_max);
         /* the circle took torque away: the speed PI's integral must not wind up */
-        if (i_ref.q != i_q0) fs_speed_ctrl_realised(&drv->sc, *T_ref, *T_ref * i_ref.q / i_q0);
+        if (i_ref.q != i_q0) { fs_speed_ctrl_realised(&drv->sc, *T_ref, *T_ref * i_ref.q / i_q0); }
         if (drive_imc_depth(c)) {
             /* eqs. (32)-(33), gated by the polarity of i_d_fw (sec. 4.4;
              * the low-pass leaves a tail: 1 % of i_max counts as zero) */
             float i_amp = sqrtf(i_ref.d * i_ref.d + i_ref.q * i_ref.q);
             drv->alpha = fs_imc_depth_step(&drv->depth, i_amp, drv->fw.i_d < -0.01f * c->i_max);
         }
+    } else {
+        /* the current mode: the input's i_d_ref, i_q_ref as they are */
     }
     return i_ref;
 }
@@ -606,21 +618,21 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
                                  float cos_t, float sin_t)
 {
     const fs_drive_config *c = &drv->cfg;
-    const bool run = in->sensorless && drv->phase == FS_PHASE_RUN;
+    const bool run = in->sensorless && drv->phase == (int)FS_PHASE_RUN;
     drv->t_quiet = run ? fs_maxf(drv->t_quiet - c->Ts, 0.0f) : drv->t_quiet;
     const bool settled = drv->t_quiet <= 0.0f;   /* after polarity detection (fs_drive_start.c) */
     const float g_w = out ? out->g_w : 0.0f;
     float r_mon = 0.0f;
-    if (out) {
-        const fs_monitor_in mi = {i_ab, drv->u_hist[0], in->u_dc, out->theta_e, out->w_e, cos_t, sin_t,
+    if (out != NULL) {
+        const fs_monitor_in mi = {i_ab, {drv->u_hist[0].alpha, drv->u_hist[0].beta}, in->u_dc, out->theta_e, out->w_e, cos_t, sin_t,
                                   {out->i_d, out->i_q}, drv->T_ff,   /* the torque of out->i_d_ref, i_q_ref */
                                   {out->i_d_ref - out->i_d, out->i_q_ref - out->i_q},
-                                  run && settled && (c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED),
+                                  run && settled && (c->mode == (int)FS_MODE_CURRENT || c->mode == (int)FS_MODE_SPEED),
                                   out->over_modulation};
         r_mon = fs_monitor_step(&drv->mon, &mi);
-        if (drv->mon.jumped) fs_lock_latch(&drv->lock);
+        if (drv->mon.jumped) { fs_lock_latch(&drv->lock); }
     }
-    const bool blend = c->angle_source == FS_ANGLE_BLEND;
+    const bool blend = c->angle_source == (int)FS_ANGLE_BLEND;
     const float b = 1.0f - drv->lock_a;
     /* each low-pass runs while its signal means something and starts from
      * 0 when it comes back, so that no stale value returns */
@@ -630,7 +642,7 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
      * over 30 deg (a rated load step swings it to about 28 on yu2022's
      * bench, U-XCOUPLE, and the estimate comes back) */
     const bool square = drive_square(c);
-    const bool inj_on = run && settled && (square ? c->mode != FS_MODE_OFF && drv->sw.k > 4
+    const bool inj_on = run && settled && (square ? c->mode != (int)FS_MODE_OFF && drv->sw.k > 4
                                                   : drive_injects(c) && drv->injecting && drv->hfi.k_settle == 0);
     const float eps_inj = square ? drv->sw.eps : drv->hfi.eps;
     drv->lock_ri = smo_on ? drv->lock_ri + b * (drv->smo.r_i - drv->lock_ri) : 0.0f;
@@ -639,8 +651,8 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
     const float r_smo = fs_maxf(0.5f * drv->lock_ri, 2.0f * fabsf(drv->lock_es));   /* 2 delta, sin 30 deg */
     const float r_inj = fabsf(drv->lock_eh) * (square ? 1.9098593f : 3.8197186f); /* 30 or 15 deg */
     float r = 0.0f;
-    if (c->angle_source == FS_ANGLE_SMO || (blend && g_w > 0.0f)) r = r_smo;
-    if (c->angle_source == FS_ANGLE_HFI || square || (blend && g_w < 1.0f)) r = fs_maxf(r, r_inj);
+    if (c->angle_source == (int)FS_ANGLE_SMO || (blend && g_w > 0.0f)) { r = r_smo; }
+    if (c->angle_source == (int)FS_ANGLE_HFI || square || (blend && g_w < 1.0f)) { r = fs_maxf(r, r_inj); }
     /* an observer on track above the band, whose EMF is as large as its
      * speed says (not a PLL swinging at low speed: at least half of the
      * |w| psi_f / sqrt 2 its filter passes), against the blended angle */
@@ -656,7 +668,7 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
  * five phases). */
 static fs_ab drive_clarke(const fs_drive_config *c, const float i_ph[])
 {
-    if (drive_five(c)) return fs_vsd5_forward(i_ph).ab;
+    if (drive_five(c)) { return fs_vsd5_forward(i_ph).ab; }
     return fs_clarke(i_ph[0], i_ph[1], i_ph[2]);
 }
 
@@ -672,18 +684,20 @@ static bool drive_modulate(fs_drive *drv, const fs_drive_in *in, float u_dc, fs_
                            float theta, float w_e, float duty[], fs_ab *u_f)
 {
     const fs_drive_config *c = &drv->cfg;
-    if (c->mode == FS_MODE_OFF) {
-        for (int k = 0; k < c->phases; ++k) duty[k] = 0.5f;
+    if (c->mode == (int)FS_MODE_OFF) {
+        for (int k = 0; k < c->phases; ++k) { duty[k] = 0.5f; }
         u_f->alpha = u_f->beta = 0.0f;
         return false;
     }
     u_ref.alpha += u_inj.alpha;
     u_ref.beta += u_inj.beta;
     bool over = drive_five(c) ? fs_pwm5(u_ref, u_dc, duty, u_f) : fs_svpwm(u_ref, u_dc, duty, u_f);
-    if (drive_five(c) && c->bw_xy > 0.0f)   /* x-y current control on top of the nearest four vectors */
+    if (drive_five(c) && c->bw_xy > 0.0f) {   /* x-y current control on top of the nearest four vectors */
         fs_xyctrl_duties(fs_xyctrl_step(&drv->xy, in->i_ph, theta, w_e, u_dc), u_dc, duty);
-    if (FS_WITH_DTCOMP && c->dt_predict && c->t_dead_comp > 0.0f) fs_dtcomp_step(&drv->dtc, in->i_ph, u_inj, duty);
-    else if (c->t_dead_comp > 0.0f) fs_dtcomp_sampled(c->phases, in->i_ph, drv->dd_dead, c->i_dead_band, duty);
+    }
+    if (FS_WITH_DTCOMP && c->dt_predict && c->t_dead_comp > 0.0f) { fs_dtcomp_step(&drv->dtc, in->i_ph, u_inj, duty); }
+    else if (c->t_dead_comp > 0.0f) { fs_dtcomp_sampled(c->phases, in->i_ph, drv->dd_dead, c->i_dead_band, duty); }
+    else { /* no dead-time compensation (t_dead_comp = 0) */ }
     u_f->alpha -= u_inj.alpha;   /* the fundamental part */
     u_f->beta -= u_inj.beta;
     return over;
@@ -704,14 +718,16 @@ static float drive_imc_rectify(fs_drive *drv, const fs_drive_in *in, fs_ab *u_re
     const float V_im = sqrtf(v.alpha * v.alpha + v.beta * v.beta);
     const float m = sqrtf(u_ref->alpha * u_ref->alpha + u_ref->beta * u_ref->beta);
     float alpha = 0.0f;
-    if (c->imc_region == FS_IMC_LINEAR) {
+    if (c->imc_region == (int)FS_IMC_LINEAR) {
         const float lim = fs_imc_vtr_max(FS_IMC_LINEAR, 0.0f) * V_im;
         if (m > lim) {
             u_ref->alpha *= lim / m;
             u_ref->beta *= lim / m;
         }
-    } else if (c->imc_region == FS_IMC_OM2) {
+    } else if (c->imc_region == (int)FS_IMC_OM2) {
         alpha = drive_imc_depth(c) ? drv->alpha : fs_imc_alpha_for_vtr(V_im > 0.0f ? m / V_im : 0.0f);
+    } else {
+        /* FS_IMC_OM1, CASE 1 alone: the reference as it is, alpha 0 */
     }
     fs_imc_rectifier(u_pred, alpha, &out->rect);
     out->alpha = alpha;
@@ -748,17 +764,18 @@ static float drive_map_step(fs_drive *drv, fs_dq i, fs_dq i_ref)
 static int drive_stage(const fs_drive *drv, const fs_drive_in *in, float g_w, bool weakens)
 {
     const fs_drive_config *c = &drv->cfg;
-    if (c->mode != FS_MODE_CURRENT && c->mode != FS_MODE_SPEED) return FS_STAGE_OPEN;
-    if (drv->phase == FS_PHASE_POLARITY) return FS_STAGE_POLARITY;
-    if (drv->phase >= FS_PHASE_RECOVER)   /* one comparison for both: RECOVER < HALT */
-        return drv->phase == FS_PHASE_RECOVER ? FS_STAGE_RECOVERY : FS_STAGE_OPEN;
-    if (in->sensorless && drv->phase == FS_PHASE_START) return FS_STAGE_START;
-    if (weakens) {
-        const float lim = (drv->stage == FS_STAGE_FLUX_WEAKENING ? -0.01f : -0.02f) * c->i_max;
-        if (drv->fw.i_d < lim || drv->fw_map_on) return FS_STAGE_FLUX_WEAKENING;
+    if (c->mode != (int)FS_MODE_CURRENT && c->mode != (int)FS_MODE_SPEED) { return FS_STAGE_OPEN; }
+    if (drv->phase == (int)FS_PHASE_POLARITY) { return FS_STAGE_POLARITY; }
+    if (drv->phase >= (int)FS_PHASE_RECOVER) {   /* one comparison for both: RECOVER < HALT */
+        return drv->phase == (int)FS_PHASE_RECOVER ? FS_STAGE_RECOVERY : FS_STAGE_OPEN;
     }
-    if (!in->sensorless) return FS_STAGE_SENSOR;
-    if (g_w <= 0.0f) return FS_STAGE_INJECTION;
+    if (in->sensorless && drv->phase == (int)FS_PHASE_START) { return FS_STAGE_START; }
+    if (weakens) {
+        const float lim = (drv->stage == (int)FS_STAGE_FLUX_WEAKENING ? -0.01f : -0.02f) * c->i_max;
+        if (drv->fw.i_d < lim || drv->fw_map_on) { return FS_STAGE_FLUX_WEAKENING; }
+    }
+    if (!in->sensorless) { return FS_STAGE_SENSOR; }
+    if (g_w <= 0.0f) { return FS_STAGE_INJECTION; }
     return g_w >= 1.0f ? FS_STAGE_BACKEMF : FS_STAGE_BLEND;
 }
 
@@ -773,27 +790,30 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
 {
     const fs_drive_config *c = &drv->cfg;
     fs_swvi *sw = &drv->sw;
-    const int d = c->delay > 0.5f ? 1 : 0;
+    /* cfg->delay, 0 or 1 (init refuses any other for the square wave); the constants as wide as d */
+    const int d = (c->delay > 0.5f) ? (int)1 : (int)0;
     float theta, w_e;
-    if (c->mode != FS_MODE_OFF) {   /* OFF injects nothing to estimate from */
-        if (!drv->est_started && !in->sensorless)
+    if (c->mode != (int)FS_MODE_OFF) {   /* OFF injects nothing to estimate from */
+        if (!drv->est_started && !in->sensorless) {
             fs_swvi_reset(sw, fs_wrap_pi((float)c->pole_pairs * in->theta_m_enc), 0.0f);
+        }
         drv->est_started = true;
-        fs_swvi_step(sw, i_ab);
+        (void)fs_swvi_step(sw, i_ab);
     }
-    if (in->sensorless) {
+    if (in->sensorless != 0) {
         theta = sw->theta;
         w_e = sw->w;
     } else {
         drive_sensor_angle(drv, in, &theta, &w_e);
     }
     fs_drive_out *h = &drv->held;
-    if (sw->ff_fresh && c->mode != FS_MODE_OFF) {
+    if (sw->ff_fresh && c->mode != (int)FS_MODE_OFF) {
         fs_dq i_dq = fs_park(sw->i_f, fs_cosf(theta), fs_sinf(theta));
         fs_dq i_ref = drive_current_ref(drv, in, sw->i_f, w_e, drive_weakens(c), &h->T_ref);
         fs_dq u_ref = fs_current_ctrl_step(&drv->cc, i_ref, i_dq, w_e);
         /* turned to the middle of the window it acts over */
-        const float theta_u = theta + w_e * c->Ts * (float)(2 * d + 1);
+        const int n_mid = (2 * d) + 1;   /* samples from k to the middle of the window (k + 2d, k + 2d + 2) */
+        const float theta_u = theta + w_e * c->Ts * (float)n_mid;
         const float cu = fs_cosf(theta_u), su = fs_sinf(theta_u);
         fs_ab u = fs_inv_park(u_ref, cu, su);
         /* what the modulator realises beside the carrier (anti-windup) */
@@ -806,7 +826,7 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
         }
         fs_dq u_real = fs_park(u, cu, su);
         fs_current_ctrl_update(&drv->cc, u_real);
-        if (d == 0) drv->u_ff_hold = u; else drv->u_ff_next = u;
+        if (d == 0) { drv->u_ff_hold = u; } else { drv->u_ff_next = u; }
         h->i_d = i_dq.d;
         h->i_q = i_dq.q;
         h->i_d_ref = i_ref.d;
@@ -815,10 +835,12 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
         h->u_q = u_real.q;
     } else if (d == 1 && !sw->ff_fresh) {
         drv->u_ff_hold = drv->u_ff_next;   /* the window (k + 1, k + 3) starts at the next update */
+    } else {
+        /* the held voltage stands: between the loops' samples without a delay, or OFF */
     }
     fs_ab u_f;
-    fs_ab u_inj = c->mode == FS_MODE_OFF ? (fs_ab){0.0f, 0.0f} : sw->u;
-    drive_modulate(drv, in, in->u_dc, drv->u_ff_hold, u_inj, theta, w_e, out->duty, &u_f);
+    fs_ab u_inj = c->mode == (int)FS_MODE_OFF ? (fs_ab){0.0f, 0.0f} : sw->u;
+    (void)drive_modulate(drv, in, in->u_dc, drv->u_ff_hold, u_inj, theta, w_e, out->duty, &u_f);   /* over-modulation: the window's own check (h) */
 
     out->theta_e = theta;
     out->w_e = w_e;
@@ -836,7 +858,7 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     out->phase = FS_PHASE_RUN;
     out->i_d_fw = 0.0f;
     out->g_w = 0.0f;
-    out->injecting = c->mode != FS_MODE_OFF;
+    out->injecting = c->mode != (int)FS_MODE_OFF;
     out->i_hf_d = sw->i_h.d;
     out->i_hf_q = sw->i_h.q;
     /* loss of lock (fs_drive.h), at the loops' rate */
@@ -849,7 +871,7 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
     drv->stage = drive_stage(drv, in, 0.0f, drive_weakens(c));
     out->stage = drv->stage;
     out->recoveries = 0;
-    if (fabsf(w_e) > drv->w_over) fs_drive_halt(drv, FS_FAULT_OVERSPEED, out);
+    if (fabsf(w_e) > drv->w_over) { fs_drive_halt(drv, FS_FAULT_OVERSPEED, out); }
 }
 
 /* Online R_s and psi_f (fs_param_adapt.h), learnt while the loops run
@@ -857,13 +879,14 @@ static void drive_step_square(fs_drive *drv, const fs_drive_in *in, fs_ab i_ab, 
  * current loop's feed-forward take them. */
 static void drive_adapt(fs_drive *drv, const fs_drive_in *in, fs_dq u, fs_dq i, float w_e, bool closed_loop)
 {
-    const bool learn = closed_loop && in->sensorless && drv->phase == FS_PHASE_RUN;
+    const bool learn = closed_loop && in->sensorless && drv->phase == (int)FS_PHASE_RUN;
     if (fs_param_adapt_step(&drv->adapt, u, i, w_e, learn)) {
         drv->smo.cfg.R_s = drv->adapt.R_s;
         drv->cc.cfg.psi_f = drv->adapt.psi_f;
         /* the injection's phase compensation (trigonometry): on a 1 % move */
-        if (drive_injects(&drv->cfg) && fabsf(drv->adapt.R_s - drv->hfi.cfg.R_s) > 0.01f * drv->cfg.R_s)
+        if (drive_injects(&drv->cfg) && fabsf(drv->adapt.R_s - drv->hfi.cfg.R_s) > 0.01f * drv->cfg.R_s) {
             fs_hfi_set_resistance(&drv->hfi, drv->adapt.R_s);
+        }
     }
 }
 
@@ -871,7 +894,7 @@ static void drive_adapt(fs_drive *drv, const fs_drive_in *in, fs_dq u, fs_dq i, 
 static void drive_step_halt(const fs_drive *drv, fs_ab i_ab, fs_drive_out *out)
 {
     *out = (fs_drive_out){0};
-    for (int k = 0; k < drv->cfg.phases; ++k) out->duty[k] = 0.5f;
+    for (int k = 0; k < drv->cfg.phases; ++k) { out->duty[k] = 0.5f; }
     fs_dq i = fs_park(i_ab, 1.0f, 0.0f);
     out->i_d = i.d;
     out->i_q = i.q;
@@ -879,18 +902,18 @@ static void drive_step_halt(const fs_drive *drv, fs_ab i_ab, fs_drive_out *out)
     out->stage = FS_STAGE_OPEN;
     out->fault = drv->fault;
     out->recoveries = drv->recoveries;
-    out->lock_lost = drv->fault == FS_FAULT_LOCK;
+    out->lock_lost = drv->fault == (int)FS_FAULT_LOCK;
 }
 
 void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
 {
     const fs_drive_config *c = &drv->cfg;
-    if (FS_WITH_IDENT && c->mode == FS_MODE_IDENTIFY) {
+    if (FS_WITH_IDENT && c->mode == (int)FS_MODE_IDENTIFY) {
         fs_drive_ident_step(drv, in, out);
         return;
     }
     fs_ab i_ab = drive_clarke(c, in->i_ph);
-    if (drv->phase == FS_PHASE_HALT) {
+    if (drv->phase == (int)FS_PHASE_HALT) {
         drive_step_halt(drv, i_ab, out);
         return;
     }
@@ -911,14 +934,14 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     fs_dq u_ref = {0.0f, 0.0f};
     fs_dq i_ref = {0.0f, 0.0f};
     float T_ref = 0.0f;
-    bool closed_loop = (c->mode == FS_MODE_CURRENT || c->mode == FS_MODE_SPEED);
+    bool closed_loop = (c->mode == (int)FS_MODE_CURRENT || c->mode == (int)FS_MODE_SPEED);
     const bool weakens = drive_weakens(c);   /* once: the compiler cannot keep it across the stores below */
 
-    if (c->mode == FS_MODE_VOLTAGE_DQ || c->mode == FS_MODE_VF) {
+    if (c->mode == (int)FS_MODE_VOLTAGE_DQ || c->mode == (int)FS_MODE_VF) {
         theta = drv->theta_ol;
         w_e = in->w_e_ref;
         drv->theta_ol = fs_wrap_pi(drv->theta_ol + c->Ts * in->w_e_ref);
-        if (c->mode == FS_MODE_VOLTAGE_DQ) {
+        if (c->mode == (int)FS_MODE_VOLTAGE_DQ) {
             u_ref.d = in->u_d_ref;
             u_ref.q = in->u_q_ref;
         } else {
@@ -927,9 +950,9 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     }
     float cos_t = fs_cosf(theta), sin_t = fs_sinf(theta);
     fs_dq i_dq = fs_park(i_loop, cos_t, sin_t);
-    bool starting = in->sensorless && drv->phase == FS_PHASE_START;
-    bool polarity = drv->phase == FS_PHASE_POLARITY;
-    const bool recovering = drv->phase == FS_PHASE_RECOVER;
+    bool starting = in->sensorless && drv->phase == (int)FS_PHASE_START;
+    bool polarity = drv->phase == (int)FS_PHASE_POLARITY;
+    const bool recovering = drv->phase == (int)FS_PHASE_RECOVER;
 
     if (closed_loop) {
         /* the frame's axes not yet found: loops that hold in any frame (fs_current_ctrl.h): an I/f
@@ -960,21 +983,23 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     const float cos_u = cos_t * tc - sin_t * ts, sin_u = sin_t * tc + cos_t * ts;
     fs_ab u_ab_ref = fs_inv_park(u_ref, cos_u, sin_u);
     fs_ab u_inj = {0.0f, 0.0f};
-    if (drv->injecting && c->mode != FS_MODE_OFF) u_inj = drv->hfi.u;   /* eq. (22) */
+    if (drv->injecting && c->mode != (int)FS_MODE_OFF) { u_inj = drv->hfi.u; }   /* eq. (22) */
     fs_ab u_ab;
     float u_dc = in->u_dc;
-    if (drive_imc(c)) u_dc = drive_imc_rectify(drv, in, &u_ab_ref, out);
+    if (drive_imc(c)) { u_dc = drive_imc_rectify(drv, in, &u_ab_ref, out); }
     out->over_modulation = drive_modulate(drv, in, u_dc, u_ab_ref, u_inj, theta, w_e, out->duty, &u_ab);
     drv->u_hist[1] = drv->u_hist[0];
     drv->u_hist[0] = u_ab;
     fs_dq u_real = fs_park(u_ab, cos_u, sin_u);
     const bool weakening = weakens && !starting && !polarity && !recovering;
-    if (closed_loop)   /* anti-windup; held: the regulators keep PART_1's input (fs_fw.h) */
+    if (closed_loop) {   /* anti-windup; held: the regulators keep PART_1's input (fs_fw.h) */
         fs_current_ctrl_update_held(&drv->cc, u_real,
                                     weakening && c->fw_hold ? fs_fw_hold(&drv->fw, u_ref, u_real, w_e) : u_real);
-    if (FS_WITH_ADAPT && c->adapt.T_f > 0.0f) drive_adapt(drv, in, u_real, i_dq, w_e, closed_loop);
-    if (weakening && !drive_fw_plans(drv))
-        fs_fw_step(&drv->fw, u_ref.q - u_real.q, w_e);   /* eq. (26): dv_q */
+    }
+    if (FS_WITH_ADAPT && c->adapt.T_f > 0.0f) { drive_adapt(drv, in, u_real, i_dq, w_e, closed_loop); }
+    if (weakening && !drive_fw_plans(drv)) {
+        (void)fs_fw_step(&drv->fw, u_ref.q - u_real.q, w_e);   /* eq. (26): dv_q */
+    }
 
     out->theta_e = theta;
     out->w_e = w_e;
@@ -991,22 +1016,24 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     out->w_est = w_e;
     out->est_valid = true;
     out->g_w = 1.0f;
-    if (c->angle_source == FS_ANGLE_SMO) {
+    if (c->angle_source == (int)FS_ANGLE_SMO) {
         out->theta_est = drv->smo.theta;
         out->w_est = drv->smo.w;
         out->est_valid = drv->smo.valid;
-    } else if (c->angle_source == FS_ANGLE_HFI) {
+    } else if (c->angle_source == (int)FS_ANGLE_HFI) {
         out->theta_est = drv->hfi.theta;
         out->w_est = drv->hfi.w;
-        out->est_valid = drv->phase == FS_PHASE_RUN && drv->injecting && drv->hfi.k_settle == 0;
+        out->est_valid = drv->phase == (int)FS_PHASE_RUN && drv->injecting && drv->hfi.k_settle == 0;
         out->g_w = 0.0f;
-    } else if (c->angle_source == FS_ANGLE_BLEND) {
+    } else if (c->angle_source == (int)FS_ANGLE_BLEND) {
         out->theta_est = drv->blend.theta_hat;
         out->w_est = drv->blend.w_hat;
-        out->est_valid = drv->phase == FS_PHASE_RUN && drv->est_started && drv->hfi.k_settle == 0;
+        out->est_valid = drv->phase == (int)FS_PHASE_RUN && drv->est_started && drv->hfi.k_settle == 0;
         out->g_w = drv->blend.g_w;
+    } else {
+        /* the encoder or an external angle: the loops' own angle and speed (above) */
     }
-    out->injecting = drv->injecting && c->mode != FS_MODE_OFF;
+    out->injecting = drv->injecting && c->mode != (int)FS_MODE_OFF;
     out->phase = drv->phase;
     out->i_d_fw = weakens ? drv->fw.i_d : 0.0f;
     out->i_hf_d = out->i_hf_q = 0.0f;
@@ -1015,10 +1042,10 @@ void fs_drive_step(fs_drive *drv, const fs_drive_in *in, fs_drive_out *out)
     if (c->lock_time > 0.0f) {
         out->lock_resid = drive_lock_residual(drv, in, out, i_loop, cos_t, sin_t);   /* the current the loops used, as out->i_d, i_q are it in their frame */
         out->lock_lost = fs_lock_step(&drv->lock, out->lock_resid);
-        if (out->lock_lost && c->lock_recover) fs_drive_lock_lost(drv, out);   /* recover, or halt (fs_drive_protect.h) */
+        if (out->lock_lost && c->lock_recover) { fs_drive_lock_lost(drv, out); }   /* recover, or halt (fs_drive_protect.h) */
     }
     drv->stage = drive_stage(drv, in, out->g_w, weakens);
     out->stage = drv->stage;
     out->recoveries = drv->recoveries;
-    if (fabsf(w_e) > drv->w_over) fs_drive_halt(drv, FS_FAULT_OVERSPEED, out);
+    if (fabsf(w_e) > drv->w_over) { fs_drive_halt(drv, FS_FAULT_OVERSPEED, out); }
 }

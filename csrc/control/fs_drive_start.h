@@ -8,21 +8,21 @@
 
 /* A refusal names the config field or sub-block at fault (fs_drive.fail). */
 #define REFUSE(where, status) do { drv->fail = (where); return (status); } while (0)
-#define SUB(where, call) do { fs_status st_ = (call); if (st_ != FS_OK) REFUSE((where), st_); } while (0)
+#define SUB(where, call) do { fs_status st_ = (call); if (st_ != FS_OK) { REFUSE((where), st_); } } while (0)
 
 static inline bool drive_starts(const fs_drive_config *c)
 {
-    return FS_WITH_IF_START && c->mode == FS_MODE_SPEED && c->angle_source == FS_ANGLE_SMO && c->i_start > 0.0f;
+    return FS_WITH_IF_START && c->mode == (int)FS_MODE_SPEED && c->angle_source == (int)FS_ANGLE_SMO && c->i_start > 0.0f;
 }
 
 static inline bool drive_weakens(const fs_drive_config *c)
 {
-    return c->mode == FS_MODE_SPEED && c->fw_w_e_max > 0.0f;
+    return c->mode == (int)FS_MODE_SPEED && c->fw_w_e_max > 0.0f;
 }
 
 static inline bool drive_injects(const fs_drive_config *c)
 {
-    return c->angle_source == FS_ANGLE_HFI || c->angle_source == FS_ANGLE_BLEND;
+    return c->angle_source == (int)FS_ANGLE_HFI || c->angle_source == (int)FS_ANGLE_BLEND;
 }
 
 /* The polarity by the motion test (fs_motion_test.h), or else by pulses. */
@@ -36,16 +36,16 @@ static inline bool drive_detects_polarity(const fs_drive_config *c)
 
 /* With an option off (fs_drive.h, FS_WITH_*) the predicate is constant false:
  * the compiler drops the code it guards and the linker its sub-blocks. */
-static inline bool drive_square(const fs_drive_config *c) { return FS_WITH_SWVI && c->angle_source == FS_ANGLE_SWVI; }
+static inline bool drive_square(const fs_drive_config *c) { return FS_WITH_SWVI && c->angle_source == (int)FS_ANGLE_SWVI; }
 
-static inline bool drive_imc(const fs_drive_config *c) { return FS_WITH_IMC && c->converter == FS_CONV_IMC; }
+static inline bool drive_imc(const fs_drive_config *c) { return FS_WITH_IMC && c->converter == (int)FS_CONV_IMC; }
 
 static inline bool drive_five(const fs_drive_config *c) { return FS_WITH_FIVE_PHASE && c->phases == 5; }
 
 /* zou2021 PART_2: the depth controller runs in speed mode with flux weakening. */
 static inline bool drive_imc_depth(const fs_drive_config *c)
 {
-    return drive_imc(c) && c->imc_depth && c->imc_region == FS_IMC_OM2 && drive_weakens(c);
+    return drive_imc(c) && c->imc_depth && c->imc_region == (int)FS_IMC_OM2 && drive_weakens(c);
 }
 
 /* The loops' period: every other sample with the square wave (sec. 2.2). */
@@ -60,7 +60,7 @@ static inline bool drive_fw_plans(const fs_drive *drv) { return FS_WITH_FLUXMAP 
 /* The SMO runs for its own source and inside the blend. */
 static inline bool drive_has_smo(const fs_drive_config *c)
 {
-    return c->angle_source == FS_ANGLE_SMO || c->angle_source == FS_ANGLE_BLEND;
+    return c->angle_source == (int)FS_ANGLE_SMO || c->angle_source == (int)FS_ANGLE_BLEND;
 }
 
 /* The controller's torque at a current (the motion observers' feed-forward). */

@@ -20,7 +20,7 @@ static void carrier_phase(fs_hfi *h, float R_s)
     const float D_re = w * w * (sl * sl - dl * dl) - R * R, D_im = 2.0f * R * w * sl;
     const float phi_r = fs_atan2f(D_im, D_re);
     h->phi_ref = 0.5f * FS_PI - phi_p - phi_r;
-    if (dl > 0.0f) h->phi_ref -= FS_PI;   /* L_d > L_q: the carrier of eq. (24) changes sign */
+    if (dl > 0.0f) { h->phi_ref -= FS_PI; }   /* L_d > L_q: the carrier of eq. (24) changes sign */
     /* the negative carrier's amplitude, |B| of the header, at the samples */
     h->i_n_design = c.u_h * w * fabsf(dl) / sqrtf(D_re * D_re + D_im * D_im) / (sinc * sinc);
     h->rot_ref.alpha = fs_cosf(h->phi_ref);
@@ -30,7 +30,7 @@ static void carrier_phase(fs_hfi *h, float R_s)
 
 void fs_hfi_set_resistance(fs_hfi *h, float R_s)
 {
-    if (h && fs_nonneg(R_s)) carrier_phase(h, R_s);
+    if (h && fs_nonneg(R_s)) { carrier_phase(h, R_s); }
 }
 
 /* nextafterf(w, 0) for w > 0 (an infinity included), without libm's
@@ -45,41 +45,41 @@ static float next_down(float w)
 
 float fs_hfi_w_h_max(float Ts)
 {
-    if (!fs_pos(Ts)) return 0.0f;
+    if (!fs_pos(Ts)) { return 0.0f; }
     float w = 0.5f * FS_PI / Ts;
-    while (w > 0.0f && !(w * Ts < 0.5f * FS_PI)) w = next_down(w);
+    while (w > 0.0f && !(w * Ts < 0.5f * FS_PI)) { w = next_down(w); }
     return w;
 }
 
 FS_COLD fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
 {
-    if (!h || !cfg) return FS_ERR_NULL;
+    if (!h || !cfg) { return FS_ERR_NULL; }
     fs_hfi_config c = *cfg;
-    if (!fs_pos(c.Ts)) return FS_ERR_TS;
-    if (!(c.delay >= 0.0f && c.delay <= 2.0f)) return FS_ERR_PARAM;
-    if (!fs_pos(c.u_h)) return FS_ERR_PARAM;
-    if (c.leak != 0 && c.leak != 1) return FS_ERR_PARAM;
-    if (c.lag != 0 && c.lag != 1) return FS_ERR_PARAM;
-    if (!(c.w_h > 0.0f) || !(c.w_h <= fs_hfi_w_h_max(c.Ts))) return FS_ERR_BANDWIDTH;
-    if (!fs_nonneg(c.w_b_p) || !fs_nonneg(c.w_b_n)) return FS_ERR_BANDWIDTH;
-    if (!fs_nonneg(c.R_s)) return FS_ERR_RS;
-    if (!fs_pos(c.L_d)) return FS_ERR_LD;
-    if (!fs_pos(c.L_q)) return FS_ERR_LQ;
-    if (!(fabsf(c.L_q - c.L_d) > 0.01f * 0.5f * (c.L_d + c.L_q))) return FS_ERR_SALIENCY;
-    if (c.w_b_p == 0.0f) c.w_b_p = 0.05f * c.w_h;
-    if (c.w_b_n == 0.0f) c.w_b_n = 0.05f * c.w_h;
+    if (!fs_pos(c.Ts)) { return FS_ERR_TS; }
+    if (!(c.delay >= 0.0f && c.delay <= 2.0f)) { return FS_ERR_PARAM; }
+    if (!fs_pos(c.u_h)) { return FS_ERR_PARAM; }
+    if (c.leak != 0 && c.leak != 1) { return FS_ERR_PARAM; }
+    if (c.lag != 0 && c.lag != 1) { return FS_ERR_PARAM; }
+    if (!(c.w_h > 0.0f) || !(c.w_h <= fs_hfi_w_h_max(c.Ts))) { return FS_ERR_BANDWIDTH; }
+    if (!fs_nonneg(c.w_b_p) || !fs_nonneg(c.w_b_n)) { return FS_ERR_BANDWIDTH; }
+    if (!fs_nonneg(c.R_s)) { return FS_ERR_RS; }
+    if (!fs_pos(c.L_d)) { return FS_ERR_LD; }
+    if (!fs_pos(c.L_q)) { return FS_ERR_LQ; }
+    if (!(fabsf(c.L_q - c.L_d) > 0.01f * 0.5f * (c.L_d + c.L_q))) { return FS_ERR_SALIENCY; }
+    if (c.w_b_p == 0.0f) { c.w_b_p = 0.05f * c.w_h; }
+    if (c.w_b_n == 0.0f) { c.w_b_n = 0.05f * c.w_h; }
     /* the settling count 3 / (w_b_n Ts) must stay an int */
-    if (!(c.w_b_n * c.Ts >= 1e-4f)) return FS_ERR_BANDWIDTH;
-    if (c.obs.bandwidth == 0.0f) c.obs.bandwidth = (c.lag ? FS_HFI_OBS_PER_FILTER_LAG : FS_HFI_OBS_PER_FILTER) * c.w_b_n;
+    if (!(c.w_b_n * c.Ts >= 1e-4f)) { return FS_ERR_BANDWIDTH; }
+    if (c.obs.bandwidth == 0.0f) { c.obs.bandwidth = (c.lag ? FS_HFI_OBS_PER_FILTER_LAG : FS_HFI_OBS_PER_FILTER) * c.w_b_n; }
     c.obs.Ts = c.Ts;
 
-    if (fs_xcomp_check(&c.xcomp) != FS_OK) return FS_ERR_PARAM;
+    if (fs_xcomp_check(&c.xcomp) != FS_OK) { return FS_ERR_PARAM; }
     fs_hfi_filter_config fc = {c.Ts, c.w_b_p, c.w_b_n};
     fs_status st = fs_hfi_filter_init(&h->filt, &fc);
-    if (st != FS_OK) return st;
+    if (st != FS_OK) { return st; }
     /* with lag: eq. (26)'s error comes through the second SRFF's low-pass, twice with the leak's removal */
     st = fs_motion_obs_init_lag(&h->obs, &c.obs, c.lag ? 1 + c.leak : 0, c.lag ? c.w_b_n : 0.0f);
-    if (st != FS_OK) return st;
+    if (st != FS_OK) { return st; }
     h->cfg = c;
 
     const float x = 0.5f * c.w_h * c.Ts, sinc = fs_sinf(x) / x;
@@ -87,21 +87,22 @@ FS_COLD fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
     h->theta_u = c.w_h * c.Ts * (c.delay + 0.5f);
     h->u_amp = c.u_h / sinc;                        /* the held staircase's component at w_h is eq. (22) */
     carrier_phase(h, c.R_s);
-    if (!fs_pos(h->i_n_design) || !fs_fin(h->u_amp)) return FS_ERR_PARAM;   /* beyond the float range */
+    if (!fs_pos(h->i_n_design) || !fs_fin(h->u_amp)) { return FS_ERR_PARAM; }   /* beyond the float range */
     h->k_avg = -expm1f(-0.25f * c.w_b_n * c.Ts);
     h->n_settle = fs_ceil_int(3.0f / (c.w_b_n * c.Ts));
     h->k_follow = -expm1f(-c.w_b_n * c.Ts);   /* fs_hfi_follow: the filters' bandwidth */
     h->w_o_blend = c.lag ? FS_HFI_OBS_PER_FILTER * c.w_b_n : c.obs.bandwidth;
     {   /* the table's i_q over a carrier period (header) */
-        const int n = (int)(2.0f * FS_PI / (c.w_h * c.Ts) + 0.5f);
+        const float period_steps = (2.0f * FS_PI / (c.w_h * c.Ts)) + 0.5f;   /* rounded by the truncation to int */
+        const int n = (int)period_steps;
         h->n_iq = n < FS_HFI_IQ_MAX ? n : FS_HFI_IQ_MAX;
         h->inv_n_iq = 1.0f / (float)h->n_iq;
     }
-    if (c.lag) {
+    if (c.lag != 0) {
         fs_motion_obs_config ow = c.obs;
         ow.bandwidth = h->w_o_blend;
         st = fs_motion_obs_init(&h->obs_w, &ow);
-        if (st != FS_OK) return st;
+        if (st != FS_OK) { return st; }
     }
     h->rot_u.alpha = fs_cosf(h->theta_u);
     h->rot_u.beta = fs_sinf(h->theta_u);
@@ -115,7 +116,7 @@ FS_COLD void fs_hfi_reset(fs_hfi *h, float theta, float w)
 {
     fs_hfi_filter_reset(&h->filt);
     fs_motion_obs_reset(&h->obs, theta, w);
-    if (h->cfg.lag) fs_motion_obs_reset(&h->obs_w, theta, w);
+    if (h->cfg.lag != 0) { fs_motion_obs_reset(&h->obs_w, theta, w); }
     h->theta_h = 0.0f;
     h->e_h.alpha = 1.0f;
     h->e_h.beta = 0.0f;
@@ -130,7 +131,7 @@ FS_COLD void fs_hfi_reset(fs_hfi *h, float theta, float w)
     h->i_p = h->i_n = 0.0f;
     h->i_n_avg = h->i_n_design;
     h->eps = h->delta = h->i_q = h->iq_sum = 0.0f;
-    for (int k = 0; k < FS_HFI_IQ_MAX; ++k) h->iq_buf[k] = 0.0f;
+    for (int k = 0; k < FS_HFI_IQ_MAX; ++k) { h->iq_buf[k] = 0.0f; }
     h->k_iq = 0;
     h->theta = h->obs.theta_hat;
     h->w = h->cfg.lag ? h->obs_w.w_hat : h->obs.w_hat;
@@ -151,7 +152,7 @@ FS_COLD void fs_hfi_restart(fs_hfi *h, float theta, float w)
 FS_COLD void fs_hfi_set_angle(fs_hfi *h, float theta, float w)
 {
     fs_motion_obs_reset(&h->obs, theta, w);
-    if (h->cfg.lag) fs_motion_obs_reset(&h->obs_w, theta, w);
+    if (h->cfg.lag != 0) { fs_motion_obs_reset(&h->obs_w, theta, w); }
     h->theta = h->obs.theta_hat;
     h->w = h->cfg.lag ? h->obs_w.w_hat : h->obs.w_hat;
 }
@@ -173,7 +174,7 @@ FS_COLD float fs_hfi_axis_error(const fs_hfi *h)
 void fs_hfi_set_load(fs_hfi *h, float T_d)
 {
     h->obs.T_d_hat = T_d;
-    if (h->cfg.lag) h->obs_w.T_d_hat = T_d;
+    if (h->cfg.lag != 0) { h->obs_w.T_d_hat = T_d; }
 }
 
 float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
@@ -229,7 +230,7 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
         if (++h->k_iq == h->n_iq) {
             h->k_iq = 0;
             h->iq_sum = 0.0f;
-            for (int k = 0; k < h->n_iq; ++k) h->iq_sum += h->iq_buf[k];
+            for (int k = 0; k < h->n_iq; ++k) { h->iq_sum += h->iq_buf[k]; }
         }
         h->i_q = h->iq_sum * h->inv_n_iq;
         h->delta = fs_xcomp_eval(&h->cfg.xcomp, h->i_q);
@@ -248,8 +249,8 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
     }
     /* Fig. 4b: fundamental and negative-sequence carrier; with cfg.leak the
      * fundamental's leak taken out of the latter (fs_hfi_filter_step_nl) */
-    if (h->cfg.leak) fs_hfi_filter_step_nl(&h->filt, i, e_h, e_n, &h->i_f, &h->i_hn);
-    else fs_hfi_filter_step_cs(&h->filt, i, e_h, e_n, &h->i_f, &h->i_hn);
+    if (h->cfg.leak != 0) { fs_hfi_filter_step_nl(&h->filt, i, e_h, e_n, &h->i_f, &h->i_hn); }
+    else { fs_hfi_filter_step_cs(&h->filt, i, e_h, e_n, &h->i_f, &h->i_hn); }
     const fs_dq lp_p = h->filt.srff_p.lp, lp_n = h->filt.srff_n.lp;
     /* the negative carrier's amplitude, eq. (26)'s divisor: the second
      * SRFF's state, with cfg.leak less the fundamental's leak it also holds
@@ -281,17 +282,19 @@ float fs_hfi_step(fs_hfi *h, fs_ab i, float T_ff)
         --h->k_settle;
     } else if (h->i_n_avg > 0.0f) {
         eps_n = fs_clamp_sym((c * h->i_hn.beta - s * h->i_hn.alpha) / h->i_n_avg, 1.0f);
+    } else {
+        /* no negative-sequence carrier yet: no error to correct by */
     }
     h->eps = 0.5f * eps_n;   /* sin(2 dtheta) / 2 ~ dtheta */
 
     /* Fig. 5; with the filter's lag in the loop, nothing to take while the
      * filters settle (its image of the angle stays at the estimate) */
-    if (h->cfg.lag && settling) fs_motion_obs_predict(&h->obs, T_ff);
-    else fs_motion_obs_step(&h->obs, h->eps, T_ff);
+    if (h->cfg.lag && settling) { (void)fs_motion_obs_predict(&h->obs, T_ff); }
+    else { (void)fs_motion_obs_step(&h->obs, h->eps, T_ff); }
     h->theta = h->obs.theta_hat;
     h->w = h->obs.w_hat;
-    if (h->cfg.lag) {   /* the speed's observer on that angle (header) */
-        fs_motion_obs_step(&h->obs_w, fs_wrap_pi(h->theta - h->obs_w.theta_hat), T_ff);
+    if (h->cfg.lag != 0) {   /* the speed's observer on that angle (header) */
+        (void)fs_motion_obs_step(&h->obs_w, fs_wrap_pi(h->theta - h->obs_w.theta_hat), T_ff);
         h->w = h->obs_w.w_hat;
     }
 

@@ -28,39 +28,40 @@ static inline void smo_schedule(fs_smo *o)
     const float w_emf = o->e_raw / o->psi_x;
     const float want = fs_minf(FS_SMO_BW_PER_W * fs_maxf(w_emf, o->w_sched_min), o->cfg.bw_pll);
     const float now = o->mo.cfg.bandwidth;
-    if (!(fabsf(want - now) <= 0.1f * now)) smo_redesign(o, want);   /* a NaN re-designs, as before */
+    if (!(fabsf(want - now) <= 0.1f * now)) { smo_redesign(o, want); }   /* a NaN re-designs, as before */
 }
 
 FS_COLD fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
 {
-    if (!o || !cfg) return FS_ERR_NULL;
-    if (!fs_pos(cfg->Ts)) return FS_ERR_TS;
-    if (!fs_nonneg(cfg->R_s)) return FS_ERR_RS;
-    if (!fs_pos(cfg->L_d)) return FS_ERR_LD;
-    if (!fs_pos(cfg->L_q)) return FS_ERR_LQ;
-    if (!fs_nonneg(cfg->psi_f)) return FS_ERR_PSI_F;
-    if (!fs_pos(cfg->w_e_max) || !fs_pos(cfg->i_max) || !(cfg->margin >= 1.0f) || !fs_fin(cfg->margin))
+    if (!o || !cfg) { return FS_ERR_NULL; }
+    if (!fs_pos(cfg->Ts)) { return FS_ERR_TS; }
+    if (!fs_nonneg(cfg->R_s)) { return FS_ERR_RS; }
+    if (!fs_pos(cfg->L_d)) { return FS_ERR_LD; }
+    if (!fs_pos(cfg->L_q)) { return FS_ERR_LQ; }
+    if (!fs_nonneg(cfg->psi_f)) { return FS_ERR_PSI_F; }
+    if (!fs_pos(cfg->w_e_max) || !fs_pos(cfg->i_max) || !(cfg->margin >= 1.0f) || !fs_fin(cfg->margin)) {
         return FS_ERR_LIMIT;
-    if (!fs_nonneg(cfg->k) || !fs_nonneg(cfg->delta) || !fs_nonneg(cfg->w_valid)) return FS_ERR_PARAM;
-    if (cfg->lag != FS_SMO_LAG_EXACT && cfg->lag != FS_SMO_LAG_PAPER) return FS_ERR_MODE;
-    if (cfg->form != FS_SMO_FORM_PAPER && cfg->form != FS_SMO_FORM_TRACKING) return FS_ERR_MODE;
+    }
+    if (!fs_nonneg(cfg->k) || !fs_nonneg(cfg->delta) || !fs_nonneg(cfg->w_valid)) { return FS_ERR_PARAM; }
+    if (cfg->lag != (int)FS_SMO_LAG_EXACT && cfg->lag != (int)FS_SMO_LAG_PAPER) { return FS_ERR_MODE; }
+    if (cfg->form != (int)FS_SMO_FORM_PAPER && cfg->form != (int)FS_SMO_FORM_TRACKING) { return FS_ERR_MODE; }
     o->cfg = *cfg;
     /* eq. (18): k > max(|e_alpha|, |e_beta|) / 2, with the extended EMF
      * E_ex = w psi_f + (L_d - L_q) w i_d at most w_max (psi_f + |L_d - L_q| i_max) */
     float E_max = cfg->w_e_max * (cfg->psi_f + fabsf(cfg->L_d - cfg->L_q) * cfg->i_max);
     o->k_bound = 0.5f * E_max;
-    if (cfg->k > 0.0f && cfg->k <= o->k_bound) return FS_ERR_SMO_GAIN;
+    if (cfg->k > 0.0f && cfg->k <= o->k_bound) { return FS_ERR_SMO_GAIN; }
     o->k = cfg->k > 0.0f ? cfg->k : cfg->margin * o->k_bound;
     o->delta = fs_maxf(cfg->delta, o->k * cfg->Ts / cfg->L_d);
     /* a designed gain of 0 (no EMF: psi_f = 0, L_d = L_q) or beyond the float range */
-    if (!fs_pos(o->k) || !fs_pos(o->delta)) return FS_ERR_SMO_GAIN;
+    if (!fs_pos(o->k) || !fs_pos(o->delta)) { return FS_ERR_SMO_GAIN; }
     o->i_hat_max = 16.0f * cfg->i_max;
     fs_lpf_config lc = {cfg->Ts, cfg->w_c_min};
     fs_status st = fs_lpf_init(&o->lpf, &lc);
-    if (st != FS_OK) return st;
+    if (st != FS_OK) { return st; }
     fs_pll_config pc = {cfg->Ts, cfg->bw_pll, 1.5f * cfg->w_e_max};
     st = fs_pll_init(&o->pll, &pc);
-    if (st != FS_OK) return st;
+    if (st != FS_OK) { return st; }
     /* the boundary layer's correction per step, k Ts / (L_d delta) <= 1 */
     o->c_bl = fs_minf(o->k * cfg->Ts / (cfg->L_d * o->delta), 1.0f);
     /* 0.4 w_valid psi_f: the filtered EMF at w_valid (the loop passes
@@ -69,13 +70,13 @@ FS_COLD fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg)
     /* converged: 4 time constants of the tracker without a break */
     o->n_settle = fs_ceil_int(4.0f / (cfg->bw_pll * cfg->Ts));
     o->a_emf = -expm1f(-cfg->bw_pll * cfg->Ts);
-    if (cfg->form == FS_SMO_FORM_TRACKING) {
-        if (cfg->phases != 3 && cfg->phases != 5) return FS_ERR_PARAM;
-        if (!fs_pos(cfg->psi_f)) return FS_ERR_PSI_F;   /* the schedule's speed is the EMF over psi_f */
+    if (cfg->form == (int)FS_SMO_FORM_TRACKING) {
+        if (cfg->phases != 3 && cfg->phases != 5) { return FS_ERR_PARAM; }
+        if (!fs_pos(cfg->psi_f)) { return FS_ERR_PSI_F; }   /* the schedule's speed is the EMF over psi_f */
         /* checked at the top bandwidth: the schedule only lowers it */
         fs_motion_obs_config mc = {cfg->Ts, cfg->J, cfg->B, cfg->pole_pairs, cfg->bw_pll};
         st = fs_motion_obs_init(&o->mo, &mc);
-        if (st != FS_OK) return st;
+        if (st != FS_OK) { return st; }
         o->k_T = 0.5f * (float)cfg->phases * (float)cfg->pole_pairs;
         o->w_sched_min = fs_maxf(cfg->w_valid, cfg->w_c_min);
         /* the filtered EMF at w_valid behind the filter at FS_SMO_WC_PER_BW
@@ -100,7 +101,7 @@ FS_COLD void fs_smo_reset(fs_smo *o, float theta, float w)
     o->psi_x = o->cfg.psi_f;   /* at no current */
     o->w_emf = o->w_emf_lp = w;
     o->gen = false;
-    if (o->cfg.form == FS_SMO_FORM_TRACKING) {
+    if (o->cfg.form == (int)FS_SMO_FORM_TRACKING) {
         fs_motion_obs_reset(&o->mo, theta, w);
         smo_schedule(o);
     }
@@ -130,7 +131,7 @@ void fs_smo_follow(fs_smo *o, float theta, float w, float T_d)
      * load on a salient machine the EMF of w_valid is several times
      * w_valid psi_f (the 2004 Prius MG2 at 200 N m: psi_x 0.51 Wb, psi_f
      * 0.16), and the hand-over ended at a third of w_valid */
-    if ((o->cfg.form != FS_SMO_FORM_TRACKING) || o->valid || (o->e_raw >= (o->cfg.w_valid * o->psi_x))) return;
+    if ((o->cfg.form != (int)FS_SMO_FORM_TRACKING) || o->valid || (o->e_raw >= (o->cfg.w_valid * o->psi_x))) { return; }
     fs_motion_obs_reset(&o->mo, theta, w);
     o->mo.T_d_hat = T_d;
     o->theta = o->mo.theta_hat;
@@ -157,8 +158,9 @@ void fs_smo_hold(fs_smo *o, int n)
 
 void fs_smo_set_dir(fs_smo *o, float w)
 {
-    if (w > 0.0f) o->dir = 1.0f;
-    else if (w < 0.0f) o->dir = -1.0f;
+    if (w > 0.0f) { o->dir = 1.0f; }
+    else if (w < 0.0f) { o->dir = -1.0f; }
+    else { /* no direction at zero (or NaN): the last one kept */ }
 }
 
 static float sat(float x, float delta)  /* eq. (6) */
@@ -200,7 +202,7 @@ static void smo_settle(fs_smo *o)
     /* the EMF's own speed, signed with the direction the angle assumes,
      * against the estimate (fs_smo.h, convergence) */
     const float tol = FS_SMO_AGREE * fs_maxf(fabsf(o->w), o->cfg.w_valid);
-    const float e = o->cfg.form == FS_SMO_FORM_TRACKING ? o->w_emf_lp * o->psi_x : o->dir * o->e_raw;
+    const float e = o->cfg.form == (int)FS_SMO_FORM_TRACKING ? o->w_emf_lp * o->psi_x : o->dir * o->e_raw;
     const bool agree = fabsf(e - o->w * o->psi_x) <= tol * o->psi_x;
     const bool in = agree && o->r_i <= 1.0f && fabsf(o->eps) < 0.0872f;   /* sin 5 deg */
     o->k_settled = in ? o->k_settled + 1 : 0;
@@ -209,6 +211,8 @@ static void smo_settle(fs_smo *o)
         o->converged = true;
     } else if (!in) {
         o->converged = false;
+    } else {
+        /* agreeing, not yet for n_settle steps: converged as it was */
     }
 }
 
@@ -223,7 +227,7 @@ static void smo_settle(fs_smo *o)
 fs_ab fs_smo_transient(const fs_smo *o, fs_ab i, const fs_fluxmap_point *p)
 {
     const fs_smo_config *c = &o->cfg;
-    if (c->form != FS_SMO_FORM_TRACKING) return (fs_ab){0.0f, 0.0f};
+    if (c->form != (int)FS_SMO_FORM_TRACKING) { return (fs_ab){0.0f, 0.0f}; }
     const float Ts = c->Ts, k = 1.0f / Ts, w = o->mo.w_hat;
     const fs_ab i0 = o->have_prev ? o->i_prev : i;
     const float th = o->mo.theta_hat + 0.5f * Ts * w, cm = fs_cosf(th), sm = fs_sinf(th);
@@ -313,7 +317,7 @@ FS_OUT_OF_LINE FS_COLD bool smo_model_step(fs_smo *o, float T)
 float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
 {
     const fs_smo_config *c = &o->cfg;
-    const bool track = c->form == FS_SMO_FORM_TRACKING;
+    const bool track = c->form == (int)FS_SMO_FORM_TRACKING;
     float T_step = 0.0f;   /* the tracking form's torque of the period, for a zero crossing's start (below) */
     const fs_ab e_hat = o->lpf.y;
     const float w = track ? o->mo.w_hat : o->pll.w;
@@ -367,7 +371,7 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
         const float kappa = o->e_valid > 0.0f ? fs_minf(mag / o->e_valid, 1.0f) : 1.0f;
         const float th_prev = o->mo.theta_hat;
         float err = 0.0f, h_inv = 0.0f;
-        if (mag > 1e-6f) err = fs_wrap_pi(smo_emf_angle(o, e, w, g_c, &h_inv) - th_prev);
+        if (mag > 1e-6f) { err = fs_wrap_pi(smo_emf_angle(o, e, w, g_c, &h_inv) - th_prev); }
         /* the torque of the period: mean current in the frame at its middle */
         const float th_mid = th_prev + 0.5f * c->Ts * w;
         const fs_dq i_dq = fs_park(i_m, fs_cosf(th_mid), fs_sinf(th_mid));
@@ -398,14 +402,14 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
         }
         if (!modelled) {
             const float T_net = o->valid ? kappa * T - (1.0f - kappa) * o->mo.T_d_hat : -o->mo.T_d_hat;
-            fs_motion_obs_step(&o->mo, kappa * err, T_net);
+            (void)fs_motion_obs_step(&o->mo, kappa * err, T_net);
             o->T_hold = T;
             /* Becoming valid (below, on this speed), the model's acceleration,
              * nil until now, stays continuous: T_d starts at -T and learns the
              * rest. Whatever T_d held (a load from before, or none) counted in
              * full at once: with the encoder's loops at 150 rpm under 3 N m and
              * no load learnt, the estimate ran to 475 rpm, 24 el.deg off. */
-            if (!o->valid && fabsf(o->mo.w_hat) >= c->w_valid) o->mo.T_d_hat = -T;
+            if (!o->valid && fabsf(o->mo.w_hat) >= c->w_valid) { o->mo.T_d_hat = -T; }
         }
         smo_schedule(o);
         o->w = o->mo.w_hat;
@@ -415,7 +419,7 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
          * With the PLL's hysteresis (below) the EMF was read pi off from the
          * zero crossing to w_valid: 34.6 el.deg on the grin hub motor reversed
          * through zero by its load (11.9 with the sign) */
-        if (!c->dir_external && o->w != 0.0f) o->dir = o->w < 0.0f ? -1.0f : 1.0f;
+        if (!c->dir_external && o->w != 0.0f) { o->dir = o->w < 0.0f ? -1.0f : 1.0f; }
         o->i_prev = i;
         o->have_prev = true;
     } else {
@@ -433,18 +437,19 @@ float fs_smo_step(fs_smo *o, fs_ab i, fs_ab u)
             eps *= o->dir;
         }
         o->psi_x = o->map ? o->psi_run : smo_psi_x(c, i.alpha * cth + i.beta * sth);   /* for `converged` */
-        fs_pll_step(&o->pll, eps);
+        (void)fs_pll_step(&o->pll, eps);
         o->eps = eps;
         o->e_mag = mag;
         o->w = o->pll.w;
-        float w_c = fs_maxf(fabsf(o->w), c->w_c_min);
-        float lag = (c->lag == FS_SMO_LAG_PAPER) ? fs_signf(o->w) * 0.25f * FS_PI
-                                                 : fs_atanf(o->w / (2.0f * w_c));
+        float w_c_pll = fs_maxf(fabsf(o->w), c->w_c_min);   /* the filter's cutoff at the PLL's speed */
+        float lag = (c->lag == (int)FS_SMO_LAG_PAPER) ? fs_signf(o->w) * 0.25f * FS_PI
+                                                 : fs_atanf(o->w / (2.0f * w_c_pll));
         /* the PLL now predicts the next mid-period; back half a period to the sample */
         o->theta = fs_wrap_pi(o->pll.theta - 0.5f * c->Ts * o->w + lag);
         if (!c->dir_external) {   /* the direction turns only past w_valid (above) */
-            if (o->w > c->w_valid) o->dir = 1.0f;
-            else if (o->w < -c->w_valid) o->dir = -1.0f;
+            if (o->w > c->w_valid) { o->dir = 1.0f; }
+            else if (o->w < -c->w_valid) { o->dir = -1.0f; }
+            else { /* within +-w_valid: the direction kept */ }
         }
     }
     float aw = fabsf(o->w);

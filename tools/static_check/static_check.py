@@ -17,11 +17,20 @@ stay clean (no error or warning at all, and no other finding past the
 baseline). MISRA findings in plant and sim are counted, not held: the
 simulator runs on the host in double precision and is not the firmware.
 
+The records (deviations.toml, beside this file): each finding against a
+required rule that csrc/control keeps on purpose has a record (rule, kind:
+deviation or false positive, files, where, why, guard, by, date). A record
+covers its rule's findings in its files; one whose findings are gone is
+stale, one whose count changed must be reviewed: both fail the check, so
+that the records say what is in force.
+
 Usage (from the repository root, with the project's virtual environment):
     python tools/static_check/static_check.py [--write-doc] [--write-baseline]
-Exit status: 0 the ratchet holds; 1 it does not (what grew is printed);
-3 the analysis cannot be trusted (cppcheck missing, another version than
-the baseline's, or cppcheck could not analyse a file), with the reason.
+Exit status: 0 the ratchet holds and the records are in force; 1 it does
+not, or a record is stale or changed (what is printed); 2 a record is
+malformed (its id, field and what is allowed); 3 the analysis cannot be
+trusted (cppcheck missing, another version than the baseline's, or cppcheck
+could not analyse a file), with the reason.
 --write-doc writes docs/static-analysis.md (atomically); --write-baseline
 records today's counts as the baseline (only after a change that lowered
 them, or on a new cppcheck version, with the reason in the commit).
@@ -30,12 +39,14 @@ from __future__ import annotations
 
 import argparse
 import csv
+import datetime
 import hashlib
 import json
 import re
 import shutil
 import subprocess
 import sys
+import tomllib
 import xml.etree.ElementTree as ET
 from collections import Counter
 from dataclasses import dataclass
@@ -47,6 +58,7 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
 RULES_CSV = HERE / "misra_c2012.csv"
 BASELINE = HERE / "baseline.json"
+DEVIATIONS = HERE / "deviations.toml"
 DOC = ROOT / "docs" / "static-analysis.md"
 
 ENABLE = "warning,style,performance,portability"
@@ -63,7 +75,12 @@ TOOL_FAILURES = {"internalError", "syntaxError", "cppcheckError", "preprocessorE
                  "instantiationError", "bailoutUninitVar", "noValidConfiguration"}
 MISRA_PREFIX = "misra-c2012-"
 CATEGORIES = ("Mandatory", "Required", "Advisory")
-EXIT_OK, EXIT_RATCHET, EXIT_UNTRUSTED = 0, 1, 3
+EXIT_OK, EXIT_RATCHET, EXIT_BAD_RECORD, EXIT_UNTRUSTED = 0, 1, 2, 3
+# a record's kinds: the code breaks the rule on purpose, or the checker reports a
+# breach where the code meets the rule (recorded with the evidence, not deviated)
+KINDS = ("deviation", "false positive")
+RECORD_TEXT = ("id", "rule", "kind", "where", "why", "guard", "by", "date")   # required strings
+RECORD_OPTIONAL = ("evidence", "cost", "approval")                          # optional strings
 
 
 class Untrusted(RuntimeError):
@@ -81,6 +98,126 @@ class Finding:
     @property
     def rule(self) -> str | None:
         return self.id[len(MISRA_PREFIX):] if self.id.startswith(MISRA_PREFIX) else None
+
+
+class BadRecord(ValueError):
+    """A deviation record that does not say what a record must."""
+
+
+@dataclass(frozen=True)
+class Record:
+    """One record of deviations.toml (see the docstring and that file)."""
+    id: str
+    rule: str
+    kind: str
+    files: tuple[str, ...]
+    findings: int
+    where: str
+    why: str
+    guard: str
+    by: str
+    date: str
+    evidence: str = ""
+    cost: str = ""
+    approval: str = ""
+
+
+def load_records(path: Path | None = None, table: dict | None = None, root: Path = ROOT) -> list[Record]:
+    """The records of path (default DEVIATIONS), each checked: a rule of the
+    table (no deviation of a mandatory rule), a kind, files under csrc/control
+    that exist, the findings it was written for, and a place, a reason, a
+    guard, who and when in words. BadRecord names the record, the field, its
+    value and what is allowed."""
+    path = DEVIATIONS if path is None else path
+    table = rule_table() if table is None else table
+    try:
+        data = tomllib.loads(path.read_text())
+    except (OSError, tomllib.TOMLDecodeError) as exc:
+        raise BadRecord(f"{path.name}: cannot be read: {exc}") from exc
+    unknown_top = sorted(set(data) - {"record"})
+    if unknown_top:
+        raise BadRecord(f"{path.name}: top-level {unknown_top[0]!r}: only [[record]] tables are allowed")
+    rows = data.get("record", [])
+    if not isinstance(rows, list):
+        raise BadRecord(f"{path.name}: record must be an array of tables ([[record]])")
+    out, seen = [], set()
+    for n, row in enumerate(rows, 1):
+        name = f"{path.name}: record {n} ({row.get('id', 'no id')})"
+
+        def bad(field, allowed):
+            return BadRecord(f"{name}: {field} = {row.get(field)!r}: {allowed}")
+
+        extra = sorted(set(row) - {*RECORD_TEXT, *RECORD_OPTIONAL, "files", "findings"})
+        if extra:
+            raise bad(extra[0], "not a field of a record (" + ", ".join((*RECORD_TEXT, "files", "findings", *RECORD_OPTIONAL)) + ")")
+        for field in RECORD_TEXT:
+            if not isinstance(row.get(field), str) or not row[field].strip():
+                raise bad(field, "must be given, in words")
+        for field in RECORD_OPTIONAL:
+            if field in row and (not isinstance(row[field], str) or not row[field].strip()):
+                raise bad(field, "if given, in words")
+        if row["id"] in seen:
+            raise bad("id", "must be unique")
+        seen.add(row["id"])
+        if row["rule"] not in table:
+            raise bad("rule", f"must be a MISRA C:2012 rule of {RULES_CSV.name}")
+        if row["kind"] not in KINDS:
+            raise bad("kind", f"must be one of {', '.join(KINDS)}")
+        if row["kind"] == "deviation" and table[row["rule"]][0] == "Mandatory":
+            raise bad("rule", "a mandatory rule permits no deviation")
+        files = row.get("files")
+        if not isinstance(files, list) or not files or not all(isinstance(f, str) for f in files):
+            raise bad("files", f"must list the files (paths under {CONTROL}/) whose findings the record covers")
+        for f in files:
+            if not f.startswith(CONTROL + "/") or not (root / f).is_file():
+                raise BadRecord(f"{name}: files has {f!r}: must be an existing file under {CONTROL}/")
+        if not isinstance(row.get("findings"), int) or isinstance(row["findings"], bool) or row["findings"] < 1:
+            raise bad("findings", "must be the number of findings the record was written for, at least 1")
+        try:
+            datetime.date.fromisoformat(row["date"])
+        except ValueError:
+            raise bad("date", "must be a date, YYYY-MM-DD") from None
+        out.append(Record(row["id"], row["rule"], row["kind"], tuple(files), row["findings"],
+                          *(row[f].strip() for f in RECORD_TEXT[3:]),
+                          *(row.get(f, "").strip() for f in RECORD_OPTIONAL)))
+    return out
+
+
+def covered(findings: list[Finding], records: list[Record]) -> dict[str, list[Finding]]:
+    """Per record id, the findings it covers: its rule's, in its files."""
+    return {r.id: [f for f in findings if f.rule == r.rule and f.file in r.files] for r in records}
+
+
+def record_problems(findings: list[Finding], records: list[Record]) -> list[str]:
+    """What makes the records untrue of the findings, one line each (empty:
+    every record is in force): a record with no finding of its rule left in
+    its files (stale), one covering another number than it was written for,
+    and findings two records claim."""
+    out = []
+    cov = covered(findings, records)
+    for r in records:
+        got = cov[r.id]
+        if not got:
+            out.append(f"stale record {r.id}: no finding of rule {r.rule} left in {', '.join(r.files)}: "
+                       "remove the record (the code meets the rule, or the checker no longer reports it)")
+        elif len(got) != r.findings:
+            where = ", ".join(sorted(f"{f.file}:{f.line}" for f in got))
+            out.append(f"record {r.id} (rule {r.rule}) was written for {r.findings} finding(s), covers {len(got)} now "
+                       f"({where}): review it and set its findings")
+    claimed: dict[tuple, str] = {}
+    for r in records:
+        for f in cov[r.id]:
+            key = (f.id, f.file, f.line, f.msg)
+            if key in claimed and claimed[key] != r.id:
+                out.append(f"{f.file}:{f.line} rule {r.rule}: covered by records {claimed[key]} and {r.id}: one is enough")
+            claimed.setdefault(key, r.id)
+    return out
+
+
+def open_findings(findings: list[Finding], records: list[Record], table: dict) -> list[Finding]:
+    """Mandatory and required findings neither cleared nor recorded."""
+    cov = {id(f) for fs in covered(findings, records).values() for f in fs}
+    return [f for f in findings if f.rule is not None and table[f.rule][0] != "Advisory" and id(f) not in cov]
 
 
 def rule_table() -> dict[str, tuple[str, str]]:
@@ -254,6 +391,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"--jobs = {a.jobs}: must be at least 1", file=sys.stderr)
         return 2
     try:
+        records = load_records()
+    except BadRecord as exc:
+        print(f"static check not run: {exc}", file=sys.stderr)
+        return EXIT_BAD_RECORD
+    try:
         res = analyse(a.cppcheck, a.jobs)
     except Untrusted as exc:
         print(f"static check not run: {exc}", file=sys.stderr)
@@ -265,7 +407,7 @@ def main(argv: list[str] | None = None) -> int:
     if a.write_doc:
         sys.path.insert(0, str(HERE))   # the report is this folder's other module, which imports this one
         import report
-        write_atomic(DOC, report.markdown(res, baseline, rule_table()))
+        write_atomic(DOC, report.markdown(res, baseline, rule_table(), records))
         print(f"wrote {DOC.relative_to(ROOT)}")
     table = rule_table()
     for name, *_ in RUNS:
@@ -284,7 +426,15 @@ def main(argv: list[str] | None = None) -> int:
     for line in slack(res, baseline):
         print(f"below baseline (tighten with --write-baseline): {line}")
     print("ratchet holds" if not broken else f"ratchet broken: {len(broken)} count(s) grew")
-    return EXIT_RATCHET if broken else EXIT_OK
+    problems = record_problems(res[CONTROL], records)
+    for line in problems:
+        print(f"records: {line}", file=sys.stderr)
+    n_cov = sum(len(v) for v in covered(res[CONTROL], records).values())
+    n_open = len(open_findings(res[CONTROL], records, table))
+    print(f"records ({DEVIATIONS.name}): {len(records)}, covering {n_cov} finding(s); "
+          f"mandatory and required findings neither cleared nor recorded: {n_open}"
+          + ("" if not problems else f"; {len(problems)} record problem(s)"))
+    return EXIT_RATCHET if broken or problems else EXIT_OK
 
 
 if __name__ == "__main__":
