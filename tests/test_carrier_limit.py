@@ -48,3 +48,14 @@ def test_scenario_check_is_the_same_rule_and_names_the_limit():
     # the largest accepted frequency loads (fs_hfi_init runs inside the check)
     sc = load_scenario("bench-motulator-2kw-hfi", {"injection": {"f_h": f_max * (1 - 1e-9), "u_h": 100.0}})
     assert sc.data["injection"]["f_h"] < 0.25 / Ts
+
+
+def test_a_period_beyond_the_search_is_refused_not_hung():
+    """(pi / 2) / Ts 2^-24 is subnormal for Ts past about 8e30 s: the
+    search's next-down step rounds back to the same value, and
+    fs_hfi_w_h_max(6.52e34) never returned. Beyond FS_HFI_TS_MAX it gives
+    0, and fs_hfi_init names the period; at the bound it still searches."""
+    assert lib.fs_hfi_w_h_max(6.52e34) == 0.0 and lib.fs_hfi_w_h_max(float("inf")) == 0.0
+    assert hfi_init(1e-30, 6.52e34) == lib.FS_ERR_TS
+    w = lib.fs_hfi_w_h_max(1e30)
+    assert 0.0 < w and float(np.float32(w) * np.float32(1e30)) < float(np.float32(0.5 * math.pi))

@@ -45,7 +45,8 @@ static float next_down(float w)
 
 float fs_hfi_w_h_max(float Ts)
 {
-    if (!fs_pos(Ts)) { return 0.0f; }
+    /* beyond FS_HFI_TS_MAX, w 2^-24 would be subnormal: next_down would not step and the search would not end */
+    if (!fs_pos(Ts) || !(Ts <= FS_HFI_TS_MAX)) { return 0.0f; }
     float w = 0.5f * FS_PI / Ts;
     while (w > 0.0f && !(w * Ts < 0.5f * FS_PI)) { w = next_down(w); }
     return w;
@@ -55,7 +56,7 @@ FS_COLD fs_status fs_hfi_init(fs_hfi *h, const fs_hfi_config *cfg)
 {
     if (!h || !cfg) { return FS_ERR_NULL; }
     fs_hfi_config c = *cfg;
-    if (!fs_pos(c.Ts)) { return FS_ERR_TS; }
+    if (!fs_pos(c.Ts) || !(c.Ts <= FS_HFI_TS_MAX)) { return FS_ERR_TS; }
     if (!(c.delay >= 0.0f && c.delay <= 2.0f)) { return FS_ERR_PARAM; }
     if (!fs_pos(c.u_h)) { return FS_ERR_PARAM; }
     if (c.leak != 0 && c.leak != 1) { return FS_ERR_PARAM; }

@@ -231,6 +231,10 @@ typedef struct {
  * f_h = fs/4 above pi/2). Returns the largest w_h (rad/s) init accepts for
  * Ts, or 0 for a Ts that is not finite and > 0. */
 float fs_hfi_w_h_max(float Ts);
+/* The longest sampling period fs_hfi takes, s: no drive's, it bounds the
+ * carrier limit's float search (fs_hfi_w_h_max returns 0 beyond it, where
+ * (pi / 2) / Ts 2^-24 would be subnormal and the search would not end) */
+#define FS_HFI_TS_MAX 1e30f
 /* FS_ERR_NULL, FS_ERR_TS, FS_ERR_PARAM (u_h, delay, table), FS_ERR_BANDWIDTH
  * (w_h above the limit, filter or observer bandwidths), FS_ERR_SALIENCY
  * (L_d = L_q: nothing to track), and the motion observer's. Resets. */
