@@ -72,12 +72,26 @@ static inline double complex current(const scen *s, double complex psi, double t
 static inline double complex dpsi(const scen *s, double complex psi, double t, double complex u)
 { return u + s->R * (s->i_dc - current(s, psi, t)); }
 
+/* The flux over one sampling period from t under the held voltage u: 20
+ * classical Runge-Kutta steps (the tests' plant between two samples) */
+static inline double complex plant_period(const scen *s, double complex psi, double t, double complex u)
+{
+    const double dt = TS / 20.0;
+    for (int m = 0; m < 20; ++m, t += dt) {
+        double complex k1 = dpsi(s, psi, t, u);
+        double complex k2 = dpsi(s, psi + 0.5 * dt * k1, t + 0.5 * dt, u);
+        double complex k3 = dpsi(s, psi + 0.5 * dt * k2, t + 0.5 * dt, u);
+        double complex k4 = dpsi(s, psi + dt * k3, t + dt, u);
+        psi += dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+    }
+    return psi;
+}
+
 static inline void run(const char *what, const scen *s, const fs_hfi_config *cfg, result *r)
 {
     fs_hfi *h = &r->h;
     FS_CHECK_EQ_INT(fs_hfi_init(h, cfg), FS_OK, "init");
     fs_hfi_reset(h, (float)fs_test_wrap(s->th_start), 0.0f);
-    const double dt = TS / 20.0;
     /* the current i_dc, and no DC flux left by the start of the carrier */
     double complex psi = SL * s->i_dc + DL * cexp(2.0 * I * (s->theta0 + s->d_ax)) * conj(s->i_dc)
                        + U_H / (I * W_H * SINC * SINC) * cexp(I * W_H * s->delay * TS);
@@ -105,13 +119,7 @@ static inline void run(const char *what, const scen *s, const fs_hfi_config *cfg
             r->max = fmax(r->max, fabs(e));
             r->w += h->w / N_AVG; r->i_p += h->i_p / N_AVG; r->i_n += h->i_n / N_AVG;
         }
-        for (int m = 0; m < 20; ++m, t += dt) {
-            double complex k1 = dpsi(s, psi, t, u);
-            double complex k2 = dpsi(s, psi + 0.5 * dt * k1, t + 0.5 * dt, u);
-            double complex k3 = dpsi(s, psi + 0.5 * dt * k2, t + 0.5 * dt, u);
-            double complex k4 = dpsi(s, psi + dt * k3, t + dt, u);
-            psi += dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
-        }
+        psi = plant_period(s, psi, t, u);
     }
     printf("%-40s expected %+9.4f deg: residual mean %+.4f max %.4f deg; w %+.3f rad/s\n", what,
            s->expect / DEG, r->mean / DEG, r->max / DEG, r->w);

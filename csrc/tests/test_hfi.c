@@ -47,7 +47,6 @@ static void run_iq_step(const fs_hfi_config *cfg, double slope, double i_q1, dou
     FS_CHECK_EQ_INT(fs_hfi_init(&h, cfg), FS_OK, "init");
     fs_hfi_reset(&h, (float)th, 0.0f);
     scen s = {R_S, th, 0.0, 0.0, 0.0, 1, th, 0.0, 0};
-    const double dt = TS / 20.0;
     double complex psi = U_H / (I * W_H * SINC * SINC) * cexp(I * W_H * TS), u_hist[3] = {0.0, 0.0, 0.0};
     for (int k = 0; k < N_RUN; ++k) {
         if (k == N_RUN / 2) {
@@ -62,13 +61,7 @@ static void run_iq_step(const fs_hfi_config *cfg, double slope, double i_q1, dou
         if (k >= N_RUN / 2) err[k - N_RUN / 2] = fs_test_wrap(h.theta - th);
         u_hist[k % 3] = h.u.alpha + I * h.u.beta;
         double complex u = k >= s.delay ? u_hist[(k - s.delay) % 3] : 0.0;
-        for (int m = 0; m < 20; ++m, t += dt) {
-            double complex k1 = dpsi(&s, psi, t, u);
-            double complex k2 = dpsi(&s, psi + 0.5 * dt * k1, t + 0.5 * dt, u);
-            double complex k3 = dpsi(&s, psi + 0.5 * dt * k2, t + 0.5 * dt, u);
-            double complex k4 = dpsi(&s, psi + dt * k3, t + dt, u);
-            psi += dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
-        }
+        psi = plant_period(&s, psi, t, u);
     }
 }
 
