@@ -454,6 +454,22 @@ def test_the_warning_sits_at_the_envelope():
     assert len(feasibility(speed_scenario(_mach(m), 2500.0, T * (1 + 1e-4)))) == 1
 
 
+def test_a_load_beyond_mtpa_at_speed_names_the_envelope_there_too():
+    """A load beyond the MTPA torque at i_max, at a speed where flux weakening
+    gives far less: the line names both, the smaller being the one the speed
+    meets (the new-user trial's Baldor, 60 N m at 3600 rpm, named only the
+    51 N m of MTPA)."""
+    m = prius()
+    lim = Limits(m, 500.0, 250.0)
+    T_mtpa = lim.mtpa_locus()["T"][-1]
+    T_there = lim.best(np.array([m.pole_pairs * rpm_to_rad_s(4000.0)]))[0][0]
+    assert T_there < 0.8 * T_mtpa
+    w = feasibility(speed_scenario(_mach(m), 4000.0, 1.1 * T_mtpa))
+    assert len(w) == 1 and f"beyond the {T_mtpa:.4g} N m" in w[0] and f"at most {T_there:.4g} N m" in w[0]
+    w = feasibility(speed_scenario(_mach(m), 500.0, 1.1 * T_mtpa))   # on MTPA at that speed: MTPA's bound alone
+    assert len(w) == 1 and "at most" not in w[0]
+
+
 def test_a_speed_beyond_a_finite_top_speed_is_named_without_load():
     m = load_machine("motulator-2kw-ipmsm")
     env = envelope(m, 540.0, m.bench["i_max"])

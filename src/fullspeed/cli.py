@@ -129,6 +129,15 @@ def run_verdict(res) -> list[str]:
         out.append(f"the speed ends at {end['speed_rpm']:.1f} rpm against its reference {end['ref_rpm']:.1f} rpm (means over "
                    f"{w[0]:.4g}..{w[1]:.4g} s), {abs(end['speed_rpm'] - end['ref_rpm']):.1f} rpm off: outside the "
                    f"+-{end['band_rpm']:.1f} rpm of a speed loop in control (10 % of the reference, at least 5 % of rated speed)")
+    elif end and end.get("unheld"):
+        u = end["unheld"]
+        how = (f"and moving away ({u['error_before_rpm']:+.1f} rpm a loop time constant, {1e3 * u['tau']:.3g} ms, before)"
+               if u["how"] == "moving away" else
+               f"{1e3 * (res['t'][-1] - u['since']):.4g} ms after the last change of its reference or load, past the "
+               f"loop's settling in {1e3 * u['settle']:.4g} ms")
+        out.append(f"the speed ends at {end['speed_rpm']:.1f} rpm against its reference {end['ref_rpm']:.1f} rpm, "
+                   f"{u['error_rpm']:+.1f} rpm off {how}: beyond the +-{u['band_rpm']:.1f} rpm a settled speed loop keeps "
+                   f"(2 % of the reference, at least 0.5 % of rated speed): the drive is not holding the speed")
     return out
 
 

@@ -320,7 +320,11 @@ def _speed_warnings(lim: Limits, cases: list, weakening: bool, how: str, m) -> l
         what = f"{T_l:.4g} N m at {n:.5g} rpm" if T_l > 0 else f"{n:.5g} rpm"
         at = f"t = {t:g} s" + (f", {T:.4g} N m with friction" if T > T_l * (1 + 1e-9) else "")
         if T > T_mtpa * (1 + ENVELOPE_TOL):
-            out.append(f"{field}: {what} ({at}) is beyond the {T_mtpa:.4g} N m {m.name} makes at i_max on MTPA "
+            # at speed the envelope gives less than MTPA's torque: the smaller bound is the one the speed meets
+            there = ("" if not weakening or (np.isfinite(limit) and limit >= T_mtpa * (1 - ENVELOPE_TOL)) else
+                     f", and at that speed it makes at most {limit:.4g} N m with flux weakening" if np.isfinite(limit)
+                     else f", and that speed is beyond its top speed, {rad_s_to_rpm(lim.w_top()[0] / p):.5g} rpm")
+            out.append(f"{field}: {what} ({at}) is beyond the {T_mtpa:.4g} N m {m.name} makes at i_max on MTPA{there} "
                        f"(within {where}; `fullspeed design` prints the envelope)")
         elif weakening:
             most = (f"it makes at most {limit:.4g} N m at that speed" if np.isfinite(limit) else

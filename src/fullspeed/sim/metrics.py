@@ -96,6 +96,15 @@ def _steady_planned(res) -> tuple[tuple[float, float] | None, str]:
     if t_flat + margin >= T - 1e-12:
         return None, (f"none: the references or the load change until {t_flat:g} s and the loop settles in "
                       f"{margin:.3g} s, past the end ({T:g} s); set [metrics] steady")
+    # a mean over less than one time constant of the loop is a snapshot of its transient, not a steady state
+    # (the speed loop's end check, job_checks, averages over the same 1 / bw)
+    tau = settle / SETTLE_TAUS if settle is not None else 0.0
+    if T - (t_flat + margin) < tau - 1e-12:
+        return None, (f"none: the references or the load change until {t_flat:g} s and the loop settles in "
+                      f"{margin:.3g} s, which leaves {1e3 * (T - t_flat - margin):.3g} ms before the end ({T:g} s), "
+                      f"less than the loop's time constant {1e3 * tau:.3g} ms (1 / "
+                      f"{FOLLOWED[sc.data['controller']['mode']][1]}): no steady state to measure; lengthen the run "
+                      f"or set [metrics] steady")
     return (t_flat + margin, T), (f"the last flat stretch, from {t_flat:g} s, after a settling margin of {margin:.3g} s"
                                   + (f" ({SETTLE_TAUS:g} / {FOLLOWED[sc.data['controller']['mode']][1]})" if settle else ""))
 
@@ -322,7 +331,9 @@ def step_metrics(res) -> list[dict]:
             band = np.maximum(SETTLE_BAND * np.abs(w_ref), w_floor)
             r["recovery_time"] = _settled_from(t[m], np.abs(e) > band, c[0])
             if r["recovery_time"] is None:
-                r["note"] = "the speed did not return within its band before the next change"
+                last = t[m][-1] >= t_end - 1e-12 if dev.size else True
+                r["note"] = ("the speed did not return within its band before "
+                             + ("the run's end" if last else "the next change"))
             out.append(r)
     return sorted(out, key=lambda r: r["t"])
 
@@ -465,12 +476,51 @@ def job_checks(res) -> dict:
         out["start_unfinished"] = {"stage": STAGES[st[-1]], "since": t_in,
                                    "never_left": not np.any(in_stages(st, SENSORLESS_STAGES))}
     if sc.data["controller"]["mode"] == "speed":
-        m = t >= t[-1] - 1.0 / sc.data["controller"]["bw_speed"] - 1e-12
+        tau = 1.0 / sc.data["controller"]["bw_speed"]
+        m = t >= t[-1] - tau - 1e-12
         w, w_ref = float(np.mean(tr["w_m"][m])), float(np.mean(tr["w_m_ref"][m]))
         band = max(CONTROL_BAND * abs(w_ref), CONTROL_FLOOR * sc.machine.w_m_rated)
         out["speed_end"] = {"speed_rpm": rad_s_to_rpm(w), "ref_rpm": rad_s_to_rpm(w_ref), "band_rpm": rad_s_to_rpm(band),
-                            "window": [float(t[m][0]), float(t[m][-1])], "far": abs(w - w_ref) > band}
+                            "window": [float(t[m][0]), float(t[m][-1])], "far": abs(w - w_ref) > band,
+                            "unheld": _unheld(res, t, tau, w - w_ref, max(SETTLE_BAND * abs(w_ref),
+                                                                          SPEED_FLOOR * sc.machine.w_m_rated))}
     return out
+
+
+def _unheld(res, t, tau: float, e_end: float, band: float) -> dict | None:
+    """A speed loop that does not hold its reference at the run's end: its
+    error (mean over the last loop time constant tau, e_end) beyond the band
+    a settled loop keeps (SETTLE_BAND of the reference, at least SPEED_FLOOR
+    of rated speed: the step metrics' band), and either the last flat
+    stretch of what the loops follow had the time to settle (its settling
+    margin and a time constant: "settled"), or it had not and the error
+    grew over the last time constant, read from a time constant after the
+    change on ("moving away"). A loop in control
+    brings its error into that band; one that stays outside it or recedes
+    has run out of torque or voltage, whatever CONTROL_BAND still allows.
+    None otherwise (a run that ends while its speed still converges is not
+    judged on it)."""
+    if abs(e_end) <= band:
+        return None
+    sc, tr = res.scenario, res.traces
+    t_flat = max((c[1] for p in _followed_profiles(sc) for c in _changes(p)), default=0.0)
+    settled = t[-1] - t_flat >= SETTLE_TAUS * tau + tau - 1e-12
+    out = {"error_rpm": rad_s_to_rpm(e_end), "band_rpm": rad_s_to_rpm(band), "tau": tau, "settle": SETTLE_TAUS * tau,
+           "since": t_flat,
+           "how": "settled" if settled else "moving away", "error_before_rpm": None}
+    if not settled:
+        # the growth is read from a time constant after the change on: a loop's largest error after a step
+        # comes within about two of them (a PI loop's dip), the speed falling away before it in any drive
+        if t[-1] - t_flat < 3.0 * tau - 1e-12:
+            return None
+        before = (t >= t[-1] - 2.0 * tau - 1e-12) & (t < t[-1] - tau - 1e-12)
+        e_before = float(np.mean(tr["w_m"][before] - tr["w_m_ref"][before]))
+        if e_end * e_before <= 0.0 or abs(e_end) <= abs(e_before):
+            return None
+        out["error_before_rpm"] = rad_s_to_rpm(e_before)
+    return out
+
+
 # the starts after which the loops run on an estimate from standstill (design.start)
 START_KINDS = {"pulses": "polarity pulses", "motion": "motion test", "if": "I/f start", "known": "at a known angle"}
 
