@@ -12,17 +12,14 @@ written out by hand in callgrind_annotate's format.
 """
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
 
 import pytest
 
+from script_loader import load_script
+
 ROOT = Path(__file__).resolve().parents[1]
-_spec = importlib.util.spec_from_file_location("bench_breakdown", ROOT / "bench" / "breakdown.py")
-bd = importlib.util.module_from_spec(_spec)
-sys.modules[_spec.name] = bd
-_spec.loader.exec_module(bd)
+bd = load_script(ROOT / "bench" / "breakdown.py", "bench_breakdown")
 
 SO = "[/x/_core.abi3.so]"
 

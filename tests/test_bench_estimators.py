@@ -8,7 +8,6 @@ are not run here (the bench runs them); everything is synthetic and fast.
 """
 from __future__ import annotations
 
-import importlib.util
 import math
 import sys
 from pathlib import Path
@@ -16,12 +15,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from script_loader import load_script
+
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "bench"))
-_spec = importlib.util.spec_from_file_location("bench_estimators", ROOT / "bench" / "estimators.py")
-est = importlib.util.module_from_spec(_spec)
-sys.modules[_spec.name] = est
-_spec.loader.exec_module(est)
+est = load_script(ROOT / "bench" / "estimators.py", "bench_estimators")
 
 
 def test_window_stats_takes_the_window_and_converts_units():

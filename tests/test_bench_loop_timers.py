@@ -7,17 +7,14 @@ tool saying so. Nothing is built or timed here.
 """
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
 
 import pytest
 
+from script_loader import load_script
+
 ROOT = Path(__file__).resolve().parents[1]
-_spec = importlib.util.spec_from_file_location("bench_loop_timers", ROOT / "bench" / "loop_timers.py")
-lt = importlib.util.module_from_spec(_spec)
-sys.modules[_spec.name] = lt
-_spec.loader.exec_module(lt)
+lt = load_script(ROOT / "bench" / "loop_timers.py", "bench_loop_timers")
 
 SIM = (ROOT / "csrc" / "sim" / "fs_sim.c").read_text()
 

@@ -9,7 +9,6 @@ absent. No timing assertions; the whole file runs in seconds.
 """
 from __future__ import annotations
 
-import importlib.util
 import math
 import shutil
 import subprocess
@@ -18,15 +17,13 @@ from pathlib import Path
 
 import pytest
 
+from script_loader import load_script
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def _load(name: str):
-    spec = importlib.util.spec_from_file_location(f"bench_{name}", ROOT / "bench" / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod  # dataclasses look their module up
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script(ROOT / "bench" / f"{name}.py", f"bench_{name}")
 
 
 fw = _load("firmware")

@@ -10,18 +10,16 @@ chosen figures.
 """
 from __future__ import annotations
 
-import importlib.util
 import math
 import sys
 from pathlib import Path
 
 import pytest
 
+from script_loader import load_script
+
 ROOT = Path(__file__).resolve().parents[1]
-_spec = importlib.util.spec_from_file_location("bench_wall", ROOT / "bench" / "wall.py")
-wall = importlib.util.module_from_spec(_spec)
-sys.modules[_spec.name] = wall
-_spec.loader.exec_module(wall)
+wall = load_script(ROOT / "bench" / "wall.py", "bench_wall")
 
 AT_TOP = {"0.4": 2547.0, "0.8": 3000.0, "1.2": 2999.7, "1.59": 3000.0}
 

@@ -4,7 +4,6 @@ magnetics agree with its ratings (the MTPA torque at rated current against the p
 rated torque, psi_f at zero current, the voltage at rated speed against its link); its
 flux map is the one the generator writes; and a measured map narrower than the designed
 current limit is used within its range."""
-import importlib.util
 import math
 import re
 import tomllib
@@ -22,6 +21,7 @@ from fullspeed.design.rules import u_linear
 from fullspeed.model.errors import ConfigError
 from fullspeed.model.fluxmap import FluxMapWarning, interp, zero_current_values
 from fullspeed.model.machines import catalog_names
+from script_loader import load_script
 
 ROOT = Path(__file__).resolve().parents[1]
 MACHINES = Path(str(resources.files("fullspeed") / "machines"))
@@ -184,10 +184,7 @@ def test_the_voltage_at_rated_speed_fits_the_link(name):
 
 
 def make_maps():
-    spec = importlib.util.spec_from_file_location("make_maps", ROOT / "tools" / "catalog" / "make_maps.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script(ROOT / "tools" / "catalog" / "make_maps.py", "make_maps")
 
 
 @pytest.mark.parametrize("build", ["prius", "h27", "baldor"])

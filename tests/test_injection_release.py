@@ -17,7 +17,6 @@ simulated, about 0.05 s.
 """
 from __future__ import annotations
 
-import importlib.util
 import math
 import sys
 from pathlib import Path
@@ -31,12 +30,11 @@ from fullspeed.design.rules import control_period
 from fullspeed.design.scenario import scenario_from_dict
 from fullspeed.sim import simulate
 
+from script_loader import load_script
+
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "bench"))
-_spec = importlib.util.spec_from_file_location("bench_estimators_release", ROOT / "bench" / "estimators.py")
-est = importlib.util.module_from_spec(_spec)
-sys.modules[_spec.name] = est
-_spec.loader.exec_module(est)
+est = load_script(ROOT / "bench" / "estimators.py", "bench_estimators_release")
 
 T_RELEASE = 3.5
 

@@ -2,7 +2,6 @@
 template and an FEA-like flux-map CSV runs sensorless, as written, from
 standstill under load to rated speed in flux weakening, through a load step
 and back through zero (issue 24's done-when)."""
-import importlib.util
 import tomllib
 import warnings
 from pathlib import Path
@@ -13,15 +12,14 @@ from fullspeed.model.fluxmap import FluxMapWarning
 from fullspeed.design.machine import load_machine
 from fullspeed.model.reference import machine_template
 from fullspeed.sim import simulate
+from script_loader import load_script
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "own-machine"
 RPM = 60.0 / (2.0 * np.pi)
 
 
 def test_the_csv_is_what_its_script_writes(tmp_path):
-    spec = importlib.util.spec_from_file_location("make_fluxmap", EXAMPLE / "make_fluxmap.py")
-    gen = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(gen)
+    gen = load_script(EXAMPLE / "make_fluxmap.py", "make_fluxmap")
     gen.main(tmp_path / "map.csv")
     assert (tmp_path / "map.csv").read_bytes() == (EXAMPLE / "my48v-fluxmap.csv").read_bytes()
     # reciprocal, as a lossless magnetic circuit's map is: d psi_d / d i_q = d psi_q / d i_d

@@ -12,17 +12,14 @@ toolchain and QEMU these tests skip, saying what to install.
 """
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
 
 import pytest
 
+from script_loader import load_script
+
 ROOT = Path(__file__).resolve().parents[1]
-spec = importlib.util.spec_from_file_location("bench_pil", ROOT / "bench" / "pil.py")
-pil = importlib.util.module_from_spec(spec)
-sys.modules[spec.name] = pil
-spec.loader.exec_module(pil)
+pil = load_script(ROOT / "bench" / "pil.py", "bench_pil")
 
 TOOLS = pil.tools()
 pytestmark = pytest.mark.skipif(TOOLS is None, reason=f"PIL needs the ARM toolchain and QEMU: {pil.INSTALL_HINT}")

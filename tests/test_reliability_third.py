@@ -656,16 +656,10 @@ def test_h4_kill_9_of_a_sweep_s_parent_ends_its_pool(tmp_path):
 # --- W6: bench/pil.py's options ------------------------------------------------------------
 
 def _pil():
-    import importlib.util
-    import sys
     from pathlib import Path
 
-    root = Path(__file__).resolve().parents[1]
-    spec = importlib.util.spec_from_file_location("bench_pil_third", root / "bench" / "pil.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod
-    spec.loader.exec_module(mod)
-    return mod
+    from script_loader import load_script
+    return load_script(Path(__file__).resolve().parents[1] / "bench" / "pil.py", "bench_pil_third")
 
 
 @pytest.mark.parametrize("argv,words", [

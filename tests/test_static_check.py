@@ -14,7 +14,6 @@ it is absent (.ci/run installs it as root).
 """
 from __future__ import annotations
 
-import importlib.util
 import re
 import shutil
 import subprocess
@@ -23,19 +22,11 @@ from pathlib import Path
 
 import pytest
 
+from script_loader import load_script
+
 ROOT = Path(__file__).resolve().parents[1]
 TOOL = ROOT / "tools" / "static_check"
-
-
-def _load():
-    spec = importlib.util.spec_from_file_location("static_check", TOOL / "static_check.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod  # dataclasses look their module up
-    spec.loader.exec_module(mod)
-    return mod
-
-
-sc = _load()
+sc = load_script(TOOL / "static_check.py", "static_check")
 HAVE = shutil.which("cppcheck") is not None
 needs_cppcheck = pytest.mark.skipif(not HAVE, reason="cppcheck not found (apt-get install cppcheck; .ci/run does as root)")
 
