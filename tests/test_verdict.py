@@ -3,15 +3,18 @@ that never left its start stage or whose speed ends far from its reference
 is not `done` with exit 0; the sensorless error counts every stage the
 loops make torque in; no steady window after a stop; no sensorless line for
 an encoder run; a load's response only where the speed reference holds."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 
+import fullspeed
 from fullspeed.cli import run_verdict
 from fullspeed.design.scenario import load_scenario, scenario_from_dict
 from fullspeed.model.units import rad_s_to_rpm
 from fullspeed.model.zoo import machine as zoo_machine
 from fullspeed.sim import simulate
-from fullspeed.sim.metrics import CONTROL_BAND, sensorless_error_max, summary_lines
+from fullspeed.sim.metrics import CONTROL_BAND, sensorless_error_max, stepping_channels, summary_lines
 
 
 def test_a_start_that_never_hands_over_is_not_success():
@@ -84,6 +87,35 @@ def test_the_sensorless_error_counts_the_start_stage():
     tr = {"t": t, "stage": stage, "theta_err": err, "w_m_ref": np.zeros_like(t), "T_L": np.zeros_like(t)}
     assert sensorless_error_max(tr) == pytest.approx(179.99)
     assert sensorless_error_max(tr, t_from=0.31) == pytest.approx(1.28)   # after the encoder handed over
+
+
+def test_the_loops_own_current_references_forgive_no_error(tmp_path):
+    """In speed mode i_d_ref and i_q_ref are the speed loop's and the start's
+    outputs, not steps of the scenario: an I/f start whose rotor slipped
+    (the catalog's hub motor with its inductances a thousand times too
+    large, a new user's mH read as H) moved them at every sample, every
+    sample was forgiven, and the summary said 0.00 el.deg beside 179.99 in
+    the start stage."""
+    t = np.arange(2000) * 1e-4
+    tr = {"t": t, "stage": np.full(t.size, 3.0), "theta_err": np.radians(np.where(t > 0.0, 170.0, 0.0)),
+          "w_m_ref": np.full(t.size, 10.0), "T_L": np.zeros_like(t), "i_d_ref": np.zeros_like(t),
+          "i_q_ref": np.where(np.arange(t.size) % 2 == 0, 5.0, -5.0)}
+    assert sensorless_error_max(tr) == 0.0      # every sample but the first forgiven: the 0.00 of the summary
+    assert sensorless_error_max(tr, channels=("w_m_ref", "T_L")) == pytest.approx(170.0)
+    assert stepping_channels(load_scenario("yang2022-encoder-speedstep")) == ("w_m_ref", "T_L")
+    assert stepping_channels(load_scenario("yang2022-hfi-iqstep")) == ("i_q_ref", "i_d_ref")   # held at 100 rpm
+    held = load_scenario("yang2022-smo-steady-400rpm")   # the shaft held by a speed load: its torque is the drive's
+    assert held.data["load"]["kind"].startswith("speed") and "T_L" not in stepping_channels(held)
+
+    text = (Path(fullspeed.__file__).parent / "machines" / "grin-all-axle-5t.toml").read_text()
+    hub = tmp_path / "hub-mH.toml"
+    hub.write_text(text.replace("L_d = 130e-6", "L_d = 0.13").replace("L_q = 130e-6", "L_q = 0.13"))
+    res = simulate(scenario_from_dict({"name": "hub-mH", "duration": 1.0, "machine": str(hub),
+                                       "controller": {"mode": "speed", "angle": "blend"},
+                                       "references": {"speed_rpm": [[0.0, 0.0], [0.2, 0.0], [1.0, 330.0]]}}))
+    start = res.metrics["stages"]["start"]
+    assert res.stop_reason == "start_failed" and start["theta_err_max_deg"] > 90.0
+    assert res.metrics["sensorless_err_deg_max"] == pytest.approx(start["theta_err_max_deg"])
 
 
 def test_an_encoder_run_has_no_sensorless_error_even_in_flux_weakening():

@@ -43,7 +43,8 @@ from fullspeed.design.scenario import scenario_from_dict  # noqa: E402
 from fullspeed.model.errors import ConfigError  # noqa: E402
 from fullspeed.model.machines import published_machines  # noqa: E402
 from fullspeed.reproduce.papers.real import real_scenario, sensorless_angle  # noqa: E402
-from fullspeed.sim.metrics import SENSORLESS_STAGES, sensorless_error_max, sensorless_from  # noqa: E402
+from fullspeed.sim.metrics import (SENSORLESS_STAGES, sensorless_error_max, sensorless_from,  # noqa: E402
+                                   stepping_channels)
 from fullspeed.sim.runner import simulate  # noqa: E402
 
 FS = str(Path(sys.executable).with_name("fullspeed"))
@@ -104,7 +105,8 @@ def run(data: dict, label: str) -> dict:
            "err_max": mt.get("sensorless_err_deg_max"), "steady_mean": (mt.get("theta_err_deg") or {}).get("mean"),
            "wall_s": round(time.perf_counter() - t0, 2)}
     if row["start"] == "if":
-        row["err_max"] = sensorless_error_max(res.traces, t_from=sensorless_from(sc), stages=SENSORLESS_STAGES)
+        row["err_max"] = sensorless_error_max(res.traces, t_from=sensorless_from(sc), stages=SENSORLESS_STAGES,
+                                              channels=stepping_channels(sc))
     return row
 
 

@@ -375,8 +375,21 @@ def step_times(tr, channels=("w_m_ref", "T_L", "i_d_ref", "i_q_ref")) -> list[fl
     return sorted(out)
 
 
+def stepping_channels(sc) -> tuple[str, ...]:
+    """The trace channels whose jumps are the scenario's own steps: its
+    mode's references (FOLLOWED) and a torque or brake load's torque, the
+    steps a run's error is forgiven after. Not the loops' own outputs: in
+    speed mode i_d_ref and i_q_ref are the speed loop's and the start's (an
+    I/f start that lost its rotor moved them by more than 5 % of their
+    range at every sample, and every sample was forgiven: 0.00 el.deg
+    reported beside 179.99 in the start stage)."""
+    d = sc.data
+    refs = tuple(ch for _, _, ch, _ in FOLLOWED[d["controller"]["mode"]][0] if ch)
+    return refs + (("T_L",) if d["load"]["kind"] in ("torque", "brake") else ())
+
+
 def sensorless_error_max(tr, after_step: float = 0.05, t_from: float = 0.0,
-                         stages: tuple = TORQUE_STAGES) -> float | None:
+                         stages: tuple = TORQUE_STAGES, channels: tuple | None = None) -> float | None:
     """The largest |angle error| (el.deg) while the loops make torque on an
     angle they did not measure (TORQUE_STAGES, from t_from: the hand-over
     from the encoder), outside the `after_step` s after each step of a
@@ -384,12 +397,14 @@ def sensorless_error_max(tr, after_step: float = 0.05, t_from: float = 0.0,
     (polarity detection, a recovery); None if the run never ran sensorless.
     stages = SENSORLESS_STAGES: the loops on an estimate only (an I/f
     start's frame, which the rotor follows at its load angle, left out,
-    and the 50 ms after its hand-over with it)."""
+    and the 50 ms after its hand-over with it). channels: those whose jumps
+    are steps (stepping_channels of the run's scenario; None: step_times's
+    default, every reference and the load)."""
     t = np.asarray(tr["t"])
     on = in_stages(tr["stage"], stages) & (t >= t_from - 1e-12)
     entries = [float(t[k + 1]) for k in np.flatnonzero(on[1:] & ~on[:-1])]
     keep = on.copy()
-    starts = np.array(step_times(tr) + entries, dtype=float)
+    starts = np.array((step_times(tr) if channels is None else step_times(tr, channels)) + entries, dtype=float)
     if np.all(t[1:] > t[:-1]):
         # a run's samples rise: each window [t0, t0 + after_step) is a slice, found by bisection and marked at
         # once (the same samples as the masks below; a noisy reference steps tens of thousands of times)
@@ -593,7 +608,8 @@ def compute_metrics(res) -> dict:
     out["true_loss_unanswered_at"] = true_loss_unanswered(tr, out["lock_events"], out["true_loss_at"])
     out["false_alarm_err_deg"] = false_alarm(tr, out["lock_lost_at"], out["true_loss_at"])
     t_sl = sensorless_from(res.scenario)
-    out["sensorless_err_deg_max"] = None if t_sl is None else sensorless_error_max(tr, t_from=t_sl)
+    out["sensorless_err_deg_max"] = None if t_sl is None else sensorless_error_max(
+        tr, t_from=t_sl, channels=stepping_channels(res.scenario))
     # a loss the simulation's truth sees and nothing in the run flagged or answered
     latched = bool(np.any(tr["lock_lost"] > 0))
     out["silent_failure"] = bool(out["true_loss_unanswered_at"] is not None and res.stop_reason == "done" and not latched)

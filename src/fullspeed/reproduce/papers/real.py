@@ -41,7 +41,7 @@ from ...design.scenario import scenario_from_dict
 from ...model.errors import ConfigError
 from ...model.machines import published_machines
 from ...model.units import rad_s_to_rpm
-from ...sim.metrics import SENSORLESS_STAGES, sensorless_error_max, sensorless_from
+from ...sim.metrics import SENSORLESS_STAGES, sensorless_error_max, sensorless_from, stepping_channels
 from ...sim.runner import simulate
 from ...workflows.journal import run_tasks
 from ..registry import Measurement, register
@@ -164,7 +164,8 @@ def run_machine(task: dict) -> dict:
         # estimate, the rotor follows it at its load angle; the estimator's error counts from its hand-over
         # on, the start's motion against its designed bound beside it
         sm = mt.get("start_motion") or {}
-        row.update(err_max=sensorless_error_max(res.traces, t_from=sensorless_from(sc), stages=SENSORLESS_STAGES),
+        row.update(err_max=sensorless_error_max(res.traces, t_from=sensorless_from(sc), stages=SENSORLESS_STAGES,
+                                               channels=stepping_channels(sc)),
                    if_err_max=mt.get("sensorless_err_deg_max"), turn_deg=sm.get("turn_deg"), bound_deg=sm.get("bound_deg"))
     return row
 
