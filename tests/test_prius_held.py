@@ -10,6 +10,7 @@ estimate to 660 rpm and 100 el.deg off in 6 ms, and the drive lost the
 torque the encoder's drive holds.
 """
 import numpy as np
+import pytest
 
 from fullspeed.design.scenario import scenario_from_dict
 from fullspeed.reproduce.papers.real import held_scenario
@@ -25,4 +26,34 @@ def test_the_prius_holds_the_envelopes_torque_through_the_hand_over():
     assert res.stop_reason == "done" and res.metrics.get("lock_lost_at") is None
     assert np.mean(np.asarray(res["T_e"])[steady]) > 0.99 * 486.5   # the map's envelope at 294 rpm
     assert e[(t > 0.5) & (t < 0.51)].max() < 45.0                      # the step's transient, bounded
+    assert e[steady].max() < 2.0
+
+
+# The same step with the injection stopped before it (its stop at 270 rpm, the blend's top at 240: 294 rpm is
+# above both and above the resume at 243), so that the back-EMF observer's tracker alone carries the angle
+# through it. The tracker feeds the torque forward on the rotor's J (0.035 kg m^2) while the load machine holds
+# the shaft: the 450 N m step is an acceleration of p dT / J = 51,000 el.rad/s^2 that is not there, whose
+# error peaks at 0.27 p dT / (J w_o^2) (fs_motion_obs.h; 13 el.deg at the tracker's 246 rad/s there, more as
+# the swing drags its speed-scheduled bandwidth). Measured (issue 33): the tracker's speed ran from 297 to
+# 543 rpm in 5 ms, 41 el.deg off at 11 ms, and the drive lost the rotor; none of the 7 speeds 0.1 % apart
+# (293.1..294.9 rpm) holds the torque. With the feed-forward on half the torque (an experiment, k = 0.5 in
+# every observer) or none, all 7 hold 486.4 N m; but the default hand-over (the step while injecting, the
+# test above) then holds none of its 7, with none SyR-e's THOR above the band trips (3,456 and 4,147 rpm), and
+# with half B-ZOO and B-ROBUST lose runs on free shafts: no fixed gain is the remedy. Strict: the day a drive
+# holds this, the mark goes.
+@pytest.mark.xfail(strict=True, reason="the observers feed the torque forward on the rotor's inertia; the shaft held "
+                                       "does not follow it (issue 33)")
+def test_the_back_emf_tracker_alone_holds_the_prius_through_the_step():
+    d = held_scenario("prius2004-mg2", 294.0, "blend")
+    d["blending"] = {**d.get("blending", {}), "upper_rpm": 240.0}
+    d["injection"] = {**d.get("injection", {}), "stop_rpm": 270.0}
+    res = simulate(scenario_from_dict(d, "prius-held-smo", warn=False))
+    t = np.asarray(res["t"])
+    e = np.degrees(np.abs(np.asarray(res["theta_err"])))
+    steady = t >= d["metrics"]["steady"][0]
+    inj = np.asarray(res["inject"])
+    assert not inj[(t > 0.49) & (t < 0.5)].any()   # the injection is off before the step: the tracker alone
+    assert res.stop_reason == "done" and res.metrics.get("lock_lost_at") is None
+    assert np.mean(np.asarray(res["T_e"])[steady]) > 0.99 * 486.5
+    assert e[(t > 0.5) & (t < 0.55)].max() < 45.0
     assert e[steady].max() < 2.0
