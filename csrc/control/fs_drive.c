@@ -550,7 +550,11 @@ static fs_dq drive_fw_map(fs_drive *drv, float u_dc, float w_e, float *T_ref)
         fs_fwmap_reset(&drv->fwm);
         return fs_mtpa_step(&drv->mtpa, *T_ref);
     }
-    fs_fwmap_trim(&drv->fwm, sqrtf(u0.d * u0.d + u0.q * u0.q), u_plan, x);
+    /* the flux at the last current, the map's (fs_current_ctrl_set_flux) or the constants' where the map plans
+     * the flux weakening alone: the trim lowers x only on the limit */
+    const fs_drive_config *c = &drv->cfg;
+    const fs_dq psi0 = drive_map(drv) ? drv->cc.psi0 : (fs_dq){c->psi_f + (c->L_d * i0.d), c->L_q * i0.q};
+    fs_fwmap_trim(&drv->fwm, sqrtf(u0.d * u0.d + u0.q * u0.q), u_plan, sqrtf(psi0.d * psi0.d + psi0.q * psi0.q), x);
     float T_real;
     const fs_dq i = fs_fwmap_step(&drv->fwm, x, *T_ref, &T_real);
     if (T_real != *T_ref) { fs_speed_ctrl_realised(&drv->sc, *T_ref, T_real); }

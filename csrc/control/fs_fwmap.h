@@ -58,7 +58,17 @@
  * map's interpolation leave the references inside the limit by a little,
  * which near the top speed is much torque (the ODrive D6374 at 0.9 of its
  * top speed held 9 % below its envelope, the Anaheim BLY171D at 2 x base
- * 13 %, where the torque falls 10 % for 1 % of voltage). On the 2004 Prius
+ * 13 %, where the torque falls 10 % for 1 % of voltage). It lowers x only
+ * where the current's flux is on the plan's flux limit psi_mtpa / x
+ * (within FS_FWMAP_INSIDE of it): inside it, on MTPA at a light load, the
+ * voltage is below the plan because the operating point is, not the plan
+ * wrong, and the trim holds. Lowering x there too wound it down to x = 1
+ * over a light-load acceleration past base speed (SyR-e's THOR at 7 A,
+ * 2,074 to 3,600 rpm: trim -0.43); when the voltage came to the limit it
+ * had that to unwind at the rate of a 1 % excess, the references stayed on
+ * MTPA 100 rpm past the flux limit, the modulator over-modulated for 15 ms,
+ * i_d ran from -5 to +3 A, the torque fell from 5.7 to 1.0 N m and the
+ * sensorless angle swung 3.7 el.deg (0.8 with the hold). On the 2004 Prius
  * MG2's full range (sensorless, 5000 rpm in flux weakening) the largest
  * angle error was 7.7 el.deg without it, 3.8 with it.
  */
@@ -90,6 +100,13 @@ typedef struct {
  * by a load machine at 2,765..3,800 rpm the trim swung between -0.19 and +0.52 and the drive held 14 to
  * 80 % less torque than with the encoder; approached at a quarter of the rate, within 0.2 % of it */
 #define FS_FWMAP_TRIM_APPROACH 0.25f
+/* How far inside the plan's flux limit the current's flux may lie and still count as on it (the trim's
+ * hold, header): the flux at the measured current trails the reference's on the limit by the current
+ * loops' tracking and the table's bilinear interpolation between rows. Measured on SyR-e's THOR's
+ * sensorless full range (bench/syrm_peer.py's job): 0.005 let the 15 Hz limit cycle at the voltage limit
+ * through after the load step (steady 7.8 el.deg), 0.02 to 0.1 settle alike (0.3 to 2.6), 0.2 holds
+ * too little to matter (the acceleration's 3.0 el.deg again); 0.05, the middle of that range */
+#define FS_FWMAP_INSIDE 0.05f
 
 typedef struct {
     float psi_mtpa;          /* Wb, |psi| of MTPA at i_max (x = 1) */
@@ -108,9 +125,9 @@ void fs_fwmap_reset(fs_fwmap *f);
  * speed (<= 1: MTPA holds). */
 float fs_fwmap_ratio(const fs_fwmap *f, float u_lim, float w_e);
 /* The trim (header): u the voltage the current regulators asked last, u_plan
- * the voltage planned for, x this step's ratio (fs_fwmap_ratio); while
- * x > 1 (in flux weakening). */
-void fs_fwmap_trim(fs_fwmap *f, float u, float u_plan, float x);
+ * the voltage planned for, psi |psi| at the measured current (Wb), x this
+ * step's ratio (fs_fwmap_ratio); while x > 1 (in flux weakening). */
+void fs_fwmap_trim(fs_fwmap *f, float u, float u_plan, float psi, float x);
 /* For x > 1: the current for torque T_ref (either sign), T_ref held at
  * T_max(x) (*T_real: the torque asked of the current). */
 fs_dq fs_fwmap_step(const fs_fwmap *f, float x, float T_ref, float *T_real);

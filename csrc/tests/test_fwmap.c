@@ -133,14 +133,29 @@ int main(void)
     float T_a, T_b;
     const fs_dq a = fs_fwmap_step(&f, 8.0f, 1e9f, &T_a), b = fs_fwmap_step(&f, 20.0f, 1e9f, &T_b);
     FS_CHECK(a.d == b.d && a.q == b.q && T_a == T_b, "beyond X_MAX the last row holds");
-    /* the trim raises x while the voltage asked exceeds the plan, and comes back */
+    /* the trim raises x while the voltage asked exceeds the plan, and comes back: the flux at the current
+     * on the plan's limit psi_mtpa / x (the references there), whatever the trim made of x */
     const float x0 = fs_fwmap_ratio(&f, 250.0f, 1000.0f);
-    for (int n = 0; n < 100; ++n) fs_fwmap_trim(&f, 280.0f, 260.0f, fs_fwmap_ratio(&f, 250.0f, 1000.0f));
+    for (int n = 0; n < 100; ++n) {
+        const float x = fs_fwmap_ratio(&f, 250.0f, 1000.0f);
+        fs_fwmap_trim(&f, 280.0f, 260.0f, f.psi_mtpa / x, x);
+    }
     FS_CHECK(fs_fwmap_ratio(&f, 250.0f, 1000.0f) > x0 * 1.05f, "the trim deepens the flux weakening");
-    for (int n = 0; n < 10000; ++n) fs_fwmap_trim(&f, 200.0f, 260.0f, fs_fwmap_ratio(&f, 250.0f, 1000.0f));
+    const float x_up = fs_fwmap_ratio(&f, 250.0f, 1000.0f);
+    /* below the plan with the current's flux inside the flux limit (MTPA at a light load) the trim holds:
+     * a voltage below the plan is the operating point's there, not the plan's error (fs_fwmap.h) */
+    for (int n = 0; n < 10000; ++n) {
+        const float x = fs_fwmap_ratio(&f, 250.0f, 1000.0f);
+        fs_fwmap_trim(&f, 200.0f, 260.0f, (1.0f - 2.0f * FS_FWMAP_INSIDE) * f.psi_mtpa / x, x);
+    }
+    FS_CHECK(fs_fwmap_ratio(&f, 250.0f, 1000.0f) == x_up, "inside the flux limit the trim holds");
+    for (int n = 0; n < 10000; ++n) {
+        const float x = fs_fwmap_ratio(&f, 250.0f, 1000.0f);
+        fs_fwmap_trim(&f, 200.0f, 260.0f, f.psi_mtpa / x, x);
+    }
     const float x_lo = 0.5f * x0 > 1.0f ? 0.5f * x0 : 1.0f;
     FS_CHECK_NEAR(fs_fwmap_ratio(&f, 250.0f, 1000.0f), x_lo, 1e-5f * x0,
-                  "and lets it back, below the plan down to base speed (x = 1) or half the ratio");
+                  "on the limit it lets it back, below the plan down to base speed (x = 1) or half the ratio");
     FS_CHECK_EQ_INT(fs_fwmap_init(&f, NULL, &mtpa), FS_ERR_NULL, "null");
     return fs_test_summary("test_fwmap");
 }
