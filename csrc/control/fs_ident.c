@@ -1205,10 +1205,18 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
     float cu;
     float su;
     hf_phase(kh % N_HF, &cu, &su);
-    const float uh = id->U_h * cu;   /* a cosine voltage: the inductive current starts at its own zero */
+    /* a cosine voltage: the inductive current starts at its own zero. Its first sample and one after its last
+     * at half (a trapezoidal start and end): the held samples' flux U Ts sum cos(2 pi k / N) from a whole
+     * first sample has a mean of U Ts / 2, and ends there: a dc current U Ts / (2 L) = 0.31 of the
+     * carrier's amplitude that the q short after ALIGN keeps, decaying at L / R only; when the bias then
+     * fell to zero it was torque, 0.39 A on the frictionless H27, 1.1 rad/s and 35 el.deg through CHECK
+     * (now 0.14 A and 15 el.deg: the rest is the R-L transient's) */
+    const bool trap = id->aligned && (axis == 1);   /* only there: elsewhere the axis' current loop takes the dc out */
+    const int n_tot = ((HF_SKIP + HF_MEAS) * N_HF) - (trap ? 0 : 1);
+    const float uh = id->U_h * cu * ((trap && ((kh == 0) || (kh == n_tot))) ? 0.5f : 1.0f);
     if (axis == 0) { u.alpha += uh; } else { u.beta += uh; }
     const float ua = (axis == 0) ? u.alpha : u.beta;   /* all of the axis' voltage: the bias loop answers the carrier too */
-    if (kh >= (HF_SKIP * N_HF)) {
+    if ((kh >= (HF_SKIP * N_HF)) && (kh < ((HF_SKIP + HF_MEAS) * N_HF))) {
         /* phasors X = sum x[k] e^{-j w k Ts}: the current sampled now, the reference of now */
         id->hf_u[0] += ua * cu;
         id->hf_u[1] -= ua * su;
@@ -1218,7 +1226,7 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
         id->hf_i[1][1] -= i.beta * su;
     }
     id->k++;
-    if ((kh + 1) < (HF_SKIP + HF_MEAS) * N_HF) { return from_frame(id, u); }
+    if (kh < n_tot) { return from_frame(id, u); }   /* through kh = n_tot: the closing half sample */
 
     fs_ident_result *r = &id->res;
     const int n = HF_MEAS * N_HF;
