@@ -18,7 +18,8 @@ static const float LEV_FRAC[FS_IDENT_NLEV] = {1.0f, 0.75f, 0.5f, 0.25f, 0.125f, 
 #define AX_CHUNK 10       /* AXIS: periods on one axis before it turns to the other (its carrier's mean torque alternating) */
 #define AX_SKIP 2         /* periods after a turn before the sums: the carrier starts and ends at zero current, R and the delay
                              leave a transient of a period or two */
-#define AX_TURNS (HF_MEAS / AX_CHUNK)   /* turns per axis: HF_MEAS periods summed on each */
+#define AX_TURNS (HF_MEAS / AX_CHUNK)   /* turns per axis: HF_MEAS periods summed on each (even: whole Walsh blocks A B B A) */
+#define AX_PRE (HF_SKIP / 2)  /* AXIS's prelude A B B A of AX_PRE periods each: HF_SKIP on each axis, not summed (the loops' start) */
 #define I_HF 0.1f         /* of i_max: the q carrier's amplitude, small against saturation, large against noise */
 #define I_HF_D 0.15f      /* of i_max: the d carrier's, at zero current: larger, against the dead time's error (60 % larger: L_d +20 % on zoo machine 60 at 0.1) */
 #define SAL_MIN 0.03f     /* AXIS: the saliency (L_q - L_d)/(L_q + L_d) below which the axis is not trusted (its noise: 120 periods' phasors within 0.5 %) */
@@ -128,6 +129,8 @@ void fs_ident_reset(fs_ident *id)
     id->u_p = 0.0f;
     id->n_p = 2;
     id->i_peak = 0.0f;
+    id->i_peak_b = 0.0f;
+    id->L0_min = 0.0f;
     id->sigma_i = 0.0f;
     id->w_c = W_C_TS / c->Ts;
     fs_pi_reset(&id->pi_d);
@@ -332,40 +335,70 @@ static void rec_clear(fs_ident *id)
     id->g_acc = 0.0f;
 }
 
-/* ---- PROBE: pulses +u_p for n_p samples, -u_p for n_p, rest 2 n_p + 4 ---- */
+/* ---- PROBE: on alpha +u_p for n_p samples, -u_p for 2 n_p, +u_p for n_p; the same on beta; rest 2 n_p + 4 ----
+ * The current on each axis a triangle to +i_peak, through zero to -i_peak
+ * and back: the magnet's torque, odd in the current (1.5 p psi_f i_q), has
+ * no impulse. The reluctance torque, even in it (1.5 p (L_d - L_q) i_d
+ * i_q), is not cancelled by the sign. The same voltage on beta, 90
+ * el.deg on, cancels it at any angle: a voltage pulse at psi from d drives
+ * (i_d, i_q) = f(t) (cos psi / L_d, sin psi / L_q), i_d i_q = f^2 sin(2 psi)
+ * / (2 L_d L_q), and psi + 90 deg flips sin(2 psi) whatever L_d and L_q
+ * (the same current on both would not). A pulse +u_p, -u_p on alpha alone
+ * (one sign of current) kicked the free, frictionless Prius MG2 at 137 el.deg
+ * (50 A for 1.6 ms: 0.74 rad/s, both parts the same sign there), which kept
+ * it through AXIS: 25 el.deg, its axis read while it turned. */
 static fs_ab step_probe(fs_ident *id, fs_ab i)
 {
     fs_ab ret;
     const fs_ident_config *c = &id->cfg;
-    const int n_cycle = (4 * id->n_p) + 4;
-    if ((id->k == 0) && (id->sub == 0)) { id->u_p = 0.01f * id->u_max; }   /* the smallest pulse: 1 % of the link */
-    id->i_peak = fs_maxf(id->i_peak, fabsf(i.alpha));
-    fs_ab u = {0.0f, 0.0f};
-    if (id->k < id->n_p) { u.alpha = id->u_p; }
-    else if (id->k < (2 * id->n_p)) { u.alpha = -id->u_p; }
+    const int n_cycle = (10 * id->n_p) + 4;
+    if ((id->k == 0) && (id->sub == 0)) {
+        id->u_p = 0.01f * id->u_max;   /* the smallest pulse: 1 % of the link */
+        id->u_pb = id->u_p;
+        id->i_peak_b = 0.0f;
+    }
+    const int kk = (id->k < (4 * id->n_p)) ? id->k : (id->k - (4 * id->n_p));   /* the position in alpha's, then beta's, pulses */
+    const float up = (id->k < (4 * id->n_p)) ? id->u_p : id->u_pb;
+    float v = 0.0f;
+    if (kk < id->n_p) { v = up; }
+    else if (kk < (3 * id->n_p)) { v = -up; }
+    else if (kk < (4 * id->n_p)) { v = up; }
     else { /* between the pulses: no voltage */ }
+    if (id->k < (2 * id->n_p)) { id->i_peak = fs_maxf(id->i_peak, fabsf(i.alpha)); }   /* L0 from the first ramp (+u_p from zero) */
+    else if ((id->k >= (4 * id->n_p)) && (id->k < (6 * id->n_p))) { id->i_peak_b = fs_maxf(id->i_peak_b, fabsf(i.beta)); }
+    else { /* the second halves: their peaks are the first ramps' with R and the dead time against them */ }
+    const fs_ab u = (id->k < (4 * id->n_p)) ? (fs_ab){v, 0.0f} : (fs_ab){0.0f, v};
     if (++id->k < n_cycle) { ret = u; }
     else {
         /* the cycle is over */
         const float target = I_PROBE * c->i_max;
         if (id->i_peak >= (0.5f * target)) {
             id->L0 = id->u_p * (float)id->n_p * c->Ts / id->i_peak;   /* L di/dt = u, R and the dead time neglected */
+            id->L0_min = (id->i_peak_b > 0.0f) ? fs_minf(id->L0, id->u_pb * (float)id->n_p * c->Ts / id->i_peak_b) : id->L0;
             id->sigma_i = 0.0f;
             ident_design_pi(id, id->L0, id->L0, 0.0f);
             ident_goto(id, FS_IDENT_AXIS);
             ret = u;
         }
         else {
+            /* beta's current is alpha's times up to L_q / L_d (3.5 on zoo machine 48): its pulses stop growing
+             * once it reaches the target (the next doubling could take it past i_max; the reluctance impulses
+             * then cancel in part only), while alpha's grow on as they did alone (L0, which the carriers'
+             * amplitudes are sized from, as it was) */
+            const bool grow_b = (id->i_peak_b < target);
             if ((2.0f * id->u_p) <= (0.9f * id->u_max)) {
                 id->u_p *= 2.0f;
+                if (grow_b) { id->u_pb *= 2.0f; }
             } else if (id->n_p < 256) {
                 id->n_p *= 2;
+                if (!grow_b) { id->u_pb *= 0.5f; }   /* the same volt-seconds */
             } else {
                 ident_fail(id, FS_IDQ_VERR, FS_IDR_NO_CURRENT);
             }
             id->k = 0;
             id->sub++;
             id->i_peak = 0.0f;
+            id->i_peak_b = 0.0f;
             ret = u;
         }
     }
@@ -449,15 +482,6 @@ static float acc_std(float s, float ss, int n)
     return sqrtf(fs_maxf(ss / (float)n - (m * m), 0.0f));
 }
 
-/* a loop holding its axis' current at zero, its output within lim */
-static float pi_hold(fs_pi *pi, float meas, float lim)
-{
-    const float u = pi_out(pi, 0.0f, meas);
-    const float ur = fs_clamp_sym(u, lim);
-    fs_pi_update(pi, 0.0f, meas, u, ur);
-    return ur;
-}
-
 static void ldq_clear(fs_ident *id)
 {
     id->k = 0;
@@ -498,31 +522,58 @@ static void hf_phase(int kk, float *cu, float *su)
  * where it is neither on d nor on q (the reluctance torque of its own d
  * and q currents, 1.5 p (L_d - L_q) <i_d i_q>: 0.9 N m, near the Coulomb
  * friction, on zoo machine 14 at 0.3 i_max, which turned it 7 el.deg), of
- * opposite signs on alpha and beta: the two alternate every AX_CHUNK
- * periods, so that the rotor swings by a small fraction of a degree
- * and back (0.1 el.deg there). */
+ * opposite signs on alpha and beta. A torque +T, -T, +T, ... alternating
+ * every tau leaves the rotor a mean speed T tau / (2 J) (its speed a
+ * triangle that never goes below zero): 10 chunks of 12.5 ms on syre-thor
+ * (J 0.0042 kg m^2, 0.76 N m at 45 el.deg) walk it 30 el.deg. The chunks
+ * run in Walsh order A B B A (speed and angle both back to zero after each
+ * four, the excursion at most T tau^2 / J: 2.3 el.deg there), after a
+ * prelude A B B A of half length whose periods are not summed (the loops'
+ * start). The hold loop answers the carrier period's mean current, not the
+ * carrier: a PI on the sampled current answers the carrier too (its
+ * k_p ~ 2 w_c L0 times the carrier's amplitude is beyond its clamp on a
+ * machine whose probe L0 lies far above L_d) and its back-calculation
+ * ratchets the integral each time it clips: 5 A of mean d current on
+ * syre-thor, which repelled the magnet and turned the rotor 78 el.deg. */
 static fs_ab step_axis(fs_ident *id, fs_ab i)
 {
     fs_ab ret;
     const fs_ident_config *c = &id->cfg;
-    const int ax = id->sub & 1;
+    /* sub 0..3: the prelude A B B A; then the summed chunks, also in Walsh order */
+    const int s_ch = id->sub - 4;
+    const int ax = (s_ch < 0) ? (((id->sub + 1) >> 1) & 1) : (((s_ch + 1) >> 1) & 1);
+    const int n_per = (s_ch < 0) ? AX_PRE : (AX_SKIP + AX_CHUNK);
     if ((id->k == 0) && (id->sub == 0)) {
         id->w_h = FS_TWO_PI / ((float)N_HF * c->Ts);
         id->U_h = fs_minf(I_HF_D * c->i_max * id->w_h * id->L0, 0.5f * id->u_max);
         for (int j = 0; j < 2; ++j) {
             for (int a = 0; a < 2; ++a) { id->ax_i[j][a][0] = 0.0f; id->ax_i[j][a][1] = 0.0f; id->ax_u[j][a][0] = 0.0f; id->ax_u[j][a][1] = 0.0f; }
+            id->ax_hold[j] = 0.0f;
+            id->ax_isum[j] = 0.0f;
         }
     }
     const int kh = id->k;
-    const int skip = (id->sub < 2) ? (int)HF_SKIP : (int)AX_SKIP;   /* the first turn of each: the loops' start too */
     float cu;
     float su;
     hf_phase(kh % N_HF, &cu, &su);
     fs_ab u;
-    const float lim = 0.45f * id->u_max;
-    u.alpha = pi_hold(&id->pi_d, i.alpha, lim) + ((ax == 0) ? (id->U_h * cu) : 0.0f);
-    u.beta = pi_hold(&id->pi_q, i.beta, lim) + ((ax == 1) ? (id->U_h * cu) : 0.0f);
-    if (kh >= (skip * N_HF)) {
+    u.alpha = id->ax_hold[0] + ((ax == 0) ? (id->U_h * cu) : 0.0f);
+    u.beta = id->ax_hold[1] + ((ax == 1) ? (id->U_h * cu) : 0.0f);
+    id->ax_isum[0] += i.alpha;
+    id->ax_isum[1] += i.beta;
+    if ((kh % N_HF) == (N_HF - 1)) {
+        /* the hold loop, once a carrier period on its mean current m: U = -K m with K N Ts / L = 1/2
+         * (the period's mean moves by U N Ts / (2 L) within it: the loop's poles at |z| = 1/2 a period;
+         * unstable beyond K N Ts / L = 2), L the probe's smaller: alpha's L0 alone is L_q where beta is on
+         * d, 3.5 times beta's L on zoo machine 48, and its loop on beta swung to 1.1 i_max */
+        const float K = 0.5f * id->L0_min / ((float)N_HF * c->Ts);
+        const float lim = 0.45f * id->u_max;
+        for (int a = 0; a < 2; ++a) {
+            id->ax_hold[a] = fs_clamp_sym(-K * id->ax_isum[a] / (float)N_HF, lim);
+            id->ax_isum[a] = 0.0f;
+        }
+    }
+    if ((s_ch >= 0) && (kh >= (AX_SKIP * N_HF))) {
         id->ax_i[ax][0][0] += i.alpha * cu;
         id->ax_i[ax][0][1] -= i.alpha * su;
         id->ax_i[ax][1][0] += i.beta * cu;
@@ -533,10 +584,10 @@ static fs_ab step_axis(fs_ident *id, fs_ab i)
         id->ax_u[ax][1][1] -= u.beta * su;
     }
     id->k++;
-    if ((kh + 1) < (skip + AX_CHUNK) * N_HF) { ret = u; }   /* a whole number of periods: the carrier ends at zero current */
+    if ((kh + 1) < (n_per * N_HF)) { ret = u; }   /* a whole number of periods: the carrier ends at zero current */
     else {
         id->k = 0;
-        if (++id->sub < (2 * AX_TURNS)) { ret = u; }
+        if (++id->sub < (4 + (2 * AX_TURNS))) { ret = u; }
         else {
 
             fs_ident_result *r = &id->res;
@@ -766,6 +817,42 @@ static float level_top(const fs_ident *id)
     return I;
 }
 
+/* The q loop's bandwidth while a level on d is measured: a fifth of the
+ * rotor's swing frequency about the level, w_n^2 = p K / J with K = 1.5 p I
+ * (psi_f - (L_q - L_d) I) N m per el. rad (the magnet's pull less the
+ * reluctance's push, the nameplate's psi_f and J). A q loop at the drive's
+ * bandwidth w_c holds i_q at zero against the swing's EMF, so nothing damps
+ * the frictionless rotor: it swings about the level for the whole step
+ * (examples/own-machine: +-3 el.deg at 18 A, 1.2 rad/s), and at the end of
+ * LEVELS, the current gone, the speed it has then is a drift (0.6 rad/s:
+ * 30 el.deg through LDQ and CHECK). Below the swing frequency the slow
+ * loop's impedance R + 2 w_s L_q passes the EMF's swing as a q current,
+ * a torque against the speed: B = 1.5 p^2 psi_f^2 / (R + 2 w_s L_q)
+ * (damping ratio 1.1 on own, 1.4 on syre-thor at its top level), while its
+ * integral, learned at w_c through the level's settling, keeps the dead
+ * time's dc q error out. 0 where the nameplate gives no psi_f or J (w_c). */
+static float level_q_bw(const fs_ident *id, float I)
+{
+    const fs_ident_config *c = &id->cfg;
+    float ret = 0.0f;
+    if ((c->psi_f_hint > 0.0f) && (c->J_hint > 0.0f) && !c->locked) {
+        const float p = (float)c->pole_pairs;
+        const float dL = fs_maxf(id->res.L_q_axis - id->res.L_d_axis, 0.0f);
+        const float K = 1.5f * p * fabsf(I) * (c->psi_f_hint - (dL * fabsf(I)));
+        if (K > 0.0f) { ret = fs_minf(0.2f * sqrtf(p * K / c->J_hint), id->w_c); }
+    }
+    return ret;
+}
+
+/* the q loop redesigned at bandwidth bw (its integral kept: the voltage it has learned) */
+static void q_loop_bw(fs_ident *id, float bw)
+{
+    const float integ = id->pi_q.integ;
+    const float L = (id->res.L_q_axis > 0.0f) ? id->res.L_q_axis : id->L0;
+    (void)fs_pi_design_init(&id->pi_q, id->cfg.Ts, L, 0.0f, bw, (id->u_max > 0.0f) ? id->u_max : 1.0f);
+    id->pi_q.integ = integ;
+}
+
 /* ---- LEVELS: each level settles (30 loop time constants), then is averaged ----
  * On the axis, each level at +I then -I (sub 2 j, 2 j + 1): the magnet's
  * torque on a rotor a little off the axis alternates with them, and half
@@ -794,8 +881,22 @@ static fs_ab step_levels(fs_ident *id, fs_ab i_ab)
     const fs_ab i = to_frame(id, i_ab);
     const fs_ab u = id->aligned ? dc_on_alpha(id, i, I_ref) : dc_on_d(id, i, I_ref);
     id->k++;
-    if (id->k <= n_set) { ret = from_frame(id, u); }
+    if (id->k <= n_set) {
+        if (id->k == 1) { id->q_set = 0.0f; }
+        if (id->k > (n_set - (n_set / 2))) { id->q_set += u.beta; }
+        ret = from_frame(id, u);
+    }
     else {
+        if ((id->n_acc == 0) && !id->aligned && (j >= 3)) {   /* settled: the q loop slowed to damp the swing (level_q_bw) */
+            const float bw = level_q_bw(id, I_ref);
+            if (bw > 0.0f) {
+                q_loop_bw(id, bw);
+                /* its integral from the q voltage's mean over the settling's second half: the fast loop's
+                 * integral at one sample carries the current's noise times its gain (4 mV on own, 0.1 A
+                 * of q current through the slow loop's 0.04 ohm, a kick of 0.3 rad/s) */
+                id->pi_q.integ = id->q_set / (float)(n_set / 2);
+            }
+        }
         acc_add(id, u.alpha, i);
         id->e_abs += u.beta;
         /* batch means of u: the loop's noise is correlated from sample to
@@ -851,6 +952,7 @@ static fs_ab step_levels(fs_ident *id, fs_ab i_ab)
                 }
                 id->k = 0;
                 acc_clear(id);
+                if (!id->aligned) { q_loop_bw(id, id->w_c); }   /* the next level's dc q error learned at full bandwidth */
                 if (++id->sub < (alt ? 2 : 1) * FS_IDENT_NLEV) { ret = from_frame(id, u); }
                 else {
 
@@ -1035,7 +1137,9 @@ static float ldq_bias(const fs_ident *id, int level)
 static float axis_offset(float r, float g)
 {
     float ret;
-    if (!(g > 0.0f)) { ret = 0.0f; }
+    /* below AXIS's saliency threshold the cross response holds no axis, only its noise over g (the
+     * siemens-1ft6084 at g = 0.004: a 1.6 el.deg turn of the frame ALIGN had put on the magnet) */
+    if (!(g >= SAL_MIN)) { ret = 0.0f; }
     else {
         const float s = fs_clampf(r / (g * sqrtf(1.0f + (r * r))), -1.0f, 1.0f);
         ret = 0.5f * (fs_atanf(r) + asinf(s));
@@ -1108,10 +1212,18 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
     float cu;
     float su;
     hf_phase(kh % N_HF, &cu, &su);
-    const float uh = id->U_h * cu;   /* a cosine voltage: the inductive current starts at its own zero */
+    /* a cosine voltage: the inductive current starts at its own zero. Its first sample and one after its last
+     * at half (a trapezoidal start and end): the held samples' flux U Ts sum cos(2 pi k / N) from a whole
+     * first sample has a mean of U Ts / 2, and ends there: a dc current U Ts / (2 L) = 0.31 of the
+     * carrier's amplitude that the q short after ALIGN keeps, decaying at L / R only; when the bias then
+     * fell to zero it was torque, 0.39 A on the frictionless H27, 1.1 rad/s and 35 el.deg through CHECK
+     * (now 0.14 A and 15 el.deg: the rest is the R-L transient's) */
+    const bool trap = id->aligned && (axis == 1);   /* only there: elsewhere the axis' current loop takes the dc out */
+    const int n_tot = ((HF_SKIP + HF_MEAS) * N_HF) - (trap ? 0 : 1);
+    const float uh = id->U_h * cu * ((trap && ((kh == 0) || (kh == n_tot))) ? 0.5f : 1.0f);
     if (axis == 0) { u.alpha += uh; } else { u.beta += uh; }
     const float ua = (axis == 0) ? u.alpha : u.beta;   /* all of the axis' voltage: the bias loop answers the carrier too */
-    if (kh >= (HF_SKIP * N_HF)) {
+    if ((kh >= (HF_SKIP * N_HF)) && (kh < ((HF_SKIP + HF_MEAS) * N_HF))) {
         /* phasors X = sum x[k] e^{-j w k Ts}: the current sampled now, the reference of now */
         id->hf_u[0] += ua * cu;
         id->hf_u[1] -= ua * su;
@@ -1121,7 +1233,7 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
         id->hf_i[1][1] -= i.beta * su;
     }
     id->k++;
-    if ((kh + 1) < (HF_SKIP + HF_MEAS) * N_HF) { return from_frame(id, u); }
+    if (kh < n_tot) { return from_frame(id, u); }   /* through kh = n_tot: the closing half sample */
 
     fs_ident_result *r = &id->res;
     const int n = HF_MEAS * N_HF;
