@@ -192,9 +192,12 @@ void fs_fwmap_trim(fs_fwmap *f, float u, float u_plan, float psi, float x)
     /* down to the base speed's x = 1 (x / (1 + trim) is the ratio without it), and at most by half */
     const float lo = fs_maxf((1.0f + f->trim) / x - 1.0f, -0.5f);
     const float e = (u - u_plan) / u_plan;
-    if ((e < 0.0f) && (psi < (1.0f - FS_FWMAP_INSIDE) * f->psi_mtpa / x)) { return; }   /* inside the flux limit (header) */
-    const float k = (e > 0.0f) ? f->k_trim : (FS_FWMAP_TRIM_APPROACH * f->k_trim);   /* away from the limit fast, towards it slowly */
-    f->trim = fs_clampf(f->trim + (k * e), fs_minf(lo, 0.0f), 1.0f);
+    /* below the plan with the current's flux inside the flux limit (header): the trim holds */
+    const bool inside = (e < 0.0f) && (psi < (((1.0f - FS_FWMAP_INSIDE) * f->psi_mtpa) / x));
+    if (!inside) {
+        const float k = (e > 0.0f) ? f->k_trim : (FS_FWMAP_TRIM_APPROACH * f->k_trim);   /* away from the limit fast, towards it slowly */
+        f->trim = fs_clampf(f->trim + (k * e), fs_minf(lo, 0.0f), 1.0f);
+    }
 }
 
 fs_dq fs_fwmap_step(const fs_fwmap *f, float x, float T_ref, float *T_real)

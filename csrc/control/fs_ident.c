@@ -19,7 +19,7 @@ static const float LEV_FRAC[FS_IDENT_NLEV] = {1.0f, 0.75f, 0.5f, 0.25f, 0.125f, 
 #define AX_SKIP 2         /* periods after a turn before the sums: the carrier starts and ends at zero current, R and the delay
                              leave a transient of a period or two */
 #define AX_TURNS (HF_MEAS / AX_CHUNK)   /* turns per axis: HF_MEAS periods summed on each (even: whole Walsh blocks A B B A) */
-#define AX_PRE (HF_SKIP / 2)  /* AXIS's prelude A B B A of AX_PRE periods each: HF_SKIP on each axis, not summed (the loops' start) */
+#define AX_PRE ((int)HF_SKIP / 2)  /* AXIS's prelude A B B A of AX_PRE periods each: HF_SKIP on each axis, not summed (the loops' start) */
 #define I_HF 0.1f         /* of i_max: the q carrier's amplitude, small against saturation, large against noise */
 #define I_HF_D 0.15f      /* of i_max: the d carrier's, at zero current: larger, against the dead time's error (60 % larger: L_d +20 % on zoo machine 60 at 0.1) */
 #define SAL_MIN 0.03f     /* AXIS: the saliency (L_q - L_d)/(L_q + L_d) below which the axis is not trusted (its noise: 120 periods' phasors within 0.5 %) */
@@ -541,8 +541,8 @@ static fs_ab step_axis(fs_ident *id, fs_ab i)
     const fs_ident_config *c = &id->cfg;
     /* sub 0..3: the prelude A B B A; then the summed chunks, also in Walsh order */
     const int s_ch = id->sub - 4;
-    const int ax = (s_ch < 0) ? (((id->sub + 1) >> 1) & 1) : (((s_ch + 1) >> 1) & 1);
-    const int n_per = (s_ch < 0) ? AX_PRE : (AX_SKIP + AX_CHUNK);
+    const int ax = (s_ch < 0) ? (((id->sub + 1) / 2) % 2) : (((s_ch + 1) / 2) % 2);   /* both >= 0 there */
+    const int n_per = (s_ch < 0) ? AX_PRE : ((int)AX_SKIP + (int)AX_CHUNK);
     if ((id->k == 0) && (id->sub == 0)) {
         id->w_h = FS_TWO_PI / ((float)N_HF * c->Ts);
         id->U_h = fs_minf(I_HF_D * c->i_max * id->w_h * id->L0, 0.5f * id->u_max);
@@ -894,7 +894,8 @@ static fs_ab step_levels(fs_ident *id, fs_ab i_ab)
                 /* its integral from the q voltage's mean over the settling's second half: the fast loop's
                  * integral at one sample carries the current's noise times its gain (4 mV on own, 0.1 A
                  * of q current through the slow loop's 0.04 ohm, a kick of 0.3 rad/s) */
-                id->pi_q.integ = id->q_set / (float)(n_set / 2);
+                const int n_half = n_set / 2;
+                id->pi_q.integ = id->q_set / (float)n_half;
             }
         }
         acc_add(id, u.alpha, i);
@@ -1219,7 +1220,7 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
      * fell to zero it was torque, 0.39 A on the frictionless H27, 1.1 rad/s and 35 el.deg through CHECK
      * (now 0.14 A and 15 el.deg: the rest is the R-L transient's) */
     const bool trap = id->aligned && (axis == 1);   /* only there: elsewhere the axis' current loop takes the dc out */
-    const int n_tot = ((HF_SKIP + HF_MEAS) * N_HF) - (trap ? 0 : 1);
+    const int n_tot = (((int)HF_SKIP + (int)HF_MEAS) * (int)N_HF) - (trap ? 0 : 1);
     const float uh = id->U_h * cu * ((trap && ((kh == 0) || (kh == n_tot))) ? 0.5f : 1.0f);
     if (axis == 0) { u.alpha += uh; } else { u.beta += uh; }
     const float ua = (axis == 0) ? u.alpha : u.beta;   /* all of the axis' voltage: the bias loop answers the carrier too */

@@ -226,10 +226,12 @@ typedef struct {
     int pol_known;       /* the frame's d axis is the magnet's north (ALIGN, or POLARITY's or MAP's asymmetry decided) */
     float i_ref0;        /* A: DCURVE's last level, the next one's ramp starts there */
     float ax_i[2][2][2], ax_u[2][2][2];   /* AXIS: the current and voltage phasors [injection][axis][re, im] */
-    float i_peak_b, u_pb;                /* PROBE: beta's peak current and pulse voltage */
+    float i_peak_b;                      /* PROBE: beta's peak current */
+    float u_pb;                          /* PROBE: beta's pulse voltage */
     float L0_min;                        /* PROBE: the smaller of alpha's and beta's L (AXIS's hold loop gain) */
     float q_set;                         /* LEVELS: the q voltage's sum over the settling's second half */
-    float ax_hold[2], ax_isum[2];        /* AXIS: the hold loop's dc voltage and the carrier period's current sum, per axis */
+    float ax_hold[2];                    /* AXIS: the hold loop's dc voltage, per axis */
+    float ax_isum[2];                    /* AXIS: the carrier period's current sum, per axis */
     /* accumulators */
     float s_u, s_i, s_uu, s_ib2, s_ii, s_ia;   /* about the shift below, for float precision */
     float u0, i0;        /* the shift: the window's first sample */
