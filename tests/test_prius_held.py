@@ -9,12 +9,17 @@ model took the 446 N m the load machine held for the rotor's, ran the
 estimate to 660 rpm and 100 el.deg off in 6 ms, and the drive lost the
 torque the encoder's drive holds.
 """
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from fullspeed.design.scenario import scenario_from_dict
 from fullspeed.reproduce.papers.real import held_scenario
 from fullspeed.sim import simulate
+from script_loader import load_script
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_the_prius_holds_the_envelopes_torque_through_the_hand_over():
@@ -57,3 +62,30 @@ def test_the_back_emf_tracker_alone_holds_the_prius_through_the_step():
     assert np.mean(np.asarray(res["T_e"])[steady]) > 0.99 * 486.5
     assert e[(t > 0.5) & (t < 0.55)].max() < 45.0
     assert e[steady].max() < 2.0
+
+
+# While injecting, the back-EMF observer takes the injection filters' fundamental current i_f (fs_hfi_filter:
+# two SRFFs, linear). What it estimates is what its model leaves of the voltage it is given: that voltage must be
+# the one i_f belongs to, the fundamental's through the same filters (fs_hfi_filter_u: their step response, a
+# decaying tone near the carrier of about w_b / w_h of a step, is then in both), less the map's transient
+# (L_inc - L_d) di/dt on that same current (fs_smo.h). The torque's step here (38 -> 486 N m, i_q up by some
+# 200 A in a millisecond, L_qq 6.15 mH at no load against the observer's L_d 2.26 mH) is a current step while
+# injecting, on a shaft that does not move: the EMF's speed must stay the shaft's. Measured: with the unfiltered
+# voltage and no transient while injecting (main at 5375a99) it read 1,344 rpm 1 ms into the step; with the
+# voltage unfiltered but the transient taken, 366; with both, 169..310 rpm. Both together (branch h-smoinj-exp)
+# pass this, and B-ROBUST's worst error falls 14.5 -> 7.0 el.deg, but the held run above is then lost at all
+# 7 speeds (4 of 7 hold on main): with its EMF right, the tracker still runs from 294 to 426 rpm in 3 ms on the
+# torque it feeds forward on the rotor's J (the test above's mechanism), and the spike that happened to knock it
+# out of `converged` and off its hold no longer does. Strict: the day the pair is mended, the mark goes.
+@pytest.mark.xfail(strict=True, reason="while injecting the back-EMF observer takes the filters' fundamental current "
+                                       "with the unfiltered voltage and without the map's transient (issue 33)")
+def test_a_current_step_while_injecting_leaves_the_back_emf_speed_the_shafts():
+    ht = load_script(ROOT / "bench" / "held_trace.py", "bench_held_trace_emf")
+    rows = ht.trace("prius2004-mg2", 293.706, before=1e-3, after=3e-3, every=1e-4)
+    t_s = ht.step_time(held_scenario("prius2004-mg2", 293.706, "blend"))
+    pre = [r for r in rows if r["t"] < t_s]
+    post = [r for r in rows if r["t"] >= t_s]
+    assert pre and post and all(r["injecting"] for r in pre + post[:5])   # the step comes while injecting
+    assert max(r["T_ff"] for r in pre) < 50.0 and max(r["T_ff"] for r in post) > 400.0   # ... and is a step
+    ratio = [r["smo"]["w_emf_rpm"] / r["w_m_rpm"] for r in post]
+    assert 0.5 < min(ratio) and max(ratio) < 1.5, (min(ratio), max(ratio))
