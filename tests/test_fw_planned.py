@@ -68,24 +68,32 @@ def test_the_default_method_follows_the_converter():
 def test_the_trim_leaves_the_voltage_limit_fast_and_approaches_it_slowly():
     """fs_fwmap_trim: the voltage asked above the plan raises the trim at
     its whole rate, below the plan lowers it at FS_FWMAP_TRIM_APPROACH of
-    it (beyond the limit the d current is lost, inside it some torque)."""
+    it (beyond the limit the d current is lost, inside it some torque), and
+    only where the current's flux is on the plan's flux limit."""
     import re
     from pathlib import Path
     from fullspeed._core import ffi, lib
     header = (Path(__file__).resolve().parents[1] / "csrc" / "control" / "fs_fwmap.h").read_text()
     approach = float(re.search(r"#define FS_FWMAP_TRIM_APPROACH ([0-9.]+)f", header).group(1))
+    inside = float(re.search(r"#define FS_FWMAP_INSIDE ([0-9.]+)f", header).group(1))
     f = ffi.new("fs_fwmap *")
     f.k_trim = 0.01
+    f.psi_mtpa = 1.0
+    x = 2.0
+    on_limit = f.psi_mtpa / x   # the current's flux on the plan's flux limit
     e = 0.2
     lib.fs_fwmap_reset(f)
-    lib.fs_fwmap_trim(f, (1.0 + e) * 100.0, 100.0, 2.0)
+    lib.fs_fwmap_trim(f, (1.0 + e) * 100.0, 100.0, on_limit, x)
     up = f.trim
     lib.fs_fwmap_reset(f)
-    lib.fs_fwmap_trim(f, (1.0 - e) * 100.0, 100.0, 2.0)
+    lib.fs_fwmap_trim(f, (1.0 - e) * 100.0, 100.0, on_limit, x)
     down = f.trim
     assert up == pytest.approx(0.01 * e, rel=1e-5)
     assert down == pytest.approx(-approach * 0.01 * e, rel=1e-5)
     assert 0.0 < approach < 1.0
+    lib.fs_fwmap_reset(f)   # inside the flux limit (MTPA at a light load) the voltage below the plan lowers nothing
+    lib.fs_fwmap_trim(f, (1.0 - e) * 100.0, 100.0, (1.0 - 2.0 * inside) * on_limit, x)
+    assert f.trim == 0.0
 
 
 @pytest.mark.parametrize("rpm", [2765.0, 3456.0])
@@ -97,7 +105,13 @@ def test_sensorless_deep_flux_weakening_holds_the_encoders_torque(rpm):
     encoder drive at 2,765 rpm; at 3,456 rpm the carrier stayed on through
     the load machine's ramp (the blend's trust not yet whole) and its
     voltage, taken off the plan's, left no torque: overcurrent."""
-    enc = held_torque({"machine": "syre-thor", "rpm": rpm, "angle": "encoder"})
-    sl = held_torque({"machine": "syre-thor", "rpm": rpm, "angle": "blend"})
-    assert enc["stop_reason"] == sl["stop_reason"] == "done"
-    assert abs(sl["T"] / enc["T"] - 1.0) < 0.01, (sl["T"], enc["T"])
+    # The sensorless torque here moves with the speed by more than its mean error: at speeds 0.1 % apart
+    # (bench/held_margin.py, k = -3..3) it spanned 29.38..30.26 N m at 3,456 rpm against the encoder's 30.28
+    # before the trim's hold inside the flux limit, 29.79..30.31 since; one speed within 1 % was luck either
+    # way. So three speeds 0.1 % apart, each within 2 % (the limit cycle's loss was 14 %, B-REAL allows 5)
+    for k in (-1, 0, 1):
+        w = rpm * (1.0 + 1e-3 * k)
+        enc = held_torque({"machine": "syre-thor", "rpm": w, "angle": "encoder"})
+        sl = held_torque({"machine": "syre-thor", "rpm": w, "angle": "blend"})
+        assert enc["stop_reason"] == sl["stop_reason"] == "done"
+        assert abs(sl["T"] / enc["T"] - 1.0) < 0.02, (w, sl["T"], enc["T"])
