@@ -131,3 +131,25 @@ def test_cross_saturated_magnetics_keep_the_default_and_say_its_lag():
     lag = sc.machine.pole_pairs * ramp / (sc.machine.J * w_default ** 3)
     assert (lag > LOAD_STEP_ANGLE) == any(w.startswith("blending.bw_observer") for w in sc.warnings)
     assert _prius().data["injection"]["xcomp"] is None
+
+
+@pytest.mark.parametrize("lead_deg, raised", [(0.13, True), (2.4, True), (2.6, False), (6.9, False)])
+def test_a_cross_saturation_table_keeps_the_default_only_beyond_the_ramps_angle(lead_deg, raised):
+    """A table's moves stay within its span, twice its largest lead: within
+    LOAD_STEP_ANGLE (5 el.deg, the lag the raised blend is designed to leave)
+    the blend is still raised for the ramp, beyond it the default is kept.
+    0.13 el.deg is what the 2004 Prius MG2's map identified locked carried
+    (its truth none: the readings' noise), 6.9 zoo machine 0's lead, on
+    which the raise was found to pass the carrier's moves."""
+    d, _ = real_scenario("prius2004-mg2", "blend")
+    q = np.linspace(-150.0, 150.0, 33)
+    d["injection"] = {"xcomp": {"i_q": q.tolist(), "delta_deg": (-lead_deg * q / 150.0).tolist()}}
+    sc = scenario_from_dict(d, "prius-xcomp", warn=False)
+    assert sc.data["injection"]["xcomp"] is not None
+    assert ("blending.bw_observer" in sc.design) == raised
+    w = sc.data["blending"]["bw_observer"]
+    if raised:
+        assert w == pytest.approx(observer_for_load_ramp(4, 0.035, 200.0 / 0.15))
+        assert sc.design["controller.bw_speed"].value == pytest.approx(0.5 * w)
+    else:
+        assert w is None and sc.design["controller.bw_speed"].value < 35.0

@@ -30,6 +30,9 @@ from .xcomp import check_table_settings, designed_table
 # The trace is held in memory: one row of doubles per recorded sample.
 TRACE_ROW_BYTES = 8 * lib.FS_CH_N
 TRACE_MAX_BYTES = 2e9
+# el.deg: the span of a cross-saturation table (twice its largest lead) up to which the blend's observer is still
+# raised for a load ramp (_blend_for_load_ramp): the lag that raise is designed to leave, LOAD_STEP_ANGLE
+XCOMP_SPAN_FOR_RAMP = math.degrees(LOAD_STEP_ANGLE)
 
 
 # Scenario.warnings of a scenario loaded with warn=False: its caller reads none of them
@@ -416,7 +419,7 @@ def _choose_start(d: dict, m: Machine, source) -> dict:
     return {}
 
 
-def _blend_for_load_ramp(d: dict, m: Machine, h) -> None:
+def _blend_for_load_ramp(d: dict, m: Machine, h, source) -> None:
     """The blend's motion observer, whose angle and speed the loops take,
     fast enough for the scenario's steepest load ramp (rules.
     observer_for_load_ramp), where the injection's default (the paper's
@@ -436,7 +439,16 @@ def _blend_for_load_ramp(d: dict, m: Machine, h) -> None:
     angles 1e-3 el.deg apart: 10.3, 17.3 and 6.4 el.deg with the blend
     raised to 91 rad/s and the speed loop at the default's half; 3.6, 3.6
     and 4.0 at the default). The lag the ramp then leaves is
-    checks.load_ramp_warning's line."""
+    checks.load_ramp_warning's line. Those moves stay within the table's
+    span, twice its largest lead (the table is odd in i_q): a table whose
+    span is within LOAD_STEP_ANGLE, the lag this observer is designed to
+    leave, moves the angle by less than the raise takes off it, and does
+    not keep it (XCOMP_SPAN_FOR_RAMP). Zoo machine 0's lead is 6.9 el.deg
+    (a span of 13.9); a flux map identified on an own-axis machine carries
+    a lead of its readings' noise: 0.13 el.deg on the 2004 Prius MG2
+    identified locked (its truth none), whose table kept the default here
+    and let the rotor roll back to -650 rpm under B-REAL's 200 N m ramp and
+    be lost (tools/ident_catalog.py)."""
     ramp = load_ramp_max(d["load"]["torque"])
     if not ramp > 0.0:
         return
@@ -444,7 +456,8 @@ def _blend_for_load_ramp(d: dict, m: Machine, h) -> None:
     if not w_need > h.w_o_blend:
         return
     xc = d["injection"]["xcomp"]
-    if (xc not in (None, False)) or designed_table(m, d["controller"]["i_max"])[0] is not None:
+    table = xcomp_table(xc, source) if xc not in (None, False) else designed_table(m, d["controller"]["i_max"])[0]
+    if table is not None and 2.0 * max(abs(x) for x in table["delta_deg"]) > XCOMP_SPAN_FOR_RAMP:
         return
     w_cap = h.cfg.obs.bandwidth
     w = min(w_need, w_cap)
@@ -508,7 +521,7 @@ def _injection_fields(d: dict, m: Machine, source, bw_speed_given: bool = True, 
     # the observer whose speed the loops take: the blend's, or the injection's speed observer (fs_hfi.h: with
     # tracking = "lag" not the fast one, whose speed carries the angle's response to the loop's own current)
     if ctl["angle"] == "blend" and bl["bw_observer"] is None and d["load"]["kind"] == "torque":
-        _blend_for_load_ramp(d, m, h)
+        _blend_for_load_ramp(d, m, h, source)
     w_o = (bl["bw_observer"] if ctl["angle"] == "blend" else None) or h.w_o_blend
     if not bw_speed_given and ctl["bw_speed"] > 0.5 * w_o:
         # the speed loop at half its bandwidth keeps the observer's lag small (on the machine zoo: 28 of 50
