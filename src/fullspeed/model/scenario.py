@@ -257,7 +257,7 @@ SCENARIO = {
         "t_limit": POS(30.0, hi=1e4, doc="s simulated before the identification counts as stuck (reported with its step)"),
     }, default={}),
     "trace": T({"decimation": I(1, 1, 10**6, doc="record every n-th control period")}, default={}),
-    "metrics": T({"steady": Spec("any", None, doc="[t_start, t_end] s, the steady window; default the last flat stretch of the references and load after the loop settles (fullspeed.sim.metrics)")}, default={}),
+    "metrics": T({"steady": Spec("any", None, doc="[t_start, t_end] s, the steady window; default the last flat stretch of the references and load after the loop settles, none where less than one time constant of the loop is left (fullspeed.sim.metrics)")}, default={}),
 }
 
 
