@@ -58,6 +58,11 @@ def _followed_profiles(sc) -> list:
     return profiles
 
 
+def _last_change(sc) -> float:
+    """When what the loops follow (references and load) last stops changing, s."""
+    return max((c[1] for p in _followed_profiles(sc) for c in _changes(p)), default=0.0)
+
+
 def _settle_time(sc) -> float | None:
     """SETTLE_TAUS time constants of the mode's loop; None without one."""
     key = FOLLOWED[sc.data["controller"]["mode"]][1]
@@ -90,7 +95,7 @@ def _steady_planned(res) -> tuple[tuple[float, float] | None, str]:
     if w is not None:
         return (float(w[0]), float(w[1])), "given: [metrics] steady"
     T = sc.duration
-    t_flat = max((c[1] for p in _followed_profiles(sc) for c in _changes(p)), default=0.0)
+    t_flat = _last_change(sc)
     settle = _settle_time(sc)
     margin = settle if settle is not None else 0.2 * (T - t_flat)
     if t_flat + margin >= T - 1e-12:
@@ -518,7 +523,7 @@ def _unheld(res, t, tau: float, e_end: float, band: float) -> dict | None:
     if abs(e_end) <= band:
         return None
     sc, tr = res.scenario, res.traces
-    t_flat = max((c[1] for p in _followed_profiles(sc) for c in _changes(p)), default=0.0)
+    t_flat = _last_change(sc)
     settled = t[-1] - t_flat >= SETTLE_TAUS * tau + tau - 1e-12
     out = {"error_rpm": rad_s_to_rpm(e_end), "band_rpm": rad_s_to_rpm(band), "tau": tau, "settle": SETTLE_TAUS * tau,
            "since": t_flat,
