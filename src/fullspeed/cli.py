@@ -123,6 +123,14 @@ def run_verdict(res) -> list[str]:
     if start:
         out.append(f"the run ended in the start stage {start['stage']} (since t = {start['since']:.4f} s): the drive "
                    + ("never closed its loops on the estimate" if start["never_left"] else "had not closed its loops on the estimate again"))
+    for r in m.get("steps", []):
+        u = r.get("unheld")
+        if u:
+            out.append(f"the load's change at t = {r['t']:.4g} s ({r['from']:.4g} -> {r['to']:.4g} N m): the speed was "
+                       f"{u['error_rpm']:+.1f} rpm off its reference when the next change came at {u['until']:.4g} s, "
+                       f"{1e3 * (u['until'] - u['since']):.4g} ms after it, past the loop's settling in "
+                       f"{1e3 * u['settle']:.4g} ms: beyond the +-{u['band_rpm']:.1f} rpm a settled speed loop keeps "
+                       "(2 % of the reference, at least 0.5 % of rated speed): the drive did not hold the speed under that load")
     end = m.get("speed_end")
     if end and end["far"]:
         w = end["window"]

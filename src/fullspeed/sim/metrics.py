@@ -339,8 +339,30 @@ def step_metrics(res) -> list[dict]:
                 last = t[m][-1] >= t_end - 1e-12 if dev.size else True
                 r["note"] = ("the speed did not return within its band before "
                              + ("the run's end" if last else "the next change"))
+                if not last:   # the run's end is job_checks' (speed_end)
+                    r["unheld"] = _load_unheld(t[m], e, band, c[1], settle)
             out.append(r)
     return sorted(out, key=lambda r: r["t"])
+
+
+def _load_unheld(t, e, band, t_change_end: float, settle: float) -> dict | None:
+    """A load change the speed loop did not answer before the next change:
+    where that came past the change's end by the loop's settling and a time
+    constant more (settle = SETTLE_TAUS time constants), the speed's error
+    over the window's last time constant, still beyond the settled band
+    (SETTLE_BAND of the reference, at least SPEED_FLOOR of rated speed), in
+    rpm with the window's end. None where the window was too short to
+    judge or the speed had come back into the band by its end."""
+    tau = settle / SETTLE_TAUS
+    if t.size == 0 or t[-1] - t_change_end < settle + tau - 1e-12:
+        return None
+    m = t >= t[-1] - tau - 1e-12
+    e_end = float(np.mean(e[m]))
+    b_end = float(np.mean(band[m]))
+    if abs(e_end) <= b_end:
+        return None
+    return {"until": float(t[-1]), "error_rpm": rad_s_to_rpm(e_end), "band_rpm": rad_s_to_rpm(b_end),
+            "settle": settle, "since": t_change_end}
 
 
 def stage_metrics(tr) -> dict:
