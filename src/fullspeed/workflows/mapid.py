@@ -109,6 +109,23 @@ def _beyond(grid: dict) -> dict:
     return out
 
 
+def saturation_ratio(row, have: list[int]) -> float | None:
+    """The ratio by which a q sweep's incremental inductance fell over its
+    last grid step read (the last step's flux rise over the step's before,
+    each per grid step), within [0, 1]: a saturating iron's flux is concave
+    in its own current, its incremental inductance falling, never rising
+    (a ratio above 1 is the readings' noise on a linear axis: 1). None where
+    fewer than two points beside zero current were read (no fall to see).
+    row: psi_q along i_q (index NQ + j at i_q = j i_max / NQ)."""
+    pts = [0] + list(have)
+    if len(pts) < 3:
+        return None
+    j0, j1, j2 = pts[-3], pts[-2], pts[-1]
+    s0 = (row[NQ + j1] - row[NQ + j0]) / (j1 - j0)
+    s1 = (row[NQ + j2] - row[NQ + j1]) / (j2 - j1)
+    return float(min(max(s1 / s0, 0.0), 1.0)) if s0 > 0 else 1.0
+
+
 def _fill(psi_d, psi_q, src) -> None:
     """What was not read: along i_q, psi_q from the row's last two points
     (linear: the incremental L_q there) and psi_d held at its last (the
@@ -123,14 +140,25 @@ def _fill(psi_d, psi_q, src) -> None:
             continue
         j1 = have[-1]
         j0 = have[-2] if len(have) > 1 else 0
+        r = saturation_ratio(psi_q[k], have)
+        r = 1.0 if r is None else r   # one point read: its slope carried on (no fall seen)
+        s1 = (psi_q[k, NQ + j1] - psi_q[k, NQ + j0]) / (j1 - j0)   # Wb a grid step: the last incremental L_q read
         for j in range(1, NQ + 1):
             if j in have:
                 continue
-            f = (j - j0) / (j1 - j0)
+            if j < j1:   # between readings: linear
+                lo = max(i for i in [0] + have if i < j)
+                hi = min(i for i in have if i > j)
+                f = (j - lo) / (hi - lo)
+                for side in (1, -1):
+                    psi_d[k, NQ + side * j] = psi_d[k, NQ + side * lo] + f * (psi_d[k, NQ + side * hi] - psi_d[k, NQ + side * lo])
+                    psi_q[k, NQ + side * j] = psi_q[k, NQ + side * lo] + f * (psi_q[k, NQ + side * hi] - psi_q[k, NQ + side * lo])
+                continue
+            n = j - j1
+            ext = s1 * sum(r ** m for m in range(1, n + 1))   # the incremental L_q falling on by r a step
             for side in (1, -1):
-                a, b = NQ + side * j0, NQ + side * j1
-                psi_d[k, NQ + side * j] = psi_d[k, b]
-                psi_q[k, NQ + side * j] = psi_q[k, a] + f * (psi_q[k, b] - psi_q[k, a])
+                psi_d[k, NQ + side * j] = psi_d[k, NQ + side * j1]
+                psi_q[k, NQ + side * j] = psi_q[k, NQ + side * j1] + side * ext
     rows = [k for k in range(ND) if np.isfinite(psi_d[k]).all()]
     for k in range(ND):
         if k in rows or not rows:

@@ -1,0 +1,95 @@
+"""The identified map beyond what its q sweeps reached (workflows/mapid.py):
+carried on from the readings' own saturation, not a straight line.
+
+A free rotor's standstill q sweeps stop short of the disc where the rotor
+would turn (syre-thor free: i_d = 0 only, to 11 A of 44). A straight line
+through the last two readings carries the incremental L_q of 11 A to 44 A:
+on syre-thor, whose L_q falls from 34 mH at zero current to 2.3 mH at
+i_max, that gave psi_q twice the truth at the limit, a map 107 % of psi_f
+off, and a drive designed from it tripped on overcurrent."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from fullspeed.workflows import mapid
+
+ND, NQ = mapid.ND, mapid.NQ
+I_MAX, PSI_F = 40.0, 0.1
+
+
+def _readings(psi_q_of, js, L_d=5e-3):
+    """The d sweep over the whole axis (linear), the q sweep at i_d = 0
+    read at j i_max / 8 for j in js, psi_q_of(i_q) the q flux there."""
+    i_d = [0.25 * (k - ND // 2) * I_MAX for k in range(ND)]
+    n_q = [[0] * NQ for _ in range(ND)]
+    psi_q = [[0.0] * NQ for _ in range(ND)]
+    zero = [[0.0] * NQ for _ in range(ND)]
+    for j in js:
+        n_q[ND // 2][j - 1] = 4
+        psi_q[ND // 2][j - 1] = psi_q_of(j * I_MAX / NQ)
+    return {"dpsi_d": [L_d * a for a in i_d], "n_d": [4] * ND, "psi_d_w": [0.0] * ND, "w_d_w": [0] * ND,
+            "n_q": n_q, "psi_q": psi_q, "dpsi_dq": zero, "i_d_at": zero}
+
+
+def _row(grid):
+    return grid["psi_q"][1 + ND // 2, 1:-1]   # the row i_d = 0, the disc's i_q (grid has a step beyond each side)
+
+
+def test_saturating_q_axis_is_carried_on_saturating():
+    """psi_q = a tanh(i / b) read to i_max / 4: beyond it the map keeps the
+    fall of the incremental L_q it read (a geometric fall, 0.75 a step
+    here): at i_max 0.14 Wb above the truth's 0.40 Wb, where the straight
+    line is 0.58 Wb above it (tanh falls faster than geometric: the map
+    errs high, never below the truth)."""
+    a, b = 0.4, 12.0
+    true = lambda i: a * math.tanh(i / b)
+    grid = mapid.assemble(_readings(true, [1, 2]), I_MAX, PSI_F, 5e-3)
+    row = _row(grid)
+    assert row[NQ + 2] == true(2 * I_MAX / NQ)   # read: as read
+    s = true(2 * I_MAX / NQ) - true(I_MAX / NQ)
+    line = true(2 * I_MAX / NQ) + 6 * s
+    assert line > true(I_MAX) + 0.6 * PSI_F   # what a straight line would hold
+    assert true(I_MAX) < row[-1] < true(I_MAX) + 0.3 * (line - true(I_MAX)), (row[-1], true(I_MAX), line)
+    assert np.all(np.diff(row) > 0) and np.allclose(row, -row[::-1])   # still rising, odd in i_q
+
+
+def test_linear_q_axis_is_carried_on_straight():
+    """A q axis that did not saturate over what was read is carried on by
+    its slope, exactly (the ratio of its steps is 1)."""
+    L_q = 8e-3
+    grid = mapid.assemble(_readings(lambda i: L_q * i, [1, 2, 3]), I_MAX, PSI_F, 5e-3)
+    assert np.allclose(_row(grid), L_q * grid["i_q"][1:-1], rtol=1e-9, atol=1e-12)
+
+
+def test_one_point_read_is_carried_on_by_its_slope():
+    """One q reading shows no fall: its secant carried on (nothing invented)."""
+    grid = mapid.assemble(_readings(lambda i: 0.02 * i, [1]), I_MAX, PSI_F, 5e-3)
+    assert np.allclose(_row(grid), 0.02 * grid["i_q"][1:-1])
+
+
+def test_free_thor_identified_then_run_does_not_trip(tmp_path):
+    """syre-thor on a free shaft: its q sweeps reach 11 A of 44 at i_d = 0
+    alone (the rotor would turn), the rest of the map carried on from
+    them. The full-range run (B-REAL's scenario) on the machine file written,
+    the true machine turning, completes: with the straight line carried on
+    it tripped on overcurrent (psi_q twice the truth at the limit)."""
+    import copy
+
+    from fullspeed.design.scenario import scenario_from_dict
+    from fullspeed.reproduce.papers.real import real_scenario, sensorless_angle
+    from fullspeed.sim.runner import simulate
+    from fullspeed.workflows.identify import identify, write_identification
+
+    angle, _ = sensorless_angle("syre-thor")
+    data, _ = real_scenario("syre-thor", angle or "blend")
+    sc = scenario_from_dict(copy.deepcopy(data), "thor", warn=False)
+    res = identify(sc)
+    assert res.map is not None and res.status["map"] != "ok"   # outside its goal (against the truth), and says so
+    assert sum(1 for s in res.map["grid"]["source"].ravel() if s == "measured") < 20   # the free rotor's few points
+    write_identification(res, sc, tmp_path)
+    run = copy.deepcopy(data)
+    run["machine"], run["plant_machine"] = str(tmp_path / "machine.toml"), data["machine"]
+    out = simulate(scenario_from_dict(run, "thor identified", warn=False))
+    assert out.stop_reason == "done", (out.stop_reason, out.metrics.get("lock_lost_at"))
