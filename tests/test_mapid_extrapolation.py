@@ -93,3 +93,34 @@ def test_free_thor_identified_then_run_does_not_trip(tmp_path):
     run["machine"], run["plant_machine"] = str(tmp_path / "machine.toml"), data["machine"]
     out = simulate(scenario_from_dict(run, "thor identified", warn=False))
     assert out.stop_reason == "done", (out.stop_reason, out.metrics.get("lock_lost_at"))
+
+
+def test_free_prius_partial_map_is_written_said_partial_and_runs(tmp_path):
+    """The Prius MG2 on a free shaft: a d current below 0 A turns its magnet
+    off the axis, so the d sweep stops at +-0.72 i_max and the map is not
+    identified over the disc. What it read (the d axis to +-i_max/2, the q
+    axis at i_d = 0 to 68 A, where L_q is already 26 % below its zero-current
+    value) is written, marked partial with what was read, outside its goal
+    (exit 1): on the constants alone (even the true ones) the full-range
+    run lost its lock at the first load step (overspeed); on the partial
+    map it completes."""
+    import copy
+
+    from fullspeed.design.scenario import scenario_from_dict
+    from fullspeed.reproduce.papers.real import real_scenario, sensorless_angle
+    from fullspeed.sim.runner import simulate
+    from fullspeed.workflows.identify import OUTSIDE, identify, write_identification
+
+    angle, _ = sensorless_angle("prius2004-mg2")
+    data, _ = real_scenario("prius2004-mg2", angle or "blend")
+    sc = scenario_from_dict(copy.deepcopy(data), "prius", warn=False)
+    res = identify(sc)
+    assert res.status["map"] == OUTSIDE and not res.ok
+    why = res.reason["map"]
+    assert why.startswith("partial: the d sweep") and "the q axis to 67.7 A at i_d = 0" in why and "locked = true" in why, why
+    write_identification(res, sc, tmp_path)
+    assert "[magnetic]" in (tmp_path / "machine.toml").read_text()
+    run = copy.deepcopy(data)
+    run["machine"], run["plant_machine"] = str(tmp_path / "machine.toml"), data["machine"]
+    out = simulate(scenario_from_dict(run, "prius identified", warn=False))
+    assert out.stop_reason == "done", (out.stop_reason, out.metrics.get("lock_lost_at"))

@@ -350,8 +350,41 @@ def _result(sc: Scenario, s: dict, drv, stop: str, sim_time: float, wall: float,
     _numbers(res, sc, drv.ident, tr)
     if status["map"] == "ok":
         res.map = _map(sc, res, drv.ident)
+    elif _partial_map(res, drv.ident, sc):
+        res.map = _map(sc, res, drv.ident)
     _goals(res)
     return res
+
+
+def _partial_map(res: Identification, ident, sc: Scenario) -> bool:
+    """A map the drive refused to call identified (its d sweep did not read
+    the whole axis: a free rotor the d current would turn away), but whose
+    sweeps read the axis about zero (+-i_max/4) and the q axis at i_d = 0:
+    the map made of them, the rest carried on from them (mapid.assemble),
+    is written (status "outside goal", the reason saying what was read and
+    what not), since on a saturating machine the constants the machine file
+    holds otherwise describe it only near zero current: the Prius MG2 free,
+    its q sweep read to 68 A of 271 (L_q already 26 % below its
+    zero-current value there), lost the full-range run on the constants at
+    its first load step, even on the true constants. True where it is made."""
+    k0 = mapid.ND // 2
+    if res.status["map"] != "failed" or res.status["L_d"] != "ok" or res.status["L_q"] != "ok":
+        return False
+    if ident.res.reason[QUANTITIES.index("map")] not in (lib.FS_IDR_UNSTABLE, lib.FS_IDR_INCOMPLETE):
+        return False
+    m = ident.map.res
+    if not (m.n_d[k0 - 1] and m.n_d[k0 + 1] and m.n_q[k0][0]):
+        return False
+    i_max = sc.data["controller"]["i_max"]
+    read_d = [0.25 * (k - k0) * i_max for k in range(mapid.ND) if m.n_d[k]]
+    q_levels = [k for k in range(mapid.ND) if any(m.n_q[k])]
+    q0 = max(j + 1 for j in range(mapid.NQ) if m.n_q[k0][j]) * i_max / mapid.NQ
+    res.status["map"] = OUTSIDE
+    res.reason["map"] = (f"partial: {res.reason['map']}; what the sweeps read is written, the rest of the disc carried "
+                         f"on from it, not measured: the d axis from {min(read_d):+.3g} to {max(read_d):+.3g} A of "
+                         f"+-{i_max:.4g} A, the q axis to {q0:.3g} A at i_d = 0 ({len(q_levels)} of 7 d levels read); "
+                         f"lock the rotor to measure the rest ([identify] locked = true)")
+    return True
 
 
 # el.deg a free rotor may turn in a standstill step before what the step
@@ -666,6 +699,8 @@ def print_identification(res: Identification) -> None:
         flag = "   OUTSIDE GOAL" if res.status["map"] == OUTSIDE else ""
         print(f"  map    RMS error {e['rms_pct']:.2f} % of psi_f over the disc (psi_d {e['rms_d_pct']:.2f}, psi_q "
               f"{e['rms_q_pct']:.2f}, largest {e['max_pct']:.2f} %)   goal {MAP_GOAL_PCT:g} %{const}{flag}")
+        if res.reason["map"].startswith("partial: "):   # the drive's own verdict, truth or not
+            print(f"         {res.reason['map']}")
         pts = res.map["points"]
         print(f"         {pts.get('measured', 0)} grid points measured, {pts.get('at speed', 0)} at speed, "
               f"{pts.get('extrapolated', 0)} extrapolated (outside the disc or beyond the sweeps)")
