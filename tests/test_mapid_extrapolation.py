@@ -74,7 +74,9 @@ def test_free_thor_identified_then_run_does_not_trip(tmp_path):
     alone (the rotor would turn), the rest of the map carried on from
     them. The full-range run (B-REAL's scenario) on the machine file written,
     the true machine turning, completes: with the straight line carried on
-    it tripped on overcurrent (psi_q twice the truth at the limit)."""
+    it tripped on overcurrent (psi_q twice the truth at the limit). The
+    map says it is partial from the drive's own readings (before, only the
+    truth a simulation knows said it was off: on a real machine, "ok")."""
     import copy
 
     from fullspeed.design.scenario import scenario_from_dict
@@ -86,7 +88,11 @@ def test_free_thor_identified_then_run_does_not_trip(tmp_path):
     data, _ = real_scenario("syre-thor", angle or "blend")
     sc = scenario_from_dict(copy.deepcopy(data), "thor", warn=False)
     res = identify(sc)
-    assert res.map is not None and res.status["map"] != "ok"   # outside its goal (against the truth), and says so
+    # outside its goal, said from the drive's own readings (no truth on a real machine): the sweeps stopped, the
+    # rotor turning, after the level i_d = 0
+    assert res.map is not None and res.status["map"] == "outside goal"
+    why = res.reason["map"]
+    assert why.startswith("partial: the q sweeps stopped after the level i_d = +0 A") and "1 of 7 d levels" in why, why
     assert sum(1 for s in res.map["grid"]["source"].ravel() if s == "measured") < 20   # the free rotor's few points
     write_identification(res, sc, tmp_path)
     run = copy.deepcopy(data)

@@ -350,6 +350,7 @@ def _result(sc: Scenario, s: dict, drv, stop: str, sim_time: float, wall: float,
     _numbers(res, sc, drv.ident, tr)
     if status["map"] == "ok":
         res.map = _map(sc, res, drv.ident)
+        _stopped_turning(res, drv.ident, sc)
     elif _partial_map(res, drv.ident, sc):
         res.map = _map(sc, res, drv.ident)
     _goals(res)
@@ -375,16 +376,40 @@ def _partial_map(res: Identification, ident, sc: Scenario) -> bool:
     m = ident.map.res
     if not (m.n_d[k0 - 1] and m.n_d[k0 + 1] and m.n_q[k0][0]):
         return False
-    i_max = sc.data["controller"]["i_max"]
+    res.status["map"] = OUTSIDE
+    res.reason["map"] = f"partial: {res.reason['map']}; {_what_was_read(m, sc.data['controller']['i_max'])}"
+    return True
+
+
+def _what_was_read(m, i_max: float) -> str:
+    """What a partial map's sweeps read (fs_mapid_result m), and the cure."""
+    k0 = mapid.ND // 2
     read_d = [0.25 * (k - k0) * i_max for k in range(mapid.ND) if m.n_d[k]]
     q_levels = [k for k in range(mapid.ND) if any(m.n_q[k])]
-    q0 = max(j + 1 for j in range(mapid.NQ) if m.n_q[k0][j]) * i_max / mapid.NQ
+    q0 = max((j + 1 for j in range(mapid.NQ) if m.n_q[k0][j]), default=0) * i_max / mapid.NQ
+    return (f"what the sweeps read is written, the rest of the disc carried on from it, not measured: the d axis "
+            f"from {min(read_d):+.3g} to {max(read_d):+.3g} A of +-{i_max:.4g} A, the q axis to {q0:.3g} A at i_d = 0 "
+            f"({len(q_levels)} of 7 d levels read); lock the rotor to measure the rest ([identify] locked = true)")
+
+
+def _stopped_turning(res: Identification, ident, sc: Scenario) -> None:
+    """A map the drive called identified (its d sweep read the whole axis)
+    whose q sweeps stopped because the rotor was turning at a level's end
+    (fs_mapid.h: a back-EMF beyond the inverter's error): partial, outside
+    its goal, saying so from the drive's own readings, where only the truth
+    a simulation knows said it before (syre-thor free: 1 of 7 levels read,
+    to 11 A of 44, 11 of the grid's 209 points measured; on a real machine
+    it read "ok")."""
+    m = ident.map.res
+    stopped = [k for k in range(mapid.ND) if m.limit[k] == lib.FS_MAPID_LIM_MOVING]
+    if res.status["map"] != "ok" or not stopped:
+        return
+    i_max = sc.data["controller"]["i_max"]
+    k = stopped[0]
     res.status["map"] = OUTSIDE
-    res.reason["map"] = (f"partial: {res.reason['map']}; what the sweeps read is written, the rest of the disc carried "
-                         f"on from it, not measured: the d axis from {min(read_d):+.3g} to {max(read_d):+.3g} A of "
-                         f"+-{i_max:.4g} A, the q axis to {q0:.3g} A at i_d = 0 ({len(q_levels)} of 7 d levels read); "
-                         f"lock the rotor to measure the rest ([identify] locked = true)")
-    return True
+    res.reason["map"] = (f"partial: the q sweeps stopped after the level i_d = {0.25 * (k - mapid.ND // 2) * i_max:+.3g} A "
+                         f"(swept to {m.i_q_amp[k]:.3g} A): the rotor was turning at its end (its back-EMF above the "
+                         f"inverter's error); {_what_was_read(m, i_max)}")
 
 
 # el.deg a free rotor may turn in a standstill step before what the step
