@@ -110,20 +110,31 @@ def _beyond(grid: dict) -> dict:
 
 
 def saturation_ratio(row, have: list[int]) -> float | None:
-    """The ratio by which a q sweep's incremental inductance fell over its
-    last grid step read (the last step's flux rise over the step's before,
-    each per grid step), within [0, 1]: a saturating iron's flux is concave
-    in its own current, its incremental inductance falling, never rising
-    (a ratio above 1 is the readings' noise on a linear axis: 1). None where
-    fewer than two points beside zero current were read (no fall to see).
-    row: psi_q along i_q (index NQ + j at i_q = j i_max / NQ)."""
+    """The ratio by which a q sweep's incremental inductance fell a grid
+    step over its last readings, within [0, 1]: a saturating iron's flux is
+    concave in its own current, its incremental inductance falling, never
+    rising (a ratio above 1 is the readings' noise on a linear axis: 1).
+    From the flux's rise per grid step between consecutive points read, the
+    last N_FALL of them, fitted as a geometric fall (log-linear least
+    squares): two steps alone carry each one's noise into the ratio, about
+    7 % on examples/own-machine (steps of 2 mWb, 0.1 mWb off), whose map
+    then came out 3.0 % of psi_f off from 30 el.deg against 2.7 % with a
+    straight line. None where fewer than two points beside zero current
+    were read (no fall to see). row: psi_q along i_q (index NQ + j at
+    i_q = j i_max / NQ)."""
     pts = [0] + list(have)
     if len(pts) < 3:
         return None
-    j0, j1, j2 = pts[-3], pts[-2], pts[-1]
-    s0 = (row[NQ + j1] - row[NQ + j0]) / (j1 - j0)
-    s1 = (row[NQ + j2] - row[NQ + j1]) / (j2 - j1)
-    return float(min(max(s1 / s0, 0.0), 1.0)) if s0 > 0 else 1.0
+    pts = pts[-(N_FALL + 1):]
+    x = np.array([0.5 * (a + b) for a, b in zip(pts[:-1], pts[1:])])
+    s = np.array([(row[NQ + b] - row[NQ + a]) / (b - a) for a, b in zip(pts[:-1], pts[1:])])
+    if not np.all(s > 0):
+        return 1.0   # a step that did not rise: noise on a flat reading, nothing to carry a fall from
+    slope = np.polyfit(x, np.log(s), 1)[0]
+    return float(min(max(math.exp(slope), 0.0), 1.0))
+
+
+N_FALL = 3   # steps the fall is fitted over (saturation_ratio): more average the noise, fewer follow the knee
 
 
 def _fill(psi_d, psi_q, src) -> None:
