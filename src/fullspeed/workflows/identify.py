@@ -327,6 +327,7 @@ def _result(sc: Scenario, s: dict, drv, stop: str, sim_time: float, wall: float,
                "eps_align_deg": math.degrees(r.eps_align), "w_flux": r.w_flux, "a_acc": r.a_acc, "a_coast": r.a_coast,
                "L_probe": drv.ident.L0, "i_acc": drv.ident.i_acc, "i_e": r.i_e, "bw_pll": drv.ident.bw_pll, "w_c": drv.ident.w_c,
                "I_bias": list(r.I_bias), "L_q_bias": list(r.L_q_bias), "dL_q": r.dL_q,
+               "ld_carrier_A": r.ld_carrier, "ld_second_harmonic": r.ld_h2,
                "theta_axis_deg": math.degrees(r.theta_axis), "theta_hf_deg": math.degrees(r.theta_hf), "saliency": r.saliency,
                "L_d_axis": r.L_d_axis, "L_q_axis": r.L_q_axis, "pol_asym": r.pol_asym, "pol_decided": bool(r.pol_decided),
                "pol_flipped": bool(r.pol_flipped), "pol_amp": r.pol_amp, "i_level_top": r.i_level_top,
@@ -578,6 +579,9 @@ def report_tables(res: Identification) -> dict[str, dict]:
             t["goal_pct"] = GOALS_PCT[q]
         if q == "L_q" and "dL_q_di_d" in res.values:
             t["identified_dL_q_di_d"] = res.values["dL_q_di_d"]   # H/A, between d biases of details["I_bias"]
+        if q == "L_d" and res.details.get("ld_carrier_A"):   # the d carrier's current it was read at (fs_ident.c step_ldq)
+            t["carrier_A"] = res.details["ld_carrier_A"]
+            t["carrier_second_harmonic"] = res.details["ld_second_harmonic"]
         if q in ("L_d", "L_q"):
             t["truth_nominal"] = res.truth[f"{q}_nominal"]
             t["truth_is"] = "the plant's incremental inductance at zero current (the unsaturated value the standstill test sees)"
