@@ -151,3 +151,27 @@ def test_lopsided_d_axis_read_at_a_carrier_it_is_straight_over():
     assert thor.details["ld_carrier_A"] < 2.5 and thor.details["ld_second_harmonic"] < 0.05, thor.details["ld_carrier_A"]
     prius = run("prius2004-mg2")
     assert prius.details["ld_carrier_A"] > 10.0 and prius.details["ld_second_harmonic"] < 0.05
+
+
+def test_spread_says_what_the_readings_leave_open():
+    """The spread (straight on against falling as read) is zero where the
+    readings did not fall and grows with the fall; over the disc it is the
+    drive's own measure of a partial map (no truth needed)."""
+    lin = mapid.assemble(_readings(lambda i: 8e-3 * i, [1, 2, 3]), I_MAX, PSI_F, 5e-3)
+    sat = mapid.assemble(_readings(lambda i: 0.4 * math.tanh(i / 12.0), [1, 2, 3]), I_MAX, PSI_F, 5e-3)
+    assert np.all(lin["spread"] == 0.0) and mapid.spread_pct(lin, PSI_F, I_MAX) == 0.0
+    assert mapid.spread_pct(sat, PSI_F, I_MAX) > 50.0   # tanh's fall over 15 A carried to 40 A: far apart
+    assert np.all(sat["spread"][:, NQ - 3:NQ + 4] == 0.0)   # read (or copied from a read row) up to j = 3: nothing open
+
+
+def test_linear_machine_whose_sweeps_stopped_keeps_its_map():
+    """anaheim-bly171d free: its q sweeps stop when the rotor turns at a
+    level's end, but its readings carry on straight (spread 0.01 % of
+    psi_f): the map stands, "ok" (0.16 % off the truth), not partial."""
+    from fullspeed.design.scenario import scenario_from_dict
+    from fullspeed.workflows.identify import identify
+
+    res = identify(scenario_from_dict({"name": "a", "duration": 1.0, "machine": "anaheim-bly171d",
+                                       "controller": {"mode": "off"}}, warn=False))
+    assert 4 in res.map["readings"]["limit"]   # FS_MAPID_LIM_MOVING: the sweeps stopped
+    assert res.map["spread_pct"] < 0.5 and res.status["map"] == "ok", (res.map["spread_pct"], res.reason["map"])

@@ -80,8 +80,10 @@ def assemble(rd: dict, i_max: float, psi_f: float, L_d: float) -> dict:
             for side in (1, -1):
                 psi_d[k, NQ + side * j], psi_q[k, NQ + side * j] = pd, side * pq
                 src[k, NQ + side * j] = "measured"
-    _fill(psi_d, psi_q, src)
-    return _beyond({"i_d": i_d, "i_q": i_q, "psi_d": psi_d, "psi_q": psi_q, "source": src})
+    spread = _fill(psi_d, psi_q, src)
+    out = _beyond({"i_d": i_d, "i_q": i_q, "psi_d": psi_d, "psi_q": psi_q, "source": src})
+    out["spread"] = spread
+    return out
 
 
 def _beyond(grid: dict) -> dict:
@@ -137,14 +139,19 @@ def saturation_ratio(row, have: list[int]) -> float | None:
 N_FALL = 3   # steps the fall is fitted over (saturation_ratio): more average the noise, fewer follow the knee
 
 
-def _fill(psi_d, psi_q, src) -> None:
-    """What was not read: along i_q, psi_q from the row's last two points
-    (linear: the incremental L_q there) and psi_d held at its last (the
-    cross-saturation's change beyond the sweep is not known; a line through
-    two readings a grid step apart, carried five steps on, multiplies their
-    noise: 26 % of psi_f on the locked Prius-like machine whose sweeps reached
-    35 A of 250); then whole rows from the nearest row read (its changes
-    along i_q)."""
+def _fill(psi_d, psi_q, src) -> np.ndarray:
+    """What was not read: along i_q, psi_q from the row's last point read on
+    by its last incremental L_q, falling a grid step by the ratio it fell
+    over the readings (saturation_ratio; linear where it did not fall) and
+    psi_d held at its last (the cross-saturation's change beyond the sweep
+    is not known; a line through two readings a grid step apart, carried
+    five steps on, multiplies their noise: 26 % of psi_f on the locked
+    Prius-like machine whose sweeps reached 35 A of 250); then whole rows
+    from the nearest row read (its changes along i_q). Returns the spread of
+    the extrapolated psi_q: how far the straight line (the fall stopping
+    where the readings end) lies from it, per point (0 where read), a
+    measure of what the readings leave open beyond them."""
+    spread = np.zeros(psi_q.shape)
     for k in range(ND):
         have = [j for j in range(1, NQ + 1) if src[k, NQ + j] != "extrapolated"]
         if not have or not np.isfinite(psi_d[k, NQ]):
@@ -170,6 +177,7 @@ def _fill(psi_d, psi_q, src) -> None:
             for side in (1, -1):
                 psi_d[k, NQ + side * j] = psi_d[k, NQ + side * j1]
                 psi_q[k, NQ + side * j] = psi_q[k, NQ + side * j1] + side * ext
+                spread[k, NQ + side * j] = abs(s1 * n - ext)
     rows = [k for k in range(ND) if np.isfinite(psi_d[k]).all()]
     for k in range(ND):
         if k in rows or not rows:
@@ -178,9 +186,21 @@ def _fill(psi_d, psi_q, src) -> None:
         base = psi_d[k, NQ] if np.isfinite(psi_d[k, NQ]) else psi_d[near, NQ]
         psi_d[k] = base + psi_d[near] - psi_d[near, NQ]
         psi_q[k] = psi_q[near]
+        spread[k] = spread[near]
         for j in range(2 * NQ + 1):
             if j != NQ or not np.isfinite(psi_d[k, NQ]):
                 src[k, j] = "extrapolated"
+    return spread
+
+
+def spread_pct(grid: dict, psi_f: float, i_max: float) -> float:
+    """The RMS over the current limit's disc of the map's extrapolation
+    spread (grid["spread"], _fill), % of psi_f: what its readings leave
+    open, from the drive's readings alone (no truth needed)."""
+    a, b = disc_points(i_max)
+    i_d, i_q = grid["i_d"][1:-1], grid["i_q"][1:-1]   # the spread is on the grid inside its step beyond the limit
+    mag = {"i_d": i_d, "i_q": i_q, "psi_d": grid["spread"], "psi_q": grid["spread"]}
+    return 100.0 * math.sqrt(float(np.mean((interp(mag, "psi_d", a, b) / psi_f) ** 2)))
 
 
 def disc_points(i_max: float, n: int = 41) -> tuple[np.ndarray, np.ndarray]:
