@@ -21,6 +21,10 @@ static const float LEV_FRAC[FS_IDENT_NLEV] = {1.0f, 0.75f, 0.5f, 0.25f, 0.125f, 
 #define AX_TURNS (HF_MEAS / AX_CHUNK)   /* turns per axis: HF_MEAS periods summed on each (even: whole Walsh blocks A B B A) */
 #define AX_PRE ((int)HF_SKIP / 2)  /* AXIS's prelude A B B A of AX_PRE periods each: HF_SKIP on each axis, not summed (the loops' start) */
 #define I_HF 0.1f         /* of i_max: the q carrier's amplitude, small against saturation, large against noise */
+#define H2_MAX 0.05f      /* LDQ's d carrier: its current's second harmonic over the fundamental above which the axis is lopsided over
+                             the swing and the carrier is halved (5 %: L_d's goal; fs_ident.c step_ldq) */
+#define L_CONV 0.01f      /* LDQ's d carrier: a pass that moved L_d by less than this (a fifth of its goal) ends the halvings */
+#define LD_HALVINGS 4     /* at most (the SNR check in step_ldq bounds it first where the noise is higher): the carrier is sized from the probe's L, which on a salient rotor is not the d axis': the THOR's first was 15 A, not 0.15 i_max = 6.6 A */
 #define I_HF_D 0.15f      /* of i_max: the d carrier's, at zero current: larger, against the dead time's error (60 % larger: L_d +20 % on zoo machine 60 at 0.1) */
 #define SAL_MIN 0.03f     /* AXIS: the saliency (L_q - L_d)/(L_q + L_d) below which the axis is not trusted (its noise: 120 periods' phasors within 0.5 %) */
 #define I_ALIGN 0.3f      /* of i_max: ALIGN's current (the levels' former top, halved) */
@@ -90,6 +94,8 @@ static void hf_clear(fs_ident *id)
     id->hf_i[0][1] = 0.0f;
     id->hf_i[1][0] = 0.0f;
     id->hf_i[1][1] = 0.0f;
+    id->hf_i2[0] = 0.0f;
+    id->hf_i2[1] = 0.0f;
 }
 
 static void acc_clear(fs_ident *id)
@@ -140,6 +146,8 @@ void fs_ident_reset(fs_ident *id)
     id->aligned = 0;
     id->pol_known = 0;
     id->i_ref0 = 0.0f;
+    id->hf_scale = 0.0f;
+    id->ld_L_prev = 0.0f;
     acc_clear(id);
     id->u0 = 0.0f;
     id->i0 = 0.0f;
@@ -1180,11 +1188,16 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
          * pushes too); where the push needs more, none (the Prius MG2: 78 A against 10) */
         if (I_s <= (0.5f * id->res.i_level_top)) { I_b = I_s; }
     }
+    const bool ld_read = d_meas && !check;   /* LDQ's own d carrier: L_d */
+    if (ld_read && !(id->hf_scale > 0.0f)) { id->hf_scale = 1.0f; }
     if (id->k == 0) {
         id->w_h = FS_TWO_PI / ((float)N_HF * c->Ts);
         const float R = id->res.R_s;                         /* the probe's L: the amplitudes B-IDENT was tuned on */
         const float X = id->w_h * id->L0;
-        id->U_h = fs_minf((axis ? I_HF : I_HF_D) * c->i_max * sqrtf((R * R) + (X * X)), 0.5f * id->u_max);
+        /* LDQ's d carrier scaled after the voltage's bound (which holds a high-impedance axis' carrier below
+         * its I_HF_D i_max: the THOR's at 4.1 A): each pass' current the last's times the scale's change */
+        id->U_h = fs_minf((axis ? I_HF : I_HF_D) * c->i_max * sqrtf((R * R) + (X * X)), 0.5f * id->u_max)
+                  * (ld_read ? id->hf_scale : 1.0f);
         ldq_clear(id);
     }
     const fs_ab i = to_frame(id, i_ab);
@@ -1232,6 +1245,11 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
         id->hf_i[0][1] -= i.alpha * su;
         id->hf_i[1][0] += i.beta * cu;
         id->hf_i[1][1] -= i.beta * su;
+        if (ld_read) {   /* the second harmonic: cos 2x = c^2 - s^2, sin 2x = 2 s c */
+            const float ia = (axis == 0) ? i.alpha : i.beta;
+            id->hf_i2[0] += ia * ((cu * cu) - (su * su));
+            id->hf_i2[1] -= ia * (2.0f * su * cu);
+        }
     }
     id->k++;
     if (kh < n_tot) { return from_frame(id, u); }   /* through kh = n_tot: the closing half sample */
@@ -1253,6 +1271,35 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
     if (snr < 100.0f) {   /* 1 % of the amplitude at one sigma: L_q's extrapolation doubles the noise */
         ident_fail(id, q, FS_IDR_LOW_SIGNAL);
         return from_frame(id, u);
+    }
+    if (ld_read) {
+        /* L_d is the incremental inductance at zero current; the carrier reads the fundamental of its swing,
+         * +-I_HF_D i_max. Where the axis' flux is lopsided over that swing (syre-thor: the incremental L_d
+         * 5.0 mH below zero current, 7.6 mH at +1..2 A, 16 mH at +4..9 A, the ribs the magnet saturates
+         * freed by a d current adding to it) the fundamental is not the value at zero (7.2 mH at +-6.6 A,
+         * the drive read 5.76, +15 %); the current's second harmonic shows the lopsidedness (an even part
+         * of L(i) over the swing: none on a symmetric axis, whose saturation and dead time make odd ones).
+         * Above H2_MAX of the fundamental the carrier is halved and the reading taken again, at most
+         * LD_HALVINGS times and while the halved carrier keeps twice the SNR the check above asks: the
+         * THOR's 6.6 A gives 0.24 (current-driven), 3.3 A 0.11, 1.65 A 0.04 (L 5.2 mH, +3 %) */
+        const float h2 = 2.0f * sqrtf((id->hf_i2[0] * id->hf_i2[0]) + (id->hf_i2[1] * id->hf_i2[1])) / (float)n / amp;
+        /* the limit as the swing shrinks: another pass only while the last one moved L by more than L_CONV
+         * (a kink at zero current itself, the Baldor's map, its slopes either side of zero apart at any swing,
+         * keeps its second harmonic but not its L: one pass more, where each costs a free rotor time to
+         * drift, the Baldor's 8.7 el.deg through five, past the 8 its alignment allows) */
+        const bool moving = !(id->ld_L_prev > 0.0f) || (fabsf(L - id->ld_L_prev) > (L_CONV * L));
+        id->ld_L_prev = L;
+        r->ld_h2 = h2;
+        r->ld_carrier = amp;
+        const float s_min = 1.0f / (float)(1 << LD_HALVINGS);
+        if ((h2 > H2_MAX) && moving && (id->hf_scale > (s_min + 1e-6f)) && (snr >= 400.0f)) {
+            /* to where a lopsidedness proportional to the swing (a smooth L(i)) would leave H2_MAX, a quarter
+             * at least and a half at most a pass, within the SNR (twice the check's at the carrier's current) */
+            const float f = fs_clampf(H2_MAX / h2, 0.25f, 0.5f);
+            id->hf_scale = fs_maxf(fs_maxf(id->hf_scale * f, s_min), id->hf_scale * 200.0f / snr);
+            ldq_clear(id);
+            return from_frame(id, u);
+        }
     }
     if (d_meas) {
         /* the cross response's in-phase part: the rotor's axis against the frame's */

@@ -194,6 +194,9 @@ typedef struct {
     float I_lev[FS_IDENT_NLEV], U_lev[FS_IDENT_NLEV];   /* the d-axis level means, A, V */
     float I_bias[2], L_q_bias[2];    /* LDQ: the two d biases of the q injection, A, and L_q at each, H */
     float dL_q;                  /* L_q's change with i_d, H/A (the cross-saturation the injection estimators see) */
+    float ld_carrier;            /* LDQ: the d carrier's current amplitude L_d was read at, A (I_HF_D i_max, halved while its
+                                    response's second harmonic showed the axis lopsided over the swing) */
+    float ld_h2;                 /* LDQ: that response's second harmonic over its fundamental (the current's) */
     float I_levn[FS_IDENT_NLEV], U_levn[FS_IDENT_NLEV];  /* the levels at -I (alternating), A, V */
     /* DCURVE: psi_d(i_d, 0) at speed at the map's d levels k i_max / 4 (k = -4..4, index k + 4), the d
      * current and the speed it was read at (w 0: not measured) */
@@ -239,6 +242,9 @@ typedef struct {
     int n_acc;
     /* HF phasors: voltage and both currents, real and imaginary */
     float hf_u[2], hf_i[2][2];
+    float hf_i2[2];      /* the carrier axis' current at twice the carrier's frequency (LDQ's d carrier) */
+    float hf_scale;      /* LDQ: the d carrier's amplitude, of I_HF_D i_max (0: not begun) */
+    float ld_L_prev;     /* LDQ: the d carrier's last pass' L, H (0: none) */
     float U_h, w_h;
     /* frame: angle, speed, PLL */
     float theta, w, w_target, bw_pll, i_if, i_acc, w0;

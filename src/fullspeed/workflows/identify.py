@@ -327,6 +327,7 @@ def _result(sc: Scenario, s: dict, drv, stop: str, sim_time: float, wall: float,
                "eps_align_deg": math.degrees(r.eps_align), "w_flux": r.w_flux, "a_acc": r.a_acc, "a_coast": r.a_coast,
                "L_probe": drv.ident.L0, "i_acc": drv.ident.i_acc, "i_e": r.i_e, "bw_pll": drv.ident.bw_pll, "w_c": drv.ident.w_c,
                "I_bias": list(r.I_bias), "L_q_bias": list(r.L_q_bias), "dL_q": r.dL_q,
+               "ld_carrier_A": r.ld_carrier, "ld_second_harmonic": r.ld_h2,
                "theta_axis_deg": math.degrees(r.theta_axis), "theta_hf_deg": math.degrees(r.theta_hf), "saliency": r.saliency,
                "L_d_axis": r.L_d_axis, "L_q_axis": r.L_q_axis, "pol_asym": r.pol_asym, "pol_decided": bool(r.pol_decided),
                "pol_flipped": bool(r.pol_flipped), "pol_amp": r.pol_amp, "i_level_top": r.i_level_top,
@@ -350,8 +351,73 @@ def _result(sc: Scenario, s: dict, drv, stop: str, sim_time: float, wall: float,
     _numbers(res, sc, drv.ident, tr)
     if status["map"] == "ok":
         res.map = _map(sc, res, drv.ident)
+        _stopped_turning(res, drv.ident, sc)
+    elif _partial_map(res, drv.ident, sc):
+        res.map = _map(sc, res, drv.ident)
+        res.reason["map"] += (f"; beyond what was read the q flux is open by {res.map['spread_pct']:.3g} % of psi_f RMS over "
+                              f"the disc (carried on falling as read against straight on)")
     _goals(res)
     return res
+
+
+def _partial_map(res: Identification, ident, sc: Scenario) -> bool:
+    """A map the drive refused to call identified (its d sweep did not read
+    the whole axis: a free rotor the d current would turn away), but whose
+    sweeps read the axis about zero (+-i_max/4) and the q axis at i_d = 0:
+    the map made of them, the rest carried on from them (mapid.assemble),
+    is written (status "outside goal", the reason saying what was read and
+    what not), since on a saturating machine the constants the machine file
+    holds otherwise describe it only near zero current: the Prius MG2 free,
+    its q sweep read to 68 A of 271 (L_q already 26 % below its
+    zero-current value there), lost the full-range run on the constants at
+    its first load step, even on the true constants. True where it is made."""
+    k0 = mapid.ND // 2
+    if res.status["map"] != "failed" or res.status["L_d"] != "ok" or res.status["L_q"] != "ok":
+        return False
+    if ident.res.reason[QUANTITIES.index("map")] not in (lib.FS_IDR_UNSTABLE, lib.FS_IDR_INCOMPLETE):
+        return False
+    m = ident.map.res
+    if not (m.n_d[k0 - 1] and m.n_d[k0 + 1] and m.n_q[k0][0]):
+        return False
+    res.status["map"] = OUTSIDE
+    res.reason["map"] = f"partial: {res.reason['map']}; {_what_was_read(m, sc.data['controller']['i_max'])}"
+    return True
+
+
+def _what_was_read(m, i_max: float) -> str:
+    """What a partial map's sweeps read (fs_mapid_result m), and the cure."""
+    k0 = mapid.ND // 2
+    read_d = [0.25 * (k - k0) * i_max for k in range(mapid.ND) if m.n_d[k]]
+    q_levels = [k for k in range(mapid.ND) if any(m.n_q[k])]
+    q0 = max((j + 1 for j in range(mapid.NQ) if m.n_q[k0][j]), default=0) * i_max / mapid.NQ
+    return (f"what the sweeps read is written, the rest of the disc carried on from it, not measured: the d axis "
+            f"from {min(read_d):+.3g} to {max(read_d):+.3g} A of +-{i_max:.4g} A, the q axis to {q0:.3g} A at i_d = 0 "
+            f"({len(q_levels)} of 7 d levels read); lock the rotor to measure the rest ([identify] locked = true)")
+
+
+def _stopped_turning(res: Identification, ident, sc: Scenario) -> None:
+    """A map the drive called identified (its d sweep read the whole axis)
+    whose q sweeps stopped because the rotor was turning at a level's end
+    (fs_mapid.h: a back-EMF beyond the inverter's error): partial, outside
+    its goal, saying so from the drive's own readings, where only the truth
+    a simulation knows said it before (syre-thor free: 1 of 7 levels read,
+    to 11 A of 44, 11 of the grid's 209 points measured; on a real machine
+    it read "ok")."""
+    m = ident.map.res
+    stopped = [k for k in range(mapid.ND) if m.limit[k] == lib.FS_MAPID_LIM_MOVING]
+    if res.status["map"] != "ok" or not stopped or res.map is None:
+        return
+    i_max = sc.data["controller"]["i_max"]
+    spread = res.map["spread_pct"]
+    if spread <= MAP_GOAL_PCT:   # what was read carries on straight (a linear machine's: anaheim, grin): the map stands
+        return
+    k = stopped[0]
+    res.status["map"] = OUTSIDE
+    res.reason["map"] = (f"partial: the q sweeps stopped after the level i_d = {0.25 * (k - mapid.ND // 2) * i_max:+.3g} A "
+                         f"(swept to {m.i_q_amp[k]:.3g} A): the rotor was turning at its end (its back-EMF above the "
+                         f"inverter's error), and the flux beyond what was read is open by {spread:.3g} % of psi_f RMS "
+                         f"over the disc (carried on falling as read against straight on), above the "
+                         f"{MAP_GOAL_PCT:g} % goal; {_what_was_read(m, i_max)}")
 
 
 # el.deg a free rotor may turn in a standstill step before what the step
@@ -444,6 +510,7 @@ def _map(sc: Scenario, res: Identification, ident) -> dict:
     flux = true_flux(m)
     out = {"readings": rd, "grid": grid, "i_max": i_max, "psi_f_from": "identified" if "psi_f" in res.values else "machine file"}
     out["errors"] = mapid.map_errors(grid, flux, m.psi_f, i_max)
+    out["spread_pct"] = mapid.spread_pct(grid, psi_f, i_max)   # the readings' own measure of what they leave open
     if all(q in res.values for q in ("L_d", "L_q")):
         out["constant_errors"] = mapid.constant_errors(res.values["L_d"], res.values["L_q"], psi_f, flux, m.psi_f, i_max)
     i_pulse = 0.5 * i_max   # the polarity detection's pulses by default (fs_drive.h: half the current limit)
@@ -520,12 +587,16 @@ def report_tables(res: Identification) -> dict[str, dict]:
             t["goal_pct"] = GOALS_PCT[q]
         if q == "L_q" and "dL_q_di_d" in res.values:
             t["identified_dL_q_di_d"] = res.values["dL_q_di_d"]   # H/A, between d biases of details["I_bias"]
+        if q == "L_d" and res.details.get("ld_carrier_A"):   # the d carrier's current it was read at (fs_ident.c step_ldq)
+            t["carrier_A"] = res.details["ld_carrier_A"]
+            t["carrier_second_harmonic"] = res.details["ld_second_harmonic"]
         if q in ("L_d", "L_q"):
             t["truth_nominal"] = res.truth[f"{q}_nominal"]
             t["truth_is"] = "the plant's incremental inductance at zero current (the unsaturated value the standstill test sees)"
         if q == "map" and res.map is not None:
             e = res.map["errors"]
-            t.update({"goal_pct": MAP_GOAL_PCT, "rms_error_pct_of_psi_f": e["rms_pct"], "rms_error_d_pct": e["rms_d_pct"],
+            t.update({"goal_pct": MAP_GOAL_PCT, "extrapolation_spread_pct_of_psi_f": res.map["spread_pct"],
+                      "rms_error_pct_of_psi_f": e["rms_pct"], "rms_error_d_pct": e["rms_d_pct"],
                       "rms_error_q_pct": e["rms_q_pct"], "max_error_pct": e["max_pct"], "disc_points": e["points"],
                       "psi_f_from": res.map["psi_f_from"], "file": "fluxmap.csv", "points_file": "fluxmap-measured.csv"})
             if "constant_errors" in res.map:
@@ -666,6 +737,8 @@ def print_identification(res: Identification) -> None:
         flag = "   OUTSIDE GOAL" if res.status["map"] == OUTSIDE else ""
         print(f"  map    RMS error {e['rms_pct']:.2f} % of psi_f over the disc (psi_d {e['rms_d_pct']:.2f}, psi_q "
               f"{e['rms_q_pct']:.2f}, largest {e['max_pct']:.2f} %)   goal {MAP_GOAL_PCT:g} %{const}{flag}")
+        if res.reason["map"].startswith("partial: "):   # the drive's own verdict, truth or not
+            print(f"         {res.reason['map']}")
         pts = res.map["points"]
         print(f"         {pts.get('measured', 0)} grid points measured, {pts.get('at speed', 0)} at speed, "
               f"{pts.get('extrapolated', 0)} extrapolated (outside the disc or beyond the sweeps)")
