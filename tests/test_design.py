@@ -383,3 +383,37 @@ def test_a_scenario_loaded_without_warnings_is_the_same_design_and_says_it_was_n
     assert any(w.startswith(("load.torque:", "references.speed_rpm:")) for w in warned.warnings), warned.warnings
     assert quiet.warnings == [UNWARNED]
     assert quiet.data == warned.data and quiet.design.keys() == warned.design.keys()
+
+
+def test_a_load_no_motion_test_can_outweigh_is_refused_with_its_numbers():
+    """The new-user trial's hoist: 15 N m on the Baldor from standstill asked a
+    push above the current limit; the design clamped it, the doublet's time
+    came out unbounded and the C core refused with 'controller.motion:
+    parameter out of range'. Refused before any work, naming the load, what
+    may act and what the push at the limit makes."""
+    from fullspeed.model.errors import ConfigError
+    st = scenario("syre-thor").data["start"]
+    T_top = st["c"]["T_push_max"]            # the largest doublet's push unloaded, at most the limit's
+    with pytest.raises(ConfigError) as e:
+        scenario("syre-thor", load={"kind": "torque", "torque": 5.0 * T_top})
+    msg = str(e.value)
+    assert msg.startswith("load.torque = ") and "may act while the motion test runs" in msg and "let the load act after" in msg
+    ok = scenario("syre-thor", load={"kind": "torque", "torque": 0.3 * T_top})   # outweighed twice: designed, no refusal
+    assert ok.data["start"]["c"]["T_push"] > 2 * ok.data["start"]["c"]["T_load"]
+
+
+def test_a_load_that_comes_while_the_motion_tests_retries_run_is_warned():
+    """The trial's load ramped in at 0.1..0.4 s: the first doublet's window
+    saw little of it and nothing was said; the retries ran into it, the load
+    spun the rotor to 2,590 rpm and the run stopped on overcurrent. Warned
+    now, naming the load, until when the doublets run and their largest push."""
+    sc = scenario("syre-thor")
+    c = sc.data["start"]["c"]
+    t1 = c["t_lock"]   # the first doublet starts after the lock: a load from then on is the retries'
+    T = 0.8 * c["T_push_max"]
+    late = scenario("syre-thor", load={"kind": "torque", "torque": [[0.0, 0.0], [c["t_all"] - 0.02, 0.0], [c["t_all"] - 0.01, T]]})
+    lines = [w for w in late.warnings if w.startswith("load.torque:")]
+    assert late.data["start"]["c"]["T_push"] > 2 * late.data["start"]["c"]["T_load"]   # the first doublet is clear of it
+    assert lines and "before the motion test's doublets can all have run" in lines[0] and "largest push" in lines[0]
+    after = scenario("syre-thor", load={"kind": "torque", "torque": [[0.0, 0.0], [c["t_all"] + 0.05, 0.0], [c["t_all"] + 0.06, T]]})
+    assert not [w for w in after.warnings if "motion test" in w] and t1 < c["t_all"]

@@ -223,3 +223,18 @@ def test_the_design_reads_a_map_and_searches_mtpa_as_the_whole_grid_would_bit_fo
         x[0] = 0.0
     for x, y in zip(mtpa_locus(full, i_max, m.phases, m.pole_pairs), ref):
         assert x.tobytes() == y.tobytes()
+
+
+@pytest.mark.parametrize("scale, hint", [(3.0, False), (1000.0, True), (1e-3, True)])
+def test_a_map_and_a_file_that_describe_two_machines_are_refused(tmp_path, scale, hint):
+    """The new-user trial's psi_f in mWb written as Wb (1000 x off) was warned,
+    then the run failed on a cause the warning did not name. Beyond a factor
+    2 [electrical] and the map are two machines: refused naming the field,
+    its value, the map's and the factor (with the unit's hint near 1000)."""
+    write_csv(tmp_path / "map.csv", scale=scale)
+    (tmp_path / "m.toml").write_text(MACHINE.format(i_max=40.0).replace("i_max = 40.0", "i_max = 25.0"))
+    with pytest.raises(ConfigError) as e:
+        load_machine(tmp_path / "m.toml")
+    msg = str(e.value)
+    assert "machine.electrical.psi_f = 0.0105" in msg and f"{scale:.3g} x this" in msg and "within a factor 2" in msg
+    assert ("is a unit" in msg) == hint

@@ -150,6 +150,12 @@ def warnings_of(d: dict, m, bw_speed_given: bool = False) -> list[str]:
                    f"twice the load and friction acting while it runs ({st['c']['T_load']:.3g} N m): the load would turn the "
                    "rotor its own way and the test will refuse (stop reason polarity_undetermined); let the load act after "
                    f"the start, or raise start.i_push towards {2.2 * st['c']['T_load'] / st['c']['T_push'] * st['i_push']:.3g} A")
+    elif st.get("kind") == "motion" and "T_load_all" in st["c"] and not st["c"]["T_push_max"] > 2 * st["c"]["T_load_all"]:
+        c = st["c"]
+        out.append(f"load.torque: {c['T_load_all'] - m.T_coulomb:.3g} N m acts before the motion test's doublets can all have "
+                   f"run (until {c['t_all']:.3g} s): its largest push, {c['i_push_max']:.4g} A, makes {c['T_push_max']:.3g} N m, "
+                   f"not above twice the load and friction ({2 * c['T_load_all']:.3g} N m); should the first doublet not decide, "
+                   "the load turns the rotor in the waits between them and the start fails; let the load act after the start")
     if st.get("kind") == "pulses" and m.psi_f > 0:
         safe = st["c"].get("pulse_safe", {})
         i_safe = min(safe.get("still", math.inf), safe.get("reach", math.inf))

@@ -379,6 +379,14 @@ def design_motion(d: dict, m, i_hf: float, w_o: float, w_b_n: float) -> dict[str
                f"{w_o:.4g} rad/s), against twice the load and friction ({T_L:.3g} N m)")
         if i > i_lim:
             i = i_lim
+            if not k_T * m.psi_f * i > 2 * T_L:   # no doublet within the limit outweighs the load: the test cannot decide
+                load = T_L - m.T_coulomb
+                raise ConfigError("load.torque", load, (
+                    f"at most {0.5 * k_T * m.psi_f * i - m.T_coulomb:.3g} N m may act while the motion test runs (until "
+                    f"{pol['t_lock'] + 2 * t_half + t_settle:.3g} s, its first doublet): its push at the current limit "
+                    f"less the carrier's peak, {i:.4g} A, makes {k_T * m.psi_f * i:.3g} N m, which must outweigh twice the "
+                    f"load and friction ({2 * T_L:.3g} N m) to turn the rotor its own way; let the load act after the start"),
+                    None)
             t_half = 0.5 * math.sqrt(2 * math.pi * want * J / (p * max(k_T * m.psi_f * i - 2 * T_L, 1e-12)))
             why = (f"controller.i_max less the carrier's peak: the turn of {math.degrees(want):.3g} el.deg then takes "
                    f"2 x {t_half * 1e3:.3g} ms")
@@ -391,6 +399,11 @@ def design_motion(d: dict, m, i_hf: float, w_o: float, w_b_n: float) -> dict[str
     st["c"]["T_push"], st["c"]["T_load"] = k_T * m.psi_f * st["i_push"], T_L   # design.checks: a load it cannot outweigh
     st["turn_deg"] = math.degrees(turn)
     i_top = min(i_lim, 2.25 * st["i_push"])   # two retries
+    # the doublets up to i_top, each 1.5 times the last (fs_motion_test.h), and the load while all of them run:
+    # a retry is the start taking longer, and a load that comes meanwhile turns the rotor in the waits between
+    n_doublets = 1 + max(math.ceil(math.log(i_top / st["i_push"]) / math.log(1.5) - 1e-9), 0)
+    t_all = pol["t_lock"] + n_doublets * (2 * t_half + t_settle)
+    st["c"].update(T_push_max=k_T * m.psi_f * i_top, T_load_all=load_torque(d, t_all) + m.T_coulomb, t_all=t_all)
     # the lock: the pulses' settling, and the observer's pull-in from as far as 90 el.deg off the axis (its triple
     # pole within 1.4 % in 8 / w_o), over which the pulses do not wait: they read the carrier's amplitude, not the angle
     t_lock = pol["t_lock"] + 8.0 / w_o

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from .errors import ConfigError
 from .files import package_names
-from .fluxmap import FluxMapWarning, consistency_warnings, load_map
+from .fluxmap import FluxMapWarning, consistency_warnings, gross_disagreement, load_map
 from .schema import NOTES, C, F, I, N, NONNEG, POS, S, T, Spec, even_grid, finite_number, read_toml, validate
 from .units import rpm_to_rad_s
 
@@ -266,6 +266,9 @@ def parse_machine(data: dict, source: str | None = None, prefix: str = "machine"
         raise ConfigError(f"{prefix}.injection.xcomp_paper", poly, "must list 1 to 4 coefficients (a cubic in i_q at most)", source)
     if d["magnetic"]["model"] == "fluxmap":
         _check_fluxmap(d["magnetic"], f"{prefix}.magnetic", source)
+        gross = gross_disagreement(d["magnetic"], e)
+        if gross:
+            raise ConfigError(f"{prefix}.electrical.{gross[0]}", gross[1], gross[2], source)
         for line in consistency_warnings(d["magnetic"], e, d["pole_pairs"], d["phases"], d["name"]):
             warnings.warn(line, FluxMapWarning, stacklevel=2)
     extra = {k: {kk: vv for kk, vv in d[k].items() if vv is not None}
