@@ -417,3 +417,16 @@ def test_a_load_that_comes_while_the_motion_tests_retries_run_is_warned():
     assert lines and "before the motion test's doublets can all have run" in lines[0] and "largest push" in lines[0]
     after = scenario("syre-thor", load={"kind": "torque", "torque": [[0.0, 0.0], [c["t_all"] + 0.05, 0.0], [c["t_all"] + 0.06, T]]})
     assert not [w for w in after.warnings if "motion test" in w] and t1 < c["t_all"]
+
+
+def test_a_current_limit_far_above_the_rating_is_warned():
+    """The new-user trial set bench.i_max = 50 A on a 12.4 A machine: no word,
+    an envelope of 16 x rated torque, a carrier the link could not give, and a
+    run stuck at 170 rpm. Above 3 x the rated current: one line naming the
+    limit, the factor and the rated current; at 2 x, nothing."""
+    def lines(i_max):
+        sc = scenario({**DATASHEET, "bench": {**DATASHEET["bench"], "i_max": i_max}})
+        return [w for w in sc.warnings if "peak ratings" in w]
+    high = lines(120.0)
+    assert len(high) == 1 and "120 A, is 4 x the rated current (30 A)" in high[0]
+    assert lines(60.0) == []

@@ -75,6 +75,8 @@ RATED_SPEED_MIN = 0.25
 # The rated power over T_rated w_rated, where the machine gives it: the catalog's 0.99..1.27 (the power at
 # base speed, or above it in flux weakening); a speed in rad/s puts it at x 9.55, a power in kW at / 1000
 POWER_PER_TW = (0.3, 3.0)
+PEAK_PER_RATED = 3.0     # the current limit over the rated current: machines' peak ratings seldom pass 3 (the windings'
+                         # heating, the magnets' demagnetisation; the catalog 1..2, the zoo 1.5)
 COPPER = 0.5             # copper losses at rated current, of rated power: small low-voltage machines reach 0.4 (yang2022: 0.41 at its 40 A rms)
 # psi_f (Wb, peak phase flux linkage) from a datasheet's Ke (V per 1000 rpm, line-to-line rms), as the
 # machine template says it (model.reference.machine_template)
@@ -120,6 +122,12 @@ def plausibility_warnings(d: dict, m) -> list[str]:
     out += torque_warnings(m)
     speed = rated_speed_warnings(d, m)
     out += speed
+    i_max = d["controller"]["i_max"]
+    if m.i_rated > 0 and i_max > PEAK_PER_RATED * m.i_rated:
+        out.append(f"controller.i_max (machine.bench.i_max where the scenario leaves it): the current limit, {i_max:.4g} A, is {i_max / m.i_rated:.3g} x the rated current "
+                   f"({m.i_rated:.4g} A), where machines' peak ratings seldom pass {PEAK_PER_RATED:g} x: the design takes "
+                   "it as the machine's (its envelope, carrier and loops are sized on it): check the value and the "
+                   "machine's and converter's peak ratings")
     p_rated = m.T_rated * m.w_m_rated
     loss = 0.5 * m.phases * m.R_s * m.i_rated ** 2
     if loss > COPPER * p_rated and not speed:   # a wrong rated speed is the wrong rated power too
