@@ -76,8 +76,8 @@ def test_the_design_raises_the_blend_for_the_start_under_load():
     assert "load ramp" in v.reason and "1333 N m/s" in v.reason
     assert sc.design["controller.bw_speed"].value == pytest.approx(0.5 * v.value)
     d, _ = real_scenario("prius2004-mg2", "blend")
-    d["load"] = {"kind": "torque", "torque": 200.0}
-    flat = scenario_from_dict(d, "prius-flat", warn=False)
+    d["load"] = {"kind": "torque", "torque": [[0.0, 0.0], [0.2, 0.0], [0.2, 200.0]]}   # a step after the start's first
+    flat = scenario_from_dict(d, "prius-flat", warn=False)                                 # doublet: no ramp
     assert "blending.bw_observer" not in flat.design
     assert flat.design["controller.bw_speed"].value < 0.5 * v.value
 

@@ -24,7 +24,7 @@ static const float LEV_FRAC[FS_IDENT_NLEV] = {1.0f, 0.75f, 0.5f, 0.25f, 0.125f, 
 #define H2_MAX 0.05f      /* LDQ's d carrier: its current's second harmonic over the fundamental above which the axis is lopsided over
                              the swing and the carrier is halved (5 %: L_d's goal; fs_ident.c step_ldq) */
 #define L_CONV 0.01f      /* LDQ's d carrier: a pass that moved L_d by less than this (a fifth of its goal) ends the halvings */
-#define LD_HALVINGS 4     /* at most (the SNR check in step_ldq bounds it first where the noise is higher): the carrier is sized from the probe's L, which on a salient rotor is not the d axis': the THOR's first was 15 A, not 0.15 i_max = 6.6 A */
+#define LD_S_MIN 0.0625f  /* the d carrier's least scale, 1 / 2^4: four halvings at most (the SNR check in step_ldq bounds it first where the noise is higher): the carrier is sized from the probe's L, which on a salient rotor is not the d axis': the THOR's first was 15 A, not 0.15 i_max = 6.6 A */
 #define I_HF_D 0.15f      /* of i_max: the d carrier's, at zero current: larger, against the dead time's error (60 % larger: L_d +20 % on zoo machine 60 at 0.1) */
 #define SAL_MIN 0.03f     /* AXIS: the saliency (L_q - L_d)/(L_q + L_d) below which the axis is not trusted (its noise: 120 periods' phasors within 0.5 %) */
 #define I_ALIGN 0.3f      /* of i_max: ALIGN's current (the levels' former top, halved) */
@@ -1280,7 +1280,7 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
          * the drive read 5.76, +15 %); the current's second harmonic shows the lopsidedness (an even part
          * of L(i) over the swing: none on a symmetric axis, whose saturation and dead time make odd ones).
          * Above H2_MAX of the fundamental the carrier is halved and the reading taken again, at most
-         * LD_HALVINGS times and while the halved carrier keeps twice the SNR the check above asks: the
+         * four times (LD_S_MIN) and while the halved carrier keeps twice the SNR the check above asks: the
          * THOR's 6.6 A gives 0.24 (current-driven), 3.3 A 0.11, 1.65 A 0.04 (L 5.2 mH, +3 %) */
         const float h2 = 2.0f * sqrtf((id->hf_i2[0] * id->hf_i2[0]) + (id->hf_i2[1] * id->hf_i2[1])) / (float)n / amp;
         /* the limit as the swing shrinks: another pass only while the last one moved L by more than L_CONV
@@ -1291,7 +1291,7 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
         id->ld_L_prev = L;
         r->ld_h2 = h2;
         r->ld_carrier = amp;
-        const float s_min = 1.0f / (float)(1 << LD_HALVINGS);
+        const float s_min = LD_S_MIN;
         if ((h2 > H2_MAX) && moving && (id->hf_scale > (s_min + 1e-6f)) && (snr >= 400.0f)) {
             /* to where a lopsidedness proportional to the swing (a smooth L(i)) would leave H2_MAX, a quarter
              * at least and a half at most a pass, within the SNR (twice the check's at the carrier's current) */
