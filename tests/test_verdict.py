@@ -183,3 +183,24 @@ def test_a_load_the_speed_loop_did_not_answer_before_the_next_change_is_not_succ
     assert all(r.get("unheld") is None for r in short.metrics["steps"]) and run_verdict(short) == []
     within = _overloaded_between(2.0, 0.65, 0.9)
     assert all(r.get("unheld") is None for r in within.metrics["steps"]) and run_verdict(within) == []
+
+
+def test_a_motion_test_that_failed_on_an_implausible_inertia_names_it():
+    """The new-user trial's J 100 x too small was warned at load, then the start
+    failed naming the estimate's spread alone. The doublet is sized on J: the
+    verdict now names it where J's time to rated speed is implausible, and
+    not on the catalog's own J."""
+    import copy
+    from fullspeed.model.machines import catalog_data
+
+    def start(J_factor):
+        d = copy.deepcopy(catalog_data("syre-thor"))
+        d["mechanical"]["J"] *= J_factor
+        sc = scenario_from_dict({"name": "j", "duration": 0.8, "machine": d, "controller": {"mode": "speed", "angle": "blend"},
+                                 "references": {"speed_rpm": [[0, 0], [0.6, 0], [0.8, 300]]}}, "j", warn=False)
+        return simulate(sc)
+    light = start(0.01)
+    lines = run_verdict(light)
+    assert light.stop_reason == "polarity_undetermined" and len(lines) == 1
+    assert "polarity undetermined by the motion test" in lines[0] and "check J's unit" in lines[0]
+    assert not any("J's unit" in line for line in run_verdict(start(1.0)))

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .design.checks import inertia_implausible
 from .design.start import polarity_blind
 from .design.report import design_report, envelope_report, scenario_envelope
 from .design.scenario import load_scenario, scenario_from_dict
@@ -88,6 +89,9 @@ def run_verdict(res) -> list[str]:
                if p["attempts"] == 0 else
                f"the rotor turned {abs(p['turn_deg']):.3g} el.deg of the {p['threshold_deg']:.3g} needed at "
                f"{p['i_push']:.3g} A, the largest push (held: stiction, a brake)")
+        j = inertia_implausible(res.scenario.machine)
+        if j:   # the doublet's push and time are sized on J (design.start.design_motion)
+            why += f"; its doublet is sized on the machine's {j}"
         out.append(f"stopped at t = {t_stop:.4f} s: polarity undetermined by the motion test ({why}): the drive refused "
                    "to start sensorless")
     elif res.stop_reason == "start_failed":

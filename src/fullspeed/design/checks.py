@@ -104,6 +104,19 @@ def top_speed(m, u: float, T: float, i_d: float = 0.0) -> float:
     return max((-b + math.sqrt(disc)) / (2 * a), 0.0) / m.pole_pairs
 
 
+def inertia_implausible(m) -> str | None:
+    """Where the machine's J gives an implausible time to rated speed at
+    rated torque (TAU_M): what it gives, for a line that names J as a
+    cause; None where it is plausible or cannot be judged."""
+    if not (m.T_rated > 0 and m.w_m_rated > 0):
+        return None
+    tau_m = m.J * m.w_m_rated / m.T_rated
+    if TAU_M[0] <= tau_m <= TAU_M[1]:
+        return None
+    return (f"J = {m.J:.3g} kg m^2 gives J w_rated / T_rated = {tau_m:.3g} s, outside {TAU_M[0]:g}..{TAU_M[1]:g} s: "
+            "check J's unit (kg m^2)")
+
+
 def plausibility_warnings(d: dict, m) -> list[str]:
     """The machine's data against what machines have (time constants, the
     back-EMF, the torque and the rated speed against their ratings, the
@@ -115,7 +128,7 @@ def plausibility_warnings(d: dict, m) -> list[str]:
         out.append(f"machine.electrical.L_d: L_d / R_s = {m.L_d / m.R_s:.3g} s is outside {TAU_E[0]:g}..{TAU_E[1]:g} s, "
                    "unusual for a PMSM: check the units (H, not mH) of L_d, L_q and R_s (ohm)")
     tau_m = m.J * m.w_m_rated / m.T_rated
-    if not TAU_M[0] <= tau_m <= TAU_M[1]:
+    if inertia_implausible(m):
         out.append(f"machine.mechanical.J: J w_rated / T_rated = {tau_m:.3g} s to rated speed at rated torque is outside "
                    f"{TAU_M[0]:g}..{TAU_M[1]:g} s: check J's unit (kg m^2)")
     out += emf_warnings(m, u_lin)
