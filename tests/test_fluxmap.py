@@ -238,3 +238,21 @@ def test_a_map_and_a_file_that_describe_two_machines_are_refused(tmp_path, scale
     msg = str(e.value)
     assert "machine.electrical.psi_f = 0.0105" in msg and f"{scale:.3g} x this" in msg and "within a factor 2" in msg
     assert ("is a unit" in msg) == hint
+
+
+@pytest.mark.parametrize("reach, below_rated", [(20.0, True), (35.0, False)])
+def test_a_map_short_of_the_rated_current_says_the_rated_torque_is_out_of_reach(tmp_path, reach, below_rated):
+    """The new-user trial's map trimmed to +-10 A on a 12.4 A machine: the
+    limit was held to the map and nothing said the rated torque was out of
+    reach. A map short of 1.5 x rated says it is held; short of the rated
+    current itself, also that the rated torque cannot be made."""
+    grid = np.array([-reach, -reach / 2, 0.0, reach / 2, reach])
+    write_csv(tmp_path / "map.csv", i_d=grid, i_q=np.array([0.0, reach / 2, reach]))
+    toml = MACHINE.format(i_max=40.0).replace("i_max = 40.0\ni_trip = 52.0\nadc_range = 60.0\n", "")
+    (tmp_path / "m.toml").write_text(toml)
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        load_machine(tmp_path / "m.toml")
+    held = [str(x.message) for x in w if "the current limit is held to" in str(x.message)]
+    assert len(held) == 1
+    assert ("cannot make its rated torque (3 N m)" in held[0]) == below_rated

@@ -30,7 +30,10 @@ def design_machine(m: Machine) -> Machine:
     if i_cover is not None and designed["i_max"].value < I_MAX_PER_RATED * m.i_rated:
         warnings.warn(f"{prefix}.bench.i_max: {m.name}'s flux map covers {map_range(m.magnetic)}: the current limit is held to "
                       f"{i_cover:g} A, below the {I_MAX_PER_RATED * m.i_rated:g} A designed from the rated current "
-                      f"({I_MAX_PER_RATED:g} x {m.i_rated:g} A); give bench.i_max within the map to choose another", FluxMapWarning, stacklevel=2)
+                      f"({I_MAX_PER_RATED:g} x {m.i_rated:g} A)"
+                      + (f", below the rated current itself: the machine cannot make its rated torque ({m.T_rated:g} N m) "
+                         "on this map" if i_cover < m.i_rated else "")
+                      + "; give bench.i_max within the map to choose another", FluxMapWarning, stacklevel=2)
     b.update({k: v.value for k, v in designed.items()})
     if not b["i_trip"] > b["i_max"]:
         raise ConfigError(f"{prefix}.bench.i_trip", b["i_trip"], f"must be > bench.i_max ({b['i_max']:g})", source)
