@@ -256,3 +256,28 @@ def test_a_map_short_of_the_rated_current_says_the_rated_torque_is_out_of_reach(
     held = [str(x.message) for x in w if "the current limit is held to" in str(x.message)]
     assert len(held) == 1
     assert ("cannot make its rated torque (3 N m)" in held[0]) == below_rated
+
+
+@pytest.mark.parametrize("flip, hint", [("i_d", "its i_d axis (or psi_d) has the other sign"),
+                                        ("i_q", "its i_q axis (or psi_q) has the other sign"), (None, None)])
+def test_a_current_axis_of_the_other_sign_is_named(tmp_path, flip, hint):
+    """The new-user trial negated the map's i_d axis: refused as not monotonic
+    at one cell, with no word of the sign. A flux falling with its current
+    over the whole map is an axis of the other sign, and the refusal says so;
+    one bad point says only where it is."""
+    i_d = -I_D[::-1] if flip == "i_d" else I_D   # the same points, the axis' sign turned
+    i_q = I_Q
+    lines = ["# FEA export", "i_d [A],i_q [A],psi_d [Wb],psi_q [Wb]"]
+    for a in i_d:
+        for b in (np.concatenate([-I_Q[:0:-1], I_Q]) if flip == "i_q" else i_q):
+            pd, pq = psi(-a if flip == "i_d" else a, -b if flip == "i_q" else b)
+            if flip is None and a == I_D[2] and b == I_Q[1]:
+                pd = psi(I_D[0], b)[0] - 5e-3   # one bad point, below the whole column
+            lines.append(f"{a},{b},{pd:.9g},{pq:.9g}")
+    (tmp_path / "map.csv").write_text("\n".join(lines) + "\n")
+    (tmp_path / "m.toml").write_text(MACHINE.format(i_max=40.0).replace("i_max = 40.0", "i_max = 25.0"))
+    with pytest.raises(ConfigError) as e:
+        load_machine(tmp_path / "m.toml")
+    msg = str(e.value)
+    assert "a monotonic map" in msg
+    assert (hint in msg) if hint else ("other sign" not in msg)

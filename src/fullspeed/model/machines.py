@@ -11,6 +11,8 @@ from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
+import numpy as np
+
 from .errors import ConfigError
 from .files import package_names
 from .fluxmap import FluxMapWarning, consistency_warnings, gross_disagreement, load_map
@@ -297,6 +299,7 @@ def _magnetic_file(mag: dict, field: str, source) -> dict:
 
 
 FLUX_MAX = 100.0   # Wb: a flux map's largest |flux| the loader takes (a machine's is a few Wb at most)
+FALLING_SHARE = 0.9   # of a map's steps along a current where its flux falls: an axis of the other sign, not a bad point
 
 
 def _check_fluxmap(mag: dict, prefix: str, source) -> None:
@@ -325,16 +328,23 @@ def _check_fluxmap(mag: dict, prefix: str, source) -> None:
             raise ConfigError(f"{prefix}.{name}", big, f"(its largest |flux|, Wb) must be within +-{FLUX_MAX:g} Wb{unit}",
                               source)
     psi_d, psi_q = mag["psi_d"], mag["psi_q"]
+    # a flux falling with its current over (nearly) the whole map is the current's axis of the other sign
+    d_falls = np.mean(np.diff(np.asarray(psi_d, float), axis=0) < 0) > FALLING_SHARE if n_d > 1 else False
+    q_falls = np.mean(np.diff(np.asarray(psi_q, float), axis=1) < 0) > FALLING_SHARE if n_q > 1 else False
     for k in range(n_d - 1):
         for n in range(n_q):
             if not psi_d[k + 1][n] > psi_d[k][n]:
                 raise ConfigError(f"{prefix}.psi_d[{k + 1}][{n}]", psi_d[k + 1][n],
-                                  f"must be above psi_d[{k}][{n}] = {psi_d[k][n]:g}: the flux must rise with i_d (a monotonic map)", source)
+                                  f"must be above psi_d[{k}][{n}] = {psi_d[k][n]:g}: the flux must rise with i_d (a monotonic map)"
+                                  + ("; it falls with i_d across the map: its i_d axis (or psi_d) has the other sign, negate "
+                                     "one of them" if d_falls else ""), source)
     for k in range(n_d):
         for n in range(n_q - 1):
             if not psi_q[k][n + 1] > psi_q[k][n]:
                 raise ConfigError(f"{prefix}.psi_q[{k}][{n + 1}]", psi_q[k][n + 1],
-                                  f"must be above psi_q[{k}][{n}] = {psi_q[k][n]:g}: the flux must rise with i_q (a monotonic map)", source)
+                                  f"must be above psi_q[{k}][{n}] = {psi_q[k][n]:g}: the flux must rise with i_q (a monotonic map)"
+                                  + ("; it falls with i_q across the map: its i_q axis (or psi_q) has the other sign, negate "
+                                     "one of them" if q_falls else ""), source)
 
 
 def machine_data(name_or_path: str | Path) -> tuple[dict, str]:
