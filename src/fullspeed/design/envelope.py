@@ -138,7 +138,8 @@ def flux_table(m: Machine, i_max: float, points: int = TABLE_N) -> dict:
     if mag["model"] == "fluxmap":
         i_d, i_q = mag["i_d"], mag["i_q"]
         if i_d[0] > -i_max * (1 - 1e-9) or i_d[-1] < 0 or i_q[-1] < i_max * (1 - 1e-9) or i_q[0] > 0:
-            raise ConfigError("i_max", i_max, f"must be within {m.name}'s flux map for its envelope: the map spans i_d "
+            raise ConfigError("controller.i_max (machine.bench.i_max where the scenario leaves it)", i_max,
+                              f"must be within {m.name}'s flux map for its envelope: the map spans i_d "
                               f"{i_d[0]:g}..{i_d[-1]:g} A and i_q {i_q[0]:g}..{i_q[-1]:g} A, the envelope needs "
                               f"i_d -i_max..0 and i_q 0..i_max")
         return {k: np.asarray(mag[k], float) for k in ("i_d", "i_q", "psi_d", "psi_q")}
