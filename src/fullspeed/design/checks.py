@@ -137,8 +137,8 @@ def plausibility_warnings(d: dict, m) -> list[str]:
     out += speed
     i_max = d["controller"]["i_max"]
     if m.i_rated > 0 and i_max > PEAK_PER_RATED * m.i_rated:
-        out.append(f"controller.i_max (machine.bench.i_max where the scenario leaves it): the current limit, {i_max:.4g} A, is {i_max / m.i_rated:.3g} x the rated current "
-                   f"({m.i_rated:.4g} A), where machines' peak ratings seldom pass {PEAK_PER_RATED:g} x: the design takes "
+        out.append(f"controller.i_max (machine.bench.i_max where the scenario leaves it): the current limit, {i_max:.4g} A, "
+                   f"is {i_max / m.i_rated:.3g} x the rated current ({m.i_rated:.4g} A), where machines' peak ratings seldom pass {PEAK_PER_RATED:g} x: the design takes "
                    "it as the machine's (its envelope, carrier and loops are sized on it): check the value and the "
                    "machine's and converter's peak ratings")
     p_rated = m.T_rated * m.w_m_rated
