@@ -60,15 +60,24 @@ def test_a_functions_copies_under_link_time_optimisation_count_as_the_function()
     assert a["incl"]["fs_sim_run_cols"] == 5_010            # the wrapper holds its clone: not 10,010
     assert a["incl"]["fs_drive_step"] == 500                # two entries into the same code: both
     assert a["calls"][("integrate_period", "phase_currents_at")] == (60, 2)
-    a["incl"]["fs_pmsm_rk4_at"] = 1_000
-    assert bd.plant_ir(a, samples=1) == 1_000 + 60          # the integration's currents; advance's one is the check
 
 
-def test_the_plant_takes_the_integrations_phase_currents_not_the_stop_check():
-    a = {"incl": {"fs_pmsm_rk4": 1000, "fs_inverter_voltage": 50}, "calls": {("advance", "phase_currents"): (400, 4)}}
-    assert bd.plant_ir(a, samples=1) == 1000 + 50 + 300      # three of the four calls are the integration's
-    a["calls"][("advance", "phase_currents")] = (400, 1)
-    assert bd.plant_ir(a, samples=1) == 1050                 # averaged: only the stop check, the runner's
+def test_the_plant_is_the_integrations_function_whatever_the_inliner_took_into_it():
+    # integrate_period under its LTO name holds the RK4 steps, the segments' currents and, inlined, the
+    # inverter's model; the stop check's currents (advance's) are the runner's
+    a = bd.parse_annotation(annotation(
+        1_000_000, {"integrate_period.lto_priv.0": 1_350, "fs_pmsm_rk4_at": 1_000, "advance.lto_priv.0": 2_000,
+                    "phase_currents_at.lto_priv.0": 90},
+        [("integrate_period.lto_priv.0", "phase_currents_at.lto_priv.0", 60, 2),
+         ("advance.lto_priv.0", "phase_currents_at.lto_priv.0", 30, 1)]))
+    assert bd.plant_ir(a) == 1_350                           # not the rk4 and currents again, not advance's
+    assert bd.plant_ir({"incl": {"integrate_period_imc": 900}, "calls": {}}) == 900   # the matrix converter's
+
+
+def test_an_integration_inlined_out_of_sight_fails_rather_than_counting_it_as_the_runner():
+    a = {"total": 2_000, "incl": {"fs_sim_run_cols": 900, "fs_drive_step": 300}, "calls": {}}
+    with pytest.raises(RuntimeError, match="integrate_period"):
+        bd.split(a, a, a, a, 1, 10)
 
 
 def test_parts_are_differences_to_the_base_and_add_up_to_the_run():
@@ -76,7 +85,7 @@ def test_parts_are_differences_to_the_base_and_add_up_to_the_run():
 
     def ann(total, run, drive, rk4, runs=bd.WARM_RUNS):
         # the stop check's phase currents, 7 instructions, once a sample of every run
-        return {"total": total, "incl": {"fs_sim_run_cols": run, "fs_drive_step": drive, "fs_pmsm_rk4": rk4},
+        return {"total": total, "incl": {"fs_sim_run_cols": run, "fs_drive_step": drive, "integrate_period": rk4},
                 "calls": {("advance", "phase_currents"): (7 * samples * runs, samples * runs)}}
     base = ann(1_000_000, 7_000, 3_000, 1_000)            # imports, warm-up: cancel
     sim = ann(1_000_000 + 2 * 9_000, 7_000 + 2 * 6_000, 3_000 + 2 * 2_500, 1_000 + 2 * 1_500, bd.WARM_RUNS + n)

@@ -94,14 +94,19 @@ def is_gcc() -> bool:
     return "Free Software Foundation" in out and "clang" not in out
 
 
-# GCC's inliner allowed functions of up to 100 instructions not declared inline (30 at -O3) and the library
-# 200 % growth (40 %): the drive's step then takes the small functions it calls a few times a sample into
+# GCC's inliner allowed functions of up to 200 instructions not declared inline (30 at -O3) and the library
+# 400 % growth (40 %). At 100 and 200 % (97a3c88), the drive's step then takes the small functions it calls a few times a sample into
 # its body (fs_cis, nine calls a step, fs_atan2f, the motion observer's step, the modulation), where each
 # call had spilled the float registers the SysV ABI leaves to the caller. On the wall bench's averaged
 # example the step's wall time 240 -> 219 ns a sample (rdtsc around it, GCC 12) and the C loop about 4 %
 # faster; inlining changes no arithmetic (no contraction, no reassociation): bench/trace_hashes.py 45 of 45
 # the same to the bit. Either parameter alone did not move the step (the growth limit stopped the first).
-INLINING = ["--param=max-inline-insns-auto=100", "--param=inline-unit-growth=200"] if is_gcc() else []
+# At 200 and 400 %, with the vectorizer off (below), the runner's loop also takes the period's advance and
+# the overcurrent check's phase currents, the step the lock residual (with the loss-of-lock monitor) and
+# the current references the MTPA: 59 fewer instructions a sample and the C loop 5.00 -> 4.80 ms on the
+# averaged example (the least of 20 runs in each of 16 alternated processes), the blended drive's example
+# 15.0 -> 14.3 ms, a zoo machine's run the same (110.8 -> 111.1 ms); 45 of 45 traces the same to the bit.
+INLINING = ["--param=max-inline-insns-auto=200", "--param=inline-unit-growth=400"] if is_gcc() else []
 
 ffibuilder = FFI()
 ffibuilder.cdef(cdef_text())
@@ -116,10 +121,20 @@ ffibuilder.set_source(
     # library's own calls bound inside it (-fno-semantic-interposition: the drive's and the plant's units
     # call each other across files, which -fPIC alone leaves as calls through the PLT): 72 M fewer
     # instructions over a zoo run (2.709 against 2.781 G, the process's callgrind total; about 5 % of
-    # the core's), 45 of 45 the same to the bit; the contraction stated off for the link's code generation too
+    # the core's), 45 of 45 the same to the bit; the contraction stated off for the link's code generation too.
+    # No vectorizer (-fno-tree-vectorize: neither GCC's loop nor its basic-block (SLP) vectorizer): this
+    # core's loops run over 3 to 15 phases or states and its structs are written a field at a time, where
+    # -O3's vector code (alias checks, peeled epilogues, packing scalars into vectors and out again) does
+    # more than the scalar code it replaces. On the wall bench's example the C loop 5.60 -> 5.05 ms averaged
+    # and 10.75 -> 8.77 ms switching (the least of 20 runs in each of 14 and 10 alternated processes),
+    # 173 fewer instructions a sample averaged (callgrind); without the loop vectorizer alone 5.15 ms, without
+    # the SLP one alone 5.39. Vectorizing here reorders no sum (no -ffast-math), so its loss changes no
+    # value: bench/trace_hashes.py 45 of 45 the same to the bit. The firmware's build (bench/firmware.py) is
+    # its own and keeps its flags.
     extra_compile_args=["-O3", "-std=c99", "-Wall", "-Wextra", "-fno-math-errno", "-ffp-contract=off",
-                        "-fno-semantic-interposition", "-flto", *INLINING],
-    extra_link_args=["-O3", "-ffp-contract=off", "-fno-semantic-interposition", "-flto", *INLINING],
+                        "-fno-tree-vectorize", "-fno-semantic-interposition", "-flto", *INLINING],
+    extra_link_args=["-O3", "-ffp-contract=off", "-fno-tree-vectorize", "-fno-semantic-interposition", "-flto",
+                     *INLINING],
     libraries=["m"],
 )
 
