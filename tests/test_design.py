@@ -400,6 +400,10 @@ def test_a_load_no_motion_test_can_outweigh_is_refused_with_its_numbers():
     assert msg.startswith("load.torque = ") and "may act while the motion test runs" in msg and "let the load act after" in msg
     ok = scenario("syre-thor", load={"kind": "torque", "torque": 0.3 * T_top})   # outweighed twice: designed, no refusal
     assert ok.data["start"]["c"]["T_push"] > 2 * ok.data["start"]["c"]["T_load"]
+    i_push = ok.data["start"]["i_push"]   # given, and too small for that load: refused on start.i_push with what it needs
+    with pytest.raises(ConfigError) as e:
+        scenario("syre-thor", load={"kind": "torque", "torque": 0.3 * T_top}, start={"i_push": 0.25 * i_push})
+    assert str(e.value).startswith("start.i_push = ") and "must outweigh twice the load" in str(e.value)
 
 
 def test_a_load_that_comes_while_the_motion_tests_retries_run_is_warned():

@@ -393,6 +393,11 @@ def design_motion(d: dict, m, i_hf: float, w_o: float, w_b_n: float) -> dict[str
         st["i_push"] = i
         out["start.i_push"] = Value(i, "A", why)
     else:
+        if not k_T * m.psi_f * st["i_push"] > 2 * T_L:   # given: a push the load outweighs turns nothing its own way
+            raise ConfigError("start.i_push", st["i_push"], (
+                f"makes {k_T * m.psi_f * st['i_push']:.3g} N m, which must outweigh twice the load and friction acting "
+                f"while the motion test runs ({2 * T_L:.3g} N m): at least {2 * T_L / (k_T * m.psi_f):.4g} A, or let the "
+                "load act after the start"), None)
         t_half = 0.5 * math.sqrt(2 * math.pi * want * J / (p * max(k_T * m.psi_f * st["i_push"] - 2 * T_L, 1e-12)))
     if st["i_push"] > i_lim:
         raise ConfigError("start.i_push", st["i_push"], f"must be <= {i_lim:.4g} A: controller.i_max less the carrier's peak", None)
