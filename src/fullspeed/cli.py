@@ -393,7 +393,6 @@ def _cmd_calibrate(args) -> int:
 def _cmd_identify(args) -> int:
     from .workflows.identify import OUTPUTS, identify, print_identification, write_identification
 
-
     sc = load_scenario(args.scenario)
     # the folder is replaced as a whole (a failed identification leaves no earlier machine.toml): checked first
     out = out_folder(args.out) if args.out else OUT / f"identify-{safe_name(sc.machine.name, 'machine.name', sc.source)}"
