@@ -615,3 +615,25 @@ def test_a_load_the_identification_does_not_apply_is_said():
     assert len(loaded.details["notes"]) == 1 and "up to 1.5 N m" in loaded.details["notes"][0]
     assert "locked = true" in loaded.details["notes"][0]
     assert identify(_scenario(identify={"map": False})).details["notes"] == []
+
+
+def test_a_spin_the_rotor_ran_ahead_of_is_named_a_swing_with_its_cure():
+    """The new-user trial's Baldor from its datasheet alone (no dead time, no
+    friction: nothing damps the I/f frame's rotor): psi_f failed 'the rotor
+    did not follow the I/f frame' with the rotor at twice the frame's speed,
+    no cause and no cure. Ahead of the frame is a swing about it, not a
+    pull-out: said, with the ramp's time; the slower ramp it names
+    identifies the machine."""
+    import copy
+    from fullspeed.model.machines import catalog_data
+    d = copy.deepcopy(catalog_data("baldor-ecs101m0h7ef4"))
+    d.update(bench={"u_dc": 650.0, "f_pwm": 5000.0}, mechanical={"J": 0.015},
+             electrical={**d["electrical"], "R_s": 3.6}, rated={"torque": 29.7, "current": 12.4, "speed_rpm": 1800.0})
+
+    def run(t_ramp):
+        return identify(scenario_from_dict({"name": "x", "duration": 1.0, "machine": d, "controller": {"mode": "off"},
+                                            "identify": {"map": False, "t_ramp": t_ramp}}))
+    fast = run(1.0)
+    assert fast.status["psi_f"] == "failed" and "ahead of the frame, a swing" in fast.reason["psi_f"]
+    assert "[identify] t_ramp, 1 s now" in fast.reason["psi_f"]
+    assert run(3.0).status["psi_f"] == "ok"

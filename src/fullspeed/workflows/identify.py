@@ -507,6 +507,12 @@ def _numbers(res: Identification, sc: Scenario, ident, tr: np.ndarray) -> None:
         extra = f"the I/f frame at {ident.i_if:.3g} A ({100 * ident.i_if / i_max:.0f} % of i_max)"
         if r.w_flux:
             extra += f", the rotor at {r.w_flux:.4g} el. rad/s where psi_f was read against the frame's {ident.w_target:.4g}"
+            if abs(r.w_flux) > 1.2 * abs(ident.w_target) > 0.0:
+                # ahead of the frame: not pulled out (a rotor the frame's torque cannot carry falls behind) but
+                # swinging about it, undamped, from the ramp's acceleration (the trial's datasheet-only file, no
+                # dead time or friction to damp it, read 230..238 against 113; a 3 s ramp identified it)
+                extra += (f": ahead of the frame, a swing about it that nothing damps, not a pull-out; a slower ramp "
+                          f"excites it less ([identify] t_ramp, {ident.cfg.t_ramp:.3g} s now)")
         if spin is not None and tr.size:
             k0 = int(np.searchsorted(tr[:, 0], spin[1]))
             k1 = int(np.searchsorted(tr[:, 0], spin[2]))
