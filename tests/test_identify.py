@@ -637,3 +637,17 @@ def test_a_spin_the_rotor_ran_ahead_of_is_named_a_swing_with_its_cure():
     assert fast.status["psi_f"] == "failed" and "ahead of the frame, a swing" in fast.reason["psi_f"]
     assert "[identify] t_ramp, 1 s now" in fast.reason["psi_f"]
     assert run(3.0).status["psi_f"] == "ok"
+
+
+def test_a_test_current_the_drive_holds_lower_is_said():
+    """The new-user trial asked i_test = 5 A of a free PM-SyRM: the levels ran
+    to 1.9 A (half of psi_f / (L_q - L_d), the magnet's pull against the
+    reluctance torque's push) and nothing said so. Now a note with both
+    currents and the bound; none where the asked current is used."""
+    low = identify(_scenario(identify={"map": False, "i_test": 12.0}))
+    top = low.details["i_level_top"]
+    assert 0.0 < top < 12.0
+    lines = [n for n in low.details["notes"] if n.startswith("identify.i_test")]
+    assert len(lines) == 1 and "12 A asked" in lines[0] and "psi_f / (L_q - L_d)" in lines[0]
+    kept = identify(_scenario(identify={"map": False, "i_test": 0.5 * top}))
+    assert not [n for n in kept.details["notes"] if n.startswith("identify.i_test")]

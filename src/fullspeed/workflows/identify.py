@@ -269,6 +269,12 @@ def identify(scenario: Scenario | str, overrides: dict | None = None, speed_frac
             break
     wall = time.perf_counter() - t0
     res = _result(sc, s, drv, stop, lib.fs_sim_time(sim), wall, np.vstack(kept) if kept else np.zeros((0, 5)))
+    i_top = res.details.get("i_level_top", 0.0)
+    if s["i_test"] and 0.0 < i_top < 0.99 * s["i_test"]:   # held lower by the drive (schema: identify.i_test)
+        psi_f, dL = m.psi_f, m.L_q - m.L_d
+        why = (f"half of psi_f / (L_q - L_d) = {psi_f:.4g} Wb / {1e3 * dL:.4g} mH on a free rotor: above it the "
+               "reluctance torque's push beats the magnet's pull" if dL > 0 and not s["locked"] else "the drive's bound")
+        notes.append(f"identify.i_test: {s['i_test']:.4g} A asked, the levels ran to {i_top:.4g} A: {why}")
     res.details["notes"] = notes
     if trace_decimation:
         res.details["traces"] = dict(zip(CHANNELS, buf[:n_rows].T.copy()))
