@@ -651,3 +651,28 @@ def test_a_test_current_the_drive_holds_lower_is_said():
     assert len(lines) == 1 and "12 A asked" in lines[0] and "psi_f / (L_q - L_d)" in lines[0]
     kept = identify(_scenario(identify={"map": False, "i_test": 0.5 * top}))
     assert not [n for n in kept.details["notes"] if n.startswith("identify.i_test")]
+
+
+def test_an_align_that_turned_the_rotor_says_why(capsys):
+    """The new-user trial's free Baldor: ALIGN turned the 'standstill' rotor
+    161 el.deg and the summary never said why. Now one line with the turn
+    and the cause from the drive's readings: no axis to find standing (a
+    surface-magnet machine) or a polarity its d sweep did not decide."""
+    import copy
+    from fullspeed.model.machines import catalog_data
+    from fullspeed.workflows.identify import print_identification
+    d = copy.deepcopy(catalog_data("baldor-ecs101m0h7ef4"))
+    d.update(bench={"u_dc": 650.0, "f_pwm": 5000.0, "t_dead": 2e-6, "noise_i": 0.05}, mechanical={"J": 0.015},
+             electrical={**d["electrical"], "R_s": 3.6}, rated={"torque": 29.7, "current": 12.4, "speed_rpm": 1800.0})
+    cases = ((d, "did not decide the polarity standing"), ("anaheim-bly171d", "no axis to find standing"))
+    for machine, why in cases:
+        res = identify(scenario_from_dict({"name": "x", "duration": 1.0, "machine": machine, "controller": {"mode": "off"},
+                                           "identify": {"map": False}}))
+        assert "align" in res.motion["steps"]
+        print_identification(res)
+        line = [ln for ln in capsys.readouterr().out.splitlines() if "align turned the rotor" in ln]
+        assert len(line) == 1 and why in line[0]
+    res = identify(scenario_from_dict({"name": "z", "duration": 1.0, "machine": "baldor-ecs101m0h7ef4",   # its catalog
+                                       "controller": {"mode": "off"}, "identify": {"map": False}}))      # file: decided
+    print_identification(res)
+    assert "align" not in res.motion["steps"] and "align turned" not in capsys.readouterr().out

@@ -752,6 +752,21 @@ def write_identification(res: Identification, sc: Scenario, out: Path) -> list[P
     return replace_folder(out, {**report, **files}, OUTPUTS)
 
 
+SAL_MIN = 0.03   # fs_ident.c: the saliency below which AXIS finds no axis standing
+
+
+def _align_why(details: dict) -> str:
+    """Why ALIGN ran (fs_ident.h): no axis to see standing, or the
+    polarity not seen on it, with the drive's readings."""
+    sal = details.get("saliency", 0.0)
+    if sal < SAL_MIN:
+        return (f"the saliency AXIS read, {100 * sal:.1f} %, is below {100 * SAL_MIN:g} %: no axis to find standing, "
+                "so the magnet was turned onto alpha")
+    return (f"the d sweep's saturation asymmetry, {100 * details.get('pol_asym', 0.0):+.1f} %, did not decide the "
+            "polarity standing, so the magnet's north was turned onto the axis (a free rotor may turn; "
+            "[identify] locked = true keeps it, the polarity then from +i and -i)")
+
+
 def print_identification(res: Identification) -> None:
     """One line per quantity: identified, truth and error, or the failure;
     the map's error, the rotor's motion at standstill and the time taken."""
@@ -806,6 +821,9 @@ def print_identification(res: Identification) -> None:
               f"{mo['drive_check_deg']:+.2f} after it")
         print("         per step (el.deg, largest |angle - the step's start|): "
               + ", ".join(f"{st} {v['max_deg']:.2f}" for st, v in mo["steps"].items()))
+        if "align" in mo["steps"]:   # the step that turns the rotor on purpose: why it ran
+            print(f"         align turned the rotor {mo['steps']['align']['max_deg']:.0f} el.deg on purpose: "
+                  + _align_why(res.details))
     tm = res.times
     if tm:
         per_q = ", ".join(f"{q} {tm['quantities'][q]:.2f}" for q in QUANTITIES if tm["quantities"].get(q))
