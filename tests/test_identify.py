@@ -676,3 +676,14 @@ def test_an_align_that_turned_the_rotor_says_why(capsys):
                                        "controller": {"mode": "off"}, "identify": {"map": False}}))      # file: decided
     print_identification(res)
     assert "align" not in res.motion["steps"] and "align turned" not in capsys.readouterr().out
+
+
+def test_a_scenario_that_names_only_its_machine_is_identified(tmp_path):
+    """The new-user trial's identify scenario named its machine only and was
+    refused for duration and controller.mode, which identify does not use:
+    defaulted now for identify (1 s, off), given ones kept."""
+    scen = tmp_path / "s.toml"
+    scen.write_text('name = "only-machine"\nmachine = "anaheim-bly171d"\n[identify]\nmap = false\n')
+    assert main(["identify", str(scen), "--out", str(tmp_path / "out")]) == 0
+    rep = tomllib.loads((tmp_path / "out" / "identification.toml").read_text())
+    assert rep["R_s"]["status"] == "ok" and (tmp_path / "out" / "machine.toml").is_file()

@@ -33,6 +33,7 @@ from .model.files import (MAX_TOML_BYTES, claim, file_name, json_safe, out_file,
                           package_names, path_kind, safe_name, write_atomic, write_json, write_npz, write_with)
 from .model.machines import catalog_names
 from .model.reference import machine_template, reference_text, section_names
+from .model.scenario import scenario_data
 from .model.schema import deep_merge, parse_toml, read_toml
 
 # A command imports the layers above design when it runs (the simulator, the
@@ -393,7 +394,13 @@ def _cmd_calibrate(args) -> int:
 def _cmd_identify(args) -> int:
     from .workflows.identify import OUTPUTS, identify, print_identification, write_identification
 
-    sc = load_scenario(args.scenario)
+    # the sequence runs its own course: a scenario's duration and mode are its run's, defaulted where a file
+    # names only its machine for identification (the new-user trial was refused for both, which identify ignores)
+    data, source = scenario_data(args.scenario)
+    data.setdefault("duration", 1.0)
+    if isinstance(data.setdefault("controller", {}), dict):
+        data["controller"].setdefault("mode", "off")
+    sc = scenario_from_dict(data, source)
     # the folder is replaced as a whole (a failed identification leaves no earlier machine.toml): checked first
     out = out_folder(args.out) if args.out else OUT / f"identify-{safe_name(sc.machine.name, 'machine.name', sc.source)}"
     owned_folder(out, OUTPUTS)
