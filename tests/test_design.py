@@ -434,3 +434,19 @@ def test_a_current_limit_far_above_the_rating_is_warned():
     high = lines(120.0)
     assert len(high) == 1 and "120 A, is 4 x the rated current (30 A)" in high[0]
     assert lines(60.0) == []
+
+
+@pytest.mark.parametrize("field, value, hint", [("L_d", 26.0, "0.026 H if the value is in mH"),
+                                                ("psi_f", 444.0, "0.444 Wb if the value is in mWb"),
+                                                ("L_q", 1e5, None)])
+def test_a_value_in_the_units_thousandth_is_read_as_it(field, value, hint):
+    """The new-user trial typed L_d = 26 for 26 mH: refused with the range
+    alone. A value above the range that fits it read as the unit's thousandth
+    gets that reading beside the refusal; one that does not, the range alone."""
+    from fullspeed.model.errors import ConfigError
+    m = {**DATASHEET, "electrical": {**DATASHEET["electrical"], field: value}}
+    with pytest.raises(ConfigError) as e:
+        machine_from_dict(m)
+    msg = str(e.value)
+    assert f"machine.electrical.{field} = " in msg and "must be a number" in msg
+    assert (hint in msg) if hint else ("if the value is in" not in msg)

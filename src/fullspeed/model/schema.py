@@ -181,6 +181,11 @@ def finite_number(v) -> bool:
     return math.isfinite(v)
 
 
+# units whose thousandth a datasheet gives (mH, mWb, mohm): a value above the field's range that fits it
+# divided by 1000 gets that reading beside the refusal (the new-user trial's L_d = 26 for 26 mH)
+MILLI_UNITS = ("H", "Wb", "ohm")
+
+
 def check_value(spec: Spec, value, field: str, source: str | None):
     def fail():
         raise ConfigError(field, value, spec.allowed(), source)
@@ -198,6 +203,9 @@ def check_value(spec: Spec, value, field: str, source: str | None):
         if spec.lo is not None and (v < spec.lo or (spec.lo_open and v == spec.lo)):
             fail()
         if spec.hi is not None and (v > spec.hi or (spec.hi_open and v == spec.hi)):
+            if spec.doc in MILLI_UNITS and v / 1000.0 <= spec.hi:   # the unit's thousandth written as the unit
+                raise ConfigError(field, value, f"{spec.allowed()}; {v / 1000.0:g} {spec.doc} if the value is in "
+                                  f"m{spec.doc}", source)
             fail()
         return v
     if k == "int":
