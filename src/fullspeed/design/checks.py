@@ -113,8 +113,8 @@ def inertia_implausible(m) -> str | None:
     tau_m = m.J * m.w_m_rated / m.T_rated
     if TAU_M[0] <= tau_m <= TAU_M[1]:
         return None
-    return (f"J = {m.J:.3g} kg m^2 gives J w_rated / T_rated = {tau_m:.3g} s, outside {TAU_M[0]:g}..{TAU_M[1]:g} s: "
-            "check J's unit (kg m^2)")
+    return (f"J = {m.J:.3g} kg m^2 gives J w_rated / T_rated = {tau_m:.3g} s to rated speed at rated torque, outside "
+            f"{TAU_M[0]:g}..{TAU_M[1]:g} s: check J's unit (kg m^2)")
 
 
 def plausibility_warnings(d: dict, m) -> list[str]:
@@ -127,10 +127,9 @@ def plausibility_warnings(d: dict, m) -> list[str]:
     if m.R_s > 0 and not TAU_E[0] <= m.L_d / m.R_s <= TAU_E[1]:
         out.append(f"machine.electrical.L_d: L_d / R_s = {m.L_d / m.R_s:.3g} s is outside {TAU_E[0]:g}..{TAU_E[1]:g} s, "
                    "unusual for a PMSM: check the units (H, not mH) of L_d, L_q and R_s (ohm)")
-    tau_m = m.J * m.w_m_rated / m.T_rated
-    if inertia_implausible(m):
-        out.append(f"machine.mechanical.J: J w_rated / T_rated = {tau_m:.3g} s to rated speed at rated torque is outside "
-                   f"{TAU_M[0]:g}..{TAU_M[1]:g} s: check J's unit (kg m^2)")
+    j = inertia_implausible(m)
+    if j:
+        out.append(f"machine.mechanical.J: {j}")
     out += emf_warnings(m, u_lin)
     out += torque_warnings(m)
     speed = rated_speed_warnings(d, m)

@@ -165,8 +165,8 @@ def d_asymmetry(m, i_pulse: float) -> float | None:
 
 
 def pulse_amplitudes(i_pulse: float, i_top: float) -> list[float]:
-    """The pulses fs_polarity may run: i_pulse, then 1.5 times larger per
-    retry up to i_top."""
+    """The pulses fs_polarity may run (and the doublets fs_motion_test may):
+    i_pulse, then 1.5 times larger per retry up to i_top."""
     out = [i_pulse]
     while out[-1] < i_top * (1 - 1e-9):
         out.append(min(1.5 * out[-1], i_top))
@@ -332,7 +332,7 @@ def design_pulses(d: dict, m, cm: dict, i_hf: float, h, u_lin: float) -> dict[st
     # the rotor's largest turn: its speed may change by POLARITY_LOAD w_max every half pulse (4 a pair, the
     # pairs one for each 1.5 x step up to the retries' largest), its turn the sum of those speeds' halves
     i_top = pol["i_pulse_max"] or i_lim
-    pairs = 1 + max(0, math.ceil(math.log(max(i_top / pol["i_pulse"], 1.0), 1.5) - 1e-9))
+    pairs = len(pulse_amplitudes(pol["i_pulse"], i_top))
     halves = 4 * pairs
     d["start"]["c"]["bound_deg"] = math.degrees(POLARITY_LOAD * w_max * 0.5 * t_p * halves * (halves + 1) / 2)
     return out
@@ -406,8 +406,7 @@ def design_motion(d: dict, m, i_hf: float, w_o: float, w_b_n: float) -> dict[str
     i_top = min(i_lim, 2.25 * st["i_push"])   # two retries
     # the doublets up to i_top, each 1.5 times the last (fs_motion_test.h), and the load while all of them run:
     # a retry is the start taking longer, and a load that comes meanwhile turns the rotor in the waits between
-    n_doublets = 1 + max(math.ceil(math.log(i_top / st["i_push"]) / math.log(1.5) - 1e-9), 0)
-    t_all = pol["t_lock"] + n_doublets * (2 * t_half + t_settle)
+    t_all = pol["t_lock"] + len(pulse_amplitudes(st["i_push"], i_top)) * (2 * t_half + t_settle)
     st["c"].update(T_push_max=k_T * m.psi_f * i_top, T_load_all=load_torque(d, t_all) + m.T_coulomb, t_all=t_all)
     # the lock: the pulses' settling, and the observer's pull-in from as far as 90 el.deg off the axis (its triple
     # pole within 1.4 % in 8 / w_o), over which the pulses do not wait: they read the carrier's amplitude, not the angle

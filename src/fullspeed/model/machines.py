@@ -328,23 +328,27 @@ def _check_fluxmap(mag: dict, prefix: str, source) -> None:
             raise ConfigError(f"{prefix}.{name}", big, f"(its largest |flux|, Wb) must be within +-{FLUX_MAX:g} Wb{unit}",
                               source)
     psi_d, psi_q = mag["psi_d"], mag["psi_q"]
-    # a flux falling with its current over (nearly) the whole map is the current's axis of the other sign
-    d_falls = np.mean(np.diff(np.asarray(psi_d, float), axis=0) < 0) > FALLING_SHARE if n_d > 1 else False
-    q_falls = np.mean(np.diff(np.asarray(psi_q, float), axis=1) < 0) > FALLING_SHARE if n_q > 1 else False
     for k in range(n_d - 1):
         for n in range(n_q):
             if not psi_d[k + 1][n] > psi_d[k][n]:
                 raise ConfigError(f"{prefix}.psi_d[{k + 1}][{n}]", psi_d[k + 1][n],
                                   f"must be above psi_d[{k}][{n}] = {psi_d[k][n]:g}: the flux must rise with i_d (a monotonic map)"
-                                  + ("; it falls with i_d across the map: its i_d axis (or psi_d) has the other sign, negate "
-                                     "one of them" if d_falls else ""), source)
+                                  + _other_sign(psi_d, 0, "i_d", "psi_d"), source)
     for k in range(n_d):
         for n in range(n_q - 1):
             if not psi_q[k][n + 1] > psi_q[k][n]:
                 raise ConfigError(f"{prefix}.psi_q[{k}][{n + 1}]", psi_q[k][n + 1],
                                   f"must be above psi_q[{k}][{n}] = {psi_q[k][n]:g}: the flux must rise with i_q (a monotonic map)"
-                                  + ("; it falls with i_q across the map: its i_q axis (or psi_q) has the other sign, negate "
-                                     "one of them" if q_falls else ""), source)
+                                  + _other_sign(psi_q, 1, "i_q", "psi_q"), source)
+
+
+def _other_sign(tab, axis: int, current: str, flux: str) -> str:
+    """Beside a refusal of a map not rising with its current: where the flux
+    falls with it over (nearly) the whole map (FALLING_SHARE of its steps),
+    that current's axis has the other sign; else nothing."""
+    falls = np.mean(np.diff(np.asarray(tab, float), axis=axis) < 0) > FALLING_SHARE
+    return (f"; it falls with {current} across the map: its {current} axis (or {flux}) has the other sign, negate one "
+            "of them") if falls else ""
 
 
 def machine_data(name_or_path: str | Path) -> tuple[dict, str]:

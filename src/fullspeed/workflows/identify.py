@@ -25,6 +25,7 @@ import numpy as np
 from .._core import ffi, lib
 from ..design.machine import load_machine, machine_from_dict
 from ..design.scenario import load_scenario, scenario_from_dict
+from ..design.start import largest_on
 from ..model.errors import ConfigError, SimulationError
 from ..model.files import replace_folder
 from ..model.scenario import Scenario
@@ -157,13 +158,6 @@ def _truth(sc: Scenario) -> dict[str, float]:
             "L_d_nominal": m.L_d, "L_q_nominal": m.L_q}
 
 
-def _largest_load(profile) -> float:
-    """|T| at most of a load torque profile (a constant or (times, values)), N m."""
-    if isinstance(profile, tuple):
-        return max((abs(float(v)) for v in profile[1]), default=0.0)
-    return abs(float(profile))
-
-
 def settings(sc: Scenario, speed_frac: float | None = None, t_ramp: float | None = None) -> dict:
     """The scenario's [identify] table with the command line's overrides, checked
     against the machine and bench (a ConfigError before anything runs)."""
@@ -211,7 +205,7 @@ def identify(scenario: Scenario | str, overrides: dict | None = None, speed_frac
         raise ConfigError("load.kind", sc.data["load"]["kind"], "identification needs a free shaft (kind = \"torque\"), or "
                           "[identify] locked = true", sc.source)
     notes = []
-    T_load = _largest_load(sc.data["load"]["torque"])
+    T_load = largest_on(sc.data["load"]["torque"], math.inf)
     if T_load > 0.0 and not s["locked"]:   # the profile is the scenario's own run's: said, not dropped unsaid
         notes.append(f"load.torque: the scenario's load (up to {T_load:.4g} N m) is not applied: the identification turns "
                      "a free shaft with no load; where that load acts on the real rotor at standstill it turns it: "
@@ -752,15 +746,12 @@ def write_identification(res: Identification, sc: Scenario, out: Path) -> list[P
     return replace_folder(out, {**report, **files}, OUTPUTS)
 
 
-SAL_MIN = 0.03   # fs_ident.c: the saliency below which AXIS finds no axis standing
-
-
-def _align_why(details: dict) -> str:
-    """Why ALIGN ran (fs_ident.h): no axis to see standing, or the
-    polarity not seen on it, with the drive's readings."""
-    sal = details.get("saliency", 0.0)
-    if sal < SAL_MIN:
-        return (f"the saliency AXIS read, {100 * sal:.1f} %, is below {100 * SAL_MIN:g} %: no axis to find standing, "
+def _align_why(details: dict, steps: dict) -> str:
+    """Why ALIGN ran (fs_ident.h): no axis to see standing (AXIS found no
+    saliency, so POLARITY did not run), or the polarity POLARITY's d sweep
+    did not decide, with the drive's readings."""
+    if "polarity" not in steps:
+        return (f"the saliency AXIS read, {100 * details.get('saliency', 0.0):.1f} %, showed no axis to find standing, "
                 "so the magnet was turned onto alpha")
     return (f"the d sweep's saturation asymmetry, {100 * details.get('pol_asym', 0.0):+.1f} %, did not decide the "
             "polarity standing, so the magnet's north was turned onto the axis (a free rotor may turn; "
@@ -823,7 +814,7 @@ def print_identification(res: Identification) -> None:
               + ", ".join(f"{st} {v['max_deg']:.2f}" for st, v in mo["steps"].items()))
         if "align" in mo["steps"]:   # the step that turns the rotor on purpose: why it ran
             print(f"         align turned the rotor {mo['steps']['align']['max_deg']:.0f} el.deg on purpose: "
-                  + _align_why(res.details))
+                  + _align_why(res.details, mo["steps"]))
     tm = res.times
     if tm:
         per_q = ", ".join(f"{q} {tm['quantities'][q]:.2f}" for q in QUANTITIES if tm["quantities"].get(q))

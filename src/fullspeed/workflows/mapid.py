@@ -111,6 +111,9 @@ def _beyond(grid: dict) -> dict:
     return out
 
 
+N_FALL = 3   # steps the fall is fitted over (saturation_ratio): more average the noise, fewer follow the knee
+
+
 def saturation_ratio(row, have: list[int]) -> float | None:
     """The ratio by which a q sweep's incremental inductance fell a grid
     step over its last readings, within [0, 1]: a saturating iron's flux is
@@ -134,9 +137,6 @@ def saturation_ratio(row, have: list[int]) -> float | None:
         return 1.0   # a step that did not rise: noise on a flat reading, nothing to carry a fall from
     slope = np.polyfit(x, np.log(s), 1)[0]
     return float(min(max(math.exp(slope), 0.0), 1.0))
-
-
-N_FALL = 3   # steps the fall is fitted over (saturation_ratio): more average the noise, fewer follow the knee
 
 
 def _fill(psi_d, psi_q, src) -> np.ndarray:
