@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from fullspeed.cli import main
+from fullspeed.model.errors import ConfigError
 from fullspeed.workflows.identify import GOALS_PCT, QUANTITIES, identify
 from fullspeed.design.machine import load_machine
 from fullspeed.design.scenario import scenario_from_dict
@@ -223,6 +224,27 @@ def test_machine_file_fits_the_schema_or_is_not_left(tmp_path):
     assert not (tmp_path / "b" / "machine.toml").exists()
     assert "R_s" in bad.details["machine_file"]["refused"]
     assert "R_s" in tomllib.loads((tmp_path / "b" / "identification.toml").read_text())["machine_file"]["refused"]
+
+
+def test_refused_machine_file_is_no_success(tmp_path, monkeypatch, capsys):
+    """Every quantity within its goal but the machine file refused by the
+    loader (an identified map whose flux fell with its current, on the grin
+    hub motor in an experiment): nothing to run on, so exit 1 with the
+    refusal, not 0."""
+    from fullspeed.workflows import identify as ident
+
+    res = _fake(dict(GOOD))
+    monkeypatch.setattr(ident, "identify", lambda *a, **k: res)
+    assert main(["identify", "yang2022-encoder-speedstep", "--out", str(tmp_path / "a")]) == 0   # the same, written
+    assert (tmp_path / "a" / "machine.toml").exists()
+
+    def refuse(path):
+        raise ConfigError("machine.magnetic.psi_q[8][6]", -0.00278553739, "must be above psi_q[8][5] = -0.00241193")
+    monkeypatch.setattr(ident, "load_machine", refuse)
+    assert main(["identify", "yang2022-encoder-speedstep", "--out", str(tmp_path / "b")]) == 1
+    err = capsys.readouterr().err
+    assert "machine.toml not written, the loader refuses it: machine.magnetic.psi_q[8][6]" in err, err
+    assert not (tmp_path / "b" / "machine.toml").exists()
 
 
 def test_locked_rotor_standstill_only(tmp_path):

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from fullspeed.workflows import mapid
 
@@ -175,3 +176,26 @@ def test_linear_machine_whose_sweeps_stopped_keeps_its_map():
                                        "controller": {"mode": "off"}}, warn=False))
     assert 4 in res.map["readings"]["limit"]   # FS_MAPID_LIM_MOVING: the sweeps stopped
     assert res.map["spread_pct"] < 0.5 and res.status["map"] == "ok", (res.map["spread_pct"], res.reason["map"])
+
+
+def test_identified_grid_rises_with_its_currents():
+    """A reading that falls against its neighbour (two points 0.4 % of
+    psi_f the wrong way) is made the nearest rising row: the two pooled at
+    their mean, everything else as read; a map that rose is left to the
+    bit, and the grid is one the loader takes."""
+    from fullspeed.model.machines import _check_fluxmap
+
+    L_q = 8e-3
+    rd = _readings(lambda i: L_q * i, [1, 2, 3, 4])
+    clean = mapid.assemble(rd, I_MAX, PSI_F, 5e-3)
+    assert clean["rise_moved"] == 0.0
+    rd["psi_q"][ND // 2][2] = rd["psi_q"][ND // 2][1] - 0.004 * PSI_F   # psi_q at j = 3 read below j = 2
+    grid = mapid.assemble(rd, I_MAX, PSI_F, 5e-3)
+    row, row0 = _row(grid), _row(clean)
+    assert np.all(np.diff(row) > 0)
+    pooled = 0.5 * (L_q * 2 * I_MAX / NQ + L_q * 2 * I_MAX / NQ - 0.004 * PSI_F)
+    assert row[NQ + 2] == pytest.approx(pooled, abs=1e-9) and row[NQ + 3] == pytest.approx(pooled, abs=1e-6)
+    assert grid["rise_moved"] == pytest.approx(0.002 * PSI_F, rel=1e-3)   # each of the two by half the fall
+    assert row[NQ + 1] == row0[NQ + 1] and np.array_equal(grid["psi_d"], clean["psi_d"])   # the rest as read
+    mag = {"i_d": list(grid["i_d"]), "i_q": list(grid["i_q"]), "psi_d": grid["psi_d"].tolist(), "psi_q": grid["psi_q"].tolist()}
+    _check_fluxmap(mag, "machine.magnetic", None)   # raises where a flux does not rise

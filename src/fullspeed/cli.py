@@ -411,7 +411,10 @@ def _cmd_identify(args) -> int:
     print("wrote " + ", ".join(str(p) for p in paths))
     for line in res.failures():
         print(f"fullspeed: identification failed: {line}", file=sys.stderr)
-    return 0 if res.ok else 1
+    refused = res.details.get("machine_file", {}).get("refused")
+    if refused:   # identified, but nothing to run on: no success without the machine file
+        print(f"fullspeed: identification failed: machine.toml not written, the loader refuses it: {refused}", file=sys.stderr)
+    return 0 if res.ok and not refused else 1
 
 
 def _cmd_export(args) -> int:
