@@ -22,16 +22,40 @@ from script_loader import load_script
 ROOT = Path(__file__).resolve().parents[1]
 
 
+def _claims_speed() -> float:
+    """B-REAL's held speed at a quarter of base speed, rpm, as the claim forms it."""
+    from fullspeed.design.envelope import envelope
+    from fullspeed.design.machine import load_machine
+    from fullspeed.model.units import rad_s_to_rpm
+    from fullspeed.reproduce.papers.real import held_speeds
+
+    m = load_machine("prius2004-mg2")
+    return rad_s_to_rpm(held_speeds(envelope(m, m.bench["u_dc"], m.bench["i_max"], w_end=4.0 * m.w_m_rated))[0])
+
+
 def test_the_prius_holds_the_envelopes_torque_through_the_hand_over():
-    d = held_scenario("prius2004-mg2", 293.7, "blend")
-    res = simulate(scenario_from_dict(d, "prius-held", warn=False))
-    t = np.asarray(res["t"])
-    e = np.degrees(np.abs(np.asarray(res["theta_err"])))
-    steady = t >= d["metrics"]["steady"][0]
-    assert res.stop_reason == "done" and res.metrics.get("lock_lost_at") is None
-    assert np.mean(np.asarray(res["T_e"])[steady]) > 0.99 * 486.5   # the map's envelope at 294 rpm
-    assert e[(t > 0.5) & (t < 0.51)].max() < 45.0                      # the step's transient, bounded
-    assert e[steady].max() < 2.0
+    """At the claim's own speed, and at most of the six 0.1 % beside it:
+    the outcome after this step is chaotic (docs/held-runs.md), so one run
+    at one speed (293.7 rpm, this test's until 2026-11-30) is a sample,
+    not a margin. With the tracker on its model alone through the step
+    none of the seven held; 4 of 7 on 1ff566d, 6 of 7 since the slew's
+    anchor (fs_drive.c) stopped following the plan's cuts."""
+    rpm0 = _claims_speed()
+    held = []
+    for k in range(-3, 4):
+        d = held_scenario("prius2004-mg2", rpm0 * (1.0 + 1e-3 * k), "blend")
+        res = simulate(scenario_from_dict(d, "prius-held", warn=False))
+        t = np.asarray(res["t"])
+        e = np.degrees(np.abs(np.asarray(res["theta_err"])))
+        steady = t >= d["metrics"]["steady"][0]
+        ok = (res.stop_reason == "done" and res.metrics.get("lock_lost_at") is None
+              and np.mean(np.asarray(res["T_e"])[steady]) > 0.99 * 486.5)   # the map's envelope at 294 rpm
+        held.append(ok)
+        if k == 0:   # the claim's run: held, the step's transient bounded, steady within 2 el.deg
+            assert ok, res.stop_reason
+            assert e[(t > 0.5) & (t < 0.51)].max() < 45.0
+            assert e[steady].max() < 2.0
+    assert sum(held) >= 4, held
 
 
 # The same step with the injection stopped before it (its stop at 270 rpm, the blend's top at 240: 294 rpm is

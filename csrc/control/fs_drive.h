@@ -502,6 +502,7 @@ typedef struct {
     bool fw_map_on;          /* this step's references are the map's flux weakening (fs_fwmap.h) */
     bool follows;            /* the blend is the back-EMF tracker's own above its band (drive_injection_step) */
     float T_ff;              /* N m: torque of the last step's current reference (the observers' feed-forward) */
+    float T_slew;            /* N m: the speed loop's last torque reference, after the slew (its anchor) */
     float k_T;               /* N m/A: the torque constant phases/2 p (drive_torque_k) */
     fs_ab u_hist[2];         /* realised fundamental voltage computed 1 and 2 steps ago */
     fs_smo smo;
