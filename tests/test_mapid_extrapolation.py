@@ -199,3 +199,24 @@ def test_identified_grid_rises_with_its_currents():
     assert row[NQ + 1] == row0[NQ + 1] and np.array_equal(grid["psi_d"], clean["psi_d"])   # the rest as read
     mag = {"i_d": list(grid["i_d"]), "i_q": list(grid["i_q"]), "psi_d": grid["psi_d"].tolist(), "psi_q": grid["psi_q"].tolist()}
     _check_fluxmap(mag, "machine.magnetic", None)   # raises where a flux does not rise
+
+
+def test_polarity_is_reported_with_its_sign_as_the_pulses_read_it():
+    """The Baldor PM-SyRM's d axis on the identified map's grid (i_max/4 =
+    4.7 A steps; here its true fluxes on that grid): the asymmetry at the
+    pulses, +-9.3 A, is 20 % in size, but the carrier is the smaller where
+    the d current adds to the magnet, so the pulses would read the south
+    pole (the report said "decides" from the size alone while the design on
+    the written file took the motion test). On the machine's own map, at its
+    1.2 A carrier, the same pulse reads -2 %: the grid's cell, not the
+    machine."""
+    from fullspeed.design.machine import load_machine
+    from fullspeed.design.start import carrier_asymmetry
+    from fullspeed.workflows.identify import true_flux
+
+    m = load_machine("baldor-ecs101m0h7ef4")
+    i_max = 18.675
+    rep = mapid.polarity_report(mapid.true_grid(true_flux(m), i_max), None, 0.5 * i_max)
+    assert rep["asymmetry"] > 0.15 and rep["signed"] < -0.15
+    assert rep["reversed"] and not rep["decides"]
+    assert abs(carrier_asymmetry(m, 0.5 * i_max, 1.2)[0]) < 0.05

@@ -641,7 +641,8 @@ def report_tables(res: Identification) -> dict[str, dict]:
             pol = res.map["polarity"]
             t.update({"d_asymmetry_at_i_pulse": pol["asymmetry"], "d_asymmetry_truth": pol.get("asymmetry_truth"),
                       "d_asymmetry_needed": pol["needed"], "i_pulse": pol["i_pulse"],
-                      "polarity_detection_decides": pol["decides"]})
+                      "polarity_detection_decides": pol["decides"], "d_asymmetry_signed": pol["signed"],
+                      "polarity_detection_reversed": pol["reversed"]})
         tabs[q] = t
     mo = res.motion
     mt = {"drive_ldq_deg": mo.get("drive_ldq_deg"), "drive_premap_deg": mo.get("drive_premap_deg"),
@@ -804,10 +805,13 @@ def print_identification(res: Identification) -> None:
                for k, v in enumerate(rd["limit"]) if 0 < k < mapid.ND - 1 and (v in cut or not any(rd["n_q"][k]))]
         if lim:
             print("         q sweeps short of the disc: " + "; ".join(lim))
-        a, at = pol["asymmetry"], pol.get("asymmetry_truth")
-        print(f"         d-axis asymmetry at +-{pol['i_pulse']:.3g} A: {100 * a:.1f} % (truth "
-              f"{100 * at:.1f} %; polarity detection needs {100 * pol['needed']:.0f} %: "
-              f"{'decides' if pol['decides'] else 'cannot decide'})")
+        a, at, D = pol["asymmetry"], pol.get("asymmetry_truth"), pol["signed"]
+        verdict = ("decides" if pol["decides"] else
+                   "would read the south pole: the carrier is smaller where the d current adds to the magnet"
+                   if pol["reversed"] else "cannot decide")
+        print(f"         d-axis asymmetry at +-{pol['i_pulse']:.3g} A: {100 * a:.1f} % (truth on the same grid "
+              f"{100 * at:.1f} %), {100 * D:+.1f} % as the pulses read it; they need +{100 * pol['needed']:.0f} %: "
+              f"{verdict} (`fullspeed design` on the machine file says which start the drive takes)")
     elif res.status["map"] not in IDENTIFIED:
         print(f"  map    {res.status['map']} in step map: {res.reason['map']}")
     mo = res.motion

@@ -19,7 +19,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ..design.start import POLARITY_ASYMMETRY, d_asymmetry
+from ..design.start import POLARITY_ASYMMETRY, carrier_asymmetry, d_asymmetry
 from ..model.fluxmap import interp
 
 ND, NQ = 9, 8          # fs_mapid.h: FS_MAPID_ND, FS_MAPID_NQ
@@ -290,12 +290,33 @@ def asymmetry(grid: dict, i_pulse: float) -> float | None:
     return d_asymmetry(SimpleNamespace(magnetic=mag), i_pulse)
 
 
+def _grid_machine(grid: dict, name: str) -> SimpleNamespace:
+    """A map's grid as the machine design.start reads a flux map from."""
+    return SimpleNamespace(name=name, magnetic={"model": "fluxmap", "i_d": list(grid["i_d"]), "i_q": list(grid["i_q"]),
+                                                "psi_d": np.asarray(grid["psi_d"]).tolist(),
+                                                "psi_q": np.asarray(grid["psi_q"]).tolist()})
+
+
 def polarity_report(grid: dict, truth: dict | None, i_pulse: float) -> dict:
-    """The identified map's d-axis asymmetry at the polarity pulses, the
-    truth's, and whether it reaches what polarity detection needs."""
+    """The identified map's d-axis asymmetry at the polarity pulses (its
+    size, and the truth's on the same grid: how well the map was read) and
+    its sign, as polarity detection reads it (design.start.carrier_asymmetry:
+    the carrier larger where the d current adds to the magnet, D > 0): the
+    pulses decide where D >= POLARITY_ASYMMETRY, would read the south pole
+    where D <= -POLARITY_ASYMMETRY ("reversed"), and cannot decide between.
+    A d axis whose saturation falls inside a cell of the grid reads an
+    asymmetry of the right size and the wrong sign: the Baldor PM-SyRM's at
+    +-9.3 A, -20 % on the i_max/4 grid (its bump, 43 mH at +3 A, inside one
+    4.7 A cell) against -2 % on its own map; the drive designed from the
+    file then takes the motion test."""
     ident = asymmetry(grid, i_pulse)
-    out = {"i_pulse": i_pulse, "asymmetry": ident, "needed": POLARITY_ASYMMETRY,
-           "decides": bool(ident is not None and ident >= POLARITY_ASYMMETRY)}
+    got = carrier_asymmetry(SimpleNamespace(magnetic={"model": "fluxmap", "i_d": list(grid["i_d"]), "i_q": list(grid["i_q"]),
+                                                      "psi_d": np.asarray(grid["psi_d"]).tolist(),
+                                                      "psi_q": np.asarray(grid["psi_q"]).tolist()}), i_pulse)
+    D = None if got is None else float(got[0])
+    out = {"i_pulse": i_pulse, "asymmetry": ident, "signed": D, "needed": POLARITY_ASYMMETRY,
+           "decides": bool(D is not None and D >= POLARITY_ASYMMETRY),
+           "reversed": bool(D is not None and D <= -POLARITY_ASYMMETRY)}
     if truth is not None:
         out["asymmetry_truth"] = asymmetry(truth, i_pulse)
     return out
