@@ -805,7 +805,7 @@ def print_identification(res: Identification) -> None:
                for k, v in enumerate(rd["limit"]) if 0 < k < mapid.ND - 1 and (v in cut or not any(rd["n_q"][k]))]
         if lim:
             print("         q sweeps short of the disc: " + "; ".join(lim))
-        a, at, D = pol["asymmetry"], pol.get("asymmetry_truth"), pol["signed"]
+        a, at, D = pol["asymmetry"], pol.get("asymmetry_truth"), pol["signed"] or 0.0
         verdict = ("decides" if pol["decides"] else
                    "would read the south pole: the carrier is smaller where the d current adds to the magnet"
                    if pol["reversed"] else "cannot decide")

@@ -282,19 +282,16 @@ def true_grid(true_flux, i_max: float) -> dict:
     return {"i_d": i_d, "i_q": i_q, "psi_d": td.reshape(a.shape), "psi_q": tq.reshape(a.shape)}
 
 
+def _grid_machine(grid: dict) -> SimpleNamespace:
+    """A map's grid as design.start reads a machine's flux map."""
+    return SimpleNamespace(magnetic={"model": "fluxmap", "i_d": list(grid["i_d"]), "i_q": list(grid["i_q"]),
+                                     "psi_d": np.asarray(grid["psi_d"]).tolist(), "psi_q": np.asarray(grid["psi_q"]).tolist()})
+
+
 def asymmetry(grid: dict, i_pulse: float) -> float | None:
     """The d-axis asymmetry polarity detection decides on (design.start:
     the incremental L_d at -i_pulse against +i_pulse), of a map's grid."""
-    mag = {"model": "fluxmap", "i_d": list(grid["i_d"]), "i_q": list(grid["i_q"]),
-           "psi_d": np.asarray(grid["psi_d"]).tolist()}
-    return d_asymmetry(SimpleNamespace(magnetic=mag), i_pulse)
-
-
-def _grid_machine(grid: dict, name: str) -> SimpleNamespace:
-    """A map's grid as the machine design.start reads a flux map from."""
-    return SimpleNamespace(name=name, magnetic={"model": "fluxmap", "i_d": list(grid["i_d"]), "i_q": list(grid["i_q"]),
-                                                "psi_d": np.asarray(grid["psi_d"]).tolist(),
-                                                "psi_q": np.asarray(grid["psi_q"]).tolist()})
+    return d_asymmetry(_grid_machine(grid), i_pulse)
 
 
 def polarity_report(grid: dict, truth: dict | None, i_pulse: float) -> dict:
@@ -310,9 +307,7 @@ def polarity_report(grid: dict, truth: dict | None, i_pulse: float) -> dict:
     4.7 A cell) against -2 % on its own map; the drive designed from the
     file then takes the motion test."""
     ident = asymmetry(grid, i_pulse)
-    got = carrier_asymmetry(SimpleNamespace(magnetic={"model": "fluxmap", "i_d": list(grid["i_d"]), "i_q": list(grid["i_q"]),
-                                                      "psi_d": np.asarray(grid["psi_d"]).tolist(),
-                                                      "psi_q": np.asarray(grid["psi_q"]).tolist()}), i_pulse)
+    got = carrier_asymmetry(_grid_machine(grid), i_pulse)
     D = None if got is None else float(got[0])
     out = {"i_pulse": i_pulse, "asymmetry": ident, "signed": D, "needed": POLARITY_ASYMMETRY,
            "decides": bool(D is not None and D >= POLARITY_ASYMMETRY),
