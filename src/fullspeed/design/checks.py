@@ -37,7 +37,7 @@ from .._core import lib
 from ..model.errors import ConfigError
 from ..model.units import rad_s_to_rpm, rpm_to_rad_s
 from .controller import controller_model, hfi_design, injection_inductances
-from .envelope import OVERMODULATION, Limits, limits
+from .envelope import I_MAX_FIELD, OVERMODULATION, Limits, limits
 from .machine import mtpa_torque
 from .magnetics import mtpa_locus, saliency_warnings
 from .rules import (CARRIER_LOOP_ACTION_MAX, LOAD_STEP_ANGLE, carrier_loop_action, control_period, load_ramp_lag,
@@ -136,7 +136,7 @@ def plausibility_warnings(d: dict, m) -> list[str]:
     out += speed
     i_max = d["controller"]["i_max"]
     if m.i_rated > 0 and i_max > PEAK_PER_RATED * m.i_rated:
-        out.append(f"controller.i_max (machine.bench.i_max where the scenario leaves it): the current limit, {i_max:.4g} A, "
+        out.append(f"{I_MAX_FIELD}: the current limit, {i_max:.4g} A, "
                    f"is {i_max / m.i_rated:.3g} x the rated current ({m.i_rated:.4g} A), where machines' peak ratings "
                    f"seldom pass {PEAK_PER_RATED:g} x: the design takes it as the machine's (its envelope, carrier and "
                    "loops are sized on it): check the value and the "

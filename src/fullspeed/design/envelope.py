@@ -55,6 +55,9 @@ from ..model.units import rad_s_to_rpm
 from .memo import Memo
 from .rules import u_linear
 
+# the current limit as a scenario's reader finds it: the scenario's, else the machine file's bench
+I_MAX_FIELD = "controller.i_max (machine.bench.i_max where the scenario leaves it)"
+
 # the fundamental of minimum-phase-error over-modulation at its limit, over u_dc/sqrt3: the reference's
 # direction kept on the hexagon's boundary all round, (6/pi) ln(sqrt3) (fs_svpwm.h)
 OVERMODULATION = 6.0 / math.pi * math.log(math.sqrt(3.0))
@@ -138,7 +141,7 @@ def flux_table(m: Machine, i_max: float, points: int = TABLE_N) -> dict:
     if mag["model"] == "fluxmap":
         i_d, i_q = mag["i_d"], mag["i_q"]
         if i_d[0] > -i_max * (1 - 1e-9) or i_d[-1] < 0 or i_q[-1] < i_max * (1 - 1e-9) or i_q[0] > 0:
-            raise ConfigError("controller.i_max (machine.bench.i_max where the scenario leaves it)", i_max,
+            raise ConfigError(I_MAX_FIELD, i_max,
                               f"must be within {m.name}'s flux map for its envelope: the map spans i_d "
                               f"{i_d[0]:g}..{i_d[-1]:g} A and i_q {i_q[0]:g}..{i_q[-1]:g} A, the envelope needs "
                               f"i_d -i_max..0 and i_q 0..i_max")
@@ -210,7 +213,7 @@ class Limits:
             raise ConfigError("u_max", u_max, "must be a finite voltage > 0 V")
         self.R, self.p, self.k = m.R_s, m.pole_pairs, 0.5 * m.phases * m.pole_pairs
         if not self.R * i_max < self.u:
-            raise ConfigError("i_max", i_max, f"must be below u_lin / R_s = {self.u / self.R:.4g} A: the resistive drop "
+            raise ConfigError(I_MAX_FIELD, i_max, f"must be below u_lin / R_s = {self.u / self.R:.4g} A: the resistive drop "
                               f"R_s i_max = {self.R * i_max:.4g} V would take all of the {self.u:.4g} V the "
                               f"converter gives")
         cut = 4 if coarse else 1

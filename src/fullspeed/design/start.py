@@ -401,7 +401,7 @@ def design_motion(d: dict, m, i_hf: float, w_o: float, w_b_n: float) -> dict[str
         t_half = 0.5 * math.sqrt(2 * math.pi * want * J / (p * max(k_T * m.psi_f * st["i_push"] - 2 * T_L, 1e-12)))
     if st["i_push"] > i_lim:
         raise ConfigError("start.i_push", st["i_push"], f"must be <= {i_lim:.4g} A: controller.i_max less the carrier's peak", None)
-    st["c"]["T_push"], st["c"]["T_load"] = k_T * m.psi_f * st["i_push"], T_L   # design.checks: a load it cannot outweigh
+    st["c"]["T_push"], st["c"]["T_load"] = k_T * m.psi_f * st["i_push"], T_L   # the first doublet against the load (refused above)
     st["turn_deg"] = math.degrees(turn)
     i_top = min(i_lim, 2.25 * st["i_push"])   # two retries
     # the doublets up to i_top, each 1.5 times the last (fs_motion_test.h), and the load while all of them run:

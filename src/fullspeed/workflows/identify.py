@@ -539,8 +539,9 @@ def _map(sc: Scenario, res: Identification, ident) -> dict:
     grid = mapid.assemble(rd, i_max, psi_f, L_d)
     pm = _plant(sc)   # the truth (psi_f above is the drive's: the identified one or the machine file's)
     flux = true_flux(pm)
-    out = {"readings": rd, "grid": grid, "i_max": i_max, "psi_f": psi_f,
-           "psi_f_from": "identified" if "psi_f" in res.values else "machine file"}
+    out = {"readings": rd, "grid": grid, "i_max": i_max, "psi_f_from": "identified" if "psi_f" in res.values else "machine file",
+           # the grid made to rise with its own currents (mapid._rising): the largest change that took, % of psi_f
+           "rise_moved_pct": 100.0 * grid["rise_moved"] / psi_f}
     out["errors"] = mapid.map_errors(grid, flux, pm.psi_f, i_max)
     out["spread_pct"] = mapid.spread_pct(grid, psi_f, i_max)   # the readings' own measure of what they leave open
     if all(q in res.values for q in ("L_d", "L_q")):
@@ -633,8 +634,7 @@ def report_tables(res: Identification) -> dict[str, dict]:
                       "rms_error_pct_of_psi_f": e["rms_pct"], "rms_error_d_pct": e["rms_d_pct"],
                       "rms_error_q_pct": e["rms_q_pct"], "max_error_pct": e["max_pct"], "disc_points": e["points"],
                       "psi_f_from": res.map["psi_f_from"], "file": "fluxmap.csv", "points_file": "fluxmap-measured.csv",
-                      # the grid made to rise with its own currents (mapid._rising): the largest change that took
-                      "rise_moved_pct_of_psi_f": 100.0 * res.map["grid"]["rise_moved"] / res.map["psi_f"]})
+                      "rise_moved_pct_of_psi_f": res.map["rise_moved_pct"]})
             if "constant_errors" in res.map:
                 t["constant_model_rms_error_pct"] = res.map["constant_errors"]["rms_pct"]
             t.update({f"grid_{k.replace(' ', '_')}": v for k, v in res.map["points"].items()})
@@ -793,9 +793,9 @@ def print_identification(res: Identification) -> None:
         pts = res.map["points"]
         print(f"         {pts.get('measured', 0)} grid points measured, {pts.get('at speed', 0)} at speed, "
               f"{pts.get('extrapolated', 0)} extrapolated (outside the disc or beyond the sweeps)")
-        if res.map["grid"]["rise_moved"] > 0.0:
+        if res.map["rise_moved_pct"] > 0.0:
             print(f"         readings that fell against their current moved to the nearest rising map: up to "
-                  f"{100.0 * res.map['grid']['rise_moved'] / res.map['psi_f']:.3g} % of psi_f")
+                  f"{res.map['rise_moved_pct']:.3g} % of psi_f")
         rd, i_max = res.map["readings"], res.map["i_max"]
         cut = {1: "the rotor's swing", 2: "the voltage", 3: "not swept: the d level would turn the free rotor away",
                4: "the sweeps stopped: the rotor turning at the level's end"}
