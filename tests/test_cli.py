@@ -3,6 +3,7 @@ import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -59,6 +60,21 @@ def test_negative_inductance_message_names_value_and_rule(tmp_path):
     f = write_scenario(tmp_path, bad("", '[machine]\ncatalog = "yang2022"\n[machine.electrical]\nL_d = -1e-5\n'))
     p = fullspeed("run", str(f), "--quiet")
     assert "-1e-05" in p.stderr and ">= 1e-08" in p.stderr and "(H)" in p.stderr
+
+
+@pytest.mark.parametrize("cmd", ["run", "identify"])
+def test_a_machine_file_given_as_a_scenario_is_refused_as_one(tmp_path, cmd):
+    """The new user's slip: the machine file where the scenario belongs. Refused
+    as a machine file, with how a scenario names it, not by its first key a
+    scenario does not know ('kind = ipmsm: unknown key')."""
+    machine = Path(__file__).resolve().parents[1] / "examples" / "own-machine" / "my48v.toml"
+    p = fullspeed(cmd, str(machine), "--out", str(tmp_path / "o"))
+    assert p.returncode == 2
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1, p.stderr
+    assert "pole_pairs = 4" in lines[0] and "this is a machine file" in lines[0]
+    assert 'machine = "my48v.toml"' in lines[0] and "unknown key" not in lines[0]
+    assert not (tmp_path / "o").exists()
 
 
 def test_unknown_scenario_name():

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from .errors import ConfigError, MissingFields
 from .files import package_names, path_kind
-from .machines import Machine, catalog_data, parse_machine
+from .machines import MACHINE, Machine, catalog_data, parse_machine
 from .schema import MISSING, B, C, F, I, N, NONNEG, POS, P, S, Spec, T, deep_merge, even_grid, finite_number, parse_toml, read_toml, validate
 from .zoo import SEED as ZOO_SEED
 from .zoo import machine as zoo_machine
@@ -343,6 +343,7 @@ def parse_scenario(data: dict, source: str | None = None) -> tuple[dict, Machine
     the steady window)."""
     if not isinstance(data, dict):
         raise ConfigError("scenario", data, "must be a table", source)
+    _refuse_machine_file(data, source)
     missing = []   # the scenario's required fields not given, and its machine's, refused together
     d = validate(data, SCENARIO, "", source, missing)
     if missing:
@@ -367,6 +368,19 @@ def parse_scenario(data: dict, source: str | None = None) -> tuple[dict, Machine
         if not ok:
             raise ConfigError("metrics.steady", steady, f"must be [t_start, t_end] with 0 <= t_start < t_end <= duration ({d['duration']:g})", source)
     return d, m
+
+
+def _refuse_machine_file(data: dict, source: str | None) -> None:
+    """A machine file given where a scenario belongs (`fullspeed run
+    my48v.toml`): refused as what it is, with the way a scenario takes it,
+    not by the first of its keys a scenario does not know."""
+    own = [k for k in data if k in MACHINE and k not in SCENARIO]
+    if own and "machine" not in data:
+        file = Path(source).name if source else "the machine's file"
+        key = "pole_pairs" if "pole_pairs" in own else own[0]   # the field no scenario could mean
+        raise ConfigError(key, data[key], f"a machine's field, not a scenario's: this is a machine file; a scenario "
+                          f"names it (machine = \"{file}\", beside its duration and references; "
+                          "examples/own-machine/my48v-full-range.toml is one)", source)
 
 
 def _per_unit(d: dict, data: dict, m: Machine, source) -> None:
