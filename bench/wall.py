@@ -272,7 +272,8 @@ def format_report(rep: dict) -> str:
         row = "; ".join(f"{e} " + "/".join(f"{m['engines'][e]['speed_rpm'].get(x, float('nan')):.0f}" for x in INSTANTS)
                         for e in engines)
         lines.append(f"  speed rpm at {'/'.join(INSTANTS)} s ({mode}): {row}; "
-                     f"check (within {tr['tol_rpm']:.0f} rpm of {tr['reference']}): {'ok' if tr['ok'] else 'FAILED'}")
+                     f"check (fullspeed at {'/'.join(HELD)} s, where the reference is held; within {tr['tol_rpm']:.0f} rpm "
+                     f"of {tr['reference']}): {'ok' if tr['ok'] else 'FAILED'}")
     if rep["status"] == "fail":
         lines.append(f"  FAIL: {rep['reason']}")
     return "\n".join(lines)
