@@ -290,6 +290,7 @@ FS_COLD void fs_drive_reset(fs_drive *drv)
     drv->phase = drive_starts(&drv->cfg) ? FS_PHASE_START : FS_PHASE_RUN;
     drv->theta_ol = 0.0f;
     drv->pll_started = false;
+    drv->pll_seeded = false;
     drv->u_hist[0].alpha = drv->u_hist[0].beta = 0.0f;
     drv->u_hist[1] = drv->u_hist[0];
 }
@@ -459,6 +460,19 @@ static void drive_sensor_angle(fs_drive *drv, const fs_drive_in *in, float *thet
     if (!drv->pll_started) {
         fs_pll_reset(&drv->pll, theta_enc, 0.0f);
         drv->pll_started = true;
+    } else if (!drv->pll_seeded) {
+        /* the second reading: the speed from the turn since the first (the PLL's angle, a step at zero speed
+         * ago). A rotor already turning as the drive starts (a flying start, a map's point at its speed) had
+         * the PLL rise from zero at its bandwidth, the loops without the EMF's feed-forward meanwhile: the
+         * README's 48 V example at 4500 rpm tripped on overcurrent in 1.8 ms. A rotor at rest gives 0, as before. */
+        const float w0 = fs_wrap_pi(theta_enc - drv->pll.theta) / c->Ts;
+        fs_pll_reset(&drv->pll, theta_enc, w0);
+        drv->pll_seeded = true;
+        /* and the speed loop from there without a bump (no torque yet): its first step had read zero speed, and
+         * its proportional path then asked the example's rotor at 4500 rpm for the current limit's braking torque */
+        if ((w0 != 0.0f) && (c->mode == (int)FS_MODE_SPEED)) { fs_speed_ctrl_preset(&drv->sc, w0 / (float)c->pole_pairs, 0.0f); }
+    } else {
+        /* tracking */
     }
     /* The PLL's angle is its prediction for this sample. */
     (void)fs_pll_step(&drv->pll, fs_wrap_pi(theta_enc - drv->pll.theta));

@@ -494,7 +494,8 @@ typedef struct {
     float alpha;             /* its last output, rad */
     int phase;               /* fs_drive_phase */
     float theta_ol;          /* open-loop frame angle */
-    bool pll_started;
+    bool pll_started;        /* the encoder's PLL has its first reading */
+    bool pll_seeded;         /* and its speed from the second (drive_sensor_angle) */
     bool est_started;        /* the injection estimators have seen their first step */
     bool injecting;          /* the HF voltage is on (fading in or out included) */
     bool inject_on;          /* the injection is wanted (the amplitude's target) */
