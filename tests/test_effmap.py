@@ -34,7 +34,7 @@ def test_envelope_is_the_current_circle_meeting_the_voltage_circle():
     m = machine_from_dict(d)
     I, u, L, psi, p = 15.0, 250.0, m.L_d, m.psi_f, m.pole_pairs
     n = [500.0, 1400.0]
-    T = envelope(m, n, I, u, n_i=400, n_angle=2001)
+    T = envelope(m, n, I, u)
     assert T[0] == pytest.approx(1.5 * p * psi * I, rel=1e-3)
     w = p * rpm_to_rad_s(n[1])
     i_d = ((u / w) ** 2 - psi ** 2 - (L * I) ** 2) / (2 * psi * L)
@@ -93,3 +93,48 @@ def test_map_command_prints_the_peaks(tmp_path):
     assert p.returncode == 0, p.stderr
     assert "peak drive efficiency" in p.stdout and "module: test module" in p.stdout
     assert (tmp_path / "o" / "map.csv").exists()
+
+
+def test_the_maps_envelope_is_designs_on_a_saturating_machine(tmp_path):
+    """yang2022's machine saturates (an algebraic model): the map's torques
+    are fractions of the envelope `fullspeed design` prints, not of the
+    unsaturated L_d, L_q and psi_f's (3.22 N m at 60 A against design's
+    2.99, where every 0.97 point could not be held)."""
+    from fullspeed.design.envelope import envelope as design_envelope
+    from fullspeed.design.envelope import torque_at
+    from fullspeed.design.rules import u_linear
+
+    m = machine_from_dict(catalog_data("yang2022"))
+    assert m.magnetic["model"] == "algebraic"
+    u_dc, i_max = m.bench["u_dc"], m.bench["i_max"]
+    n = [750.0, 3000.0, 4000.0]
+    T = envelope(m, n, i_max, u_linear(u_dc, m.phases))
+    assert T == pytest.approx(torque_at(design_envelope(m, u_dc, i_max), rpm_to_rad_s(n)), rel=2e-3)
+    g = [0.5 * math.pi + 0.5 * math.pi * k / 2000 for k in range(2001)]   # the current circle, unsaturated
+    T_lin = max(1.5 * m.pole_pairs * (m.psi_f + (m.L_d - m.L_q) * i_max * math.cos(a)) * i_max * math.sin(a) for a in g)
+    assert T[0] < 0.95 * T_lin   # saturation takes 7 % of it
+
+
+def test_a_sensorless_scenario_is_refused_before_the_map(tmp_path):
+    """Each point starts at its speed; the sensorless drive starts only from
+    standstill (every point of beyond-full-range stopped, overcurrent or
+    polarity undetermined, and the map said '0 held' with exit 0)."""
+    with pytest.raises(ConfigError, match="controller.angle.*encoder"):
+        efficiency_map("beyond-full-range", tmp_path / "m", speeds=2)
+    assert not (tmp_path / "m").exists()
+
+
+def test_a_map_whose_points_stop_fails_and_counts_the_stops(tmp_path):
+    """A point whose drive stopped (here the overspeed stop, set below the
+    map's top speed) is a failed map: exit 1, the stops counted by reason in
+    the summary; a point that only sags at the envelope's edge is not."""
+    p = subprocess.run([sys.executable, "-m", "fullspeed", "map", "yang2022", "--speeds", "2", "--torques", "0.3",
+                        "--top-rpm", "2000", "--set", "controller.overspeed_rpm=1500", "--workers", "1",
+                        "--out", str(tmp_path / "o"), "--quiet"], capture_output=True, text=True, timeout=300,
+                       env={**os.environ, "PYTHONWARNINGS": "ignore"})
+    assert p.returncode == 1, p.stderr
+    assert "2 points, 1 held (1 stopped: 1 overspeed)" in p.stdout
+    assert "map failed: 1 of 2 points stopped (1 overspeed)" in p.stderr
+    rows = list(csv.DictReader(open(tmp_path / "o" / "map.csv")))
+    assert [r["stop_reason"] for r in rows] == ["done", "overspeed"]
+    assert json.loads((tmp_path / "o" / "map.json").read_text())["summary"]["stops"] == {"overspeed": 1}

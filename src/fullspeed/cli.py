@@ -353,17 +353,25 @@ def _cmd_map(args) -> int:
               file=sys.stderr)
         raise
     s = em.summary
-    print(f"{em.name}: {s['points']} points, {s['held']} held; module: {s.get('module') or 'ideal switches'}; "
-          f"iron loss: {s.get('iron_source') or 'none'}")
+    stopped = ", ".join(f"{n} {reason}" for reason, n in sorted(s["stops"].items(), key=lambda kv: -kv[1]))
+    print(f"{em.name}: {s['points']} points, {s['held']} held"
+          + (f" ({sum(s['stops'].values())} stopped: {stopped})" if stopped else "")
+          + f"; module: {s.get('module') or 'ideal switches'}; iron loss: {s.get('iron_source') or 'none'}")
     for key, label in (("eta_machine", "machine"), ("eta_converter", "converter"), ("eta_drive", "drive")):
         p = s.get(f"{key}_peak")
-        if p:
+        if p and key == "eta_converter" and not s.get("module"):   # no device data: the converter meters no loss
+            print("converter: ideal switches, no loss metered (the machine file's [converter] gives its devices)")
+        elif p:
             print(f"peak {label} efficiency {100 * p['eta']:.2f} % at {p['speed_rpm']:.0f} rpm, {p['torque_Nm']:.1f} N m")
     print("wrote " + ", ".join(str(p) for p in em.paths))
     not_run = [r for r in em.rows if r.get("stop_reason") == "not run"]
     if not_run:
         print(f"fullspeed: {len(not_run)} points not run; run the same command again to run them", file=sys.stderr)
-    return 1 if not_run else 0
+    if s["stops"]:   # a point's drive failed: no map of that drive's efficiency there (a sag at the envelope's edge is no failure)
+        print(f"fullspeed: map failed: {sum(s['stops'].values())} of {s['points']} points stopped ({stopped}); "
+              f"map.csv gives each point's stop_reason, `fullspeed run` with the point's speed and load shows why",
+              file=sys.stderr)
+    return 1 if not_run or s["stops"] else 0
 
 
 def _cmd_calibrate(args) -> int:

@@ -34,6 +34,7 @@ import numpy as np  # noqa: E402
 
 from .._core import lib  # noqa: E402
 from ..design.drawing import save_figure  # noqa: E402
+from ..design.envelope import limits  # noqa: E402
 from ..design.rules import u_linear  # noqa: E402
 from ..design.scenario import scenario_from_dict  # noqa: E402
 from ..model.errors import ConfigError  # noqa: E402
@@ -47,6 +48,7 @@ from ..sim.metrics import window_mask  # noqa: E402
 from ..sim.runner import simulate  # noqa: E402
 from .journal import run_tasks  # noqa: E402
 
+SENSED = ("encoder", "true")   # the angles a point can start on at its speed
 HELD = 0.01          # the speed's mean over the window within 1 % of the reference
 T_RAMP = 0.3         # s: the load torque's ramp from zero, slow enough for the loops to stay on track (a 20 ms ramp drives the Prius's into voltage saturation they do not leave)
 SPEED_FRACTIONS = 8  # speeds, evenly to the top speed
@@ -77,23 +79,18 @@ def fluxes(m, i_d, i_q):
     return m.L_d * i_d + m.psi_f, m.L_q * i_q
 
 
-def envelope(m, speeds_rpm, i_max: float, u_max: float, n_i: int = 120, n_angle: int = 241) -> np.ndarray:
-    """The most torque (N m, from the fluxes) at each speed within |i| <=
-    i_max and the steady-state voltage |R i + j w psi| <= u_max: the MTPA,
-    flux-weakening and MTPV limits in one search over the current's
-    magnitude and angle (second quadrant)."""
-    I = i_max * np.arange(1, n_i + 1) / n_i
-    g = np.linspace(0.5 * np.pi, np.pi, n_angle)
-    i_d, i_q = np.outer(I, np.cos(g)), np.outer(I, np.sin(g))
-    psi_d, psi_q = fluxes(m, i_d, i_q)
-    T = 0.5 * m.phases * m.pole_pairs * (psi_d * i_q - psi_q * i_d)
-    out = []
-    for n in np.atleast_1d(speeds_rpm):
-        w = m.pole_pairs * rpm_to_rad_s(float(n))
-        u = np.hypot(m.R_s * i_d - w * psi_q, m.R_s * i_q + w * psi_d)
-        ok = u <= u_max
-        out.append(float(np.max(T[ok])) if ok.any() else 0.0)
-    return np.array(out)
+def envelope(m, speeds_rpm, i_max: float, u_max: float) -> np.ndarray:
+    """The most torque (N m) at each speed within |i| <= i_max and the
+    steady-state voltage |R i + j w psi| <= u_max: the MTPA, flux-weakening
+    and MTPV limits, on the machine's own magnetics (its flux map or its
+    saturation model). `fullspeed design`'s search (design.envelope), so
+    that a map's torques are fractions of the envelope design prints: with
+    the unsaturated L_d, L_q and psi_f of an algebraic model the map's
+    envelope was 8 % above design's on yang2022's machine, and its top
+    points could not be held by construction."""
+    lim = limits(m, u_max / u_linear(1.0, m.phases), i_max, u_max)   # the link whose linear limit is u_max
+    T, _, _ = lim.best(m.pole_pairs * rpm_to_rad_s(np.atleast_1d(np.asarray(speeds_rpm, float))))
+    return np.nan_to_num(T, nan=0.0)   # beyond the top speed: none
 
 
 def base_data(target: str, overrides: dict | None = None) -> tuple[dict, str]:
@@ -124,6 +121,12 @@ def map_scenarios(data: dict, source: str, top_rpm: float | None) -> tuple[Scena
     if ctl["mode"] != "speed":
         raise ConfigError("controller.mode", ctl["mode"], "must be \"speed\": each point of the map is the drive "
                           "holding a speed under a load torque with its own loops", source)
+    if ctl["angle"] not in SENSED:
+        raise ConfigError("controller.angle", ctl["angle"], "must be a sensor's (\"encoder\") for a map: each point "
+                          "starts with the rotor at its speed, and the sensorless drive starts only from standstill (it "
+                          "has no start on a turning rotor: every point of beyond-full-range stopped, overcurrent or "
+                          "polarity undetermined); --set controller.angle=encoder maps the same loops, MTPA and flux "
+                          "weakening on the encoder's angle", source)
     m = sc.machine
     top = top_rpm or float(sc.data["observer"]["top_speed_rpm"])
     if not top > 0:
@@ -220,10 +223,22 @@ def efficiency_map(target: str, out: Path, speeds: int = SPEED_FRACTIONS, torque
     return EffMap(sc.name, rows, rpm, list(env), summary, paths)
 
 
+def stops(rows: list[dict]) -> dict[str, int]:
+    """The points whose run stopped (a protection, a lost or undetermined
+    angle), by stop reason: the drive failed there, unlike a point whose
+    speed sags below its reference at a torque the drive does not reach."""
+    out: dict[str, int] = {}
+    for r in rows:
+        reason = r.get("stop_reason")
+        if reason not in (None, "done", "not run"):
+            out[reason] = out.get(reason, 0) + 1
+    return out
+
+
 def summarise(rows: list[dict]) -> dict:
     """Each efficiency's peak and where it sits, over the held points."""
     held = [r for r in rows if r.get("held")]
-    out = {"held": len(held), "not_held": len(rows) - len(held)}
+    out = {"held": len(held), "not_held": len(rows) - len(held), "stops": stops(rows)}
     for key in ("eta_machine", "eta_converter", "eta_drive"):
         ok = [r for r in held if r.get(key) is not None]
         if ok:
@@ -282,7 +297,7 @@ def plot_map(rows: list[dict], rpm: list[float], env, summary: dict, path: Path)
         miss = [r for r in rows if not r.get("held")]
         if miss:
             a.plot([r["speed_rpm"] for r in miss], [r["torque_Nm"] for r in miss], "rx", ms=5, label="not held")
-        a.plot(n_env, T_env, "r-", lw=1.2, label="envelope (T_e at i_max and the linear voltage)")
+        a.plot(n_env, T_env, "r-", lw=1.2, label="envelope (T_e at i_max and the linear voltage, as design)")
         peak = summary.get(f"{key}_peak")
         if peak:
             a.plot(peak["speed_rpm"], peak["torque_Nm"], "w*", ms=12, mec="k",
@@ -308,7 +323,8 @@ def plot_map(rows: list[dict], rpm: list[float], env, summary: dict, path: Path)
     b.set_title("losses by kind at the largest torque held")
     b.set_xlabel("speed (rpm)")
     b.set_ylabel("loss (W)")
-    b.legend(fontsize=7)
+    if bottom.any():   # no point held, or no loss metered: no bars to name
+        b.legend(fontsize=7)
     b.grid(True, alpha=0.3)
     fig.suptitle(f"{summary.get('scenario', '')}: efficiency map ({summary.get('held', 0)} points held of "
                  f"{summary.get('held', 0) + summary.get('not_held', 0)})")
