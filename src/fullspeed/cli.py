@@ -15,6 +15,7 @@ import argparse
 import dataclasses
 import math
 import re
+import shlex
 import sys
 import time
 import tomllib
@@ -455,10 +456,18 @@ def _cmd_schema(args) -> int:
 
 def _cmd_new_machine(args) -> int:
 
+    # the machine's name names its outputs (identify-<name>/, <name>-xsat.toml): refused as run's and sweep's
+    # names are, not rewritten into a file name beside it (mach/motor wrote ./mach_motor.toml); the folder is --out's
+    where = "--out FILE writes the file elsewhere"
+    if Path(args.name).name and Path(args.name).name != args.name:   # a path: its last part the name, the path --out's
+        where += f": fullspeed new-machine {shlex.quote(Path(args.name).name)} --out {shlex.quote(args.name + '.toml')}"
+    safe_name(args.name, "name", what="a machine", how="a machine's name is one file name: no path separator or "
+              f"control character, not '.' or '..'; {where}")
     # a file (not a device, a FIFO or a folder), in a folder that takes one; the name's file name bounded
     path = out_file(args.out) if args.out else out_file(out_path(".", file_name(args.name), "name", suffix=".toml"), "name")
-    if path_kind(path) is not None and not args.force:
-        raise ConfigError("--out", str(path), "exists; --force to overwrite")
+    if path_kind(path) is not None and not args.force:   # named as the user gave it: --out, or the name's file
+        field, value = ("--out", args.out) if args.out else ("name", args.name)
+        raise ConfigError(field, value, f"{path} exists; --force overwrites it")
     write_atomic(path, machine_template(args.name))
     print(f"wrote {path}: fill in every \"?\"; `fullspeed schema machine` lists the optional fields")
     return 0
