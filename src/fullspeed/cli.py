@@ -436,7 +436,7 @@ def _cmd_export_fmu(args) -> int:
 
     if args.name != "fs_config":
         raise ConfigError("--name", args.name, "names the C configuration of the plain export; an FMU is named after "
-                          "its scenario (<name>-drive.fmu, <name>-system.fmu)")
+                          "its scenario (<scenario name>-drive.fmu, <scenario name>-system.fmu)")
     kinds = (["drive"] if args.fmu else []) + (["system"] if args.fmu_system else [])
     out = out_folder(args.out)
     with claim(out):
@@ -544,13 +544,14 @@ def main(argv: list[str] | None = None) -> int:
     ex = sub.add_parser("export", help="write the fs_drive_config a scenario's simulation uses as C source for a firmware")
     ex.add_argument("scenario", help="catalog name or TOML file")
     ex.add_argument("--out", required=True, help="output folder: <name>.h and <name>.c are written there")
-    ex.add_argument("--name", default="fs_config", help="the C constant and the files' name (default fs_config)")
+    ex.add_argument("--name", default="fs_config", help="the C constant and the files' name (default fs_config); "
+                    "not with --fmu, --fmu-system: an FMU is named after its scenario")
     ex.add_argument("--set", action="append", metavar="KEY=VALUE",
                     help="as run's: a scenario field, repeatable (controller.bw_current=4000)")
     ex.add_argument("--fmu", action="store_true",
-                    help="write <name>-drive.fmu instead: the drive as an FMI co-simulation unit (one step a control period)")
+                    help="write <scenario name>-drive.fmu instead: the drive as an FMI co-simulation unit (one step a control period)")
     ex.add_argument("--fmu-system", action="store_true",
-                    help="write <name>-system.fmu: plant, converter and drive as fullspeed simulates them")
+                    help="write <scenario name>-system.fmu: plant, converter and drive as fullspeed simulates them")
     ex.add_argument("--fmi", type=int, choices=[2, 3], default=3, help="the FMI version of the FMUs (default 3)")
     ex.set_defaults(func=_cmd_export)
     sch = sub.add_parser("schema", help="the scenario and machine fields: unit, default, range, meaning (docs/reference.md)")
