@@ -34,7 +34,7 @@ from .model.files import (MAX_TOML_BYTES, claim, file_name, json_safe, out_file,
                           package_names, path_kind, safe_name, write_atomic, write_json, write_npz, write_with)
 from .model.machines import catalog_names
 from .model.reference import machine_template, reference_text, section_names
-from .model.scenario import scenario_data
+from .model.scenario import check_target, scenario_data
 from .model.schema import deep_merge, parse_toml, read_toml
 
 # A command imports the layers above design when it runs (the simulator, the
@@ -225,6 +225,7 @@ def _cmd_run(args) -> int:
 def _cmd_design(args) -> int:
 
     target = args.target
+    check_target(target)
     overrides = _set_overrides(args.set)
     if target.endswith(".toml") or target in catalog_names():
         data = read_toml(target, "machine") if target.endswith(".toml") else None
@@ -342,6 +343,7 @@ def _cmd_map(args) -> int:
 
     overrides = _set_overrides(args.set)
     target = args.target
+    check_target(target)   # before the banner: one line
     name = Path(target).stem if target.endswith(".toml") else target
     out = out_folder(args.out) if args.out else out_path(OUT / "maps", name, "target", None)
     torques = tuple(args.torques) if args.torques else TORQUE_FRACTIONS
