@@ -129,3 +129,23 @@ def test_an_output_folder_that_cannot_be_one_is_refused_before_the_work(tmp_path
         assert p.returncode == 2 and "error: --out = '" in p.stderr and why in p.stderr, (cmd, p.returncode, p.stderr[-500:])
         assert len(p.stderr.strip().splitlines()) == 1 and "simulated" not in p.stdout
     assert f.read_text() == "kept"
+
+
+def test_export_help_names_the_fmu_as_it_is_written(tmp_path):
+    # the help said --fmu writes <name>-drive.fmu, yet --name is refused with --fmu: an FMU is named after its scenario
+    text = " ".join(fullspeed("export", "--help").stdout.split())
+    assert "<scenario name>-drive.fmu" in text and "<scenario name>-system.fmu" in text and "<name>-" not in text
+    assert "not with --fmu" in text
+    p = fullspeed("export", "beyond-full-range", "--fmu", "--name", "x", "--out", str(tmp_path))
+    assert p.returncode == 2 and "an FMU is named after its scenario (<scenario name>-drive.fmu" in p.stderr
+
+
+@pytest.mark.parametrize("command, says", [("design", "target = 'nosuch': unknown machine or scenario"),
+                                           ("map", "target = 'nosuch': unknown machine or scenario"),
+                                           ("run", "scenario = 'nosuch': unknown scenario")])
+def test_an_unknown_name_is_refused_as_what_the_command_takes(tmp_path, command, says):
+    # design and map take a machine or a scenario: 'unknown scenario' there sent the user to the wrong list
+    p = fullspeed(command, "nosuch", cwd=tmp_path)
+    lines = p.stderr.strip().splitlines()
+    assert p.returncode == 2 and len(lines) == 1 and says in lines[0], p.stderr
+    assert not list(tmp_path.iterdir())

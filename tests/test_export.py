@@ -19,7 +19,10 @@ from pathlib import Path
 import pytest
 
 from fullspeed import cli
-from fullspeed.workflows.export import c_float, export
+import re
+
+from fullspeed.model.errors import ConfigError
+from fullspeed.workflows.export import c_float, check_name, export
 from fullspeed.design.scenario import load_scenario
 from fullspeed.sim import build_config, ffi, lib
 
@@ -117,6 +120,51 @@ def test_cli_export_and_bad_name(tmp_path, capsys):
     assert cli.main(["export", "yang2022-hfi-iqstep", "--out", str(tmp_path), "--name", "../evil"]) == 2
     assert "--name" in capsys.readouterr().err
     assert cli.main(["export", "no-such-scenario", "--out", str(tmp_path)]) == 2
+
+
+@pytest.mark.parametrize("name, header", [("memcpy", "string.h"), ("strndup", "string.h"), ("sqrtf", "math.h"),
+                                          ("M_PI", "math.h"), ("size_t", "stddef.h"), ("uint8_t", "stdint.h"),
+                                          ("FLT_MAX", "float.h"), ("malloc", "stdlib.h"), ("printf", "stdio.h")])
+def test_a_c_library_name_is_refused_naming_its_header(name, header):
+    with pytest.raises(ConfigError) as err:
+        check_name(name)
+    assert f"<{header}>" in str(err.value) and str(err.value).startswith(f"--name = {name!r}:")
+
+
+def test_cli_refuses_memcpy_before_writing(tmp_path, capsys):
+    # was exit 0: the header's `extern const fs_drive_config memcpy;` did not compile beside <string.h>
+    assert cli.main(["export", "yang2022-hfi-iqstep", "--out", str(tmp_path / "fw"), "--name", "memcpy"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "<string.h>" in err[0] and not (tmp_path / "fw").exists()
+
+
+def _declared(header: str) -> set[str]:
+    """The identifiers the compiler's <header> declares or defines (gnu11, as a firmware
+    is built here), without the reserved ones (a leading underscore) and the keywords."""
+    src = f"#include <{header}>\n"
+    text = subprocess.run([CC, "-E", "-P", "-x", "c", "-"], input=src, capture_output=True, text=True, check=True).stdout
+    text = re.sub(r"__attribute__\s*\(\((?:[^()]|\([^()]*\))*\)\)|__asm__\s*\([^)]*\)", "", text)
+    names = set(re.findall(r"\b([A-Za-z]\w*)\s*[(;,}=]", text))   # functions, objects, typedefs, enum constants
+    given = set(subprocess.run([CC, "-dM", "-E", "-x", "c", "/dev/null"], capture_output=True, text=True).stdout.splitlines())
+    macros = subprocess.run([CC, "-dM", "-E", "-x", "c", "-"], input=src, capture_output=True, text=True).stdout
+    names |= {line.split()[1].split("(")[0] for line in macros.splitlines() if line not in given}
+    keywords = {"char", "const", "double", "float", "int", "long", "short", "signed", "unsigned", "void", "struct",
+                "union", "enum", "typedef", "extern", "static", "inline", "restrict", "volatile", "return"}
+    return {n for n in names if not n.startswith("_") and n not in keywords}
+
+
+@needs_cc
+@pytest.mark.parametrize("header", ["string.h", "math.h", "float.h", "stdint.h", "stdbool.h", "stddef.h"])
+def test_every_name_the_compilers_header_declares_is_refused(header):
+    """The refused set is the headers' as the compiler has them, not a handful of their names."""
+    accepted = []
+    for name in sorted(_declared(header)):
+        try:
+            check_name(name)
+            accepted.append(name)
+        except ConfigError:
+            pass
+    assert not accepted, f"--name accepts what <{header}> declares: {accepted}"
 
 
 def test_the_firmware_configuration_is_a_fresh_export(tmp_path):

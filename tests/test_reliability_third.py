@@ -411,11 +411,14 @@ def test_c1_names_with_del_or_beyond_the_bmp_give_toml_that_reads_back(tmp_path,
 
 def test_c2_new_machine_s_name_cannot_add_keys_to_the_template(tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    name = 'evil"\nR_s = 5 #'
+    name = 'evil" R_s = 5 #'
     assert main(["new-machine", name]) == 0
     (f,) = tmp_path.glob("*.toml")
     d = tomllib.loads(f.read_text())
     assert d["name"] == name and d["electrical"]["R_s"] == "?" and "R_s" not in d
+    # one with a line break is refused as a name holding a control character (run's, sweep's)
+    one_line_exit_2(capsys, "new-machine", 'evil"\nR_s = 5 #', words=("control character",))
+    assert len(list(tmp_path.glob("*.toml"))) == 1
 
 
 # --- W4: new-machine's names and folders --------------------------------------------------
@@ -431,6 +434,24 @@ def test_w4_new_machine_s_bad_outputs_are_one_line(tmp_path, capsys, monkeypatch
     one_line_exit_2(capsys, "new-machine", "x", "--out", "exists.toml", words=("--force",))
     assert main(["new-machine", "x", "--out", "exists.toml", "--force"]) == 0
     assert tomllib.loads((tmp_path / "exists.toml").read_text())["name"] == "x"
+
+
+@pytest.mark.parametrize("name, stem", [("mach/motor", "motor"), ("/tmp/x/abs", "abs"), ("..", None)])
+def test_new_machine_refuses_a_name_that_is_a_path_and_points_at_out(tmp_path, capsys, monkeypatch, name, stem):
+    # was exit 0: ./mach_motor.toml, ./_tmp_x_abs.toml with name = "/tmp/x/abs", no notice
+    monkeypatch.chdir(tmp_path)
+    err = one_line_exit_2(capsys, "new-machine", name, words=(f"name = {name!r}", "one file name", "--out"))
+    if stem:
+        assert f"fullspeed new-machine {stem} --out {name}.toml" in err
+    assert not list(tmp_path.iterdir())
+
+
+def test_new_machine_s_existing_file_names_it_and_force_not_an_out_never_given(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["new-machine", "servo400"]) == 0
+    err = one_line_exit_2(capsys, "new-machine", "servo400", words=("name = 'servo400'", "servo400.toml exists", "--force"))
+    assert "--out" not in err   # was "--out = 'servo400.toml': exists; --force to overwrite"
+    one_line_exit_2(capsys, "new-machine", "servo400", "--out", "servo400.toml", words=("--out = 'servo400.toml'",))
 
 
 # --- W1: --set within the limits of a file --------------------------------------------------

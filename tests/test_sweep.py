@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from fullspeed.cli import main
+from fullspeed.design.scenario import scenario_from_dict
 from fullspeed.model.errors import ConfigError
 from fullspeed.workflows.journal import JOURNAL
 from fullspeed.workflows.sweep import load_sweep, load_sweep_file, run_sweep, sweep_from_dict
@@ -72,6 +73,72 @@ def test_linked_fields_and_machine_fields_reach_the_scenario():
     data = sw.tasks()[1]["scenario"]
     assert data["load"]["speed_rpm"] == data["initial"]["speed_rpm"] == 300.0
     assert data["machine"] == {"catalog": "yang2022", "electrical": {"R_s": 0.2}}
+
+
+SERVO = """name = "servo400"
+kind = "ipmsm"
+pole_pairs = 4
+[electrical]
+R_s = 0.3
+L_d = 0.6e-3
+L_q = 0.7e-3
+psi_f = 0.011
+[mechanical]
+J = 5e-5
+[rated]
+torque = 1.27
+current = 8.0
+speed_rpm = 3000.0
+[bench]
+u_dc = 48.0
+f_pwm = 16000.0
+"""
+
+
+def own_machine_base(folder: Path) -> Path:
+    """A scenario whose machine is a file beside it (as new-machine and the README's own machine)."""
+    folder.mkdir()
+    (folder / "servo400.toml").write_text(SERVO)
+    return write_toml(folder / "servo-run.toml", {"name": "servo-run", "duration": 0.01, "machine": "servo400.toml",
+                                                  "controller": {"mode": "current"}})
+
+
+@pytest.mark.parametrize("here", [".", "scen"])
+def test_a_machine_file_beside_the_base_takes_machine_axes_and_overrides(tmp_path, here):
+    # the sweep in another folder than its base or beside it: the machine file is found beside the
+    # base, and the axis and the override go into the file's machine (they were refused: the file
+    # not found, or 'machine.catalog = servo400.toml: unknown machine')
+    base = own_machine_base(tmp_path / "scen")
+    sw = sweep_from_dict({"name": "own", "base": str(base), "overrides": {"machine": {"bench": {"f_pwm": 10000.0}}},
+                          "axes": {"machine.electrical.R_s": [0.3, 0.4]}}, str(tmp_path / here / "sw.toml"), tmp_path / here)
+    data = sw.tasks()[1]["scenario"]
+    assert data["machine"]["name"] == "servo400" and data["machine"]["electrical"]["R_s"] == 0.4
+    assert data["machine"]["electrical"]["L_q"] == 0.7e-3 and data["machine"]["bench"]["f_pwm"] == 10000.0
+    sc = scenario_from_dict(data, sw.base_source, warn=False)
+    assert sc.machine.name == "servo400" and sc.machine.R_s == 0.4
+
+
+def test_the_own_machine_example_sweeps_its_machine_from_another_folder(tmp_path):
+    base = Path(__file__).resolve().parents[1] / "examples" / "own-machine" / "my48v-full-range.toml"
+    sw = sweep_from_dict({"name": "own", "base": str(base), "overrides": {"duration": 1.0},
+                          "axes": {"machine.mechanical.J": [4e-4, 8e-4]}}, str(tmp_path / "sw.toml"), tmp_path)
+    sc = scenario_from_dict(sw.tasks()[1]["scenario"], sw.base_source, warn=False)
+    assert sc.machine.name == "my48v" and sc.machine.J == 8e-4
+
+
+def test_sweep_set_merges_a_machine_field_into_the_machine_file(tmp_path, capsys):
+    base = own_machine_base(tmp_path / "scen")
+    sw = write_toml(base.parent / "sw.toml", {"name": "own-set", "base": base.name, "metrics": ["i_q_error_rms"],
+                                           "axes": {"references.i_q": [0.5, 1.0]}})
+    # was refused: 'missing required fields: machine.name, kind, ...' (the file replaced by the one field)
+    assert main(["sweep", str(sw), "--set", "machine.mechanical.J=1e-4", "--out", str(tmp_path / "o"),
+                 "--workers", "1", "--quiet"]) == 0, capsys.readouterr().err
+    assert list(load_sweep(tmp_path / "o")["stop_reason"]) == ["done", "done"]
+    capsys.readouterr()
+    # the value reaches the file's machine: one it refuses is its refusal
+    assert main(["sweep", str(sw), "--set", "machine.mechanical.J=-1.0", "--out", str(tmp_path / "o2")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "J = -1.0" in err[0] and "missing required" not in err[0], err
 
 
 def test_same_seed_same_draws_other_seed_other_draws():

@@ -15,6 +15,7 @@ import argparse
 import dataclasses
 import math
 import re
+import shlex
 import sys
 import time
 import tomllib
@@ -33,7 +34,7 @@ from .model.files import (MAX_TOML_BYTES, claim, file_name, json_safe, out_file,
                           package_names, path_kind, safe_name, write_atomic, write_json, write_npz, write_with)
 from .model.machines import catalog_names
 from .model.reference import machine_template, reference_text, section_names
-from .model.scenario import scenario_data
+from .model.scenario import check_target, scenario_data
 from .model.schema import deep_merge, parse_toml, read_toml
 
 # A command imports the layers above design when it runs (the simulator, the
@@ -224,6 +225,7 @@ def _cmd_run(args) -> int:
 def _cmd_design(args) -> int:
 
     target = args.target
+    check_target(target)
     overrides = _set_overrides(args.set)
     if target.endswith(".toml") or target in catalog_names():
         data = read_toml(target, "machine") if target.endswith(".toml") else None
@@ -341,6 +343,7 @@ def _cmd_map(args) -> int:
 
     overrides = _set_overrides(args.set)
     target = args.target
+    check_target(target)   # before the banner: one line
     name = Path(target).stem if target.endswith(".toml") else target
     out = out_folder(args.out) if args.out else out_path(OUT / "maps", name, "target", None)
     torques = tuple(args.torques) if args.torques else TORQUE_FRACTIONS
@@ -443,7 +446,7 @@ def _cmd_export_fmu(args) -> int:
 
     if args.name != "fs_config":
         raise ConfigError("--name", args.name, "names the C configuration of the plain export; an FMU is named after "
-                          "its scenario (<name>-drive.fmu, <name>-system.fmu)")
+                          "its scenario (<scenario name>-drive.fmu, <scenario name>-system.fmu)")
     kinds = (["drive"] if args.fmu else []) + (["system"] if args.fmu_system else [])
     out = out_folder(args.out)
     with claim(out):
@@ -463,10 +466,18 @@ def _cmd_schema(args) -> int:
 
 def _cmd_new_machine(args) -> int:
 
+    # the machine's name names its outputs (identify-<name>/, <name>-xsat.toml): refused as run's and sweep's
+    # names are, not rewritten into a file name beside it (mach/motor wrote ./mach_motor.toml); the folder is --out's
+    where = "--out FILE writes the file elsewhere"
+    if Path(args.name).name and Path(args.name).name != args.name:   # a path: its last part the name, the path --out's
+        where += f": fullspeed new-machine {shlex.quote(Path(args.name).name)} --out {shlex.quote(args.name + '.toml')}"
+    safe_name(args.name, "name", what="a machine", how="a machine's name is one file name: no path separator or "
+              f"control character, not '.' or '..'; {where}")
     # a file (not a device, a FIFO or a folder), in a folder that takes one; the name's file name bounded
     path = out_file(args.out) if args.out else out_file(out_path(".", file_name(args.name), "name", suffix=".toml"), "name")
-    if path_kind(path) is not None and not args.force:
-        raise ConfigError("--out", str(path), "exists; --force to overwrite")
+    if path_kind(path) is not None and not args.force:   # named as the user gave it: --out, or the name's file
+        field, value = ("--out", args.out) if args.out else ("name", args.name)
+        raise ConfigError(field, value, f"{path} exists; --force overwrites it")
     write_atomic(path, machine_template(args.name))
     print(f"wrote {path}: fill in every \"?\"; `fullspeed schema machine` lists the optional fields")
     return 0
@@ -543,13 +554,14 @@ def main(argv: list[str] | None = None) -> int:
     ex = sub.add_parser("export", help="write the fs_drive_config a scenario's simulation uses as C source for a firmware")
     ex.add_argument("scenario", help="catalog name or TOML file")
     ex.add_argument("--out", required=True, help="output folder: <name>.h and <name>.c are written there")
-    ex.add_argument("--name", default="fs_config", help="the C constant and the files' name (default fs_config)")
+    ex.add_argument("--name", default="fs_config", help="the C constant and the files' name (default fs_config); "
+                    "not with --fmu, --fmu-system: an FMU is named after its scenario")
     ex.add_argument("--set", action="append", metavar="KEY=VALUE",
                     help="as run's: a scenario field, repeatable (controller.bw_current=4000)")
     ex.add_argument("--fmu", action="store_true",
-                    help="write <name>-drive.fmu instead: the drive as an FMI co-simulation unit (one step a control period)")
+                    help="write <scenario name>-drive.fmu instead: the drive as an FMI co-simulation unit (one step a control period)")
     ex.add_argument("--fmu-system", action="store_true",
-                    help="write <name>-system.fmu: plant, converter and drive as fullspeed simulates them")
+                    help="write <scenario name>-system.fmu: plant, converter and drive as fullspeed simulates them")
     ex.add_argument("--fmi", type=int, choices=[2, 3], default=3, help="the FMI version of the FMUs (default 3)")
     ex.set_defaults(func=_cmd_export)
     sch = sub.add_parser("schema", help="the scenario and machine fields: unit, default, range, meaning (docs/reference.md)")

@@ -117,12 +117,14 @@ def read_text(path: str | Path, field: str, source: str | None = None, limit: in
         raise ConfigError(field, str(path), f"is not UTF-8 text (TOML is UTF-8): byte {exc.start}", source) from None
 
 
-def safe_name(name, field: str, source: str | None = None) -> str:
+def safe_name(name, field: str, source: str | None = None, what: str = "an output",
+              how: str = "set another name, or give --out") -> str:
     """name as one path component, unchanged, or a ConfigError: no NUL or
     control characters, no separators, not '.', '..' or empty, at most
-    MAX_NAME_BYTES bytes of UTF-8."""
+    MAX_NAME_BYTES bytes of UTF-8. what it would name and how to go on are
+    the refusal's."""
     def refuse(why: str):
-        raise ConfigError(field, name, f"cannot name an output: {why} (set another name, or give --out)", source)
+        raise ConfigError(field, name, f"cannot name {what}: {why} ({how})", source)
 
     if not isinstance(name, str) or not name:
         refuse("it must be a non-empty string")

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from .errors import ConfigError, MissingFields
 from .files import package_names, path_kind
-from .machines import MACHINE, Machine, catalog_data, parse_machine
+from .machines import MACHINE, Machine, catalog_data, catalog_names, parse_machine
 from .schema import MISSING, B, C, F, I, N, NONNEG, POS, P, S, Spec, T, deep_merge, even_grid, finite_number, parse_toml, read_toml, validate
 from .zoo import SEED as ZOO_SEED
 from .zoo import machine as zoo_machine
@@ -510,14 +510,30 @@ def scenario_data(name_or_path: str | Path, overrides: dict | None = None) -> tu
         source = f"scenarios/{name_or_path}.toml"
         data = parse_toml((resources.files("fullspeed") / "scenarios" / f"{name_or_path}.toml").read_text(), "toml", source)
     if overrides:
-        base = data.get("machine")
-        if isinstance(base, str) and isinstance(overrides.get("machine"), dict) \
-                and not {"catalog", "zoo"} & set(overrides["machine"]):
-            # a field of a named machine (--set machine.bench.f_pwm=20000): merged into that
-            # machine, not replacing the name with a table of the one field
-            data = {**data, "machine": _machine_table(base, source)}
-        data = deep_merge(data, overrides)
+        data = with_overrides(data, overrides, source)
     return data, source
+
+
+def with_overrides(data: dict, overrides: dict, source) -> dict:
+    """overrides (--set, a sweep's [overrides] and axes) merged into a
+    scenario's table read from source. A field of a machine given by name
+    (machine.bench.f_pwm = 20000) is merged into that machine, a catalog one
+    or a file beside the scenario, not replacing the name with a table of
+    the one field; a catalog or zoo machine the overrides name replaces it."""
+    base = data.get("machine")
+    if isinstance(base, str) and isinstance(overrides.get("machine"), dict) \
+            and not {"catalog", "zoo"} & set(overrides["machine"]):
+        data = {**data, "machine": _machine_table(base, source)}
+    return deep_merge(data, overrides)
+
+
+def check_target(target: str) -> None:
+    """A command's target that may be a machine or a scenario (design, map):
+    a name that is neither, nor a file, is refused as that, not as an
+    unknown scenario."""
+    if not target.endswith(".toml") and path_kind(target) is None and target not in scenario_names() \
+            and target not in catalog_names():
+        raise ConfigError("target", target, "unknown machine or scenario; `fullspeed list` shows the catalog", None)
 
 
 def _machine_table(raw: str, source) -> dict:

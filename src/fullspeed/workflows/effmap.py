@@ -41,7 +41,7 @@ from ..model.errors import ConfigError  # noqa: E402
 from ..model.files import write_json, write_with  # noqa: E402
 from ..model.fluxmap import interp  # noqa: E402
 from ..model.machines import catalog_names  # noqa: E402
-from ..model.scenario import Scenario, scenario_data, scenario_names  # noqa: E402
+from ..model.scenario import Scenario, check_target, scenario_data, scenario_names  # noqa: E402
 from ..model.schema import deep_merge, read_toml  # noqa: E402
 from ..model.units import rad_s_to_rpm, rpm_to_rad_s  # noqa: E402
 from ..sim.metrics import window_mask  # noqa: E402
@@ -97,6 +97,7 @@ def base_data(target: str, overrides: dict | None = None) -> tuple[dict, str]:
     """The map's base scenario: a scenario (catalog name or file) as given,
     or, for a machine (catalog name or machine file), speed control on the
     encoder with flux weakening on the machine's bench."""
+    check_target(target)
     p = Path(target)
     if p.suffix == ".toml":
         table = read_toml(p, "target")

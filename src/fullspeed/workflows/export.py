@@ -115,25 +115,62 @@ C_KEYWORDS = frozenset("""
     _Alignas _Alignof _Atomic _BitInt _Bool _Complex _Decimal128 _Decimal32 _Decimal64 _Generic _Imaginary
     _Noreturn _Static_assert _Thread_local alignas alignof bool constexpr false nullptr static_assert
     thread_local true typeof typeof_unqual asm fortran""".split())   # C23's too, and the common extensions
-# What the generated files include (<math.h>, <stddef.h>; <stdint.h> and
-# <stdbool.h> through fs_types.h) declares or defines, with glibc's extras of
-# <math.h> (compiled as gnu11, without -std=c*), and the names a program
-# must not give an object (main, errno, the standard streams).
+# The C library's identifiers by the header that declares them: the headers
+# the generated files and csrc/control include (<math.h>, <stddef.h>,
+# <float.h>; <stdint.h> and <stdbool.h> through fs_types.h) and those a
+# firmware's sources beside them commonly do (<string.h>, <stdlib.h>,
+# <stdio.h>: `extern const fs_drive_config memcpy;` does not compile next to
+# <string.h>). The C standard's names with what glibc declares by default
+# (gnu11, no -std=c*: POSIX and BSD extras); tests/test_export.py checks the
+# first six against the compiler's headers.
 _MATH = """acos asin atan atan2 cos sin tan acosh asinh atanh cosh sinh tanh exp exp2 expm1 frexp ilogb ldexp log
     log10 log1p log2 logb modf scalbn scalbln cbrt fabs hypot pow sqrt erf erfc lgamma tgamma ceil floor nearbyint
     rint lrint llrint round lround llround trunc fmod remainder remquo copysign nan nextafter nexttoward fdim fmax
     fmin fma exp10 pow10 drem gamma significand scalb sincos finite isinf isnan j0 j1 jn y0 y1 yn lgamma_r""".split()
-C_LIBRARY = frozenset([*_MATH, *(f + s for f in _MATH for s in "fl"), *"""
-    NULL offsetof size_t ptrdiff_t wchar_t max_align_t nullptr_t unreachable main errno assert stdin stdout stderr
-    EOF NAN INFINITY HUGE_VAL HUGE_VALF HUGE_VALL FP_NAN FP_INFINITE FP_ZERO FP_SUBNORMAL FP_NORMAL FP_FAST_FMA
-    FP_FAST_FMAF FP_FAST_FMAL FP_ILOGB0 FP_ILOGBNAN MATH_ERRNO MATH_ERREXCEPT math_errhandling float_t double_t
-    fpclassify isfinite isnormal signbit isgreater isgreaterequal isless islessequal islessgreater isunordered
-    M_E M_LOG2E M_LOG10E M_LN2 M_LN10 M_PI M_PI_2 M_PI_4 M_1_PI M_2_PI M_2_SQRTPI M_SQRT2 M_SQRT1_2 MAXFLOAT
-    signgam true false bool __bool_true_false_are_defined""".split()])
-# Whole families of names: what <stdint.h> and <math.h> define by pattern,
-# and what C reserves at file scope (a leading underscore, C11 7.1.3).
-C_FAMILIES = re.compile(r"_.*|u?int\w*_t|U?INT\w*_(?:MAX|MIN|C|WIDTH)|(?:SIZE|PTRDIFF|SIG_ATOMIC|WCHAR|WINT)_(?:MAX|MIN|WIDTH)"
-                        r"|(?:FP|MATH)_[A-Z].*")
+C_LIBRARY_BY_HEADER = {
+    "stddef.h": "NULL offsetof size_t ptrdiff_t wchar_t max_align_t nullptr_t unreachable",
+    "stdbool.h": "bool true false __bool_true_false_are_defined",
+    "stdint.h": "",   # its names are families (C_FAMILIES)
+    "float.h": "DECIMAL_DIG",   # and the FLT_, DBL_, LDBL_ family
+    "math.h": " ".join([*_MATH, *(f + s for f in _MATH for s in "fl"), *(f"lgamma{s}_r" for s in "fl"), *"""
+        NAN INFINITY HUGE_VAL HUGE_VALF HUGE_VALL float_t double_t fpclassify isfinite isnormal signbit isgreater
+        isgreaterequal isless islessequal islessgreater isunordered math_errhandling M_E M_LOG2E M_LOG10E M_LN2 M_LN10
+        M_PI M_PI_2 M_PI_4 M_1_PI M_2_PI M_2_SQRTPI M_SQRT2 M_SQRT1_2 MAXFLOAT signgam""".split()]),
+    "string.h": """NULL size_t locale_t memchr memcmp memcpy memmove memset memccpy memmem mempcpy memrchr memset_explicit
+        strcat strchr strcmp strcoll strcpy strcspn strdup strerror strlen strncat strncmp strncpy strndup strnlen
+        strpbrk strrchr strspn strstr strtok strxfrm strcasecmp strncasecmp strcasecmp_l strncasecmp_l strcoll_l
+        strxfrm_l strerror_l strerror_r strsep strsignal strtok_r stpcpy stpncpy strlcpy strlcat bcmp bcopy bzero
+        explicit_bzero ffs ffsl ffsll index rindex""",
+    "stdlib.h": """NULL size_t wchar_t div_t ldiv_t lldiv_t EXIT_FAILURE EXIT_SUCCESS MB_CUR_MAX RAND_MAX abort abs
+        aligned_alloc at_quick_exit atexit atof atoi atol atoll bsearch call_once calloc div exit free free_sized
+        free_aligned_sized getenv labs ldiv llabs lldiv malloc mblen mbstowcs mbtowc memalignment once_flag qsort
+        quick_exit rand realloc srand strfromd strfromf strfroml strtod strtof strtol strtold strtoll strtoul
+        strtoull system wcstombs wctomb a64l l64a alloca arc4random arc4random_buf arc4random_uniform clearenv drand48
+        erand48 jrand48 lrand48 mrand48 nrand48 seed48 srand48 lcong48 ecvt fcvt gcvt qecvt qfcvt qgcvt getloadavg
+        getsubopt initstate setstate random srandom rand_r mkdtemp mkstemp mkstemps mktemp on_exit posix_memalign
+        putenv setenv unsetenv realpath reallocarray rpmatch strtoq strtouq valloc""",
+    "stdio.h": """NULL size_t FILE fpos_t va_list BUFSIZ EOF FILENAME_MAX FOPEN_MAX L_tmpnam L_ctermid P_tmpdir SEEK_CUR
+        SEEK_END SEEK_SET TMP_MAX stdin stdout stderr clearerr fclose feof ferror fflush fgetc fgetpos fgets fopen
+        fprintf fputc fputs fread freopen fscanf fseek fsetpos ftell fwrite getc getchar gets perror printf putc
+        putchar puts remove rename rewind scanf setbuf setvbuf snprintf sprintf sscanf tmpfile tmpnam ungetc
+        vfprintf vfscanf vprintf vscanf vsnprintf vsprintf vsscanf ctermid dprintf fdopen fileno flockfile fmemopen
+        fseeko ftello ftrylockfile funlockfile getdelim getline getw open_memstream pclose popen putw renameat
+        setbuffer setlinebuf tempnam tmpnam_r vdprintf clearerr_unlocked feof_unlocked ferror_unlocked
+        fflush_unlocked fgetc_unlocked fileno_unlocked fputc_unlocked fread_unlocked fwrite_unlocked getc_unlocked
+        getchar_unlocked putc_unlocked putchar_unlocked off_t ssize_t""",
+    "errno.h": "errno",
+    "assert.h": "assert static_assert",
+}
+# name -> its header, the first that declares it in the order above
+C_LIBRARY = {n: h for h, names in reversed(C_LIBRARY_BY_HEADER.items()) for n in names.split()}
+# Whole families of names, with the header that defines them: what <stdint.h>,
+# <math.h> and <float.h> define by pattern, and what C reserves at file scope
+# (a leading underscore, C11 7.1.3; None).
+C_FAMILIES = ((re.compile(r"_.*"), None),
+              (re.compile(r"u?int\w*_t|U?INT\w*_(?:MAX|MIN|C|WIDTH)|(?:SIZE|PTRDIFF|SIG_ATOMIC|WCHAR|WINT)_(?:MAX|MIN|WIDTH)"),
+               "stdint.h"),
+              (re.compile(r"(?:FP|MATH)_[A-Z].*"), "math.h"),
+              (re.compile(r"(?:FLT|DBL|LDBL)_[A-Z]\w*"), "float.h"))
 # The C library's headers: NAME.h beside the source would shadow one of them (-I the export's folder)
 C_HEADERS = frozenset("""assert complex ctype errno fenv float inttypes iso646 limits locale math setjmp signal
     stdalign stdarg stdatomic stdbit stdbool stdckdint stddef stdint stdio stdlib stdnoreturn string tgmath threads
@@ -165,12 +202,16 @@ def check_name(name) -> str:
         what = "it" if n == name else f"the macro {n} made from it"
         if n in C_KEYWORDS:
             refuse(f"{what} is a C keyword")
+        if n == "main":
+            refuse(f"{what} is the program's entry point")
         if n in C_LIBRARY:
-            refuse(f"{what} is declared or defined by the C library the files include")
+            refuse(f"{what} is declared by the C library's <{C_LIBRARY[n]}>, which a firmware's sources include")
         if n in project_names():
             refuse(f"{what} is an identifier of the C core (csrc/control)")
-        if C_FAMILIES.fullmatch(n):
-            refuse(f"{what} is of a family of names C reserves, or <stdint.h> or <math.h> defines")
+        for family, header in C_FAMILIES:
+            if family.fullmatch(n):
+                refuse(f"{what} is of a family of names <{header}> defines" if header else
+                       f"{what} begins with an underscore, which C reserves at file scope")
     return name
 
 

@@ -37,8 +37,8 @@ import numpy as np
 from ..design.scenario import scenario_from_dict
 from ..model.errors import ConfigError, MissingFields
 from ..model.files import package_names, path_kind, write_json, write_with
-from ..model.scenario import SCENARIO, scenario_names
-from ..model.schema import deep_merge, finite_number, parse_toml, read_toml
+from ..model.scenario import SCENARIO, scenario_names, with_overrides
+from ..model.schema import finite_number, parse_toml, read_toml
 from ..sim.metrics import METRIC_NAMES, flat_metrics
 from ..sim.plots import plot_sweep
 from ..sim.runner import simulate
@@ -101,12 +101,24 @@ class Sweep:
                 out.append(p)
         return out
 
+    def merged(self) -> dict:
+        """The base with the overrides, as run's --set merges them (a field
+        of a machine given by name goes into that machine, a file resolved
+        beside the base); where an axis sets a field of that machine, the
+        machine as its table once here, not its file read at every point."""
+        data = with_overrides(self.base, self.overrides, self.base_source)
+        keys = {f.split(".")[1] for a in self.axes for f in a.fields if f.startswith("machine.")}
+        if keys and not {"catalog", "zoo"} & keys:
+            data = with_overrides(data, {"machine": {}}, self.base_source)   # no field: the machine as its table
+        return data
+
     def tasks(self) -> list[dict]:
         tasks = []
+        base = self.merged()
         for p in self.points():
-            data = deep_merge(self.base, self.overrides)
+            data = base
             for a in self.axes:
-                data = _set_axis(data, a, p[a.name])
+                data = _set_axis(data, a, p[a.name], self.base_source)
             tasks.append({"scenario": data, "source": self.base_source, "metrics": self.metrics})
         return tasks
 
@@ -119,16 +131,10 @@ def _draw(rng: np.random.Generator, a: Axis):
     return int(rng.integers(a.params[0], a.params[1], endpoint=True))
 
 
-def _nested(dotted: str, value, data: dict) -> dict:
-    """{"a": {"b": value}} for "a.b"; a catalog machine given by name becomes
-    {catalog = name} so that its fields can be overridden."""
-    keys = dotted.split(".")
-    if keys[0] == "machine" and len(keys) > 1 and isinstance(data.get("machine"), str):
-        value_tree = {"catalog": data["machine"]}
-        value_tree = deep_merge(value_tree, _nested(".".join(keys[1:]), value, {}))
-        return {"machine": value_tree}
+def _nested(dotted: str, value) -> dict:
+    """{"a": {"b": value}} for "a.b"."""
     out = value
-    for k in reversed(keys):
+    for k in reversed(dotted.split(".")):
         out = {k: out}
     return out
 
@@ -267,21 +273,24 @@ def check_points(sw: Sweep, source: str) -> None:
     chosen the same way: refused when none of them is valid (a distribution
     beyond the field's range); one that is partly valid runs, a draw the
     scenario refuses being its point's error row (a tail past a limit)."""
-    data = deep_merge(sw.base, sw.overrides)   # each checked for its refusal alone: no warning formed
+    # each checked for its refusal alone: no warning formed; a file the base names is found beside
+    # the base, as its points run (run_point), and a refusal names the sweep
+    base = sw.base_source
     try:
-        scenario_from_dict(data, source, warn=False)
+        data = sw.merged()
+        scenario_from_dict(data, base, warn=False)
     except ConfigError as exc:
         raise _noted(exc, "the base with its overrides", source) from None
     for a in sw.grid:
         for v in _checked(a.values):
             try:
-                scenario_from_dict(_set_axis(data, a, v), source, warn=False)
+                scenario_from_dict(_set_axis(data, a, v, base), base, warn=False)
             except ConfigError as exc:
                 raise _noted(exc, f"axes.{a.name} = {v!r}", source) from None
     points = sw.points() if any(a.random for a in sw.axes) else []
     for a in sw.axes:
         if a.random:
-            _check_draws(data, a, _checked(tuple(p[a.name] for p in points)), source)
+            _check_draws(data, a, _checked(tuple(p[a.name] for p in points)), source, base)
 
 
 def _noted(exc: ConfigError, where: str, source: str) -> ConfigError:
@@ -290,13 +299,13 @@ def _noted(exc: ConfigError, where: str, source: str) -> ConfigError:
     return ConfigError(exc.field, exc.value, f"{exc.allowed} ({where})", source)
 
 
-def _check_draws(data: dict, a: Axis, draws: list, source: str) -> None:
+def _check_draws(data: dict, a: Axis, draws: list, source: str, base: str) -> None:
     """At least one of a random axis's draws is a valid scenario, else the
     axis's refusal: its distribution, the first draw and what the field allows."""
     first = None
     for v in draws:
         try:
-            scenario_from_dict(_set_axis(data, a, v), source, warn=False)
+            scenario_from_dict(_set_axis(data, a, v, base), base, warn=False)
             return
         except ConfigError as exc:
             first = first or (v, exc)
@@ -317,9 +326,9 @@ def _checked(values: tuple) -> list:
     return [values[k] for k in sorted(picks)]
 
 
-def _set_axis(data: dict, a: Axis, value) -> dict:
+def _set_axis(data: dict, a: Axis, value, source: str) -> dict:
     for f in a.fields:
-        data = deep_merge(data, _nested(f, value, data))
+        data = with_overrides(data, _nested(f, value), source)
     return data
 
 
