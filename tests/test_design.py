@@ -96,6 +96,16 @@ def test_design_command_prints_each_value_and_its_reason(tmp_path):
     assert p.returncode == 0 and "polarity.enabled" in p.stderr and "linear" in p.stderr, p.stderr
 
 
+def test_design_of_a_machine_with_a_square_wave_injection_designs_it(tmp_path):
+    """yu2022's machine file gives a square-wave injection (f_h a quarter of
+    the sampling rate): `design yu2022` designs that drive, not the blend's
+    rotating carrier, which cannot take its f_h (exit 2 on float32 rounding)."""
+    p = subprocess.run([sys.executable, "-m", "fullspeed", "design", "yu2022", "--out", str(tmp_path / "o")],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert "estimators (controller.angle = swvi;" in p.stdout and "the square wave has no polarity detection" in p.stdout
+
+
 def test_design_command_shows_the_estimators_forms_and_takes_set(tmp_path):
     """The forms the estimators run with (the defaults a user would not see
     in the scenario) are printed with their values; --set changes them, and

@@ -32,7 +32,7 @@ from .design.scenario import load_scenario, scenario_from_dict
 from .model.errors import ConfigError, EngineError, SimulationError, one_line
 from .model.files import (MAX_TOML_BYTES, claim, file_name, json_safe, out_file, out_folder, out_path, owned_folder,
                           package_names, path_kind, safe_name, write_atomic, write_json, write_npz, write_with)
-from .model.machines import catalog_names
+from .model.machines import catalog_data, catalog_names
 from .model.reference import machine_template, reference_text, section_names
 from .model.scenario import check_target, scenario_data
 from .model.schema import deep_merge, parse_toml, read_toml
@@ -232,9 +232,13 @@ def _cmd_design(args) -> int:
         if data is not None and "machine" in data:   # a scenario file
             sc = load_scenario(target, overrides)
         else:
+            # the sensorless drive on the machine's own injection: a square wave's (yu2022's, its f_h a quarter of
+            # the sampling rate, which a rotating carrier cannot take), else the blend
+            table = data if data is not None else catalog_data(target)
+            angle = "swvi" if (table.get("injection") or {}).get("kind") == "square" else "blend"
             sc = scenario_from_dict(deep_merge({"name": f"design-{Path(target).stem}", "duration": 1.0,
                                                 "machine": str(Path(target).resolve()) if data is not None else target,
-                                                "controller": {"mode": "speed", "angle": "blend", "flux_weakening": True}},
+                                                "controller": {"mode": "speed", "angle": angle, "flux_weakening": True}},
                                                overrides), target)
     else:
         sc = load_scenario(target, overrides)
