@@ -447,6 +447,30 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
 }
 
 
+/* The encoder's PLL at the drive's first two readings: the angle from the
+ * first; from the second the speed, the turn since the first (the PLL's
+ * angle, a step at zero speed ago). A rotor already turning as the drive
+ * starts (a flying start, a map's point at its speed) had the PLL rise from
+ * zero at its bandwidth, the loops without the EMF's feed-forward
+ * meanwhile: the README's 48 V example at 4500 rpm tripped on overcurrent
+ * in 1.8 ms. And the speed loop from there without a bump (no torque yet):
+ * its first step had read zero speed, and its proportional path then asked
+ * that rotor for the current limit's braking torque. A rotor at rest gives
+ * 0, as before. */
+static void drive_pll_start(fs_drive *drv, float theta_enc)
+{
+    const fs_drive_config *c = &drv->cfg;
+    if (!drv->pll_started) {
+        fs_pll_reset(&drv->pll, theta_enc, 0.0f);
+        drv->pll_started = true;
+    } else {
+        const float w0 = fs_wrap_pi(theta_enc - drv->pll.theta) / c->Ts;
+        fs_pll_reset(&drv->pll, theta_enc, w0);
+        drv->pll_seeded = true;
+        if ((w0 != 0.0f) && (c->mode == (int)FS_MODE_SPEED)) { fs_speed_ctrl_preset(&drv->sc, w0 / (float)c->pole_pairs, 0.0f); }
+    }
+}
+
 /* Angle and speed from the external input or the encoder (the PLL gives the speed). */
 static void drive_sensor_angle(fs_drive *drv, const fs_drive_in *in, float *theta, float *w)
 {
@@ -457,23 +481,7 @@ static void drive_sensor_angle(fs_drive *drv, const fs_drive_in *in, float *thet
         return;
     }
     float theta_enc = fs_wrap_pi((float)c->pole_pairs * in->theta_m_enc);
-    if (!drv->pll_started) {
-        fs_pll_reset(&drv->pll, theta_enc, 0.0f);
-        drv->pll_started = true;
-    } else if (!drv->pll_seeded) {
-        /* the second reading: the speed from the turn since the first (the PLL's angle, a step at zero speed
-         * ago). A rotor already turning as the drive starts (a flying start, a map's point at its speed) had
-         * the PLL rise from zero at its bandwidth, the loops without the EMF's feed-forward meanwhile: the
-         * README's 48 V example at 4500 rpm tripped on overcurrent in 1.8 ms. A rotor at rest gives 0, as before. */
-        const float w0 = fs_wrap_pi(theta_enc - drv->pll.theta) / c->Ts;
-        fs_pll_reset(&drv->pll, theta_enc, w0);
-        drv->pll_seeded = true;
-        /* and the speed loop from there without a bump (no torque yet): its first step had read zero speed, and
-         * its proportional path then asked the example's rotor at 4500 rpm for the current limit's braking torque */
-        if ((w0 != 0.0f) && (c->mode == (int)FS_MODE_SPEED)) { fs_speed_ctrl_preset(&drv->sc, w0 / (float)c->pole_pairs, 0.0f); }
-    } else {
-        /* tracking */
-    }
+    if (!drv->pll_seeded) { drive_pll_start(drv, theta_enc); }
     /* The PLL's angle is its prediction for this sample. */
     (void)fs_pll_step(&drv->pll, fs_wrap_pi(theta_enc - drv->pll.theta));
     *theta = theta_enc;
