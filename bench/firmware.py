@@ -194,7 +194,10 @@ def _link_image(tools: dict, sources: list[Path], firmware: Path, control: Path,
     trim = work / f"options{'' if opt == 'O2' else '-' + opt}"
     trim.mkdir(exist_ok=True)
     lib_objs = [compile_c(tools, src, trim / (src.stem + ".o"), flags=[*o, *OPTIONS, *LTO]) for src in sources]
-    app_objs = [compile_c(tools, src, trim / ("app_" + src.stem + ".o"), include=[control, Path(firmware)], flags=[*o, *LTO])
+    # the firmware's own sources with the library's options: they read fs_drive.h's FS_WITH_* too (an exported
+    # configuration checks them, workflows/export.capabilities: one that uses what the build leaves out fails here)
+    app_objs = [compile_c(tools, src, trim / ("app_" + src.stem + ".o"), include=[control, Path(firmware)],
+                          flags=[*o, *OPTIONS, *LTO])
                 for src in sorted(Path(firmware).glob("*.c"))]
     image = work / ("firmware.elf" if opt == "O2" else f"firmware-{opt}.elf")
     _run([tools["gcc"], *[f"-{opt}" if f == "-O2" else f for f in LDFLAGS], *LTO,

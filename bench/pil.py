@@ -812,16 +812,12 @@ def loop_verdict(r: dict) -> dict:
 
 def firmware_leaves_out(scenario: str) -> str | None:
     """What of a scenario the firmware's build (bench/firmware.py's OPTIONS)
-    leaves out, or None: its drive would be refused there at init."""
+    leaves out, or None: its drive would be refused there at init (and the
+    export's source fails that build: workflows/export.capabilities)."""
     from fullspeed.design.scenario import load_scenario
-    sc = load_scenario(scenario)
-    d = sc.data
-    out = [what for what, used in (("the matrix converter", d["converter"]["kind"] == "imc"),
-                                   ("five phases", sc.machine.phases == 5),
-                                   ("square-wave injection", d["controller"]["angle"] == "swvi"),
-                                   ("a flux map", sc.machine.magnetic["model"] == "fluxmap"),
-                                   ("the motion test", d["start"]["kind"] == "motion"),
-                                   ("the I/f start", d["observer"]["start"] == "if")) if used]
+    from fullspeed.workflows.export import capabilities
+    off = {o[2:].split("=")[0] for o in fw.OPTIONS if o.endswith("=0")}
+    out = [what for macro, what in capabilities(load_scenario(scenario)) if macro in off]
     return ", ".join(out) or None
 
 

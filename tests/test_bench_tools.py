@@ -219,3 +219,24 @@ def test_missing_valgrind_is_a_skip(monkeypatch, capsys):
     assert ins.main([]) == 0
     out = capsys.readouterr().out.strip().splitlines()
     assert len(out) == 1 and "valgrind" in out[0] and "skipped" in out[0]
+
+
+@needs_arm
+def test_a_firmware_whose_drive_uses_what_the_build_leaves_out_fails_naming_it(tmp_path, capsys):
+    """A new user's firmware: a copy of firmware/ with their export, a drive that
+    starts by the motion test, which the build's options leave out. The build
+    fails naming the option (it said "goal met", and the drive would have been
+    refused at fs_drive_init on the board)."""
+    import shutil
+
+    from fullspeed.workflows.export import export
+    mine = tmp_path / "my-fw"
+    shutil.copytree(ROOT / "firmware", mine)
+    scen = tmp_path / "mine.toml"
+    scen.write_text('name = "mine"\nduration = 1.0\nmachine = "yang2022"\n[start]\nmethod = "motion"\n'
+                    '[controller]\nmode = "speed"\nangle = "blend"\n[references]\nspeed_rpm = 300.0\n')
+    export(str(scen), mine, "fs_config")
+    assert "-DFS_WITH_MOTION_TEST=0" in fw.OPTIONS
+    assert fw.main(["--firmware", str(mine)]) == 1
+    out = capsys.readouterr().out
+    assert "FAIL: compiling fs_config.c" in out and "motion test" in out and "FS_WITH_MOTION_TEST=1" in out

@@ -179,8 +179,11 @@ def test_the_firmware_configuration_is_a_fresh_export(tmp_path):
 @needs_cc
 def test_exported_configs_initialise_and_options_refuse_what_they_leave_out(tmp_path):
     """The export through the C library end to end: fs_drive_init accepts each exported
-    configuration (config_size included); built with -DFS_WITH_SWVI=0 it refuses the
-    square wave's, naming angle_source, and still accepts the blend's."""
+    configuration (config_size included). Built with -DFS_WITH_SWVI=0, the square wave's
+    exported source does not compile, naming the option (a firmware built without what its
+    drive uses fails on the bench, not at fs_drive_init on the board); the blend's does. A
+    configuration compiled apart from the library's options (one not from this export) is
+    still refused by fs_drive_init, naming angle_source."""
     names = {"beyond-swvi-3ph": "cfg_swvi", "beyond-full-range": "cfg_blend"}
     for s, n in names.items():
         export(s, tmp_path, n)
@@ -190,16 +193,28 @@ def test_exported_configs_initialise_and_options_refuse_what_they_leave_out(tmp_
              for n in names.values()]
     main += ["    return 0;", "}"]
     (tmp_path / "main.c").write_text("\n".join(main) + "\n")
-    srcs = [str(p) for p in sorted(CONTROL.glob("*.c"))] + [str(tmp_path / f"{n}.c") for n in names.values()]
+    srcs = [str(p) for p in sorted(CONTROL.glob("*.c"))]
 
-    def run(flags):
+    def run(flags, cfg_flags):
+        objs = []
+        for n in names.values():   # each exported source compiled on its own, with cfg_flags
+            obj = tmp_path / f"{n}.o"
+            subprocess.run([CC, "-std=c11", "-O0", "-c", *cfg_flags, f"-I{CONTROL}", f"-I{tmp_path}", str(tmp_path / f"{n}.c"),
+                            "-o", str(obj)], check=True, capture_output=True)
+            objs.append(str(obj))
         exe = tmp_path / "init"
         subprocess.run([CC, "-std=c11", "-O0", *flags, f"-I{CONTROL}", f"-I{tmp_path}", str(tmp_path / "main.c"), *srcs,
-                        "-lm", "-o", str(exe)], check=True, capture_output=True)
+                        *objs, "-lm", "-o", str(exe)], check=True, capture_output=True)
         out = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout
         return {ln.split()[0]: (int(ln.split()[1]), ln.split()[2]) for ln in out.splitlines()}
-    assert run([]) == {"cfg_swvi": (lib.FS_OK, "-"), "cfg_blend": (lib.FS_OK, "-")}
-    assert run(["-DFS_WITH_SWVI=0"]) == {"cfg_swvi": (lib.FS_ERR_MODE, "angle_source"), "cfg_blend": (lib.FS_OK, "-")}
+    assert run([], []) == {"cfg_swvi": (lib.FS_OK, "-"), "cfg_blend": (lib.FS_OK, "-")}
+    no_swvi = ["-DFS_WITH_SWVI=0"]
+    for n, fails in (("cfg_swvi", True), ("cfg_blend", False)):
+        p = subprocess.run([CC, "-std=c11", "-c", *no_swvi, f"-I{CONTROL}", f"-I{tmp_path}", str(tmp_path / f"{n}.c"),
+                            "-o", str(tmp_path / "x.o")], capture_output=True, text=True)
+        assert (p.returncode != 0) == fails, p.stderr
+        assert ("FS_WITH_SWVI=1" in p.stderr and "square-wave injection" in p.stderr) == fails, p.stderr
+    assert run(no_swvi, []) == {"cfg_swvi": (lib.FS_ERR_MODE, "angle_source"), "cfg_blend": (lib.FS_OK, "-")}
 
 
 def test_export_takes_set_and_says_where_each_value_came_from(tmp_path):

@@ -157,5 +157,5 @@ def test_a_users_scenario_closes_the_loop_through_the_emulator(builds, tmp_path)
     assert r["scenario"] == str(f) and r["steps_target"] == 6000   # 0.3 s at 20 kHz, every step on the target
     assert pil.loop_verdict(r)["within"] and r["max_theta_err_diff_deg"] == 0.0
     assert pil.firmware_leaves_out(str(f)) is None
-    assert pil.firmware_leaves_out("beyond-swvi-3ph") == "square-wave injection"
-    assert pil.firmware_leaves_out("zou2021-experiment") == "the matrix converter"
+    assert pil.firmware_leaves_out("beyond-swvi-3ph") == "the square-wave injection (controller.angle = swvi)"
+    assert pil.firmware_leaves_out("zou2021-experiment") == "the matrix converter (converter.kind = imc)"

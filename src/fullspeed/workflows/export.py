@@ -448,11 +448,32 @@ def render(sc: Scenario, name: str, overrides: dict | None = None) -> tuple[str,
               f"/* this export: {name}.c compiles only with the header exported with it */\n"
               f"#define {NAME}_EXPORT_ID 0x{export_id}u\n\n"
               f"extern const fs_drive_config {name};\n\n#endif /* {guard} */\n")
+    needs = "".join(f"#if !{macro}\n#error \"{name}: the drive uses {what}: build csrc/control with {macro}=1\"\n#endif\n"
+                    for macro, what in capabilities(sc))
+    if needs:   # a build without one fails here, not at fs_drive_init on the board
+        needs = "/* The controllers' build options this drive uses (fs_drive.h, FS_WITH_*). */\n" + needs + "\n"
     source = (banner + f"#include <math.h>\n#include <stddef.h>\n#include \"{name}.h\"\n\n"
               f"#if !defined({NAME}_EXPORT_ID) || {NAME}_EXPORT_ID != 0x{export_id}u\n"
               f"#error \"{name}.h is not the header exported with {name}.c (another export, or one cut short): export again\"\n"
-              "#endif\n\n" + config)
+              "#endif\n\n" + needs + config)
     return header, source
+
+
+def capabilities(sc: Scenario) -> list[tuple[str, str]]:
+    """The controllers' build options (csrc/control, FS_WITH_*: each 1 unless
+    a build sets it 0) that the drive of sc uses, each with what uses it: a
+    firmware built without one refuses the configuration at fs_drive_init,
+    on the board. The export's source fails its build there instead."""
+    d, m = sc.data, sc.machine
+    used = (("FS_WITH_IMC", "the matrix converter (converter.kind = imc)", d["converter"]["kind"] == "imc"),
+            ("FS_WITH_FIVE_PHASE", "five phases", m.phases == 5),
+            ("FS_WITH_SWVI", "the square-wave injection (controller.angle = swvi)", d["controller"]["angle"] == "swvi"),
+            ("FS_WITH_FLUXMAP", "a flux map (the machine's [magnetic] file)", m.magnetic["model"] == "fluxmap"),
+            ("FS_WITH_MOTION_TEST", "the motion test start", d["start"]["kind"] == "motion"),
+            ("FS_WITH_IF_START", "the I/f start (observer.start = if)", d["observer"]["start"] == "if"),
+            ("FS_WITH_IDENT", "self-commissioning (controller.mode = identify)", d["controller"]["mode"] == "identify"),
+            ("FS_WITH_ADAPT", "the online R_s and psi_f correction (controller.param_adapt)", bool(d["controller"]["param_adapt"])))
+    return [(macro, what) for macro, what, on in used if on]
 
 
 def check_drive(dc, sc: Scenario) -> None:
