@@ -127,55 +127,19 @@ static float motion_lock_end(fs_motion_test *m, float theta)
     return ret;
 }
 
-/* The estimate's turn at the doublet's end: the settling's line (the
- * window's least-squares fit, its value at the window's mean plus its slope
- * times the steps back) extrapolated to the settling's start, before this
- * settling and the ones that found the estimate still turning. The doublet
- * leaves the rotor coasting where its two halves' torques differ: the
- * estimate moves with the current (up to +-25 el.deg at 16 A on the Baldor
- * PM-SyRM), and the d current that error puts in the rotor's frame adds
- * reluctance torque ((L_q - L_d) i_d i_q, more than the magnet's there) to
- * the half whose error is larger, the second (the estimate lags the
- * current): 13 % more impulse back than forth, the rotor coasting back at
- * 1.4 el. rad/s, 3.5 el.deg over the 44 ms settling, 2.75 times a half of
- * the doublet, which read +5.7 el.deg of a +9.4 turn against the threshold
- * of 4. With no current the rotor turns at the speed the line measures, so
- * its position at the doublet's end is the push's own turn. The line's
- * noise there: a white noise of deviation s gives sqrt(28 / n) s (1.5 n
- * steps back from the mean of n), an estimate wandering by its lock's
- * spread over the window at most 1.5 times that, within the threshold's
- * twice the spread. */
-static float motion_turn_at_push_end(const fs_motion_test *m)
-{
-    const float n = (float)m->n_win;
-    const float den = (n * m->sxx) - (m->sx * m->sx);
-    const float x_end = -(float)((m->n_settle / 2) + (m->settles * m->n_settle));
-    float y = 0.0f;   /* one sample: the window's first value */
-    if ((m->n_win > 0) && (den > 0.0f)) {
-        const float slope = ((n * m->sxy) - (m->sx * m->sy)) / den;   /* el. rad per step */
-        y = (m->sy / n) + (slope * (x_end - (m->sx / n)));
-    }
-    return fs_wrap_pi(fs_wrap_pi(m->theta_half - m->theta_ref) + y);
-}
-
 /* The turn read after the doublet: the decision, another doublet, or the
  * refusal. An estimate still turning by the threshold over the settling's
  * second half (an observer still catching up, or a load moving the rotor)
- * is waited for, FS_MOTION_LOCKS settlings in all, then refused, at once
- * where the estimate has turned beyond theta_max. The decision is on the
- * turn at the doublet's end (motion_turn_at_push_end), not the estimate's
- * last value: the rotor may coast after the doublet. */
+ * is waited for, FS_MOTION_LOCKS settlings in all, then refused. */
 static float motion_read(fs_motion_test *m, float theta)
 {
     float ret;
-    const float turn_now = fs_wrap_pi(theta - m->theta_ref);
-    m->turn = motion_turn_at_push_end(m);
+    m->turn = fs_wrap_pi(theta - m->theta_ref);
     m->k = 0;
     m->moved = motion_turning(m, (float)m->n_win * m->cfg.Ts, 1.0f);
     if (m->moved) {   /* beyond the largest threshold already: something else turns the rotor */
         m->settles += 1;
-        if ((m->settles >= FS_MOTION_LOCKS) || fabsf(turn_now) > m->cfg.theta_max) { m->stage = FS_MOTION_UNDETERMINED; }
-        m->turn = turn_now;   /* what the estimate did, reported */
+        if ((m->settles >= FS_MOTION_LOCKS) || fabsf(m->turn) > m->cfg.theta_max) { m->stage = FS_MOTION_UNDETERMINED; }
         ret = 0.0f;
     }
     else {

@@ -37,11 +37,6 @@
  *           the axis may still be pulling in);
  *   PUSH    the doublet, 2 t_push;
  *   SETTLE  no current for t_settle, then the turn since the lock's end
- *           at the doublet's end: the line through the estimate over the
- *           settling's second half, extrapolated back to the doublet's end
- *           (a doublet whose halves' torques differ leaves the rotor
- *           coasting, which the estimate's last value would count; with no
- *           current the rotor turns at the line's speed)
  *           (where the estimate still turns by the threshold over the
  *           settling's second half, another settling, FS_MOTION_LOCKS in
  *           all, then refused, at once where it has turned beyond theta_max:
@@ -61,7 +56,7 @@
  * no turn of the threshold at the largest doublet (the rotor held:
  * stiction, a brake).
  * The design (fullspeed.design.start) sizes the push from J, psi_f and the
- * load for a turn of 2 theta_dec, and bounds the rotor's motion.
+ * load for a turn of 1.5 theta_dec, and bounds the rotor's motion.
  * The caller keeps the observers' torque feed-forward as it was before the
  * test (fs_drive_start.c): it is right on one estimate and wrong by twice
  * the push on the other, so the observers take the push as an unknown load
@@ -110,7 +105,7 @@ typedef struct {
     int n_win;             /* samples in the window */
     float threshold;       /* el. rad */
     float theta_ref;       /* the estimate at the lock's end */
-    float turn;            /* the turn from there at the last reading, at the doublet's end (the settling's line; where it found the estimate still turning, the estimate's own), el. rad */
+    float turn;            /* the estimate's turn from there at the last reading, el. rad */
     bool moved;            /* UNDETERMINED because the rotor turned before the doublet */
     bool flip;             /* result, valid in DONE */
 } fs_motion_test;
