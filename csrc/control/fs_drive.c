@@ -691,9 +691,15 @@ static float drive_lock_residual(fs_drive *drv, const fs_drive_in *in, const fs_
     if (c->angle_source == (int)FS_ANGLE_HFI || square || (blend && g_w < 1.0f)) { r = fs_maxf(r, r_inj); }
     /* an observer on track above the band, whose EMF is as large as its
      * speed says (not a PLL swinging at low speed: at least half of the
-     * |w| psi_f / sqrt 2 its filter passes), against the blended angle */
+     * |w| psi_f / sqrt 2 its filter passes), against the blended angle;
+     * on track by its own evidence too (`converged`, fs_smo.h): at
+     * standstill the Baldor PM-SyRM's observer swung between -330 and +220
+     * el. rad/s, never converged, while a load rolled the rotor back at
+     * -10 el. rad/s, and the saliency's voltage under the rising q current
+     * (L_q - L_d = 84 mH) lifted its |EMF| to 21 V, past the gate's 17 V at
+     * -108 el. rad/s: a loss flagged with the blended angle within 2 el.deg */
     const float aw = fabsf(drv->smo.w);
-    const bool cross = smo_on && blend && r_smo < 1.0f && aw >= drv->blend.cfg.w_upper
+    const bool cross = smo_on && blend && r_smo < 1.0f && aw >= drv->blend.cfg.w_upper && drv->smo.converged
                        && drv->smo.e_mag >= 0.35f * aw * c->psi_f;
     drv->lock_ex = cross ? drv->lock_ex + b * (fabsf(fs_wrap_pi(drv->smo.theta - drv->blend.theta_hat)) - drv->lock_ex)
                          : 0.0f;

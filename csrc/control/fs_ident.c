@@ -1137,7 +1137,33 @@ static float ldq_bias(const fs_ident *id, int level)
      * +-5.6 A, 139) */
     const bool north = (id->aligned || id->pol_known) && !id->cfg.locked;
     if (north) { I_b = fs_minf(I_b, 0.5f * id->res.i_level_top); }
-    return (level == 0) ? I_b : (north ? 2.0f : -1.0f) * I_b;
+    /* a locked rotor also at +-2 I_b: the mean at +-I_b is L_q at zero to the curve's second order, and the
+     * two means together take that order out (ldq_lq) */
+    static const float LOCKED[4] = {1.0f, -1.0f, 2.0f, -2.0f};
+    float ret = (level == 0) ? I_b : (north ? 2.0f : -1.0f) * I_b;
+    if (id->cfg.locked != 0) { ret = LOCKED[level & 3] * I_b; }
+    return ret;
+}
+
+/* LDQ's q passes: two biases, or four on a locked rotor (ldq_bias) */
+static int ldq_n_bias(const fs_ident *id) { return (id->cfg.locked != 0) ? 4 : 2; }
+
+/* L_q at zero current and its change with i_d from the biases' readings.
+ * Two: the line through them (on the north pole I_b, 2 I_b: extrapolated;
+ * +-I_b: their mean). Four on a locked rotor (+-I_b, +-2 I_b): the means
+ * m1, m2 of the pairs are L_q(0) + c I^2 and L_q(0) + 4 c I^2 for a curve
+ * even to its second order, so (4 m1 - m2) / 3 (Richardson's): SyR-e's
+ * THOR, whose L_q is 30.0 mH at -17.6 A of d current, 33.9 at zero and
+ * 33.4 at +17.6 A (the ribs the magnet saturates), read -6.5 % by the mean
+ * at the +-17.6 A its inverter's error asks, -2.9 % so. */
+static void ldq_lq(fs_ident_result *r, int n_bias)
+{
+    r->dL_q = (r->L_q_bias[1] - r->L_q_bias[0]) / (r->I_bias[1] - r->I_bias[0]);
+    r->L_q = r->L_q_bias[0] - (r->I_bias[0] * r->dL_q);
+    if (n_bias == 4) {
+        const float m2 = 0.5f * (r->L_q_bias[2] + r->L_q_bias[3]);
+        r->L_q = ((4.0f * r->L_q) - m2) / 3.0f;
+    }
 }
 
 /* The rotor's axis against the frame's from the cross response r (the
@@ -1346,13 +1372,11 @@ static fs_ab step_ldq(fs_ident *id, fs_ab i_ab)
         r->L_q_bias[level] = L;
         r->I_bias[level] = I_b;
     }
-    if (++id->sub < 3) {
+    if (++id->sub < (1 + ldq_n_bias(id))) {
         ldq_clear(id);
         return from_frame(id, u);
     }
-    /* L_q at zero current, linear in i_d through the two biases */
-    r->dL_q = (r->L_q_bias[1] - r->L_q_bias[0]) / (r->I_bias[1] - r->I_bias[0]);
-    r->L_q = r->L_q_bias[0] - (r->I_bias[0] * r->dL_q);
+    ldq_lq(r, ldq_n_bias(id));
     bool stop = !(r->L_q > 0.0f);
     if (stop) {   /* a curve too bent to extrapolate */
         ident_fail(id, FS_IDQ_LQ, FS_IDR_FIT);

@@ -192,7 +192,8 @@ typedef struct {
     float w_flux;                /* el. rad/s where psi_f was read */
     float a_acc, a_coast;        /* el. rad/s^2 at the acceleration's mean speed */
     float I_lev[FS_IDENT_NLEV], U_lev[FS_IDENT_NLEV];   /* the d-axis level means, A, V */
-    float I_bias[2], L_q_bias[2];    /* LDQ: the two d biases of the q injection, A, and L_q at each, H */
+    float I_bias[4], L_q_bias[4];    /* LDQ: the d biases of the q injection (two; four on a locked rotor), A, and L_q at
+                                        each, H */
     float dL_q;                  /* L_q's change with i_d, H/A (the cross-saturation the injection estimators see) */
     float ld_carrier;            /* LDQ: the d carrier's current amplitude L_d was read at, A (I_HF_D i_max, halved while its
                                     response's second harmonic showed the axis lopsided over the swing) */
