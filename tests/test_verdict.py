@@ -204,3 +204,39 @@ def test_a_motion_test_that_failed_on_an_implausible_inertia_names_it():
     assert light.stop_reason == "polarity_undetermined" and len(lines) == 1
     assert "polarity undetermined by the motion test" in lines[0] and "check J's unit" in lines[0]
     assert not any("J's unit" in line for line in run_verdict(start(1.0)))
+
+
+SERVO = {"name": "servo400", "kind": "ipmsm", "pole_pairs": 4,
+         "electrical": {"R_s": 0.3, "L_d": 0.6e-3, "L_q": 0.7e-3, "psi_f": 0.011}, "mechanical": {"J": 5e-5},
+         "rated": {"torque": 1.27, "current": 8.0, "speed_rpm": 3000.0}, "bench": {"u_dc": 48.0, "f_pwm": 16000.0}}
+
+
+def _servo(L_unit: float):
+    m = {**SERVO, "electrical": {**SERVO["electrical"], "L_d": 0.6 * L_unit, "L_q": 0.7 * L_unit}}
+    return simulate(scenario_from_dict({"name": "servo", "duration": 1.0, "machine": m,
+                                        "controller": {"mode": "speed", "angle": "encoder"},
+                                        "references": {"speed_rpm": [[0.0, 0.0], [0.5, 1000.0]]}}, "servo", warn=False))
+
+
+def test_a_speed_that_passes_its_reference_as_the_run_ends_is_no_hold():
+    """A new user's servo with its inductances in mH typed as H: the modulator
+    saturated from the start, the speed climbs through its reference as the
+    run ends (within 2 % there: the end check alone passed it, exit 0) while
+    its mean over the steady window is 5.5 % short. With L in H it holds."""
+    bad = _servo(1.0)
+    m = bad.metrics
+    assert bad.stop_reason == "done" and not m["speed_end"]["far"] and m["speed_end"]["unheld"] is None
+    st = m["speed_steady"]
+    assert st["window"] == pytest.approx(m["steady_window"]) and st["ref_rpm"] == pytest.approx(1000.0)
+    assert -0.1 * 1000.0 < st["speed_rpm"] - 1000.0 < -st["band_rpm"]
+    assert any("mean over the steady window" in line and "did not hold the speed" in line for line in run_verdict(bad))
+    good = _servo(1e-3)
+    assert good.metrics["speed_steady"] is None and run_verdict(good) == []
+
+
+def test_a_window_given_over_a_ramp_is_not_judged_as_a_hold():
+    """yang2022-smo-ramp's [metrics] steady lies on its speed ramp: the loop's
+    lag behind a ramp is no failure to hold a speed."""
+    res = simulate("yang2022-smo-ramp")
+    assert np.ptp(res["w_m_ref"][(res["t"] >= 1.8) & (res["t"] <= 2.5)]) > 0
+    assert res.metrics["speed_steady"] is None and run_verdict(res) == []

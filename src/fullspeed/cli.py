@@ -137,7 +137,13 @@ def run_verdict(res) -> list[str]:
                        f"{1e3 * (u['until'] - u['since']):.4g} ms after it, past the loop's settling in "
                        f"{1e3 * u['settle']:.4g} ms: beyond the +-{u['band_rpm']:.1f} rpm a settled speed loop keeps "
                        "(2 % of the reference, at least 0.5 % of rated speed): the drive did not hold the speed under that load")
-    end = m.get("speed_end")
+    end, steady = m.get("speed_end"), m.get("speed_steady")
+    if steady and not (end and (end["far"] or end.get("unheld"))):
+        w = steady["window"]
+        out.append(f"the speed's mean over the steady window {w[0]:.4g}..{w[1]:.4g} s is {steady['speed_rpm']:.1f} rpm "
+                   f"against its reference {steady['ref_rpm']:.1f} rpm, {steady['speed_rpm'] - steady['ref_rpm']:+.1f} rpm "
+                   f"off: beyond the +-{steady['band_rpm']:.1f} rpm a settled speed loop keeps (2 % of the reference, at "
+                   "least 0.5 % of rated speed): the drive did not hold the speed")
     if end and end["far"]:
         w = end["window"]
         out.append(f"the speed ends at {end['speed_rpm']:.1f} rpm against its reference {end['ref_rpm']:.1f} rpm (means over "

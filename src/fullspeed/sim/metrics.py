@@ -526,7 +526,36 @@ def job_checks(res) -> dict:
                             "window": [float(t[m][0]), float(t[m][-1])], "far": abs(w - w_ref) > band,
                             "unheld": _unheld(res, t, tau, w - w_ref, max(SETTLE_BAND * abs(w_ref),
                                                                           SPEED_FLOOR * sc.machine.w_m_rated))}
+        out["speed_steady"] = _steady_unheld(res, t)
     return out
+
+
+def _steady_unheld(res, t) -> dict | None:
+    """The speed's mean over the steady window against its reference's,
+    where it is beyond the band a settled loop keeps (SETTLE_BAND of the
+    reference, at least SPEED_FLOOR of rated speed): the window starts
+    after the loop's settling, so a loop in control holds its mean there.
+    The run's end alone does not show it: a drive short of voltage that
+    climbs through its reference as the run ends is within the band there
+    (a new user's servo with L in mH as H: -5.5 % over the window, exit 0).
+    None where the speed was held, there is no window, or its reference
+    moves (a window given over a ramp)."""
+    win = _steady(res)[0]
+    if win is None:
+        return None
+    tr, sc = res.traces, res.scenario
+    m = window_mask(t, *win)
+    if not np.any(m):
+        return None
+    ref = np.asarray(tr["w_m_ref"][m])
+    if np.ptp(ref) > 0.0:   # a window given over a ramp: the loop's lag behind it, not a hold (yang2022-smo-ramp)
+        return None
+    w, w_ref = float(np.mean(tr["w_m"][m])), float(ref[0])
+    band = max(SETTLE_BAND * abs(w_ref), SPEED_FLOOR * sc.machine.w_m_rated)
+    if abs(w - w_ref) <= band:
+        return None
+    return {"speed_rpm": rad_s_to_rpm(w), "ref_rpm": rad_s_to_rpm(w_ref), "band_rpm": rad_s_to_rpm(band),
+            "window": [float(win[0]), float(win[1])]}
 
 
 def _unheld(res, t, tau: float, e_end: float, band: float) -> dict | None:
