@@ -5,7 +5,7 @@
 #include <stddef.h>
 #include "fs_config.h"
 
-#if !defined(FS_CONFIG_EXPORT_ID) || FS_CONFIG_EXPORT_ID != 0x1576a91du
+#if !defined(FS_CONFIG_EXPORT_ID) || FS_CONFIG_EXPORT_ID != 0xe9cc5852u
 #error "fs_config.h is not the header exported with fs_config.c (another export, or one cut short): export again"
 #endif
 
@@ -208,15 +208,15 @@ const fs_drive_config fs_config = {
     .Ts = 9.99999975e-05f,   /* control (sampling) period, s; machine yang2022: bench.f_pwm (scenario default) */
     .T_pwm = 9.99999975e-05f,   /* carrier period, s (Ts or 2 Ts); machine yang2022: bench.f_pwm (scenario default) */
     .delay = 1.0f,   /* computation delay in control periods: 1 or 0; default of [timing] delay (fullspeed.design.scenario) */
-    .R_s = 0.0359999985f,   /* the machine as the controller knows it: L_d, L_q, psi_f for the decoupling, the loops' design and the observers; a flux map's (fullspeed.design.magnetics) ...; machine yang2022: R_s */
-    .L_d = 6.50000002e-05f,   /* the machine as the controller knows it: L_d, L_q, psi_f for the decoupling, the loops' design and the observers; a flux map's (fullspeed.design.magnetics) ...; machine yang2022: L_d */
-    .L_q = 9.00000014e-05f,   /* the machine as the controller knows it: L_d, L_q, psi_f for the decoupling, the loops' design and the observers; a flux map's (fullspeed.design.magnetics) ...; machine yang2022: L_q */
-    .psi_f = 0.00700000022f,   /* the machine as the controller knows it: L_d, L_q, psi_f for the decoupling, the loops' design and the observers; a flux map's (fullspeed.design.magnetics) ...; machine yang2022: psi_f */
-    .L_d_hf = 0.0f,   /* the incremental inductances the injection sees (HFI and blend; 0: L_d, L_q above); a flux map's at half the rated current on its MTPA locus; 0: taken from the drive's fields or designed by fs_drive_init, or off */
-    .L_q_hf = 0.0f,   /* the incremental inductances the injection sees (HFI and blend; 0: L_d, L_q above); a flux map's at half the rated current on its MTPA locus; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+    .R_s = 0.0359999985f,   /* stator resistance, ohm; machine yang2022: R_s */
+    .L_d = 6.50000002e-05f,   /* d and q inductances, H; machine yang2022: L_d */
+    .L_q = 9.00000014e-05f,   /* d and q inductances, H; machine yang2022: L_q */
+    .psi_f = 0.00700000022f,   /* the magnet's flux linkage, Wb (peak phase); machine yang2022: psi_f */
+    .L_d_hf = 0.0f,   /* the injection's incremental inductances, H; 0: taken from the drive's fields or designed by fs_drive_init, or off */
+    .L_q_hf = 0.0f,   /* the injection's incremental inductances, H; 0: taken from the drive's fields or designed by fs_drive_init, or off */
     .pole_pairs = 5,   /* machine yang2022: pole_pairs */
-    .J = 0.00187000004f,   /* machine yang2022: J */
-    .B = 0.000199999995f,   /* machine yang2022: B */
+    .J = 0.00187000004f,   /* inertia, kg m^2; machine yang2022: J */
+    .B = 0.000199999995f,   /* viscous friction, N m s/rad; machine yang2022: B */
     .i_max = 60.0f,   /* A peak; machine yang2022: bench.i_max (scenario default) */
     .T_max = 3.21864104f,   /* N m; default of [controller] T_max (fullspeed.design.scenario) */
     .bw_current = 3000.0f,   /* design bandwidths, rad/s; machine yang2022: bench.bw_current (scenario default) */

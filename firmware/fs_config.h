@@ -10,7 +10,7 @@
  * fs_drive_init refuses the configuration if the library's differs */
 #define FS_CONFIG_SIZE 1852u
 /* this export: fs_config.c compiles only with the header exported with it */
-#define FS_CONFIG_EXPORT_ID 0x1576a91du
+#define FS_CONFIG_EXPORT_ID 0xe9cc5852u
 
 extern const fs_drive_config fs_config;
 

@@ -253,13 +253,16 @@ typedef struct {
      * decoupling, the loops' design and the observers; a flux map's
      * (fullspeed.design.magnetics): psi_f at zero current and the secant inductances
      * at the MTPA point of rated current */
-    float R_s, L_d, L_q, psi_f;
+    float R_s;               /* stator resistance, ohm */
+    float L_d, L_q;          /* d and q inductances, H */
+    float psi_f;             /* the magnet's flux linkage, Wb (peak phase) */
     /* the incremental inductances the injection sees (HFI and blend; 0:
      * L_d, L_q above); a flux map's at half the rated current on its MTPA
      * locus */
-    float L_d_hf, L_q_hf;
+    float L_d_hf, L_q_hf;    /* the injection's incremental inductances, H */
     int pole_pairs;
-    float J, B;
+    float J;                 /* inertia, kg m^2 */
+    float B;                 /* viscous friction, N m s/rad */
     /* limits */
     float i_max;             /* A peak */
     float T_max;             /* N m */
