@@ -448,15 +448,19 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
 
 
 /* The encoder's PLL at the drive's first two readings: the angle from the
- * first; from the second the speed, the turn since the first (the PLL's
- * angle, a step at zero speed ago). A rotor already turning as the drive
- * starts (a flying start, a map's point at its speed) had the PLL rise from
- * zero at its bandwidth, the loops without the EMF's feed-forward
- * meanwhile: the README's 48 V example at 4500 rpm tripped on overcurrent
- * in 1.8 ms. And the speed loop from there without a bump (no torque yet):
- * its first step had read zero speed, and its proportional path then asked
- * that rotor for the current limit's braking torque. A rotor at rest gives
- * 0, as before. */
+ * first; in speed mode, from the second, the speed: the turn since the
+ * first (the PLL's angle, a step at zero speed ago), and the speed loop
+ * from there without a bump (no torque yet). A rotor already turning as
+ * the drive starts (a flying start, a map's point at its speed) had the
+ * PLL rise from zero at its bandwidth while the speed loop, acting on it,
+ * asked for the current limit's braking torque: the README's 48 V example
+ * at 4500 rpm tripped on overcurrent in 1.8 ms. In current mode no loop
+ * acts on the speed (the decoupling takes the PLL's settling as a current
+ * transient, 2.9 A on yang2022 at 300 rpm), and the PLL starts from zero
+ * as before: seeded there too, the back-EMF observer running alongside
+ * carried another start into its zero crossing 0.35 s later, and crossed
+ * it worse (test_smo_low_speed: at -15 A a median of 13.7 el.deg over 16
+ * initial angles against 2.7). A rotor at rest gives 0, as before. */
 static void drive_pll_start(fs_drive *drv, float theta_enc)
 {
     const fs_drive_config *c = &drv->cfg;
@@ -464,10 +468,12 @@ static void drive_pll_start(fs_drive *drv, float theta_enc)
         fs_pll_reset(&drv->pll, theta_enc, 0.0f);
         drv->pll_started = true;
     } else {
-        const float w0 = fs_wrap_pi(theta_enc - drv->pll.theta) / c->Ts;
-        fs_pll_reset(&drv->pll, theta_enc, w0);
         drv->pll_seeded = true;
-        if ((w0 != 0.0f) && (c->mode == (int)FS_MODE_SPEED)) { fs_speed_ctrl_preset(&drv->sc, w0 / (float)c->pole_pairs, 0.0f); }
+        const float w0 = fs_wrap_pi(theta_enc - drv->pll.theta) / c->Ts;
+        if ((w0 != 0.0f) && (c->mode == (int)FS_MODE_SPEED)) {
+            fs_pll_reset(&drv->pll, theta_enc, w0);
+            fs_speed_ctrl_preset(&drv->sc, w0 / (float)c->pole_pairs, 0.0f);
+        }
     }
 }
 
