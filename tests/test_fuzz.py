@@ -162,7 +162,8 @@ def check_outcome(rc: int, err: str, out: Path, text: str) -> str:
     assert "fullspeed: run failed: " in err, err
     if m["stop_reason"] == "done":   # a loss, or the job not done (a start stage at the end, the speed far off)
         assert (m["lock_lost_at"] is not None or m["true_loss_at"] is not None or m["start_unfinished"]
-                or (m["speed_end"] or {}).get("far")), m
+                or (m["speed_end"] or {}).get("far") or (m["speed_end"] or {}).get("unheld") or m.get("speed_steady")
+                or any(r.get("unheld") for r in m.get("steps", []))), m
         return "lost"
     assert m["stop_reason"] in set(STOP_REASONS.values()) - {"done"} and m["stop_time"] is not None, m
     return "stopped"

@@ -538,12 +538,15 @@ def _steady_unheld(res, t) -> dict | None:
     The run's end alone does not show it: a drive short of voltage that
     climbs through its reference as the run ends is within the band there
     (a new user's servo with L in mH as H: -5.5 % over the window, exit 0).
-    None where the speed was held, there is no window, or its reference
-    moves (a window given over a ramp)."""
+    None where the speed was held, there is no window, its reference moves
+    (a window given over a ramp), or the drive answered a loss of lock since
+    the plan's last change (the window holds its return)."""
     win = _steady(res)[0]
     if win is None:
         return None
     tr, sc = res.traces, res.scenario
+    if any(ev["t"] >= _last_change(sc) - 1e-12 for ev in lock_events(res)[1]):
+        return None   # a recovery since the plan's last change: the window is its return, which the summary gives
     m = window_mask(t, *win)
     if not np.any(m):
         return None
