@@ -445,7 +445,7 @@ def _cmd_export(args) -> int:
         return _cmd_export_fmu(args)
     out = out_folder(args.out)
     with claim(out):
-        paths = export(args.scenario, out, args.name, _set_overrides(args.set))
+        paths = export(args.scenario, out, args.name, _set_overrides(args.set), force=args.force)
     print(f"wrote {' and '.join(str(p) for p in paths)}: the fs_drive_config of {args.scenario} "
           f"(compile the .c with csrc/control; fs_drive_init(&drive, &{args.name}))")
     return 0
@@ -563,7 +563,8 @@ def main(argv: list[str] | None = None) -> int:
     idf.set_defaults(func=_cmd_identify)
     ex = sub.add_parser("export", help="write the fs_drive_config a scenario's simulation uses as C source for a firmware")
     ex.add_argument("scenario", help="catalog name or TOML file")
-    ex.add_argument("--out", required=True, help="output folder: <name>.h and <name>.c are written there")
+    ex.add_argument("--out", required=True, help="output folder: <name>.h and <name>.c are written there, replacing "
+                    "an earlier export's; a file of those names that is not an export's is refused without --force")
     ex.add_argument("--name", default="fs_config", help="the C constant and the files' name (default fs_config); "
                     "not with --fmu, --fmu-system: an FMU is named after its scenario")
     ex.add_argument("--set", action="append", metavar="KEY=VALUE",
@@ -572,6 +573,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="write <scenario name>-drive.fmu instead: the drive as an FMI co-simulation unit (one step a control period)")
     ex.add_argument("--fmu-system", action="store_true",
                     help="write <scenario name>-system.fmu: plant, converter and drive as fullspeed simulates them")
+    ex.add_argument("--force", action="store_true",
+                    help="overwrite <name>.h and <name>.c in --out even if they are not an earlier export's (hand-written)")
     ex.add_argument("--fmi", type=int, choices=[2, 3], default=3, help="the FMI version of the FMUs (default 3)")
     ex.set_defaults(func=_cmd_export)
     sch = sub.add_parser("schema", help="the scenario and machine fields: unit, default, range, meaning (docs/reference.md)")
