@@ -204,6 +204,25 @@ def test_another_sweep_in_the_same_folder_is_refused(tmp_path):
         run_sweep(sweep_from_dict(mc_spec(seed=9, samples=2), "t"), tmp_path, workers=1, plot=False)
 
 
+def test_a_sweep_into_a_folder_in_use_says_only_that(tmp_path, capsys):
+    """A second sweep into the folder a running one holds is refused in one
+    line (a new user's trial: it first printed "sweep ...: 300 points in 2
+    worker process(es)", as if it ran); with the folder free it says so, once."""
+    from fullspeed.model.files import claim
+
+    path = write_toml(tmp_path / "s.toml", {**grid_spec(), "axes": {"references.i_q": [5.0, 15.0]}})
+    out = tmp_path / "o"
+    argv = ["sweep", str(path), "--out", str(out), "--workers", "1", "--quiet"]
+    with claim(out):   # the running sweep's lock (flock: another open of the folder conflicts, in this process too)
+        assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("fullspeed: error: --out = ") and "in use by another" in err[0], err
+    assert not (out / JOURNAL).exists()
+    assert main(argv) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert [e for e in err if e.startswith("sweep ")] == [f"sweep t-grid: 2 points in 1 worker process(es) -> {out}"]
+
+
 def test_killed_sweep_resumes_to_the_uninterrupted_table(tmp_path):
     spec = write_toml(tmp_path / "s.toml", {**grid_spec(), "axes": {
         "references.i_q": [5.0, 10.0, 15.0, 20.0, 25.0], "load.speed_rpm": {"range": [200.0, 1400.0, 200.0]}}})

@@ -287,11 +287,11 @@ def _cmd_sweep(args) -> int:
     out = out_folder(args.out) if args.out else out_path(OUT / "sweeps", sw.name, "name", args.file)
     n = len(sw.points())
     where = f"on Dask at {args.dask}" if args.dask else f"in {args.workers or default_workers()} worker process(es)"
-    print(f"sweep {sw.name}: {n} points {where} -> {out}", file=sys.stderr)
     t0 = time.perf_counter()
     resume = f"resume with: fullspeed sweep {args.file} --out {out}"
     try:
-        with claim(out):
+        with claim(out):   # the banner once the folder is this sweep's: a refused one says only why
+            print(f"sweep {sw.name}: {n} points {where} -> {out}", file=sys.stderr)
             path, rows = run_sweep(sw, out, workers=args.workers, dask=args.dask, progress=not args.quiet,
                                    dask_timeout=args.dask_timeout)
     except (KeyboardInterrupt, EngineError):
