@@ -273,6 +273,39 @@ def test_csv_without_pyarrow_holds_the_same_values(tmp_path, monkeypatch):
     pd.testing.assert_frame_equal(a[num], b[num])
 
 
+def test_a_rerun_in_the_other_format_leaves_one_table(tmp_path, monkeypatch):
+    """A new user's trial: a finished sweep run again after installing the
+    [sweep] extra wrote results.parquet beside the earlier results.csv, two
+    tables that may disagree (and the other way round load_sweep read the
+    stale parquet before the new csv). The earlier format's table goes; the
+    journal's rows are all in the new one."""
+    pytest.importorskip("pyarrow")
+    sw = sweep_from_dict({**grid_spec(), "axes": {"references.i_q": [5.0, 15.0]}}, "t")
+    out = tmp_path / "o"
+    monkeypatch.setattr("fullspeed.workflows.sweep._pyarrow", lambda: None)   # as without pyarrow
+    path, _ = run_sweep(sw, out, workers=1, plot=False)
+    assert path.name == "results.csv"
+    csv_table = table(out)
+    monkeypatch.undo()   # pyarrow installed since
+    path, _ = run_sweep(sw, out, workers=1, plot=False)
+    assert path.name == "results.parquet" and sorted(p.name for p in out.glob("results*")) == ["results.parquet"]
+    assert len(table(out)) == 2 and table(out)["i_q_error_rms"].tolist() == csv_table["i_q_error_rms"].tolist()
+    (out / "results.parquet").write_bytes(b"stale")   # a table that no longer holds the rows: removed the other way too
+    monkeypatch.setattr("fullspeed.workflows.sweep._pyarrow", lambda: None)
+    path, _ = run_sweep(sw, out, workers=1, plot=False)
+    assert sorted(p.name for p in out.glob("results*")) == ["results.csv"] and len(table(out)) == 2
+    assert not [p for p in out.iterdir() if p.name.startswith(".")]
+    # killed as the new table is written: no stale table is read, the journal's rows are
+    monkeypatch.undo()
+    def killed(path, write):
+        raise KeyboardInterrupt
+    monkeypatch.setattr("fullspeed.workflows.sweep.write_with", killed)
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(sw, out, workers=1, plot=False)
+    assert not list(out.glob("results*"))
+    assert table(out)["i_q_error_rms"].tolist() == csv_table["i_q_error_rms"].tolist()
+
+
 def test_maps_are_drawn_for_one_and_two_grid_axes_only(tmp_path):
     from fullspeed.sim.plots import plot_sweep
 
