@@ -370,6 +370,8 @@ def _cmd_map(args) -> int:
     print(f"{em.name}: {s['points']} points, {s['held']} held"
           + (f" ({sum(s['stops'].values())} stopped: {stopped})" if stopped else "")
           + f"; module: {s.get('module') or 'ideal switches'}; iron loss: {s.get('iron_source') or 'none'}")
+    if s.get("iron_reason"):   # the machine file's why, where its source says "(reasons below)"
+        print(f"iron loss, the machine file's reason: {one_line(s['iron_reason'])}")
     for key, label in (("eta_machine", "machine"), ("eta_converter", "converter"), ("eta_drive", "drive")):
         p = s.get(f"{key}_peak")
         if p and key == "eta_converter" and not s.get("module"):   # no device data: the converter meters no loss

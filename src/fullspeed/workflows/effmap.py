@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -215,13 +216,30 @@ def efficiency_map(target: str, out: Path, speeds: int = SPEED_FRACTIONS, torque
     summary = summarise(rows)
     summary.update(scenario=sc.name, machine=sc.machine.name, points=len(rows), duration_s=duration, window_s=window,
                    voltage_limit_V=voltage_limit(sc), i_max_A=ctl["i_max"],
-                   module=(sc.machine.converter or {}).get("module"), iron_source=(sc.machine.losses or {}).get("source"))
+                   module=(sc.machine.converter or {}).get("module"))
+    summary["iron_source"], summary["iron_reason"] = iron_loss_note(sc.machine.losses)
     paths = [write_table(rows, out / "map.csv"),
              write_json(out / "map.json", {"summary": summary, "speeds_rpm": rpm, "envelope_Nm": list(env)}, indent=2)]
     fig = write_with(out / "map.png", lambda tmp: plot_map(rows, rpm, env, summary, tmp))
     if fig is not None:
         paths.append(fig)
     return EffMap(sc.name, rows, rpm, list(env), summary, paths)
+
+
+def iron_loss_note(losses: dict | None) -> tuple[str | None, str | None]:
+    """The machine's [losses] source as the map states it, and the file's
+    reason for the iron loss (reasons.P_fe_ref, its size; else the table's
+    first), each one line. The source's "(reasons below)" points into the
+    machine file, which the map's reader does not have before them: it is
+    dropped, and the reason given beside the source instead."""
+    if not losses:
+        return None, None
+    reasons = losses.get("reasons") or {}
+    reason = reasons.get("P_fe_ref") or next(iter(reasons.values()), None)
+    source = losses.get("source")
+    if source:
+        source = re.sub(r"\s*\((?:see )?(?:the )?reasons(?: below)?\)", "", source, flags=re.I)
+    return (" ".join(source.split()) if source else None), (" ".join(reason.split()) if reason else None)
 
 
 def stops(rows: list[dict]) -> dict[str, int]:
