@@ -194,12 +194,15 @@ def run_length(sc: Scenario, rpm_low: float) -> tuple[float, float]:
 
 def efficiency_map(target: str, out: Path, speeds: int = SPEED_FRACTIONS, torques: tuple = TORQUE_FRACTIONS,
                    top_rpm: float | None = None, overrides: dict | None = None, workers: int | None = None,
-                   progress: bool = False) -> EffMap:
-    """The map of a scenario or a machine into out: map.csv, map.png, map.json."""
+                   progress: bool = False, start=None) -> EffMap:
+    """The map of a scenario or a machine into out: map.csv, map.png, map.json
+    (start(): called once the input is checked, before the points run)."""
     if not isinstance(speeds, int) or not 2 <= speeds <= 100:
         raise ConfigError("--speeds", speeds, "must be an integer from 2 to 100")
     if not torques or not all(0.0 < f <= 1.0 for f in torques):
         raise ConfigError("--torques", list(torques), "must be fractions of the envelope in (0, 1]")
+    if workers is not None and (not isinstance(workers, int) or workers < 1):   # 0 ran on every core, as no --workers
+        raise ConfigError("--workers", workers, "must be at least 1")
     data, source = base_data(target, overrides)
     sc, shared = map_scenarios(data, source, top_rpm)
     base = deep_merge(data, shared)
@@ -210,6 +213,8 @@ def efficiency_map(target: str, out: Path, speeds: int = SPEED_FRACTIONS, torque
     duration, window = run_length(sc, rpm[0])
     tasks = [{"data": base, "source": source, "rpm": n, "torque": f * T, "duration": duration, "window": window}
              for n, T in zip(rpm, env) for f in torques if T > 0.0]
+    if start is not None:
+        start()
     results = run_tasks(map_point, tasks, out, workers=workers, progress=progress, desc=f"map {sc.name}")
     rows = [{c: None for c in COLUMNS} | {"speed_rpm": t["rpm"], "torque_Nm": t["torque"]} | (r or {"stop_reason": "not run"})
             for t, r in zip(tasks, results)]
