@@ -95,6 +95,51 @@ def test_map_command_prints_the_peaks(tmp_path):
     assert (tmp_path / "o" / "map.csv").exists()
 
 
+def test_the_map_gives_the_machine_files_reason_for_its_iron_loss(tmp_path, capsys):
+    """A new user's trial: `fullspeed map yang2022` printed "iron loss: assumed:
+    a share of the rating usual for small machines (reasons below); no
+    measurement ..." and no reason followed (it is the machine file's [losses]
+    reasons). The map gives the file's reason for the iron loss's size in one
+    line after the summary, and no dangling "(reasons below)"."""
+    from fullspeed.cli import main
+
+    why = catalog_data("yang2022")["losses"]["reasons"]["P_fe_ref"]
+    assert "(reasons below)" in catalog_data("yang2022")["losses"]["source"]
+    assert main(["map", "yang2022", "--speeds", "2", "--torques", "0.5", "--workers", "1", "--quiet",
+                 "--out", str(tmp_path / "o")]) == 0
+    out = capsys.readouterr().out.splitlines()
+    summary = next(k for k, line in enumerate(out) if "iron loss: " in line)
+    assert "iron loss: assumed: a share of the rating usual for small machines; no measurement" in out[summary]
+    assert out[summary + 1] == f"iron loss, the machine file's reason: {why}"
+    assert not any("reasons" in line and "reason:" not in line for line in out), out
+    s = json.loads((tmp_path / "o" / "map.json").read_text())["summary"]
+    assert s["iron_reason"] == why and "reasons" not in s["iron_source"]
+    # a file's multi-line reason is one line; a file without reasons prints none
+    from fullspeed.workflows.effmap import iron_loss_note
+    assert iron_loss_note({**IRON, "source": "assumed (reasons)", "reasons": {"k_hyst": "a\nb", "P_fe_ref": "5 %\n of it"}}) == (
+        "assumed", "5 % of it")
+    assert iron_loss_note(IRON) == ("assumed: a test's", None) and iron_loss_note(None) == (None, None)
+
+
+@pytest.mark.parametrize("argv, says", [(["yang2022", "--torques", "2"], "--torques = [2.0]"),
+                                        (["yang2022", "--speeds", "1"], "--speeds = 1"),
+                                        (["yang2022", "--workers", "0"], "--workers = 0"),
+                                        (["beyond-full-range"], "controller.angle = 'blend'")])
+def test_a_refused_map_says_only_why(tmp_path, capsys, argv, says):
+    """Found beside a new user's trial: the map printed "map TARGET -> OUT" and
+    then its refusal, as if it ran; --workers 0 was no refusal and ran the map
+    on every core. One line, exit 2, nothing written; the banner once it runs."""
+    from fullspeed.cli import main
+
+    assert main(["map", *argv, "--out", str(tmp_path / "o"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("fullspeed: error: ") and says in err[0], err
+    assert not (tmp_path / "o").exists()
+    assert main(["map", "yang2022", "--speeds", "2", "--torques", "0.5", "--workers", "1", "--quiet",
+                 "--out", str(tmp_path / "o")]) == 0
+    assert capsys.readouterr().err.strip().splitlines() == [f"map yang2022 -> {tmp_path / 'o'}"]
+
+
 def test_the_maps_envelope_is_designs_on_a_saturating_machine(tmp_path):
     """yang2022's machine saturates (an algebraic model): the map's torques
     are fractions of the envelope `fullspeed design` prints, not of the

@@ -231,3 +231,54 @@ def test_export_takes_set_and_says_where_each_value_came_from(tmp_path):
     assert "not read with controller.angle = blend" in line("sequence")   # the square wave's block
     assert "designed by fs_drive_init" not in line("cc_internal_model") and "[controller] gains" in line("cc_internal_model")
     assert not [ln for ln in text.splitlines() if "..." in ln and not ln.rstrip().endswith("*/")]
+
+
+def test_an_export_replaces_its_own_files_but_not_a_hand_written_one(tmp_path, capsys):
+    """A new user's trial: `fullspeed export SCEN --out DIR` silently replaced a
+    hand-written fs_config.c in DIR (new-machine refuses an existing file
+    without --force). An earlier export's pair is replaced without asking (the
+    README exports into a copy of firmware/, whose pair is an export); any
+    other file of those names is refused before either is written, one line
+    naming --out, the file and --force, exit 2; --force replaces it."""
+    fw = tmp_path / "fw"
+    shutil.copytree(ROOT / "firmware", fw)   # fs_config.[ch] there are exports: replaced
+    assert cli.main(["export", "yang2022-hfi-iqstep", "--out", str(fw)]) == 0
+    assert "yang2022-hfi-iqstep" in (fw / "fs_config.c").read_text()
+    pair = {f: (fw / f).read_text() for f in ("fs_config.c", "fs_config.h")}
+    mine = "/* my own configuration */\n#include \"fs_config.h\"\n"
+    for hand, other in (("fs_config.c", "fs_config.h"), ("fs_config.h", "fs_config.c")):
+        for f, text in pair.items():
+            (fw / f).write_text(text)
+        (fw / hand).write_text(mine)   # either file's refusal keeps both as they were
+        capsys.readouterr()
+        assert cli.main(["export", "yang2022-smo-ramp", "--out", str(fw)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("fullspeed: error: --out = '"), err
+        assert str(fw / hand) in err[0] and "--force" in err[0]
+        assert (fw / hand).read_text() == mine and (fw / other).read_text() == pair[other]
+        assert not list(fw.glob(".*.tmp*"))
+    assert cli.main(["export", "yang2022-smo-ramp", "--out", str(fw), "--force"]) == 0
+    assert all("yang2022-smo-ramp" in (fw / f).read_text() for f in ("fs_config.c", "fs_config.h"))
+    # an empty file, or one that mentions the banner later, is no export either
+    (fw / "fs_config.c").write_text("// " + (fw / "fs_config.c").read_text())
+    assert cli.main(["export", "yang2022-smo-ramp", "--out", str(fw)]) == 2
+    (fw / "other.c").write_text(mine)   # other names are no concern of the export's
+    assert cli.main(["export", "yang2022-smo-ramp", "--out", str(fw), "--name", "other_cfg"]) == 0
+    assert (fw / "other.c").read_text() == mine
+
+
+def test_export_help_and_readme_name_force():
+    text = " ".join(cli_help("export").split())
+    assert "--force" in text and "not an earlier export's" in text
+    readme = (ROOT / "README.md").read_text()
+    part = readme[readme.index("## On a microcontroller"):]
+    assert "`--force`" in " ".join(part[:part.index("`firmware/` is an image")].split())
+
+
+def cli_help(cmd: str) -> str:
+    import contextlib
+    import io
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf), pytest.raises(SystemExit):
+        cli.main([cmd, "--help"])
+    return buf.getvalue()

@@ -204,6 +204,25 @@ def test_another_sweep_in_the_same_folder_is_refused(tmp_path):
         run_sweep(sweep_from_dict(mc_spec(seed=9, samples=2), "t"), tmp_path, workers=1, plot=False)
 
 
+def test_a_sweep_into_a_folder_in_use_says_only_that(tmp_path, capsys):
+    """A second sweep into the folder a running one holds is refused in one
+    line (a new user's trial: it first printed "sweep ...: 300 points in 2
+    worker process(es)", as if it ran); with the folder free it says so, once."""
+    from fullspeed.model.files import claim
+
+    path = write_toml(tmp_path / "s.toml", {**grid_spec(), "axes": {"references.i_q": [5.0, 15.0]}})
+    out = tmp_path / "o"
+    argv = ["sweep", str(path), "--out", str(out), "--workers", "1", "--quiet"]
+    with claim(out):   # the running sweep's lock (flock: another open of the folder conflicts, in this process too)
+        assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("fullspeed: error: --out = ") and "in use by another" in err[0], err
+    assert not (out / JOURNAL).exists()
+    assert main(argv) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert [e for e in err if e.startswith("sweep ")] == [f"sweep t-grid: 2 points in 1 worker process(es) -> {out}"]
+
+
 def test_killed_sweep_resumes_to_the_uninterrupted_table(tmp_path):
     spec = write_toml(tmp_path / "s.toml", {**grid_spec(), "axes": {
         "references.i_q": [5.0, 10.0, 15.0, 20.0, 25.0], "load.speed_rpm": {"range": [200.0, 1400.0, 200.0]}}})
@@ -252,6 +271,39 @@ def test_csv_without_pyarrow_holds_the_same_values(tmp_path, monkeypatch):
     b = table(tmp_path / "csv")
     num = [c for c in a.columns if a[c].dtype.kind == "f"]
     pd.testing.assert_frame_equal(a[num], b[num])
+
+
+def test_a_rerun_in_the_other_format_leaves_one_table(tmp_path, monkeypatch):
+    """A new user's trial: a finished sweep run again after installing the
+    [sweep] extra wrote results.parquet beside the earlier results.csv, two
+    tables that may disagree (and the other way round load_sweep read the
+    stale parquet before the new csv). The earlier format's table goes; the
+    journal's rows are all in the new one."""
+    pytest.importorskip("pyarrow")
+    sw = sweep_from_dict({**grid_spec(), "axes": {"references.i_q": [5.0, 15.0]}}, "t")
+    out = tmp_path / "o"
+    monkeypatch.setattr("fullspeed.workflows.sweep._pyarrow", lambda: None)   # as without pyarrow
+    path, _ = run_sweep(sw, out, workers=1, plot=False)
+    assert path.name == "results.csv"
+    csv_table = table(out)
+    monkeypatch.undo()   # pyarrow installed since
+    path, _ = run_sweep(sw, out, workers=1, plot=False)
+    assert path.name == "results.parquet" and sorted(p.name for p in out.glob("results*")) == ["results.parquet"]
+    assert len(table(out)) == 2 and table(out)["i_q_error_rms"].tolist() == csv_table["i_q_error_rms"].tolist()
+    (out / "results.parquet").write_bytes(b"stale")   # a table that no longer holds the rows: removed the other way too
+    monkeypatch.setattr("fullspeed.workflows.sweep._pyarrow", lambda: None)
+    path, _ = run_sweep(sw, out, workers=1, plot=False)
+    assert sorted(p.name for p in out.glob("results*")) == ["results.csv"] and len(table(out)) == 2
+    assert not [p for p in out.iterdir() if p.name.startswith(".")]
+    # killed as the new table is written: no stale table is read, the journal's rows are
+    monkeypatch.undo()
+    def killed(path, write):
+        raise KeyboardInterrupt
+    monkeypatch.setattr("fullspeed.workflows.sweep.write_with", killed)
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(sw, out, workers=1, plot=False)
+    assert not list(out.glob("results*"))
+    assert table(out)["i_q_error_rms"].tolist() == csv_table["i_q_error_rms"].tolist()
 
 
 def test_maps_are_drawn_for_one_and_two_grid_axes_only(tmp_path):

@@ -287,11 +287,11 @@ def _cmd_sweep(args) -> int:
     out = out_folder(args.out) if args.out else out_path(OUT / "sweeps", sw.name, "name", args.file)
     n = len(sw.points())
     where = f"on Dask at {args.dask}" if args.dask else f"in {args.workers or default_workers()} worker process(es)"
-    print(f"sweep {sw.name}: {n} points {where} -> {out}", file=sys.stderr)
     t0 = time.perf_counter()
     resume = f"resume with: fullspeed sweep {args.file} --out {out}"
     try:
-        with claim(out):
+        with claim(out):   # the banner once the folder is this sweep's: a refused one says only why
+            print(f"sweep {sw.name}: {n} points {where} -> {out}", file=sys.stderr)
             path, rows = run_sweep(sw, out, workers=args.workers, dask=args.dask, progress=not args.quiet,
                                    dask_timeout=args.dask_timeout)
     except (KeyboardInterrupt, EngineError):
@@ -357,10 +357,10 @@ def _cmd_map(args) -> int:
     name = Path(target).stem if target.endswith(".toml") else target
     out = out_folder(args.out) if args.out else out_path(OUT / "maps", name, "target", None)
     torques = tuple(args.torques) if args.torques else TORQUE_FRACTIONS
-    print(f"map {target} -> {out}", file=sys.stderr)
-    try:
+    try:   # the banner once the input is checked: a refused map says only why
         em = efficiency_map(target, out, speeds=args.speeds, torques=torques, top_rpm=args.top_rpm,
-                            overrides=overrides or None, workers=args.workers, progress=not args.quiet)
+                            overrides=overrides or None, workers=args.workers, progress=not args.quiet,
+                            start=lambda: print(f"map {target} -> {out}", file=sys.stderr))
     except KeyboardInterrupt:
         print(f"fullspeed: map stopped: what finished is kept in {out / JOURNAL}; run the same command to resume",
               file=sys.stderr)
@@ -370,6 +370,8 @@ def _cmd_map(args) -> int:
     print(f"{em.name}: {s['points']} points, {s['held']} held"
           + (f" ({sum(s['stops'].values())} stopped: {stopped})" if stopped else "")
           + f"; module: {s.get('module') or 'ideal switches'}; iron loss: {s.get('iron_source') or 'none'}")
+    if s.get("iron_reason"):   # the machine file's why, where its source says "(reasons below)"
+        print(f"iron loss, the machine file's reason: {one_line(s['iron_reason'])}")
     for key, label in (("eta_machine", "machine"), ("eta_converter", "converter"), ("eta_drive", "drive")):
         p = s.get(f"{key}_peak")
         if p and key == "eta_converter" and not s.get("module"):   # no device data: the converter meters no loss
@@ -445,7 +447,7 @@ def _cmd_export(args) -> int:
         return _cmd_export_fmu(args)
     out = out_folder(args.out)
     with claim(out):
-        paths = export(args.scenario, out, args.name, _set_overrides(args.set))
+        paths = export(args.scenario, out, args.name, _set_overrides(args.set), force=args.force)
     print(f"wrote {' and '.join(str(p) for p in paths)}: the fs_drive_config of {args.scenario} "
           f"(compile the .c with csrc/control; fs_drive_init(&drive, &{args.name}))")
     return 0
@@ -563,7 +565,8 @@ def main(argv: list[str] | None = None) -> int:
     idf.set_defaults(func=_cmd_identify)
     ex = sub.add_parser("export", help="write the fs_drive_config a scenario's simulation uses as C source for a firmware")
     ex.add_argument("scenario", help="catalog name or TOML file")
-    ex.add_argument("--out", required=True, help="output folder: <name>.h and <name>.c are written there")
+    ex.add_argument("--out", required=True, help="output folder: <name>.h and <name>.c are written there, replacing "
+                    "an earlier export's; a file of those names that is not an export's is refused without --force")
     ex.add_argument("--name", default="fs_config", help="the C constant and the files' name (default fs_config); "
                     "not with --fmu, --fmu-system: an FMU is named after its scenario")
     ex.add_argument("--set", action="append", metavar="KEY=VALUE",
@@ -572,6 +575,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="write <scenario name>-drive.fmu instead: the drive as an FMI co-simulation unit (one step a control period)")
     ex.add_argument("--fmu-system", action="store_true",
                     help="write <scenario name>-system.fmu: plant, converter and drive as fullspeed simulates them")
+    ex.add_argument("--force", action="store_true",
+                    help="overwrite <name>.h and <name>.c in --out even if they are not an earlier export's (hand-written)")
     ex.add_argument("--fmi", type=int, choices=[2, 3], default=3, help="the FMI version of the FMUs (default 3)")
     ex.set_defaults(func=_cmd_export)
     sch = sub.add_parser("schema", help="the scenario and machine fields: unit, default, range, meaning (docs/reference.md)")

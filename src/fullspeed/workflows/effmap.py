@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -193,12 +194,15 @@ def run_length(sc: Scenario, rpm_low: float) -> tuple[float, float]:
 
 def efficiency_map(target: str, out: Path, speeds: int = SPEED_FRACTIONS, torques: tuple = TORQUE_FRACTIONS,
                    top_rpm: float | None = None, overrides: dict | None = None, workers: int | None = None,
-                   progress: bool = False) -> EffMap:
-    """The map of a scenario or a machine into out: map.csv, map.png, map.json."""
+                   progress: bool = False, start=None) -> EffMap:
+    """The map of a scenario or a machine into out: map.csv, map.png, map.json
+    (start(): called once the input is checked, before the points run)."""
     if not isinstance(speeds, int) or not 2 <= speeds <= 100:
         raise ConfigError("--speeds", speeds, "must be an integer from 2 to 100")
     if not torques or not all(0.0 < f <= 1.0 for f in torques):
         raise ConfigError("--torques", list(torques), "must be fractions of the envelope in (0, 1]")
+    if workers is not None and (not isinstance(workers, int) or workers < 1):   # 0 ran on every core, as no --workers
+        raise ConfigError("--workers", workers, "must be at least 1")
     data, source = base_data(target, overrides)
     sc, shared = map_scenarios(data, source, top_rpm)
     base = deep_merge(data, shared)
@@ -209,19 +213,38 @@ def efficiency_map(target: str, out: Path, speeds: int = SPEED_FRACTIONS, torque
     duration, window = run_length(sc, rpm[0])
     tasks = [{"data": base, "source": source, "rpm": n, "torque": f * T, "duration": duration, "window": window}
              for n, T in zip(rpm, env) for f in torques if T > 0.0]
+    if start is not None:
+        start()
     results = run_tasks(map_point, tasks, out, workers=workers, progress=progress, desc=f"map {sc.name}")
     rows = [{c: None for c in COLUMNS} | {"speed_rpm": t["rpm"], "torque_Nm": t["torque"]} | (r or {"stop_reason": "not run"})
             for t, r in zip(tasks, results)]
     summary = summarise(rows)
     summary.update(scenario=sc.name, machine=sc.machine.name, points=len(rows), duration_s=duration, window_s=window,
                    voltage_limit_V=voltage_limit(sc), i_max_A=ctl["i_max"],
-                   module=(sc.machine.converter or {}).get("module"), iron_source=(sc.machine.losses or {}).get("source"))
+                   module=(sc.machine.converter or {}).get("module"))
+    summary["iron_source"], summary["iron_reason"] = iron_loss_note(sc.machine.losses)
     paths = [write_table(rows, out / "map.csv"),
              write_json(out / "map.json", {"summary": summary, "speeds_rpm": rpm, "envelope_Nm": list(env)}, indent=2)]
     fig = write_with(out / "map.png", lambda tmp: plot_map(rows, rpm, env, summary, tmp))
     if fig is not None:
         paths.append(fig)
     return EffMap(sc.name, rows, rpm, list(env), summary, paths)
+
+
+def iron_loss_note(losses: dict | None) -> tuple[str | None, str | None]:
+    """The machine's [losses] source as the map states it, and the file's
+    reason for the iron loss (reasons.P_fe_ref, its size; else the table's
+    first), each one line. The source's "(reasons below)" points into the
+    machine file, which the map's reader does not have before them: it is
+    dropped, and the reason given beside the source instead."""
+    if not losses:
+        return None, None
+    reasons = losses.get("reasons") or {}
+    reason = reasons.get("P_fe_ref") or next(iter(reasons.values()), None)
+    source = losses.get("source")
+    if source:
+        source = re.sub(r"\s*\((?:see )?(?:the )?reasons(?: below)?\)", "", source, flags=re.I)
+    return (" ".join(source.split()) if source else None), (" ".join(reason.split()) if reason else None)
 
 
 def stops(rows: list[dict]) -> dict[str, int]:

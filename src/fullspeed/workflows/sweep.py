@@ -413,8 +413,20 @@ def _pyarrow():
     return pyarrow, pyarrow.parquet
 
 
+def _drop_other_table(out: Path, name: str) -> None:
+    """Remove the table of the other format an earlier run in out wrote
+    (pyarrow installed or removed since): this run's table supersedes it, and
+    two could disagree (load_sweep reads results.parquet first). Removed
+    before the new one is written: a kill between leaves no table, and
+    load_sweep the journal's rows, never the stale table beside the new."""
+    other = out / ("results.csv" if name == "results.parquet" else "results.parquet")
+    if other.is_symlink() or path_kind(other) == "file":   # a folder or a device of that name is not ours
+        other.unlink(missing_ok=True)
+
+
 def write_table(rows: list[dict], cols: list[str], out: Path) -> Path:
-    """results.parquet with pyarrow, else results.csv."""
+    """results.parquet with pyarrow, else results.csv; the other format's
+    table of an earlier run there is removed."""
     arrow = _pyarrow()
     if arrow is None:
         def write_csv(tmp: Path):
@@ -422,9 +434,11 @@ def write_table(rows: list[dict], cols: list[str], out: Path) -> Path:
                 w = csv.DictWriter(f, fieldnames=cols)
                 w.writeheader()
                 w.writerows(rows)
+        _drop_other_table(out, "results.csv")
         return write_with(out / "results.csv", write_csv)
     pa, pq = arrow
     table = pa.Table.from_pylist(rows, schema=_schema(rows, cols))
+    _drop_other_table(out, "results.parquet")
     return write_with(out / "results.parquet", lambda tmp: pq.write_table(table, tmp))
 
 
