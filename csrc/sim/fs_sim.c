@@ -808,12 +808,14 @@ static void sample(fs_sim *s, double t, fs_drive_in *din, double *i_ph, fs_pmsm_
     } else {
         phase_currents_at(s, s->x, i_ph, a);
     }
+    /* the phases beyond the machine's read 0: all cleared, then the phases', a constant count of
+     * stores where the phases' count was a call to memset */
+    for (int k = 0; k < FS_PHASES_MAX; ++k) din->i_ph[k] = 0.0f;
     if (s->adc_clip_only) {
         for (int k = 0; k < s->phases; ++k) din->i_ph[k] = (float)adc_clip(s, i_ph[k], t);
     } else {
         for (int k = 0; k < s->phases; ++k) din->i_ph[k] = (float)adc(s, k, i_ph[k], t);
     }
-    for (int k = s->phases; k < FS_PHASES_MAX; ++k) din->i_ph[k] = 0.0f;
     din->u_dc = (float)c->inverter.u_dc;
     if (s->imc) {
         double u_in[3];
@@ -1031,7 +1033,9 @@ static int advance(fs_sim *s, double t)
     if (s->imc) integrate_period_imc(s, t); else integrate_period(s, t, cur_ok);
     if (s->thermal_on) thermal_period(s);
     if (c->delay) {
-        for (int k = 0; k < s->phases; ++k) s->duty_now[k] = s->duty_next[k];
+        /* all the legs: those beyond the phases hold 0.5 in both (fs_sim_create, command), and a
+         * copy of a constant count is a few moves where the phases' count was a call to memcpy */
+        for (int k = 0; k < FS_INV_MAX_LEGS; ++k) s->duty_now[k] = s->duty_next[k];
         if (s->imc) s->rect_now = s->rect_next;
     }
     ++s->k;
