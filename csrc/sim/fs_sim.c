@@ -1043,10 +1043,12 @@ static int advance(fs_sim *s, double t)
 
     /* all states finite: x * 0 is 0 for a finite x and NaN for an infinite
      * or NaN one, so the sum is 0 or NaN (the filter's states move only with
-     * the matrix converter) */
+     * the matrix converter). A three-phase machine's states are a constant
+     * count (the loop unrolled), a five-phase one's two more. */
     double zero = 0.0;
     if (s->imc) for (int n = 0; n < FS_GRID_X_N; ++n) zero += s->g[n] * 0.0;
-    for (int n = 0; n < s->nx; ++n) zero += s->x[n] * 0.0;
+    for (int n = 0; n < FS_X_N3; ++n) zero += s->x[n] * 0.0;
+    for (int n = FS_X_N3; n < s->nx; ++n) zero += s->x[n] * 0.0;
     if (zero != 0.0) {
         s->stopped = FS_STOP_NAN;
         s->stop_time = fs_sim_time(s);
@@ -1056,7 +1058,9 @@ static int advance(fs_sim *s, double t)
         double *i_ph = s->cur_ph;
         phase_currents_at(s, s->x, i_ph, &s->cur_at);
         s->cur_ok = s->pmsm.mag.cfg.kind != FS_MAG_FLUXMAP;
-        for (int k = 0; k < s->phases; ++k) {
+        /* all the legs, a constant count (unrolled): a three-phase machine's cur_ph[3], [4] are
+         * never written and hold calloc's 0 */
+        for (int k = 0; k < FS_INV_MAX_LEGS; ++k) {
             if (fabs(i_ph[k]) > c->i_trip) {
                 s->stopped = FS_STOP_OVERCURRENT;
                 s->stop_time = fs_sim_time(s);
