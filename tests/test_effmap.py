@@ -183,3 +183,21 @@ def test_a_map_whose_points_stop_fails_and_counts_the_stops(tmp_path):
     rows = list(csv.DictReader(open(tmp_path / "o" / "map.csv")))
     assert [r["stop_reason"] for r in rows] == ["done", "overspeed"]
     assert json.loads((tmp_path / "o" / "map.json").read_text())["summary"]["stops"] == {"overspeed": 1}
+
+
+def test_a_second_map_into_a_folder_in_use_is_refused(tmp_path, capsys):
+    """Two maps into one folder would write one journal: the second is refused
+    in one line while the first holds the folder (as a sweep's), and runs once
+    it is free."""
+    from fullspeed.cli import main
+    from fullspeed.model.files import claim
+
+    out = tmp_path / "o"
+    argv = ["map", "yang2022", "--speeds", "2", "--torques", "0.3", "--top-rpm", "2000", "--workers", "1",
+            "--out", str(out), "--quiet"]
+    with claim(out):   # the running map's lock (flock: another open of the folder conflicts, in this process too)
+        assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "in use by another fullspeed command" in err[0], err
+    assert not (out / "map.csv").exists()
+    assert main(argv) == 0 and (out / "map.csv").exists()

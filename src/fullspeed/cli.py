@@ -358,9 +358,10 @@ def _cmd_map(args) -> int:
     out = out_folder(args.out) if args.out else out_path(OUT / "maps", name, "target", None)
     torques = tuple(args.torques) if args.torques else TORQUE_FRACTIONS
     try:   # the banner once the input is checked: a refused map says only why
-        em = efficiency_map(target, out, speeds=args.speeds, torques=torques, top_rpm=args.top_rpm,
-                            overrides=overrides or None, workers=args.workers, progress=not args.quiet,
-                            start=lambda: print(f"map {target} -> {out}", file=sys.stderr))
+        with claim(out):   # one map a folder, as a sweep's: two would write one journal
+            em = efficiency_map(target, out, speeds=args.speeds, torques=torques, top_rpm=args.top_rpm,
+                                overrides=overrides or None, workers=args.workers, progress=not args.quiet,
+                                start=lambda: print(f"map {target} -> {out}", file=sys.stderr))
     except KeyboardInterrupt:
         print(f"fullspeed: map stopped: what finished is kept in {out / JOURNAL}; run the same command to resume",
               file=sys.stderr)
