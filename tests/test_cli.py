@@ -140,12 +140,15 @@ def test_export_help_names_the_fmu_as_it_is_written(tmp_path):
     assert p.returncode == 2 and "an FMU is named after its scenario (<scenario name>-drive.fmu" in p.stderr
 
 
-@pytest.mark.parametrize("command, says", [("design", "target = 'nosuch': unknown machine or scenario"),
-                                           ("map", "target = 'nosuch': unknown machine or scenario"),
-                                           ("run", "scenario = 'nosuch': unknown scenario")])
-def test_an_unknown_name_is_refused_as_what_the_command_takes(tmp_path, command, says):
+@pytest.mark.parametrize("command, name, says", [
+    ("design", "nosuch", "target = 'nosuch': unknown machine or scenario"),
+    ("map", "nosuch", "target = 'nosuch': unknown machine or scenario"),
+    ("run", "nosuch", "scenario = 'nosuch': unknown scenario"),
+    ("design", "nosuch.toml", "target = 'nosuch.toml': file not found"),   # it said machine = ...
+    ("map", "nosuch.toml", "target = 'nosuch.toml': file not found")])
+def test_an_unknown_name_is_refused_as_what_the_command_takes(tmp_path, command, name, says):
     # design and map take a machine or a scenario: 'unknown scenario' there sent the user to the wrong list
-    p = fullspeed(command, "nosuch", cwd=tmp_path)
+    p = fullspeed(command, name, cwd=tmp_path)
     lines = p.stderr.strip().splitlines()
     assert p.returncode == 2 and len(lines) == 1 and says in lines[0], p.stderr
     assert not list(tmp_path.iterdir())

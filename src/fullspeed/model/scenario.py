@@ -531,6 +531,8 @@ def check_target(target: str) -> None:
     """A command's target that may be a machine or a scenario (design, map):
     a name that is neither, nor a file, is refused as that, not as an
     unknown scenario."""
+    if target.endswith(".toml") and path_kind(target) is None:   # a file, as design's read_toml would name it 'machine'
+        raise ConfigError("target", target, "file not found", None)
     if not target.endswith(".toml") and path_kind(target) is None and target not in scenario_names() \
             and target not in catalog_names():
         raise ConfigError("target", target, "unknown machine or scenario; `fullspeed list` shows the catalog", None)
