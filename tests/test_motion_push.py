@@ -94,3 +94,28 @@ def test_the_baldor_on_its_locked_identified_file_takes_its_load_without_a_false
     assert res.metrics.get("true_loss_at") is None
     e = np.degrees(np.abs(res.traces["theta_err"][res.traces["t"] > 0.25]))
     assert e.max() < 10.0, e.max()
+
+
+def test_a_load_through_the_test_keeps_the_doublet_within_its_stretch():
+    """A load acting through the test (a new user's Baldor, 15 N m ramped in
+    from 0.1 s): the coast's rule had lengthened the doublet towards the
+    current that only balances the load, 2 x 40,558 s, which fs_drive_init
+    refused ('controller.motion: parameter out of range'). No doublet within
+    MOTION_STRETCH_MAX x the observer's keeps the coast there: the push is
+    as designed, the reason says why, and the scenario loads."""
+    from fullspeed.design.start import MOTION_STRETCH_MAX
+
+    from fullspeed.model.machines import catalog_data
+    machine = {"name": "baldor", "kind": "ipmsm", "pole_pairs": 2,   # a new user's file of the Baldor (its own R_s, J)
+               "electrical": {"R_s": 3.6, "L_d": 0.026, "L_q": 0.14, "psi_f": 0.444}, "mechanical": {"J": 0.015},
+               "rated": {"torque": 29.7, "current": 12.4, "speed_rpm": 1800.0},
+               "magnetic": {"file": catalog_data(BALDOR)["magnetic"]["file"]},
+               "bench": {"u_dc": 650.0, "f_pwm": 5000.0, "t_dead": 2e-6, "noise_i": 0.05}}
+    data = {"name": "early", "duration": 0.05, "machine": machine,
+            "controller": {"mode": "speed", "angle": "blend", "flux_weakening": True},
+            "references": {"speed_rpm": [[0.0, 0.0], [0.5, 0.0], [2.0, 1000.0]]},
+            "load": {"kind": "torque", "torque": [[0.0, 0.0], [0.1, 0.0], [0.4, 15.0]]}}
+    sc = scenario_from_dict(data, "early", warn=False)
+    t_push, why = sc.design["start.t_push"].value, sc.design["start.i_push"].reason
+    assert 0.0 < t_push < 0.1 and f"no doublet up to {MOTION_STRETCH_MAX:g} x longer" in why, (t_push, why)
+    assert simulate(sc).stop_reason == "done"   # fs_drive_init takes it
