@@ -1140,8 +1140,9 @@ static float ldq_bias(const fs_ident *id, int level)
     /* a locked rotor also at +-2 I_b: the mean at +-I_b is L_q at zero to the curve's second order, and the
      * two means together take that order out (ldq_lq) */
     static const float LOCKED[4] = {1.0f, -1.0f, 2.0f, -2.0f};
-    float ret = (level == 0) ? I_b : (north ? 2.0f : -1.0f) * I_b;
+    float ret;
     if (id->cfg.locked != 0) { ret = LOCKED[level & 3] * I_b; }
+    else { ret = (level == 0) ? I_b : (north ? 2.0f : -1.0f) * I_b; }
     return ret;
 }
 

@@ -353,7 +353,6 @@ def _cmd_map(args) -> int:
 
     overrides = _set_overrides(args.set)
     target = args.target
-    check_target(target)   # before the banner: one line
     name = Path(target).stem if target.endswith(".toml") else target
     out = out_folder(args.out) if args.out else out_path(OUT / "maps", name, "target", None)
     torques = tuple(args.torques) if args.torques else TORQUE_FRACTIONS

@@ -410,6 +410,9 @@ def design_motion(d: dict, m, i_hf: float, w_o: float, w_b_n: float) -> dict[str
     T_L = load_torque(d, pol["t_lock"] + 2 * t_half + t_settle) + m.T_coulomb
     i_lim = 0.999 * (ctl["i_max"] - i_hf)   # below fs_drive's float32 bound
     out = {}
+
+    def half(x):   # each half of the doublet that turns the rotor by `want` at x A against twice the load
+        return 0.5 * math.sqrt(2 * math.pi * want * J / (p * max(k_T * m.psi_f * x - 2 * T_L, 1e-12)))
     if st["i_push"] is None:
         # a sine period over 2 t_half turns the rotor by p T (2 t_half)^2 / (2 pi J); the load at most half its peak
         T = 2 * math.pi * want * J / (p * (2 * t_half) ** 2) + 2 * T_L
@@ -419,9 +422,6 @@ def design_motion(d: dict, m, i_hf: float, w_o: float, w_b_n: float) -> dict[str
                f"{w_o:.4g} rad/s), against twice the load and friction ({T_L:.3g} N m)")
         # the coast the halves' mismatch may leave (MOTION_COAST_SHARE): a longer doublet turns the rotor as far with
         # less current, whose axis the carrier's saliency keeps closer to the d axis
-        def half(x):
-            return 0.5 * math.sqrt(2 * math.pi * want * J / (p * max(k_T * m.psi_f * x - 2 * T_L, 1e-12)))
-
         def coasts(x):
             got = push_torque_change(m, x)
             return 0.0 if got is None else got[1] * t_settle / half(x)
@@ -465,7 +465,7 @@ def design_motion(d: dict, m, i_hf: float, w_o: float, w_b_n: float) -> dict[str
                     f"less the carrier's peak, {i:.4g} A, makes {k_T * m.psi_f * i:.3g} N m, which must outweigh twice the "
                     f"load and friction ({2 * T_L:.3g} N m) to turn the rotor its own way; let the load act after the start"),
                     None)
-            t_half = 0.5 * math.sqrt(2 * math.pi * want * J / (p * max(k_T * m.psi_f * i - 2 * T_L, 1e-12)))
+            t_half = half(i)
             why = (f"controller.i_max less the carrier's peak: the turn of {math.degrees(want):.3g} el.deg then takes "
                    f"2 x {t_half * 1e3:.3g} ms")
         st["i_push"] = i
@@ -476,7 +476,7 @@ def design_motion(d: dict, m, i_hf: float, w_o: float, w_b_n: float) -> dict[str
                 f"makes {k_T * m.psi_f * st['i_push']:.3g} N m, which must outweigh twice the load and friction acting "
                 f"while the motion test runs ({2 * T_L:.3g} N m): at least {2 * T_L / (k_T * m.psi_f):.4g} A, or let the "
                 "load act after the start"), None)
-        t_half = 0.5 * math.sqrt(2 * math.pi * want * J / (p * max(k_T * m.psi_f * st["i_push"] - 2 * T_L, 1e-12)))
+        t_half = half(st["i_push"])
     if st["i_push"] > i_lim:
         raise ConfigError("start.i_push", st["i_push"], f"must be <= {i_lim:.4g} A: controller.i_max less the carrier's peak", None)
     st["c"]["T_push"], st["c"]["T_load"] = k_T * m.psi_f * st["i_push"], T_L   # the first doublet against the load (refused above)

@@ -524,10 +524,15 @@ def job_checks(res) -> dict:
         band = max(CONTROL_BAND * abs(w_ref), CONTROL_FLOOR * sc.machine.w_m_rated)
         out["speed_end"] = {"speed_rpm": rad_s_to_rpm(w), "ref_rpm": rad_s_to_rpm(w_ref), "band_rpm": rad_s_to_rpm(band),
                             "window": [float(t[m][0]), float(t[m][-1])], "far": abs(w - w_ref) > band,
-                            "unheld": _unheld(res, t, tau, w - w_ref, max(SETTLE_BAND * abs(w_ref),
-                                                                          SPEED_FLOOR * sc.machine.w_m_rated))}
+                            "unheld": _unheld(res, t, tau, w - w_ref, _settle_band(sc, w_ref))}
         out["speed_steady"] = _steady_unheld(res, t)
     return out
+
+
+def _settle_band(sc, w_ref: float) -> float:
+    """The band a settled speed loop keeps about its reference w_ref (rad/s):
+    SETTLE_BAND of it, at least SPEED_FLOOR of rated speed (the step metrics')."""
+    return max(SETTLE_BAND * abs(w_ref), SPEED_FLOOR * sc.machine.w_m_rated)
 
 
 def _steady_unheld(res, t) -> dict | None:
@@ -554,7 +559,7 @@ def _steady_unheld(res, t) -> dict | None:
     if np.ptp(ref) > 0.0:   # a window given over a ramp: the loop's lag behind it, not a hold (yang2022-smo-ramp)
         return None
     w, w_ref = float(np.mean(tr["w_m"][m])), float(ref[0])
-    band = max(SETTLE_BAND * abs(w_ref), SPEED_FLOOR * sc.machine.w_m_rated)
+    band = _settle_band(sc, w_ref)
     if abs(w - w_ref) <= band:
         return None
     return {"speed_rpm": rad_s_to_rpm(w), "ref_rpm": rad_s_to_rpm(w_ref), "band_rpm": rad_s_to_rpm(band),

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import csv
 import math
+from collections import Counter
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -251,12 +252,7 @@ def stops(rows: list[dict]) -> dict[str, int]:
     """The points whose run stopped (a protection, a lost or undetermined
     angle), by stop reason: the drive failed there, unlike a point whose
     speed sags below its reference at a torque the drive does not reach."""
-    out: dict[str, int] = {}
-    for r in rows:
-        reason = r.get("stop_reason")
-        if reason not in (None, "done", "not run"):
-            out[reason] = out.get(reason, 0) + 1
-    return out
+    return dict(Counter(r["stop_reason"] for r in rows if r.get("stop_reason") not in (None, "done", "not run")))
 
 
 def summarise(rows: list[dict]) -> dict:
