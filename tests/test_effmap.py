@@ -201,3 +201,25 @@ def test_a_second_map_into_a_folder_in_use_is_refused(tmp_path, capsys):
     assert len(err) == 1 and "in use by another fullspeed command" in err[0], err
     assert not (out / "map.csv").exists()
     assert main(argv) == 0 and (out / "map.csv").exists()
+
+
+def test_the_map_prints_the_machines_implausible_data_before_it_runs(tmp_path, capsys):
+    """A new user's trial typed J as 150 kg m^2 (for 1.5e-3): `run` and
+    `design` warned of it, `map` ran its points and said nothing. The map
+    prints its base scenario's warnings, the machine's data among them,
+    before its banner; the same file with a plausible J prints none."""
+    from fullspeed.cli import main
+
+    f = machine_file(tmp_path)
+    argv = ["--speeds", "2", "--torques", "0.5", "--top-rpm", "2000", "--workers", "1", "--quiet"]
+    assert main(["map", str(f), *argv, "--out", str(tmp_path / "ok")]) == 0
+    assert capsys.readouterr().err.strip().splitlines() == [f"map {f} -> {tmp_path / 'ok'}"]
+    m = copy.deepcopy(MACHINE)
+    m.update(converter=CONV, losses=IRON, mechanical={"J": 150.0, "B": 2e-4, "T_coulomb": 0.03})
+    heavy = tmp_path / "heavy.toml"
+    heavy.write_text(dumps(m))
+    main(["map", str(heavy), *argv, "--out", str(tmp_path / "heavy")])
+    err = capsys.readouterr().err.strip().splitlines()
+    banner = err.index(f"map {heavy} -> {tmp_path / 'heavy'}")
+    warned = [line for line in err[:banner] if line.startswith("fullspeed: warning: machine.mechanical.J: J = 150")]
+    assert len(warned) == 1 and "check J's unit (kg m^2)" in warned[0], err

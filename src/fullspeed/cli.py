@@ -356,11 +356,16 @@ def _cmd_map(args) -> int:
     name = Path(target).stem if target.endswith(".toml") else target
     out = out_folder(args.out) if args.out else out_path(OUT / "maps", name, "target", None)
     torques = tuple(args.torques) if args.torques else TORQUE_FRACTIONS
+    def start(sc) -> None:   # the input checked: its warnings (the machine's data among them) and the banner
+        for w in sc.warnings:
+            print(f"fullspeed: warning: {one_line(w)}", file=sys.stderr)
+        print(f"map {target} -> {out}", file=sys.stderr)
+
     try:   # the banner once the input is checked: a refused map says only why
         with claim(out):   # one map a folder, as a sweep's: two would write one journal
             em = efficiency_map(target, out, speeds=args.speeds, torques=torques, top_rpm=args.top_rpm,
                                 overrides=overrides or None, workers=args.workers, progress=not args.quiet,
-                                start=lambda: print(f"map {target} -> {out}", file=sys.stderr))
+                                start=start)
     except KeyboardInterrupt:
         print(f"fullspeed: map stopped: what finished is kept in {out / JOURNAL}; run the same command to resume",
               file=sys.stderr)

@@ -197,7 +197,8 @@ def efficiency_map(target: str, out: Path, speeds: int = SPEED_FRACTIONS, torque
                    top_rpm: float | None = None, overrides: dict | None = None, workers: int | None = None,
                    progress: bool = False, start=None) -> EffMap:
     """The map of a scenario or a machine into out: map.csv, map.png, map.json
-    (start(): called once the input is checked, before the points run)."""
+    (start(sc): called with the checked base scenario, whose warnings its
+    caller prints, before the points run)."""
     if not isinstance(speeds, int) or not 2 <= speeds <= 100:
         raise ConfigError("--speeds", speeds, "must be an integer from 2 to 100")
     if not torques or not all(0.0 < f <= 1.0 for f in torques):
@@ -215,7 +216,7 @@ def efficiency_map(target: str, out: Path, speeds: int = SPEED_FRACTIONS, torque
     tasks = [{"data": base, "source": source, "rpm": n, "torque": f * T, "duration": duration, "window": window}
              for n, T in zip(rpm, env) for f in torques if T > 0.0]
     if start is not None:
-        start()
+        start(sc)
     results = run_tasks(map_point, tasks, out, workers=workers, progress=progress, desc=f"map {sc.name}")
     rows = [{c: None for c in COLUMNS} | {"speed_rpm": t["rpm"], "torque_Nm": t["torque"]} | (r or {"stop_reason": "not run"})
             for t, r in zip(tasks, results)]
