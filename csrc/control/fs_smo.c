@@ -118,6 +118,7 @@ FS_COLD void fs_smo_reset(fs_smo *o, float theta, float w)
     o->T_hold = 0.0f;
     o->w_hold = 0.0f;
     o->th_hold = 0.0f;
+    o->t_hold = 0.0f;
     o->r_i = o->eps = o->e_mag = 0.0f;
 }
 
@@ -147,10 +148,23 @@ void fs_smo_set_model(fs_smo *o, float L_q, float psi_a)
     o->map = true;
 }
 
+void fs_smo_speed(fs_smo *o, float k)
+{
+    if ((o->cfg.form == (int)FS_SMO_FORM_TRACKING) && o->valid && (o->n_hold == 0) && (o->n_cross == 0) && !o->converged && (k > 0.0f)) {
+        const float w_o = o->mo.cfg.bandwidth;
+        const float kT = k * w_o * o->cfg.Ts;
+        const float dw = ((o->dir * o->e_raw) / o->psi_x) - o->mo.w_hat;
+        o->mo.w_hat += (2.0f * kT) * dw;
+        o->mo.T_d_hat += ((kT * w_o) * dw) / o->mo.k_u;
+        o->w = o->mo.w_hat;
+    }
+}
+
 void fs_smo_hold(fs_smo *o, int n)
 {
     if (o->valid && (n > 0)) {   /* read by the tracking form only */
         o->n_hold = n;
+        o->t_hold = ((float)n) * o->cfg.Ts;
         o->w_hold = 0.0f;
         o->th_hold = 0.0f;
     }
@@ -296,12 +310,13 @@ FS_OUT_OF_LINE FS_COLD bool smo_model_step(fs_smo *o, float T)
     bool stepped = true;
     if (o->n_hold > 0) {
         /* the angle and speed the torque's change since the hold began has
-         * given the model: past FS_SMO_HOLD_DRIFT by the hold's end, the
-         * hold ends and the EMF corrects again, this step on (fs_smo.h) */
+         * given the model: past FS_SMO_HOLD_DRIFT by the hold's end, or the
+         * speed past it over a hold's length, the hold ends and the EMF
+         * corrects again, this step on (fs_smo.h) */
         const float Ts = o->cfg.Ts;
         o->w_hold += o->mo.k_u * (T - o->T_hold) * Ts;
         o->th_hold += o->w_hold * Ts;
-        if (fabsf(o->th_hold + (o->w_hold * (float)o->n_hold * Ts)) > FS_SMO_HOLD_DRIFT) {
+        if ((fabsf(o->th_hold + (o->w_hold * (float)o->n_hold * Ts)) > FS_SMO_HOLD_DRIFT) || ((fabsf(o->w_hold) * o->t_hold) > FS_SMO_HOLD_DRIFT)) {
             o->n_hold = 0;
             stepped = false;
         } else {

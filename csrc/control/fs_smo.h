@@ -283,6 +283,7 @@ typedef struct {
                             torque has left it (fs_smo_hold) */
     float w_hold;        /* in a hold: the speed (rad/s) the torque's change since it began has given the model */
     float th_hold;       /* ... and the angle, rad */
+    float t_hold;        /* ... and the hold's length, s (the speed's bound) */
 } fs_smo;
 
 fs_status fs_smo_init(fs_smo *o, const fs_smo_config *cfg);
@@ -314,7 +315,20 @@ void fs_smo_set_dir(fs_smo *o, float w);
  * MG2 held at 294 rpm by a load machine, the torque asked from 40 to 486
  * N m just as the estimate passed the injection's stop speed: the model
  * alone, 9.6 ms on a 0.035 kg m^2 rotor, ran the estimate to 660 rpm and
- * 100 el.deg off. */
+ * 100 el.deg off.
+ *
+ * The same for the speed that difference gives: the hold ends where it,
+ * carried over a hold's length, would pass FS_SMO_HOLD_DRIFT. The angle's
+ * bound alone let the speed go: the speed is carried past the hold's end
+ * until the EMF's correction has worked it off, and the caller decides on
+ * it meanwhile (the blend's weight, the injection's stop and resume). On
+ * the Prius held at 293.1 rpm (B-REAL's 294 less 0.2 %), the carrier's
+ * resume took its peak off the current limit, 30 N m of the 486, and the
+ * hold's model ran 284 -> 226 rpm within the angle's bound, below the
+ * blend's band top (267): the blend left the tracker for its own model and
+ * lost the rotor. With this and the speed innovation (fs_smo_speed): 25 of
+ * 25 neighbours 0.1 % apart hold (bench/held_margin.py --k 12), 16 on main;
+ * the speed innovation alone 24, this alone 20. */
 void fs_smo_hold(fs_smo *o, int n);
 /* FS_SMO_FORM_TRACKING, while not valid and its own EMF (e_raw) below that
  * of w_valid: the tracker takes an estimate the caller trusts (angle,
@@ -326,6 +340,35 @@ void fs_smo_follow(fs_smo *o, float theta, float w, float T_d);
 /* From a flux map, for the next step (header, saturation): the q secant
  * inductance and the active flux at the operating point. */
 void fs_smo_set_model(fs_smo *o, float L_q, float psi_a);
+/* The tracking form, valid, correcting (no hold, no zero crossing) and not
+ * converged, after fs_smo_step: a speed innovation, the speed of the EMF's magnitude over the
+ * active flux (e_raw / psi_x, the schedule's: low-passed at bw_pll and kept
+ * where the current leaves the boundary layer) less the tracker's, weighted
+ * k in [0, 1]: w += k 2 w_o Ts dw, T_d += k (J / p) w_o^2 Ts dw, a double
+ * pole at the tracker's bandwidth w_o.
+ *
+ * Why: on a saturated map the EMF's angle shows only g of an angle error
+ * (docs/held-runs.md: g = 1 + (L_qd i_q - (L_qq - L_q) i_d) / psi_a; the
+ * 2004 Prius MG2 0.3..0.4 at its current limit), so the tracker corrects
+ * at g of its bandwidth, while the EMF's magnitude gives the speed whatever
+ * the angle. A torque the model feeds forward on J that the shaft does not
+ * follow (a load machine holding it) is an acceleration error a; with
+ * k = 1 - g the speed carries what the angle no longer does: the peak
+ * angle error, in units of a / w_o^2 (the linear tracker's 0.27 at g = 1),
+ * is 0.89 at g = 0.35 without, 0.44 with (the EMF's speed behind its
+ * low-pass at 1.3 w_o), and g = 1 leaves the tracker as it was. The cost:
+ * the flux map's error in psi_x is the speed's, and against the angle's
+ * loop (type 3, no steady error) it holds a steady one; so the speed acts
+ * only until the tracker has converged (fs_smo.h, convergence), and the
+ * caller leaves out the flux weakening, where psi_x is small. Taken at
+ * every convergence, on the Prius held at 291 rpm it read 2.5 % low and
+ * held the estimate 2 rpm under the shaft, below the injection's resume
+ * (288 rpm); taken in flux weakening as well, B-REAL's Baldor PM-SyRM held
+ * at 1,844 rpm made half its torque (0 of 25 neighbours), and with the
+ * convergence's bound but in flux weakening SyR-e's THOR at 2,765 and
+ * 3,456 rpm held 18 and 6 of 25. The 2004 Prius MG2 held at 294 rpm and
+ * its step to 486 N m (B-REAL): see fs_smo_hold. */
+void fs_smo_speed(fs_smo *o, float k);
 /* From a flux map (header, saturation's transient): the voltage
  * (L_inc - L_d) di_dq/dt, stationary frame, that the map's incremental
  * inductances at p put across the machine over the period ending with the
