@@ -287,7 +287,7 @@ FS_COLD void fs_drive_reset(fs_drive *drv)
     drv->fw_map_on = false;
     drv->follows = false;
     drv->smo_transient = false;   /* until the map's first step (drive_map_step) */
-    drv->smo_w_emf = 0.0f;
+    drv->smo_k_speed = 0.0f;
     drv->phase = drive_starts(&drv->cfg) ? FS_PHASE_START : FS_PHASE_RUN;
     drv->theta_ol = 0.0f;
     drv->pll_started = false;
@@ -359,7 +359,7 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
          * error (fs_smo_speed): on the machine's own current (not the filters' fundamental, whose EMF
          * read 1,344 rpm for a period on the Prius at 294), and not in the planned flux weakening, whose
          * active flux is the d current's small difference, so that the map's error in it is the speed's */
-        if (drive_map(drv) && !drv->inject_on && !drv->fw_map_on) { fs_smo_speed(&drv->smo, drv->smo_w_emf); }
+        if (drive_map(drv) && !drv->inject_on && !drv->fw_map_on) { fs_smo_speed(&drv->smo, drv->smo_k_speed); }
         /* while the injection's estimate settles it coasts on its model: where the SMO has converged, it
          * follows the SMO instead, so that its weight in the blend and its first corrections start from the
          * better estimate (the example lock-loss.toml, caught at -590 rpm by its flying restart and
@@ -807,7 +807,7 @@ static float drive_map_step(fs_drive *drv, fs_dq i, fs_dq i_ref)
         /* the share of an angle error the EMF's angle shows on the map at this current (fs_smo.h,
          * fs_smo_speed), g = 1 + (L_qd i_q - (L_qq - L_q) i_d) / psi_a: the speed's weight is 1 - g */
         const float g = 1.0f + (((p.L_qd * i.q) - ((p.L_qq - L_q) * i.d)) / drv->smo.psi_run);
-        drv->smo_w_emf = fs_clampf(1.0f - g, 0.0f, 1.0f);
+        drv->smo_k_speed = fs_clampf(1.0f - g, 0.0f, 1.0f);
         /* the map's transient only on the machine's own current: while injecting the observer's is the
          * filters' fundamental, whose steps from period to period are not the machine's (fs_smo.h) */
         drv->smo_at = p;

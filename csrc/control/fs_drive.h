@@ -538,7 +538,7 @@ typedef struct {
      * (fs_smo_transient; past the hot members' 1 KB, as map), and whether to take it (not after injecting) */
     fs_fluxmap_point smo_at;
     bool smo_transient;
-    float smo_w_emf;         /* ... and the weight of its speed innovation there, 1 - g (fs_smo_speed) */
+    float smo_k_speed;         /* ... and the weight of its speed innovation there, 1 - g (fs_smo_speed) */
     /* after a refused init, the config field or sub-block at fault, as a
      * string literal ("smo.bw_pll", "i_max", "hfi"; fs_status_str tells
      * why); NULL after a successful one */
