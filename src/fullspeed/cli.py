@@ -79,6 +79,13 @@ def _set_overrides(pairs: list[str] | None) -> dict:
 EXIT_FAILED = 1   # a protection stop, a refusal, a loss of lock (flagged, or seen by the simulation's truth)
 
 
+def print_warnings(sc) -> None:
+    """A designed scenario's warnings (its machine data's, its references'
+    against the envelope), one line each on stderr, before a command works."""
+    for w in sc.warnings:
+        print(f"fullspeed: warning: {one_line(w)}", file=sys.stderr)
+
+
 def run_verdict(res) -> list[str]:
     """Why a run failed, one line each; empty for a run that completed with
     the drive in control."""
@@ -198,8 +205,7 @@ def _cmd_run(args) -> int:
         overrides.setdefault("converter", {})["inverter"] = args.inverter
     sc = load_scenario(args.scenario, overrides or None)
     out = out_folder(args.out) if args.out else out_path(OUT, sc.name, "name", sc.source)   # before the run, not after
-    for w in sc.warnings:
-        print(f"fullspeed: warning: {one_line(w)}", file=sys.stderr)
+    print_warnings(sc)
     with claim(out):   # one run a folder: two would mix their files
         res = simulate(sc, progress=not args.quiet)
         # metrics.json last: its presence marks the folder complete (an older one goes first)
@@ -249,8 +255,7 @@ def _cmd_design(args) -> int:
     else:
         sc = load_scenario(target, overrides)
     out = out_folder(args.out) if args.out else out_path(OUT, sc.name, "name", sc.source)
-    for w in sc.warnings:
-        print(f"fullspeed: warning: {one_line(w)}", file=sys.stderr)
+    print_warnings(sc)
     print(design_report(sc))
     from .design.figure import plot_envelope
     env, how = scenario_envelope(sc)
@@ -357,8 +362,7 @@ def _cmd_map(args) -> int:
     out = out_folder(args.out) if args.out else out_path(OUT / "maps", name, "target", None)
     torques = tuple(args.torques) if args.torques else TORQUE_FRACTIONS
     def start(sc) -> None:   # the input checked: its warnings (the machine's data among them) and the banner
-        for w in sc.warnings:
-            print(f"fullspeed: warning: {one_line(w)}", file=sys.stderr)
+        print_warnings(sc)
         print(f"map {target} -> {out}", file=sys.stderr)
 
     try:   # the banner once the input is checked: a refused map says only why
