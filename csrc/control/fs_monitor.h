@@ -72,9 +72,21 @@
  * 5. The current loops' error |i_ref - i| low-passed against k_cur i_max:
  *    an estimate that spins against the rotor leaves the loops a rotating
  *    back-EMF they cannot follow. Not while the modulator cannot realise
- *    the voltage the loops ask (the low-pass holds): their error is then the
- *    voltage limit's, which the flux weakening answers, whatever the angle;
- *    a voltage short only at speed, where 1. and 2. judge the EMF. (SyR-e's
+ *    the voltage the loops ask at a speed that may explain it (the
+ *    low-pass holds): their error is then the voltage limit's, which the
+ *    flux weakening answers, whatever the angle, and 1. and 2. judge the
+ *    EMF. The speed explains a short where its voltage could be half the
+ *    modulator's linear limit with the largest flux the current limit
+ *    allows: |w_hat| psi_max >= K_USPD u_dc / sqrt 3, psi_max = psi_f +
+ *    max(L_d, L_q) i_max (a bound: the flux at any current is below it, so
+ *    a short is counted only where the speed cannot explain it). Below, a
+ *    short that lasts is a loops' frame off the rotor's asking voltage the
+ *    machine does not need: a zoo machine's injection start with the
+ *    controller's L_d, L_q x2 turned 100 el.deg off at 60 rpm, its loops
+ *    over-modulated with their d current at -50 A against -0.1 A asked;
+ *    held, this check read 0.13 and an overcurrent stopped the drive 7 ms
+ *    after the true loss with no flag; counted, it flags the loss as it
+ *    becomes true. (SyR-e's
  *    THOR held at 4,147 rpm by a load machine, its torque stepped to the
  *    envelope's 25 N m: over-modulated for 20 ms, its d current at -7 A
  *    against -43 A, this check alone read a loss with the estimate 7 el.deg
@@ -154,6 +166,7 @@ typedef struct {
     float k_L, L_dq, L_max;   /* L_d / Ts, L_d - L_q, max(L_d, L_q) */
     float J_p, B_p;           /* J / p, B / p */
     float u_err;              /* k_dead + FS_MONITOR_U_FLOOR: the voltage error per volt of u_dc */
+    float psi_spd;            /* Wb, psi_max sqrt 3 / FS_MONITOR_K_USPD: |w| psi_spd >= u_dc where the speed may explain a short (5.) */
     int n_warm;               /* FS_MONITOR_WARM tau / Ts, rounded up: the steps before a judgement */
     float T_mech, i_cur;      /* FS_MONITOR_K_MECH T_max, FS_MONITOR_K_CUR i_max */
     /* state */

@@ -16,8 +16,10 @@
  * rising to half T_max that the loops' speed answers the other way (0.15 of
  * it, an implied load the mechanics' bound does not reach) with the EMF
  * pointing back is flagged; answered the right way, or with the EMF
- * forward, or too slow a change, it is not. The current loops' error,
- * switching off, the warm-up and its count held, and the refusals.
+ * forward, or too slow a change, it is not. The current loops' error (held
+ * while the voltage is short at a speed that may explain it, counted where
+ * it cannot), switching off, the warm-up and its count held, and the
+ * refusals.
  */
 #include <math.h>
 
@@ -229,12 +231,27 @@ int main(void)
     fs_monitor_in in = {{0.0f, 0.0f}, {0.0f, 0.0f}, U_DC, 0.0f, 0.0f, 1.0f, 0.0f, {0.0f, 0.0f}, 0.0f, {0.0f, 0.3f * CFG.i_max}, true, false};
     for (int k = 0; k < 300; ++k) r = fs_monitor_step(&m, &in);
     FS_CHECK(r > 0.7f && r < 0.76f, "0.3 i_max of error: r_cur %g", r);
+    /* the loops' speed raised first, the error as it was */
+    const double w_half = 0.5 * U_DC / sqrt(3.0) / (CFG.psi_f + CFG.L_q * CFG.i_max);
+    in.w = (float)(1.2 * w_half);
+    for (int k = 0; k < 300; ++k) fs_monitor_step(&m, &in);
+    FS_CHECK(m.r_cur > 0.7f && m.r_cur < 0.76f, "0.3 i_max of error at speed: r_cur %g", m.r_cur);
     in.i_err.q = 0.5f * CFG.i_max;
-    /* with the voltage short (over-modulation) the error is the limit's: held where it was */
+    /* with the voltage short (over-modulation) at a speed whose voltage with
+     * the largest flux, psi_f + L i_max, would be 0.6 of the linear limit, the
+     * error is the limit's: held where it was (r_cur; the EMF's checks judge
+     * the loops' speed with no EMF measured, and flag) */
     in.u_limited = true;
+    for (int k = 0; k < 300; ++k) fs_monitor_step(&m, &in);
+    FS_CHECK(m.r_cur > 0.7f && m.r_cur < 0.76f, "0.5 i_max of error, the voltage short at speed: r_cur held at %g", m.r_cur);
+    /* short at a speed whose voltage is at most 0.4 of it: not the speed's, counted */
+    in.w = (float)(0.8 * w_half);
+    for (int k = 0; k < 300; ++k) fs_monitor_step(&m, &in);
+    FS_CHECK(m.r_cur > 1.1f, "0.5 i_max of error, short at 0.8 of that speed: r_cur %g", m.r_cur);
+    in.w = 0.0f;
     for (int k = 0; k < 300; ++k) r = fs_monitor_step(&m, &in);
-    FS_CHECK(r > 0.7f && r < 0.76f, "0.5 i_max of error, the voltage short: r_cur held at %g", r);
     in.u_limited = false;
+    FS_CHECK(r > 1.1f, "0.5 i_max of error, short at standstill: r_cur %g", r);
     for (int k = 0; k < 300; ++k) r = fs_monitor_step(&m, &in);
     FS_CHECK(r > 1.1f, "0.5 i_max of error: r_cur %g", r);
     in.on = false;
