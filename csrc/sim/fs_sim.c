@@ -526,8 +526,21 @@ static void integrate_period(fs_sim *s, double t0, int cur_ok)
     in.T_load = prof(s, P_T_LOAD, t0, NULL);
     in.w_load = prof(s, P_W_LOAD, t0, &slope);
     in.dw_load = slope;
-    double i_ph[FS_INV_MAX_LEGS], rail[FS_INV_MAX_LEGS], drop[FS_INV_MAX_LEGS];
     int halves = s->cfg.sampling == FS_SAMPLING_DOUBLE ? 1 : 2;
+    if (inv->kind != FS_INV_SWITCHING && s->inv_ideal && !s->losses) {
+        /* The averaged inverter without dead time, drops, devices or meters (the wall bench's example): its
+         * mean voltage is a function of the duties and the dc link alone, which no half of the period
+         * changes, so it is formed once for the period (the general path below forms it again for the
+         * second half, the same bits: two divisions on the way to the first RK4 stage). The steps are the
+         * general path's, in its order: the first takes the overcurrent check's angle and currents. */
+        fs_inverter_mean_voltage_ideal(inv, s->duty_now, &in.u_alpha, &in.u_beta, &in.u_x, &in.u_y);
+        const int steps = halves * s->half_steps;
+        const double hstep = s->half_h;
+        const fs_pmsm_at *at = cur_ok ? &s->cur_at : NULL;
+        for (int m = 0; m < steps; ++m) fs_pmsm_rk4_at(&s->pmsm, s->x, &in, hstep, m == 0 ? at : NULL);
+        return;
+    }
+    double i_ph[FS_INV_MAX_LEGS], rail[FS_INV_MAX_LEGS], drop[FS_INV_MAX_LEGS];
     int half0 = s->cfg.sampling == FS_SAMPLING_DOUBLE ? (int)(s->k & 1) : 0;
     for (int h = 0; h < halves; ++h) {
         int half = half0 + h;
