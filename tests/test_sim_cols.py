@@ -97,10 +97,11 @@ def test_a_stride_below_the_rows_is_refused_before_any_step():
 
 
 def test_the_runner_grows_its_buffer_without_losing_rows():
-    _, ref = rows_major(SC, 2 * SC.duration, 400)
-    sim = runner.Simulation(SC)               # its buffer is sized for SC.duration
+    # its buffer is sized for SC.duration (134 rows, padded to 514: runner.padded_rows): 5 times that needs 668
+    _, ref = rows_major(SC, 5 * SC.duration, 800)
+    sim = runner.Simulation(SC)
     cap = sim._buf.shape[1]
-    assert sim.advance(2 * SC.duration) == "running"
+    assert sim.advance(5 * SC.duration) == "running"
     assert sim._buf.shape[1] > cap
     tr = sim.traces()
     assert all(v.flags.c_contiguous for v in tr.values())
@@ -168,3 +169,19 @@ def test_a_flat_profile_read_without_its_piece_gives_the_bits_of_the_piece():
     assert lib.fs_sim_hold(sim._sim, lib.FS_SIM_T_LOAD, -1.25, 0.0) == 0
     sim.advance(0.01)
     assert np.all(sim.traces()["T_L"] == -1.25)
+
+
+def test_the_buffers_stride_never_puts_the_channels_on_one_page_offset():
+    """What could be wrong: a stride of a whole number of 4 KiB pages (any
+    run whose periods come to a multiple of 512, less the two rows spare)
+    puts every channel's sample k at the same page offset, where the
+    runner's loop took half as long again; the padding must hold for the
+    first buffer and a grown one, and must not lose a row."""
+    assert [runner.padded_rows(n) for n in (1, 2, 3, 512, 514, 1024, 12802)] == [2, 2, 514, 514, 514, 1026, 12802]
+    for T in (0.064, 0.128):   # 512 and 1,024 periods of 125 us: the bare count, plus two, is 2 past a multiple
+        sc = load_scenario("bench-motulator-2kw", {"duration": T - 2 * 125e-6, "metrics": {"steady": None}})
+        sim = runner.Simulation(sc)
+        assert sim._buf.shape[1] % 512 == 2 and sim._buf.shape[1] >= sim.steps(sc.duration) + 2
+        assert sim.advance(2 * T) == "running"           # past its first buffer: grown, padded the same
+        assert sim._buf.shape[1] % 512 == 2
+        assert sim.traces()["t"].size == sim.step_count

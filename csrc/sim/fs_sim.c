@@ -76,10 +76,20 @@ struct fs_sim {
     int held_group[G_N];     /* the trace's channel groups the configuration holds constant (G_*, row_group) */
     int half_steps;          /* averaged inverter: RK4 steps a half period, */
     double half_h;           /* each this long (substeps of T_pwm / 2) */
+    int avg_ideal;           /* the averaged inverter, inv_ideal, no loss meters: integrate_period_ideal */
 };
 
 /* The runner passes drive duties to the inverter and phase currents back. */
 typedef char fs_sim_legs_check[((int)FS_INV_MAX_LEGS >= (int)FS_PHASES_MAX) ? 1 : -1];
+
+/* Inlined at every call: the row writers specialised by their constant
+ * arguments (below), and the runner loop's own parts (sample, the ideal
+ * averaged period), which it calls once a sample. */
+#if defined(__GNUC__)
+#define FS_SPECIALISE static inline __attribute__((always_inline))
+#else
+#define FS_SPECIALISE static inline
+#endif
 
 /* Profile p at t, and its slope: the master's held value where it holds one (fs_sim_hold), a flat
  * profile's one value (fixed). */
@@ -388,6 +398,7 @@ fs_sim *fs_sim_create(const fs_sim_config *cfg, char *err, int err_len)
     s->inv_ideal = inv->t_dead == 0.0 && inv->u_on == 0.0 && inv->r_on == 0.0 && !inv->dev.enabled;
     s->half_steps = substeps(0.5 * inv->T_pwm, cfg->h_max);
     s->half_h = 0.5 * inv->T_pwm / s->half_steps;
+    s->avg_ideal = inv->kind != FS_INV_SWITCHING && s->inv_ideal && !s->losses;
     s->u_dc0 = cfg->inverter.u_dc;
     s->psi_f_true = cfg->plant.mag.psi_f;
     s->k_mag = 1.0;
@@ -512,22 +523,44 @@ static void currents_now(fs_sim *s, int *cur_ok, double *i_ph, fs_pmsm_at *a)
     }
 }
 
+/* The period's load and open phase, the plant's inputs but the voltage. */
+FS_SPECIALISE void period_input(fs_sim *s, double t0, fs_pmsm_input *in)
+{
+    double slope;
+    if (s->cfg.fault.open_phase && t0 >= s->cfg.fault.t_open) {
+        in->open_phase = s->cfg.fault.open_phase;
+        in->tau_open = 3.0 * s->cfg.h_max;   /* the interrupted current falls in a few steps */
+    }
+    in->T_load = prof(s, P_T_LOAD, t0, NULL);
+    in->w_load = prof(s, P_W_LOAD, t0, &slope);
+    in->dw_load = slope;
+}
+
+/* integrate_period_general's for the averaged inverter without dead time, drops, devices or meters (the
+ * wall bench's example: s->avg_ideal): its mean voltage is a function of the duties and the dc link alone,
+ * which no half of the period changes, so it is formed once for the period (the general path forms it
+ * again for the second half, the same bits: two divisions on the way to the first RK4 stage). The steps
+ * are the general path's, in its order: the first takes the overcurrent check's angle and currents. */
+FS_SPECIALISE void integrate_period_ideal(fs_sim *s, double t0, int cur_ok)
+{
+    fs_pmsm_input in = {0};
+    period_input(s, t0, &in);
+    fs_inverter_mean_voltage_ideal(&s->cfg.inverter, s->duty_now, &in.u_alpha, &in.u_beta, &in.u_x, &in.u_y);
+    const int steps = (s->cfg.sampling == FS_SAMPLING_DOUBLE ? 1 : 2) * s->half_steps;
+    const double hstep = s->half_h;
+    const fs_pmsm_at *at = cur_ok ? &s->cur_at : NULL;
+    for (int m = 0; m < steps; ++m) fs_pmsm_rk4_at(&s->pmsm, s->x, &in, hstep, m == 0 ? at : NULL);
+}
+
 /* Integrate the plant over one control period with the duties now acting;
  * cur_ok: the overcurrent check's currents are the state's (currents_now). */
-static void integrate_period(fs_sim *s, double t0, int cur_ok)
+static void integrate_period_general(fs_sim *s, double t0, int cur_ok)
 {
     const fs_inverter_config *inv = &s->cfg.inverter;
     fs_pmsm_input in = {0};
-    double slope;
-    if (s->cfg.fault.open_phase && t0 >= s->cfg.fault.t_open) {
-        in.open_phase = s->cfg.fault.open_phase;
-        in.tau_open = 3.0 * s->cfg.h_max;   /* the interrupted current falls in a few steps */
-    }
-    in.T_load = prof(s, P_T_LOAD, t0, NULL);
-    in.w_load = prof(s, P_W_LOAD, t0, &slope);
-    in.dw_load = slope;
+    period_input(s, t0, &in);
+    const int halves = s->cfg.sampling == FS_SAMPLING_DOUBLE ? 1 : 2;
     double i_ph[FS_INV_MAX_LEGS], rail[FS_INV_MAX_LEGS], drop[FS_INV_MAX_LEGS];
-    int halves = s->cfg.sampling == FS_SAMPLING_DOUBLE ? 1 : 2;
     int half0 = s->cfg.sampling == FS_SAMPLING_DOUBLE ? (int)(s->k & 1) : 0;
     for (int h = 0; h < halves; ++h) {
         int half = half0 + h;
@@ -600,6 +633,13 @@ static void integrate_period(fs_sim *s, double t0, int cur_ok)
             }
         }
     }
+}
+
+/* The period: the ideal averaged inverter's path inline in the runner's loop, the rest a call. */
+FS_SPECIALISE void integrate_period(fs_sim *s, double t0, int cur_ok)
+{
+    if (s->avg_ideal) integrate_period_ideal(s, t0, cur_ok);
+    else integrate_period_general(s, t0, cur_ok);
 }
 
 /* Matrix converter, one rectifier interval: the rails on input phases p
@@ -790,7 +830,7 @@ static double conduction_loss(const fs_sim *s, const double *i_ph)
  * cosine and sine and the rotor-frame currents (fs_pmsm_at_state), and the
  * drive's inputs as the hardware gives them (the sensors, the dc link, the
  * references and the load machine's speed at t). */
-static void sample(fs_sim *s, double t, fs_drive_in *din, double *i_ph, fs_pmsm_at *a)
+FS_SPECIALISE void sample(fs_sim *s, double t, fs_drive_in *din, double *i_ph, fs_pmsm_at *a)
 {
     const fs_sim_config *c = &s->cfg;
     const int p = c->plant.pole_pairs;
@@ -858,11 +898,6 @@ static void command(fs_sim *s, const float *duty, const fs_imc_rect *rect)
 /* A trace row's channels go to r[FS_CH_* * st]: st 1 row-major, else the
  * column-major trace's stride. The row writers are specialised by it (the
  * row-major one multiplies by no stride). */
-#if defined(__GNUC__)
-#define FS_SPECIALISE static inline __attribute__((always_inline))
-#else
-#define FS_SPECIALISE static inline
-#endif
 
 /* Channels that a run's configuration can hold constant (enum G_*, at the
  * top), in groups: the matrix converter's (0 without it), the thermal
@@ -1024,7 +1059,7 @@ FS_SPECIALISE void row_drive(const fs_sim *s, double theta_e, const fs_drive_in 
 
 /* The plant over the period from the sample at t with the duties acting,
  * then the delayed duties and the checks: FS_RUN_DONE or a stop. */
-static int advance(fs_sim *s, double t)
+FS_SPECIALISE int advance(fs_sim *s, double t)
 {
     const fs_sim_config *c = &s->cfg;
     const int cur_ok = s->cur_ok;
