@@ -115,6 +115,28 @@ def test_a_blend_slower_than_the_ramp_is_named():
     assert not [w for w in scenario_from_dict(d, "prius", warn=True).warnings if w.startswith("blending.bw_observer")]
 
 
+def test_the_slow_blends_line_names_its_cause():
+    """The new-user trial's Baldor PM-SyRM (its measured map) under a 40 N m
+    step over 50 ms: left to the design, the blend stays at the injection's
+    default because the map's cross-saturation table spans more than the
+    ramp's angle, and the line says so rather than advise leaving it to the
+    design, which is where it was; given, the line advises leaving it."""
+    from fullspeed.design.rules import XCOMP_SPAN_FOR_RAMP, xcomp_span_deg
+    d = {"name": "baldor-ramp", "duration": 2.0, "machine": "baldor-ecs101m0h7ef4",
+         "controller": {"mode": "speed", "angle": "blend", "flux_weakening": True},
+         "references": {"speed_rpm": [[0.0, 0.0], [0.3, 0.0], [1.0, 2000.0]]},
+         "load": {"kind": "torque", "torque": [[0.0, 0.0], [1.3, 0.0], [1.35, 40.0]]}}
+    sc = scenario_from_dict(d, "baldor", warn=True)
+    line = [w for w in sc.warnings if w.startswith("blending.bw_observer")]
+    span = xcomp_span_deg(sc.data["injection"]["xcomp"])
+    assert sc.data["blending"]["bw_observer"] is None and span > XCOMP_SPAN_FOR_RAMP
+    assert len(line) == 1 and "cross-saturation table spans" in line[0] and "leave blending.bw_observer" not in line[0]
+    assert f"{span:.4g} el.deg" in line[0]
+    d["blending"] = {"bw_observer": 50.0}
+    line = [w for w in scenario_from_dict(d, "baldor-given", warn=True).warnings if w.startswith("blending.bw_observer")]
+    assert len(line) == 1 and "leave blending.bw_observer to the design" in line[0] and "table spans" not in line[0]
+
+
 def test_cross_saturated_magnetics_keep_the_default_and_say_its_lag():
     """SyR-e's THOR (its FEA map cross-saturates: a designed injection.xcomp
     table) keeps the injection's default blend, whose faster version would

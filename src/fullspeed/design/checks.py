@@ -40,8 +40,8 @@ from .controller import controller_model, hfi_design, injection_inductances
 from .envelope import I_MAX_FIELD, OVERMODULATION, Limits, limits
 from .machine import mtpa_torque
 from .magnetics import mtpa_locus, saliency_warnings
-from .rules import (CARRIER_LOOP_ACTION_MAX, LOAD_STEP_ANGLE, carrier_loop_action, control_period, load_ramp_lag,
-                    load_ramp_max, u_linear)
+from .rules import (CARRIER_LOOP_ACTION_MAX, LOAD_STEP_ANGLE, XCOMP_SPAN_FOR_RAMP, carrier_loop_action, control_period,
+                    load_ramp_lag, load_ramp_max, u_linear, xcomp_span_deg)
 from .start import POLARITY_LOAD, RESOLUTION_MIN, largest_on, polarity_blind
 
 # The bands of plausibility, each with its reason.
@@ -149,9 +149,10 @@ def plausibility_warnings(d: dict, m) -> list[str]:
     return out
 
 
-def warnings_of(d: dict, m, bw_speed_given: bool = False) -> list[str]:
+def warnings_of(d: dict, m, bw_speed_given: bool = False, bw_observer_given: bool = False) -> list[str]:
     """The warning lines of a validated scenario (data d, machine m;
-    bw_speed_given: the scenario sets controller.bw_speed)."""
+    bw_speed_given, bw_observer_given: the scenario sets controller.bw_speed,
+    blending.bw_observer)."""
     out = plausibility_warnings(d, m)
     ctl = d["controller"]
 
@@ -161,7 +162,7 @@ def warnings_of(d: dict, m, bw_speed_given: bool = False) -> list[str]:
     # the speed loop against the observer whose speed it takes
     if bw_speed_given:
         out += speed_loop_warning(d, m)
-    out += load_ramp_warning(d, m)
+    out += load_ramp_warning(d, m, bw_observer_given)
 
     # the start (design.start)
     pol, inj, st = d.get("polarity", {}), d.get("injection", {}), d.get("start", {})
@@ -550,11 +551,15 @@ def speed_loop_bound(d: dict, m) -> tuple[float, str] | None:
     return None
 
 
-def load_ramp_warning(d: dict, m) -> list[str]:
+def load_ramp_warning(d: dict, m, given: bool = False) -> list[str]:
     """A line when the blend's motion observer, whose angle and speed the
     loops take, lags the scenario's steepest load ramp by more than
-    LOAD_STEP_ANGLE (design.rules.observer_for_load_ramp): given too slow, or
-    designed at its cap, the injection's own observer."""
+    LOAD_STEP_ANGLE (design.rules.observer_for_load_ramp), with the cause:
+    given too slow (`given`), designed at its cap (the injection's own
+    observer), or left at the injection's default because the map's
+    cross-saturation table spans more than XCOMP_SPAN_FOR_RAMP
+    (design.scenario's _blend_for_load_ramp: the advice to leave it to the
+    design would then be no advice)."""
     ctl, load = d["controller"], d["load"]
     if ctl["angle"] != "blend" or load["kind"] != "torque" or ctl["gains"] == "paper":
         return []
@@ -565,11 +570,20 @@ def load_ramp_warning(d: dict, m) -> list[str]:
     lag = load_ramp_lag(m.pole_pairs, m.J, ramp, w_o)
     if not lag > LOAD_STEP_ANGLE * (1 + 1e-6):
         return []
+    if given:
+        cause = ("; let the load rise more slowly, or leave blending.bw_observer to the design (up to the injection's "
+                 "own observer, injection.bw_filter_n)")
+    elif d["blending"]["bw_observer"] is None:
+        cause = (f"; the design left it at the injection's default: the map's cross-saturation table spans "
+                 f"{xcomp_span_deg(d['injection']['xcomp']):.4g} el.deg, more than {XCOMP_SPAN_FOR_RAMP:g}, and a "
+                 "faster observer would pass the carrier angle's moves with the current to the loops; let the load "
+                 "rise more slowly")
+    else:
+        cause = "; designed at its cap, the injection's own observer: let the load rise more slowly"
     return [f"blending.bw_observer: the blend's observer ({w_o:.4g} rad/s) lags the load's steepest ramp "
             f"({ramp:.4g} N m/s on J = {m.J:.4g} kg m^2) by {math.degrees(lag):.3g} el.deg, more than "
             f"{math.degrees(LOAD_STEP_ANGLE):g}: the loops take that lag, and the speed loop at half the observer lets the "
-            "rotor roll back under it; let the load rise more slowly, or leave blending.bw_observer to the design "
-            "(up to the injection's own observer, injection.bw_filter_n)"]
+            "rotor roll back under it" + cause]
 
 
 def speed_loop_warning(d: dict, m) -> list[str]:

@@ -81,6 +81,14 @@ PLL_PER_W_E_LOWER = 3
 # (pll_for_load_step): half the 10 el.deg B-REAL allows after a step. SyR-e's THOR (J = 0.0042 kg m^2) at
 # 150.8 rad/s (6 bw_speed) lost the rotor at its load step at 1.5 x base speed at 5 of 6 initial angles
 LOAD_STEP_ANGLE = math.radians(5.0)
+# el.deg: the span of a cross-saturation table (twice its largest lead) up to which the blend's observer is still
+# raised for a load ramp (design.scenario's _blend_for_load_ramp): the lag that raise is designed to leave
+XCOMP_SPAN_FOR_RAMP = math.degrees(LOAD_STEP_ANGLE)
+
+
+def xcomp_span_deg(table: dict | None) -> float:
+    """A cross-saturation table's span, el.deg: twice its largest lead (the table is odd in i_q); 0 without one."""
+    return 2.0 * max(abs(x) for x in table["delta_deg"]) if table else 0.0
 # The current loop's action on the negative carrier's sidebands (carrier_loop_action) at most this: the
 # designed point (bw_current 2 pi f_s / 20 against f_s / 10, 1.5 Ts of delay) gives 0.63..0.66 on the
 # yang2022 machine, whose full range (B-FULLRANGE) keeps 5.9 el.deg there; at 0.85..0.93 (20 kHz with

@@ -22,17 +22,14 @@ from .machine import design_machine, mtpa_torque
 from .magnetics import controller_values
 from .start import (POLARITY_ASYMMETRY, RESOLUTION_MIN, design_if, design_motion, design_pulses, injection_resolution,
                     polarity_blind, polarity_reversed)
-from .rules import (LOAD_STEP_ANGLE, Value, control_period, design_band, design_carrier, design_injection,
-                    design_observer_pll, design_overspeed, load_ramp_for_observer, load_ramp_lag, load_ramp_max,
-                    machine_values, observer_for_load_ramp, u_linear)
+from .rules import (LOAD_STEP_ANGLE, XCOMP_SPAN_FOR_RAMP, Value, control_period, design_band, design_carrier,
+                    design_injection, design_observer_pll, design_overspeed, load_ramp_for_observer, load_ramp_lag,
+                    load_ramp_max, machine_values, observer_for_load_ramp, u_linear, xcomp_span_deg)
 from .xcomp import check_table_settings, designed_table
 
 # The trace is held in memory: one row of doubles per recorded sample.
 TRACE_ROW_BYTES = 8 * lib.FS_CH_N
 TRACE_MAX_BYTES = 2e9
-# el.deg: the span of a cross-saturation table (twice its largest lead) up to which the blend's observer is still
-# raised for a load ramp (_blend_for_load_ramp): the lag that raise is designed to leave, LOAD_STEP_ANGLE
-XCOMP_SPAN_FOR_RAMP = math.degrees(LOAD_STEP_ANGLE)
 
 
 # Scenario.warnings of a scenario loaded with warn=False: its caller reads none of them
@@ -244,7 +241,8 @@ def _designed(data: dict, source: str | None, warn: bool) -> Scenario:
         if f"injection.{key}" not in notes and d["injection"][key] is not None and ctl["angle"] in ("hfi", "blend", "swvi"):
             notes[f"injection.{key}"] = Value(d["injection"][key], "", "given in the machine file or the scenario", True)
     notes.update(d.pop("_notes", {}))
-    warnings = ((warnings_of(d, m, bw_speed_given="bw_speed" in data.get("controller", {})) if warn else [UNWARNED])
+    warnings = ((warnings_of(d, m, bw_speed_given="bw_speed" in data.get("controller", {}),
+                             bw_observer_given="bw_observer" in (data.get("blending") or {})) if warn else [UNWARNED])
                 + check_table_settings(d, m.name, source))
     pm = plant_machine(d, m, source)
     return Scenario(name=d["name"], machine=m, data=d, source=source, design=notes, warnings=warnings,
@@ -457,7 +455,7 @@ def _blend_for_load_ramp(d: dict, m: Machine, h, source) -> None:
         return
     xc = d["injection"]["xcomp"]
     table = xcomp_table(xc, source) if xc not in (None, False) else designed_table(m, d["controller"]["i_max"])[0]
-    if table is not None and 2.0 * max(abs(x) for x in table["delta_deg"]) > XCOMP_SPAN_FOR_RAMP:
+    if xcomp_span_deg(table) > XCOMP_SPAN_FOR_RAMP:
         return
     w_cap = h.cfg.obs.bandwidth
     w = min(w_need, w_cap)
