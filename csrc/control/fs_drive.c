@@ -259,6 +259,10 @@ FS_COLD void fs_drive_reset(fs_drive *drv)
     if (drive_injects(&drv->cfg)) {
         fs_hfi_reset(&drv->hfi, 0.0f, 0.0f);
         drv->hfi.gain = drv->hfi.gain_prev = 0.0f;   /* fades in */
+        /* its error read once the filters have settled on the whole carrier, as on a resume (below):
+         * read at the fade's end, the filters a third of the carrier behind turned SyR-e's THOR by
+         * 17 el.deg at standstill with no current asked (docs/syrm-peer.md) */
+        drv->hfi.k_settle = 2 * drv->hfi.n_settle;
         drv->blend.g_w = 0.0f;   /* the injection's weight whole without a blend: the torque's slew reads it */
         if (drv->cfg.angle_source == (int)FS_ANGLE_BLEND) { fs_blend_reset(&drv->blend, 0.0f, 0.0f); }
     }
