@@ -19,14 +19,20 @@ def _thor_turned() -> dict:
 
 
 def test_the_estimate_is_on_the_axis_once_the_filters_settle():
-    """SyR-e's THOR started 90 el.deg from its estimate: within a step of
-    the filters' settling the estimate is within 10 el.deg of the axis (modulo pi, which the
-    polarity test decides), where the pull-in took 80 ms and overshot."""
+    """SyR-e's THOR started 90 el.deg from its estimate: set on the axis
+    as the injection's error is first read, once its filters have settled on
+    the whole carrier (2 n_settle steps from the reset, fs_drive_reset: read
+    at the fade's end, n_settle, the filters a third of the carrier behind
+    left it 7.1 el.deg off the axis, now 0.6), it is within 10 el.deg of the
+    axis (modulo pi, which the polarity test decides), where the pull-in took
+    80 ms and overshot."""
     sim = Simulation(scenario_from_dict(_thor_turned(), "test", warn=False))
     drv = lib.fs_sim_drive(sim._sim)
     while not drv.hfi_aligned and sim.time < 0.1:
         sim.advance_steps(sim.step_count + 1)
-    assert drv.hfi_aligned and sim.time < 0.02
+    # the drive's own settling time, not a figure in seconds (0.02 s held n_settle = 96 steps of 125 us, 12 ms,
+    # and fell between it and the 24 ms the settled read takes)
+    assert drv.hfi_aligned and sim.step_count <= 2 * drv.hfi.n_settle + 1
     sim.advance_steps(sim.step_count + 1)
     tr = sim.traces()
     off = (drv.hfi.theta - tr["theta_e"][-1] + 0.5 * math.pi) % math.pi - 0.5 * math.pi
