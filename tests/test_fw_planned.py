@@ -105,13 +105,17 @@ def test_sensorless_deep_flux_weakening_holds_the_encoders_torque(rpm):
     encoder drive at 2,765 rpm; at 3,456 rpm the carrier stayed on through
     the load machine's ramp (the blend's trust not yet whole) and its
     voltage, taken off the plan's, left no torque: overcurrent."""
-    # The sensorless torque here moves with the speed by more than its mean error: at speeds 0.1 % apart
-    # (bench/held_margin.py, k = -3..3) it spanned 29.38..30.26 N m at 3,456 rpm against the encoder's 30.28
-    # before the trim's hold inside the flux limit, 29.79..30.31 since; one speed within 1 % was luck either
-    # way. So three speeds 0.1 % apart, each within 2 % (the limit cycle's loss was 14 %, B-REAL allows 5)
+    # The sensorless torque here moved with the speed by more than its mean error: at speeds 0.1 % apart
+    # (k = -3..3) it spanned 29.38..30.26 N m at 3,456 rpm against the encoder's 30.28 before the trim's hold
+    # inside the flux limit, 29.79..30.31 since, and with the start-up's settled read (fs_drive_reset) four
+    # of the seven were 2 to 5.5 % short: the current loops' gains stepped with the map's incremental
+    # inductance each time the q current crossed the grid's line at 11 A, the loops chattered at the voltage
+    # limit and the trim wound up and down every 90 ms. On the slopes continuous across the lines
+    # (fs_fluxmap_slopes) the seven lie within 0.29..0.30 % of the encoder's: three speeds 0.1 % apart, each
+    # within 0.5 % (the limit cycle's loss was 14 %, B-REAL allows 5)
     for k in (-1, 0, 1):
         w = rpm * (1.0 + 1e-3 * k)
         enc = held_torque({"machine": "syre-thor", "rpm": w, "angle": "encoder"})
         sl = held_torque({"machine": "syre-thor", "rpm": w, "angle": "blend"})
         assert enc["stop_reason"] == sl["stop_reason"] == "done"
-        assert abs(sl["T"] / enc["T"] - 1.0) < 0.02, (w, sl["T"], enc["T"])
+        assert abs(sl["T"] / enc["T"] - 1.0) < 0.005, (w, sl["T"], enc["T"])

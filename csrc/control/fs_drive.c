@@ -803,7 +803,18 @@ static float drive_imc_rectify(fs_drive *drv, const fs_drive_in *in, fs_ab *u_re
 static float drive_map_step(fs_drive *drv, fs_dq i, fs_dq i_ref)
 {
     const fs_fluxmap_point p = fs_fluxmap_eval(&drv->map, i);
-    fs_current_ctrl_set_flux(&drv->cc, i, &p);
+    /* the loops' gains on the incremental inductances continuous across the grid's lines (fs_fluxmap_slopes),
+     * where the current is the machine's own. Not on the isotropic loops of an unknown angle, which take the
+     * smaller of the cell's own two: at the start the current sits on the line i_d = 0, where SyR-e's THOR's
+     * cells' slopes are 2.2 times apart, and their mean raised the loops' gains 1.6 times; the motion test's
+     * lock read 40 % more spread, its first doublet fell short of the threshold and the second turned the
+     * light rotor 36 el.deg, beyond the 33 its design bounds. Nor while injecting, where the loops' current
+     * is the carrier filters' fundamental, whose steps from period to period are not the machine's and
+     * which, along a cell's own axis, now moved the gains: zoo machine 0 on its identified map reversed
+     * through the band 12 to 22 el.deg off, 3.3 to 3.6 on the cells' own slopes */
+    fs_fluxmap_point p_cc = p;
+    if (!drv->cc.iso && !drv->injecting) { fs_fluxmap_slopes(&drv->map, i, &p_cc.L_dd, &p_cc.L_qq); }
+    fs_current_ctrl_set_flux(&drv->cc, i, &p_cc);
     if (drive_has_smo(&drv->cfg)) {
         const float L_q = fs_fluxmap_secant_q(&drv->map, i, &p);
         const float psi_a = p.psi.d - (L_q * i.d);

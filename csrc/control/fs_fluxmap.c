@@ -25,17 +25,37 @@ FS_COLD fs_status fs_fluxmap_init(fs_fluxmap *m, const fs_fluxmap_table *t)
     return ret;
 }
 
+/* The cell (k, l) of a current, its first point's index and the position
+ * (a, b) in it (beyond the grid's edge: outside [0, 1], its slope goes on). */
+typedef struct {
+    int k;
+    int l;
+    int n;
+    float a;
+    float b;
+} fluxmap_cell;
+
+static fluxmap_cell cell_of(const fs_fluxmap *m, fs_dq i)
+{
+    const fs_fluxmap_table *t = m->t;
+    const float x = (i.d - t->i_d0) * m->inv_di_d;
+    const float y = fabsf(i.q) * m->inv_di_q;
+    fluxmap_cell c;
+    c.k = (int)fs_clampf(x, 0.0f, (float)(FS_FLUXMAP_ND - 2));
+    c.l = (int)fs_clampf(y, 0.0f, (float)(FS_FLUXMAP_NQ - 2));
+    c.a = x - (float)c.k;
+    c.b = y - (float)c.l;
+    c.n = (c.k * FS_FLUXMAP_NQ) + c.l;
+    return c;
+}
+
 fs_fluxmap_point fs_fluxmap_eval(const fs_fluxmap *m, fs_dq i)
 {
     const fs_fluxmap_table *t = m->t;
-    /* the cell, and the position in it (beyond the grid's edge: outside [0, 1], its slope goes on) */
-    const float x = (i.d - t->i_d0) * m->inv_di_d;
-    const float y = fabsf(i.q) * m->inv_di_q;
-    const int k = (int)fs_clampf(x, 0.0f, (float)(FS_FLUXMAP_ND - 2));
-    const int l = (int)fs_clampf(y, 0.0f, (float)(FS_FLUXMAP_NQ - 2));
-    const float a = x - (float)k;
-    const float b = y - (float)l;
-    const int n = (k * FS_FLUXMAP_NQ) + l;
+    const fluxmap_cell c = cell_of(m, i);
+    const float a = c.a;
+    const float b = c.b;
+    const int n = c.n;
     const int16_t *d = &t->psi_d[n];
     const int16_t *q = &t->psi_q[n];
     /* corners: [0] (k, l), [1] (k, l + 1), [NQ] (k + 1, l), [NQ + 1] (k + 1, l + 1) */
@@ -63,6 +83,48 @@ fs_fluxmap_point fs_fluxmap_eval(const fs_fluxmap *m, fs_dq i)
     p.L_dq = sq * s * m->inv_di_q * ((d01 - d00) + (a * (dd1 - dd0)));
     p.L_qd = sq * s * m->inv_di_d * ((q10 - q00) + (b * (dq1 - dq0)));
     return p;
+}
+
+/* The slope of psi_d along d (counts per step) of the cell whose first
+ * point is d[0], at the position b across it along q; and of psi_q along q
+ * from q[0], at a along d. */
+static float slope_d(const int16_t *d, float b)
+{
+    const float s0 = (float)d[FS_FLUXMAP_NQ] - (float)d[0];
+    const float s1 = (float)d[FS_FLUXMAP_NQ + 1] - (float)d[1];
+    return s0 + (b * (s1 - s0));
+}
+
+static float slope_q(const int16_t *q, float a)
+{
+    const float s0 = (float)q[1] - (float)q[0];
+    const float s1 = (float)q[FS_FLUXMAP_NQ + 1] - (float)q[FS_FLUXMAP_NQ];
+    return s0 + (a * (s1 - s0));
+}
+
+/* At position f (0..1) across a cell whose slope s0 stands at its centre,
+ * between it and the slope of the cell before (f < 1/2) or after. */
+static float slope_centred(float s_prev, float s0, float s_next, float f)
+{
+    return (f < 0.5f) ? (s0 + ((0.5f - f) * (s_prev - s0))) : (s0 + ((f - 0.5f) * (s_next - s0)));
+}
+
+void fs_fluxmap_slopes(const fs_fluxmap *m, fs_dq i, float *L_dd, float *L_qq)
+{
+    const fs_fluxmap_table *t = m->t;
+    const fluxmap_cell c = cell_of(m, i);
+    const int16_t *d = t->psi_d;
+    const int16_t *q = t->psi_q;
+    /* along d: the cells k - 1, k, k + 1 (none beyond the grid: the edge cell's slope) */
+    const float sd = slope_d(&d[c.n], c.b);
+    const float sd_p = (c.k > 0) ? slope_d(&d[c.n - FS_FLUXMAP_NQ], c.b) : sd;
+    const float sd_n = (c.k < (FS_FLUXMAP_ND - 2)) ? slope_d(&d[c.n + FS_FLUXMAP_NQ], c.b) : sd;
+    /* along q: l - 1 (below i_q = 0 the mirror image, whose slope is cell 0's), l, l + 1 */
+    const float sq = slope_q(&q[c.n], c.a);
+    const float sq_p = (c.l > 0) ? slope_q(&q[c.n - 1], c.a) : sq;
+    const float sq_n = (c.l < (FS_FLUXMAP_NQ - 2)) ? slope_q(&q[c.n + 1], c.a) : sq;
+    *L_dd = t->psi_scale * m->inv_di_d * slope_centred(sd_p, sd, sd_n, c.a);
+    *L_qq = t->psi_scale * m->inv_di_q * slope_centred(sq_p, sq, sq_n, c.b);
 }
 
 float fs_fluxmap_secant_q(const fs_fluxmap *m, fs_dq i, const fs_fluxmap_point *p)
