@@ -123,10 +123,11 @@ def test_injection_holds_the_rated_load_steps_within_issue_27s_goal():
     assert res.stop_reason != "done" or np.abs(e[t >= 0.2]).max() > 90.0
 
 
-@pytest.mark.parametrize("band", [(75.0, 150.0), (120.0, 195.0), (200.0, 375.0), (75.0, 375.0)])
+@pytest.mark.parametrize("band", [(60.0, 120.0), (75.0, 150.0), (120.0, 195.0), (200.0, 375.0), (75.0, 375.0)])
 def test_blend_keeps_the_rotor_for_bands_between_5_and_25_percent(band):
-    """Rated speed 1500 rpm: bands within 75..375 rpm. The load steps at
-    standstill and the release push the rotor to about +-250 rpm, into them."""
+    """Rated speed 1500 rpm: bands within 75..375 rpm, and 60..120, which
+    the test below shows needs the gate. The load steps at standstill and
+    the release push the rotor to about +-250 rpm, into them."""
     res, t, e = _run("bench-motulator-2kw-blend", blending={"lower_rpm": band[0], "upper_rpm": band[1]})
     assert res.stop_reason == "done"
     assert np.abs(e[t >= 0.2]).max() <= 10.0
@@ -153,7 +154,7 @@ def test_the_band_from_60_rpm_needs_the_gate():
     observer is valid but has not converged (it reads -40 to -90 rpm): the
     ungated weight takes it and the rotor is lost, where the gate keeps it
     out and the gated blend holds the band within 10 el.deg (2.4; the test
-    above holds the bands from 75 rpm, gated).
+    above holds this band and those from 75 rpm, gated).
 
     This was the band from 75 rpm until the injection's error was first read
     once its filters had settled (fs_drive_reset): read earlier, its first

@@ -19,11 +19,12 @@
  * the feed-forward; and the gains and
  * the predictor's plant follow the incremental inductances (the gains
  * scale with L, k_t ~ alpha L: the loop keeps its bandwidth where the
- * machine saturates; above the injection's band the drive gives them
- * continuous across the map's grid lines, fs_fluxmap_slopes and
- * fs_drive.c: the bilinear cells' own slopes step there, and
- * the 2DOF output with them by (k_t - k_p) i ds, 100 V on SyR-e's THOR at
- * i_q = 11 A, each time the measured current crossed the line). Without the map's fluxes a saturated machine's
+ * machine saturates; while not injecting and not on the isotropic loops
+ * the drive gives them continuous across the map's grid lines,
+ * fs_fluxmap_slopes and fs_drive.c: the bilinear cells' own slopes step
+ * there, and the 2DOF output with them by (k_t - k_p) i ds, 100 V on SyR-e's
+ * THOR at i_q = 11 A, each time the measured current crossed the line).
+ * Without the map's fluxes a saturated machine's
  * feed-forward misses by w (psi_q - L_q i_q): on the 2004 Prius MG2 at
  * 1540 rpm deep in flux weakening 70 V, which the integrals could not
  * make up at the voltage limit (i_d stuck at -35 A for -200 A asked).

@@ -420,8 +420,7 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
                  * n_settle, the carrier leaves them behind by a third of it at the ramp's end (its slope times
                  * their time constant), and the positive carrier's image that the negative sequence's filter
                  * then held turned the Baldor PM-SyRM's estimate by 12 el.deg at its first corrections
-                 * (B-REAL's reversal, through 100 rpm); at standstill (fs_drive_reset) the start's own
-                 * stages wait for it */
+                 * (B-REAL's reversal, through 100 rpm); fs_drive_reset sets the same count at standstill */
                 drv->hfi.k_settle = 2 * drv->hfi.n_settle;
             } else if (!drv->injecting) {
                 fs_hfi_set_angle(&drv->hfi, drv->blend.theta_hat, drv->blend.w_hat);
