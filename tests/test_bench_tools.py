@@ -1,4 +1,4 @@
-"""Tests of the benchmark tools, bench/firmware.py and bench/instructions.py.
+"""Tests of the benchmark tools, bench/firmware.py, bench/instructions.py and bench/breakdown.py's split.
 
 What could be wrong with them: a double-precision detector that sees nothing
 (then "no doubles" means nothing), a firmware image that the linker emptied,
@@ -240,3 +240,25 @@ def test_a_firmware_whose_drive_uses_what_the_build_leaves_out_fails_naming_it(t
     assert fw.main(["--firmware", str(mine)]) == 1
     out = capsys.readouterr().out
     assert "FAIL: compiling fs_config.c" in out and "motion test" in out and "FS_WITH_MOTION_TEST=1" in out
+
+
+def test_the_breakdown_finds_the_plant_where_the_runner_inlined_its_integration():
+    """bench/breakdown.py split: the plant is the integration's function
+    where it has one (the switching inverter's general period), else, where
+    the runner inlined it (the averaged ideal period since 28e53ed), the RK4
+    step it calls, and it says which; with neither it refuses rather than
+    count the plant as the runner's."""
+    bd = _load("breakdown")
+    base = {"total": 1000, "incl": {"fs_sim_run_cols": 0, "fs_drive_step": 0, "fs_pmsm_rk4_at": 0}}
+    one = {"total": 2600, "incl": {"fs_sim_run_cols": 1500, "fs_drive_step": 600, "fs_pmsm_rk4_at": 700}}   # one row traced
+    met = {"total": 1100, "incl": {}}
+    inlined = {"total": 3000, "incl": {"fs_sim_run_cols": 1800, "fs_drive_step": 600, "fs_pmsm_rk4_at": 700}}
+    rep = bd.split(base, inlined, met, one, 1, 10)
+    assert rep["plant_counted_as"] == list(bd.PLANT_CALLEES)
+    assert rep["per_sample"]["plant"] == pytest.approx(70.0) and rep["per_sample"]["control"] == pytest.approx(60.0)
+    assert rep["per_sample"]["tracing"] == pytest.approx(30.0) and rep["per_sample"]["runner"] == pytest.approx(20.0)
+    named = {"total": 3000, "incl": {**inlined["incl"], "integrate_period_general": 900}}
+    rep = bd.split(base, named, met, one, 1, 10)
+    assert rep["plant_counted_as"] == list(bd.PLANT_FNS) and rep["per_sample"]["plant"] == pytest.approx(90.0)
+    with pytest.raises(RuntimeError, match="cannot be told apart"):
+        bd.split(base, {"total": 3000, "incl": {"fs_sim_run_cols": 1800, "fs_drive_step": 600}}, met, one, 1, 10)
