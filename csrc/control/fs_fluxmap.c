@@ -41,8 +41,10 @@ static fluxmap_cell cell_of(const fs_fluxmap *m, fs_dq i)
     const float x = (i.d - t->i_d0) * m->inv_di_d;
     const float y = fabsf(i.q) * m->inv_di_q;
     fluxmap_cell c;
-    c.k = (int)fs_clampf(x, 0.0f, (float)(FS_FLUXMAP_ND - 2));
-    c.l = (int)fs_clampf(y, 0.0f, (float)(FS_FLUXMAP_NQ - 2));
+    /* clamped as fs_clampf would, but a NaN current takes cell 0 (its values then NaN, read inside the
+     * table): cast to int, a NaN is undefined, and the index it made read anywhere */
+    c.k = (int)((x >= 0.0f) ? fs_minf(x, (float)(FS_FLUXMAP_ND - 2)) : 0.0f);
+    c.l = (int)((y >= 0.0f) ? fs_minf(y, (float)(FS_FLUXMAP_NQ - 2)) : 0.0f);
     c.a = x - (float)c.k;
     c.b = y - (float)c.l;
     c.n = (c.k * FS_FLUXMAP_NQ) + c.l;

@@ -62,6 +62,21 @@ int main(void)
     fs_fluxmap_point p0 = fs_fluxmap_eval(&m, (fs_dq){30.0f, 0.0f});
     FS_CHECK_NEAR(fs_fluxmap_secant_q(&m, (fs_dq){30.0f, 0.0f}, &p0), L_Q + X * 30.0f, 5e-6f, "secant at i_q = 0: the incremental");
 
+    /* a current that is not finite reads inside the table (the sanitizers see any read outside it, and
+     * the index's overflow where a NaN was cast): a NaN gives NaN, not a value from elsewhere */
+    const float bad[][2] = {{NAN, 10.0f}, {10.0f, NAN}, {NAN, NAN}, {INFINITY, 5.0f}, {-INFINITY, -5.0f}, {5.0f, INFINITY}};
+    for (size_t n = 0; n < sizeof bad / sizeof bad[0]; ++n) {
+        const fs_dq i = {bad[n][0], bad[n][1]};
+        const fs_fluxmap_point p = fs_fluxmap_eval(&m, i);
+        float L_dd;
+        float L_qq;
+        fs_fluxmap_slopes(&m, i, &L_dd, &L_qq);
+        if (isnan(i.d) || isnan(i.q)) {
+            FS_CHECK(isnan(p.psi.d) || isnan(p.psi.q), "a NaN current: NaN flux");
+            FS_CHECK(isnan(L_dd) || isnan(L_qq), "a NaN current: NaN slopes");
+        }
+    }
+
     /* refusals */
     fs_fluxmap_table b = t;
     b.di_d = 0.0f;                FS_CHECK_EQ_INT(fs_fluxmap_init(&m, &b), FS_ERR_PARAM, "di_d 0");
