@@ -258,11 +258,7 @@ FS_COLD void fs_drive_reset(fs_drive *drv)
     if (drive_weakens(&drv->cfg) && drive_fw_plans(drv)) { fs_fwmap_reset(&drv->fwm); }
     if (drive_injects(&drv->cfg)) {
         fs_hfi_reset(&drv->hfi, 0.0f, 0.0f);
-        drv->hfi.gain = drv->hfi.gain_prev = 0.0f;   /* fades in */
-        /* its error read once the filters have settled on the whole carrier, as on a resume (below):
-         * read at the fade's end, the filters a third of the carrier behind turned SyR-e's THOR by
-         * 17 el.deg at standstill with no current asked (docs/syrm-peer.md) */
-        drv->hfi.k_settle = 2 * drv->hfi.n_settle;
+        fs_hfi_fade_in(&drv->hfi);   /* its error read once the filters have settled on the whole carrier */
         drv->blend.g_w = 0.0f;   /* the injection's weight whole without a blend: the torque's slew reads it */
         if (drv->cfg.angle_source == (int)FS_ANGLE_BLEND) { fs_blend_reset(&drv->blend, 0.0f, 0.0f); }
     }
@@ -415,13 +411,7 @@ static fs_ab drive_injection_step(fs_drive *drv, fs_ab i_ab)
              * observer with its filter's lag starts afresh, settling first: its
              * fast gains would take the stale carriers' angle */
             if (!drv->injecting && c->hfi.lag) {
-                fs_hfi_restart(&drv->hfi, drv->blend.theta_hat, drv->blend.w_hat);   /* fades in (fs_hfi.h) */
-                /* ... and its error is read once the filters have settled on the whole carrier: ramped in over
-                 * n_settle, the carrier leaves them behind by a third of it at the ramp's end (its slope times
-                 * their time constant), and the positive carrier's image that the negative sequence's filter
-                 * then held turned the Baldor PM-SyRM's estimate by 12 el.deg at its first corrections
-                 * (B-REAL's reversal, through 100 rpm); fs_drive_reset sets the same count at standstill */
-                drv->hfi.k_settle = 2 * drv->hfi.n_settle;
+                fs_hfi_restart(&drv->hfi, drv->blend.theta_hat, drv->blend.w_hat);   /* fades in (fs_hfi_fade_in) */
             } else if (!drv->injecting) {
                 fs_hfi_set_angle(&drv->hfi, drv->blend.theta_hat, drv->blend.w_hat);
             } else {

@@ -146,8 +146,14 @@ FS_COLD void fs_hfi_restart(fs_hfi *h, float theta, float w)
     fs_hfi_reset(h, theta, w);
     h->unit_p = p;
     h->unit_n = n;
+    fs_hfi_fade_in(h);
+}
+
+FS_COLD void fs_hfi_fade_in(fs_hfi *h)
+{
     h->gain = 0.0f;
     h->gain_prev = 0.0f;
+    h->k_settle = 2 * h->n_settle;
 }
 
 FS_COLD void fs_hfi_set_angle(fs_hfi *h, float theta, float w)

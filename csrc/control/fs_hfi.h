@@ -195,7 +195,7 @@ typedef struct {
                                   observer's angle in the band, where a faster one passes that angle's noise to the
                                   speed loop; fs_drive.c) */
     /* state */
-    int k_settle;              /* steps left before the error is used (after reset) */
+    int k_settle;              /* steps left before the error is used (after reset; a fade-in: fs_hfi_fade_in) */
     float gain;                /* the caller's scale on the injected amplitude, 0..1 (reset: 1);
                                   a change adds the carriers' change to the filters' states, so
                                   that a fading carrier is followed, not left behind by their lag */
@@ -257,6 +257,17 @@ void fs_hfi_set_resistance(fs_hfi *h, float R_s);
  * load, reached 4.8, 15.3 and 8.1 el.deg, 3.1, 6.1 and 6.1 with the
  * carriers kept (bench: reproduce/papers/mapid.py's true-map runs). */
 void fs_hfi_restart(fs_hfi *h, float theta, float w);
+/* From gain 0, the carrier ramped in over n_settle (the step's gain's
+ * rate), and the error first read once the filters have settled on the
+ * whole carrier, n_settle after the ramp (2 n_settle in all): ramped in,
+ * the carrier leaves them behind by a third of it at the ramp's end (its
+ * slope times their time constant). Read there, the positive carrier's
+ * image that the negative sequence's filter held turned the Baldor
+ * PM-SyRM's estimate by 12 el.deg at its first corrections (B-REAL's
+ * reversal through 100 rpm, a resume), and SyR-e's THOR's by 17 el.deg at
+ * standstill with no current asked (the drive's start). fs_hfi_restart
+ * starts with it; after fs_hfi_reset, a start from standstill. */
+void fs_hfi_fade_in(fs_hfi *h);
 /* Move the observer only (polarity flip, re-sync), keeping filters and carrier. */
 void fs_hfi_set_angle(fs_hfi *h, float theta, float w);
 /* Move the observer toward theta (rad) at the filters' bandwidth w_b_n, its
