@@ -112,7 +112,7 @@ FS_COLD fs_status fs_monitor_init(fs_monitor *m, const fs_monitor_config *cfg)
     m->J_p = cfg->J / (float)cfg->pole_pairs;
     m->B_p = cfg->B / (float)cfg->pole_pairs;
     m->u_err = cfg->k_dead + FS_MONITOR_U_FLOOR;
-    m->psi_spd = (cfg->psi_f + (m->L_max * cfg->i_max)) * (1.7320508f / FS_MONITOR_K_USPD);
+    m->psi_spd = (cfg->psi_f + (m->L_max * cfg->i_max)) * (FS_SQRT3 / FS_MONITOR_K_USPD);
     /* k < n_warm as (float)k < FS_MONITOR_WARM tau / Ts was; at most 2^30 */
     const float k_warm = FS_MONITOR_WARM * cfg->tau / cfg->Ts;
     m->n_warm = k_warm < 1073741824.0f ? fs_ceil_int(k_warm) : 1073741824;
